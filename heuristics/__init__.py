@@ -1,0 +1,1 @@
+"""Heuristic and search methods: ASA-DTC and its variants, and the paper's baselines."""

@@ -1,0 +1,60 @@
+"""Highest-weight-first insertion without clustering (the simple baseline ``greedy``).
+
+Targets are taken in decreasing weight (ties: instance order). Each is inserted, alone at its
+own roll, into the first of its opportunities that keeps the schedule feasible, trying the
+orbits with the most resources left first (the paper's rule in 5.1, step 6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from heuristics.timeline import OrbitTimeline
+from sosp.instance import Instance
+from sosp.result import Result, Status
+from sosp.schedule import Observation, Schedule
+
+
+def solve_greedy(
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None
+) -> Result:
+    """Insert targets by decreasing weight; deterministic (``rng`` is unused).
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        Unused (the method is deterministic); accepted for the common signature.
+    time_limit
+        Unused: the method is one pass over the targets.
+    """
+    del rng, time_limit
+    lines = [OrbitTimeline(instance, j) for j in range(instance.n_orbits)]
+    order = np.lexsort((np.arange(instance.n_targets), -instance.target_weight))
+    profit = 0.0
+    observed = 0
+    for k in order:
+        opps = instance.target_opps[k]
+        if opps.size == 0:
+            continue
+        cand = sorted(opps.tolist(), key=lambda i: -lines[instance.opp_orbit[i]].free_share())
+        for i in cand:
+            line = lines[int(instance.opp_orbit[i])]
+            s, e, r = (
+                float(instance.opp_start[i]),
+                float(instance.opp_end[i]),
+                float(instance.opp_roll[i]),
+            )
+            chk = line.check_insert(s, e, r)
+            if chk.ok:
+                line.insert(chk, s, e, r, i)
+                profit += float(instance.target_weight[k])
+                observed += 1
+                break
+    obs = tuple(
+        Observation(line.orbit, s, e, r, (int(i),))
+        for line in lines
+        for s, e, r, i in zip(line.starts, line.ends, line.rolls, line.items, strict=True)
+    )
+    return Result("greedy", Status.FEASIBLE, Schedule(obs), profit, observed)

@@ -1,0 +1,1 @@
+"""Exact models in Pyomo, solved with HiGHS: optimal schedules and upper bounds."""

@@ -1,0 +1,722 @@
+"""The problem data: targets, orbits with their resources, and observation opportunities.
+
+An :class:`Instance` is immutable and stores every table as numpy columns, so solvers can
+vectorise over it. Opportunities are kept sorted by (orbit, start, end); the opportunities of
+orbit ``j`` are the contiguous slice :meth:`Instance.orbit_opps`.
+
+Units: times are seconds from :attr:`Instance.epoch` (ISO 8601 UTC); angles are degrees;
+memory and energy are in the units of Table 1 of the paper.
+
+The file format (``format: "sosp-instance"``, ``version: 1``) is documented in
+``docs/formats.md``. Each table may be a list of records or an object of equal-length columns.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from datetime import datetime
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from sosp.errors import InputError
+from sosp.io import atomic_write_json, is_finite_number, read_json
+
+FORMAT_NAME = "sosp-instance"
+FORMAT_VERSION = 1
+
+#: Tolerance (seconds or degrees) for the consistency checks of loaded data.
+DATA_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Resources:
+    """Per-orbit resource and sensor parameters (Table 1 of the paper as defaults).
+
+    Parameters
+    ----------
+    memory_capacity
+        W_j, memory per orbit, constraint (5).
+    memory_rate
+        w_j, memory per second observed, (5).
+    energy_capacity
+        E_j, energy per orbit, (4).
+    observe_energy_rate
+        eo_j, energy per second observed, (4).
+    slew_energy_rate
+        es_j, energy per second slewing, (4).
+    slew_rate
+        v_j, degrees per second, (3)-(4).
+    setup_time
+        a_j, seconds before each observation, (3).
+    max_openings
+        c_j, sensor openings per orbit, (6).
+    max_duration
+        Delta T, longest continuous observation in seconds, (11).
+    """
+
+    memory_capacity: float = 1000.0
+    memory_rate: float = 1.0
+    energy_capacity: float = 1500.0
+    observe_energy_rate: float = 1.0
+    slew_energy_rate: float = 1.0
+    slew_rate: float = 1.0
+    setup_time: float = 10.0
+    max_openings: int = 10
+    max_duration: float = 120.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            _check_resource(f.name, getattr(self, f.name), "resources")
+
+
+#: The resource keys of an orbit record, in file order.
+RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
+
+
+def _check_resource(key: str, value: Any, where: str) -> None:
+    if not is_finite_number(value):
+        raise InputError(f"{where}.{key}: expected a finite number, got {value!r}")
+    if key == "max_openings":
+        if float(value) != int(value) or value < 0:
+            raise InputError(f"{where}.{key}: expected a non-negative integer, got {value!r}")
+    elif key in ("slew_rate", "max_duration"):
+        if value <= 0:
+            raise InputError(f"{where}.{key}: must be > 0, got {value!r}")
+    elif value < 0:
+        raise InputError(f"{where}.{key}: must be >= 0, got {value!r}")
+
+
+def _check_resource_column(key: str, arr: np.ndarray, source: str | None) -> None:
+    """Vectorised :func:`_check_resource` over a per-orbit column (first bad row named)."""
+    if key == "max_openings":
+        bad = ~np.isfinite(arr) | (arr < 0) | (arr != np.round(arr))
+    elif key in ("slew_rate", "max_duration"):
+        bad = ~np.isfinite(arr) | (arr <= 0)
+    else:
+        bad = ~np.isfinite(arr) | (arr < 0)
+    rows = np.flatnonzero(bad)
+    if rows.size:
+        try:
+            _check_resource(key, float(arr[rows[0]]), f"orbits[{rows[0]}]")
+        except InputError as exc:
+            raise InputError(str(exc), source=source) from None
+        raise InputError(f"orbits[{rows[0]}].{key}: invalid value {arr[rows[0]]}", source=source)
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Instance:
+    """An immutable scheduling instance (targets, orbits, opportunities) as numpy columns.
+
+    Build one with :meth:`from_arrays`, :meth:`build` (small hand-made instances),
+    :meth:`from_dict` or :func:`load_instance`. The constructor itself does no validation
+    and is not meant to be called directly.
+    """
+
+    epoch: str
+    target_ids: tuple[str, ...]
+    target_lat: np.ndarray
+    target_lon: np.ndarray
+    target_weight: np.ndarray
+    orbit_ids: tuple[str, ...]
+    orbit_satellite: tuple[str, ...]
+    orbit_start: np.ndarray
+    orbit_end: np.ndarray
+    memory_capacity: np.ndarray
+    memory_rate: np.ndarray
+    energy_capacity: np.ndarray
+    observe_energy_rate: np.ndarray
+    slew_energy_rate: np.ndarray
+    slew_rate: np.ndarray
+    setup_time: np.ndarray
+    max_openings: np.ndarray
+    max_duration: np.ndarray
+    opp_ids: tuple[str, ...]
+    opp_target: np.ndarray
+    opp_orbit: np.ndarray
+    opp_start: np.ndarray
+    opp_end: np.ndarray
+    opp_roll: np.ndarray
+    opp_roll_min: np.ndarray
+    opp_roll_max: np.ndarray
+    name: str = ""
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_targets(self) -> int:
+        return len(self.target_ids)
+
+    @property
+    def n_orbits(self) -> int:
+        return len(self.orbit_ids)
+
+    @property
+    def n_opps(self) -> int:
+        return len(self.opp_ids)
+
+    # ------------------------------------------------------------- structure
+    @cached_property
+    def orbit_offsets(self) -> np.ndarray:
+        """CSR offsets: the opportunities of orbit j are ``offsets[j]:offsets[j+1]``."""
+        counts = np.bincount(self.opp_orbit, minlength=self.n_orbits)
+        return _readonly(np.concatenate(([0], np.cumsum(counts))).astype(np.int64))
+
+    def orbit_opps(self, j: int) -> slice:
+        """The slice of opportunity indices on orbit ``j`` (sorted by start time)."""
+        off = self.orbit_offsets
+        return slice(int(off[j]), int(off[j + 1]))
+
+    @cached_property
+    def target_opps(self) -> tuple[np.ndarray, ...]:
+        """For each target, the indices of its opportunities (ascending)."""
+        order = np.argsort(self.opp_target, kind="stable")
+        counts = np.bincount(self.opp_target, minlength=self.n_targets)
+        parts = np.split(order, np.cumsum(counts)[:-1])
+        return tuple(_readonly(p.astype(np.int64)) for p in parts)
+
+    @cached_property
+    def opp_duration(self) -> np.ndarray:
+        """Window length te - ts of each opportunity, seconds."""
+        return _readonly(self.opp_end - self.opp_start)
+
+    @cached_property
+    def opp_weight(self) -> np.ndarray:
+        """The weight p_k of each opportunity's target."""
+        return _readonly(self.target_weight[self.opp_target])
+
+    @cached_property
+    def target_index(self) -> dict[str, int]:
+        return {t: i for i, t in enumerate(self.target_ids)}
+
+    @cached_property
+    def orbit_index(self) -> dict[str, int]:
+        return {o: i for i, o in enumerate(self.orbit_ids)}
+
+    @cached_property
+    def opp_index(self) -> dict[str, int]:
+        return {o: i for i, o in enumerate(self.opp_ids)}
+
+    @cached_property
+    def observable_targets(self) -> int:
+        """EN: the number of targets with at least one opportunity."""
+        return int(np.count_nonzero(np.bincount(self.opp_target, minlength=self.n_targets)))
+
+    def resources(self, j: int) -> Resources:
+        """The resource parameters of orbit ``j`` as a :class:`Resources`."""
+        vals = {k: getattr(self, k)[j].item() for k in RESOURCE_KEYS}
+        vals["max_openings"] = int(vals["max_openings"])
+        return Resources(**vals)
+
+    @cached_property
+    def fingerprint(self) -> str:
+        """A hash of the instance's content (name and meta excluded)."""
+        data = self.to_dict(layout="columns")
+        data.pop("name", None)
+        data.pop("meta", None)
+        blob = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
+        return "sha256:" + hashlib.sha256(blob.encode()).hexdigest()
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Instance):
+            return NotImplemented
+        return (
+            self.fingerprint == other.fingerprint
+            and self.name == other.name
+            and dict(self.meta) == dict(other.meta)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return (
+            f"Instance(name={self.name!r}, targets={self.n_targets}, orbits={self.n_orbits}, "
+            f"opportunities={self.n_opps})"
+        )
+
+    # ----------------------------------------------------------- constructors
+    @classmethod
+    def from_arrays(
+        cls,
+        *,
+        epoch: str,
+        target_ids: Sequence[Any],
+        target_lat: Any,
+        target_lon: Any,
+        target_weight: Any,
+        orbit_ids: Sequence[Any],
+        orbit_satellite: Sequence[Any],
+        orbit_start: Any,
+        orbit_end: Any,
+        opp_target: Any,
+        opp_orbit: Any,
+        opp_start: Any,
+        opp_end: Any,
+        opp_roll: Any,
+        opp_roll_min: Any,
+        opp_roll_max: Any,
+        resources: Resources | Mapping[str, Any] | None = None,
+        opp_ids: Sequence[Any] | None = None,
+        name: str = "",
+        meta: Mapping[str, Any] | None = None,
+        source: str | None = None,
+    ) -> Instance:
+        """Build and validate an instance from columns.
+
+        ``resources`` is a :class:`Resources` applied to every orbit, or a mapping from each
+        key of :data:`RESOURCE_KEYS` to a scalar or a per-orbit array. ``opp_target`` and
+        ``opp_orbit`` are integer indices. Opportunities are sorted by (orbit, start, end);
+        missing ``opp_ids`` become ``"o1"``, ``"o2"``, ... in that order.
+
+        Raises
+        ------
+        InputError
+            On any inconsistency, naming the table, row and field.
+        """
+        _check_epoch(epoch, source)
+        n_t, n_o, n_p = len(target_ids), len(orbit_ids), len(opp_target)
+
+        def col(values: Any, table: str, key: str, n: int, dtype: Any = float) -> np.ndarray:
+            try:
+                arr = np.array(values, dtype=dtype).reshape(-1)
+            except (TypeError, ValueError):
+                raise InputError(f"{table}.{key}: expected numbers", source=source) from None
+            if arr.shape != (n,):
+                raise InputError(
+                    f"{table}.{key}: expected {n} values, got {arr.size}", source=source
+                )
+            if arr.dtype.kind == "f":
+                bad = np.flatnonzero(~np.isfinite(arr))
+                if bad.size:
+                    raise InputError(
+                        f"{table}[{bad[0]}].{key}: expected a finite number, got {arr[bad[0]]}",
+                        source=source,
+                    )
+            return arr
+
+        tid = _ids(target_ids, "targets", source)
+        lat = col(target_lat, "targets", "lat", n_t)
+        lon = col(target_lon, "targets", "lon", n_t)
+        w_raw = col(target_weight, "targets", "weight", n_t)
+        _range_check(lat, -90.0, 90.0, "targets", "lat", source)
+        _range_check(lon, -180.0, 360.0, "targets", "lon", source)
+        bad = np.flatnonzero((w_raw < 0) | (w_raw != np.round(w_raw)))
+        if bad.size:
+            raise InputError(
+                f"targets[{bad[0]}].weight: expected a non-negative integer, got {w_raw[bad[0]]:g}",
+                source=source,
+            )
+        weight = w_raw.astype(np.int64)
+
+        oid = _ids(orbit_ids, "orbits", source)
+        sat = tuple(str(s) for s in orbit_satellite)
+        if len(sat) != n_o:
+            raise InputError(f"orbits.satellite: expected {n_o} values", source=source)
+        o_start = col(orbit_start, "orbits", "start", n_o)
+        o_end = col(orbit_end, "orbits", "end", n_o)
+        bad = np.flatnonzero(o_start >= o_end)
+        if bad.size:
+            raise InputError(f"orbits[{bad[0]}]: start must be < end", source=source)
+
+        if resources is None:
+            resources = Resources()
+        res_cols: dict[str, np.ndarray] = {}
+        for key in RESOURCE_KEYS:
+            if isinstance(resources, Resources):
+                value: Any = getattr(resources, key)
+            else:
+                if key not in resources:
+                    raise InputError(f"orbits: missing resource key {key!r}", source=source)
+                value = resources[key]
+            try:
+                arr = np.broadcast_to(np.asarray(value, dtype=float), (n_o,)).copy()
+            except (TypeError, ValueError):
+                raise InputError(f"orbits.{key}: expected {n_o} numbers", source=source) from None
+            _check_resource_column(key, arr, source)
+            if key == "max_openings":
+                arr = arr.astype(np.int64)
+            res_cols[key] = arr
+
+        p_target = col(opp_target, "opportunities", "target", n_p, dtype=float)
+        p_orbit = col(opp_orbit, "opportunities", "orbit", n_p, dtype=float)
+        for arr, key, n in ((p_target, "target", n_t), (p_orbit, "orbit", n_o)):
+            bad = np.flatnonzero((arr < 0) | (arr >= n) | (arr != np.round(arr)))
+            if bad.size:
+                raise InputError(
+                    f"opportunities[{bad[0]}].{key}: unknown {key} index {arr[bad[0]]:g}",
+                    source=source,
+                )
+        p_target = p_target.astype(np.int64)
+        p_orbit = p_orbit.astype(np.int64)
+        p_start = col(opp_start, "opportunities", "start", n_p)
+        p_end = col(opp_end, "opportunities", "end", n_p)
+        roll = col(opp_roll, "opportunities", "roll", n_p)
+        rmin = col(opp_roll_min, "opportunities", "roll_min", n_p)
+        rmax = col(opp_roll_max, "opportunities", "roll_max", n_p)
+        pid = _ids(opp_ids, "opportunities", source) if opp_ids is not None else None
+        if pid is not None and len(pid) != n_p:
+            raise InputError(f"opportunities.id: expected {n_p} values", source=source)
+
+        def first(mask: np.ndarray, msg: str) -> None:
+            bad = np.flatnonzero(mask)
+            if bad.size:
+                raise InputError(f"opportunities[{bad[0]}]: {msg}", source=source)
+
+        first(p_start >= p_end, "start must be < end")
+        first(
+            (rmin > roll + DATA_TOL) | (roll > rmax + DATA_TOL), "need roll_min <= roll <= roll_max"
+        )
+        first((np.abs(rmin) > 90) | (np.abs(rmax) > 90), "roll range must lie in [-90, 90] deg")
+        if n_p:
+            first(
+                (p_start < o_start[p_orbit] - DATA_TOL) | (p_end > o_end[p_orbit] + DATA_TOL),
+                "window must lie inside its orbit's [start, end]",
+            )
+
+        order = np.lexsort((p_end, p_start, p_orbit))
+        if pid is None:
+            pid = tuple(f"o{i + 1}" for i in range(n_p))
+        else:
+            pid = tuple(pid[i] for i in order)
+        inst = cls(
+            epoch=epoch,
+            target_ids=tid,
+            target_lat=_readonly(lat),
+            target_lon=_readonly(lon),
+            target_weight=_readonly(weight),
+            orbit_ids=oid,
+            orbit_satellite=sat,
+            orbit_start=_readonly(o_start),
+            orbit_end=_readonly(o_end),
+            **{k: _readonly(v) for k, v in res_cols.items()},
+            opp_ids=pid,
+            opp_target=_readonly(p_target[order]),
+            opp_orbit=_readonly(p_orbit[order]),
+            opp_start=_readonly(p_start[order]),
+            opp_end=_readonly(p_end[order]),
+            opp_roll=_readonly(roll[order]),
+            opp_roll_min=_readonly(rmin[order]),
+            opp_roll_max=_readonly(rmax[order]),
+            name=str(name),
+            meta=dict(meta or {}),
+        )
+        return inst
+
+    @classmethod
+    def build(
+        cls,
+        weights: Mapping[str, int] | Sequence[int],
+        opportunities: Sequence[Sequence[Any]],
+        *,
+        resources: Resources | None = None,
+        n_orbits: int | None = None,
+        orbit_length: float | None = None,
+        name: str = "",
+        epoch: str = "2026-01-01T00:00:00Z",
+    ) -> Instance:
+        """Build a small instance by hand, with opportunities given directly (no orbits).
+
+        Parameters
+        ----------
+        weights
+            Target weights, as ``{"a": 5, ...}`` or a list (ids become ``"t0"``, ``"t1"``...).
+        opportunities
+            Rows ``(target, orbit, start, end, roll[, roll_min, roll_max])``; ``target`` is an
+            id or index, ``orbit`` an integer index. A missing roll range is
+            ``[roll - 3, roll + 3]`` clipped to [-33, 33] deg (sigma = 6 deg, theta_max = 33 deg).
+        resources
+            Applied to every orbit (Table 1 defaults).
+        n_orbits
+            Number of orbits (default: one more than the largest orbit index used).
+        orbit_length
+            Each orbit spans ``[0, orbit_length]`` seconds (default: covers every window).
+
+        Examples
+        --------
+        >>> inst = Instance.build({"a": 5, "b": 3}, [("a", 0, 0, 4, 10.0), ("b", 0, 30, 34, -5.0)])
+        >>> inst.n_opps
+        2
+        """
+        if isinstance(weights, Mapping):
+            tids = [str(k) for k in weights]
+            wts = list(weights.values())
+        else:
+            wts = list(weights)
+            tids = [f"t{i}" for i in range(len(wts))]
+        index = {t: i for i, t in enumerate(tids)}
+        rows = [tuple(r) for r in opportunities]
+        tgt, orb, st, en, ro, lo, hi = [], [], [], [], [], [], []
+        for r, row in enumerate(rows):
+            if len(row) not in (5, 7):
+                raise InputError(f"opportunities[{r}]: expected 5 or 7 fields, got {len(row)}")
+            t = row[0]
+            if isinstance(t, str):
+                if t not in index:
+                    raise InputError(f"opportunities[{r}].target: unknown target {t!r}")
+                t = index[t]
+            tgt.append(t)
+            orb.append(row[1])
+            st.append(float(row[2]))
+            en.append(float(row[3]))
+            ro.append(float(row[4]))
+            if len(row) == 7:
+                lo.append(float(row[5]))
+                hi.append(float(row[6]))
+            else:
+                lo.append(max(-33.0, float(row[4]) - 3.0))
+                hi.append(min(33.0, float(row[4]) + 3.0))
+        m = n_orbits if n_orbits is not None else (max(orb) + 1 if orb else 1)
+        length = orbit_length if orbit_length is not None else max([*en, 0.0]) + 1.0
+        lo_start = min([*st, 0.0])
+        return cls.from_arrays(
+            epoch=epoch,
+            target_ids=tids,
+            target_lat=np.zeros(len(tids)),
+            target_lon=np.zeros(len(tids)),
+            target_weight=wts,
+            orbit_ids=[f"orbit{j}" for j in range(m)],
+            orbit_satellite=["SAT"] * m,
+            orbit_start=np.full(m, lo_start),
+            orbit_end=np.full(m, length),
+            resources=resources or Resources(),
+            opp_target=tgt,
+            opp_orbit=orb,
+            opp_start=st,
+            opp_end=en,
+            opp_roll=ro,
+            opp_roll_min=lo,
+            opp_roll_max=hi,
+            name=name,
+        )
+
+    # ------------------------------------------------------------ (de)serialise
+    def to_dict(self, layout: str = "records") -> dict[str, Any]:
+        """The instance as a JSON-ready dict (``layout`` "records" or "columns")."""
+        targets = {
+            "id": list(self.target_ids),
+            "lat": self.target_lat.tolist(),
+            "lon": self.target_lon.tolist(),
+            "weight": self.target_weight.tolist(),
+        }
+        orbits: dict[str, list[Any]] = {
+            "id": list(self.orbit_ids),
+            "satellite": list(self.orbit_satellite),
+            "start": self.orbit_start.tolist(),
+            "end": self.orbit_end.tolist(),
+        }
+        for k in RESOURCE_KEYS:
+            orbits[k] = getattr(self, k).tolist()
+        opps = {
+            "id": list(self.opp_ids),
+            "target": [self.target_ids[i] for i in self.opp_target],
+            "orbit": [self.orbit_ids[j] for j in self.opp_orbit],
+            "start": self.opp_start.tolist(),
+            "end": self.opp_end.tolist(),
+            "roll": self.opp_roll.tolist(),
+            "roll_min": self.opp_roll_min.tolist(),
+            "roll_max": self.opp_roll_max.tolist(),
+        }
+        if layout == "records":
+            conv = _to_records
+        elif layout == "columns":
+            conv = dict
+        else:
+            raise InputError(f"layout: expected 'records' or 'columns', got {layout!r}")
+        return {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "name": self.name,
+            "epoch": self.epoch,
+            "meta": dict(self.meta),
+            "targets": conv(targets),
+            "orbits": conv(orbits),
+            "opportunities": conv(opps),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str | None = None) -> Instance:
+        """Validate a dict read from an instance file and build the instance."""
+        if not isinstance(data, dict):
+            raise InputError("expected a JSON object at the top level", source=source)
+        fmt = data.get("format", FORMAT_NAME)
+        if fmt != FORMAT_NAME:
+            raise InputError(f"format: expected {FORMAT_NAME!r}, got {fmt!r}", source=source)
+        version = data.get("version", FORMAT_VERSION)
+        if version != FORMAT_VERSION:
+            raise InputError(
+                f"version: this sosp reads version {FORMAT_VERSION}, got {version!r}",
+                source=source,
+            )
+        for key in ("epoch", "targets", "orbits", "opportunities"):
+            if key not in data:
+                raise InputError(f"missing key {key!r}", source=source)
+        name = data.get("name", "")
+        if not isinstance(name, str):
+            raise InputError("name: expected a string", source=source)
+        meta = data.get("meta", {})
+        if not isinstance(meta, dict):
+            raise InputError("meta: expected an object", source=source)
+
+        targets = _table(data["targets"], "targets", ("id", "lat", "lon", "weight"), source)
+        orbits = _table(
+            data["orbits"], "orbits", ("id", "satellite", "start", "end", *RESOURCE_KEYS), source
+        )
+        opps = _table(
+            data["opportunities"],
+            "opportunities",
+            ("id", "target", "orbit", "start", "end", "roll", "roll_min", "roll_max"),
+            source,
+        )
+        for key in ("lat", "lon", "weight"):
+            _numbers(targets[key], "targets", key, source)
+        for key in ("start", "end", *RESOURCE_KEYS):
+            _numbers(orbits[key], "orbits", key, source)
+        for key in ("start", "end", "roll", "roll_min", "roll_max"):
+            _numbers(opps[key], "opportunities", key, source)
+        for r, v in enumerate(orbits["satellite"]):
+            if not isinstance(v, str):
+                raise InputError(f"orbits[{r}].satellite: expected a string", source=source)
+        tids = _ids(targets["id"], "targets", source)
+        oids = _ids(orbits["id"], "orbits", source)
+        t_index = {t: i for i, t in enumerate(tids)}
+        o_index = {o: i for i, o in enumerate(oids)}
+        p_target = _refs(opps["target"], t_index, "opportunities", "target", source)
+        p_orbit = _refs(opps["orbit"], o_index, "opportunities", "orbit", source)
+        return cls.from_arrays(
+            epoch=data["epoch"],
+            target_ids=tids,
+            target_lat=targets["lat"],
+            target_lon=targets["lon"],
+            target_weight=targets["weight"],
+            orbit_ids=oids,
+            orbit_satellite=orbits["satellite"],
+            orbit_start=orbits["start"],
+            orbit_end=orbits["end"],
+            resources={k: orbits[k] for k in RESOURCE_KEYS},
+            opp_ids=opps["id"],
+            opp_target=p_target,
+            opp_orbit=p_orbit,
+            opp_start=opps["start"],
+            opp_end=opps["end"],
+            opp_roll=opps["roll"],
+            opp_roll_min=opps["roll_min"],
+            opp_roll_max=opps["roll_max"],
+            name=name,
+            meta=meta,
+            source=source,
+        )
+
+    def save(self, path: str | os.PathLike[str], layout: str = "records") -> None:
+        """Write the instance file atomically."""
+        atomic_write_json(path, self.to_dict(layout=layout))
+
+
+def load_instance(path: str | os.PathLike[str]) -> Instance:
+    """Read and validate an instance file; :class:`InputError` names the file and field."""
+    return Instance.from_dict(read_json(path), source=str(path))
+
+
+# --------------------------------------------------------------------------- helpers
+def _check_epoch(epoch: Any, source: str | None) -> None:
+    if not isinstance(epoch, str):
+        raise InputError("epoch: expected an ISO 8601 string", source=source)
+    try:
+        dt = datetime.fromisoformat(epoch.replace("Z", "+00:00"))
+    except ValueError:
+        raise InputError(f"epoch: not an ISO 8601 time: {epoch!r}", source=source) from None
+    if dt.tzinfo is None or dt.utcoffset().total_seconds() != 0:  # type: ignore[union-attr]
+        raise InputError(f"epoch: must be UTC (end with Z or +00:00): {epoch!r}", source=source)
+
+
+def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ...]:
+    out: list[str] = []
+    seen: set[str] = set()
+    for r, v in enumerate(values):
+        if isinstance(v, bool) or not isinstance(v, str | int | np.integer):
+            raise InputError(f"{table}[{r}].id: expected a string or integer", source=source)
+        s = str(v)
+        if not s:
+            raise InputError(f"{table}[{r}].id: must not be empty", source=source)
+        if s in seen:
+            raise InputError(f"{table}[{r}].id: duplicate id {s!r}", source=source)
+        seen.add(s)
+        out.append(s)
+    return tuple(out)
+
+
+def _refs(
+    values: list[Any], index: dict[str, int], table: str, key: str, source: str | None
+) -> list[int]:
+    out = []
+    for r, v in enumerate(values):
+        if isinstance(v, bool) or not isinstance(v, str | int):
+            raise InputError(f"{table}[{r}].{key}: expected an id", source=source)
+        try:
+            out.append(index[str(v)])
+        except KeyError:
+            raise InputError(f"{table}[{r}].{key}: unknown {key} {v!r}", source=source) from None
+    return out
+
+
+def _numbers(values: list[Any], table: str, key: str, source: str | None) -> None:
+    for r, v in enumerate(values):
+        if not is_finite_number(v):
+            raise InputError(
+                f"{table}[{r}].{key}: expected a finite number, got {v!r}", source=source
+            )
+
+
+def _range_check(
+    a: np.ndarray, lo: float, hi: float, table: str, key: str, source: str | None
+) -> None:
+    bad = np.flatnonzero((a < lo) | (a > hi))
+    if bad.size:
+        raise InputError(
+            f"{table}[{bad[0]}].{key}: {a[bad[0]]:g} is outside [{lo:g}, {hi:g}]", source=source
+        )
+
+
+def _table(
+    value: Any, name: str, keys: tuple[str, ...], source: str | None
+) -> dict[str, list[Any]]:
+    """Normalise a table given as records or as columns to columns, checking its keys."""
+    if isinstance(value, list):
+        cols: dict[str, list[Any]] = {k: [] for k in keys}
+        for r, rec in enumerate(value):
+            if not isinstance(rec, dict):
+                raise InputError(f"{name}[{r}]: expected an object", source=source)
+            for k in keys:
+                if k not in rec:
+                    raise InputError(f"{name}[{r}]: missing key {k!r}", source=source)
+                cols[k].append(rec[k])
+        return cols
+    if isinstance(value, dict):
+        n = None
+        for k in keys:
+            if k not in value:
+                raise InputError(f"{name}: missing column {k!r}", source=source)
+            if not isinstance(value[k], list):
+                raise InputError(f"{name}.{k}: expected a list", source=source)
+            if n is None:
+                n = len(value[k])
+            elif len(value[k]) != n:
+                raise InputError(
+                    f"{name}.{k}: has {len(value[k])} values, expected {n}", source=source
+                )
+        return {k: value[k] for k in keys}
+    raise InputError(f"{name}: expected a list of records or an object of columns", source=source)
+
+
+def _to_records(cols: dict[str, list[Any]]) -> list[dict[str, Any]]:
+    keys = list(cols)
+    return [dict(zip(keys, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]

@@ -1,0 +1,266 @@
+"""Schedules: observations (sensor openings) on orbits, each covering one or more opportunities.
+
+An :class:`Observation` is the paper's cluster-task t_u (section 4.1): a set of opportunities
+of one orbit observed in one sensor opening with roll theta_u over the window [ts_u, te_u].
+With one opportunity it is an ordinary task.
+
+The schedule file format (``format: "sosp-schedule"``, ``version: 1``) is documented in
+``docs/formats.md``. It refers to orbits and opportunities by id and carries the fingerprint
+of the instance it was made for.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.io import atomic_write_json, is_finite_number, read_json
+
+FORMAT_NAME = "sosp-schedule"
+FORMAT_VERSION = 1
+
+RollRule = Literal["midpoint", "nadir"]
+
+
+@dataclass(frozen=True, slots=True)
+class Observation:
+    """One sensor opening on one orbit.
+
+    Attributes
+    ----------
+    orbit
+        Orbit index.
+    start, end
+        Observation window [ts_u, te_u], seconds from the epoch.
+    roll
+        Roll theta_u, degrees.
+    opps
+        Sorted tuple of the opportunity indices it covers (its component tasks).
+    """
+
+    orbit: int
+    start: float
+    end: float
+    roll: float
+    opps: tuple[int, ...]
+
+    @property
+    def duration(self) -> float:
+        return self.end - self.start
+
+
+def common_roll_range(instance: Instance, opps: Sequence[int]) -> tuple[float, float]:
+    """The common roll range (8): the intersection of the components' roll ranges.
+
+    Returns ``(lo, hi)``; the range is empty when ``lo > hi`` (then (7) fails).
+    """
+    idx = np.asarray(opps, dtype=np.int64)
+    return float(instance.opp_roll_min[idx].max()), float(instance.opp_roll_max[idx].min())
+
+
+def choose_roll(lo: float, hi: float, rule: RollRule = "midpoint") -> float:
+    """Roll of a cluster-task inside its common range [lo, hi].
+
+    ``"midpoint"`` is the paper's rule (9); ``"nadir"`` takes the point of the range closest
+    to nadir (0 deg), which never costs more slew time or energy.
+    """
+    if rule == "midpoint":
+        return 0.5 * (lo + hi)
+    if rule == "nadir":
+        return min(max(0.0, lo), hi)
+    raise InputError(f"roll rule: expected 'midpoint' or 'nadir', got {rule!r}")
+
+
+def make_observation(
+    instance: Instance, opps: Iterable[int], rule: RollRule = "midpoint"
+) -> Observation:
+    """Build the observation of a set of opportunities of one orbit, by (8)-(10).
+
+    A single opportunity keeps its own roll (the paper's theta_i); a cluster takes the roll of
+    ``rule`` in the common range (8) and the window (10).
+
+    Raises
+    ------
+    ValueError
+        If the set is empty, spans several orbits or has an empty common roll range.
+    """
+    ids = tuple(sorted(int(i) for i in opps))
+    if not ids:
+        raise ValueError("an observation needs at least one opportunity")
+    idx = np.asarray(ids, dtype=np.int64)
+    orbits = np.unique(instance.opp_orbit[idx])
+    if orbits.size != 1:
+        raise ValueError("an observation's opportunities must share one orbit")
+    start = float(instance.opp_start[idx].min())
+    end = float(instance.opp_end[idx].max())
+    if len(ids) == 1:
+        roll = float(instance.opp_roll[ids[0]])
+    else:
+        lo, hi = common_roll_range(instance, ids)
+        if lo > hi:
+            raise ValueError("the opportunities have no common roll (7)")
+        roll = choose_roll(lo, hi, rule)
+    return Observation(int(orbits[0]), start, end, roll, ids)
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """A solution: observations plus where it came from.
+
+    Attributes
+    ----------
+    observations
+        Sorted by (orbit, start).
+    method, params, seed
+        How it was made.
+    profit
+        The profit the method claims (checked by the validator when given).
+    fingerprint
+        Fingerprint of the instance it belongs to.
+    """
+
+    observations: tuple[Observation, ...] = ()
+    method: str = ""
+    params: Mapping[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    profit: float | None = None
+    fingerprint: str | None = None
+
+    def __post_init__(self) -> None:
+        obs = tuple(sorted(self.observations, key=lambda o: (o.orbit, o.start, o.end, o.opps)))
+        object.__setattr__(self, "observations", obs)
+
+    def __len__(self) -> int:
+        return len(self.observations)
+
+    def observed_opps(self) -> list[int]:
+        """All opportunity indices covered, in observation order."""
+        return [i for o in self.observations for i in o.opps]
+
+    def to_dict(self, instance: Instance) -> dict[str, Any]:
+        """JSON-ready dict; ids are taken from ``instance``."""
+        return {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "instance": self.fingerprint or instance.fingerprint,
+            "method": self.method,
+            "params": _jsonable(dict(self.params)),
+            "seed": self.seed,
+            "profit": self.profit,
+            "observations": [
+                {
+                    "orbit": instance.orbit_ids[o.orbit],
+                    "start": o.start,
+                    "end": o.end,
+                    "roll": o.roll,
+                    "opportunities": [instance.opp_ids[i] for i in o.opps],
+                }
+                for o in self.observations
+            ],
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, instance: Instance, source: str | None = None) -> Schedule:
+        """Read a schedule dict made for ``instance``; :class:`InputError` names the row."""
+        if not isinstance(data, dict):
+            raise InputError("expected a JSON object at the top level", source=source)
+        if data.get("format", FORMAT_NAME) != FORMAT_NAME:
+            raise InputError(f"format: expected {FORMAT_NAME!r}", source=source)
+        if data.get("version", FORMAT_VERSION) != FORMAT_VERSION:
+            raise InputError(f"version: this sosp reads version {FORMAT_VERSION}", source=source)
+        fp = data.get("instance")
+        if fp is not None and fp != instance.fingerprint:
+            raise InputError(
+                "instance: the schedule was made for another instance "
+                f"(fingerprint {str(fp)[:19]}..., this instance {instance.fingerprint[:19]}...)",
+                source=source,
+            )
+        if "observations" not in data:
+            raise InputError("missing key 'observations'", source=source)
+        rows = data["observations"]
+        if not isinstance(rows, list):
+            raise InputError("observations: expected a list", source=source)
+        obs = []
+        for r, rec in enumerate(rows):
+            where = f"observations[{r}]"
+            if not isinstance(rec, dict):
+                raise InputError(f"{where}: expected an object", source=source)
+            for key in ("orbit", "start", "end", "roll", "opportunities"):
+                if key not in rec:
+                    raise InputError(f"{where}: missing key {key!r}", source=source)
+            for key in ("start", "end", "roll"):
+                if not is_finite_number(rec[key]):
+                    raise InputError(
+                        f"{where}.{key}: expected a finite number, got {rec[key]!r}", source=source
+                    )
+            orbit = instance.orbit_index.get(str(rec["orbit"]))
+            if orbit is None or isinstance(rec["orbit"], bool):
+                raise InputError(f"{where}.orbit: unknown orbit {rec['orbit']!r}", source=source)
+            if not isinstance(rec["opportunities"], list):
+                raise InputError(f"{where}.opportunities: expected a list", source=source)
+            opps = []
+            for oid in rec["opportunities"]:
+                i = instance.opp_index.get(str(oid)) if isinstance(oid, str | int) else None
+                if i is None or isinstance(oid, bool):
+                    raise InputError(
+                        f"{where}.opportunities: unknown opportunity {oid!r}", source=source
+                    )
+                opps.append(i)
+            # Keep duplicates so that the validator can report them.
+            obs.append(
+                Observation(
+                    orbit,
+                    float(rec["start"]),
+                    float(rec["end"]),
+                    float(rec["roll"]),
+                    tuple(sorted(opps)),
+                )
+            )
+        profit = data.get("profit")
+        if profit is not None and not is_finite_number(profit):
+            raise InputError("profit: expected a number or null", source=source)
+        seed = data.get("seed")
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+            raise InputError("seed: expected an integer or null", source=source)
+        params = data.get("params", {})
+        if not isinstance(params, dict):
+            raise InputError("params: expected an object", source=source)
+        method = data.get("method", "")
+        if not isinstance(method, str):
+            raise InputError("method: expected a string", source=source)
+        return cls(
+            observations=tuple(obs),
+            method=method,
+            params=params,
+            seed=seed,
+            profit=profit,
+            fingerprint=instance.fingerprint,
+        )
+
+    def save(self, path: str | os.PathLike[str], instance: Instance) -> None:
+        """Write the schedule file atomically."""
+        atomic_write_json(path, self.to_dict(instance))
+
+
+def load_schedule(path: str | os.PathLike[str], instance: Instance) -> Schedule:
+    """Read a schedule file made for ``instance``."""
+    return Schedule.from_dict(read_json(path), instance, source=str(path))
+
+
+def _jsonable(value: Any) -> Any:
+    """Parameters as plain JSON values (numpy scalars, tuples and enums converted)."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, str | int | float | bool) or value is None:
+        return value
+    return str(value)

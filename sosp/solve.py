@@ -1,0 +1,154 @@
+"""The one entry point: :func:`solve` runs any registered method on an instance.
+
+Methods are registered by name in :data:`METHODS` as ``"module:function"`` and imported
+lazily, so the CLI stays fast and heavy dependencies (Pyomo, HiGHS) load only when used.
+A method function has the signature::
+
+    def solve_xxx(instance: Instance, *, rng: numpy.random.Generator,
+                  time_limit: float | None, **params) -> Result
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import inspect
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from sosp.errors import InputError, SospError
+from sosp.instance import Instance
+from sosp.result import Result
+from sosp.validate import validate
+
+log = logging.getLogger(__name__)
+
+#: Method name -> "module:function". The module is imported on first use.
+METHODS: dict[str, str] = {
+    "greedy": "heuristics.greedy:solve_greedy",
+    "hpfs-stc": "heuristics.hpfs:solve_hpfs_stc",
+    "asa-dtc": "heuristics.asa:solve_asa_dtc",
+    "asa-stc": "heuristics.asa:solve_asa_stc",
+    "asa-nontc": "heuristics.asa:solve_asa_nontc",
+    "rds": "heuristics.rds:solve_rds",
+    "rds-stc": "heuristics.rds:solve_rds_stc",
+    "sa-stc": "heuristics.sa:solve_sa_stc",
+    "milp": "models.solve:solve_milp",
+}
+
+
+class SolverError(SospError):
+    """A solver returned a schedule the validator rejects (a bug, never bad input)."""
+
+
+def available_methods() -> list[str]:
+    """The registered methods whose module is installed."""
+    out = []
+    for name, target in METHODS.items():
+        module = target.split(":")[0]
+        try:
+            if importlib.util.find_spec(module) is not None:
+                out.append(name)
+        except ModuleNotFoundError:
+            pass
+    return out
+
+
+def method_function(method: str) -> Callable[..., Result]:
+    """The function registered for ``method``; :class:`InputError` if unknown."""
+    if method not in METHODS:
+        raise InputError(
+            f"method: unknown method {method!r} (choose from {', '.join(available_methods())})"
+        )
+    module, func = METHODS[method].split(":")
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name and module.startswith(exc.name):
+            raise InputError(f"method: {method!r} is not available in this build") from None
+        raise
+    return getattr(mod, func)
+
+
+def check_time_limit(time_limit: Any) -> float | None:
+    """Validate a time limit (None, or a finite number of seconds > 0)."""
+    if time_limit is None:
+        return None
+    if isinstance(time_limit, bool) or not isinstance(time_limit, int | float):
+        raise InputError(f"time_limit: expected a number of seconds, got {time_limit!r}")
+    if not math.isfinite(time_limit) or time_limit <= 0:
+        raise InputError(f"time_limit: must be a finite number of seconds > 0, got {time_limit}")
+    return float(time_limit)
+
+
+def solve(
+    instance: Instance,
+    method: str = "greedy",
+    *,
+    seed: int = 0,
+    time_limit: float | None = None,
+    check: bool = True,
+    **params: Any,
+) -> Result:
+    """Solve ``instance`` with ``method``.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    method
+        A name from :data:`METHODS` (e.g. ``"asa-dtc"``, ``"milp"``, ``"hpfs-stc"``).
+    seed
+        Seeds the one :class:`numpy.random.Generator` passed down to the method.
+    time_limit
+        Wall-time limit in seconds (None: the method's own stopping rule).
+    check
+        Run the validator on the returned schedule and raise :class:`SolverError` if it
+        fails (cheap next to any solve; the validator is the referee).
+    **params
+        Method parameters (see each method's docstring).
+
+    Returns
+    -------
+    Result
+        With the schedule stamped with method, parameters, seed, profit and the instance's
+        fingerprint.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
+    time_limit = check_time_limit(time_limit)
+    func = method_function(method)
+    sig = inspect.signature(func)
+    if not any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
+        for key in params:
+            if key not in sig.parameters or key in ("instance", "rng", "time_limit"):
+                raise InputError(f"method {method!r} has no parameter {key!r}")
+    rng = np.random.default_rng(int(seed))
+    t0 = time.perf_counter()
+    result = func(instance, rng=rng, time_limit=time_limit, **params)
+    runtime = time.perf_counter() - t0
+    schedule = replace(
+        result.schedule,
+        method=method,
+        params=dict(params),
+        seed=int(seed),
+        profit=float(result.profit),
+        fingerprint=instance.fingerprint,
+    )
+    result = replace(result, method=method, schedule=schedule, runtime_s=runtime)
+    if check:
+        report = validate(instance, schedule)
+        if not report.feasible:
+            first = report.violations[0]
+            raise SolverError(
+                f"{method} returned an infeasible schedule ({len(report.violations)} "
+                f"violations; first: ({first.constraint}) {first.message})"
+            )
+    log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
+    return result

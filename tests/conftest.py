@@ -1,0 +1,74 @@
+"""Tiny named instances shared by the tests (hand-built: opportunities given directly)."""
+
+from __future__ import annotations
+
+import pytest
+
+from sosp.instance import Instance, Resources
+
+
+def tiny_chain() -> Instance:
+    """One orbit, three targets in time order; b and c conflict by setup time (3).
+
+    a [0, 4] roll 10, b [10, 14] roll 1, c [30, 34] roll -5: a-b gap 6 < 10 + 11;
+    b-c gap 16 = 10 + 6 (just feasible); a-c gap 26 >= 10 + 15.
+    """
+    return Instance.build(
+        {"a": 5, "b": 4, "c": 3},
+        [("a", 0, 0, 4, 10.0), ("b", 0, 10, 14, 1.0), ("c", 0, 30, 34, -5.0)],
+        name="tiny_chain",
+    )
+
+
+def tiny_cluster() -> Instance:
+    """One orbit; a and b overlap in time and share rolls [8, 12]: one opening covers both.
+
+    Alone they conflict by (3); clustered, their window is [0, 9] at roll 10.
+    """
+    return Instance.build(
+        {"a": 5, "b": 4, "c": 2},
+        [
+            ("a", 0, 0.0, 4.0, 11.0, 8.0, 14.0),
+            ("b", 0, 5.0, 9.0, 9.0, 6.0, 12.0),
+            ("c", 0, 60.0, 64.0, -20.0, -23.0, -17.0),
+        ],
+        name="tiny_cluster",
+    )
+
+
+def tiny_two_orbits() -> Instance:
+    """Two orbits; target a is visible on both, b only on orbit 0 where it conflicts with a."""
+    return Instance.build(
+        {"a": 6, "b": 5},
+        [("a", 0, 0, 5, 20.0), ("b", 0, 8, 12, -20.0), ("a", 1, 100, 105, 0.0)],
+        name="tiny_two_orbits",
+    )
+
+
+def tiny_openings() -> Instance:
+    """One orbit with max_openings 2 and four well-spaced targets: (6) binds."""
+    return Instance.build(
+        {"a": 1, "b": 2, "c": 3, "d": 4},
+        [
+            ("a", 0, 0, 2, 0.0),
+            ("b", 0, 100, 102, 0.0),
+            ("c", 0, 200, 202, 0.0),
+            ("d", 0, 300, 302, 0.0),
+        ],
+        resources=Resources(max_openings=2),
+        name="tiny_openings",
+    )
+
+
+TINY = {
+    "tiny_chain": tiny_chain,
+    "tiny_cluster": tiny_cluster,
+    "tiny_two_orbits": tiny_two_orbits,
+    "tiny_openings": tiny_openings,
+}
+
+
+@pytest.fixture(params=sorted(TINY))
+def tiny(request: pytest.FixtureRequest) -> Instance:
+    """Each tiny named instance in turn."""
+    return TINY[request.param]()
