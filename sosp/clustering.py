@@ -1,0 +1,223 @@
+"""Tasks to schedule atomically: single opportunities or static cluster-tasks (STC).
+
+A :class:`TaskSet` is what the static methods schedule (the paper's *-STC comparisons and the
+no-clustering variants): each task is one sensor opening with a fixed window and roll covering
+one or more opportunities of one orbit.
+
+Static task clustering (the paper's ref. [10], MODEL-NOTES "static clustering") builds the
+cluster-tasks once, before scheduling, by partitioning each orbit's opportunities into groups
+that satisfy (7) (a common roll) and (11) (span <= Delta T); afterwards they are atomic. The
+partition is a greedy clique partition of the "can cluster" graph: opportunities are taken in
+start order and each joins the open group whose span grows least (best fit), or opens a new
+group. Its window is (10) and its roll (9) (midpoint, default) or the point of the common range
+closest to nadir.
+
+A target may belong to cluster-tasks on several orbits. Scheduling two such tasks is feasible
+(the target is simply photographed twice) but it counts once: every static method uses this
+coverage semantics, and :func:`tasks_to_schedule` claims each target in the first scheduled
+task covering it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from sosp.instance import Instance
+from sosp.schedule import Observation, RollRule, Schedule, choose_roll
+
+
+@dataclass(frozen=True, eq=False)
+class TaskSet:
+    """Atomic tasks: one sensor opening each, with a fixed window and roll.
+
+    Attributes
+    ----------
+    orbit, start, end, roll
+        Per task: orbit index, window [ts_u, te_u] (10), roll theta_u.
+    weight
+        Sum of the weights of the distinct targets covered.
+    opps
+        Per task, the sorted opportunity indices it covers (its component tasks).
+    targets
+        Per task, the sorted distinct target indices it covers.
+    """
+
+    orbit: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    roll: np.ndarray
+    weight: np.ndarray
+    opps: tuple[tuple[int, ...], ...]
+    targets: tuple[tuple[int, ...], ...]
+
+    def __len__(self) -> int:
+        return len(self.opps)
+
+    @property
+    def duration(self) -> np.ndarray:
+        return self.end - self.start
+
+    @cached_property
+    def target_tasks(self) -> dict[int, tuple[int, ...]]:
+        """For each covered target index, the tasks that cover it."""
+        out: dict[int, list[int]] = {}
+        for t, ks in enumerate(self.targets):
+            for k in ks:
+                out.setdefault(k, []).append(t)
+        return {k: tuple(v) for k, v in out.items()}
+
+    def observation(self, t: int) -> Observation:
+        """Task ``t`` as an :class:`~sosp.schedule.Observation` covering all its components."""
+        return Observation(
+            int(self.orbit[t]),
+            float(self.start[t]),
+            float(self.end[t]),
+            float(self.roll[t]),
+            self.opps[t],
+        )
+
+
+def single_tasks(instance: Instance) -> TaskSet:
+    """One task per opportunity, at the opportunity's own roll (no clustering)."""
+    n = instance.n_opps
+    return TaskSet(
+        orbit=instance.opp_orbit.copy(),
+        start=instance.opp_start.copy(),
+        end=instance.opp_end.copy(),
+        roll=instance.opp_roll.copy(),
+        weight=instance.opp_weight.copy(),
+        opps=tuple((i,) for i in range(n)),
+        targets=tuple((int(k),) for k in instance.opp_target),
+    )
+
+
+def can_cluster(instance: Instance, opps: Iterable[int]) -> bool:
+    """True if the opportunities share one orbit, a common roll (7) and span <= Delta T (11)."""
+    idx = np.fromiter(opps, dtype=np.int64)
+    if idx.size == 0:
+        return False
+    orbits = instance.opp_orbit[idx]
+    if np.any(orbits != orbits[0]):
+        return False
+    span = instance.opp_end[idx].max() - instance.opp_start[idx].min()
+    lo, hi = instance.opp_roll_min[idx].max(), instance.opp_roll_max[idx].min()
+    return bool(lo <= hi and span <= instance.max_duration[orbits[0]])
+
+
+def static_cluster_tasks(
+    instance: Instance, roll_rule: RollRule = "midpoint", max_span: float | None = None
+) -> TaskSet:
+    """Static cluster-tasks: a per-orbit partition of the opportunities satisfying (7), (11).
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    roll_rule
+        ``"midpoint"`` (9) or ``"nadir"`` for groups of two or more; a single opportunity
+        keeps its own roll.
+    max_span
+        Largest window a group may reach (default, and capped at, each orbit's Delta T).
+
+    Returns
+    -------
+    TaskSet
+        Tasks sorted by (orbit, start); every opportunity is in exactly one task.
+    """
+    groups: list[list[int]] = []
+    for j in range(instance.n_orbits):
+        sl = instance.orbit_opps(j)
+        limit = float(instance.max_duration[j])
+        if max_span is not None:
+            limit = min(limit, float(max_span))
+        # open groups: [first start, max end, lo, hi, members]
+        open_: list[list] = []
+        for i in range(sl.start, sl.stop):
+            s, e = float(instance.opp_start[i]), float(instance.opp_end[i])
+            lo, hi = float(instance.opp_roll_min[i]), float(instance.opp_roll_max[i])
+            # Opportunities come in start order (and end after they start): a group that this
+            # start already outruns can take no later opportunity, so it is closed.
+            still_open = []
+            for g in open_:
+                if s - g[0] >= limit:
+                    groups.append(g[4])
+                else:
+                    still_open.append(g)
+            open_ = still_open
+            best, best_growth = None, np.inf
+            for g in open_:
+                if max(g[2], lo) > min(g[3], hi) or max(g[1], e) - g[0] > limit:
+                    continue
+                growth = max(g[1], e) - g[1]
+                if growth < best_growth:
+                    best, best_growth = g, growth
+            if best is None:
+                open_.append([s, e, lo, hi, [i]])
+            else:
+                best[1] = max(best[1], e)
+                best[2], best[3] = max(best[2], lo), min(best[3], hi)
+                best[4].append(i)
+        groups.extend(g[4] for g in open_)
+    return _taskset(instance, groups, roll_rule)
+
+
+def _taskset(instance: Instance, groups: list[list[int]], roll_rule: RollRule) -> TaskSet:
+    rows = []
+    for members in groups:
+        idx = np.array(sorted(members), dtype=np.int64)
+        s = float(instance.opp_start[idx].min())
+        e = float(instance.opp_end[idx].max())
+        if idx.size == 1:
+            r = float(instance.opp_roll[idx[0]])
+        else:
+            r = choose_roll(
+                float(instance.opp_roll_min[idx].max()),
+                float(instance.opp_roll_max[idx].min()),
+                roll_rule,
+            )
+        ks = tuple(sorted({int(k) for k in instance.opp_target[idx]}))
+        rows.append((int(instance.opp_orbit[idx[0]]), s, e, r, tuple(idx.tolist()), ks))
+    rows.sort(key=lambda x: (x[0], x[1], x[2], x[4]))
+    w = instance.target_weight
+    return TaskSet(
+        orbit=np.array([x[0] for x in rows], dtype=np.int64),
+        start=np.array([x[1] for x in rows], dtype=float),
+        end=np.array([x[2] for x in rows], dtype=float),
+        roll=np.array([x[3] for x in rows], dtype=float),
+        weight=np.array([int(w[list(x[5])].sum()) for x in rows], dtype=np.int64),
+        opps=tuple(x[4] for x in rows),
+        targets=tuple(x[5] for x in rows),
+    )
+
+
+def tasks_to_schedule(instance: Instance, tasks: TaskSet, chosen: Iterable[int]) -> Schedule:
+    """The schedule of a chosen set of tasks, each target claimed once.
+
+    Tasks are taken by (orbit, start); each observation keeps its task's window and roll and
+    lists the opportunities whose target is not yet claimed. A task left with nothing to claim
+    is dropped (removing an observation never breaks (3)-(6)).
+    """
+    claimed: set[int] = set()
+    obs = []
+    for t in sorted(set(int(c) for c in chosen), key=lambda t: (tasks.orbit[t], tasks.start[t])):
+        mine = []
+        for i in tasks.opps[t]:
+            k = int(instance.opp_target[i])
+            if k not in claimed:
+                claimed.add(k)
+                mine.append(i)
+        if mine:
+            obs.append(
+                Observation(
+                    int(tasks.orbit[t]),
+                    float(tasks.start[t]),
+                    float(tasks.end[t]),
+                    float(tasks.roll[t]),
+                    tuple(mine),
+                )
+            )
+    return Schedule(tuple(obs))

@@ -1,0 +1,129 @@
+"""Setup-time conflicts (3) between schedulable items, found by a sweep over time.
+
+Two items u, v on the same orbit, u starting first, can both be scheduled only if
+
+    ts_v - te_u >= a + (|theta_u| + |theta_v|) / v                                      (3)
+
+(the sensor returns through nadir between observations). For a set of items on one orbit,
+(3) holds for every consecutive pair if and only if it holds for every pair (gaps and slews
+add up), so (3) is exactly a pairwise conflict relation: a schedule is (3)-feasible iff it is
+an independent set of the conflict graph.
+
+The sweep sorts each orbit's items by start; item i can only conflict with later items that
+start before ``te_i + a + (|theta_i| + max|theta|) / v``, found by binary search, and the exact
+test is then applied to those candidates in one vectorised pass. No all-pairs test.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sosp.instance import Instance
+
+if TYPE_CHECKING:
+    import networkx as nx
+
+    from sosp.clustering import TaskSet
+
+#: Same margin as the solvers' insertion checks (``heuristics.timeline.EPS``).
+EPS = 1e-9
+
+
+def setup_conflict_pairs(
+    instance: Instance,
+    orbit: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    roll: np.ndarray,
+) -> np.ndarray:
+    """All pairs of items that cannot both be scheduled because of (3).
+
+    Parameters
+    ----------
+    instance
+        Supplies each orbit's setup time a_j and slew rate v_j.
+    orbit, start, end, roll
+        One entry per item (opportunities, cluster-tasks or candidate observations).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(m, 2)``, int64, each row ``(i, h)`` with ``i < h`` (item indices), sorted.
+    """
+    orbit = np.asarray(orbit, dtype=np.int64)
+    start = np.asarray(start, dtype=float)
+    end = np.asarray(end, dtype=float)
+    absroll = np.abs(np.asarray(roll, dtype=float))
+    n = orbit.size
+    if n < 2:
+        return np.empty((0, 2), dtype=np.int64)
+    order = np.lexsort((end, start, orbit))
+    o, s, e, r = orbit[order], start[order], end[order], absroll[order]
+    a = instance.setup_time[o]
+    v = instance.slew_rate[o]
+    # Per-orbit maximum |roll| bounds the partner's slew for the binary search.
+    rmax = np.zeros(instance.n_orbits)
+    np.maximum.at(rmax, o, r)
+    reach = e + a + (r + rmax[o]) / v + EPS
+    # Search within each orbit's block: offset keys by orbit so blocks never mix.
+    span = float(max(np.max(np.abs(s)), np.max(np.abs(reach)))) * 2.0 + 1.0
+    key = o * span + s
+    hi = np.searchsorted(key, o * span + reach, side="left")
+    idx = np.arange(n)
+    counts = np.maximum(hi - idx - 1, 0)
+    total = int(counts.sum())
+    if total == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    first = np.repeat(idx, counts)
+    offsets = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+    second = first + 1 + offsets
+    need = a[first] + (r[first] + r[second]) / v[first]
+    clash = e[first] + need > s[second] + EPS
+    i, h = order[first[clash]], order[second[clash]]
+    pairs = np.column_stack((np.minimum(i, h), np.maximum(i, h)))
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def target_sharing_pairs(targets: tuple[tuple[int, ...], ...]) -> np.ndarray:
+    """Pairs of items that cover a common target (exclusivity (2) for single opportunities)."""
+    by_target: dict[int, list[int]] = {}
+    for i, ts in enumerate(targets):
+        for k in ts:
+            by_target.setdefault(k, []).append(i)
+    rows = [
+        (a, b) for items in by_target.values() for x, a in enumerate(items) for b in items[x + 1 :]
+    ]
+    if not rows:
+        return np.empty((0, 2), dtype=np.int64)
+    pairs = np.unique(np.array(rows, dtype=np.int64), axis=0)
+    return pairs
+
+
+def conflict_graph(
+    instance: Instance, tasks: TaskSet | None = None, *, target_edges: bool = True
+) -> nx.Graph:
+    """The conflict graph of opportunities (default) or of a :class:`~sosp.clustering.TaskSet`.
+
+    Nodes are item indices with attributes ``orbit`` and ``weight``. Edges have attribute
+    ``kind``: ``"setup"`` for (3) conflicts on one orbit, ``"target"`` for items sharing a
+    target (constraint (2) for single opportunities; for cluster-tasks, sharing a target is
+    not infeasible, only redundant: pass ``target_edges=False`` to leave those edges out).
+    """
+    import networkx as nx
+
+    from sosp.clustering import single_tasks
+
+    if tasks is None:
+        tasks = single_tasks(instance)
+    g = nx.Graph()
+    g.add_nodes_from(
+        (i, {"orbit": int(o), "weight": int(w)})
+        for i, (o, w) in enumerate(zip(tasks.orbit, tasks.weight, strict=True))
+    )
+    if target_edges:
+        g.add_edges_from(map(tuple, target_sharing_pairs(tasks.targets).tolist()), kind="target")
+    pairs = setup_conflict_pairs(instance, tasks.orbit, tasks.start, tasks.end, tasks.roll)
+    g.add_edges_from(map(tuple, pairs.tolist()), kind="setup")
+    return g
