@@ -1,0 +1,445 @@
+"""The ``sosp`` command line.
+
+Core commands live here (``scenario``, ``info``, ``solve``, ``validate``, ``demo``); others
+are contributed by their packages through :data:`EXTRA_COMMANDS` (``bound``, ``bench``,
+``report``, ``plot``). Start-up stays fast: modules are imported only by the command that
+needs them (``sosp --help`` and ``sosp validate`` never import Pyomo).
+
+Every command accepts ``--json`` to print one JSON object for scripts. Bad input prints one
+line ``error: ...`` on stderr and exits with code 2; outputs are written atomically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import logging
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from sosp.errors import InputError
+
+log = logging.getLogger("sosp")
+
+#: Subcommands contributed by other modules: name -> "module:add_parser_function".
+EXTRA_COMMANDS: dict[str, str] = {
+    "bound": "models.cli:add_bound_parser",
+    "bench": "sosp.campaign.cli:add_bench_parser",
+    "report": "sosp.report:add_report_parser",
+    "plot": "sosp.plot:add_plot_parser",
+}
+
+#: The built-in scenario of ``sosp demo``.
+DEMO_SCENARIO = "C1"
+
+
+def _emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(data, allow_nan=False) + "\n")
+    else:
+        sys.stdout.write(text.rstrip("\n") + "\n")
+
+
+# --------------------------------------------------------------------------- scenario
+def _resources_from_args(args: argparse.Namespace):  # -> Resources
+    from sosp.instance import RESOURCE_KEYS, Resources
+
+    given = {k: getattr(args, k) for k in RESOURCE_KEYS if getattr(args, k, None) is not None}
+    if "max_openings" in given:
+        if float(given["max_openings"]) != int(given["max_openings"]):
+            raise InputError("--max-openings: expected a whole number")
+        given["max_openings"] = int(given["max_openings"])
+    return Resources(**given)
+
+
+def cmd_scenario(args: argparse.Namespace) -> int:
+    from sosp import scenarios
+
+    resources = _resources_from_args(args)
+    common: dict[str, Any] = {
+        "resources": resources,
+        "max_roll": args.max_roll,
+        "fov": args.fov,
+        "min_sun_elevation": args.min_sun_elevation,
+    }
+    if args.start is not None:
+        common["start"] = args.start
+    if args.hours is not None:
+        common["hours"] = args.hours
+    custom = args.region is not None or args.targets_csv is not None or args.tle is not None
+    if args.name and not custom:
+        inst = scenarios.generate_scenario(args.name, args.seed, **common)
+    else:
+        if args.region is None and args.targets_csv is None and args.name:
+            # A named scenario's targets with the user's satellites.
+            common["base"] = args.name
+        inst = scenarios.custom_scenario(
+            name=args.name or "custom",
+            region=tuple(args.region) if args.region is not None else None,
+            count=args.targets,
+            targets_csv=args.targets_csv,
+            tle=args.tle,
+            seed=args.seed,
+            **common,
+        )
+    inst.save(args.output)
+    data = _info_dict(inst)
+    data["output"] = args.output
+    _emit(args, data, f"wrote {args.output}\n" + _info_text(inst))
+    return 0
+
+
+# --------------------------------------------------------------------------- info
+def _info_dict(inst: Any) -> dict[str, Any]:
+    import numpy as np
+
+    per_orbit = np.diff(inst.orbit_offsets)
+    sats = sorted(set(inst.orbit_satellite))
+    return {
+        "name": inst.name,
+        "epoch": inst.epoch,
+        "fingerprint": inst.fingerprint,
+        "targets": inst.n_targets,
+        "EN": inst.observable_targets,
+        "TN": inst.n_opps,
+        "satellites": len(sats),
+        "orbits": inst.n_orbits,
+        "horizon_s": float(inst.orbit_end.max() - inst.orbit_start.min()) if inst.n_orbits else 0,
+        "total_weight": int(inst.target_weight.sum()),
+        "opportunities_per_orbit": {
+            oid: int(c) for oid, c in zip(inst.orbit_ids, per_orbit, strict=True)
+        },
+    }
+
+
+def _info_text(inst: Any) -> str:
+    import numpy as np
+
+    d = _info_dict(inst)
+    per = np.diff(inst.orbit_offsets)
+    used = per[per > 0]
+    lines = [
+        f"instance      {d['name'] or '(unnamed)'}  ({d['fingerprint'][:19]}...)",
+        f"epoch         {d['epoch']}",
+        f"targets       {d['targets']}  (EN {d['EN']} with at least one opportunity)",
+        f"opportunities {d['TN']} (TN)",
+        f"orbits        {d['orbits']} on {d['satellites']} satellite(s), horizon "
+        f"{d['horizon_s'] / 3600:.2f} h",
+    ]
+    if used.size:
+        lines.append(
+            f"per orbit     {used.size} orbits with opportunities: min {used.min()}, "
+            f"mean {used.mean():.1f}, max {used.max()}"
+        )
+    return "\n".join(lines)
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from sosp.instance import load_instance
+
+    inst = load_instance(args.instance)
+    _emit(args, _info_dict(inst), _info_text(inst))
+    return 0
+
+
+# --------------------------------------------------------------------------- solve
+def _parse_params(items: Sequence[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, raw = item.partition("=")
+        if not sep or not key:
+            raise InputError(f"--param: expected KEY=VALUE, got {item!r}")
+        try:
+            value: Any = json.loads(raw)
+        except json.JSONDecodeError:
+            value = raw
+        out[key.strip().replace("-", "_")] = value
+    return out
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    from sosp.instance import load_instance
+    from sosp.schedule import load_schedule
+    from sosp.solve import solve
+
+    inst = load_instance(args.instance)
+    params = _parse_params(args.param or [])
+    for key in ("iterations", "model", "mip_gap", "threads"):
+        value = getattr(args, key)
+        if value is not None:
+            params[key] = value
+    if args.warm_start is not None:
+        params["warm_start"] = load_schedule(args.warm_start, inst)
+    result = solve(inst, args.method, seed=args.seed, time_limit=args.time_limit, **params)
+    if args.output:
+        result.schedule.save(args.output, inst)
+    data = result.summary()
+    if args.output:
+        data["output"] = args.output
+    text = (
+        f"{result.method}: {result.status.value}, profit {result.profit:g}, "
+        f"{result.observed} targets in {len(result.schedule)} observations, "
+        f"{result.runtime_s:.2f} s"
+    )
+    if result.bound is not None:
+        text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+    if args.output:
+        text += f"\nwrote {args.output}"
+    _emit(args, data, text)
+    return 0
+
+
+# --------------------------------------------------------------------------- validate
+def cmd_validate(args: argparse.Namespace) -> int:
+    from sosp.instance import load_instance
+    from sosp.schedule import load_schedule
+    from sosp.validate import validate
+
+    inst = load_instance(args.instance)
+    sched = load_schedule(args.schedule, inst)
+    report = validate(inst, sched)
+    lines = [
+        f"{'feasible' if report.feasible else 'INFEASIBLE'}: profit {report.profit:g}, "
+        f"{report.observed} targets, {len(sched)} observations",
+        f"energy {report.energy:.1f}, memory {report.memory:.1f}, profit/energy "
+        f"{report.profit_per_energy:.4f}, profit/memory {report.profit_per_memory:.4f}",
+    ]
+    for v in report.violations:
+        lines.append(f"  ({v.constraint}) {v.message}")
+    _emit(args, report.to_dict(), "\n".join(lines))
+    return 0 if report.feasible else 1
+
+
+# --------------------------------------------------------------------------- demo
+def cmd_demo(args: argparse.Namespace) -> int:
+    import time
+
+    from sosp import scenarios
+    from sosp.solve import available_methods, solve
+    from sosp.validate import validate
+
+    t0 = time.perf_counter()
+    inst = scenarios.generate_scenario(DEMO_SCENARIO, args.seed)
+    t_gen = time.perf_counter() - t0
+    methods = [m for m in ("greedy", "hpfs-stc", "asa-dtc") if m in available_methods()]
+    rows = []
+    for m in methods:
+        limit = args.time_limit if m.startswith("asa") else None
+        res = solve(inst, m, seed=args.seed, time_limit=limit)
+        rep = validate(inst, res.schedule)
+        rows.append((m, res, rep))
+    data = {
+        "scenario": DEMO_SCENARIO,
+        "generate_s": t_gen,
+        "instance": _info_dict(inst),
+        "results": [
+            {**res.summary(), "feasible": rep.feasible, "energy": rep.energy, "memory": rep.memory}
+            for _, res, rep in rows
+        ],
+    }
+    lines = [
+        f"sosp demo: scenario {DEMO_SCENARIO} (seed {args.seed}) generated from real orbits "
+        f"in {t_gen:.2f} s",
+        _info_text(inst),
+        "",
+        f"{'method':<10} {'status':<9} {'profit':>7} {'targets':>7} {'obs':>5} "
+        f"{'energy':>8} {'memory':>8} {'time':>7}  valid",
+    ]
+    for m, res, rep in rows:
+        lines.append(
+            f"{m:<10} {res.status.value:<9} {res.profit:>7g} {res.observed:>7} "
+            f"{len(res.schedule):>5} {rep.energy:>8.1f} {rep.memory:>8.1f} "
+            f"{res.runtime_s:>6.2f}s  {'yes' if rep.feasible else 'NO'}"
+        )
+    lines.append("")
+    lines.append(
+        "Every schedule was checked by the independent validator (constraints (2)-(7), (11))."
+    )
+    _emit(args, data, "\n".join(lines))
+    return 0 if all(rep.feasible for _, _, rep in rows) else 1
+
+
+# --------------------------------------------------------------------------- parser
+def _positive(kind: type) -> Any:
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a {kind.__name__}, got {text!r}") from None
+        if value != value or value <= 0:  # NaN or not positive
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+        return value
+
+    parse.__name__ = f"positive {kind.__name__}"
+    return parse
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with usage errors as one line and exit code 2 (no usage dump)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise InputError(f"{self.prog}: {message}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from sosp import __version__
+
+    parser = _Parser(
+        prog="sosp",
+        description="Schedule Earth-observing satellites: real-orbit instances, exact models, "
+        "ASA-DTC and baselines, validation and experiments.",
+    )
+    parser.add_argument("--version", action="version", version=f"sosp {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    def add(name: str, help_: str) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help_, description=help_)
+        p.add_argument("--json", action="store_true", help="print one JSON object")
+        return p
+
+    p = add("scenario", "generate an instance from real orbits (named scenario or your own)")
+    p.add_argument(
+        "name", nargs="?", help="B1..B10 or C1..C10 (paper 6.1), or a name for a custom instance"
+    )
+    p.add_argument("-o", "--output", required=True, help="instance file to write (JSON)")
+    p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
+    p.add_argument(
+        "--region",
+        nargs=4,
+        type=float,
+        metavar=("LAT0", "LAT1", "LON0", "LON1"),
+        help="random targets in this box (degrees)",
+    )
+    p.add_argument("--targets", type=_positive(int), help="number of targets with --region")
+    p.add_argument("--targets-csv", help="targets file with header id,lat,lon,weight")
+    p.add_argument("--tle", help="satellites: name line + two element lines each")
+    p.add_argument("--start", help="horizon start, ISO 8601 UTC")
+    p.add_argument("--hours", type=_positive(float), help="horizon length in hours (24)")
+    p.add_argument(
+        "--max-roll",
+        type=_positive(float),
+        default=33.0,
+        help="max roll either side of nadir, deg (33)",
+    )
+    p.add_argument("--fov", type=_positive(float), default=6.0, help="field of view, deg (6)")
+    p.add_argument(
+        "--min-sun-elevation",
+        type=float,
+        default=None,
+        help="daylight rule: minimum sun elevation at the target, deg (off)",
+    )
+    from sosp.instance import RESOURCE_KEYS, Resources
+
+    defaults = Resources()
+    for key in RESOURCE_KEYS:
+        p.add_argument(
+            f"--{key.replace('_', '-')}",
+            dest=key,
+            type=float,
+            default=None,
+            help=f"per-orbit {key.replace('_', ' ')} ({getattr(defaults, key):g})",
+        )
+    p.set_defaults(func=cmd_scenario)
+
+    p = add("info", "summarise an instance: targets, EN, TN, orbits, opportunities per orbit")
+    p.add_argument("instance")
+    p.set_defaults(func=cmd_info)
+
+    p = add("solve", "solve an instance and write the schedule")
+    p.add_argument("instance")
+    p.add_argument(
+        "--method",
+        default="asa-dtc",
+        help="asa-dtc (default), asa-stc, asa-nontc, milp, rds, rds-stc, hpfs-stc, sa-stc, greedy",
+    )
+    p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
+    p.add_argument("--time-limit", type=_positive(float), default=None, help="seconds")
+    p.add_argument(
+        "--iterations", type=_positive(int), default=None, help="iteration limit (search methods)"
+    )
+    p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
+    p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
+    p.add_argument("--threads", type=_positive(int), default=None, help="milp: solver threads")
+    p.add_argument("--warm-start", default=None, help="milp: schedule file to start from")
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="KEY=VALUE",
+        help="method parameter (repeatable); VALUE is JSON or text",
+    )
+    p.add_argument("-o", "--output", help="schedule file to write (JSON)")
+    p.set_defaults(func=cmd_solve)
+
+    p = add("validate", "check a schedule against every constraint; exit 1 if infeasible")
+    p.add_argument("instance")
+    p.add_argument("schedule")
+    p.set_defaults(func=cmd_validate)
+
+    p = add("demo", "generate a built-in scenario, solve, validate and summarise")
+    p.add_argument("--seed", type=_nonneg_int, default=0)
+    p.add_argument(
+        "--time-limit",
+        type=_positive(float),
+        default=5.0,
+        help="seconds for the search methods (5)",
+    )
+    p.set_defaults(func=cmd_demo)
+
+    for name, target in EXTRA_COMMANDS.items():
+        module, func = target.split(":")
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name and module.startswith(exc.name):
+                continue  # that part of sosp is not installed
+            raise
+        getattr(mod, func)(sub)
+        if name in sub.choices and not any(a.dest == "json" for a in sub.choices[name]._actions):
+            sub.choices[name].add_argument(
+                "--json", action="store_true", help="print one JSON object"
+            )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit code (0 ok, 1 infeasible schedule, 2 bad input)."""
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+    except InputError as exc:
+        sys.stderr.write(f"error: {exc}\n")
+        return 2
+    logging.basicConfig(
+        level=logging.WARNING - 10 * min(args.verbose, 2),
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        sys.stderr.write(f"error: {exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("interrupted\n")
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
