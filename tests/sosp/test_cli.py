@@ -1,0 +1,142 @@
+"""The CLI: commands end to end, --json output, and bad input answered with one line, exit
+code 2, no traceback and no half-written output."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from sosp.cli import main
+from sosp.schedule import Schedule, make_observation
+from tests.conftest import tiny_chain, tiny_two_orbits
+
+
+@pytest.fixture
+def inst_file(tmp_path: Path) -> Path:
+    p = tmp_path / "inst.json"
+    tiny_chain().save(p)
+    return p
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_info_json(capsys, inst_file: Path) -> None:
+    code, out, _ = run(capsys, "info", str(inst_file), "--json")
+    data = json.loads(out)
+    assert code == 0
+    assert (data["targets"], data["EN"], data["TN"], data["orbits"]) == (3, 3, 3, 1)
+    assert data["opportunities_per_orbit"] == {"orbit0": 3}
+
+
+def test_solve_then_validate(capsys, tmp_path: Path, inst_file: Path) -> None:
+    out_file = tmp_path / "s.json"
+    code, out, _ = run(
+        capsys,
+        "solve",
+        str(inst_file),
+        "--method",
+        "greedy",
+        "--seed",
+        "1",
+        "-o",
+        str(out_file),
+        "--json",
+    )
+    data = json.loads(out)
+    assert code == 0
+    assert {"method", "status", "profit", "observed", "runtime_s"} <= set(data)
+    assert data["profit"] == 8 and data["status"] == "feasible"
+    code, out, _ = run(capsys, "validate", str(inst_file), str(out_file), "--json")
+    rep = json.loads(out)
+    assert code == 0 and rep["feasible"] and rep["profit"] == 8 and rep["violations"] == []
+
+
+def test_validate_infeasible_exits_1_and_lists_violations(
+    capsys, tmp_path: Path, inst_file: Path
+) -> None:
+    inst = tiny_chain()
+    bad = Schedule((make_observation(inst, [0]), make_observation(inst, [1])))
+    bad.save(tmp_path / "bad.json", inst)
+    code, out, _ = run(capsys, "validate", str(inst_file), str(tmp_path / "bad.json"))
+    assert code == 1
+    assert "INFEASIBLE" in out and "(3)" in out
+    code, out, _ = run(capsys, "validate", str(inst_file), str(tmp_path / "bad.json"), "--json")
+    rep = json.loads(out)
+    assert code == 1 and rep["violations"][0]["constraint"] == "3"
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["info", "{tmp}/missing.json"], "file not found"),
+        (["info", "{tmp}/malformed.json"], "malformed JSON"),
+        (["info", "{tmp}/nolat.json"], "targets[0]: missing key 'lat'"),
+        (["solve", "{inst}", "--method", "nope", "-o", "{tmp}/out.json"], "unknown method"),
+        (["solve", "{inst}", "--time-limit", "0", "-o", "{tmp}/out.json"], "--time-limit"),
+        (["solve", "{inst}", "--time-limit", "abc", "-o", "{tmp}/out.json"], "--time-limit"),
+        (["solve", "{inst}", "--seed", "-3", "-o", "{tmp}/out.json"], "--seed"),
+        (
+            ["solve", "{inst}", "--method", "greedy", "--iterations", "9", "-o", "{tmp}/out.json"],
+            "has no parameter 'iterations'",
+        ),
+        (["solve", "{inst}", "--param", "novalue", "-o", "{tmp}/out.json"], "KEY=VALUE"),
+        (["validate", "{inst}", "{tmp}/other.json"], "made for another instance"),
+        (["frobnicate"], "invalid choice"),
+    ],
+)
+def test_bad_input_one_line_exit_2_nothing_written(
+    capsys, tmp_path: Path, inst_file: Path, argv: list[str], needle: str
+) -> None:
+    write(tmp_path, "malformed.json", '{"targets": [')
+    d = tiny_chain().to_dict()
+    del d["targets"][0]["lat"]
+    write(tmp_path, "nolat.json", json.dumps(d))
+    other = tiny_two_orbits()
+    Schedule((make_observation(other, [0]),)).save(tmp_path / "other.json", other)
+    args = [a.format(tmp=tmp_path, inst=inst_file) for a in argv]
+    code, out, err = run(capsys, *args)
+    assert code == 2
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert needle in err
+    assert "Traceback" not in err
+    assert not (tmp_path / "out.json").exists()
+    assert not list(tmp_path.glob(".out.json.*"))  # no temp file left behind
+
+
+def test_help_does_not_import_heavy_modules() -> None:
+    code = (
+        "import sys\n"
+        "from sosp.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+        "heavy = [m for m in ('pyomo', 'highspy', 'matplotlib', 'scipy', 'dask', 'networkx')"
+        " if m in sys.modules]\n"
+        "assert not heavy, heavy\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+
+
+def test_validate_does_not_import_pyomo(tmp_path: Path, inst_file: Path) -> None:
+    inst = tiny_chain()
+    Schedule((make_observation(inst, [0]),)).save(tmp_path / "s.json", inst)
+    code = (
+        "import sys\n"
+        "from sosp.cli import main\n"
+        f"rc = main(['validate', {str(inst_file)!r}, {str(tmp_path / 's.json')!r}])\n"
+        "assert rc == 0\n"
+        "assert 'pyomo' not in sys.modules and 'highspy' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)

@@ -1,0 +1,107 @@
+"""The solve entry point and the greedy baseline."""
+
+from __future__ import annotations
+
+import pytest
+
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.result import Status
+from sosp.solve import METHODS, SolverError, available_methods, solve
+from sosp.validate import validate
+from tests.conftest import tiny_chain, tiny_openings, tiny_two_orbits
+
+
+def test_greedy_hand_computed_chain() -> None:
+    # a (5) first, then b (4) conflicts with a by (3), then c (3) fits after a.
+    inst = tiny_chain()
+    res = solve(inst, "greedy")
+    assert res.status is Status.FEASIBLE
+    assert [inst.target_ids[inst.opp_target[o.opps[0]]] for o in res.schedule.observations] == [
+        "a",
+        "c",
+    ]
+    assert res.profit == 8 and res.observed == 2
+
+
+def test_greedy_respects_openings() -> None:
+    res = solve(tiny_openings(), "greedy")  # c = 2: the two heaviest, d (4) and c (3)
+    assert res.profit == 7 and len(res.schedule) == 2
+
+
+def test_greedy_uses_the_freer_orbit() -> None:
+    # c (9) goes first, on orbit 0; a (6) can go on either orbit: orbit 1 has more resources
+    # left, so a goes there and b (5), which conflicts with a on orbit 0, still fits.
+    inst = Instance.build(
+        {"c": 9, "a": 6, "b": 5},
+        [
+            ("c", 0, 300, 305, 0.0),
+            ("a", 0, 0, 5, 20.0),
+            ("a", 1, 100, 105, 0.0),
+            ("b", 0, 8, 12, -20.0),
+        ],
+    )
+    res = solve(inst, "greedy")
+    assert res.profit == 20
+    placed = {
+        inst.target_ids[inst.opp_target[o.opps[0]]]: o.orbit for o in res.schedule.observations
+    }
+    assert placed == {"c": 0, "a": 1, "b": 0}
+
+
+def test_greedy_breaks_ties_by_instance_order() -> None:
+    # Both orbits empty: a takes its first opportunity (orbit 0) and b then conflicts.
+    assert solve(tiny_two_orbits(), "greedy").profit == 6
+
+
+def test_result_is_stamped_and_valid(tiny: Instance) -> None:
+    res = solve(tiny, "greedy", seed=3)
+    s = res.schedule
+    assert (s.method, s.seed, s.profit, s.fingerprint) == (
+        "greedy",
+        3,
+        res.profit,
+        tiny.fingerprint,
+    )
+    rep = validate(tiny, s)
+    assert rep.feasible and rep.profit == res.profit and rep.observed == res.observed
+    assert res.runtime_s >= 0
+
+
+def test_every_registered_method_is_named_consistently() -> None:
+    for name, target in METHODS.items():
+        module, func = target.split(":")
+        assert func.startswith("solve_"), name
+    assert "greedy" in available_methods()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "needle"),
+    [
+        ({"method": "nope"}, "unknown method"),
+        ({"method": "greedy", "seed": -1}, "seed"),
+        ({"method": "greedy", "seed": 1.5}, "seed"),
+        ({"method": "greedy", "time_limit": 0}, "time_limit"),
+        ({"method": "greedy", "time_limit": float("nan")}, "time_limit"),
+        ({"method": "greedy", "iterations": 3}, "no parameter 'iterations'"),
+    ],
+)
+def test_bad_arguments(kwargs: dict, needle: str) -> None:
+    with pytest.raises(InputError, match=needle):
+        solve(tiny_chain(), **kwargs)
+
+
+def test_infeasible_solver_output_is_refused(monkeypatch) -> None:
+    import heuristics.greedy as greedy
+    from sosp.result import Result
+    from sosp.schedule import Schedule, make_observation
+
+    inst = tiny_chain()
+
+    def broken(instance, *, rng, time_limit=None):
+        sched = Schedule((make_observation(instance, [0]), make_observation(instance, [1])))
+        return Result("greedy", Status.FEASIBLE, sched, 9.0, 2)
+
+    monkeypatch.setattr(greedy, "solve_greedy", broken)
+    with pytest.raises(SolverError, match=r"\(3\)"):
+        solve(inst, "greedy")
