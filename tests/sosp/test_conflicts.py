@@ -1,0 +1,123 @@
+"""The setup-conflict sweep and static clustering against brute force and hand results."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sosp.clustering import can_cluster, single_tasks, static_cluster_tasks, tasks_to_schedule
+from sosp.conflicts import conflict_graph, setup_conflict_pairs
+from sosp.instance import Instance, Resources
+from sosp.schedule import Schedule
+from sosp.validate import validate
+from tests.conftest import tiny_chain, tiny_cluster, tiny_two_orbits
+
+
+@st.composite
+def instances(draw) -> Instance:
+    n = draw(st.integers(1, 14))
+    m = draw(st.integers(1, 3))
+    rows = []
+    for _ in range(n):
+        s = draw(st.floats(0, 300))
+        rows.append(
+            (
+                draw(st.integers(0, 5)),
+                draw(st.integers(0, m - 1)),
+                s,
+                s + draw(st.floats(0.5, 9)),
+                draw(st.floats(-33, 33)),
+            )
+        )
+    res = Resources(
+        setup_time=draw(st.sampled_from([0.0, 10.0])),
+        slew_rate=draw(st.sampled_from([0.5, 1.0, 3.0])),
+        max_duration=draw(st.sampled_from([10.0, 120.0])),
+    )
+    return Instance.build([3] * 6, rows, resources=res, n_orbits=m)
+
+
+def brute_pairs(inst: Instance) -> set[tuple[int, int]]:
+    out = set()
+    for i, h in itertools.combinations(range(inst.n_opps), 2):
+        if inst.opp_orbit[i] != inst.opp_orbit[h]:
+            continue
+        j = int(inst.opp_orbit[i])
+        key = lambda x: (inst.opp_start[x], inst.opp_end[x])  # noqa: E731
+        u, v = (i, h) if key(i) <= key(h) else (h, i)
+        need = (
+            inst.setup_time[j] + (abs(inst.opp_roll[u]) + abs(inst.opp_roll[v])) / inst.slew_rate[j]
+        )
+        if inst.opp_start[v] - inst.opp_end[u] < need - 1e-9:
+            out.add((i, h))
+    return out
+
+
+@settings(max_examples=200, deadline=None)
+@given(inst=instances())
+def test_sweep_equals_all_pairs(inst: Instance) -> None:
+    t = single_tasks(inst)
+    pairs = setup_conflict_pairs(inst, t.orbit, t.start, t.end, t.roll)
+    assert set(map(tuple, pairs.tolist())) == brute_pairs(inst)
+    assert np.all(pairs[:, 0] < pairs[:, 1]) if len(pairs) else True
+
+
+def test_conflicts_hand_computed() -> None:
+    inst = tiny_chain()  # a-b conflict (gap 6 < 21); b-c exactly feasible; a-c feasible
+    g = conflict_graph(inst)
+    assert sorted(g.edges) == [(0, 1)]
+    assert g.nodes[0]["weight"] == 5 and g.edges[0, 1]["kind"] == "setup"
+
+
+def test_target_edges_across_orbits() -> None:
+    inst = tiny_two_orbits()  # a on orbits 0 and 1, b conflicts with a on orbit 0
+    g = conflict_graph(inst)
+    kinds = {tuple(sorted(e)): d["kind"] for *e, d in g.edges(data=True)}
+    assert kinds == {(0, 1): "setup", (0, 2): "target"}
+    assert sorted(conflict_graph(inst, target_edges=False).edges) == [(0, 1)]
+
+
+def test_static_clusters_hand_computed() -> None:
+    inst = tiny_cluster()  # a [0,4] range [8,14], b [5,9] range [6,12] -> one cluster; c alone
+    tasks = static_cluster_tasks(inst)
+    assert tasks.opps == ((0, 1), (2,))
+    assert (tasks.start[0], tasks.end[0], tasks.roll[0]) == (0.0, 9.0, 10.0)  # (10), (9)
+    assert tasks.weight.tolist() == [9, 2]
+    assert static_cluster_tasks(inst, roll_rule="nadir").roll[0] == 8.0
+    assert tasks.roll[1] == inst.opp_roll[2]  # a lone opportunity keeps its own roll
+
+
+def test_static_clusters_respect_max_duration() -> None:
+    inst = Instance.build(
+        {"a": 1, "b": 1, "c": 1},
+        [("a", 0, 0, 4, 5.0), ("b", 0, 100, 104, 5.0), ("c", 0, 118, 122, 5.0)],
+    )
+    tasks = static_cluster_tasks(inst)
+    assert tasks.opps == ((0, 1), (2,))  # c would stretch the window to 122 > 120
+    assert static_cluster_tasks(inst, max_span=50).opps == ((0,), (1, 2))
+
+
+@settings(max_examples=150, deadline=None)
+@given(inst=instances())
+def test_static_clusters_partition_and_are_valid(inst: Instance) -> None:
+    tasks = static_cluster_tasks(inst)
+    assert sorted(i for t in tasks.opps for i in t) == list(range(inst.n_opps))
+    for t in range(len(tasks)):
+        assert can_cluster(inst, tasks.opps[t])
+        rep = validate(inst, Schedule((tasks.observation(t),)))
+        assert not [v for v in rep.violations if v.constraint in ("7", "11", "structure")]
+
+
+def test_tasks_to_schedule_claims_each_target_once() -> None:
+    inst = Instance.build(
+        {"a": 5, "b": 4}, [("a", 0, 0, 4, 5.0), ("b", 0, 2, 6, 5.0), ("a", 1, 50, 54, 0.0)]
+    )
+    tasks = static_cluster_tasks(inst)
+    assert tasks.opps == ((0, 1), (2,))
+    sched = tasks_to_schedule(inst, tasks, [0, 1])
+    assert len(sched) == 1  # the orbit-1 task has nothing left to claim and is dropped
+    rep = validate(inst, sched)
+    assert rep.feasible and rep.profit == 9
