@@ -1,0 +1,433 @@
+"""Scenario generator: the paper's reference scenarios B1..B10, C1..C10 and custom ones.
+
+Section 6.1 of the paper: four satellites (JB-3A, JB-3C, CBERS-1, CBERS-2), lateral roll within
+[-33, 33] degrees, a 6 degree field of view, a 24 h horizon, Table 1 resources; scenario ``Bk``
+has ``100 k`` targets uniform in latitude [-30, 60] and longitude [0, 150] (degrees), ``Ck``
+has ``100 k`` targets in latitude [30, 60] and longitude [90, 120]; weights are integers uniform
+in [2, 10]. Opportunities come from real-orbit geometry (:mod:`sosp.visibility`), not STK, so
+the counts differ from the paper's Tables 3-4 (see ``docs/scenarios.md``).
+
+Everything is deterministic for a given name and seed: the one random generator is
+``numpy.random.default_rng([seed, crc32(name)])``.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+import os
+import time
+import zlib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sosp.errors import InputError
+from sosp.instance import Instance, Resources
+from sosp.orbits import Satellite, builtin_satellites, parse_epoch, read_tle
+from sosp.visibility import find_opportunities
+
+log = logging.getLogger(__name__)
+
+#: Default start of the horizon (and the common element epoch of the built-in satellites, so
+#: no long propagation from the element epoch is involved).
+DEFAULT_START = "2026-06-01T00:00:00Z"
+
+#: Target regions (lat_min, lat_max, lon_min, lon_max) of the two scenario groups, degrees.
+REGIONS: dict[str, tuple[float, float, float, float]] = {
+    "B": (-30.0, 60.0, 0.0, 150.0),
+    "C": (30.0, 60.0, 90.0, 120.0),
+}
+
+#: Target weights: integers uniform in [2, 10] (inclusive).
+WEIGHT_RANGE = (2, 10)
+
+GENERATOR = "sosp.scenarios"
+
+__all__ = [
+    "DEFAULT_START",
+    "REGIONS",
+    "custom_scenario",
+    "generate_scenario",
+    "random_targets",
+    "read_targets_csv",
+    "scenario_names",
+]
+
+
+def scenario_names() -> list[str]:
+    """``["B1", ..., "B10", "C1", ..., "C10"]``."""
+    return [f"{g}{k}" for g in "BC" for k in range(1, 11)]
+
+
+def _parse_name(name: str) -> tuple[str, int]:
+    if not isinstance(name, str) or len(name) < 2 or name[0] not in REGIONS:
+        raise InputError(f"scenario: unknown name {name!r}; expected B1..B10 or C1..C10")
+    try:
+        k = int(name[1:])
+    except ValueError:
+        k = 0
+    if not (1 <= k <= 10) or name[1:] != str(k):
+        raise InputError(f"scenario: unknown name {name!r}; expected B1..B10 or C1..C10")
+    return name[0], k
+
+
+def _rng(name: str, seed: int) -> np.random.Generator:
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
+    return np.random.default_rng([int(seed), zlib.crc32(name.encode("utf-8"))])
+
+
+def random_targets(
+    count: int,
+    region: tuple[float, float, float, float],
+    rng: np.random.Generator,
+) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+    """``count`` targets uniform in latitude and longitude (degrees) inside ``region``.
+
+    Parameters
+    ----------
+    count
+        Number of targets (ids ``"T0001"``, ``"T0002"``, ...; wider when count > 9999).
+    region
+        ``(lat_min, lat_max, lon_min, lon_max)``.
+    rng
+        The generator; draws latitudes, then longitudes, then weights.
+
+    Returns
+    -------
+    ids, lat, lon, weight
+    """
+    lat0, lat1, lon0, lon1 = (float(x) for x in region)
+    if not (-90.0 <= lat0 <= lat1 <= 90.0) or not (-180.0 <= lon0 <= lon1 <= 360.0):
+        raise InputError(f"region: expected lat0 <= lat1 in [-90, 90], lon0 <= lon1: {region}")
+    if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 0:
+        raise InputError(f"count: expected a non-negative integer, got {count!r}")
+    width = max(4, len(str(count)))
+    ids = [f"T{i:0{width}d}" for i in range(1, count + 1)]
+    lat = rng.uniform(lat0, lat1, count)
+    lon = rng.uniform(lon0, lon1, count)
+    weight = rng.integers(WEIGHT_RANGE[0], WEIGHT_RANGE[1] + 1, count)
+    return ids, lat, lon, weight
+
+
+def generate_scenario(
+    name: str,
+    seed: int = 0,
+    *,
+    start: str | None = None,
+    hours: float = 24.0,
+    resources: Resources | None = None,
+    max_roll: float = 33.0,
+    fov: float = 6.0,
+    min_sun_elevation: float | None = None,
+) -> Instance:
+    """The paper's reference scenario ``name`` (B1..B10, C1..C10) with real-orbit geometry.
+
+    Parameters
+    ----------
+    name
+        ``"Bk"`` (large area) or ``"Ck"`` (small area), ``k`` in 1..10: ``100 k`` targets.
+    seed
+        Seed of the target draw (with the name).
+    start
+        Horizon start, ISO 8601 UTC; :data:`DEFAULT_START` by default.
+    hours
+        Horizon length.
+    resources
+        Per-orbit resources; Table 1 (:class:`~sosp.instance.Resources` defaults) by default.
+    max_roll, fov
+        theta_max and the sensor's full field of view sigma, degrees.
+    min_sun_elevation
+        Optional daylight rule (degrees); off by default as in the paper.
+
+    Returns
+    -------
+    Instance
+        Named ``name``; ``meta`` records the provenance.
+    """
+    group, k = _parse_name(name)
+    rng = _rng(name, seed)
+    ids, lat, lon, weight = random_targets(100 * k, REGIONS[group], rng)
+    return _build(
+        builtin_satellites(),
+        ids,
+        lat,
+        lon,
+        weight,
+        name=name,
+        start=start,
+        hours=hours,
+        resources=resources,
+        max_roll=max_roll,
+        fov=fov,
+        min_sun_elevation=min_sun_elevation,
+        meta={
+            "scenario": name,
+            "seed": int(seed),
+            "region": list(REGIONS[group]),
+            "satellite_source": "builtin",
+        },
+    )
+
+
+def custom_scenario(
+    *,
+    targets: tuple[Sequence[Any], Any, Any, Any] | None = None,
+    region: tuple[float, float, float, float] | None = None,
+    count: int | None = None,
+    seed: int = 0,
+    satellites: Sequence[Satellite] | str | os.PathLike[str] | None = None,
+    start: str | None = None,
+    hours: float = 24.0,
+    resources: Resources | None = None,
+    max_roll: float = 33.0,
+    fov: float = 6.0,
+    min_sun_elevation: float | None = None,
+    name: str = "custom",
+) -> Instance:
+    """An instance for your own targets or region and satellites.
+
+    Parameters
+    ----------
+    targets
+        ``(ids, lat, lon, weight)`` (e.g. from :func:`read_targets_csv`); or else
+    region, count
+        ``(lat0, lat1, lon0, lon1)`` and the number of random targets drawn in it
+        (uniform in lat/lon, weights uniform integers in [2, 10]) with ``seed``.
+    seed
+        Seed of the target draw (with ``name``).
+    satellites
+        A list of :class:`~sosp.orbits.Satellite`, the path of a three-line element file,
+        or None for the built-in four.
+    start, hours, resources, max_roll, fov, min_sun_elevation
+        As in :func:`generate_scenario`.
+    name
+        Instance name (also seeds the draw together with ``seed``).
+    """
+    if (targets is None) == (region is None):
+        raise InputError("custom scenario: give exactly one of targets= or region=")
+    meta: dict[str, Any] = {"scenario": name, "seed": int(seed)}
+    if targets is not None:
+        if count is not None:
+            raise InputError("custom scenario: count= goes with region=, not targets=")
+        try:
+            ids, lat, lon, weight = targets
+        except (TypeError, ValueError):
+            raise InputError("targets: expected (ids, lat, lon, weight)") from None
+        ids = [str(i) for i in ids]
+        meta["targets"] = "given"
+    else:
+        if count is None:
+            raise InputError("custom scenario: region= needs count=")
+        ids, lat, lon, weight = random_targets(count, region, _rng(name, seed))  # type: ignore[arg-type]
+        meta["region"] = [float(x) for x in region]  # type: ignore[union-attr]
+    if satellites is None:
+        sats = builtin_satellites()
+        meta["satellite_source"] = "builtin"
+    elif isinstance(satellites, str | os.PathLike):
+        sats = read_tle(satellites)
+        meta["satellite_source"] = f"TLE file {Path(satellites).name}"
+    else:
+        sats = list(satellites)
+        meta["satellite_source"] = "given"
+    if not sats:
+        raise InputError("satellites: need at least one satellite")
+    names = [s.name for s in sats]
+    if len(set(names)) != len(names):
+        raise InputError("satellites: names must be unique (they make the orbit ids)")
+    return _build(
+        sats,
+        ids,
+        lat,
+        lon,
+        weight,
+        name=name,
+        start=start,
+        hours=hours,
+        resources=resources,
+        max_roll=max_roll,
+        fov=fov,
+        min_sun_elevation=min_sun_elevation,
+        meta=meta,
+    )
+
+
+def _build(
+    sats: list[Satellite],
+    ids: Sequence[str],
+    lat: Any,
+    lon: Any,
+    weight: Any,
+    *,
+    name: str,
+    start: str | None,
+    hours: float,
+    resources: Resources | None,
+    max_roll: float,
+    fov: float,
+    min_sun_elevation: float | None,
+    meta: dict[str, Any],
+) -> Instance:
+    start = DEFAULT_START if start is None else start
+    parse_epoch(start)  # one-line error for a bad time
+    if not (isinstance(hours, int | float) and math.isfinite(hours) and hours > 0):
+        raise InputError(f"hours: expected a positive number, got {hours!r}")
+    lat = np.asarray(lat, dtype=float)
+    lon = np.asarray(lon, dtype=float)
+    if not (len(ids) == lat.size == lon.size == np.size(weight)):
+        raise InputError("targets: ids, lat, lon and weight differ in length")
+    bad = np.flatnonzero(~np.isfinite(lat) | (np.abs(lat) > 90) | ~np.isfinite(lon))
+    if bad.size:
+        raise InputError(f"targets[{bad[0]}]: invalid latitude/longitude")
+    t_begin = time.perf_counter()
+    revs, opps = find_opportunities(
+        sats,
+        lat,
+        lon,
+        epoch=start,
+        horizon=(0.0, hours * 3600.0),
+        max_roll=max_roll,
+        fov=fov,
+        min_sun_elevation=min_sun_elevation,
+    )
+    orbit_sat = [sats[i].name for i in revs.satellite]
+    opp_ids = [f"{ids[k]}@{revs.ids[j]}" for k, j in zip(opps.target, opps.orbit, strict=True)]
+    full_meta = {
+        "generator": GENERATOR,
+        **meta,
+        "satellites": [s.name for s in sats],
+        "start": start,
+        "hours": float(hours),
+        "max_roll": float(max_roll),
+        "fov": float(fov),
+        "min_sun_elevation": None if min_sun_elevation is None else float(min_sun_elevation),
+    }
+    inst = Instance.from_arrays(
+        epoch=start,
+        target_ids=list(ids),
+        target_lat=lat,
+        target_lon=lon,
+        target_weight=weight,
+        orbit_ids=list(revs.ids),
+        orbit_satellite=orbit_sat,
+        orbit_start=revs.start,
+        orbit_end=revs.end,
+        resources=resources if resources is not None else Resources(),
+        opp_target=opps.target,
+        opp_orbit=opps.orbit,
+        opp_start=opps.start,
+        opp_end=opps.end,
+        opp_roll=opps.roll,
+        opp_roll_min=opps.roll_min,
+        opp_roll_max=opps.roll_max,
+        opp_ids=opp_ids,
+        name=name,
+        meta=full_meta,
+    )
+    log.info(
+        "scenario %s: %d targets, %d orbits, %d opportunities (EN %d) in %.2f s",
+        name,
+        inst.n_targets,
+        inst.n_orbits,
+        inst.n_opps,
+        inst.observable_targets,
+        time.perf_counter() - t_begin,
+    )
+    return inst
+
+
+def read_targets_csv(
+    path: str | os.PathLike[str],
+) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+    """Read targets from a CSV file with the header ``id,lat,lon,weight``.
+
+    Latitude in [-90, 90] and longitude in [-180, 360] degrees (finite); weight a
+    non-negative integer (``"4"`` or ``"4.0"``); ids unique and non-empty. Columns may come
+    in any order; extra columns are ignored.
+
+    Returns
+    -------
+    ids, lat, lon, weight
+
+    Raises
+    ------
+    InputError
+        Naming the file and the line (1-based, the header is line 1) and field at fault.
+    """
+    p = Path(path)
+    src = str(p)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError("file not found", source=src) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read: {exc}", source=src) from None
+    rows = list(csv.reader(text.splitlines()))
+    numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
+    if not numbered:
+        raise InputError("empty file: expected the header id,lat,lon,weight", source=src)
+    hline, header = numbered[0]
+    cols = [c.strip().lower() for c in header]
+    missing = [c for c in ("id", "lat", "lon", "weight") if c not in cols]
+    if missing:
+        raise InputError(
+            f"line {hline}: header lacks {', '.join(missing)} (expected id,lat,lon,weight)",
+            source=src,
+        )
+    ix = {c: cols.index(c) for c in ("id", "lat", "lon", "weight")}
+    ids: list[str] = []
+    lat: list[float] = []
+    lon: list[float] = []
+    weight: list[int] = []
+    seen: dict[str, int] = {}
+    for lineno, row in numbered[1:]:
+        if len(row) != len(cols):
+            raise InputError(
+                f"line {lineno}: expected {len(cols)} fields, got {len(row)}", source=src
+            )
+        tid = row[ix["id"]].strip()
+        if not tid:
+            raise InputError(f"line {lineno}: empty id", source=src)
+        if tid in seen:
+            raise InputError(
+                f"line {lineno}: duplicate id {tid!r} (first on line {seen[tid]})", source=src
+            )
+        seen[tid] = lineno
+        values = {}
+        for key, lo, hi in (("lat", -90.0, 90.0), ("lon", -180.0, 360.0)):
+            raw = row[ix[key]].strip()
+            try:
+                val = float(raw)
+            except ValueError:
+                raise InputError(
+                    f"line {lineno}: {key} is not a number: {raw!r}", source=src
+                ) from None
+            if not math.isfinite(val) or not (lo <= val <= hi):
+                raise InputError(
+                    f"line {lineno}: {key} must be a finite number in [{lo:g}, {hi:g}], "
+                    f"got {raw!r}",
+                    source=src,
+                )
+            values[key] = val
+        raw = row[ix["weight"]].strip()
+        try:
+            w = float(raw)
+        except ValueError:
+            raise InputError(
+                f"line {lineno}: weight is not a number: {raw!r}", source=src
+            ) from None
+        if not math.isfinite(w) or w < 0 or w != int(w):
+            raise InputError(
+                f"line {lineno}: weight must be a non-negative integer, got {raw!r}", source=src
+            )
+        ids.append(tid)
+        lat.append(values["lat"])
+        lon.append(values["lon"])
+        weight.append(int(w))
+    if not ids:
+        raise InputError("no targets after the header", source=src)
+    return ids, np.asarray(lat), np.asarray(lon), np.asarray(weight, dtype=np.int64)
