@@ -4,10 +4,12 @@ For every target and every revolution of every satellite this module finds at mo
 opportunity, following ``MODEL-NOTES`` "Geometry" (details and figures in ``docs/scenarios.md``):
 
 Frames and roll
-    All vectors are Earth-fixed (see :mod:`sosp.orbits`). At time ``t`` the satellite's local
-    frame is: ``z`` = geocentric nadir ``-r/|r|``; ``x`` = the ground-relative velocity ``v`` with
-    its radial part removed (along track); ``y = z cross x`` (to the right of the ground track).
-    The line of sight to a target is ``l = r_target - r``.
+    All vectors are Earth-fixed (see :mod:`sosp.orbits`). At time ``t`` the pass frame is:
+    ``x`` = unit ground-relative velocity ``v`` (along track; the cross-track plane is
+    perpendicular to it); ``z`` = geocentric nadir ``-r`` projected into the cross-track plane
+    (it leans from true nadir by the flight-path angle, below 0.2 deg for these near-circular
+    orbits); ``y = z cross x`` (to the right of the ground track). The line of sight to a target
+    is ``l = r_target - r``.
 
 Crossing time t_c
     The root of the along-track coordinate ``f(t) = l . v``: the target crosses the plane
@@ -32,8 +34,8 @@ Observability and ranges
 Window
     ``[ts, te]`` is the time the target stays within the along-track half field of view of a
     sensor pointed at it: the along-track off-boresight angle ``phi(t) = asin(l . x / |l|)``
-    (the angle of the line of sight out of the cross-track plane) equals ``+fov/2`` at ``ts``
-    and ``-fov/2`` at ``te`` (secant iterations from t_c on both sides).
+    (the angle of the line of sight out of the cross-track plane, 0 at t_c) equals ``+fov/2``
+    at ``ts`` and ``-fov/2`` at ``te`` (secant iterations from t_c on both sides).
 
 Horizon and revolutions
     An opportunity belongs to the revolution containing its t_c; it is dropped when t_c lies
@@ -151,10 +153,11 @@ def _unit(a: np.ndarray) -> np.ndarray:
 
 
 def _frame(r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The local frame (x along track, y right, z geocentric nadir) from Earth-fixed r, v."""
-    rhat = _unit(r)
-    z = -rhat
-    x = _unit(v - _dot(v, rhat)[..., None] * rhat)
+    """The pass frame from Earth-fixed r, v: x along the velocity, z geocentric nadir
+    projected into the cross-track plane (perpendicular to x), y = z cross x (right)."""
+    x = _unit(v)
+    nadir = -r
+    z = _unit(nadir - _dot(nadir, x)[..., None] * x)
     y = np.cross(z, x)
     return x, y, z
 
@@ -216,7 +219,7 @@ def _refine_crossings(
         hi = np.where(pos, hi, t)
         with np.errstate(divide="ignore", invalid="ignore"):
             t_new = t - f / fp
-        out = ~((t_new > lo) & (t_new < hi)) | ~np.isfinite(t_new)
+        out = ~((t_new >= lo) & (t_new <= hi)) | ~np.isfinite(t_new)  # NaN-safe
         t_new = np.where(out, 0.5 * (lo + hi), t_new)
         done = np.abs(t_new - t) < 1e-7
         t = t_new
