@@ -1,0 +1,128 @@
+"""Candidate observations of the clustering-exact model (MODEL-NOTES, "Exact models").
+
+Take any feasible observation covering a set S of opportunities of orbit j. Shrinking its
+window to [min ts, max te] of S (10) and moving its roll to the point of the common range (8)
+closest to nadir keeps it feasible and costs no more: (3) gaps only grow, the observe and slew
+terms of (4), (5) only shrink, (11) only shrinks. The nadir-closest point of
+[lo, hi] = [max roll_min, min roll_max] over S is 0, or lo when lo > 0 (a ``roll_min`` of some
+opportunity in S), or hi when hi < 0 (a ``roll_max``). So every observation is dominated by a
+*candidate* (first opportunity i, last opportunity l, roll theta) with
+
+* window [ts_i, te_l], ts_i <= ts_l, te_i <= te_l, te_l - ts_i <= Delta T (11);
+* theta in {0} U {roll_min > 0} U {roll_max < 0} of the opportunities inside the window, with
+  theta in the ranges of i and l (7);
+* covering *every* opportunity of orbit j whose window lies in [ts_i, te_l] and whose range
+  holds theta (covering more targets is never worse: each target counts once).
+
+A candidate is dropped when another with the same window covers a superset at no larger |theta|
+(windows of two candidates where one covers the other's ends i and l cannot differ, so only
+candidates with the same window can dominate one another).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from sosp.instance import Instance
+
+log = logging.getLogger(__name__)
+
+#: Slack (seconds, degrees) for the window and roll-range tests, as the validator's tolerance
+#: is never needed by a solver.
+EPS = 1e-9
+
+
+def cluster_candidates(
+    instance: Instance,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, ...], ...]]:
+    """All non-dominated candidate observations of every orbit.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+
+    Returns
+    -------
+    tuple
+        ``(orbit, start, end, roll, opps)``: one entry per candidate; ``opps`` are the sorted
+        covered opportunity indices, whose window is exactly [start, end].
+    """
+    out_orbit: list[int] = []
+    out_start: list[float] = []
+    out_end: list[float] = []
+    out_roll: list[float] = []
+    out_opps: list[tuple[int, ...]] = []
+    ts_all, te_all = instance.opp_start, instance.opp_end
+    lo_all, hi_all = instance.opp_roll_min, instance.opp_roll_max
+    for j in range(instance.n_orbits):
+        sl = instance.orbit_opps(j)
+        if sl.stop == sl.start:
+            continue
+        ts, te = ts_all[sl], te_all[sl]
+        lo, hi = lo_all[sl], hi_all[sl]
+        limit = float(instance.max_duration[j])
+        # opportunities starting within Delta T of each start: a contiguous run (sorted by start)
+        stop = np.searchsorted(ts, ts + limit + EPS, side="right")
+        seen: set[tuple[float, float, tuple[int, ...]]] = set()
+        for i in range(len(ts)):
+            w = np.arange(i, stop[i])  # candidates for l and for covered opportunities
+            w = w[ts[w] >= ts[i] - EPS]
+            ends = w[(te[w] >= te[i] - EPS) & (te[w] - ts[i] <= limit + EPS)]
+            if ends.size == 0:
+                continue
+            rolls = np.unique(np.concatenate(([0.0], lo[w][lo[w] > 0], hi[w][hi[w] < 0])))
+            # keep rolls inside i's own range (7)
+            rolls = rolls[(rolls >= lo[i] - EPS) & (rolls <= hi[i] + EPS)]
+            if rolls.size == 0:
+                continue
+            # inside[k, t]: opportunity w[k]'s range holds rolls[t]
+            inside = (lo[w][:, None] <= rolls[None, :] + EPS) & (
+                rolls[None, :] <= hi[w][:, None] + EPS
+            )
+            for l_ in ends:
+                lpos = int(np.searchsorted(w, l_))
+                ok_roll = inside[lpos]
+                if not ok_roll.any():
+                    continue
+                within = te[w] <= te[l_] + EPS
+                cover = inside[:, ok_roll] & within[:, None]  # (k, t)
+                r_ok = rolls[ok_roll]
+                kept = _nondominated(cover, np.abs(r_ok))
+                for t in kept:
+                    members = tuple(int(sl.start + x) for x in w[cover[:, t]])
+                    key = (float(ts[i]), float(te[l_]), members)
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    out_orbit.append(j)
+                    out_start.append(float(ts_all[list(members)].min()))
+                    out_end.append(float(te_all[list(members)].max()))
+                    out_roll.append(float(r_ok[t]))
+                    out_opps.append(members)
+    log.debug("cluster candidates: %d", len(out_opps))
+    return (
+        np.array(out_orbit, dtype=np.int64),
+        np.array(out_start, dtype=float),
+        np.array(out_end, dtype=float),
+        np.array(out_roll, dtype=float),
+        tuple(out_opps),
+    )
+
+
+def _nondominated(cover: np.ndarray, cost: np.ndarray) -> list[int]:
+    """Columns of ``cover`` not dominated by another with a superset cover and cost <= its own.
+
+    Ties (same cover, same cost) keep the first column.
+    """
+    n = cover.shape[1]
+    masks = [int("".join("1" if b else "0" for b in cover[:, t]) or "0", 2) for t in range(n)]
+    order = sorted(range(n), key=lambda t: (cost[t], -bin(masks[t]).count("1"), t))
+    kept: list[int] = []
+    for t in order:
+        if any(masks[t] & ~masks[q] == 0 for q in kept):
+            continue  # kept q has cost <= cost[t] and covers a superset
+        kept.append(t)
+    return kept

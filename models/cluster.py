@@ -1,0 +1,31 @@
+"""The ``cluster`` model: the exact optimum of the validator's problem (clustering allowed).
+
+Items are the candidate observations of :func:`models.candidates.cluster_candidates`; every
+feasible observation is dominated by one of them, so the optimum of this model is the optimum
+of the problem of ``docs/model.md`` and an upper bound for ASA-DTC (which uses midpoint rolls).
+Each target counts once: z_k <= sum of the x of the candidates covering k.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from models.candidates import cluster_candidates
+from models.data import ModelData, prepare
+from sosp.instance import Instance
+
+if TYPE_CHECKING:
+    import pyomo.environ as pyo
+
+
+def cluster_data(instance: Instance) -> ModelData:
+    """Items of the cluster model: the non-dominated candidate observations."""
+    orbit, start, end, roll, opps = cluster_candidates(instance)
+    return prepare("cluster", instance, orbit, start, end, roll, opps, coverage=True)
+
+
+def build_cluster_model(instance: Instance, relax: bool = False) -> pyo.ConcreteModel:
+    """The clustering-exact model (1)-(7), (11) over candidate observations (never solved here)."""
+    from models.formulation import build_model
+
+    return build_model(cluster_data(instance), relax=relax)

@@ -1,0 +1,170 @@
+"""Data prepared outside the Pyomo models: items, target coverage, cliques and resources.
+
+Every exact model schedules *items*: single opportunities (the ``task`` model, the paper's
+IP (1)-(6)), candidate observations (the clustering-exact ``cluster`` model) or static
+cluster-tasks (the ``static`` model). An item is one sensor opening with a fixed orbit, window
+[ts_u, te_u], roll theta_u and set of covered opportunities. :class:`ModelData` holds them as
+numpy columns together with everything the builder in :mod:`models.formulation` needs, so the
+builder does no geometry and no search.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from models.cliques import maximal_cliques, orbit_intervals
+from sosp.instance import Instance
+
+
+@dataclass(frozen=True, eq=False)
+class ModelData:
+    """Items of one exact model and the data of constraints (1)-(6).
+
+    Attributes
+    ----------
+    name
+        ``"task"``, ``"cluster"`` or ``"static"``.
+    orbit, start, end, roll
+        Per item: orbit j, window [ts_u, te_u] (10), roll theta_u.
+    opps
+        Per item, the sorted opportunity indices it covers.
+    targets
+        Per item, the sorted distinct targets it covers.
+    coverage
+        True: a target's weight is counted once through z_k <= sum of the x covering it
+        (cluster and static models, where an item covers several targets). False: the paper's
+        (2), ``sum_u x_u <= 1`` per target (task model, one target per item).
+    weight
+        p_k of every target of the instance, objective (1).
+    target_items
+        For each covered target k, the items covering it.
+    orbit_items
+        For each orbit with items, the items in (start, end) order: the order of the first/last
+        indicators of the exact slew term of (4).
+    cliques
+        Maximal cliques of the conflict graph of (3), per orbit (see :mod:`models.cliques`).
+    slew_orbits
+        Orbits whose energy constraint (4) can bind (the others need no slew variables).
+    """
+
+    name: str
+    instance: Instance
+    orbit: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    roll: np.ndarray
+    opps: tuple[tuple[int, ...], ...]
+    targets: tuple[tuple[int, ...], ...]
+    coverage: bool
+    weight: np.ndarray
+    target_items: dict[int, tuple[int, ...]]
+    orbit_items: dict[int, np.ndarray]
+    cliques: list[tuple[int, ...]]
+    energy_orbits: tuple[int, ...]
+    memory_orbits: tuple[int, ...]
+    opening_orbits: tuple[int, ...]
+    stats: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def n_items(self) -> int:
+        return len(self.opps)
+
+    @property
+    def duration(self) -> np.ndarray:
+        """te_u - ts_u, the observed time of (4) and (5)."""
+        return self.end - self.start
+
+    def slew_time(self) -> np.ndarray:
+        """|theta_u| / v_j, half of each consecutive slew that touches item u, (3)-(4)."""
+        return np.abs(self.roll) / self.instance.slew_rate[self.orbit]
+
+    def item_weight(self) -> np.ndarray:
+        """Sum of the weights of the targets each item covers."""
+        return np.array([int(self.weight[list(t)].sum()) for t in self.targets], dtype=np.int64)
+
+
+def prepare(
+    name: str,
+    instance: Instance,
+    orbit: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    roll: np.ndarray,
+    opps: tuple[tuple[int, ...], ...],
+    *,
+    coverage: bool,
+) -> ModelData:
+    """Collect items into a :class:`ModelData`: coverage, orbit order, cliques of (3).
+
+    Resource constraints (4)-(6) of an orbit are kept only when they can bind, i.e. when
+    taking every item of the orbit (with the largest possible slews) would exceed the capacity:
+    dropping a constraint that no schedule can violate changes nothing but the model size.
+
+    Parameters
+    ----------
+    name
+        Model name.
+    instance
+        The problem.
+    orbit, start, end, roll, opps
+        The items, one entry each.
+    coverage
+        See :class:`ModelData`.
+    """
+    orbit = np.asarray(orbit, dtype=np.int64)
+    start = np.asarray(start, dtype=float)
+    end = np.asarray(end, dtype=float)
+    roll = np.asarray(roll, dtype=float)
+    tgt = instance.opp_target
+    targets = tuple(tuple(sorted({int(tgt[i]) for i in o})) for o in opps)
+    target_items: dict[int, list[int]] = {}
+    for u, ks in enumerate(targets):
+        for k in ks:
+            target_items.setdefault(k, []).append(u)
+    orbit_items: dict[int, np.ndarray] = {}
+    cliques: list[tuple[int, ...]] = []
+    energy_orbits, memory_orbits, opening_orbits = [], [], []
+    inst = instance
+    if len(opps):
+        order = np.lexsort((end, start, orbit))
+        cuts = np.flatnonzero(np.diff(orbit[order])) + 1
+        for block in np.split(order, cuts):
+            j = int(orbit[block[0]])
+            orbit_items[j] = block
+            left, right = orbit_intervals(
+                start[block],
+                end[block],
+                roll[block],
+                float(inst.setup_time[j]),
+                float(inst.slew_rate[j]),
+            )
+            cliques.extend(tuple(int(u) for u in block[c]) for c in maximal_cliques(left, right))
+            dur = float((end[block] - start[block]).sum())
+            slew = 2.0 * float(np.abs(roll[block]).sum()) / float(inst.slew_rate[j])
+            energy = inst.observe_energy_rate[j] * dur + inst.slew_energy_rate[j] * slew
+            if energy > inst.energy_capacity[j]:
+                energy_orbits.append(j)
+            if inst.memory_rate[j] * dur > inst.memory_capacity[j]:
+                memory_orbits.append(j)
+            if len(block) > inst.max_openings[j]:
+                opening_orbits.append(j)
+    return ModelData(
+        name=name,
+        instance=instance,
+        orbit=orbit,
+        start=start,
+        end=end,
+        roll=roll,
+        opps=tuple(tuple(int(i) for i in o) for o in opps),
+        targets=targets,
+        coverage=coverage,
+        weight=np.asarray(instance.target_weight),
+        target_items={k: tuple(v) for k, v in sorted(target_items.items())},
+        orbit_items=orbit_items,
+        cliques=cliques,
+        energy_orbits=tuple(energy_orbits),
+        memory_orbits=tuple(memory_orbits),
+        opening_orbits=tuple(opening_orbits),
+    )

@@ -1,0 +1,210 @@
+"""The Pyomo builder shared by the task, cluster and static models (never solves).
+
+Variables (u an item, k a target, j an orbit):
+
+* x_u in {0, 1}: item u is scheduled (the paper's x_ij);
+* z_k in [0, 1]: target k is observed (coverage models only);
+* f_u, l_u in [0, 1]: u is the first / last scheduled item of its orbit, and
+  s_u, r_u in [0, 1]: some item at or before / at or after u (orbit order) is scheduled.
+  They exist only on orbits whose energy constraint can bind.
+
+Constraints:
+
+* (2) task model: ``sum_{u covers k} x_u <= 1``; coverage models: ``z_k <= sum_{u covers k} x_u``;
+* (3) one clique inequality ``sum_{u in Q} x_u <= 1`` per maximal clique Q of the conflict
+  graph of the orbit (:mod:`models.cliques`);
+* (4) exact slew term: over the scheduled items u_1 < ... < u_n of an orbit, the consecutive
+  slews add up to ``sum_{t<n} (|th_t| + |th_t+1|) / v = (2 sum_t |th_t| - |th_1| - |th_n|) / v``,
+  so ``eo sum_u d_u x_u + es sum_u (|th_u| / v) (2 x_u - f_u - l_u) <= E`` with first/last
+  indicators forced by prefix variables: ``s_u >= x_u``, ``s_u >= s_prev``, ``f_u <= x_u``,
+  ``f_u <= 1 - s_prev`` (and the mirror image for l_u, r_u). For integral x, f_u can be 1 only
+  for the first scheduled item and l_u only for the last, and the solver sets both to 1 there
+  (it helps (4)), so the term equals the validator's slew exactly; it is never an
+  over-approximation;
+* (5) ``w sum_u d_u x_u <= W``; (6) ``sum_u x_u <= c``.
+
+Objective (1): ``max sum_k p_k z_k`` (coverage) or ``max sum_u p_u x_u`` (task).
+"""
+
+from __future__ import annotations
+
+import pyomo.environ as pyo
+
+from models.data import ModelData
+
+
+def build_model(data: ModelData, relax: bool = False) -> pyo.ConcreteModel:
+    """Build the model of ``data`` (a pure function: data in, ``ConcreteModel`` out).
+
+    Parameters
+    ----------
+    data
+        Items and constraint data from :mod:`models.data`.
+    relax
+        Make x continuous in [0, 1]: the clique-strengthened LP relaxation (an upper bound).
+
+    Returns
+    -------
+    pyomo.environ.ConcreteModel
+        With ``m.data`` pointing back to ``data`` (for reading the solution).
+    """
+    m = pyo.ConcreteModel(name=f"sosp-{data.name}")
+    m.data = data
+    _sets(m, data)
+    _variables(m, data, relax)
+    _target_constraints(m, data)
+    _clique_constraints(m, data)
+    _slew_order_constraints(m, data)
+    _energy_constraints(m, data)
+    _memory_constraints(m, data)
+    _opening_constraints(m, data)
+    _objective(m, data)
+    return m
+
+
+# --------------------------------------------------------------------------- sets
+def _sets(m: pyo.ConcreteModel, d: ModelData) -> None:
+    m.U = pyo.Set(initialize=range(d.n_items), ordered=True, doc="items")
+    m.K = pyo.Set(initialize=list(d.target_items), ordered=True, doc="covered targets")
+    m.Q = pyo.Set(initialize=range(len(d.cliques)), ordered=True, doc="cliques of (3)")
+    slew_items = [int(u) for j in d.energy_orbits for u in d.orbit_items[j]]
+    m.S = pyo.Set(initialize=slew_items, ordered=True, doc="items on energy-binding orbits")
+    # predecessor / successor of each slew item on its orbit (None at the ends)
+    prev: dict[int, int | None] = {}
+    nxt: dict[int, int | None] = {}
+    for j in d.energy_orbits:
+        seq = [int(u) for u in d.orbit_items[j]]
+        for a, u in enumerate(seq):
+            prev[u] = seq[a - 1] if a > 0 else None
+            nxt[u] = seq[a + 1] if a + 1 < len(seq) else None
+    m._prev, m._next = prev, nxt
+
+
+# --------------------------------------------------------------------------- variables
+def _variables(m: pyo.ConcreteModel, d: ModelData, relax: bool) -> None:
+    dom = pyo.UnitInterval if relax else pyo.Binary
+    m.x = pyo.Var(m.U, domain=dom, doc="item scheduled")
+    if d.coverage:
+        m.z = pyo.Var(m.K, domain=pyo.UnitInterval, doc="target observed")
+    m.f = pyo.Var(m.S, domain=pyo.UnitInterval, doc="first scheduled item of its orbit")
+    m.l = pyo.Var(m.S, domain=pyo.UnitInterval, doc="last scheduled item of its orbit")
+    m.s = pyo.Var(m.S, domain=pyo.UnitInterval, doc="an item at or before u is scheduled")
+    m.r = pyo.Var(m.S, domain=pyo.UnitInterval, doc="an item at or after u is scheduled")
+
+
+# --------------------------------------------------------------------------- constraints
+def _target_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(2) each target at most once (task), or z_k <= its coverage (cluster, static)."""
+    items = d.target_items
+    if d.coverage:
+
+        @m.Constraint(m.K)
+        def cover(m, k):
+            return m.z[k] <= sum(m.x[u] for u in items[k])
+
+    else:
+
+        @m.Constraint(m.K)
+        def target_once(m, k):
+            if len(items[k]) < 2:
+                return pyo.Constraint.Skip
+            return sum(m.x[u] for u in items[k]) <= 1
+
+
+def _clique_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(3) setup time: at most one item of each maximal conflict clique."""
+    cliques = d.cliques
+
+    @m.Constraint(m.Q)
+    def setup_clique(m, q):
+        return sum(m.x[u] for u in cliques[q]) <= 1
+
+
+def _slew_order_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """First/last indicators of the exact slew term of (4), via prefix/suffix variables."""
+
+    @m.Constraint(m.S)
+    def prefix_self(m, u):
+        return m.s[u] >= m.x[u]
+
+    @m.Constraint(m.S)
+    def prefix_chain(m, u):
+        p = m._prev[u]
+        return pyo.Constraint.Skip if p is None else m.s[u] >= m.s[p]
+
+    @m.Constraint(m.S)
+    def suffix_self(m, u):
+        return m.r[u] >= m.x[u]
+
+    @m.Constraint(m.S)
+    def suffix_chain(m, u):
+        n = m._next[u]
+        return pyo.Constraint.Skip if n is None else m.r[u] >= m.r[n]
+
+    @m.Constraint(m.S)
+    def first_taken(m, u):
+        return m.f[u] <= m.x[u]
+
+    @m.Constraint(m.S)
+    def first_nothing_before(m, u):
+        p = m._prev[u]
+        return pyo.Constraint.Skip if p is None else m.f[u] <= 1 - m.s[p]
+
+    @m.Constraint(m.S)
+    def last_taken(m, u):
+        return m.l[u] <= m.x[u]
+
+    @m.Constraint(m.S)
+    def last_nothing_after(m, u):
+        n = m._next[u]
+        return pyo.Constraint.Skip if n is None else m.l[u] <= 1 - m.r[n]
+
+
+def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(4) observation energy plus the exact slew energy over consecutive observations."""
+    inst = d.instance
+    dur = d.duration
+    half = d.slew_time()  # |theta_u| / v
+    orbits = list(d.energy_orbits)
+
+    @m.Constraint(orbits)
+    def energy(m, j):
+        seq = [int(u) for u in d.orbit_items[j]]
+        eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
+        observe = sum(eo * float(dur[u]) * m.x[u] for u in seq)
+        slew = sum(es * float(half[u]) * (2 * m.x[u] - m.f[u] - m.l[u]) for u in seq if half[u] > 0)
+        return observe + slew <= float(inst.energy_capacity[j])
+
+
+def _memory_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(5) memory."""
+    inst = d.instance
+    dur = d.duration
+
+    @m.Constraint(list(d.memory_orbits))
+    def memory(m, j):
+        w = float(inst.memory_rate[j])
+        return sum(w * float(dur[u]) * m.x[u] for u in d.orbit_items[j]) <= float(
+            inst.memory_capacity[j]
+        )
+
+
+def _opening_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(6) sensor openings."""
+    inst = d.instance
+
+    @m.Constraint(list(d.opening_orbits))
+    def openings(m, j):
+        return sum(m.x[int(u)] for u in d.orbit_items[j]) <= int(inst.max_openings[j])
+
+
+# --------------------------------------------------------------------------- objective
+def _objective(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(1) total weight of the observed targets."""
+    p = d.weight
+    if d.coverage:
+        m.profit = pyo.Objective(expr=sum(int(p[k]) * m.z[k] for k in m.K), sense=pyo.maximize)
+    else:
+        m.profit = pyo.Objective(
+            expr=sum(int(p[d.targets[u][0]]) * m.x[u] for u in m.U), sense=pyo.maximize
+        )

@@ -1,0 +1,399 @@
+"""Solve the exact models with HiGHS through Pyomo: :func:`solve_milp` and :func:`bound`.
+
+Traps handled here (each has a test):
+
+* a time-limited solve must not raise: solutions are loaded only when HiGHS has one
+  (``load_solution=False``, then load if there is an incumbent);
+* a solver object keeps its options between solves, so a fresh one is made per solve (no stale
+  time limit or gap);
+* HiGHS writes to the console by default: its log goes to this module's logger at DEBUG and
+  is switched off entirely unless that level is enabled;
+* the time limit covers model building too: HiGHS gets what is left of it;
+* the bound reported is never below the incumbent and, the weights being integers, is rounded
+  down to an integer (the optimum is an integer).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from models.data import ModelData
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.result import Result, Status
+from sosp.schedule import Observation, Schedule
+from sosp.solve import check_time_limit
+
+if TYPE_CHECKING:
+    import pyomo.environ as pyo
+
+log = logging.getLogger(__name__)
+
+#: Model name -> function preparing its data.
+MODELS: dict[str, str] = {
+    "task": "models.task:task_data",
+    "cluster": "models.cluster:cluster_data",
+    "static": "models.static:static_data",
+}
+
+#: Slack for reading binaries and comparing objective values.
+INT_TOL = 1e-6
+
+
+def model_data(instance: Instance, model: str = "cluster") -> ModelData:
+    """Prepare the data of ``model`` (``"task"``, ``"cluster"`` or ``"static"``)."""
+    import importlib
+
+    if not isinstance(model, str) or model not in MODELS:
+        raise InputError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
+    module, func = MODELS[model].split(":")
+    prep: Callable[[Instance], ModelData] = getattr(importlib.import_module(module), func)
+    return prep(instance)
+
+
+def _check_params(mip_gap: Any, threads: Any) -> None:
+    if mip_gap is not None and (
+        isinstance(mip_gap, bool)
+        or not isinstance(mip_gap, int | float)
+        or not math.isfinite(mip_gap)
+        or not 0 <= mip_gap < 1
+    ):
+        raise InputError(f"mip_gap: expected a number in [0, 1), got {mip_gap!r}")
+    if threads is not None and (
+        isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1
+    ):
+        raise InputError(f"threads: expected a positive integer, got {threads!r}")
+
+
+def _solver(time_limit: float | None, mip_gap: float | None, threads: int | None) -> Any:
+    """A fresh HiGHS solver (APPSI interface: it takes MIP starts) with only these options."""
+    from pyomo.contrib.appsi.solvers import Highs
+
+    opt = Highs()
+    opt.config.load_solution = False
+    opt.config.stream_solver = False
+    opt.config.log_level = logging.DEBUG
+    opt.config.solver_output_logger = log
+    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
+    if time_limit is not None:
+        opt.config.time_limit = float(time_limit)
+    if mip_gap is not None:
+        opt.config.mip_gap = float(mip_gap)
+    if threads is not None:
+        options["threads"] = int(threads)
+    opt.highs_options = options
+    return opt
+
+
+def _model_size(opt: Any, m: pyo.ConcreteModel) -> dict[str, int]:
+    h = getattr(opt, "_solver_model", None)
+    if h is not None:
+        try:
+            return {
+                "variables": int(h.getNumCol()),
+                "constraints": int(h.getNumRow()),
+                "nonzeros": int(h.getNumNz()),
+            }
+        except AttributeError:  # pragma: no cover - older highspy
+            pass
+    return {"variables": m.nvariables(), "constraints": m.nconstraints(), "nonzeros": -1}
+
+
+def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int, float]] | None:
+    """Values of x (and z, f, l, s, r) reproducing ``schedule`` with the model's items.
+
+    Each observation is mapped to an item on its orbit that covers all its opportunities with a
+    window inside the observation's and a roll no farther from nadir (such an item is feasible
+    wherever the observation is). Returns None (with a warning) when some observation has no
+    such item or the mapped schedule is infeasible.
+    """
+    from sosp.validate import validate
+
+    inst = data.instance
+    by_opp: dict[int, list[int]] = {}
+    for u, ops in enumerate(data.opps):
+        for i in ops:
+            by_opp.setdefault(i, []).append(u)
+    chosen: list[int] = []
+    for n, ob in enumerate(schedule.observations):
+        if not ob.opps or not all(0 <= i < inst.n_opps for i in ob.opps):
+            log.warning("warm start ignored: observation %d covers no valid opportunity", n)
+            return None
+        need = set(ob.opps)
+        best, best_cost = None, math.inf
+        for u in by_opp.get(ob.opps[0], []):
+            if (
+                data.orbit[u] == ob.orbit
+                and need.issubset(data.opps[u])
+                and data.start[u] >= ob.start - INT_TOL
+                and data.end[u] <= ob.end + INT_TOL
+                and abs(data.roll[u]) <= abs(ob.roll) + INT_TOL
+            ):
+                cost = (data.end[u] - data.start[u]) + abs(data.roll[u])
+                if cost < best_cost:
+                    best, best_cost = u, cost
+        if best is None:
+            log.warning(
+                "warm start ignored: observation %d (orbit %s, %d opportunities) is no item "
+                "of the %s model",
+                n,
+                inst.orbit_ids[ob.orbit] if 0 <= ob.orbit < inst.n_orbits else ob.orbit,
+                len(ob.opps),
+                data.name,
+            )
+            return None
+        chosen.append(best)
+    if len(set(chosen)) < len(chosen):
+        log.warning("warm start ignored: two observations map to the same item")
+        return None
+    mapped = items_to_schedule(data, chosen)
+    if not validate(inst, mapped).feasible:
+        log.warning("warm start ignored: the schedule is infeasible")
+        return None
+    x = dict.fromkeys(range(data.n_items), 0.0)
+    for u in chosen:
+        x[u] = 1.0
+    vals: dict[str, dict[int, float]] = {"x": x}
+    if data.coverage:
+        vals["z"] = {k: float(any(x[u] for u in us)) for k, us in data.target_items.items()}
+    f, l_, s, r = {}, {}, {}, {}
+    for j in data.energy_orbits:
+        seq = [int(u) for u in data.orbit_items[j]]
+        taken = [u for u in seq if x[u]]
+        seen = 0.0
+        for u in seq:
+            seen = max(seen, x[u])
+            s[u] = seen
+        seen = 0.0
+        for u in reversed(seq):
+            seen = max(seen, x[u])
+            r[u] = seen
+        for u in seq:
+            f[u] = 1.0 if taken and u == taken[0] else 0.0
+            l_[u] = 1.0 if taken and u == taken[-1] else 0.0
+    vals.update({"f": f, "l": l_, "s": s, "r": r})
+    return vals
+
+
+def items_to_schedule(data: ModelData, chosen: list[int] | np.ndarray) -> Schedule:
+    """The schedule of the chosen items, each target claimed by the first item covering it.
+
+    Observations keep the item's window and roll (the model's costs); an item left with nothing
+    to claim is dropped, which never breaks (3)-(6).
+    """
+    inst = data.instance
+    claimed: set[int] = set()
+    obs = []
+    for u in sorted((int(c) for c in chosen), key=lambda u: (data.orbit[u], data.start[u])):
+        mine = []
+        for i in data.opps[u]:
+            k = int(inst.opp_target[i])
+            if k not in claimed:
+                claimed.add(k)
+                mine.append(i)
+        if mine:
+            obs.append(
+                Observation(
+                    int(data.orbit[u]),
+                    float(data.start[u]),
+                    float(data.end[u]),
+                    float(data.roll[u]),
+                    tuple(mine),
+                )
+            )
+    return Schedule(tuple(obs))
+
+
+def _profit(instance: Instance, schedule: Schedule) -> tuple[float, int]:
+    ks = {int(instance.opp_target[i]) for i in schedule.observed_opps()}
+    return float(sum(int(instance.target_weight[k]) for k in ks)), len(ks)
+
+
+def solve_milp(
+    instance: Instance,
+    *,
+    rng: np.random.Generator | None = None,
+    time_limit: float | None = None,
+    model: str = "cluster",
+    mip_gap: float | None = None,
+    threads: int | None = None,
+    warm_start: Schedule | None = None,
+    relax: bool = False,
+) -> Result:
+    """Solve an exact model of (1)-(6) with HiGHS.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        Unused (HiGHS is deterministic for fixed options); accepted for the common signature.
+    time_limit
+        Wall-time limit in seconds for building and solving (None: until optimal).
+    model
+        ``"cluster"`` (default: clustering-exact, the optimum of the problem), ``"task"``
+        (the paper's IP (1)-(6), no clustering) or ``"static"`` (static cluster-tasks).
+    mip_gap
+        Relative gap at which HiGHS stops (None: HiGHS default, 1e-4, which with integer weights
+        below 10^4 total proves optimality).
+    threads
+        HiGHS threads.
+    warm_start
+        A schedule mapped to the model's variables as a MIP start (ignored with a warning
+        when it does not fit the model or is infeasible).
+    relax
+        Solve the LP relaxation instead: the result has no schedule, only ``bound``.
+
+    Returns
+    -------
+    Result
+        ``status`` optimal / time_limit (incumbent) / feasible (stopped at ``mip_gap``) /
+        no_solution; ``bound`` the best bound (never below the profit); ``stats`` the model
+        size, the number of items (``candidates``) and the solver's own figures.
+    """
+    del rng
+    t0 = time.perf_counter()
+    time_limit = check_time_limit(time_limit)
+    _check_params(mip_gap, threads)
+    if warm_start is not None and not isinstance(warm_start, Schedule):
+        raise InputError("warm_start: expected a Schedule")
+    data = model_data(instance, model)
+    from models.formulation import build_model
+
+    m = build_model(data, relax=bool(relax))
+    build_s = time.perf_counter() - t0
+    stats: dict[str, Any] = {
+        "model": model,
+        "relax": bool(relax),
+        "candidates": data.n_items,
+        "cliques": len(data.cliques),
+        "build_s": round(build_s, 6),
+    }
+    method = "milp"
+    empty = Schedule(())
+    if data.n_items == 0:
+        stats.update({"variables": 0, "constraints": 0, "nonzeros": 0})
+        return Result(
+            method, Status.OPTIMAL, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats
+        )
+
+    remaining = None
+    if time_limit is not None:
+        remaining = max(time_limit - build_s, 0.01)
+    opt = _solver(remaining, mip_gap, threads)
+    if warm_start is not None and not relax:
+        vals = warm_start_values(data, warm_start)
+        if vals is not None:
+            for name, values in vals.items():
+                var = getattr(m, name)
+                for key, val in values.items():
+                    var[key].set_value(val)
+            opt.config.warmstart = True
+            stats["warm_start"] = True
+        else:
+            stats["warm_start"] = False
+    from pyomo.contrib.appsi.base import TerminationCondition as TC
+
+    res = opt.solve(m)
+    stats.update(_model_size(opt, m))
+    tc = res.termination_condition
+    incumbent = res.best_feasible_objective
+    raw_bound = res.best_objective_bound
+    stats["termination"] = tc.name
+    stats["solve_s"] = round(time.perf_counter() - t0 - build_s, 6)
+    runtime = time.perf_counter() - t0
+
+    if relax:
+        bound = None
+        if tc == TC.optimal and incumbent is not None:
+            stats["lp_bound"] = float(incumbent)
+            bound = math.floor(float(incumbent) + INT_TOL)
+        status = Status.NO_SOLUTION
+        return Result(method, status, empty, 0.0, 0, runtime, bound, None, stats)
+
+    if tc == TC.infeasible:  # cannot happen (the empty schedule is feasible) but map it
+        return Result(method, Status.INFEASIBLE, empty, 0.0, 0, runtime, None, None, stats)
+    if incumbent is None or tc not in (
+        TC.optimal,
+        TC.maxTimeLimit,
+        TC.maxIterations,
+        TC.objectiveLimit,
+    ):
+        if tc not in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
+            log.warning("HiGHS stopped with %s and no solution", tc.name)
+        bound = None if raw_bound is None else math.floor(float(raw_bound) + INT_TOL)
+        return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
+
+    res.solution_loader.load_vars()
+    chosen = [u for u in m.U if (m.x[u].value or 0.0) > 0.5]
+    schedule = items_to_schedule(data, chosen)
+    profit, observed = _profit(instance, schedule)
+    if abs(profit - float(incumbent)) > 1e-4:
+        log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
+    bound = profit if raw_bound is None else max(math.floor(float(raw_bound) + INT_TOL), profit)
+    if tc == TC.optimal and bound <= profit + INT_TOL:
+        status = Status.OPTIMAL
+    elif tc == TC.optimal:
+        status = Status.FEASIBLE  # stopped at the requested gap
+        stats["stopped_at"] = "mip_gap"
+    else:
+        status = Status.TIME_LIMIT
+    stats["objective"] = float(incumbent)
+    stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
+    return Result(method, status, schedule, profit, observed, runtime, float(bound), None, stats)
+
+
+def bound(
+    instance: Instance,
+    model: str = "cluster",
+    method: str = "lp",
+    time_limit: float | None = None,
+    threads: int | None = None,
+) -> dict[str, Any]:
+    """An upper bound on the optimum of ``model``.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    model
+        ``"cluster"`` (bounds the problem and so every heuristic), ``"task"`` or ``"static"``.
+    method
+        ``"lp"``: the clique-strengthened LP relaxation (cliques of (3), exact slew term of
+        (4)); ``"milp"``: HiGHS's best bound after a (time-limited) MILP solve.
+    time_limit
+        Seconds (None: no limit).
+    threads
+        HiGHS threads.
+
+    Returns
+    -------
+    dict
+        ``bound``, ``method``, ``model``, ``runtime_s``, the model size, and for ``"milp"``
+        the incumbent ``profit``, ``status`` and ``gap``.
+    """
+    if method not in ("lp", "milp"):
+        raise InputError(f"method: expected 'lp' or 'milp', got {method!r}")
+    res = solve_milp(
+        instance, time_limit=time_limit, model=model, threads=threads, relax=(method == "lp")
+    )
+    out: dict[str, Any] = {
+        "bound": res.bound,
+        "method": method,
+        "model": model,
+        "runtime_s": round(res.runtime_s, 6),
+    }
+    for key in ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination"):
+        if key in res.stats:
+            out[key] = res.stats[key]
+    if method == "lp":
+        out["lp_value"] = res.stats.get("lp_bound")
+    else:
+        out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
+    return out
