@@ -177,7 +177,6 @@ def test_read_targets_csv_missing_file(tmp_path):
         read_targets_csv(tmp_path / "none.csv")
 
 
-@pytest.mark.slow
 def test_counts_grow_with_scenario_size():
     """EN and TN grow with the number of targets; every C target is seen in 24 h (the small
     area at 30-60 deg latitude is inside the swaths of some pass of the four satellites)."""
