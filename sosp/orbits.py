@@ -62,7 +62,10 @@ __all__ = [
     "EphemerisGrid",
     "Revolutions",
     "Satellite",
+    "ascending_nodes",
     "builtin_satellites",
+    "ephemeris_grids",
+    "format_epoch",
     "from_elements",
     "gmst",
     "parse_epoch",
@@ -216,7 +219,8 @@ class Satellite:
 
     @property
     def period(self) -> float:
-        """Nodal-ish period from the Kozai mean motion, in seconds."""
+        """Period 2 pi / n from the Kozai mean motion, in seconds (the nodal period differs by
+        J2 terms, ~0.1 %)."""
         return 2.0 * math.pi / self.satrec.no_kozai * 60.0
 
     def __repr__(self) -> str:

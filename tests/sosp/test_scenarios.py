@@ -71,6 +71,18 @@ def test_opportunity_ids_name_target_and_orbit(c2):
         assert oid == c2.orbit_ids[c2.opp_orbit[i]]
 
 
+def test_save_load_round_trip_and_a_validated_schedule(c2, tmp_path):
+    from sosp import load_instance, solve, validate
+
+    p = tmp_path / "c2.json"
+    c2.save(p)
+    back = load_instance(p)
+    assert back == c2 and back.meta["scenario"] == "C2"
+    result = solve(c2, method="greedy", seed=0)
+    report = validate(c2, result.schedule)
+    assert report.feasible and report.profit > 0
+
+
 def test_deterministic_and_seed_dependent(c2):
     again = generate_scenario("C2")
     assert again == c2 and again.fingerprint == c2.fingerprint
