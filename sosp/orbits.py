@@ -405,7 +405,7 @@ _DATA_FILE = "satellites.json"
 
 
 def _load_data() -> dict[str, Any]:
-    text = importlib_resources.files("sosp.data").joinpath(_DATA_FILE).read_text("utf-8")
+    text = importlib_resources.files("sosp").joinpath("data", _DATA_FILE).read_text("utf-8")
     return json.loads(text)
 
 
