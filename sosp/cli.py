@@ -55,33 +55,49 @@ def _resources_from_args(args: argparse.Namespace):  # -> Resources
 
 
 def cmd_scenario(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from sosp import scenarios
 
-    resources = _resources_from_args(args)
     common: dict[str, Any] = {
-        "resources": resources,
+        "resources": _resources_from_args(args),
         "max_roll": args.max_roll,
         "fov": args.fov,
         "min_sun_elevation": args.min_sun_elevation,
+        "start": args.start,
     }
-    if args.start is not None:
-        common["start"] = args.start
     if args.hours is not None:
         common["hours"] = args.hours
-    custom = args.region is not None or args.targets_csv is not None or args.tle is not None
-    if args.name and not custom:
+    if args.targets is not None and args.region is None:
+        raise InputError("--targets: give it with --region LAT0 LAT1 LON0 LON1")
+    if args.region is not None and args.targets_csv is not None:
+        raise InputError("--region and --targets-csv: give one source of targets, not both")
+    if args.region is None and args.targets_csv is None and args.tle is None:
+        if not args.name:
+            raise InputError("scenario: give a name (B1..B10, C1..C10), --region or --targets-csv")
         inst = scenarios.generate_scenario(args.name, args.seed, **common)
     else:
-        if args.region is None and args.targets_csv is None and args.name:
-            # A named scenario's targets with the user's satellites.
-            common["base"] = args.name
+        if args.region is not None:
+            if args.targets is None:
+                raise InputError("--region: give the number of targets with --targets N")
+            targets = scenarios.random_targets(
+                args.targets, tuple(args.region), np.random.default_rng(args.seed)
+            )
+        elif args.targets_csv is not None:
+            targets = scenarios.read_targets_csv(args.targets_csv)
+        else:
+            # A named scenario's own targets, seen by the user's satellites (--tle).
+            if not args.name:
+                raise InputError("--tle: give a scenario name, --region or --targets-csv too")
+            group, k = scenarios._parse_name(args.name)
+            targets = scenarios.random_targets(
+                100 * k, scenarios.REGIONS[group], scenarios._rng(args.name, args.seed)
+            )
         inst = scenarios.custom_scenario(
-            name=args.name or "custom",
-            region=tuple(args.region) if args.region is not None else None,
-            count=args.targets,
-            targets_csv=args.targets_csv,
-            tle=args.tle,
+            targets=targets,
+            satellites=args.tle,
             seed=args.seed,
+            name=args.name or "custom",
             **common,
         )
     inst.save(args.output)

@@ -140,3 +140,87 @@ def test_validate_does_not_import_pyomo(tmp_path: Path, inst_file: Path) -> None
         "assert 'pyomo' not in sys.modules and 'highspy' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+
+
+TLE = (
+    "CBERS 2\n"
+    "1 28057U 03049A   06177.78615833  .00000060  00000-0  35940-4 0  1836\n"
+    "2 28057  98.4283 247.6961 0000884  88.1964 271.9322 14.35478080140550\n"
+)
+
+
+def test_scenario_named_and_info(capsys, tmp_path: Path) -> None:
+    out_file = tmp_path / "c1.json"
+    code, out, _ = run(capsys, "scenario", "C1", "--seed", "7", "-o", str(out_file), "--json")
+    data = json.loads(out)
+    assert code == 0 and data["targets"] == 100 and data["TN"] > 0
+    code, out, _ = run(capsys, "info", str(out_file), "--json")
+    assert json.loads(out)["fingerprint"] == data["fingerprint"]
+
+
+def test_scenario_region_and_csv(capsys, tmp_path: Path) -> None:
+    code, out, _ = run(
+        capsys,
+        "scenario",
+        "r",
+        "--region",
+        "30",
+        "60",
+        "90",
+        "120",
+        "--targets",
+        "20",
+        "--hours",
+        "6",
+        "--setup-time",
+        "5",
+        "-o",
+        str(tmp_path / "r.json"),
+        "--json",
+    )
+    data = json.loads(out)
+    assert code == 0 and data["targets"] == 20 and data["horizon_s"] == 6 * 3600
+    from sosp.instance import load_instance
+
+    assert set(load_instance(tmp_path / "r.json").setup_time.tolist()) == {5.0}
+    csv = write(tmp_path, "t.csv", "id,lat,lon,weight\nA,40,100,5\nB,45,110,3\n")
+    code, out, _ = run(
+        capsys,
+        "scenario",
+        "mine",
+        "--targets-csv",
+        str(csv),
+        "-o",
+        str(tmp_path / "m.json"),
+        "--json",
+    )
+    assert code == 0 and json.loads(out)["targets"] == 2
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["scenario", "Z9"], "unknown name"),
+        (["scenario", "C1", "--tle", "{tmp}/bad.tle"], "bad checksum"),
+        (["scenario", "C1", "--tle", "{tmp}/short.tle"], "line 2"),
+        (["scenario", "x", "--targets-csv", "{tmp}/empty.csv"], "empty"),
+        (["scenario", "x", "--targets-csv", "{tmp}/nan.csv"], "line 2: lat"),
+        (["scenario", "x", "--targets-csv", "{tmp}/weight.csv"], "weight"),
+        (["scenario", "x", "--region", "30", "60", "90", "120"], "--targets"),
+        (["scenario", "C1", "--max-openings", "2.5"], "whole number"),
+        (["scenario", "C1", "--slew-rate", "0"], "slew_rate"),
+        (["scenario", "C1", "--hours", "-1"], "--hours"),
+    ],
+)
+def test_scenario_bad_input(capsys, tmp_path: Path, argv: list[str], needle: str) -> None:
+    write(tmp_path, "bad.tle", TLE.replace("0  1836", "0  1837"))
+    lines = TLE.splitlines()
+    write(tmp_path, "short.tle", "\n".join([lines[0], lines[1][:-3], lines[2]]) + "\n")
+    write(tmp_path, "empty.csv", "")
+    write(tmp_path, "nan.csv", "id,lat,lon,weight\nA,nan,100,5\n")
+    write(tmp_path, "weight.csv", "id,lat,lon,weight\nA,40,100,-2\n")
+    args = [a.format(tmp=tmp_path) for a in argv] + ["-o", str(tmp_path / "out.json")]
+    code, _, err = run(capsys, *args)
+    assert code == 2, err
+    assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
+    assert not (tmp_path / "out.json").exists()
