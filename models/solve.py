@@ -210,6 +210,13 @@ def items_to_schedule(data: ModelData, chosen: list[int] | np.ndarray) -> Schedu
     return Schedule(tuple(obs))
 
 
+def _int_bound(raw: float | None) -> float | None:
+    """An upper bound rounded down to an integer (weights are integers), None if unknown."""
+    if raw is None or not math.isfinite(float(raw)):
+        return None
+    return float(math.floor(float(raw) + INT_TOL))
+
+
 def _profit(instance: Instance, schedule: Schedule) -> tuple[float, int]:
     ks = {int(instance.opp_target[i]) for i in schedule.observed_opps()}
     return float(sum(int(instance.target_weight[k]) for k in ks)), len(ks)
@@ -283,10 +290,26 @@ def solve_milp(
             method, Status.OPTIMAL, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats
         )
 
-    remaining = None
+    opt = _solver(None, mip_gap, threads)
+    # Loading the model into HiGHS takes seconds on large models: do it first, then give
+    # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
+    opt.set_instance(m)
+    for flag in (
+        "check_for_new_or_removed_constraints",
+        "check_for_new_or_removed_vars",
+        "check_for_new_or_removed_params",
+        "check_for_new_objective",
+        "update_constraints",
+        "update_vars",
+        "update_params",
+        "update_named_expressions",
+        "update_objective",
+    ):
+        if hasattr(opt.update_config, flag):
+            setattr(opt.update_config, flag, False)
+    stats["load_s"] = round(time.perf_counter() - t0 - build_s, 6)
     if time_limit is not None:
-        remaining = max(time_limit - build_s, 0.01)
-    opt = _solver(remaining, mip_gap, threads)
+        opt.config.time_limit = max(time_limit - (time.perf_counter() - t0), 0.01)
     if warm_start is not None and not relax:
         vals = warm_start_values(data, warm_start)
         if vals is not None:
@@ -306,14 +329,14 @@ def solve_milp(
     incumbent = res.best_feasible_objective
     raw_bound = res.best_objective_bound
     stats["termination"] = tc.name
-    stats["solve_s"] = round(time.perf_counter() - t0 - build_s, 6)
+    stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
     runtime = time.perf_counter() - t0
 
     if relax:
         bound = None
         if tc == TC.optimal and incumbent is not None:
             stats["lp_bound"] = float(incumbent)
-            bound = math.floor(float(incumbent) + INT_TOL)
+            bound = _int_bound(incumbent)
         status = Status.NO_SOLUTION
         return Result(method, status, empty, 0.0, 0, runtime, bound, None, stats)
 
@@ -327,7 +350,7 @@ def solve_milp(
     ):
         if tc not in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
             log.warning("HiGHS stopped with %s and no solution", tc.name)
-        bound = None if raw_bound is None else math.floor(float(raw_bound) + INT_TOL)
+        bound = _int_bound(raw_bound)
         return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
 
     res.solution_loader.load_vars()
@@ -336,7 +359,8 @@ def solve_milp(
     profit, observed = _profit(instance, schedule)
     if abs(profit - float(incumbent)) > 1e-4:
         log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
-    bound = profit if raw_bound is None else max(math.floor(float(raw_bound) + INT_TOL), profit)
+    ib = _int_bound(raw_bound)
+    bound = profit if ib is None else max(ib, profit)
     if tc == TC.optimal and bound <= profit + INT_TOL:
         status = Status.OPTIMAL
     elif tc == TC.optimal:

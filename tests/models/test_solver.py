@@ -1,0 +1,214 @@
+"""Solver traps: time limit, stale options, silence, warm start, bad input, the CLI, cliques."""
+
+from __future__ import annotations
+
+import json
+import logging
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from heuristics.greedy import solve_greedy
+from models.candidates import cluster_candidates
+from models.cliques import clique_cover_pairs, maximal_cliques, orbit_intervals
+from models.solve import solve_milp
+from sosp.conflicts import setup_conflict_pairs
+from sosp.errors import InputError
+from sosp.instance import Instance, Resources
+from sosp.result import Status
+from sosp.schedule import Observation, Schedule
+from sosp.solve import solve
+from sosp.validate import validate
+from tests.conftest import tiny_chain, tiny_cluster
+from tests.models.instances import random_tiny
+
+
+def _hard() -> Instance:
+    from sosp.scenarios import generate_scenario
+
+    return generate_scenario("C5", 0)
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(0, 200), st.floats(0.5, 20), st.floats(-33, 33), st.sampled_from([0, 1])
+        ),
+        min_size=1,
+        max_size=25,
+    )
+)
+@settings(max_examples=60, deadline=None)
+def test_cliques_cover_exactly_the_conflict_pairs(rows) -> None:
+    """Every conflict edge of (3) is in a clique, and every clique pair is a conflict."""
+    inst = Instance.build(
+        [1] * len(rows),
+        [(k, o, s, s + d, r) for k, (s, d, r, o) in enumerate(rows)],
+        resources=Resources(setup_time=5.0, slew_rate=2.0),
+        n_orbits=2,
+    )
+    pairs = {
+        tuple(p)
+        for p in setup_conflict_pairs(
+            inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll
+        ).tolist()
+    }
+    got: set[tuple[int, int]] = set()
+    for j in range(inst.n_orbits):
+        sl = inst.orbit_opps(j)
+        left, right = orbit_intervals(
+            inst.opp_start[sl], inst.opp_end[sl], inst.opp_roll[sl], 5.0, 2.0
+        )
+        cl = [c + sl.start for c in maximal_cliques(left, right)]
+        got |= clique_cover_pairs(cl)
+    assert got == pairs
+
+
+def test_candidates_are_valid_observations() -> None:
+    for seed in range(10):
+        inst = random_tiny(seed)
+        orbit, start, end, roll, opps = cluster_candidates(inst)
+        for u in range(len(opps)):
+            ob = Observation(int(orbit[u]), float(start[u]), float(end[u]), float(roll[u]), opps[u])
+            # structure, (7) and (11) hold by construction; resources are the model's job
+            kinds = {v.constraint for v in validate(inst, Schedule((ob,))).violations}
+            assert kinds <= {"2", "4", "5", "6"}, kinds
+            idx = np.array(opps[u])
+            assert start[u] == inst.opp_start[idx].min() and end[u] == inst.opp_end[idx].max()
+
+
+@pytest.mark.slow
+def test_time_limit_applies_and_does_not_raise() -> None:
+    inst = _hard()
+    t0 = time.perf_counter()
+    res = solve_milp(inst, model="task", time_limit=3.0)
+    wall = time.perf_counter() - t0
+    assert wall < 3.0 + 2.0  # reading the solution and the solver's own overshoot
+    assert res.status in (Status.TIME_LIMIT, Status.OPTIMAL, Status.NO_SOLUTION)
+    if res.status is Status.TIME_LIMIT:
+        assert res.bound >= res.profit and validate(inst, res.schedule).feasible
+    # a fresh solver per solve: no stale limit or gap carried into the next solve
+    res2 = solve_milp(tiny_chain(), model="task")
+    assert res2.status is Status.OPTIMAL
+
+
+def test_no_stale_gap_between_solves() -> None:
+    inst = random_tiny(7)
+    solve_milp(inst, model="cluster", mip_gap=0.9)
+    res = solve_milp(inst, model="cluster")
+    assert res.status is Status.OPTIMAL and res.bound == res.profit
+
+
+def test_highs_is_silent(capfd: pytest.CaptureFixture[str]) -> None:
+    solve_milp(random_tiny(1), model="cluster", time_limit=10)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_highs_log_at_debug(caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level(logging.DEBUG, logger="models.solve"):
+        solve_milp(random_tiny(1), model="cluster")
+    assert any("HiGHS" in r.getMessage() or "MIP" in r.getMessage() for r in caplog.records)
+
+
+def test_warm_start_from_greedy() -> None:
+    inst = random_tiny(5)
+    start = solve_greedy(inst, rng=np.random.default_rng(0)).schedule
+    for model in ("task", "cluster"):
+        res = solve_milp(inst, model=model, warm_start=start)
+        assert res.stats["warm_start"] is True
+        assert res.status is Status.OPTIMAL
+
+
+def test_infeasible_warm_start_is_ignored(caplog: pytest.LogCaptureFixture) -> None:
+    inst = tiny_chain()
+    # a and b conflict by (3)
+    bad = Schedule(
+        (
+            Observation(0, 0.0, 4.0, 10.0, (0,)),
+            Observation(0, 10.0, 14.0, 1.0, (1,)),
+        )
+    )
+    with caplog.at_level(logging.WARNING, logger="models.solve"):
+        res = solve_milp(inst, model="task", warm_start=bad)
+    assert res.stats["warm_start"] is False
+    assert any("warm start ignored" in r.getMessage() for r in caplog.records)
+    assert res.status is Status.OPTIMAL and res.profit == 8
+
+
+def test_clustered_warm_start_ignored_by_task_model(caplog: pytest.LogCaptureFixture) -> None:
+    inst = tiny_cluster()
+    clustered = Schedule((Observation(0, 0.0, 9.0, 10.0, (0, 1)),))
+    with caplog.at_level(logging.WARNING, logger="models.solve"):
+        res = solve_milp(inst, model="task", warm_start=clustered)
+    assert res.stats["warm_start"] is False
+    res = solve_milp(inst, model="cluster", warm_start=clustered)
+    assert res.stats["warm_start"] is True and res.profit == 11
+
+
+def test_bad_input() -> None:
+    inst = tiny_chain()
+    with pytest.raises(InputError, match="model"):
+        solve_milp(inst, model="nope")
+    with pytest.raises(InputError, match="time_limit"):
+        solve_milp(inst, time_limit=0)
+    with pytest.raises(InputError, match="mip_gap"):
+        solve_milp(inst, mip_gap=-1)
+    with pytest.raises(InputError, match="threads"):
+        solve_milp(inst, threads=0)
+    with pytest.raises(InputError, match="method"):
+        from models.solve import bound
+
+        bound(inst, method="simplex")
+
+
+def test_no_opportunities_is_optimal_and_empty() -> None:
+    inst = Instance.build({"a": 3}, [], n_orbits=1, orbit_length=100.0)
+    for model in ("task", "cluster", "static"):
+        res = solve_milp(inst, model=model)
+        assert res.status is Status.OPTIMAL and res.profit == 0 and len(res.schedule) == 0
+
+
+def test_through_sosp_solve_with_params() -> None:
+    inst = tiny_cluster()
+    res = solve(inst, "milp", model="cluster", mip_gap=0.0, threads=1, time_limit=30)
+    assert res.status is Status.OPTIMAL and res.profit == 11
+    assert res.schedule.method == "milp"
+    for key in ("variables", "constraints", "nonzeros", "candidates"):
+        assert res.stats[key] > 0
+
+
+def test_relaxation_gives_bound_only() -> None:
+    res = solve_milp(tiny_cluster(), relax=True)
+    assert res.status is Status.NO_SOLUTION and len(res.schedule) == 0
+    assert res.bound >= 11
+
+
+def test_cli_bound_json(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from sosp.cli import main
+
+    path = tmp_path / "inst.json"
+    tiny_cluster().save(path)
+    assert main(["bound", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["method"] == "lp" and out["bound"] >= 11 and out["runtime_s"] >= 0
+    assert main(["bound", str(path), "--method", "milp", "--model", "task", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["bound"] == 7 and out["profit"] == 7
+    assert main(["bound", str(path), "--model", "nope"]) == 2
+    assert main(["bound", str(path), "--time-limit", "-1"]) == 2
+    assert "error:" in capsys.readouterr().err
+
+
+def test_cli_module_imports_nothing_heavy() -> None:
+    code = (
+        "import sys, models.cli; "
+        "print(any(m.split('.')[0] in ('pyomo', 'highspy', 'networkx') for m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
