@@ -1,0 +1,388 @@
+"""Running a campaign: expand the grid, skip what is stored, run the rest in parallel.
+
+Runs go to a local process pool (:class:`concurrent.futures.ProcessPoolExecutor`), to a Dask
+distributed cluster, or run in this process (``workers=1``). Only :class:`RunSpec` objects
+and result rows cross process boundaries: each worker generates or loads its instances itself
+(cached per process). The parent stores each finished run at once, in one transaction
+(:class:`~sosp.campaign.store.Store`), so a crash loses only the runs in flight.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+import traceback
+from collections import OrderedDict
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import TYPE_CHECKING, Any
+
+from sosp.campaign.spec import Campaign, RunSpec, ScenarioSpec, canonical_params
+from sosp.campaign.store import Store, verdict_json
+from sosp.errors import InputError
+
+if TYPE_CHECKING:
+    from sosp.instance import Instance
+
+log = logging.getLogger(__name__)
+
+#: Instances kept per worker process.
+CACHE_SIZE = 4
+_CACHE: OrderedDict[tuple[str, str | None, int], Instance] = OrderedDict()
+
+
+# --------------------------------------------------------------------------- instances
+def load_scenario(label: str, path: str | None, instance_seed: int) -> Instance:
+    """The instance of a scenario: generated (named) or loaded (file), cached per process."""
+    key = (label, path, instance_seed)
+    inst = _CACHE.get(key)
+    if inst is not None:
+        _CACHE.move_to_end(key)
+        return inst
+    if path is None:
+        from sosp.scenarios import generate_scenario
+
+        inst = generate_scenario(label, seed=instance_seed)
+    else:
+        from sosp.instance import load_instance
+
+        inst = load_instance(path)
+    _CACHE[key] = inst
+    while len(_CACHE) > CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return inst
+
+
+def instance_info(label: str, inst: Instance) -> dict[str, Any]:
+    """The row of table ``instances`` for a scenario."""
+    return {
+        "scenario": label,
+        "fingerprint": inst.fingerprint,
+        "name": inst.name,
+        "targets": inst.n_targets,
+        "en": inst.observable_targets,
+        "tn": inst.n_opps,
+        "orbits": inst.n_orbits,
+    }
+
+
+# --------------------------------------------------------------------------- one run
+def execute_run(spec: RunSpec) -> dict[str, Any]:
+    """Run one grid cell and return its row (never raises: failures become status ``error``).
+
+    The schedule is checked by the independent validator; its verdict (feasibility,
+    violations, energy, memory) is part of the row.
+    """
+    from sosp import __version__
+
+    row: dict[str, Any] = {
+        "scenario": spec.scenario,
+        "fingerprint": spec.fingerprint,
+        "method": spec.method,
+        "params": spec.params,
+        "seed": spec.seed,
+        "time_limit": spec.time_limit,
+        "version": __version__,
+    }
+    t0 = time.perf_counter()
+    try:
+        from sosp.solve import solve
+        from sosp.validate import validate
+
+        inst = load_scenario(spec.scenario, spec.path, spec.instance_seed)
+        if inst.fingerprint != spec.fingerprint:
+            raise RuntimeError(
+                f"instance of {spec.scenario} changed (fingerprint {inst.fingerprint[:19]}..."
+                f" != {spec.fingerprint[:19]}...)"
+            )
+        result = solve(
+            inst,
+            spec.method,
+            seed=spec.seed,
+            time_limit=spec.time_limit or None,
+            check=False,
+            **json.loads(spec.params),
+        )
+        report = validate(inst, result.schedule)
+        verdict = report.to_dict()
+        verdict.pop("orbits", None)
+        row.update(
+            status=str(result.status.value),
+            message=None,
+            profit=float(report.profit),
+            observed=int(report.observed),
+            bound=None if result.bound is None else float(result.bound),
+            energy=float(report.energy),
+            memory=float(report.memory),
+            runtime=float(result.runtime_s),
+            iterations=result.iterations,
+            feasible=int(report.feasible),
+            verdict=verdict_json(verdict),
+            schedule=json.dumps(
+                result.schedule.to_dict(inst), separators=(",", ":"), allow_nan=False
+            ),
+        )
+    except Exception as exc:  # noqa: BLE001 - a failing run is data, not a crash
+        log.debug("run %s failed:\n%s", spec, traceback.format_exc())
+        msg = " ".join(f"{type(exc).__name__}: {exc}".split())
+        row.update(status="error", message=msg[:2000], runtime=time.perf_counter() - t0)
+    row["finished_at"] = datetime.now(UTC).isoformat(timespec="seconds")
+    return row
+
+
+# --------------------------------------------------------------------------- planning
+@dataclass
+class Plan:
+    """The grid of a campaign against a store: all runs and those still to do."""
+
+    runs: list[RunSpec]
+    pending: list[RunSpec]
+    skipped_methods: list[str]
+    instances: list[dict[str, Any]]
+
+    @property
+    def done(self) -> int:
+        return len(self.runs) - len(self.pending)
+
+
+def check_methods(campaign: Campaign) -> tuple[list[str], list[str]]:
+    """Check every method and its parameter names before anything runs.
+
+    Returns
+    -------
+    usable, skipped
+        Method labels to run, and those skipped as not installed (``skip_unavailable``).
+
+    Raises
+    ------
+    InputError
+        On an unknown method, a method not installed (unless skipped) or an unknown
+        parameter.
+    """
+    import inspect
+
+    from sosp.solve import METHODS, available_methods, method_function
+
+    avail = set(available_methods())
+    usable: list[str] = []
+    skipped: list[str] = []
+    for m in campaign.methods:
+        if m.name not in METHODS:
+            raise InputError(
+                f"methods: unknown method {m.name!r} (choose from {', '.join(sorted(avail))})"
+            )
+        if m.name not in avail:
+            if campaign.skip_unavailable:
+                skipped.append(m.label)
+                continue
+            raise InputError(f"methods: {m.name!r} is not available in this build")
+        try:
+            func = method_function(m.name)
+        except ImportError as exc:  # installed but broken: treat as unavailable
+            if campaign.skip_unavailable:
+                log.warning("skipping %s: %s", m.label, exc)
+                skipped.append(m.label)
+                continue
+            raise InputError(f"methods: {m.name!r} cannot be imported: {exc}") from None
+        sig = inspect.signature(func)
+        if not any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
+            for key in m.params:
+                if key not in sig.parameters or key in ("instance", "rng", "time_limit"):
+                    raise InputError(f"methods: {m.name!r} has no parameter {key!r}")
+        usable.append(m.label)
+    if not usable:
+        raise InputError("methods: none of the campaign's methods is available")
+    return usable, skipped
+
+
+def plan(campaign: Campaign, store: Store, retry_failed: bool = False) -> Plan:
+    """Expand the grid (fingerprinting each scenario once) and drop the runs already stored."""
+    usable, skipped = check_methods(campaign)
+    fingerprints: dict[ScenarioSpec, str] = {}
+    infos = []
+    for sc in campaign.scenarios:
+        inst = load_scenario(sc.label, sc.path, campaign.instance_seed)
+        fingerprints[sc] = inst.fingerprint
+        infos.append(instance_info(sc.label, inst))
+    runs: list[RunSpec] = []
+    for sc in campaign.scenarios:
+        for m in campaign.methods:
+            if m.label not in usable:
+                continue
+            for tl in m.time_limits or campaign.time_limits:
+                for seed in campaign.seeds:
+                    runs.append(
+                        RunSpec(
+                            scenario=sc.label,
+                            path=sc.path,
+                            instance_seed=campaign.instance_seed,
+                            fingerprint=fingerprints[sc],
+                            method=m.name,
+                            params=canonical_params(m.params),
+                            seed=seed,
+                            time_limit=float(tl),
+                        )
+                    )
+    done = store.done_keys(include_failed=not retry_failed)
+    pending = [r for r in runs if r.key not in done]
+    return Plan(runs, pending, skipped, infos)
+
+
+# --------------------------------------------------------------------------- executors
+def _serial(specs: list[RunSpec]) -> Iterator[dict[str, Any]]:
+    for spec in specs:
+        yield execute_run(spec)
+
+
+def _process_pool(specs: list[RunSpec], workers: int) -> Iterator[dict[str, Any]]:
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(execute_run, s): s for s in specs}
+        try:
+            for fut in as_completed(futures):
+                try:
+                    yield fut.result()
+                except BrokenProcessPool:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - a lost run is rerun on resume
+                    log.error("run %s lost (%s); it will run again on resume", futures[fut], exc)
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+
+def _dask(specs: list[RunSpec], address: Any, workers: int) -> Iterator[dict[str, Any]]:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise InputError("--dask: Dask is not installed (pip install -e '.[dist]')") from None
+    cluster = None
+    own_client = True
+    if hasattr(address, "submit"):  # an existing Client
+        client, own_client = address, False
+    elif address == "local":
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(address, timeout=10)
+        except OSError as exc:
+            raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
+    try:
+        futures = [client.submit(execute_run, s, pure=False) for s in specs]
+        for fut in as_completed(futures):
+            try:
+                yield fut.result()
+            except Exception as exc:  # noqa: BLE001 - a lost run is rerun on resume
+                log.error("a run was lost on the cluster (%s); it will run again on resume", exc)
+            fut.release()
+    finally:
+        if own_client:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+# --------------------------------------------------------------------------- campaign
+@dataclass
+class Outcome:
+    """What one call of :func:`run_campaign` did."""
+
+    total: int
+    already: int
+    ran: int
+    failed: int
+    infeasible: int
+    skipped_methods: list[str]
+    elapsed_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+def run_campaign(
+    campaign: Campaign,
+    store: Store,
+    *,
+    workers: int | None = None,
+    dask: Any = None,
+    retry_failed: bool = False,
+    on_result: Callable[[dict[str, Any], int, int], None] | None = None,
+) -> Outcome:
+    """Run every pending cell of ``campaign`` and store each result as it arrives.
+
+    Parameters
+    ----------
+    campaign
+        The grid.
+    store
+        The open results database.
+    workers
+        Local processes (default: all cores; 1 runs in this process). With ``dask``, the
+        number of workers of a ``"local"`` cluster.
+    dask
+        None (process pool), a scheduler address, ``"local"`` (a new ``LocalCluster``) or an
+        existing ``distributed.Client``.
+    retry_failed
+        Run again the cells stored with status ``error``.
+    on_result
+        Called after each stored row with ``(row, finished, pending)``.
+
+    Returns
+    -------
+    Outcome
+    """
+    t0 = time.perf_counter()
+    p = plan(campaign, store, retry_failed=retry_failed)
+    for label in p.skipped_methods:
+        log.warning("skipping %s: not available in this build", label)
+    n_workers = workers or campaign.workers or os.cpu_count() or 1
+    if n_workers < 1:
+        raise InputError(f"--workers: must be >= 1, got {n_workers}")
+    log.info(
+        "campaign %s: %d runs, %d stored, %d to run on %s",
+        campaign.name,
+        len(p.runs),
+        p.done,
+        len(p.pending),
+        f"dask {dask}" if dask is not None else f"{n_workers} worker(s)",
+    )
+    if dask is not None:
+        stream = _dask(p.pending, dask, n_workers)
+    elif n_workers == 1 or len(p.pending) <= 1:
+        stream = _serial(p.pending)
+    else:
+        stream = _process_pool(p.pending, min(n_workers, len(p.pending)))
+    if p.pending:
+        store.put_instances(p.instances)
+    ran = failed = infeasible = 0
+    for row in stream:
+        store.put(row)
+        ran += 1
+        if row["status"] == "error":
+            failed += 1
+            log.warning(
+                "%s %s seed %d failed: %s",
+                row["scenario"],
+                row["method"],
+                row["seed"],
+                row["message"],
+            )
+        elif not row.get("feasible"):
+            infeasible += 1
+        if on_result is not None:
+            on_result(row, ran, len(p.pending))
+    return Outcome(
+        total=len(p.runs),
+        already=p.done,
+        ran=ran,
+        failed=failed,
+        infeasible=infeasible,
+        skipped_methods=p.skipped_methods,
+        elapsed_s=time.perf_counter() - t0,
+    )

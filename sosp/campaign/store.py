@@ -1,0 +1,259 @@
+"""The SQLite results store of ``sosp bench``: one row per finished run, written at once.
+
+Durability: the database runs in WAL mode and every finished run is one transaction, written
+by the parent process only. A run that crashed or was killed is simply absent and is run
+again on resume; the unique key ``(scenario, fingerprint, method, params, seed, time_limit)``
+means nothing is stored twice. A failed run (status ``error``) is replaced only when it is
+retried (``--retry-failed``) and a success is never overwritten.
+
+Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``; a database of another schema
+version is refused with an :class:`~sosp.errors.InputError` before anything is written.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sqlite3
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from sosp.errors import InputError
+
+#: Bump when the tables change; older or newer databases are refused.
+SCHEMA_VERSION = 1
+
+#: Seconds to wait for another writer when opening (then: "database is locked").
+OPEN_TIMEOUT = 2.0
+
+#: Seconds to wait for a write lock when storing one run.
+WRITE_TIMEOUT = 60.0
+
+KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
+
+RUN_COLUMNS = (
+    *KEY_COLUMNS,
+    "status",
+    "message",
+    "profit",
+    "observed",
+    "bound",
+    "energy",
+    "memory",
+    "runtime",
+    "iterations",
+    "feasible",
+    "verdict",
+    "schedule",
+    "version",
+    "finished_at",
+)
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS instances (
+    scenario TEXT NOT NULL,
+    fingerprint TEXT NOT NULL,
+    name TEXT,
+    targets INTEGER,
+    en INTEGER,
+    tn INTEGER,
+    orbits INTEGER,
+    PRIMARY KEY (scenario, fingerprint)
+);
+CREATE TABLE IF NOT EXISTS runs (
+    id INTEGER PRIMARY KEY,
+    scenario TEXT NOT NULL,
+    fingerprint TEXT NOT NULL,
+    method TEXT NOT NULL,
+    params TEXT NOT NULL,
+    seed INTEGER NOT NULL,
+    time_limit REAL NOT NULL,
+    status TEXT NOT NULL,
+    message TEXT,
+    profit REAL,
+    observed INTEGER,
+    bound REAL,
+    energy REAL,
+    memory REAL,
+    runtime REAL,
+    iterations INTEGER,
+    feasible INTEGER,
+    verdict TEXT,
+    schedule TEXT,
+    version TEXT NOT NULL,
+    finished_at TEXT NOT NULL,
+    UNIQUE (scenario, fingerprint, method, params, seed, time_limit)
+);
+"""
+
+
+def _locked(exc: sqlite3.OperationalError) -> bool:
+    return "locked" in str(exc) or "busy" in str(exc)
+
+
+class Store:
+    """An open results database.
+
+    Parameters
+    ----------
+    path
+        The SQLite file (created with its folder's permission when missing, unless
+        ``readonly``).
+    readonly
+        Open for reading only (reports); the file must exist.
+
+    Raises
+    ------
+    InputError
+        If the file is not a sosp results database, has another schema version, or is
+        locked by another writer.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], readonly: bool = False) -> None:
+        self.path = str(path)
+        p = Path(path)
+        if readonly and not p.is_file():
+            raise InputError("results database not found", source=self.path)
+        if not readonly and not p.parent.is_dir():
+            raise InputError(f"folder does not exist: {p.parent}", source=self.path)
+        try:
+            if readonly:
+                uri = p.resolve().as_uri() + "?mode=ro"
+                self.conn = sqlite3.connect(uri, uri=True, timeout=OPEN_TIMEOUT)
+            else:
+                self.conn = sqlite3.connect(self.path, timeout=OPEN_TIMEOUT, isolation_level=None)
+            self.conn.row_factory = sqlite3.Row
+            self._check_or_init(readonly)
+        except sqlite3.DatabaseError as exc:
+            self._close_quietly()
+            if isinstance(exc, sqlite3.OperationalError) and _locked(exc):
+                raise InputError(
+                    "database is locked by another process (is another sosp bench writing it?)",
+                    source=self.path,
+                ) from None
+            raise InputError(f"not a sosp results database ({exc})", source=self.path) from None
+
+    def _close_quietly(self) -> None:
+        try:
+            self.conn.close()
+        except Exception:  # noqa: BLE001 - closing a half-open connection
+            pass
+
+    def _check_or_init(self, readonly: bool) -> None:
+        cur = self.conn.cursor()
+        tables = {r[0] for r in cur.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        if "meta" in tables:
+            row = cur.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone()
+            if row is None:
+                raise InputError("database has no schema version: not a sosp results database")
+            if str(row[0]) != str(SCHEMA_VERSION):
+                raise InputError(
+                    f"database schema version {row[0]} is not {SCHEMA_VERSION} (made by another "
+                    "sosp version); use a new --db file",
+                    source=self.path,
+                )
+        elif tables:
+            raise InputError("not a sosp results database (no meta table)", source=self.path)
+        elif readonly:
+            raise InputError("empty database: no runs stored", source=self.path)
+        if readonly:
+            return
+        # Take the write lock now: a database locked by another writer is refused at once.
+        cur.execute("PRAGMA journal_mode=WAL")
+        cur.execute("PRAGMA synchronous=NORMAL")
+        if "meta" not in tables:
+            cur.executescript(_SCHEMA)
+        cur.execute("BEGIN IMMEDIATE")
+        try:
+            if "meta" not in tables:
+                from sosp import __version__
+
+                cur.executemany(
+                    "INSERT OR IGNORE INTO meta(key, value) VALUES (?, ?)",
+                    [("schema_version", str(SCHEMA_VERSION)), ("created_by", __version__)],
+                )
+            cur.execute("COMMIT")
+        except BaseException:
+            if self.conn.in_transaction:
+                cur.execute("ROLLBACK")
+            raise
+        self.conn.execute(f"PRAGMA busy_timeout={int(WRITE_TIMEOUT * 1000)}")
+
+    # ------------------------------------------------------------------ reading
+    def done_keys(self, include_failed: bool = True) -> set[tuple[Any, ...]]:
+        """Keys of stored runs (failed ones too unless ``include_failed`` is False)."""
+        sql = f"SELECT {', '.join(KEY_COLUMNS)} FROM runs"
+        if not include_failed:
+            sql += " WHERE status != 'error'"
+        return {tuple(r) for r in self.conn.execute(sql)}
+
+    def rows(self, where: str = "", args: Iterable[Any] = ()) -> list[dict[str, Any]]:
+        """All runs (``where`` is an optional SQL condition with ``?`` arguments)."""
+        sql = "SELECT * FROM runs" + (f" WHERE {where}" if where else "") + " ORDER BY id"
+        return [dict(r) for r in self.conn.execute(sql, tuple(args))]
+
+    def instances(self) -> list[dict[str, Any]]:
+        """The instance table: scenario, fingerprint, name, targets, en, tn, orbits."""
+        return [dict(r) for r in self.conn.execute("SELECT * FROM instances")]
+
+    def count(self) -> int:
+        return int(self.conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0])
+
+    # ------------------------------------------------------------------ writing
+    def put_instances(self, infos: Iterable[Mapping[str, Any]]) -> None:
+        """Record the scenarios' sizes (EN, TN, ...) in one transaction (existing rows kept)."""
+        cols = ("scenario", "fingerprint", "name", "targets", "en", "tn", "orbits")
+        cur = self.conn.cursor()
+        cur.execute("BEGIN IMMEDIATE")
+        try:
+            cur.executemany(
+                f"INSERT OR IGNORE INTO instances({', '.join(cols)}) "
+                f"VALUES ({', '.join('?' * len(cols))})",
+                [[info[c] for c in cols] for info in infos],
+            )
+            cur.execute("COMMIT")
+        except BaseException:
+            if self.conn.in_transaction:
+                cur.execute("ROLLBACK")
+            raise
+
+    def put(self, row: Mapping[str, Any]) -> bool:
+        """Store one finished run in one transaction; returns True if a row was written.
+
+        An existing success is kept; an existing failure is replaced.
+        """
+        values = [row.get(c) for c in RUN_COLUMNS]
+        updates = ", ".join(f"{c}=excluded.{c}" for c in RUN_COLUMNS[len(KEY_COLUMNS) :])
+        cur = self.conn.cursor()
+        cur.execute("BEGIN IMMEDIATE")
+        try:
+            cur.execute(
+                f"INSERT INTO runs({', '.join(RUN_COLUMNS)}) "
+                f"VALUES ({', '.join('?' * len(RUN_COLUMNS))}) "
+                f"ON CONFLICT({', '.join(KEY_COLUMNS)}) DO UPDATE SET {updates} "
+                "WHERE runs.status = 'error'",
+                values,
+            )
+            written = cur.rowcount > 0
+            cur.execute("COMMIT")
+        except BaseException:
+            if self.conn.in_transaction:
+                cur.execute("ROLLBACK")
+            raise
+        return written
+
+    def close(self) -> None:
+        self.conn.close()
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def verdict_json(verdict: Mapping[str, Any]) -> str:
+    """The validator verdict as compact JSON."""
+    return json.dumps(verdict, sort_keys=True, separators=(",", ":"), allow_nan=False)
