@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import threading
 import time
 import traceback
 from collections import OrderedDict
@@ -32,16 +33,18 @@ log = logging.getLogger(__name__)
 #: Instances kept per worker process.
 CACHE_SIZE = 4
 _CACHE: OrderedDict[tuple[str, str | None, int], Instance] = OrderedDict()
+_CACHE_LOCK = threading.Lock()  # Dask workers may be threads sharing this cache
 
 
 # --------------------------------------------------------------------------- instances
 def load_scenario(label: str, path: str | None, instance_seed: int) -> Instance:
     """The instance of a scenario: generated (named) or loaded (file), cached per process."""
     key = (label, path, instance_seed)
-    inst = _CACHE.get(key)
-    if inst is not None:
-        _CACHE.move_to_end(key)
-        return inst
+    with _CACHE_LOCK:
+        inst = _CACHE.get(key)
+        if inst is not None:
+            _CACHE.move_to_end(key)
+            return inst
     if path is None:
         from sosp.scenarios import generate_scenario
 
@@ -50,9 +53,10 @@ def load_scenario(label: str, path: str | None, instance_seed: int) -> Instance:
         from sosp.instance import load_instance
 
         inst = load_instance(path)
-    _CACHE[key] = inst
-    while len(_CACHE) > CACHE_SIZE:
-        _CACHE.popitem(last=False)
+    with _CACHE_LOCK:
+        _CACHE[key] = inst
+        while len(_CACHE) > CACHE_SIZE:
+            _CACHE.popitem(last=False)
     return inst
 
 
