@@ -1,0 +1,466 @@
+"""``sosp report``: the paper's Tables 3-4 and Figures 2-5 from a results database.
+
+Tables (Markdown and CSV), one per scenario group: ``table3`` (B1..B10, targets over a large
+area), ``table4`` (C1..C10, a small area) and ``table_other`` (instance files). Columns follow
+the paper's layout: SN, EN, TN; the best proven bound and the exact value and count (from runs
+that proved optimality, e.g. ``milp``); per method the mean profit R, mean observed targets F,
+the sample standard deviation SD of the profit and the mean run time T; then IMP, the relative
+improvement of the target method (ASA-DTC) over a baseline, and a one-tailed Welch t-test at
+the 0.05 level (``+`` when the target method is significantly better).
+
+Figures (PNG, matplotlib with the Agg backend), one panel per scenario group:
+
+* ``fig2_methods.png``: mean profit of every method per scenario (paper Fig. 2);
+* ``fig3_clustering.png``: ASA-DTC vs ASA-STC vs ASA-NONTC (Fig. 3);
+* ``fig4_profit_memory.png`` and ``fig5_profit_energy.png``: profit/memory and profit/energy
+  ratios of the same methods (Figs. 4-5).
+
+When methods are missing the report degrades: their columns are omitted, Figures 3-5 show the
+clustering variants that exist (or every method) and ``report.md`` says so in a note.
+Failed runs (status ``error``) and schedules the validator rejects are left out of every
+mean and counted in the notes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import re
+import sys
+import tempfile
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sosp.errors import InputError
+
+#: The clustering comparison of Figs. 3-5 (paper section 6.4-6.5).
+CLUSTERING = ("asa-dtc", "asa-stc", "asa-nontc")
+
+#: Significance level of the one-tailed t-test.
+ALPHA = 0.05
+
+#: Statuses whose schedules count (a heuristic's, a proven optimum, an incumbent at the limit).
+COUNTED = ("optimal", "feasible", "time_limit")
+
+GROUPS = {
+    "B": ("table3", "Table 3: first group (targets over a large area)"),
+    "C": ("table4", "Table 4: second group (targets in a small area)"),
+    "": ("table_other", "Other scenarios (instance files)"),
+}
+
+
+def scenario_group(name: str) -> str:
+    """``"B"`` or ``"C"`` for the paper's scenarios, ``""`` otherwise."""
+    return name[0] if re.fullmatch(r"[BC](10|[1-9])", name) else ""
+
+
+def _scenario_order(name: str) -> tuple[int, str, int, str]:
+    g = scenario_group(name)
+    return (0 if g else 1, g, int(name[1:]) if g else 0, name)
+
+
+@dataclass
+class Cell:
+    """The runs of one method on one scenario (errors and infeasible schedules left out)."""
+
+    profits: list[float] = field(default_factory=list)
+    observed: list[float] = field(default_factory=list)
+    runtimes: list[float] = field(default_factory=list)
+    per_energy: list[float] = field(default_factory=list)
+    per_memory: list[float] = field(default_factory=list)
+    failed: int = 0
+    infeasible: int = 0
+
+    @property
+    def n(self) -> int:
+        return len(self.profits)
+
+    @staticmethod
+    def _mean(xs: list[float]) -> float:
+        return sum(xs) / len(xs) if xs else math.nan
+
+    @property
+    def mean_profit(self) -> float:
+        return self._mean(self.profits)
+
+    @property
+    def mean_observed(self) -> float:
+        return self._mean(self.observed)
+
+    @property
+    def mean_runtime(self) -> float:
+        return self._mean(self.runtimes)
+
+    @property
+    def mean_per_energy(self) -> float:
+        return self._mean(self.per_energy)
+
+    @property
+    def mean_per_memory(self) -> float:
+        return self._mean(self.per_memory)
+
+    @property
+    def sd(self) -> float:
+        """Sample standard deviation of the profits (0 for a single run)."""
+        if self.n < 2:
+            return 0.0 if self.n else math.nan
+        m = self.mean_profit
+        return math.sqrt(sum((x - m) ** 2 for x in self.profits) / (self.n - 1))
+
+
+@dataclass
+class Summary:
+    """Everything the tables and figures need, read from one database."""
+
+    scenarios: list[str]
+    methods: list[str]
+    cells: dict[tuple[str, str], Cell]
+    en: dict[str, int]
+    tn: dict[str, int]
+    bound: dict[str, float]
+    exact: dict[str, tuple[float, int]]
+    notes: list[str]
+
+
+def _label(row: dict[str, Any], multi_tl: set[str]) -> str:
+    from sosp.campaign.spec import method_label
+
+    label = method_label(row["method"], row["params"])
+    if label in multi_tl:
+        tl = row["time_limit"]
+        label += f"@{tl:g}s" if tl else "@nolimit"
+    return label
+
+
+def summarise(db: str | os.PathLike[str]) -> Summary:
+    """Read a results database (read-only) and aggregate runs per scenario and method."""
+    from sosp.campaign.spec import method_label
+    from sosp.campaign.store import Store
+
+    with Store(db, readonly=True) as st:
+        rows = st.rows()
+        insts = st.instances()
+    if not rows:
+        raise InputError("no runs stored", source=str(db))
+    tls: dict[str, set[float]] = defaultdict(set)
+    for r in rows:
+        tls[method_label(r["method"], r["params"])].add(r["time_limit"])
+    multi = {k for k, v in tls.items() if len(v) > 1}
+    cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
+    bound: dict[str, float] = {}
+    exact: dict[str, tuple[float, int]] = {}
+    notes: list[str] = []
+    for r in rows:
+        s = r["scenario"]
+        cell = cells[(s, _label(r, multi))]
+        if r["status"] == "error":
+            cell.failed += 1
+            continue
+        if not r["feasible"]:
+            cell.infeasible += 1
+            continue
+        if r["bound"] is not None:
+            bound[s] = min(bound.get(s, math.inf), float(r["bound"]))
+        if r["status"] == "optimal":
+            if s not in exact or r["profit"] > exact[s][0]:
+                exact[s] = (float(r["profit"]), int(r["observed"]))
+        if r["status"] not in COUNTED:
+            continue
+        cell.profits.append(float(r["profit"]))
+        cell.observed.append(float(r["observed"]))
+        cell.runtimes.append(float(r["runtime"]))
+        cell.per_energy.append(r["profit"] / r["energy"] if r["energy"] else 0.0)
+        cell.per_memory.append(r["profit"] / r["memory"] if r["memory"] else 0.0)
+    en = {i["scenario"]: int(i["en"]) for i in insts}
+    tn = {i["scenario"]: int(i["tn"]) for i in insts}
+    scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
+    methods = sorted({m for _, m in cells})
+    for (s, m), c in sorted(cells.items()):
+        if c.failed:
+            notes.append(f"{s} {m}: {c.failed} failed run(s) left out")
+        if c.infeasible:
+            notes.append(f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out")
+    if len({i["fingerprint"] for i in insts}) > len(en):
+        notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
+    return Summary(scenarios, methods, dict(cells), en, tn, bound, exact, notes)
+
+
+# --------------------------------------------------------------------------- tables
+def welch_greater(a: list[float], b: list[float]) -> float:
+    """p-value of the one-tailed Welch t-test that mean(a) > mean(b) (NaN if undefined)."""
+    if len(a) < 2 or len(b) < 2:
+        return math.nan
+    import warnings
+
+    from scipy.stats import ttest_ind
+
+    ma, mb = sum(a) / len(a), sum(b) / len(b)
+    if len(set(a)) == 1 and len(set(b)) == 1:  # no spread: the test is undefined
+        return 0.0 if ma > mb else (1.0 if ma < mb else math.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # near-constant samples
+        return float(ttest_ind(a, b, equal_var=False, alternative="greater").pvalue)
+
+
+def _fmt(x: float, digits: int = 1) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "_"
+    if float(x).is_integer() and digits <= 1:
+        return f"{x:.0f}"
+    return f"{x:.{digits}f}"
+
+
+def build_table(
+    summary: Summary, group: str, target: str, baseline: str
+) -> tuple[list[str], list[list[Any]], list[str]]:
+    """Header, rows (raw values) and notes of the table of one scenario group."""
+    scen = [s for s in summary.scenarios if scenario_group(s) == group]
+    methods = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+    notes: list[str] = []
+    header = ["SN", "EN", "TN", "bound", "exact R", "exact F"]
+    for m in methods:
+        header += [f"{m} R", f"{m} F", f"{m} SD", f"{m} T (s)"]
+    compare = target in methods and baseline in methods and target != baseline
+    if compare:
+        header += [f"IMP ({target} vs {baseline})", "t-test", "p"]
+    else:
+        missing = [x for x in (target, baseline) if x not in methods]
+        notes.append(
+            "IMP and t-test omitted: "
+            + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
+        )
+    rows: list[list[Any]] = []
+    for s in scen:
+        ex = summary.exact.get(s)
+        row: list[Any] = [
+            s,
+            summary.en.get(s),
+            summary.tn.get(s),
+            summary.bound.get(s),
+            ex[0] if ex else None,
+            ex[1] if ex else None,
+        ]
+        for m in methods:
+            c = summary.cells.get((s, m))
+            if c is None or not c.n:
+                row += [None, None, None, None]
+            else:
+                row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
+        if compare:
+            t, b = summary.cells.get((s, target)), summary.cells.get((s, baseline))
+            if t and b and t.n and b.n and b.mean_profit:
+                imp = (t.mean_profit - b.mean_profit) / b.mean_profit
+                p = welch_greater(t.profits, b.profits)
+                row += [imp, "+" if p < ALPHA else "", p]
+            else:
+                row += [None, "", None]
+        rows.append(row)
+    return header, rows, notes
+
+
+def _csv_text(header: list[str], rows: list[list[Any]]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for r in rows:
+        w.writerow(["" if v is None or (isinstance(v, float) and math.isnan(v)) else v for v in r])
+    return buf.getvalue()
+
+
+def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> str:
+    r_cols = [header.index(f"{m} R") for m in methods if f"{m} R" in header]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for r in rows:
+        vals = [r[i] for i in r_cols if r[i] is not None]
+        best = max(vals) if vals else None
+        out = []
+        for i, v in enumerate(r):
+            h = header[i]
+            if h.endswith(" SD") or h == "p":
+                text = _fmt(v, 2) if v is not None else "_"
+            elif h.startswith("IMP"):
+                text = _fmt(v, 3) if v is not None else "_"
+            elif h.endswith("T (s)"):
+                text = _fmt(v, 2) if v is not None else "_"
+            elif isinstance(v, float):
+                text = _fmt(v, 1) if not float(v).is_integer() else f"{v:.0f}"
+            else:
+                text = "_" if v is None else str(v)
+            if i in r_cols and best is not None and v == best:
+                text = f"**{text}**"
+            out.append(text)
+        lines.append("| " + " | ".join(out) + " |")
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- figures
+def _save_png(fig: Any, path: Path) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=110)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _figure(
+    summary: Summary, methods: list[str], measure: str, ylabel: str, title: str, path: Path
+) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = [g for g in ("B", "C", "") if any(scenario_group(s) == g for s in summary.scenarios)]
+    fig, axes = plt.subplots(1, len(groups), figsize=(6.0 * len(groups), 4.2), squeeze=False)
+    for ax, g in zip(axes[0], groups, strict=True):
+        scen = [s for s in summary.scenarios if scenario_group(s) == g]
+        x = list(range(len(scen)))
+        for m in methods:
+            ys = []
+            for s in scen:
+                c = summary.cells.get((s, m))
+                ys.append(getattr(c, measure) if c and c.n else math.nan)
+            if all(math.isnan(y) for y in ys):
+                continue
+            ax.plot(x, ys, marker="o", label=m)
+        ax.set_xticks(x, scen, rotation=45 if len(scen) > 10 else 0)
+        ax.set_xlabel("scenario")
+        ax.set_ylabel(ylabel)
+        sub = {"B": "(a) first group", "C": "(b) second group", "": "other scenarios"}[g]
+        ax.set_title(sub)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    _save_png(fig, path)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------- report
+def write_report(
+    db: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    target: str = "asa-dtc",
+    baseline: str = "asa-stc",
+) -> dict[str, Any]:
+    """Write the tables (Markdown, CSV), figures (PNG) and ``report.md`` into ``out_dir``.
+
+    Returns
+    -------
+    dict
+        ``files`` written, ``notes`` and the ``methods`` found.
+    """
+    from sosp.io import atomic_write_text
+
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError("-o: not a folder", source=str(out))
+    summary = summarise(db)
+    out.mkdir(parents=True, exist_ok=True)
+    files: list[str] = []
+    notes = list(summary.notes)
+    md = [f"# Results of {Path(db).name}", ""]
+    for g, (stem, title) in GROUPS.items():
+        if not any(scenario_group(s) == g for s in summary.scenarios):
+            continue
+        header, rows, tnotes = build_table(summary, g, target, baseline)
+        methods = [m for m in summary.methods if f"{m} R" in header]
+        table_md = _markdown(header, rows, methods)
+        atomic_write_text(out / f"{stem}.md", f"## {title}\n\n{table_md}")
+        atomic_write_text(out / f"{stem}.csv", _csv_text(header, rows))
+        files += [f"{stem}.md", f"{stem}.csv"]
+        md += [f"## {title}", "", table_md]
+        notes += [f"{title.split(':')[0]}: {n}" for n in tnotes]
+    for name in ("table3", "table4"):
+        if f"{name}.md" not in files:
+            notes.append(f"{name}: no scenarios of that group in the database")
+
+    clustering = [m for m in summary.methods if m.split("[")[0].split("@")[0] in CLUSTERING]
+    if len(clustering) < len(CLUSTERING):
+        have = {m.split("[")[0].split("@")[0] for m in clustering}
+        absent = [m for m in CLUSTERING if m not in have]
+        notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
+    fig_methods = clustering or summary.methods
+    if not clustering:
+        notes.append("Figures 3-5 show every method instead of the ASA clustering variants")
+    figs = [
+        ("fig2_methods.png", summary.methods, "mean_profit", "mean profit", "Fig. 2: methods"),
+        (
+            "fig3_clustering.png",
+            fig_methods,
+            "mean_profit",
+            "mean profit",
+            "Fig. 3: dynamic vs static vs no task clustering",
+        ),
+        (
+            "fig4_profit_memory.png",
+            fig_methods,
+            "mean_per_memory",
+            "profit / memory",
+            "Fig. 4: profit-memory ratio",
+        ),
+        (
+            "fig5_profit_energy.png",
+            fig_methods,
+            "mean_per_energy",
+            "profit / energy",
+            "Fig. 5: profit-energy ratio",
+        ),
+    ]
+    for name, ms, measure, ylabel, title in figs:
+        _figure(summary, ms, measure, ylabel, title, out / name)
+        files.append(name)
+        md += [f"![{title}]({name})", ""]
+    if notes:
+        md += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+    md += [
+        "R: mean profit, F: mean observed targets, SD: sample standard deviation of the "
+        "profit, T: mean run time (s); bound: best proven upper bound; exact: profit and count "
+        f"of a proven optimum; t-test: one-tailed Welch test at {ALPHA} ('+': {target} "
+        f"significantly better than {baseline}).",
+        "",
+    ]
+    atomic_write_text(out / "report.md", "\n".join(md))
+    files.append("report.md")
+    return {"files": files, "notes": notes, "methods": summary.methods}
+
+
+def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``report`` to the ``sosp`` subcommands."""
+    p = subparsers.add_parser(
+        "report",
+        help="tables 3-4 and figures 2-5 of the paper from a results database",
+        description="Write the paper's tables (Markdown, CSV) and figures (PNG) from a "
+        "database made by sosp bench.",
+    )
+    p.add_argument("db", help="results database (sosp bench --db)")
+    p.add_argument("-o", "--output", default="report", help="output folder (report)")
+    p.add_argument("--method", default="asa-dtc", help="method whose improvement is measured")
+    p.add_argument("--baseline", default="asa-stc", help="method it is compared with")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_report)
+    return p
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """Handler of ``sosp report``."""
+    res = write_report(args.db, args.output, target=args.method, baseline=args.baseline)
+    res["output"] = args.output
+    if args.json:
+        sys.stdout.write(json.dumps(res) + "\n")
+    else:
+        text = f"wrote {len(res['files'])} files to {args.output}: {', '.join(res['files'])}"
+        for n in res["notes"]:
+            text += f"\nnote: {n}"
+        sys.stdout.write(text + "\n")
+    return 0

@@ -1,0 +1,170 @@
+"""``sosp report``: the tables' numbers equal those recomputed from the database's rows."""
+
+from __future__ import annotations
+
+import csv
+import json
+import sqlite3
+import statistics
+from pathlib import Path
+
+import pytest
+from scipy.stats import ttest_ind
+
+from sosp.campaign import Store, campaign_from_options
+from sosp.campaign.runner import run_campaign
+from sosp.cli import main
+from sosp.report import welch_greater
+
+# Synthetic profits of the ASA variants on B1 and C1 (the report does not care who made them).
+FAKE = {
+    ("B1", "asa-dtc"): [620.0, 624.0, 631.0],
+    ("B1", "asa-stc"): [610.0, 618.0, 612.0],
+    ("B1", "asa-nontc"): [600.0, 605.0, 601.0],
+    ("C1", "asa-dtc"): [500.0, 505.0, 499.0],
+    ("C1", "asa-stc"): [503.0, 506.0, 511.0],
+}
+
+
+def _fake_row(scenario: str, fp: str, method: str, seed: int, profit: float, **kw) -> dict:
+    row = {
+        "scenario": scenario,
+        "fingerprint": fp,
+        "method": method,
+        "params": "{}",
+        "seed": seed,
+        "time_limit": 5.0,
+        "status": "feasible",
+        "message": None,
+        "profit": profit,
+        "observed": int(profit // 6),
+        "bound": None,
+        "energy": 2 * profit,
+        "memory": profit + 10 * seed,
+        "runtime": 0.5 * seed,
+        "iterations": None,
+        "feasible": 1,
+        "verdict": "{}",
+        "schedule": "{}",
+        "version": "test",
+        "finished_at": "2026-01-01T00:00:00+00:00",
+    }
+    row.update(kw)
+    return row
+
+
+@pytest.fixture(scope="module")
+def db(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("report") / "r.db"
+    camp = campaign_from_options("B1,C1", "greedy", "1-3", "5")
+    with Store(path) as st:
+        run_campaign(camp, st, workers=1)
+        fps = {i["scenario"]: i["fingerprint"] for i in st.instances()}
+        for (s, m), profits in FAKE.items():
+            for seed, p in enumerate(profits, start=1):
+                st.put(_fake_row(s, fps[s], m, seed, p))
+        st.put(_fake_row("B1", fps["B1"], "milp", 1, 640.0, status="optimal", bound=640.0))
+        st.put(_fake_row("B1", fps["B1"], "asa-dtc", 9, 0.0, status="error", feasible=None))
+    return path
+
+
+def _db_profits(db: Path, scenario: str, method: str) -> list[float]:
+    con = sqlite3.connect(db)
+    try:
+        rows = con.execute(
+            "SELECT profit FROM runs WHERE scenario=? AND method=? AND status!='error' "
+            "AND feasible=1",
+            (scenario, method),
+        ).fetchall()
+    finally:
+        con.close()
+    return [r[0] for r in rows]
+
+
+def _read_csv(path: Path) -> dict[str, dict[str, str]]:
+    with path.open() as fh:
+        return {r["SN"]: r for r in csv.DictReader(fh)}
+
+
+def test_report_tables_match_the_database(db: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "rep"
+    argv = ["report", str(db), "-o", str(out), "--baseline", "asa-stc", "--json"]
+    assert main(argv) == 0
+    res = json.loads(capsys.readouterr().out)
+    for name in ("table3.md", "table3.csv", "table4.md", "table4.csv", "report.md"):
+        assert name in res["files"]
+    t3, t4 = _read_csv(out / "table3.csv"), _read_csv(out / "table4.csv")
+    assert set(t3) == {"B1"} and set(t4) == {"C1"}
+    con = sqlite3.connect(db)
+    en, tn = con.execute("SELECT en, tn FROM instances WHERE scenario='B1'").fetchone()
+    con.close()
+    assert (int(t3["B1"]["EN"]), int(t3["B1"]["TN"])) == (en, tn)
+    assert float(t3["B1"]["bound"]) == 640.0 and float(t3["B1"]["exact R"]) == 640.0
+    assert t4["C1"]["bound"] == "" and t4["C1"]["exact R"] == ""
+    for table, s in ((t3, "B1"), (t4, "C1")):
+        for m in ("greedy", "asa-dtc", "asa-stc"):
+            ps = _db_profits(db, s, m)
+            assert float(table[s][f"{m} R"]) == pytest.approx(statistics.mean(ps))
+            assert float(table[s][f"{m} SD"]) == pytest.approx(statistics.stdev(ps))
+        dtc, stc = _db_profits(db, s, "asa-dtc"), _db_profits(db, s, "asa-stc")
+        imp = (statistics.mean(dtc) - statistics.mean(stc)) / statistics.mean(stc)
+        col = "IMP (asa-dtc vs asa-stc)"
+        assert float(table[s][col]) == pytest.approx(imp)
+        p = ttest_ind(dtc, stc, equal_var=False, alternative="greater").pvalue
+        assert float(table[s]["p"]) == pytest.approx(p)
+        assert table[s]["t-test"] == ("+" if p < 0.05 else "")
+    assert t3["B1"]["t-test"] == "+" and t4["C1"]["t-test"] == ""  # B1 better, C1 worse
+    assert "asa-nontc R" not in t4["C1"] or t4["C1"]["asa-nontc R"] == ""
+    assert float(t3["B1"]["asa-dtc T (s)"]) == pytest.approx(1.0)  # the error row left out
+    md = (out / "table3.md").read_text()
+    assert "**640**" in md  # the best mean profit of the row in bold (milp)
+    report = (out / "report.md").read_text()
+    assert "1 failed run(s) left out" in report
+
+
+def test_report_figures_are_pngs_with_both_groups(db: Path, tmp_path: Path) -> None:
+    import matplotlib.image as mpimg
+
+    out = tmp_path / "rep"
+    assert main(["report", str(db), "-o", str(out)]) == 0
+    for name in (
+        "fig2_methods.png",
+        "fig3_clustering.png",
+        "fig4_profit_memory.png",
+        "fig5_profit_energy.png",
+    ):
+        img = mpimg.imread(out / name)
+        assert img.shape[1] > img.shape[0] > 100  # two panels side by side
+        assert img.std() > 0.01  # something drawn
+    assert not list(out.glob(".*"))  # no temp files left behind
+
+
+def test_report_degrades_without_the_asa_methods(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "g.db"
+    with Store(path) as st:
+        run_campaign(campaign_from_options("C2", "greedy", "1-2"), st, workers=1)
+    out = tmp_path / "rep"
+    assert main(["report", str(path), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "IMP and t-test omitted" in text and "Figures 3-5" in text
+    assert not (out / "table3.csv").exists()
+    header = (out / "table4.csv").read_text().splitlines()[0]
+    assert "IMP" not in header and "greedy R" in header
+    assert (out / "fig5_profit_energy.png").stat().st_size > 0
+
+
+def test_report_bad_input(tmp_path: Path, capsys) -> None:
+    assert main(["report", str(tmp_path / "none.db"), "-o", str(tmp_path / "o")]) == 2
+    assert "not found" in capsys.readouterr().err
+    empty = tmp_path / "e.db"
+    Store(empty).close()
+    assert main(["report", str(empty), "-o", str(tmp_path / "o")]) == 2
+    assert "no runs" in capsys.readouterr().err
+
+
+def test_welch_greater_edge_cases() -> None:
+    assert welch_greater([1.0], [0.0, 1.0]) != welch_greater([1.0], [0.0, 1.0])  # NaN
+    assert welch_greater([2.0, 2.0], [1.0, 1.0]) == 0.0
+    assert welch_greater([3.0, 4.0, 5.0], [1.0, 2.0, 3.0]) == pytest.approx(
+        ttest_ind([3, 4, 5], [1, 2, 3], equal_var=False, alternative="greater").pvalue
+    )
