@@ -1,0 +1,755 @@
+"""Russian Doll Search (RDS): the paper's exact baseline (RDS and RDS-STC, section 6.2).
+
+Russian Doll Search (Verfaillie, Lemaitre and Schiex, AAAI-96; used on SPOT5 by Bensana et al.,
+1999) is a depth-first branch and bound over 0/1 variables x_1..x_n (here: "item i is
+scheduled") that solves n nested subproblems in turn: P_n on the last variable, then P_{n-1}
+on the last two, ..., P_1 on all of them. The optimum ``opt[i]`` of P_i is kept, and while
+solving P_i the bound at a node that has decided x_i..x_{d-1} is
+
+    value so far + opt[d],
+
+since what the undecided variables x_d..x_n can add is at most the optimum of P_d. Two classic
+RDS refinements are used: a solution of P_i better than ``opt[i+1]`` must schedule item i, so
+P_i only searches the branch x_i = 1 (its incumbent starts at ``opt[i+1]``); and the search of
+P_i stops as soon as it reaches ``weight_i + opt[i+1]``, an upper bound of P_i.
+
+Items
+    ``rds``: single opportunities at their own roll (:func:`sosp.clustering.single_tasks`);
+    ``rds-stc``: static cluster-tasks (:func:`sosp.clustering.static_cluster_tasks`), the
+    paper's RDS-STC.
+Objective (1) with coverage semantics
+    the value of scheduling an item is the weight of its targets not yet covered. For single
+    opportunities this is exactly (2): an opportunity of a covered target is worth 0 and is
+    never scheduled (scheduling it would break (2)); for cluster-tasks a target shared by tasks
+    on several orbits counts once (``docs/model.md``).
+Why the RDS bounds stay valid under coverage
+    the value that items d..n can add given the covered set C is ``w(targets(S) minus C)`` for
+    the chosen set S, at most ``w(targets(S))``, the value of S in P_d alone; and S is
+    feasible in P_d because removing observations never breaks (3)-(6) (``docs/model.md``).
+    So the best completion is at most ``opt[d]`` (coverage is submodular).
+Constraints
+    (3)-(6) and (11) are checked incrementally with one
+    :class:`heuristics.timeline.OrbitTimeline` per orbit (insert on the way down, remove on
+    backtrack), including the consecutive slew term of (4).
+Variable order (``order``)
+    ``"orbit"`` (default): by orbit, then start time. Subproblems are then local: an item's
+    competitors for time and resources are its neighbours in the order, so ``opt[d]`` of the
+    suffix is close to what the prefix still allows, which is what makes RDS prune.
+    ``"weight"``: decreasing weight (ties by orbit and time), the other classic choice.
+Decomposition
+    items interact only through (3) (same orbit, close in time), the per-orbit knapsacks
+    (4)-(6) (same orbit) and shared targets. The connected components of that "interaction"
+    graph are independent problems whose optima add up, and each is solved by its own RDS.
+    The edges are those of :func:`sosp.conflicts.conflict_graph` (setup and target edges),
+    plus, on an orbit whose resources can bind, a chain linking all its items. An orbit's
+    resources cannot bind when even all its items together fit (4)-(5) (with every slew
+    counted as ``2|theta|/v``) and (6) holds for the largest (3)-compatible set (conflicts (3)
+    form an interval graph, so a greedy by end time finds it); such an orbit splits into
+    independent stretches of time. Branch and bound is exponential in the component size, so
+    splitting one problem of n items into k parts of n/k items is a very large gain.
+Time limit
+    on timeout the incumbent of each unfinished component is the better of its RDS incumbent
+    and a highest-weight-first insertion (:func:`heuristics.hpfs.insertion_decode`); the
+    status is ``time_limit`` and ``bound`` a proven upper bound (solved components give
+    their optimum, an interrupted one ``sum of weights before i + opt[i+1]``, an unstarted one
+    the weight of its targets). When every component finishes, the status is ``optimal`` and
+    ``bound`` equals the profit.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from heuristics.hpfs import insertion_decode
+from heuristics.timeline import EPS, OrbitTimeline
+from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.result import Result, Status
+from sosp.schedule import RollRule
+
+log = logging.getLogger(__name__)
+
+Order = Literal["orbit", "weight"]
+Variables = Literal["targets", "tasks"]
+
+#: Nodes between two clock reads.
+_CLOCK_EVERY = 2048
+
+
+class _Timeout(Exception):
+    """Raised inside the search when the deadline passes."""
+
+
+class _Done(Exception):
+    """Raised inside a subproblem's search when its upper bound is reached."""
+
+
+@dataclass
+class ComponentOutcome:
+    """What the search found on one independent component.
+
+    Attributes
+    ----------
+    items
+        The component's task indices in search order.
+    chosen
+        The best selection found (task indices).
+    value
+        Its value (objective (1) restricted to the component).
+    proven
+        True when ``value`` is the component's optimum.
+    bound
+        An upper bound on the component's optimum.
+    nodes
+        Search nodes visited.
+    seconds
+        Wall time spent on the component.
+    """
+
+    items: list[int]
+    chosen: list[int]
+    value: int
+    proven: bool
+    bound: int
+    nodes: int = 0
+    seconds: float = 0.0
+
+
+@dataclass
+class RdsOutcome:
+    """Result of :func:`russian_doll` over all components."""
+
+    chosen: list[int]
+    value: int
+    proven: bool
+    bound: int
+    components: list[ComponentOutcome] = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------- structure
+def orbit_resources_can_bind(instance: Instance, tasks: TaskSet, idx: np.ndarray) -> bool:
+    """Can (4), (5) or (6) cut a (3)-feasible subset of these tasks of one orbit?
+
+    False only when provably not: all tasks together fit memory (5) and energy (4) with every
+    consecutive slew bounded by ``(|theta_u| + |theta_v|)/v`` summed as ``2 sum |theta| / v``,
+    and the largest set without (3) conflicts has at most c members. (3) conflicts form an
+    interval graph (item u occupies ``[ts_u - |theta_u|/v, te_u + a + |theta_u|/v)``), so the
+    greedy by earliest interval end finds that largest set; it compares with a tolerance that
+    can only overcount, which keeps the answer conservative.
+    """
+    if idx.size == 0:
+        return False
+    j = int(tasks.orbit[idx[0]])
+    dur = float(np.sum(tasks.end[idx] - tasks.start[idx]))
+    absr = np.abs(tasks.roll[idx])
+    v, a = float(instance.slew_rate[j]), float(instance.setup_time[j])
+    if float(instance.memory_rate[j]) * dur > float(instance.memory_capacity[j]) - EPS:
+        return True
+    energy = (
+        float(instance.observe_energy_rate[j]) * dur
+        + float(instance.slew_energy_rate[j]) * 2.0 * float(absr.sum()) / v
+    )
+    if energy > float(instance.energy_capacity[j]) - EPS:
+        return True
+    c = int(instance.max_openings[j])
+    if idx.size <= c:
+        return False
+    lo = tasks.start[idx] - absr / v
+    hi = tasks.end[idx] + a + absr / v
+    count, last = 0, -np.inf
+    for k in np.argsort(hi, kind="stable"):
+        if lo[k] >= last - 4 * EPS:
+            count += 1
+            last = hi[k]
+            if count > c:
+                return True
+    return False
+
+
+def interaction_components(
+    instance: Instance, tasks: TaskSet, usable: np.ndarray
+) -> list[list[int]]:
+    """Independent groups of tasks (connected components of the interaction graph).
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    tasks
+        All tasks.
+    usable
+        Indices of the tasks that may be scheduled at all.
+
+    Returns
+    -------
+    list of list of int
+        Components as lists of task indices, smallest first.
+    """
+    import networkx as nx
+
+    from sosp.conflicts import conflict_graph
+
+    g = conflict_graph(instance, tasks, target_edges=True)
+    keep = set(int(t) for t in usable)
+    g.remove_nodes_from([t for t in list(g.nodes) if t not in keep])
+    for j in np.unique(tasks.orbit[usable]):
+        idx = np.asarray([t for t in usable if tasks.orbit[t] == j], dtype=np.int64)
+        if orbit_resources_can_bind(instance, tasks, idx):
+            nx.add_path(g, idx.tolist(), kind="resource")
+    comps = [sorted(c) for c in nx.connected_components(g)]
+    comps.sort(key=lambda c: (len(c), c[0]))
+    return comps
+
+
+def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
+    """The component's items in RDS variable order (see the module docstring)."""
+    if order == "orbit":
+        return sorted(items, key=lambda t: (tasks.orbit[t], tasks.start[t], tasks.end[t], t))
+    if order == "weight":
+        return sorted(items, key=lambda t: (-tasks.weight[t], tasks.orbit[t], tasks.start[t], t))
+    raise InputError(f"order: expected 'orbit' or 'weight', got {order!r}")
+
+
+# ------------------------------------------------------------------------------- search
+def rds_component(
+    instance: Instance,
+    tasks: TaskSet,
+    items: list[int],
+    deadline: float | None,
+    clock: Callable[[], float] = time.perf_counter,
+) -> ComponentOutcome:
+    """Russian Doll Search on one component, items already in variable order.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    tasks
+        All tasks (``items`` index into it).
+    items
+        The component's tasks in search order x_1..x_m.
+    deadline
+        ``clock()`` value at which to stop (None: no limit).
+    clock
+        The clock compared with ``deadline``.
+
+    Returns
+    -------
+    ComponentOutcome
+        ``proven`` is False when the deadline interrupted the search.
+    """
+    t0 = clock()
+    m = len(items)
+    tw = instance.target_weight
+    orb = [int(tasks.orbit[t]) for t in items]
+    st = [float(tasks.start[t]) for t in items]
+    en = [float(tasks.end[t]) for t in items]
+    ro = [float(tasks.roll[t]) for t in items]
+    tg = [tuple(int(k) for k in tasks.targets[t]) for t in items]
+    wt = [int(sum(int(tw[k]) for k in ks)) for ks in tg]
+    lines = {j: OrbitTimeline(instance, j) for j in set(orb)}
+    line_of = [lines[j] for j in orb]
+    cover: dict[int, int] = {k: 0 for ks in tg for k in ks}
+    opt = [0] * (m + 1)
+    stack: list[int] = []  # positions currently scheduled
+    state: dict[str, Any] = {"best": 0, "sel": [], "ub": 0, "nodes": 0}
+    incumbent: list[int] = []  # positions of the best selection of the last solved P_i
+
+    wts = [[int(tw[k]) for k in ks] for ks in tg]
+
+    def add(p: int, chk: Any) -> None:
+        line_of[p].insert(chk, st[p], en[p], ro[p], p)
+        for k in tg[p]:
+            cover[k] += 1
+        stack.append(p)
+
+    def undo(p: int) -> None:
+        line = line_of[p]
+        line.remove(line.items.index(p))
+        for k in tg[p]:
+            cover[k] -= 1
+        stack.pop()
+
+    def dfs(p: int, value: int) -> None:
+        # Decide x_p..x_m given the scheduled prefix; value is the profit so far.
+        while p < m:
+            if value + opt[p] <= state["best"]:
+                return  # the RDS bound: the rest adds at most opt[p]
+            state["nodes"] += 1
+            if state["nodes"] % _CLOCK_EVERY == 0 and deadline is not None:
+                if clock() > deadline:
+                    raise _Timeout
+            gain = 0
+            for k, w in zip(tg[p], wts[p], strict=True):
+                if cover[k] == 0:
+                    gain += w
+            if gain > 0:
+                chk = line_of[p].check_insert(st[p], en[p], ro[p])
+                if chk.ok:
+                    add(p, chk)
+                    nv = value + gain
+                    if nv > state["best"]:
+                        state["best"] = nv
+                        state["sel"] = list(stack)
+                        if nv >= state["ub"]:
+                            undo(p)
+                            raise _Done
+                    try:
+                        dfs(p + 1, nv)
+                    finally:
+                        undo(p)
+            p += 1  # x_p = 0: continue with the next variable (no recursion needed)
+
+    proven = True
+    interrupted_at = -1
+    try:
+        for i in range(m - 1, -1, -1):
+            # Subproblem P_i on positions i..m-1: improving on opt[i+1] needs x_i = 1.
+            state["best"] = opt[i + 1]
+            state["sel"] = None
+            state["ub"] = wt[i] + opt[i + 1]
+            chk = line_of[i].check_insert(st[i], en[i], ro[i])
+            if chk.ok and wt[i] > 0:
+                add(i, chk)
+                try:
+                    if wt[i] > state["best"]:
+                        state["best"] = wt[i]
+                        state["sel"] = [i]
+                    if state["best"] < state["ub"]:
+                        dfs(i + 1, wt[i])
+                except _Done:
+                    pass
+                except _Timeout:
+                    interrupted_at = i
+                    raise
+                finally:
+                    undo(i)
+            opt[i] = state["best"]
+            if state["sel"] is not None:
+                incumbent = state["sel"]
+    except _Timeout:
+        proven = False
+        # The best of the interrupted P_i is a feasible selection too.
+        if state["sel"] is not None:
+            incumbent = state["sel"]
+    chosen = [items[p] for p in incumbent]
+    value = _coverage_value(instance, tasks, chosen)
+    if proven:
+        bound = opt[0]
+    else:
+        i = interrupted_at
+        all_targets = sum(int(tw[k]) for k in cover)
+        bound = min(all_targets, sum(wt[: i + 1]) + opt[i + 1])
+    if proven and value != opt[0]:  # the incumbent is the selection that reached opt[0]
+        raise AssertionError(f"RDS bookkeeping: incumbent {value} != optimum {opt[0]}")
+    return ComponentOutcome(
+        items=list(items),
+        chosen=chosen,
+        value=value,
+        proven=proven,
+        bound=int(bound),
+        nodes=int(state["nodes"]),
+        seconds=clock() - t0,
+    )
+
+
+def rds_targets_component(
+    instance: Instance,
+    tasks: TaskSet,
+    items: list[int],
+    order: Order,
+    deadline: float | None,
+    clock: Callable[[], float] = time.perf_counter,
+) -> ComponentOutcome:
+    """Russian Doll Search on one component with one variable per target (SPOT5 style).
+
+    Variable x_k of target k takes as value a task covering k (its "domain", heaviest task
+    first) or "none"; a task is scheduled while some target is assigned to it. This is the
+    formulation of Bensana et al. on SPOT5 (photographs with their possible cameras) and the
+    default here: the suffix bound ``opt[q]`` is the optimum over targets q..n, which never
+    counts a target twice, so it stays tight when targets are seen from many orbits. Two
+    exact reductions: a target covered by an already scheduled task is assigned to it at no
+    cost (single branch); and in the "none" branch of target k the tasks covering k are
+    forbidden below it (a solution scheduling one of them is explored in the branch that
+    assigns k to it).
+
+    Parameters
+    ----------
+    instance, tasks, items, deadline, clock
+        As :func:`rds_component`; ``items`` are the component's tasks.
+    order
+        Target order: ``"orbit"`` by (orbit, start) of the target's earliest task in the
+        component, ``"weight"`` by decreasing weight.
+
+    Returns
+    -------
+    ComponentOutcome
+        ``proven`` is False when the deadline interrupted the search.
+    """
+    t0 = clock()
+    tw = instance.target_weight
+    by_target: dict[int, list[int]] = {}
+    for t in items:
+        for k in tasks.targets[t]:
+            by_target.setdefault(int(k), []).append(t)
+    first = {
+        k: min((int(tasks.orbit[t]), float(tasks.start[t]), t) for t in ts)
+        for k, ts in by_target.items()
+    }
+    if order == "weight":
+        tkeys = sorted(by_target, key=lambda k: (-int(tw[k]), first[k], k))
+    else:
+        tkeys = sorted(by_target, key=lambda k: (first[k], k))
+    n = len(tkeys)
+    wq = [int(tw[k]) for k in tkeys]
+    # Tasks become local ids 0..m-1; domains hold local ids, heaviest task first.
+    local = {t: i for i, t in enumerate(items)}
+    orb = [int(tasks.orbit[t]) for t in items]
+    st = [float(tasks.start[t]) for t in items]
+    en = [float(tasks.end[t]) for t in items]
+    ro = [float(tasks.roll[t]) for t in items]
+    dom = [
+        [
+            local[t]
+            for t in sorted(
+                by_target[k], key=lambda t: (-int(tasks.weight[t]), tasks.orbit[t], tasks.start[t])
+            )
+        ]
+        for k in tkeys
+    ]
+    lines = {j: OrbitTimeline(instance, j) for j in set(orb)}
+    line_of = [lines[j] for j in orb]
+    m = len(items)
+    on = [False] * m  # task scheduled
+    forbid = [0] * m  # > 0: excluded by a "none" branch above
+    opt = [0] * (n + 1)
+    stack: list[int] = []
+    state: dict[str, Any] = {"best": 0, "sel": None, "ub": 0, "nodes": 0}
+    incumbent: list[int] = []
+
+    def record(value: int) -> None:
+        if value > state["best"]:
+            state["best"] = value
+            state["sel"] = list(stack)
+            if value >= state["ub"]:
+                raise _Done
+
+    def dfs(q: int, value: int) -> None:
+        forbidden: list[int] = []
+        try:
+            while q < n:
+                if value + opt[q] <= state["best"]:
+                    return  # the RDS bound: targets q.. add at most opt[q]
+                state["nodes"] += 1
+                if deadline is not None and state["nodes"] % _CLOCK_EVERY == 0:
+                    if clock() > deadline:
+                        raise _Timeout
+                d = dom[q]
+                if any(on[t] for t in d):  # covered for free by a scheduled task
+                    value += wq[q]
+                    record(value)
+                    q += 1
+                    continue
+                for t in d:
+                    if forbid[t]:
+                        continue
+                    line = line_of[t]
+                    chk = line.check_insert(st[t], en[t], ro[t])
+                    if not chk.ok:
+                        continue
+                    line.insert(chk, st[t], en[t], ro[t], t)
+                    on[t] = True
+                    stack.append(t)
+                    try:
+                        record(value + wq[q])
+                        dfs(q + 1, value + wq[q])
+                    finally:
+                        stack.pop()
+                        on[t] = False
+                        line.remove(line.items.index(t))
+                # "none" for target q: its tasks stay out below this node
+                for t in d:
+                    forbid[t] += 1
+                    forbidden.append(t)
+                q += 1
+        finally:
+            for t in forbidden:
+                forbid[t] -= 1
+
+    proven = True
+    interrupted_at = -1
+    try:
+        for i in range(n - 1, -1, -1):
+            # P_i on targets i..n-1: improving on opt[i+1] needs target i covered.
+            state["best"] = opt[i + 1]
+            state["sel"] = None
+            state["ub"] = wq[i] + opt[i + 1]
+            try:
+                for t in dom[i]:
+                    line = line_of[t]
+                    chk = line.check_insert(st[t], en[t], ro[t])
+                    if not chk.ok:
+                        continue
+                    line.insert(chk, st[t], en[t], ro[t], t)
+                    on[t] = True
+                    stack.append(t)
+                    try:
+                        record(wq[i])
+                        dfs(i + 1, wq[i])
+                    finally:
+                        stack.pop()
+                        on[t] = False
+                        line.remove(line.items.index(t))
+            except _Done:
+                pass
+            except _Timeout:
+                interrupted_at = i
+                raise
+            opt[i] = state["best"]
+            if state["sel"] is not None:
+                incumbent = state["sel"]
+    except _Timeout:
+        proven = False
+        if state["sel"] is not None:
+            incumbent = state["sel"]
+    chosen = [items[t] for t in incumbent]
+    value = _coverage_value(instance, tasks, chosen)
+    if proven:
+        if value != opt[0]:
+            raise AssertionError(f"RDS bookkeeping: incumbent {value} != optimum {opt[0]}")
+        bound = opt[0]
+    else:
+        i = interrupted_at
+        bound = sum(wq[: i + 1]) + opt[i + 1]
+    return ComponentOutcome(
+        items=list(items),
+        chosen=chosen,
+        value=value,
+        proven=proven,
+        bound=int(bound),
+        nodes=int(state["nodes"]),
+        seconds=clock() - t0,
+    )
+
+
+def _coverage_value(instance: Instance, tasks: TaskSet, chosen: list[int]) -> int:
+    """Objective (1) of a selection, each target counted once."""
+    ks = {int(k) for t in chosen for k in tasks.targets[t]}
+    return int(sum(int(instance.target_weight[k]) for k in ks))
+
+
+def russian_doll(
+    instance: Instance,
+    tasks: TaskSet,
+    *,
+    time_limit: float | None = None,
+    order: Order = "orbit",
+    decompose: bool = True,
+    variables: Variables = "targets",
+) -> RdsOutcome:
+    """Solve the static problem over ``tasks`` exactly by Russian Doll Search.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    tasks
+        The atomic tasks (single opportunities or static cluster-tasks).
+    time_limit
+        Wall-time limit in seconds for the whole search (None: until proven).
+    order
+        Variable order, ``"orbit"`` or ``"weight"`` (module docstring).
+    decompose
+        Split into independent components of the interaction graph first.
+    variables
+        ``"targets"`` (default): one variable per target, valued by a task covering it or
+        none (:func:`rds_targets_component`); ``"tasks"``: one 0/1 variable per task
+        (:func:`rds_component`).
+
+    Returns
+    -------
+    RdsOutcome
+        The best selection, its value, whether it is proven optimal, and an upper bound.
+    """
+    clock = time.perf_counter
+    deadline = None if time_limit is None else clock() + float(time_limit)
+    if order not in ("orbit", "weight"):
+        raise InputError(f"order: expected 'orbit' or 'weight', got {order!r}")
+    if variables not in ("targets", "tasks"):
+        raise InputError(f"variables: expected 'targets' or 'tasks', got {variables!r}")
+    # Tasks that can never be scheduled: no weight, or infeasible alone ((4)-(6), (11)).
+    usable = []
+    for t in range(len(tasks)):
+        if tasks.weight[t] <= 0:
+            continue
+        line = OrbitTimeline(instance, int(tasks.orbit[t]))
+        if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
+            usable.append(t)
+    usable_arr = np.asarray(usable, dtype=np.int64)
+    if decompose:
+        comps = interaction_components(instance, tasks, usable_arr)
+    else:
+        comps = [usable] if usable else []
+    limit = sys.getrecursionlimit()
+    need = max((len(c) for c in comps), default=0) + 1000
+    if need > limit:
+        sys.setrecursionlimit(need)
+    outcomes: list[ComponentOutcome] = []
+    timed_out = False
+    for comp in comps:
+        items = search_order(tasks, comp, order)
+        if timed_out:
+            out = ComponentOutcome(items, [], 0, False, _coverage_value(instance, tasks, items))
+        else:
+            if variables == "targets":
+                out = rds_targets_component(instance, tasks, items, order, deadline, clock)
+            else:
+                out = rds_component(instance, tasks, items, deadline, clock)
+            timed_out = not out.proven
+        if not out.proven:
+            # Fall-back incumbent: highest weight first over the component.
+            greedy, gval = insertion_decode(
+                instance, tasks, sorted(items, key=lambda t: (-tasks.weight[t], t))
+            )
+            if gval > out.value:
+                out.chosen, out.value = greedy, gval
+        outcomes.append(out)
+    chosen = [t for o in outcomes for t in o.chosen]
+    value = sum(o.value for o in outcomes)
+    proven = all(o.proven for o in outcomes)
+    bound = sum(o.bound for o in outcomes)
+    if proven:
+        bound = value
+    return RdsOutcome(chosen, value, proven, bound, outcomes)
+
+
+# ------------------------------------------------------------------------------ methods
+def _result(method: str, instance: Instance, tasks: TaskSet, out: RdsOutcome) -> Result:
+    schedule = tasks_to_schedule(instance, tasks, out.chosen)
+    observed = sum(len(o.opps) for o in schedule.observations)
+    sizes = [len(c.items) for c in out.components]
+    stats = {
+        "tasks": len(tasks),
+        "components": len(out.components),
+        "largest_component": max(sizes, default=0),
+        "proven_components": sum(c.proven for c in out.components),
+        "nodes": sum(c.nodes for c in out.components),
+    }
+    status = Status.OPTIMAL if out.proven else Status.TIME_LIMIT
+    log.info(
+        "%s: %s, profit %d, bound %d, %d components (largest %d), %d nodes",
+        method,
+        status.value,
+        out.value,
+        out.bound,
+        stats["components"],
+        stats["largest_component"],
+        stats["nodes"],
+    )
+    return Result(
+        method,
+        status,
+        schedule,
+        float(out.value),
+        observed,
+        bound=float(out.bound),
+        stats=stats,
+    )
+
+
+def solve_rds(
+    instance: Instance,
+    *,
+    rng: np.random.Generator,
+    time_limit: float | None = None,
+    order: Order = "orbit",
+    decompose: bool = True,
+    variables: Variables = "targets",
+) -> Result:
+    """RDS over single opportunities at their own roll (no clustering): exact for (1)-(6).
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        Unused: the search is deterministic.
+    time_limit
+        Seconds; on timeout the status is ``time_limit`` with the incumbent and a bound.
+    order
+        Variable order, ``"orbit"`` (by orbit, then time) or ``"weight"``.
+    decompose
+        Solve independent components of the interaction graph separately.
+    variables
+        ``"targets"`` (one variable per target, default) or ``"tasks"`` (0/1 per task).
+
+    Returns
+    -------
+    Result
+        Status ``optimal`` (``bound`` = profit) or ``time_limit``; ``stats`` has the number of
+        components, the largest one and the search nodes.
+    """
+    del rng
+    tasks = single_tasks(instance)
+    out = russian_doll(
+        instance,
+        tasks,
+        time_limit=time_limit,
+        order=order,
+        decompose=decompose,
+        variables=variables,
+    )
+    return _result("rds", instance, tasks, out)
+
+
+def solve_rds_stc(
+    instance: Instance,
+    *,
+    rng: np.random.Generator,
+    time_limit: float | None = None,
+    order: Order = "orbit",
+    decompose: bool = True,
+    variables: Variables = "targets",
+    roll_rule: RollRule = "midpoint",
+) -> Result:
+    """RDS-STC: RDS over the static cluster-tasks (the paper's exact baseline, Tables 3-4).
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        Unused: the search is deterministic.
+    time_limit
+        Seconds; on timeout the status is ``time_limit`` with the incumbent and a bound.
+    order
+        Variable order, ``"orbit"`` or ``"weight"``.
+    decompose
+        Solve independent components of the interaction graph separately.
+    roll_rule
+        Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
+
+    Returns
+    -------
+    Result
+        As :func:`solve_rds`; optimal means optimal over these fixed cluster-tasks.
+    """
+    del rng
+    tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
+    out = russian_doll(
+        instance,
+        tasks,
+        time_limit=time_limit,
+        order=order,
+        decompose=decompose,
+        variables=variables,
+    )
+    return _result("rds-stc", instance, tasks, out)

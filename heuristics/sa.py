@@ -1,0 +1,256 @@
+"""Conventional simulated annealing over static cluster-tasks (SA-STC, paper section 6.3).
+
+The paper's SA baseline is "the simulated annealing algorithm incorporating the mutation
+operator called temperature-dependent swap, which performed best in Globus's tests" (Globus,
+Crawford, Lohn and Pryor, "A comparison of techniques for scheduling Earth observing
+satellites", AAAI/IAAI 2004), combined with static task clustering (STC).
+
+Representation and decoder
+    A solution is a permutation of the static cluster-tasks
+    (:func:`sosp.clustering.static_cluster_tasks`). It is decoded greedily, as in Globus et
+    al.: the tasks are taken in permutation order and each is inserted into its orbit's
+    timeline when it still adds profit (some target not yet covered: coverage semantics,
+    ``docs/model.md``) and (3)-(6), (11) stay satisfied
+    (:class:`heuristics.timeline.OrbitTimeline`). The fitness is objective (1) of the decoded
+    schedule. Tasks that can never be scheduled (zero weight, infeasible alone) are left out
+    of the permutation. The initial permutation is the HPFS order (decreasing weight), so
+    SA-STC starts from the HPFS-STC schedule.
+Temperature-dependent swap
+    two tasks are swapped whose distance in the permutation is drawn uniformly from
+    ``1..d(T)`` with ``d(T) = max(1, round((n - 1) * T / T0))``: at high temperature any two
+    tasks may swap (large jumps), as T falls the swaps become local (fine tuning).
+Acceptance and cooling
+    Metropolis: a move changing the profit by ``delta`` is accepted with probability
+    ``min(1, exp(delta / T))``. Geometric cooling ``T_k = T0 * alpha^k`` with
+    ``alpha = (T_final / T0)^(1 / iterations)``, so T reaches ``T_final`` at the last
+    iteration. Defaults: ``T0`` = the mean weight of a usable task (losing an average task is
+    accepted with probability 1/e at the start), ``T_final = T0 / 100``.
+Incremental decode (what a move costs)
+    swapping positions i < j leaves the decode of positions < i unchanged. The search keeps
+    the decoder state (timelines and coverage) at a "cursor" position and moves it to i by
+    removing or re-inserting only the tasks accepted in between (no feasibility checks), then
+    decodes from i. After position j both permutations have decoded the same set of tasks,
+    and as soon as the same subset is accepted (the state depends only on that subset) the
+    rest of the decode is the same as before, so it stops there. A local swap (low
+    temperature) costs O(j - i) checks plus the cursor move, instead of a full O(n) decode.
+    A rejected move is undone the same way. The returned schedule is re-decoded from scratch.
+Stopping
+    after ``iterations`` moves or at ``time_limit`` seconds, whichever comes first. The rng is
+    the only randomness: the same seed and iterations give the same schedule.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+
+from heuristics.hpfs import insertion_decode, priority_order
+from heuristics.timeline import OrbitTimeline
+from sosp.clustering import static_cluster_tasks, tasks_to_schedule
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.result import Result, Status
+from sosp.schedule import RollRule
+
+log = logging.getLogger(__name__)
+
+
+def swap_distance(n: int, temperature: float, t0: float) -> int:
+    """Largest swap distance at ``temperature``: ``max(1, round((n - 1) * T / T0))``."""
+    if n < 2:
+        return 0
+    return max(1, min(n - 1, int(round((n - 1) * temperature / t0))))
+
+
+def solve_sa_stc(
+    instance: Instance,
+    *,
+    rng: np.random.Generator,
+    time_limit: float | None = None,
+    iterations: int = 20000,
+    t0: float | None = None,
+    t_final: float | None = None,
+    roll_rule: RollRule = "midpoint",
+) -> Result:
+    """SA-STC: simulated annealing with temperature-dependent swaps over cluster-task orders.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        The only source of randomness (picks swaps and Metropolis draws).
+    time_limit
+        Wall-time limit in seconds (None: stop after ``iterations``).
+    iterations
+        Number of swap moves.
+    t0, t_final
+        Initial and final temperatures (defaults in the module docstring).
+    roll_rule
+        Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
+
+    Returns
+    -------
+    Result
+        Status ``feasible``; ``iterations`` moves done; ``stats`` holds temperatures, accepted
+        and improving moves and the iteration of the best schedule.
+    """
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 0:
+        raise InputError(f"iterations: expected a non-negative integer, got {iterations!r}")
+    clock = time.perf_counter
+    deadline = None if time_limit is None else clock() + float(time_limit)
+    tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
+    tw = instance.target_weight
+
+    usable = []
+    for t in priority_order(tasks):
+        if tasks.weight[t] <= 0:
+            continue
+        line = OrbitTimeline(instance, int(tasks.orbit[t]))
+        if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
+            usable.append(int(t))
+    n = len(usable)
+    if t0 is None:
+        t0 = float(np.mean(tasks.weight[usable])) if n else 1.0
+    if t_final is None:
+        t_final = t0 / 100.0
+    if not (t0 > 0 and 0 < t_final <= t0):
+        raise InputError(f"t0, t_final: need 0 < t_final <= t0, got {t0!r}, {t_final!r}")
+    alpha = (t_final / t0) ** (1.0 / max(iterations, 1))
+
+    # Per-task data as Python lists (the inner loops are scalar).
+    orb = [int(x) for x in tasks.orbit]
+    st = [float(x) for x in tasks.start]
+    en = [float(x) for x in tasks.end]
+    ro = [float(x) for x in tasks.roll]
+    tg = [tuple(int(k) for k in ks) for ks in tasks.targets]
+    twl = [int(x) for x in tw]
+    lines = {j: OrbitTimeline(instance, j) for j in set(orb[t] for t in usable)}
+    cover = [0] * instance.n_targets
+
+    perm = list(usable)
+    acc = [False] * len(tasks)  # accepted in the decode of ``perm``
+    gain = [0] * len(tasks)  # its profit contribution there
+
+    def put(t: int) -> None:
+        line = lines[orb[t]]
+        line.insert(line.check_insert(st[t], en[t], ro[t]), st[t], en[t], ro[t], t)
+        for k in tg[t]:
+            cover[k] += 1
+
+    def take(t: int) -> None:
+        line = lines[orb[t]]
+        line.remove(line.items.index(t))
+        for k in tg[t]:
+            cover[k] -= 1
+
+    # Initial decode (HPFS order) leaves the cursor at n.
+    total = 0
+    for t in perm:
+        g = sum(twl[k] for k in tg[t] if cover[k] == 0)
+        if g > 0:
+            line = lines[orb[t]]
+            chk = line.check_insert(st[t], en[t], ro[t])
+            if chk.ok:
+                line.insert(chk, st[t], en[t], ro[t], t)
+                for k in tg[t]:
+                    cover[k] += 1
+                acc[t], gain[t] = True, g
+                total += g
+    cursor = n
+    best_total, best_perm, best_iter = total, list(perm), 0
+    temperature = t0
+    accepted = improved = 0
+    it = 0
+    new_acc: list[bool] = []
+    new_gain: list[int] = []
+
+    while it < iterations and n >= 2:
+        if deadline is not None and (it & 63) == 0 and clock() > deadline:
+            break
+        it += 1
+        dist = int(rng.integers(1, swap_distance(n, temperature, t0) + 1))
+        i = int(rng.integers(0, n - dist))
+        j = i + dist
+        # Move the cursor to i (state = accepted tasks of positions < i).
+        if cursor > i:
+            for p in range(cursor - 1, i - 1, -1):
+                if acc[perm[p]]:
+                    take(perm[p])
+        else:
+            for p in range(cursor, i):
+                if acc[perm[p]]:
+                    put(perm[p])
+        perm[i], perm[j] = perm[j], perm[i]
+        # Decode from i until the accepted subset matches the old one again after j.
+        diff = 0
+        delta = 0
+        new_acc.clear()
+        new_gain.clear()
+        p = i
+        while p < n:
+            t = perm[p]
+            g = 0
+            for k in tg[t]:
+                if cover[k] == 0:
+                    g += twl[k]
+            ok = False
+            if g > 0:
+                line = lines[orb[t]]
+                chk = line.check_insert(st[t], en[t], ro[t])
+                if chk.ok:
+                    line.insert(chk, st[t], en[t], ro[t], t)
+                    for k in tg[t]:
+                        cover[k] += 1
+                    ok = True
+            if not ok:
+                g = 0
+            new_acc.append(ok)
+            new_gain.append(g)
+            if ok != acc[t]:
+                diff += 1
+            delta += g - gain[t]
+            p += 1
+            if p > j and diff == 0:
+                break
+        end = p
+        if delta >= 0 or rng.random() < math.exp(delta / temperature):
+            accepted += 1
+            for q in range(i, end):
+                t = perm[q]
+                acc[t], gain[t] = new_acc[q - i], new_gain[q - i]
+            cursor = end
+            total += delta
+            if total > best_total:
+                improved += 1
+                best_total, best_perm, best_iter = total, list(perm), it
+        else:
+            for q in range(end - 1, i - 1, -1):
+                if new_acc[q - i]:
+                    take(perm[q])
+            perm[i], perm[j] = perm[j], perm[i]
+            cursor = i
+        temperature *= alpha
+
+    chosen, profit = insertion_decode(instance, tasks, best_perm)
+    if profit != best_total:
+        log.warning("sa-stc: re-decoded profit %d differs from tracked %d", profit, best_total)
+    schedule = tasks_to_schedule(instance, tasks, chosen)
+    observed = sum(len(o.opps) for o in schedule.observations)
+    stats = {
+        "tasks": len(tasks),
+        "usable_tasks": n,
+        "t0": t0,
+        "t_final": t_final,
+        "temperature_end": temperature,
+        "accepted_moves": accepted,
+        "improving_moves": improved,
+        "best_iteration": best_iter,
+    }
+    log.info("sa-stc: profit %d after %d iterations (best at %d)", profit, it, best_iter)
+    return Result(
+        "sa-stc", Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
+    )
