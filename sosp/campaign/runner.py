@@ -217,7 +217,7 @@ def plan(campaign: Campaign, store: Store, retry_failed: bool = False) -> Plan:
             if m.label not in usable:
                 continue
             for tl in m.time_limits or campaign.time_limits:
-                for seed in campaign.seeds:
+                for seed in m.seeds or campaign.seeds:
                     runs.append(
                         RunSpec(
                             scenario=sc.label,

@@ -14,6 +14,7 @@ A campaign comes from command-line options or from a TOML file (parsed with :mod
     name = "milp"
     params = { model = "cluster" }
     time_limits = [600]                              # optional, overrides the campaign's
+    seeds = [1]                                      # optional, overrides the campaign's
 
     [[methods]]
     name = "asa-dtc"
@@ -50,7 +51,7 @@ _CAMPAIGN_KEYS = {
     "skip_unavailable",
     "workers",
 }
-_METHOD_KEYS = {"name", "params", "time_limits", "time_limit"}
+_METHOD_KEYS = {"name", "params", "time_limits", "time_limit", "seeds"}
 
 
 def canonical_params(params: Mapping[str, Any]) -> str:
@@ -68,6 +69,7 @@ class MethodSpec:
     name: str
     params: Mapping[str, Any] = field(default_factory=dict)
     time_limits: tuple[float, ...] | None = None
+    seeds: tuple[int, ...] | None = None
 
     @property
     def label(self) -> str:
@@ -140,8 +142,8 @@ class Campaign:
         """Number of runs in the grid."""
         n = 0
         for m in self.methods:
-            n += len(m.time_limits or self.time_limits)
-        return n * len(self.scenarios) * len(self.seeds)
+            n += len(m.time_limits or self.time_limits) * len(m.seeds or self.seeds)
+        return n * len(self.scenarios)
 
 
 # --------------------------------------------------------------------------- parsing helpers
@@ -254,7 +256,8 @@ def _method_from_table(rec: Any, where: str) -> MethodSpec:
         tl = parse_time_limits(
             rec.get("time_limits", rec.get("time_limit")), f"{where}.time_limits"
         )
-    return MethodSpec(name, dict(params), tl)
+    seeds = parse_seeds(rec["seeds"], f"{where}.seeds") if "seeds" in rec else None
+    return MethodSpec(name, dict(params), tl, seeds)
 
 
 def parse_scenarios(

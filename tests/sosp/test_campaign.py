@@ -247,23 +247,37 @@ def test_dry_run_counts_pending(
     assert _rows(db) == rows
 
 
-def test_unavailable_methods_are_skipped_only_when_asked(tmp_path: Path) -> None:
+def test_unavailable_methods_are_skipped_only_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
     from sosp.campaign import campaign_from_dict
     from sosp.campaign.runner import check_methods
-    from sosp.solve import METHODS, available_methods
 
-    missing = [m for m in METHODS if m not in available_methods()]
-    if not missing:
-        pytest.skip("every registered method is installed")
+    solve_mod = importlib.import_module("sosp.solve")
+    monkeypatch.setitem(solve_mod.METHODS, "notyet", "heuristics.not_written_yet:solve")
     data = {
         "campaign": {"scenarios": ["B1"], "seeds": 1, "skip_unavailable": True},
-        "methods": ["greedy", missing[0]],
+        "methods": ["greedy", "notyet"],
     }
     usable, skipped = check_methods(campaign_from_dict(data))
-    assert usable == ["greedy"] and skipped == [missing[0]]
+    assert usable == ["greedy"] and skipped == ["notyet"]
     data["campaign"]["skip_unavailable"] = False
     with pytest.raises(InputError, match="not available"):
         check_methods(campaign_from_dict(data))
+
+
+def test_per_method_seeds_and_time_limits(tmp_path: Path, inst_files: list[str]) -> None:
+    from sosp.campaign import campaign_from_dict
+
+    data = {
+        "campaign": {"scenarios": [inst_files[0]], "seeds": "1-3", "time_limits": 2},
+        "methods": [{"name": "greedy", "seeds": [7], "time_limits": [1, 4]}, "hpfs-stc"],
+    }
+    c = campaign_from_dict(data)
+    assert c.size() == 2 + 3
+    with Store(tmp_path / "r.db") as st:
+        assert run_campaign(c, st, workers=1).ran == 5
+        keys = sorted((r["method"], r["seed"], r["time_limit"]) for r in st.rows())
+    assert keys[:2] == [("greedy", 7, 1.0), ("greedy", 7, 4.0)]
+    assert keys[2:] == [("hpfs-stc", s, 2.0) for s in (1, 2, 3)]
 
 
 def test_status_values_are_known() -> None:
