@@ -1,0 +1,411 @@
+"""The two neighbourhood structures of section 5.1 and the initial solution of 5.4.
+
+Every function changes the :class:`~heuristics.asa.state.State` in place inside a journal
+(``state.begin()`` was called by the caller), so the caller can evaluate the profit change and
+either commit or roll back.
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+
+from heuristics.asa.params import ASAParams
+from heuristics.asa.problem import EPS
+from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, OrbitLine, State
+from heuristics.asa.tabu import TabuList
+
+#: Which neighbourhood: index into the selector's probabilities.
+INSERTION, MIGRATION = 0, 1
+
+
+# --------------------------------------------------------------------------- clustering test
+def clustering_gain(
+    state: State, line: OrbitLine, c: Cluster, x: int, params: ASAParams
+) -> tuple[float, Cluster] | None:
+    r"""Can option ``x`` join cluster-task ``c`` by (7), (11) and (16)? Returns (saving, new).
+
+    (7): the common roll range (8) of ``c`` and ``x`` is not empty. (11): the new window (10)
+    is at most Delta T. (16), with u the new cluster-task and h = c:
+
+    .. math::
+        \alpha\, ec + \beta\, wc < \alpha\, en + \beta\, wn,\qquad
+        en = eo(d_c + d_x) + es(|\theta_c| + |\theta_x|)/v,\; wn = w(d_c + d_x),
+        ec = eo(te_u - ts_u) + es|\theta_u|/v,\; wc = w(te_u - ts_u)      \quad (12)-(16)
+
+    with :math:`\alpha = ConE/E`, :math:`\beta = ConW/W` of the orbit. As section 4.2 says,
+    (16) only judges tasks that could also be observed one after the other: when ``x`` and
+    ``c`` are exclusive by (3), clustering is always worth it and (16) is not applied.
+    When both are 0 the
+    test is degenerate (``0 < 0``); ``params.rule16_empty`` picks the reading (see
+    ``docs/asa.md``). The saving is the right side minus the left side (capacity-normalised,
+    ``alpha = 1/E, beta = 1/W``, when (16) is switched off); larger is better.
+    """
+    pb = state.pb
+    lo = max(c[LO], pb.opt_lo[x])
+    hi = min(c[HI], pb.opt_hi[x])
+    if lo > hi:
+        return None  # (7)
+    s = min(c[START], pb.opt_start[x])
+    e = max(c[END], pb.opt_end[x])
+    p = line.p
+    if e - s > p.dT + EPS:
+        return None  # (11)
+    new = state.cluster_with(c, x)
+    span = e - s
+    d_sep = (c[END] - c[START]) + (pb.opt_end[x] - pb.opt_start[x])
+    en = p.eo * d_sep + p.es * (abs(c[ROLL]) + abs(pb.opt_roll[x])) / p.v
+    wn = p.w * d_sep
+    ec = p.eo * span + p.es * abs(new[ROLL]) / p.v
+    wc = p.w * span
+    alpha = line.energy / p.E if p.E > 0 else 0.0
+    beta = line.memory / p.W if p.W > 0 else 0.0
+    # (16) only judges tasks that could also be done one after the other (section 4.2):
+    # tasks exclusive by (3) are always worth clustering.
+    slew = p.a + (abs(c[ROLL]) + abs(pb.opt_roll[x])) / p.v
+    if pb.opt_start[x] >= c[START]:
+        separable = c[END] + slew <= pb.opt_start[x] + EPS
+    else:
+        separable = pb.opt_end[x] + slew <= c[START] + EPS
+    if not separable:
+        if alpha == 0.0 and beta == 0.0:
+            alpha = 1.0 / p.E if p.E > 0 else 0.0
+            beta = 1.0 / p.W if p.W > 0 else 0.0
+        return alpha * (en - ec) + beta * (wn - wc), new
+    if not params.rule16 or (alpha == 0.0 and beta == 0.0):
+        mode = "capacity" if not params.rule16 else params.rule16_empty
+        if mode == "never":
+            return None
+        alpha = 1.0 / p.E if p.E > 0 else 0.0
+        beta = 1.0 / p.W if p.W > 0 else 0.0
+        saving = alpha * (en - ec) + beta * (wn - wc)
+        if mode == "always" or not params.rule16:
+            return saving, new
+        return (saving, new) if saving > 0 else None
+    saving = alpha * (en - ec) + beta * (wn - wc)
+    return (saving, new) if saving > 0 else None
+
+
+# ------------------------------------------------------------------------------ insertion
+def insert_options(
+    state: State, options: list[int], params: ASAParams, protect: bool = True
+) -> int:
+    """Steps 2-7 of the insertion neighbourhood for one task, over the given options.
+
+    Step 2-5: among the clustering-insertion opportunities (an option that can join a
+    scheduled cluster-task by (7), (11), (16)) take the one on the orbit with most resources
+    left, ``(E - ConE)/E + (W - ConW)/W``; on that orbit join the cluster-task with the
+    largest saving in (16). Step 6: otherwise insert the option of the orbit with most
+    resources left alone. Step 7: :func:`repair` the orbit, keeping the inserted option.
+
+    Returns the option inserted, or -1 when the repair could not restore feasibility (the
+    caller rolls back).
+    """
+    pb = state.pb
+    lines = state.lines
+    feasible_first = params.option_rule == "feasible-first"
+    best = None  # (key, x, pos or -1, new cluster or None)
+    for idx, x in enumerate(options):
+        line = lines[pb.opt_orbit[x]]
+        share = line.free_share()
+        found = None
+        if pb.clustering and line.obs:
+            for pos, c in enumerate(line.obs):
+                g = clustering_gain(state, line, c, x, params)
+                if g is None:
+                    continue
+                fits = feasible_first and line.check_replace(pos, g[1])
+                cand = (fits, g[0], pos, g[1])
+                if found is None or cand[:2] > found[:2]:
+                    found = cand
+        if found is not None:
+            # Clustering insertion (steps 3-5) ranks before isolated insertion (step 6).
+            key = (found[0], 1, share, -idx)
+            item = (key, x, found[2], found[3])
+        else:
+            fits = feasible_first and line.check_insert(state.make_cluster((x,)))
+            key = (fits, 0, share, -idx)
+            item = (key, x, -1, None)
+        if best is None or item[0] > best[0]:
+            best = item
+    if best is None:
+        return -1
+    _, x, pos, new = best
+    line = state.touch(pb.opt_orbit[x])
+    if new is not None:
+        line.replace(pos, new)
+    else:
+        line.insert(state.make_cluster((x,)))
+    state.assign(pb.opt_unit[x], x)
+    if not repair(state, pb.opt_orbit[x], x if protect else -1):
+        return -1
+    return x
+
+
+def _ends(c: Cluster, pb) -> tuple[int, ...]:
+    """End components of a cluster-task: earliest start and latest end (5.1, step 7)."""
+    m = c[MEMBERS]
+    if len(m) == 1:
+        return m
+    first = m[0]
+    last = max(m, key=lambda y: (pb.opt_end[y], pb.opt_start[y], y))
+    return (first,) if last == first else (first, last)
+
+
+def remove_member(state: State, j: int, pos: int, x: int) -> None:
+    """Remove option x from the cluster-task at ``pos`` of orbit j, recomputing it (8)-(10)."""
+    line = state.touch(j)
+    line.replace(pos, state.cluster_without(line.obs[pos], x))
+    state.unassign(state.pb.opt_unit[x])
+
+
+def _removal_score(state: State, line: OrbitLine, pos: int, x: int) -> tuple[float, float, int]:
+    """(resource use freed, profit lost, openings freed) if x leaves the cluster at pos."""
+    c = line.obs[pos]
+    new = state.cluster_without(c, x)
+    if new is not None and not (
+        (pos == 0 or line.obs[pos - 1][START] <= new[START])
+        and (pos + 1 == len(line.obs) or new[START] <= line.obs[pos + 1][START])
+    ):
+        # Shrinking reorders the line (only in a transient conflict): estimate by the window.
+        d_obs, d_slew = -((c[END] - c[START]) - (new[END] - new[START])), 0.0
+    else:
+        d_obs, d_slew = line.delta_replace(pos, new)
+    p = line.p
+    d_e = -(p.eo * d_obs + p.es * d_slew)
+    d_w = -(p.w * d_obs)
+    use = (d_e / p.E if p.E > 0 else 0.0) + (d_w / p.W if p.W > 0 else 0.0)
+    return use, state.loss(state.pb.opt_unit[x]), 1 if new is None else 0
+
+
+def repair(state: State, j: int, protect: int = -1) -> bool:
+    """Step 7: restore (3), then (4)-(6), on orbit j, never removing option ``protect``.
+
+    (3): while two consecutive cluster-tasks clash, trim the one not holding ``protect`` at the
+    facing end (the left one loses its latest-ending component, the right one its earliest);
+    if neither holds it, trim the one with the larger resource use per unit of profit.
+    (4)-(6): while a capacity is exceeded, remove one end component (earliest or latest window
+    of a cluster-task; the whole task when it is alone) with the largest resource use per
+    profit lost, ``((dE)/E + (dW)/W [+ 1/c when (6) binds]) / loss``, among those freeing a
+    resource that is exceeded. Each removal recomputes the cluster-task by (8)-(10).
+
+    Returns False when nothing removable is left and the orbit is still infeasible.
+    """
+    pb = state.pb
+    line = state.lines[j]
+    while True:
+        p = line.first_conflict()
+        if p >= 0:
+            left, right = line.obs[p], line.obs[p + 1]
+            lx = max(left[MEMBERS], key=lambda y: (pb.opt_end[y], pb.opt_start[y], y))
+            rx = right[MEMBERS][0]
+            if protect in left[MEMBERS]:
+                choice = (p + 1, rx)
+            elif protect in right[MEMBERS]:
+                choice = (p, lx)
+            else:
+                sl = _removal_score(state, line, p, lx)
+                sr = _removal_score(state, line, p + 1, rx)
+                kl = sl[0] / sl[1] if sl[1] > 0 else float("inf")
+                kr = sr[0] / sr[1] if sr[1] > 0 else float("inf")
+                choice = (p, lx) if kl >= kr else (p + 1, rx)
+            if choice[1] == protect:
+                return False
+            remove_member(state, j, choice[0], choice[1])
+            continue
+        over_e, over_w, over_c = line.over()
+        if not (over_e or over_w or over_c):
+            return True
+        best = None
+        fallback = None
+        cap = line.p.c
+        for pos, c in enumerate(line.obs):
+            for x in _ends(c, pb):
+                if x == protect:
+                    continue
+                use, lost, opened = _removal_score(state, line, pos, x)
+                if over_c and cap > 0:
+                    use += opened / cap
+                key = use / lost if lost > 0 else float("inf")
+                frees = (over_e or over_w) and use > 0 or (over_c and opened)
+                item = (key, -pos, -x, pos, x)
+                if frees and (best is None or item > best):
+                    best = item
+                if fallback is None or item > fallback:
+                    fallback = item
+        pick = best if best is not None else fallback
+        if pick is None:
+            return False
+        remove_member(state, j, pick[3], pick[4])
+
+
+# --------------------------------------------------------------------- task choice (step 1)
+def choose_unscheduled(
+    state: State, rng: np.random.Generator, pool: int, tabu: TabuList | None
+) -> int:
+    """Step 1 of the insertion neighbourhood: the heaviest unscheduled non-tabu task.
+
+    The paper's rule is deterministic; to avoid retrying one rejected move forever we draw by
+    roulette, with probability proportional to weight, among the ``pool`` heaviest
+    unscheduled non-tabu tasks (``pool = 1`` is the literal rule). For STC a task whose
+    targets are all covered already adds nothing and is skipped. Returns -1 if none.
+    """
+    pb = state.pb
+    cand: list[int] = []
+    wts: list[float] = []
+    stc = pb.mode == "stc"
+    for r in state.unscheduled:
+        u = state.rank_unit[r]
+        if tabu is not None and u in tabu:
+            continue
+        w = state.gain(u) if stc else pb.unit_weight[u]
+        if w <= 0:
+            continue
+        cand.append(u)
+        wts.append(w)
+        if len(cand) >= pool:
+            break
+    if not cand:
+        return -1
+    if len(cand) == 1:
+        return cand[0]
+    total = sum(wts)
+    z = rng.random() * total
+    acc = 0.0
+    for u, w in zip(cand, wts, strict=True):
+        acc += w
+        if z < acc:
+            return u
+    return cand[-1]
+
+
+def insertion_move(
+    state: State, rng: np.random.Generator, params: ASAParams, tabu: TabuList | None
+) -> bool:
+    """The insertion and removal neighbourhood (5.1 (1), steps 1-7). False: no move."""
+    u = choose_unscheduled(state, rng, params.pool, tabu)
+    if u < 0:
+        return False
+    return insert_options(state, state.pb.unit_options[u], params) >= 0
+
+
+# -------------------------------------------------------------------------------- migration
+def choose_migrating(state: State, rng: np.random.Generator, pool: int) -> int:
+    """Step 1 of migration: a scheduled task with many setup-time conflicting tasks.
+
+    Candidates are scheduled units with somewhere to go (another option); the score of a unit
+    is the number of its option's neighbours in the (3) conflict graph. Roulette by score
+    among the ``pool`` highest (``pool = 1``: the literal rule). Returns -1 if none.
+    """
+    pb = state.pb
+    sched = state.sched
+    items = []
+    for u in state.scheduled:
+        x = sched[u]
+        if pb.alternatives[x]:
+            items.append((len(pb.conflicts[x]), -u))
+    if not items:
+        return -1
+    top = heapq.nlargest(pool, items)
+    if len(top) == 1:
+        return -top[0][1]
+    total = sum(s for s, _ in top)
+    if total <= 0:
+        return -top[int(rng.integers(len(top)))][1]
+    z = rng.random() * total
+    acc = 0.0
+    for s, mu in top:
+        acc += s
+        if z < acc:
+            return -mu
+    return -top[-1][1]
+
+
+def try_insert_feasible(state: State, x: int, params: ASAParams) -> bool:
+    """Insert option x only if (3)-(6) stay met (clustering first, by (7), (11), (16))."""
+    pb = state.pb
+    j = pb.opt_orbit[x]
+    line = state.lines[j]
+    if pb.clustering and line.obs:
+        best = None
+        for pos, c in enumerate(line.obs):
+            g = clustering_gain(state, line, c, x, params)
+            if g is not None and line.check_replace(pos, g[1]):
+                if best is None or g[0] > best[0]:
+                    best = (g[0], pos, g[1])
+        if best is not None:
+            state.touch(j).replace(best[1], best[2])
+            state.assign(pb.opt_unit[x], x)
+            return True
+    single = state.make_cluster((x,))
+    if line.check_insert(single):
+        state.touch(j).insert(single)
+        state.assign(pb.opt_unit[x], x)
+        return True
+    return False
+
+
+def migration_move(
+    state: State, rng: np.random.Generator, params: ASAParams, tabu: TabuList | None
+) -> bool:
+    """The task migration neighbourhood (5.1 (2), steps 1-4). False: no move.
+
+    1. choose a scheduled task with many setup-time conflicting tasks (:func:`choose_migrating`);
+    2. remove it from its opportunity and insert it (DTC, NONTC) — or, for STC, the static
+       task of another orbit sharing its targets — at another opportunity by clustering or
+       isolated insertion, then repair that orbit (steps 2 and 4);
+    3. on the freed orbit, insert its unscheduled, non-tabu setup-time conflicting tasks by
+       decreasing weight while they fit, stopping at the first that does not (step 3);
+    4. repair the freed orbit (step 4).
+    """
+    pb = state.pb
+    u = choose_migrating(state, rng, params.migration_pool)
+    if u < 0:
+        return False
+    x_old = state.sched[u]
+    j_old = pb.opt_orbit[x_old]
+    line = state.lines[j_old]
+    remove_member(state, j_old, line.find(x_old), x_old)
+    # Removing a component can move a cluster's midpoint roll: re-check the freed orbit.
+    if not repair(state, j_old):
+        return False
+    if pb.mode == "stc":
+        targets = [y for y in pb.alternatives[x_old] if state.sched[pb.opt_unit[y]] < 0]
+        targets = [y for y in targets if tabu is None or pb.opt_unit[y] not in tabu]
+    else:
+        targets = pb.alternatives[x_old]
+    if not targets or insert_options(state, targets, params) < 0:
+        return False
+    # Step 3: the freed resources go to u's unscheduled setup-time conflicting tasks.
+    cands = [
+        y
+        for y in pb.conflicts[x_old]
+        if state.sched[pb.opt_unit[y]] < 0
+        and (tabu is None or pb.opt_unit[y] not in tabu)
+        and state.gain(pb.opt_unit[y]) > 0
+    ]
+    cands.sort(key=lambda y: (-state.gain(pb.opt_unit[y]), y))
+    for y in cands:
+        if state.sched[pb.opt_unit[y]] >= 0:
+            continue  # another option of this unit went in meanwhile
+        if not try_insert_feasible(state, y, params):
+            break
+    return repair(state, j_old)
+
+
+# --------------------------------------------------------------------------- initial (5.4)
+def initial_solution(state: State, params: ASAParams) -> None:
+    """Section 5.4: every task in decreasing weight goes through the insertion neighbourhood;
+    the partial solution is kept only when it improves."""
+    pb = state.pb
+    for u in list(state.rank_unit):
+        if state.sched[u] >= 0 or state.gain(u) <= 0:
+            continue
+        before = state.profit
+        state.begin()
+        x = insert_options(state, pb.unit_options[u], params)
+        if x >= 0 and state.profit > before + 1e-12:
+            state.commit()
+        else:
+            state.rollback()

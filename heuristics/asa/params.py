@@ -1,0 +1,183 @@
+"""Parameters of ASA-DTC and its variants (Table 2 of the paper as defaults)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+from sosp.errors import InputError
+
+#: Accepted values of the string switches.
+ROLL_RULES = ("midpoint", "nadir")
+RULE16_EMPTY = ("capacity", "always", "never")
+R_UPDATES = ("accepted", "generated")
+OPTION_RULES = ("resources", "feasible-first")
+
+
+@dataclass(frozen=True)
+class ASAParams:
+    """Every tunable of the search; each can be overridden by a keyword of the solve functions.
+
+    Parameters
+    ----------
+    lambda_min
+        Minimum temperature lambda_min of (21) (Table 2: 0.5).
+    rho
+        Weight coefficient rho of (21) (Table 2: 1).
+    delta
+        Rising-rate coefficient delta of (21) (Table 2: 10).
+    eta
+        Inertial weight eta of (17) (Table 2: 0.8).
+    itr
+        Iterations between two updates (17)-(18) of the neighbourhood probabilities (Table 2: 10).
+    pro1, pro2
+        Initial probabilities of the insertion-removal and the migration neighbourhoods
+        (Table 2: 0.5 each); normalised by (18).
+    tabu_length
+        L, length of the FIFO tabu list; ``None`` gives ``max(1, N // 50)`` with N the number of
+        observable tasks (5.3).
+    pool
+        Step 1 of the insertion neighbourhood: roulette by weight among the ``pool`` heaviest
+        unscheduled non-tabu tasks. ``1`` is the paper's literal deterministic rule.
+    migration_pool
+        Step 1 of the migration neighbourhood: roulette by number of setup-time conflicts among
+        the ``migration_pool`` scheduled tasks with most of them. ``1`` is deterministic.
+    roll_rule
+        Roll of a cluster-task inside its common range: ``"midpoint"`` (9) or ``"nadir"``.
+    rule16
+        Apply the effectiveness test (16) to clustering insertion (``False``: (7), (11) only).
+    rule16_empty
+        Reading of (16) when the orbit has consumed nothing (alpha = beta = 0, degenerate):
+        ``"capacity"`` uses alpha = 1/E, beta = 1/W; ``"always"`` lets clustering pass;
+        ``"never"`` keeps the literal ``0 < 0`` (clustering refused).
+    r_update
+        When the bad-move counter r of (20) is updated: ``"accepted"`` on accepted moves only
+        (Algorithm 1, lines 13 and 23), ``"generated"`` on every generated move.
+    option_rule
+        Which opportunity steps 2-6 of the insertion neighbourhood take: ``"resources"`` is the
+        paper's literal rule (clustering insertion first, then the orbit with most resources
+        left); ``"feasible-first"`` ranks first the opportunities that fit without removing
+        anything, then applies the paper's rule (see ``docs/asa.md``).
+    iterations
+        Stop after this many iterations (``None``: no limit from this rule).
+    no_improve
+        Stop after this many iterations without a new best (``None``: no limit).
+    trace_every
+        Record a trace row every this many iterations (and at each new best).
+    min_probability
+        Floor applied to each neighbourhood probability after (18) (0 = the paper).
+    """
+
+    lambda_min: float = 0.5
+    rho: float = 1.0
+    delta: float = 10.0
+    eta: float = 0.8
+    itr: int = 10
+    pro1: float = 0.5
+    pro2: float = 0.5
+    tabu_length: int | None = None
+    pool: int = 32
+    migration_pool: int = 8
+    roll_rule: str = "midpoint"
+    rule16: bool = True
+    rule16_empty: str = "capacity"
+    r_update: str = "generated"
+    option_rule: str = "feasible-first"
+    iterations: int | None = None
+    no_improve: int | None = None
+    trace_every: int = 100
+    min_probability: float = 0.0
+
+    def __post_init__(self) -> None:
+        def positive(name: str, strict: bool = True) -> None:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise InputError(f"{name}: expected a finite number, got {v!r}")
+            if v < 0 or (strict and v == 0):
+                raise InputError(f"{name}: must be {'>' if strict else '>='} 0, got {v!r}")
+
+        def integer(name: str, optional: bool = False, minimum: int = 1) -> None:
+            v = getattr(self, name)
+            if v is None and optional:
+                return
+            if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
+                raise InputError(f"{name}: expected an integer >= {minimum}, got {v!r}")
+
+        positive("lambda_min")
+        positive("rho", strict=False)
+        positive("delta")
+        positive("pro1", strict=False)
+        positive("pro2", strict=False)
+        if self.pro1 + self.pro2 <= 0:
+            raise InputError("pro1, pro2: at least one must be > 0")
+        positive("eta", strict=False)
+        if self.eta > 1:
+            raise InputError(f"eta: must lie in [0, 1], got {self.eta!r}")
+        positive("min_probability", strict=False)
+        if self.min_probability >= 0.5:
+            raise InputError(f"min_probability: must be < 0.5, got {self.min_probability!r}")
+        integer("itr")
+        integer("tabu_length", optional=True, minimum=0)
+        integer("pool")
+        integer("migration_pool")
+        integer("iterations", optional=True, minimum=0)
+        integer("no_improve", optional=True)
+        integer("trace_every")
+        for name, allowed in (
+            ("roll_rule", ROLL_RULES),
+            ("rule16_empty", RULE16_EMPTY),
+            ("r_update", R_UPDATES),
+            ("option_rule", OPTION_RULES),
+        ):
+            if getattr(self, name) not in allowed:
+                raise InputError(
+                    f"{name}: expected one of {', '.join(allowed)}, got {getattr(self, name)!r}"
+                )
+        if not isinstance(self.rule16, bool):
+            raise InputError(f"rule16: expected true or false, got {self.rule16!r}")
+
+    @classmethod
+    def from_kwargs(cls, **kwargs: Any) -> ASAParams:
+        """Build from keyword parameters, coercing CLI strings (``--param key=value``)."""
+        known = {f.name: f for f in fields(cls)}
+        out: dict[str, Any] = {}
+        for key, value in kwargs.items():
+            if key not in known:
+                raise InputError(f"asa: unknown parameter {key!r}")
+            out[key] = _coerce(key, value, cls.__dataclass_fields__[key].default)
+        return cls(**out)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def _coerce(key: str, value: Any, default: Any) -> Any:
+    """Turn CLI strings into the field's type; other values pass through (then validated)."""
+    if not isinstance(value, str):
+        return value
+    text = value.strip()
+    if text.lower() in ("none", "null"):
+        return None
+    if key in ("rule16",):
+        if text.lower() in ("true", "1", "yes", "on"):
+            return True
+        if text.lower() in ("false", "0", "no", "off"):
+            return False
+        raise InputError(f"{key}: expected true or false, got {value!r}")
+    if key in ("roll_rule", "rule16_empty", "r_update", "option_rule"):
+        return text
+    try:
+        if key in (
+            "itr",
+            "tabu_length",
+            "pool",
+            "migration_pool",
+            "iterations",
+            "no_improve",
+            "trace_every",
+        ):
+            return int(text)
+        return float(text)
+    except ValueError:
+        raise InputError(f"{key}: expected a number, got {value!r}") from None

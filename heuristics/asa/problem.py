@@ -1,0 +1,198 @@
+"""The data the search works on, flattened to plain Python lists for the hot path.
+
+The search schedules *units* (the paper's initial tasks) at *options* (their observation
+opportunities Opt_k):
+
+* ASA-DTC and ASA-NONTC: a unit is a target, its options are its opportunities; DTC may
+  cluster options of one orbit into one observation (a cluster-task), NONTC never does.
+* ASA-STC: a unit is a static cluster-task of :func:`sosp.clustering.static_cluster_tasks`,
+  with one option (its fixed window and roll); units are atomic. A target may be covered by
+  static tasks of several orbits; it counts once (coverage semantics of ``sosp.clustering``).
+
+Options that can never be scheduled alone (window longer than Delta T (11), or more memory or
+energy than the orbit holds, or an orbit with c = 0) are dropped up front.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
+from sosp.conflicts import setup_conflict_pairs
+from sosp.instance import Instance
+
+#: Margin kept in every feasibility test, as in ``heuristics.timeline``.
+EPS = 1e-9
+
+
+@dataclass
+class OrbitParams:
+    """Resource parameters of one orbit (Table 1 symbols)."""
+
+    a: float
+    v: float
+    eo: float
+    es: float
+    w: float
+    E: float
+    W: float
+    c: int
+    dT: float
+
+
+@dataclass
+class Problem:
+    """Flattened units, options, orbits and the setup-conflict adjacency (3).
+
+    Attributes
+    ----------
+    mode
+        ``"dtc"``, ``"stc"`` or ``"nontc"``.
+    clustering
+        Whether options may be clustered dynamically (DTC only).
+    opt_orbit, opt_start, opt_end, opt_roll, opt_lo, opt_hi, opt_unit
+        Per option.
+    unit_options
+        Per unit, its usable options.
+    unit_targets
+        Per unit, the target indices it covers.
+    unit_weight
+        Per unit, the sum of its targets' weights.
+    target_weight
+        Per target.
+    conflicts
+        Per option, the options it conflicts with by (3) (same orbit, alone at own roll):
+        the "setup-time conflicting tasks" of the migration neighbourhood.
+    alternatives
+        Per option, the options of other orbits (or other windows) a migration may move its
+        targets to: DTC/NONTC the unit's other options; STC the static tasks of other orbits
+        sharing a target.
+    tasks
+        The :class:`~sosp.clustering.TaskSet` behind the options.
+    """
+
+    mode: str
+    clustering: bool
+    orbits: list[OrbitParams]
+    opt_orbit: list[int]
+    opt_start: list[float]
+    opt_end: list[float]
+    opt_roll: list[float]
+    opt_lo: list[float]
+    opt_hi: list[float]
+    opt_unit: list[int]
+    unit_options: list[list[int]]
+    unit_targets: list[tuple[int, ...]]
+    unit_weight: list[float]
+    target_weight: list[float]
+    conflicts: list[list[int]]
+    alternatives: list[list[int]]
+    tasks: TaskSet
+
+    @property
+    def n_units(self) -> int:
+        return len(self.unit_options)
+
+    @property
+    def n_observable(self) -> int:
+        """N of 5.3: units with at least one usable option."""
+        return sum(1 for o in self.unit_options if o)
+
+
+def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") -> Problem:
+    """Flatten ``instance`` for the search in ``mode`` (``"dtc"``, ``"stc"``, ``"nontc"``)."""
+    if mode == "stc":
+        tasks = static_cluster_tasks(instance, roll_rule=roll_rule)  # type: ignore[arg-type]
+    else:
+        tasks = single_tasks(instance)
+    orbits = [
+        OrbitParams(
+            a=float(instance.setup_time[j]),
+            v=float(instance.slew_rate[j]),
+            eo=float(instance.observe_energy_rate[j]),
+            es=float(instance.slew_energy_rate[j]),
+            w=float(instance.memory_rate[j]),
+            E=float(instance.energy_capacity[j]),
+            W=float(instance.memory_capacity[j]),
+            c=int(instance.max_openings[j]),
+            dT=float(instance.max_duration[j]),
+        )
+        for j in range(instance.n_orbits)
+    ]
+    n = len(tasks)
+    orbit = tasks.orbit.tolist()
+    start = tasks.start.tolist()
+    end = tasks.end.tolist()
+    roll = tasks.roll.tolist()
+    if mode == "stc":
+        # Static tasks are atomic: their roll is fixed, so their "range" is the roll itself.
+        lo, hi = list(roll), list(roll)
+    else:
+        lo = instance.opp_roll_min.tolist()
+        hi = instance.opp_roll_max.tolist()
+    usable = []
+    for x in range(n):
+        p = orbits[orbit[x]]
+        d = end[x] - start[x]
+        usable.append(
+            p.c >= 1 and d <= p.dT + EPS and p.w * d <= p.W + EPS and p.eo * d <= p.E + EPS
+        )
+    if mode == "stc":
+        unit_of = list(range(n))
+        unit_targets = [tuple(t) for t in tasks.targets]
+        unit_options = [[x] if usable[x] else [] for x in range(n)]
+    else:
+        unit_of = instance.opp_target.tolist()
+        unit_targets = [(k,) for k in range(instance.n_targets)]
+        unit_options = [[] for _ in range(instance.n_targets)]
+        for x in range(n):
+            if usable[x]:
+                unit_options[unit_of[x]].append(x)
+    tw = instance.target_weight.astype(float).tolist()
+    unit_weight = [float(sum(tw[k] for k in ks)) for ks in unit_targets]
+    pairs = setup_conflict_pairs(instance, tasks.orbit, tasks.start, tasks.end, tasks.roll)
+    conflicts: list[list[int]] = [[] for _ in range(n)]
+    for i, h in pairs.tolist():
+        if usable[i] and usable[h]:
+            conflicts[i].append(h)
+            conflicts[h].append(i)
+    alternatives: list[list[int]] = [[] for _ in range(n)]
+    if mode == "stc":
+        for x in range(n):
+            if not usable[x]:
+                continue
+            alt = set()
+            for k in unit_targets[x]:
+                alt.update(t for t in tasks.target_tasks[k] if t != x and usable[t])
+            alternatives[x] = sorted(alt, key=lambda t: (-unit_weight[t], t))
+    else:
+        for opts in unit_options:
+            for x in opts:
+                alternatives[x] = [y for y in opts if y != x]
+    return Problem(
+        mode=mode,
+        clustering=mode == "dtc",
+        orbits=orbits,
+        opt_orbit=orbit,
+        opt_start=start,
+        opt_end=end,
+        opt_roll=roll,
+        opt_lo=lo,
+        opt_hi=hi,
+        opt_unit=unit_of,
+        unit_options=unit_options,
+        unit_targets=unit_targets,
+        unit_weight=unit_weight,
+        target_weight=tw,
+        conflicts=conflicts,
+        alternatives=alternatives,
+        tasks=tasks,
+    )
+
+
+def weight_order(problem: Problem, rng: np.random.Generator | None = None) -> list[int]:
+    """Units by decreasing weight; ties in index order (5.4, step 1)."""
+    w = np.asarray(problem.unit_weight)
+    return np.lexsort((np.arange(w.size), -w)).tolist()
