@@ -1,0 +1,181 @@
+"""Russian Doll Search: exact on tiny instances (brute force through the validator)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from heuristics.rds import orbit_resources_can_bind, russian_doll
+from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
+from sosp.instance import Instance, Resources
+from sosp.result import Status
+from sosp.solve import solve
+from sosp.validate import validate
+from tests.conftest import tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
+
+
+def random_tiny(seed: int) -> Instance:
+    """A random instance small enough for exhaustive search, with tight resources."""
+    rng = np.random.default_rng(seed)
+    n_orbits = int(rng.integers(1, 3))
+    n_targets = int(rng.integers(3, 6))
+    n_opps = int(rng.integers(4, 10))
+    rows = []
+    for _ in range(n_opps):
+        s = float(rng.integers(0, 200))
+        d = float(rng.integers(1, 9))
+        r = float(rng.uniform(-30, 30))
+        half = float(rng.choice([3.0, 8.0]))
+        rows.append(
+            (
+                int(rng.integers(0, n_targets)),
+                int(rng.integers(0, n_orbits)),
+                s,
+                s + d,
+                r,
+                max(-33.0, r - half),
+                min(33.0, r + half),
+            )
+        )
+    res = Resources(
+        energy_capacity=float(rng.integers(20, 200)),
+        memory_capacity=float(rng.integers(8, 40)),
+        max_openings=int(rng.integers(1, 5)),
+        max_duration=20.0,
+    )
+    weights = [int(w) for w in rng.integers(1, 11, size=n_targets)]
+    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"rnd{seed}")
+
+
+def brute_force(instance: Instance, tasks: TaskSet) -> float:
+    """Best profit over all subsets of tasks that the validator accepts."""
+    best = 0.0
+    n = len(tasks)
+    for r in range(1, n + 1):
+        for subset in itertools.combinations(range(n), r):
+            rep = validate(instance, tasks_to_schedule(instance, tasks, subset))
+            if rep.feasible and rep.profit > best:
+                best = rep.profit
+    return best
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_rds_equals_brute_force_on_random_tiny(seed: int) -> None:
+    inst = random_tiny(seed)
+    want_single = brute_force(inst, single_tasks(inst))
+    want_static = brute_force(inst, static_cluster_tasks(inst))
+    for variables in ("targets", "tasks"):
+        for order in ("orbit", "weight"):
+            for decompose in (True, False):
+                kw = dict(variables=variables, order=order, decompose=decompose)
+                res = solve(inst, "rds", **kw)
+                assert res.status is Status.OPTIMAL and res.profit == want_single, kw
+                assert res.bound == res.profit
+                res = solve(inst, "rds-stc", **kw)
+                assert res.status is Status.OPTIMAL and res.profit == want_static, kw
+                assert validate(inst, res.schedule).feasible
+
+
+def test_overlapping_windows_and_setup_conflicts() -> None:
+    # tiny_chain: a-b conflict by (3); {a, c} = 8 beats {b, c} = 7.
+    assert solve(tiny_chain(), "rds").profit == 8
+    # tiny_cluster: alone a and b conflict ({a, c} = 7); as one cluster-task all three = 11.
+    assert solve(tiny_cluster(), "rds").profit == 7
+    assert solve(tiny_cluster(), "rds-stc").profit == 11
+
+
+def test_target_on_two_orbits_is_moved() -> None:
+    # a on orbit 0 blocks b; the optimum takes a on orbit 1 and b on orbit 0: 6 + 5.
+    res = solve(tiny_two_orbits(), "rds")
+    assert res.profit == 11
+    assert {o.orbit for o in res.schedule.observations} == {0, 1}
+
+
+def test_energy_binds_through_the_slew_term() -> None:
+    # Observing costs 2 each; a-b slew (20 + 20)/1 = 40, so {a, b} needs 44 > E = 40 while
+    # {a, c} needs 4 + 20 = 24: the optimum is 5 + 3 = 8, not a + b = 10.
+    inst = Instance.build(
+        {"a": 5, "b": 5, "c": 3},
+        [("a", 0, 0, 2, 20.0), ("b", 0, 100, 102, 20.0), ("c", 0, 200, 202, 0.0)],
+        resources=Resources(energy_capacity=40.0),
+    )
+    assert orbit_resources_can_bind(inst, single_tasks(inst), np.arange(3))
+    res = solve(inst, "rds")
+    assert res.profit == 8 == brute_force(inst, single_tasks(inst))
+
+
+def test_memory_binds() -> None:
+    # W = 10: {a, b} needs 12; {a, c} needs 10 (just fits) = 8; {b, c} = 7.
+    inst = Instance.build(
+        {"a": 5, "b": 4, "c": 3},
+        [("a", 0, 0, 6, 0.0), ("b", 0, 100, 106, 0.0), ("c", 0, 200, 204, 0.0)],
+        resources=Resources(memory_capacity=10.0),
+    )
+    res = solve(inst, "rds")
+    assert res.profit == 8
+    assert sorted(o.opps[0] for o in res.schedule.observations) == [0, 2]
+
+
+def test_openings_bind() -> None:
+    # c = 2: alone, only the two heaviest, d (4) and c (3).
+    assert solve(tiny_openings(), "rds").profit == 7
+    # Static clusters at roll 0: a+b [0, 102] and c+d [200, 302] (spans <= 120): two
+    # openings cover all four targets.
+    res = solve(tiny_openings(), "rds-stc")
+    assert res.profit == 10 and len(res.schedule) == 2
+
+
+def test_loose_orbits_split_into_components() -> None:
+    # Three targets far apart on a roomy orbit: nothing interacts, three components.
+    inst = Instance.build(
+        {"a": 1, "b": 2, "c": 3},
+        [("a", 0, 0, 2, 0.0), ("b", 0, 100, 102, 0.0), ("c", 0, 200, 202, 0.0)],
+    )
+    out = russian_doll(inst, single_tasks(inst))
+    assert len(out.components) == 3 and out.value == 6 and out.proven
+    # With c = 2 the openings bind: one component, and the optimum drops a.
+    out = russian_doll(tiny_openings(), single_tasks(tiny_openings()))
+    assert len(out.components) == 1 and out.value == 7
+
+
+def test_time_limit_returns_incumbent_and_bound() -> None:
+    # Many overlapping opportunities on one orbit with c = 10: not solved in 0.05 s.
+    rng = np.random.default_rng(7)
+    starts, rolls = rng.uniform(0, 900, 120), rng.uniform(-30, 30, 120)
+    rows = [(i, 0, float(starts[i]), float(starts[i]) + 3.0, float(rolls[i])) for i in range(120)]
+    inst = Instance.build([int(w) for w in rng.integers(2, 11, 120)], rows)
+    res = solve(inst, "rds", time_limit=0.05)
+    assert res.status is Status.TIME_LIMIT
+    assert res.bound is not None and res.bound >= res.profit > 0
+    assert validate(inst, res.schedule).feasible
+
+
+@pytest.mark.slow
+def test_rds_stc_scenario_b1_is_proven() -> None:
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("B1", 0)
+    res = solve(inst, "rds-stc", time_limit=120)
+    assert res.status is Status.OPTIMAL and res.bound == res.profit
+    hpfs = solve(inst, "hpfs-stc")
+    assert res.profit >= hpfs.profit
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["B1"])  # C1: RDS does not finish (docs/baselines.md)
+def test_rds_matches_milp_where_both_finish(name: str) -> None:
+    models_solve = pytest.importorskip("models.solve")
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario(name, 0)
+    for method, model in (("rds", "task"), ("rds-stc", "static")):
+        rds = solve(inst, method, time_limit=30)
+        if rds.status is not Status.OPTIMAL:
+            continue
+        milp = models_solve.solve_milp(
+            inst, rng=np.random.default_rng(0), time_limit=300, model=model
+        )
+        if milp.status is Status.OPTIMAL:
+            assert milp.profit == pytest.approx(rds.profit), (name, method)
