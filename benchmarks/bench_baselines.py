@@ -1,0 +1,147 @@
+"""Benchmark the paper's baselines on the reference scenarios B1..B10 and C1..C10.
+
+For each scenario: RDS-STC (and optionally RDS) time to proof or timeout with its bound,
+HPFS-STC profit, and SA-STC mean and standard deviation over several seeds at a fixed time
+limit. Writes a Markdown table (stdout, and ``--out`` if given) and optionally JSON.
+
+Example (modest settings for a shared 2-core machine)::
+
+    python -m benchmarks.bench_baselines --rds-limit 60 --sa-limit 10 --seeds 10
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import statistics
+import sys
+import time
+from typing import Any
+
+from sosp.io import atomic_write_json, atomic_write_text
+from sosp.scenarios import generate_scenario
+from sosp.solve import solve
+
+log = logging.getLogger("bench_baselines")
+
+
+def bench_scenario(
+    name: str,
+    *,
+    scenario_seed: int,
+    rds_limit: float,
+    sa_limit: float,
+    sa_iterations: int,
+    seeds: int,
+    with_rds_single: bool,
+) -> dict[str, Any]:
+    """Run the baselines on one scenario; returns one row of figures."""
+    inst = generate_scenario(name, scenario_seed)
+    row: dict[str, Any] = {
+        "scenario": name,
+        "targets_observable": inst.observable_targets,
+        "opportunities": inst.n_opps,
+    }
+    methods = ["rds-stc"] + (["rds"] if with_rds_single else [])
+    for m in methods:
+        t = time.perf_counter()
+        res = solve(inst, m, time_limit=rds_limit)
+        row[m] = {
+            "status": res.status.value,
+            "profit": res.profit,
+            "bound": res.bound,
+            "seconds": round(time.perf_counter() - t, 3),
+            "components": res.stats["components"],
+            "largest_component": res.stats["largest_component"],
+        }
+    res = solve(inst, "hpfs-stc")
+    row["hpfs-stc"] = {"profit": res.profit, "seconds": round(res.runtime_s, 3)}
+    profits, iters = [], []
+    for s in range(seeds):
+        res = solve(inst, "sa-stc", seed=s, time_limit=sa_limit, iterations=sa_iterations)
+        profits.append(res.profit)
+        iters.append(res.iterations or 0)
+    row["sa-stc"] = {
+        "mean": statistics.fmean(profits),
+        "sd": statistics.stdev(profits) if len(profits) > 1 else 0.0,
+        "best": max(profits),
+        "mean_iterations": statistics.fmean(iters),
+    }
+    log.info("%s done", name)
+    return row
+
+
+def markdown(rows: list[dict[str, Any]], with_rds_single: bool) -> str:
+    """The figures as a Markdown table."""
+    head = "| SN | EN | TN | RDS-STC status | R | bound | time (s) | comps (largest) |"
+    sep = "|---|---|---|---|---|---|---|---|"
+    if with_rds_single:
+        head += " RDS status | R | time (s) |"
+        sep += "---|---|---|"
+    head += " HPFS-STC | SA-STC mean | SD | best | iterations |"
+    sep += "---|---|---|---|---|"
+    lines = [head, sep]
+    for r in rows:
+        x = r["rds-stc"]
+        cells = [
+            r["scenario"],
+            str(r["targets_observable"]),
+            str(r["opportunities"]),
+            x["status"],
+            f"{x['profit']:g}",
+            f"{x['bound']:g}",
+            f"{x['seconds']:.2f}",
+            f"{x['components']} ({x['largest_component']})",
+        ]
+        if with_rds_single:
+            y = r["rds"]
+            cells += [y["status"], f"{y['profit']:g}", f"{y['seconds']:.2f}"]
+        sa = r["sa-stc"]
+        cells += [
+            f"{r['hpfs-stc']['profit']:g}",
+            f"{sa['mean']:.1f}",
+            f"{sa['sd']:.2f}",
+            f"{sa['best']:g}",
+            f"{sa['mean_iterations']:.0f}",
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scenarios", nargs="*", default=None, help="default: B1..B10 C1..C10")
+    p.add_argument("--scenario-seed", type=int, default=0)
+    p.add_argument("--rds-limit", type=float, default=60.0, help="RDS seconds per scenario")
+    p.add_argument("--sa-limit", type=float, default=10.0, help="SA seconds per run")
+    p.add_argument("--sa-iterations", type=int, default=10**9, help="SA moves per run")
+    p.add_argument("--seeds", type=int, default=10, help="SA runs (seeds 0..n-1)")
+    p.add_argument("--rds-single", action="store_true", help="also run RDS without clustering")
+    p.add_argument("--out", help="write the Markdown table here")
+    p.add_argument("--json", help="write the raw rows here")
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
+    names = args.scenarios or [f"{g}{k}" for g in "BC" for k in range(1, 11)]
+    rows = [
+        bench_scenario(
+            n,
+            scenario_seed=args.scenario_seed,
+            rds_limit=args.rds_limit,
+            sa_limit=args.sa_limit,
+            sa_iterations=args.sa_iterations,
+            seeds=args.seeds,
+            with_rds_single=args.rds_single,
+        )
+        for n in names
+    ]
+    table = markdown(rows, args.rds_single)
+    sys.stdout.write(table)
+    if args.out:
+        atomic_write_text(args.out, table)
+    if args.json:
+        atomic_write_json(args.json, {"args": vars(args), "rows": rows})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
