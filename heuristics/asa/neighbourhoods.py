@@ -298,13 +298,9 @@ def choose_migrating(state: State, rng: np.random.Generator, pool: int) -> int:
     is the number of its option's neighbours in the (3) conflict graph. Roulette by score
     among the ``pool`` highest (``pool = 1``: the literal rule). Returns -1 if none.
     """
-    pb = state.pb
     sched = state.sched
-    items = []
-    for u in state.scheduled:
-        x = sched[u]
-        if pb.alternatives[x]:
-            items.append((len(pb.conflicts[x]), -u))
+    score = state.pb.migration_score
+    items = [(score[sched[u]], -u) for u in state.scheduled if score[sched[u]] >= 0]
     if not items:
         return -1
     top = heapq.nlargest(pool, items)
@@ -378,14 +374,14 @@ def migration_move(
     if not targets or insert_options(state, targets, params) < 0:
         return False
     # Step 3: the freed resources go to u's unscheduled setup-time conflicting tasks.
-    cands = [
-        y
-        for y in pb.conflicts[x_old]
-        if state.sched[pb.opt_unit[y]] < 0
-        and (tabu is None or pb.opt_unit[y] not in tabu)
-        and state.gain(pb.opt_unit[y]) > 0
-    ]
-    cands.sort(key=lambda y: (-state.gain(pb.opt_unit[y]), y))
+    sched, unit = state.sched, pb.opt_unit
+    if pb.mode == "stc":
+        gains = {y: state.gain(unit[y]) for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
+    else:  # a unit is one target: its gain is its weight while unscheduled
+        w = pb.unit_weight
+        gains = {y: w[unit[y]] for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
+    cands = [y for y, g in gains.items() if g > 0 and (tabu is None or unit[y] not in tabu)]
+    cands.sort(key=lambda y: (-gains[y], y))
     for y in cands:
         if state.sched[pb.opt_unit[y]] >= 0:
             continue  # another option of this unit went in meanwhile

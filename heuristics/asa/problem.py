@@ -71,6 +71,9 @@ class Problem:
         sharing a target.
     tasks
         The :class:`~sosp.clustering.TaskSet` behind the options.
+    migration_score
+        Per option, its number of setup-time conflicting options, or -1 when it has no
+        alternative (its task cannot migrate).
     """
 
     mode: str
@@ -90,6 +93,7 @@ class Problem:
     conflicts: list[list[int]]
     alternatives: list[list[int]]
     tasks: TaskSet
+    migration_score: list[int]
 
     @property
     def n_units(self) -> int:
@@ -189,6 +193,7 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         conflicts=conflicts,
         alternatives=alternatives,
         tasks=tasks,
+        migration_score=[len(conflicts[x]) if alternatives[x] else -1 for x in range(n)],
     )
 
 

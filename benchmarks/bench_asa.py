@@ -1,0 +1,83 @@
+"""ASA-DTC benchmark: speed, profit against time, and the DTC / STC / NONTC ablation.
+
+Usage (the defaults are the full protocol; shorten with the options)::
+
+    PYTHONPATH=. python benchmarks/bench_asa.py --time-limit 60 --seeds 10
+    PYTHONPATH=. python benchmarks/bench_asa.py --time-limit 3 --seeds 3 --curve-time 20
+
+Prints Markdown tables: iterations per second, best profit at checkpoints of one long run on
+B10 and C10, and mean and SD over seeds with equal time limits on C3, C6, C10, B6, B10.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+from sosp.scenarios import generate_scenario
+from sosp.solve import solve
+
+METHODS = ("asa-dtc", "asa-stc", "asa-nontc")
+
+
+def _profit_at(trace: list[list[float]], t: float) -> float:
+    """Best profit reached by time t (trace columns: iteration, time_s, best, ...)."""
+    best = trace[0][2]
+    for row in trace:
+        if row[1] <= t:
+            best = row[2]
+    return best
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--time-limit", type=float, default=60.0, help="seconds per ablation run")
+    ap.add_argument("--seeds", type=int, default=10, help="seeds 0..n-1 per ablation cell")
+    ap.add_argument("--names", nargs="+", default=["C3", "C6", "C10", "B6", "B10"])
+    ap.add_argument("--curve", nargs="+", default=["B10", "C10"], help="profit-vs-time runs")
+    ap.add_argument("--curve-time", type=float, default=60.0)
+    ap.add_argument("--scenario-seed", type=int, default=0, help="seed of the target draw")
+    ap.add_argument("--param", action="append", default=[], help="key=value for every run")
+    args = ap.parse_args(argv)
+    extra = dict(p.split("=", 1) for p in args.param)
+
+    print(f"# ASA benchmark ({time.strftime('%Y-%m-%d %H:%M')})\n")
+    print("## Profit against time (seed 0; best profit at t seconds)\n")
+    marks = [t for t in (1, 2, 5, 10, 20, 30, 60, 120) if t <= args.curve_time]
+    print("| scenario | method | it/s | " + " | ".join(f"{t} s" for t in marks) + " |")
+    print("|---|---|---|" + "---|" * len(marks))
+    for name in args.curve:
+        inst = generate_scenario(name, args.scenario_seed)
+        for method in METHODS:
+            res = solve(inst, method, seed=0, time_limit=args.curve_time, **extra)
+            cells = [f"{_profit_at(res.stats['trace'], t):g}" for t in marks]
+            print(
+                f"| {name} | {method} | {res.stats['iterations_per_s']:.0f} | "
+                + " | ".join(cells)
+                + " |",
+                flush=True,
+            )
+
+    print(f"\n## Ablation: mean (SD) over seeds 0..{args.seeds - 1}, {args.time_limit:g} s each\n")
+    print("| scenario | " + " | ".join(METHODS) + " | order DTC>=STC>=NONTC |")
+    print("|---|" + "---|" * (len(METHODS) + 1))
+    for name in args.names:
+        inst = generate_scenario(name, args.scenario_seed)
+        means = []
+        cells = []
+        for method in METHODS:
+            vals = [
+                solve(inst, method, seed=s, time_limit=args.time_limit, **extra).profit
+                for s in range(args.seeds)
+            ]
+            m = statistics.fmean(vals)
+            sd = statistics.stdev(vals) if len(vals) > 1 else 0.0
+            means.append(m)
+            cells.append(f"{m:.1f} ({sd:.1f})")
+        order = "yes" if means[0] >= means[1] >= means[2] else "no"
+        print(f"| {name} | " + " | ".join(cells) + f" | {order} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
