@@ -21,9 +21,11 @@ Temperature-dependent swap
     tasks may swap (large jumps), as T falls the swaps become local (fine tuning).
 Acceptance and cooling
     Metropolis: a move changing the profit by ``delta`` is accepted with probability
-    ``min(1, exp(delta / T))``. Geometric cooling ``T_k = T0 * alpha^k`` with
-    ``alpha = (T_final / T0)^(1 / iterations)``, so T reaches ``T_final`` at the last
-    iteration. Defaults: ``T0`` = the mean weight of a usable task (losing an average task is
+    ``min(1, exp(delta / T))``. Geometric cooling ``T = T0 * (T_final / T0)^f`` where the
+    progress f is ``k / iterations`` (so T reaches ``T_final`` at the last iteration) or, with
+    a ``time_limit``, the larger of that and the elapsed share of the time limit (so a run cut
+    by time still cools fully; such a run depends on the clock, as any time-limited run).
+    Defaults: ``T0`` = the mean weight of a usable task (losing an average task is
     accepted with probability 1/e at the start), ``T_final = T0 / 100``.
 Incremental decode (what a move costs)
     swapping positions i < j leaves the decode of positions < i unchanged. The search keeps
@@ -119,7 +121,8 @@ def solve_sa_stc(
         t_final = t0 / 100.0
     if not (t0 > 0 and 0 < t_final <= t0):
         raise InputError(f"t0, t_final: need 0 < t_final <= t0, got {t0!r}, {t_final!r}")
-    alpha = (t_final / t0) ** (1.0 / max(iterations, 1))
+    log_ratio = math.log(t_final / t0)
+    t_start = clock()
 
     # Per-task data as Python lists (the inner loops are scalar).
     orb = [int(x) for x in tasks.orbit]
@@ -169,8 +172,14 @@ def solve_sa_stc(
     new_gain: list[int] = []
 
     while it < iterations and n >= 2:
-        if deadline is not None and (it & 63) == 0 and clock() > deadline:
-            break
+        if deadline is not None and (it & 15) == 0:
+            now = clock()
+            if now > deadline:
+                break
+            share = (now - t_start) / float(time_limit)  # type: ignore[arg-type]
+            temperature = t0 * math.exp(log_ratio * max(it / max(iterations, 1), share))
+        elif deadline is None:
+            temperature = t0 * math.exp(log_ratio * it / max(iterations, 1))
         it += 1
         dist = int(rng.integers(1, swap_distance(n, temperature, t0) + 1))
         i = int(rng.integers(0, n - dist))
@@ -233,7 +242,6 @@ def solve_sa_stc(
                     take(perm[q])
             perm[i], perm[j] = perm[j], perm[i]
             cursor = i
-        temperature *= alpha
 
     chosen, profit = insertion_decode(instance, tasks, best_perm)
     if profit != best_total:
