@@ -11,10 +11,11 @@ builder does no geometry and no search.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
-from models.cliques import maximal_cliques, orbit_intervals
+from models.cliques import clique_events, cliques_from_events, orbit_intervals
 from sosp.instance import Instance
 
 
@@ -43,8 +44,13 @@ class ModelData:
     orbit_items
         For each orbit with items, the items in (start, end) order: the order of the first/last
         indicators of the exact slew term of (4).
-    cliques
-        Maximal cliques of the conflict graph of (3), per orbit (see :mod:`models.cliques`).
+    event_first, event_last
+        Per item, its half-open range of *events* (maximal cliques of the conflict graph of
+        (3), numbered orbit by orbit in time order, see :func:`models.cliques.clique_events`):
+        item u lies in the cliques ``event_first[u] <= e < event_last[u]``.
+    event_block_end
+        Per event, one past the last event of its orbit (the network form of (3) differences
+        consecutive clique rows within an orbit only).
     slew_orbits
         Orbits whose energy constraint (4) can bind (the others need no slew variables).
     """
@@ -61,7 +67,9 @@ class ModelData:
     weight: np.ndarray
     target_items: dict[int, tuple[int, ...]]
     orbit_items: dict[int, np.ndarray]
-    cliques: list[tuple[int, ...]]
+    event_first: np.ndarray
+    event_last: np.ndarray
+    event_block_end: np.ndarray
     energy_orbits: tuple[int, ...]
     memory_orbits: tuple[int, ...]
     opening_orbits: tuple[int, ...]
@@ -70,6 +78,21 @@ class ModelData:
     @property
     def n_items(self) -> int:
         return len(self.opps)
+
+    @property
+    def n_events(self) -> int:
+        """Number of maximal cliques of (3) (of two or more items)."""
+        return len(self.event_block_end)
+
+    @cached_property
+    def cliques(self) -> list[tuple[int, ...]]:
+        """Maximal cliques of the conflict graph of (3), orbit by orbit, in time order.
+
+        Built on first use only: their total size is quadratic on dense orbits, and the
+        network form of :mod:`models.highs_direct` never needs them.
+        """
+        members = cliques_from_events(self.event_first, self.event_last, self.n_events)
+        return [tuple(int(u) for u in c) for c in members]
 
     @property
     def duration(self) -> np.ndarray:
@@ -96,7 +119,7 @@ def prepare(
     *,
     coverage: bool,
 ) -> ModelData:
-    """Collect items into a :class:`ModelData`: coverage, orbit order, cliques of (3).
+    """Collect items into a :class:`ModelData`: coverage, orbit order, clique events of (3).
 
     Resource constraints (4)-(6) of an orbit are kept only when they can bind, i.e. when
     taking every item of the orbit (with the largest possible slews) would exceed the capacity:
@@ -124,7 +147,10 @@ def prepare(
         for k in ks:
             target_items.setdefault(k, []).append(u)
     orbit_items: dict[int, np.ndarray] = {}
-    cliques: list[tuple[int, ...]] = []
+    event_first = np.zeros(len(opps), dtype=np.int64)
+    event_last = np.zeros(len(opps), dtype=np.int64)
+    block_ends: list[np.ndarray] = []
+    n_events = 0
     energy_orbits, memory_orbits, opening_orbits = [], [], []
     inst = instance
     if len(opps):
@@ -140,7 +166,11 @@ def prepare(
                 float(inst.setup_time[j]),
                 float(inst.slew_rate[j]),
             )
-            cliques.extend(tuple(int(u) for u in block[c]) for c in maximal_cliques(left, right))
+            first, last, m = clique_events(left, right)
+            event_first[block] = first + n_events
+            event_last[block] = last + n_events
+            n_events += m
+            block_ends.append(np.full(m, n_events, dtype=np.int64))
             dur = float((end[block] - start[block]).sum())
             slew = 2.0 * float(np.abs(roll[block]).sum()) / float(inst.slew_rate[j])
             energy = inst.observe_energy_rate[j] * dur + inst.slew_energy_rate[j] * slew
@@ -163,7 +193,9 @@ def prepare(
         weight=np.asarray(instance.target_weight),
         target_items={k: tuple(v) for k, v in sorted(target_items.items())},
         orbit_items=orbit_items,
-        cliques=cliques,
+        event_first=event_first,
+        event_last=event_last,
+        event_block_end=(np.concatenate(block_ends) if block_ends else np.zeros(0, dtype=np.int64)),
         energy_orbits=tuple(energy_orbits),
         memory_orbits=tuple(memory_orbits),
         opening_orbits=tuple(opening_orbits),
