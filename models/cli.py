@@ -41,6 +41,12 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--method", default="lp", choices=("lp", "milp"), help="lp (default) or milp")
     p.add_argument("--time-limit", type=_positive_float, default=None, help="seconds")
     p.add_argument("--threads", type=int, default=None, help="HiGHS threads")
+    p.add_argument(
+        "--backend",
+        default="auto",
+        help="pyomo (reference builder), highs (arrays passed to HiGHS directly) or auto "
+        "(default: highs from 1000 items on)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bound)
     return p
@@ -58,6 +64,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
         method=args.method,
         time_limit=args.time_limit,
         threads=args.threads,
+        backend=args.backend,
     )
     out["instance"] = inst.name or str(args.instance)
     if getattr(args, "json", False):

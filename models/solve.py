@@ -1,4 +1,9 @@
-"""Solve the exact models with HiGHS through Pyomo: :func:`solve_milp` and :func:`bound`.
+"""Solve the exact models with HiGHS: :func:`solve_milp` and :func:`bound`.
+
+Two backends build the same model: Pyomo (:mod:`models.formulation`, the reference builder,
+solved through APPSI) and arrays passed to highspy directly (:mod:`models.highs_direct`, for
+large models, where Pyomo's build and load dominate). ``backend="auto"`` picks by size
+(:func:`choose_backend`).
 
 Traps handled here (each has a test):
 
@@ -222,6 +227,37 @@ def _profit(instance: Instance, schedule: Schedule) -> tuple[float, int]:
     return float(sum(int(instance.target_weight[k]) for k in ks)), len(ks)
 
 
+#: Backends of :func:`solve_milp` and :func:`bound`.
+BACKENDS = ("auto", "pyomo", "highs")
+
+#: ``backend="auto"`` uses the direct HiGHS backend from this many items on (Pyomo below).
+AUTO_HIGHS_ITEMS = 1000
+
+
+def _check_backend(backend: Any, conflicts: Any) -> None:
+    from models.highs_direct import CONFLICT_FORMS
+
+    if backend not in BACKENDS:
+        raise InputError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    if conflicts not in CONFLICT_FORMS:
+        raise InputError(
+            f"conflicts: expected one of {', '.join(CONFLICT_FORMS)}, got {conflicts!r}"
+        )
+
+
+def choose_backend(data: ModelData, backend: str = "auto") -> str:
+    """``"pyomo"`` or ``"highs"``: ``"auto"`` picks the direct backend for large models.
+
+    Pyomo is the reference builder; below :data:`AUTO_HIGHS_ITEMS` items its build and load
+    take well under a second and it stays the default there (the tests' path). From that size
+    on, building and loading through Pyomo dominates (C5: 44 s before HiGHS starts), and the
+    direct backend, which gives the same optima and LP values, is used.
+    """
+    if backend != "auto":
+        return backend
+    return "highs" if data.n_items >= AUTO_HIGHS_ITEMS else "pyomo"
+
+
 def solve_milp(
     instance: Instance,
     *,
@@ -232,6 +268,8 @@ def solve_milp(
     threads: int | None = None,
     warm_start: Schedule | None = None,
     relax: bool = False,
+    backend: str = "auto",
+    conflicts: str = "network",
 ) -> Result:
     """Solve an exact model of (1)-(6) with HiGHS.
 
@@ -256,40 +294,144 @@ def solve_milp(
         when it does not fit the model or is infeasible).
     relax
         Solve the LP relaxation instead: the result has no schedule, only ``bound``.
+    backend
+        ``"pyomo"`` (the reference builder, :mod:`models.formulation`, through APPSI),
+        ``"highs"`` (the same model as arrays, :mod:`models.highs_direct`) or ``"auto"``
+        (default: see :func:`choose_backend`).
+    conflicts
+        Form of (3) in the direct backend: ``"network"`` (default) or ``"clique"``; the Pyomo
+        builder always uses clique rows. Both give the same LP and MILP optima.
 
     Returns
     -------
     Result
         ``status`` optimal / time_limit (incumbent) / feasible (stopped at ``mip_gap``) /
         no_solution; ``bound`` the best bound (never below the profit); ``stats`` the model
-        size, the number of items (``candidates``) and the solver's own figures.
+        size, the number of items (``candidates``), the backend and the solver's own figures.
     """
     del rng
     t0 = time.perf_counter()
     time_limit = check_time_limit(time_limit)
     _check_params(mip_gap, threads)
+    _check_backend(backend, conflicts)
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
     data = model_data(instance, model)
-    from models.formulation import build_model
-
-    m = build_model(data, relax=bool(relax))
-    build_s = time.perf_counter() - t0
+    backend = choose_backend(data, backend)
     stats: dict[str, Any] = {
         "model": model,
         "relax": bool(relax),
+        "backend": backend,
         "candidates": data.n_items,
-        "cliques": len(data.cliques),
-        "build_s": round(build_s, 6),
+        "cliques": data.n_events,
     }
+    if backend == "highs":
+        stats["conflicts"] = conflicts
     method = "milp"
     empty = Schedule(())
     if data.n_items == 0:
+        stats.update({"build_s": round(time.perf_counter() - t0, 6)})
         stats.update({"variables": 0, "constraints": 0, "nonzeros": 0})
         return Result(
             method, Status.OPTIMAL, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats
         )
+    if backend == "highs":
+        kind, incumbent, raw_bound, chosen = _run_direct(
+            data, t0, time_limit, mip_gap, threads, warm_start, relax, conflicts, stats
+        )
+    else:
+        kind, incumbent, raw_bound, chosen = _run_pyomo(
+            data, t0, time_limit, mip_gap, threads, warm_start, relax, stats
+        )
+    runtime = time.perf_counter() - t0
 
+    if relax:
+        bound = None
+        if kind == "optimal" and incumbent is not None:
+            stats["lp_bound"] = float(incumbent)
+            bound = _int_bound(incumbent)
+        return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
+
+    if kind == "infeasible":  # cannot happen (the empty schedule is feasible) but map it
+        return Result(method, Status.INFEASIBLE, empty, 0.0, 0, runtime, None, None, stats)
+    if incumbent is None or chosen is None or kind not in ("optimal", "time_limit"):
+        if kind != "time_limit":
+            log.warning("HiGHS stopped with %s and no solution", stats.get("termination"))
+        bound = _int_bound(raw_bound)
+        return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
+
+    schedule = items_to_schedule(data, chosen)
+    profit, observed = _profit(instance, schedule)
+    if abs(profit - float(incumbent)) > 1e-4:
+        log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
+    ib = _int_bound(raw_bound)
+    bound = profit if ib is None else max(ib, profit)
+    if kind == "optimal" and bound <= profit + INT_TOL:
+        status = Status.OPTIMAL
+    elif kind == "optimal":
+        status = Status.FEASIBLE  # stopped at the requested gap
+        stats["stopped_at"] = "mip_gap"
+    else:
+        status = Status.TIME_LIMIT
+    stats["objective"] = float(incumbent)
+    stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
+    return Result(method, status, schedule, profit, observed, runtime, float(bound), None, stats)
+
+
+_Outcome = tuple[str, float | None, float | None, list[int] | None]
+
+
+def _run_direct(
+    data: ModelData,
+    t0: float,
+    time_limit: float | None,
+    mip_gap: float | None,
+    threads: int | None,
+    warm_start: Schedule | None,
+    relax: bool,
+    conflicts: str,
+    stats: dict[str, Any],
+) -> _Outcome:
+    """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`)."""
+    from models.highs_direct import build_arrays, run_highs, start_vector
+
+    t1 = time.perf_counter()
+    am = build_arrays(data, relax=bool(relax), conflicts=conflicts)
+    stats["build_s"] = round(time.perf_counter() - t0, 6)  # items + arrays, as for Pyomo
+    stats["arrays_s"] = round(time.perf_counter() - t1, 6)
+    stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
+    start = None
+    if warm_start is not None and not relax:
+        vals = warm_start_values(data, warm_start)
+        stats["warm_start"] = vals is not None
+        if vals is not None:
+            start = start_vector(am, vals)
+    deadline = None if time_limit is None else t0 + time_limit
+    out = run_highs(am, deadline=deadline, mip_gap=mip_gap, threads=threads, start=start)
+    stats["load_s"] = round(out.load_s, 6)
+    stats["solve_s"] = round(out.solve_s, 6)
+    stats["termination"] = out.model_status
+    stats.update(out.info)
+    chosen = None if out.x is None else [int(u) for u in np.flatnonzero(out.x > 0.5)]
+    return out.status, out.objective, out.bound, chosen
+
+
+def _run_pyomo(
+    data: ModelData,
+    t0: float,
+    time_limit: float | None,
+    mip_gap: float | None,
+    threads: int | None,
+    warm_start: Schedule | None,
+    relax: bool,
+    stats: dict[str, Any],
+) -> _Outcome:
+    """Build ``data`` with the reference Pyomo builder and solve it through APPSI."""
+    from models.formulation import build_model
+
+    m = build_model(data, relax=bool(relax))
+    build_s = time.perf_counter() - t0
+    stats["build_s"] = round(build_s, 6)
     opt = _solver(None, mip_gap, threads)
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
@@ -326,51 +468,22 @@ def solve_milp(
     res = opt.solve(m)
     stats.update(_model_size(opt, m))
     tc = res.termination_condition
-    incumbent = res.best_feasible_objective
-    raw_bound = res.best_objective_bound
     stats["termination"] = tc.name
     stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
-    runtime = time.perf_counter() - t0
-
-    if relax:
-        bound = None
-        if tc == TC.optimal and incumbent is not None:
-            stats["lp_bound"] = float(incumbent)
-            bound = _int_bound(incumbent)
-        status = Status.NO_SOLUTION
-        return Result(method, status, empty, 0.0, 0, runtime, bound, None, stats)
-
-    if tc == TC.infeasible:  # cannot happen (the empty schedule is feasible) but map it
-        return Result(method, Status.INFEASIBLE, empty, 0.0, 0, runtime, None, None, stats)
-    if incumbent is None or tc not in (
-        TC.optimal,
-        TC.maxTimeLimit,
-        TC.maxIterations,
-        TC.objectiveLimit,
-    ):
-        if tc not in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
-            log.warning("HiGHS stopped with %s and no solution", tc.name)
-        bound = _int_bound(raw_bound)
-        return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
-
-    res.solution_loader.load_vars()
-    chosen = [u for u in m.U if (m.x[u].value or 0.0) > 0.5]
-    schedule = items_to_schedule(data, chosen)
-    profit, observed = _profit(instance, schedule)
-    if abs(profit - float(incumbent)) > 1e-4:
-        log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
-    ib = _int_bound(raw_bound)
-    bound = profit if ib is None else max(ib, profit)
-    if tc == TC.optimal and bound <= profit + INT_TOL:
-        status = Status.OPTIMAL
-    elif tc == TC.optimal:
-        status = Status.FEASIBLE  # stopped at the requested gap
-        stats["stopped_at"] = "mip_gap"
+    if tc == TC.optimal:
+        kind = "optimal"
+    elif tc in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
+        kind = "time_limit"
+    elif tc == TC.infeasible:
+        kind = "infeasible"
     else:
-        status = Status.TIME_LIMIT
-    stats["objective"] = float(incumbent)
-    stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
-    return Result(method, status, schedule, profit, observed, runtime, float(bound), None, stats)
+        kind = "other"
+    incumbent = res.best_feasible_objective
+    chosen = None
+    if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
+        res.solution_loader.load_vars()
+        chosen = [int(u) for u in m.U if (m.x[u].value or 0.0) > 0.5]
+    return kind, incumbent, res.best_objective_bound, chosen
 
 
 def bound(
@@ -379,6 +492,8 @@ def bound(
     method: str = "lp",
     time_limit: float | None = None,
     threads: int | None = None,
+    backend: str = "auto",
+    conflicts: str = "network",
 ) -> dict[str, Any]:
     """An upper bound on the optimum of ``model``.
 
@@ -395,6 +510,8 @@ def bound(
         Seconds (None: no limit).
     threads
         HiGHS threads.
+    backend, conflicts
+        As for :func:`solve_milp`.
 
     Returns
     -------
@@ -405,7 +522,13 @@ def bound(
     if method not in ("lp", "milp"):
         raise InputError(f"method: expected 'lp' or 'milp', got {method!r}")
     res = solve_milp(
-        instance, time_limit=time_limit, model=model, threads=threads, relax=(method == "lp")
+        instance,
+        time_limit=time_limit,
+        model=model,
+        threads=threads,
+        relax=(method == "lp"),
+        backend=backend,
+        conflicts=conflicts,
     )
     out: dict[str, Any] = {
         "bound": res.bound,
@@ -413,7 +536,8 @@ def bound(
         "model": model,
         "runtime_s": round(res.runtime_s, 6),
     }
-    for key in ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination"):
+    keys = ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination")
+    for key in (*keys, "backend", "build_s", "load_s", "solve_s"):
         if key in res.stats:
             out[key] = res.stats[key]
     if method == "lp":

@@ -1,0 +1,507 @@
+"""The exact models as arrays, passed to HiGHS directly (no Pyomo): the fast backend.
+
+:func:`build_arrays` assembles the SAME formulation as :func:`models.formulation.build_model`
+(the reference builder, the design card) from a :class:`models.data.ModelData`, as numpy
+columns and one ``scipy.sparse`` CSR matrix, and :func:`run_highs` hands it to a fresh
+``highspy.Highs`` with ``passModel``. On C5's cluster model Pyomo spends 13.6 s building and
+30.7 s loading; here both are array operations.
+
+Columns, in this order (u an item, k a covered target, S the items of the orbits whose energy
+constraint (4) can bind, e an event of (3)):
+
+* x_u in {0, 1} (continuous in [0, 1] for the LP relaxation);
+* z_k in [0, 1] (coverage models only);
+* f_u, l_u, s_u, r_u in [0, 1] for u in S (first / last indicators and prefix / suffix
+  variables of the exact slew term of (4), see :mod:`models.formulation`);
+* t_e >= 0, one slack per clique of (3) (network form only).
+
+Rows: (2), (3), the slew-order rows, (4), (5), (6), exactly as in :mod:`models.formulation`,
+except that (3) has two forms:
+
+``conflicts="clique"``
+    ``sum_{u in Q_e} x_u <= 1`` for every maximal clique Q_e (sum of the clique sizes in
+    nonzeros: quadratic in the density of an orbit).
+``conflicts="network"`` (default)
+    On one orbit the cliques Q_1, ..., Q_m (in time order) have the consecutive-ones property:
+    item u lies in Q_e exactly for e in a run [a_u, b_u) (:func:`models.cliques.clique_events`).
+    Write the clique rows as equalities with slacks, ``R_e: sum_{u in Q_e} x_u + t_e = 1``,
+    ``t_e >= 0``, and replace them by ``R_1`` and the differences ``R_e - R_{e-1}``
+    (e = 2..m)::
+
+        x_u with a_u = e  - x_u with b_u = e  + t_e - t_{e-1} = [e == 1]
+
+    The map (R_1, ..., R_m) -> (R_1, R_2 - R_1, ..., R_m - R_{m-1}) is unimodular
+    (lower bidiagonal, inverse: partial sums R_e = sum_{i <= e} D_i), so the two systems have
+    the same solutions (x, t); t_e >= 0 is the clique inequality itself, so projecting t out
+    gives the same polytope in x for the LP and the same integer points for the MILP: identical
+    LP values and optima. Every x_u now has at most 2 nonzeros in (3) (+1 at a_u, -1 at b_u
+    when b_u <= m) and every t_e at most 2, so (3) costs O(2n + 2m) nonzeros instead of the sum
+    of the clique sizes. (The matrix is a network matrix: a flow through the events.)
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from itertools import chain
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from models.data import ModelData
+
+log = logging.getLogger("models.solve")
+
+#: The forms of (3) :func:`build_arrays` accepts.
+CONFLICT_FORMS = ("network", "clique")
+
+
+@dataclass
+class ArrayModel:
+    """One exact model as arrays: max c'y s.t. row_lower <= A y <= row_upper, bounds, integrality.
+
+    Attributes
+    ----------
+    data
+        The model data it was built from.
+    matrix
+        Constraint matrix, CSR, rows x columns.
+    cost, col_lower, col_upper, row_lower, row_upper
+        Objective (1) (maximised) and bounds.
+    integer
+        Columns that are integer (x in the MILP; none in the LP relaxation).
+    z_targets
+        The covered targets, in the order of the z columns.
+    slew_items
+        The items of S, in the order of the f, l, s, r blocks.
+    offsets
+        First column of each block: ``x``, ``z``, ``f``, ``l``, ``s``, ``r``, ``t``, ``end``.
+    conflicts
+        ``"network"`` or ``"clique"``, the form of (3).
+    """
+
+    data: ModelData
+    matrix: sp.csr_matrix
+    cost: np.ndarray
+    col_lower: np.ndarray
+    col_upper: np.ndarray
+    row_lower: np.ndarray
+    row_upper: np.ndarray
+    integer: np.ndarray
+    z_targets: np.ndarray
+    slew_items: np.ndarray
+    offsets: dict[str, int]
+    conflicts: str
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_cols(self) -> int:
+        return int(self.matrix.shape[1])
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.matrix.shape[0])
+
+
+class _Rows:
+    """Accumulates rows as COO triplets (row, column, value) with their bounds."""
+
+    def __init__(self) -> None:
+        self.rows: list[np.ndarray] = []
+        self.cols: list[np.ndarray] = []
+        self.vals: list[np.ndarray] = []
+        self.lower: list[np.ndarray] = []
+        self.upper: list[np.ndarray] = []
+        self.n = 0
+
+    def add(
+        self,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        vals: np.ndarray | float,
+        lower: np.ndarray | float,
+        upper: np.ndarray | float,
+        count: int,
+    ) -> None:
+        """Add ``count`` rows; ``rows`` are local (0..count-1)."""
+        if count == 0:
+            return
+        rows = np.asarray(rows, dtype=np.int64)
+        self.rows.append(rows + self.n)
+        self.cols.append(np.asarray(cols, dtype=np.int64))
+        self.vals.append(np.broadcast_to(np.asarray(vals, dtype=float), rows.shape).copy())
+        self.lower.append(np.broadcast_to(np.asarray(lower, dtype=float), (count,)).copy())
+        self.upper.append(np.broadcast_to(np.asarray(upper, dtype=float), (count,)).copy())
+        self.n += count
+
+    def matrix(self, n_cols: int) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+        if not self.rows:
+            return sp.csr_matrix((0, n_cols)), np.zeros(0), np.zeros(0)
+        a = sp.coo_matrix(
+            (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
+            shape=(self.n, n_cols),
+        ).tocsr()
+        a.sum_duplicates()
+        a.eliminate_zeros()
+        return a, np.concatenate(self.lower), np.concatenate(self.upper)
+
+
+def build_arrays(data: ModelData, *, relax: bool = False, conflicts: str = "network") -> ArrayModel:
+    """Assemble the model of ``data`` as arrays (the formulation of :mod:`models.formulation`).
+
+    Parameters
+    ----------
+    data
+        Items and constraint data from :mod:`models.data`.
+    relax
+        x continuous in [0, 1]: the clique-strengthened LP relaxation (an upper bound on (1)).
+    conflicts
+        Form of the setup-time constraints (3): ``"network"`` (default, O(2n + 2m) nonzeros,
+        same polytope) or ``"clique"`` (one row per maximal clique, as the Pyomo builder).
+
+    Returns
+    -------
+    ArrayModel
+        Ready for :func:`run_highs`.
+    """
+    if conflicts not in CONFLICT_FORMS:
+        raise ValueError(f"conflicts: expected one of {CONFLICT_FORMS}, got {conflicts!r}")
+    n = data.n_items
+    z_targets = np.array(list(data.target_items), dtype=np.int64) if data.coverage else None
+    nz = 0 if z_targets is None else len(z_targets)
+    slew_items = (
+        np.concatenate(
+            [np.asarray(data.orbit_items[j], dtype=np.int64) for j in data.energy_orbits]
+        )
+        if data.energy_orbits
+        else np.zeros(0, dtype=np.int64)
+    )
+    ns = len(slew_items)
+    m_events = data.n_events if conflicts == "network" else 0
+    off: dict[str, int] = {"x": 0, "z": n}
+    off["f"] = off["z"] + nz
+    off["l"] = off["f"] + ns
+    off["s"] = off["l"] + ns
+    off["r"] = off["s"] + ns
+    off["t"] = off["r"] + ns
+    off["end"] = off["t"] + m_events
+    n_cols = off["end"]
+
+    cost = np.zeros(n_cols)
+    lower = np.zeros(n_cols)
+    upper = np.ones(n_cols)
+    upper[off["t"] :] = np.inf
+    integer = np.zeros(n_cols, dtype=bool)
+    if not relax:
+        integer[:n] = True
+
+    rows = _Rows()
+    _target_rows(rows, data, z_targets, off)
+    _conflict_rows(rows, data, conflicts, off)
+    _slew_order_rows(rows, data, slew_items, off)
+    _resource_rows(rows, data, slew_items, off)
+
+    # (1) objective
+    if data.coverage:
+        cost[off["z"] : off["f"]] = data.weight[z_targets]
+    else:
+        first_target = np.array([t[0] for t in data.targets], dtype=np.int64)
+        cost[:n] = data.weight[first_target] if n else 0.0
+    a, row_lower, row_upper = rows.matrix(n_cols)
+    return ArrayModel(
+        data=data,
+        matrix=a,
+        cost=cost,
+        col_lower=lower,
+        col_upper=upper,
+        row_lower=row_lower,
+        row_upper=row_upper,
+        integer=integer,
+        z_targets=np.zeros(0, dtype=np.int64) if z_targets is None else z_targets,
+        slew_items=slew_items,
+        offsets=off,
+        conflicts=conflicts,
+    )
+
+
+def _target_rows(
+    rows: _Rows, d: ModelData, z_targets: np.ndarray | None, off: dict[str, int]
+) -> None:
+    """(2): ``z_k - sum_{u covers k} x_u <= 0`` (coverage) or ``sum x_u <= 1`` (task)."""
+    lens = np.fromiter((len(t) for t in d.targets), dtype=np.int64, count=d.n_items)
+    item = np.repeat(np.arange(d.n_items), lens)
+    target = np.fromiter(chain.from_iterable(d.targets), dtype=np.int64, count=int(lens.sum()))
+    if z_targets is not None:
+        k = np.searchsorted(z_targets, target)
+        nk = len(z_targets)
+        rows.add(
+            np.concatenate([np.arange(nk), k]),
+            np.concatenate([off["z"] + np.arange(nk), item]),
+            np.concatenate([np.ones(nk), -np.ones(len(item))]),
+            -np.inf,
+            0.0,
+            nk,
+        )
+        return
+    # task model: one row per target covered by two or more items (others imply x <= 1)
+    _, inv, counts = np.unique(target, return_inverse=True, return_counts=True)
+    multi = counts >= 2
+    new_id = np.cumsum(multi) - 1
+    sel = multi[inv]
+    rows.add(new_id[inv[sel]], item[sel], 1.0, -np.inf, 1.0, int(multi.sum()))
+
+
+def _conflict_rows(rows: _Rows, d: ModelData, conflicts: str, off: dict[str, int]) -> None:
+    """(3) setup time: clique rows, or their network form (module docstring)."""
+    first, last = d.event_first, d.event_last
+    m = d.n_events
+    if m == 0:
+        return
+    has = last > first
+    if conflicts == "clique":
+        length = np.where(has, last - first, 0)
+        item = np.repeat(np.arange(d.n_items), length)
+        start = np.cumsum(length) - length
+        event = np.arange(int(length.sum())) - np.repeat(start - first, length)
+        rows.add(event, item, 1.0, -np.inf, 1.0, m)
+        return
+    # network form: D_e = R_e - R_{e-1} within an orbit; x_u: +1 at a_u, -1 at b_u (if in orbit)
+    u = np.flatnonzero(has)
+    block_end = d.event_block_end
+    tail = u[last[u] < block_end[first[u]]]
+    e = np.arange(m)
+    inner = e[e + 1 < block_end]  # t_e appears again (with -1) in the next row of its orbit
+    rhs = np.zeros(m)
+    is_block_start = np.ones(m, dtype=bool)
+    is_block_start[1:] = block_end[1:] != block_end[:-1]
+    rhs[is_block_start] = 1.0
+    rows.add(
+        np.concatenate([first[u], last[tail], e, inner + 1]),
+        np.concatenate([u, tail, off["t"] + e, off["t"] + inner]),
+        np.concatenate([np.ones(len(u)), -np.ones(len(tail)), np.ones(m), -np.ones(len(inner))]),
+        rhs,
+        rhs,
+        m,
+    )
+
+
+def _slew_order_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str, int]) -> None:
+    """First/last indicators of (4) via prefix/suffix variables (as ``models.formulation``)."""
+    ns = len(slew)
+    if ns == 0:
+        return
+    pos = np.arange(ns)
+    orbit = d.orbit[slew]
+    has_prev = np.zeros(ns, dtype=bool)
+    has_prev[1:] = orbit[1:] == orbit[:-1]
+    has_next = np.zeros(ns, dtype=bool)
+    has_next[:-1] = orbit[:-1] == orbit[1:]
+    x = slew
+    f, l_, s, r = (off[b] + pos for b in ("f", "l", "s", "r"))
+    p = pos[has_prev]
+    q = pos[has_next]
+
+    def pair(a: np.ndarray, b: np.ndarray, vb: float, upper: float) -> None:
+        """Rows ``a_i + vb * b_i <= upper``, one per i."""
+        k = len(a)
+        rows.add(
+            np.concatenate([np.arange(k), np.arange(k)]),
+            np.concatenate([a, b]),
+            np.concatenate([np.ones(k), np.full(k, vb)]),
+            -np.inf,
+            upper,
+            k,
+        )
+
+    pair(x, s, -1.0, 0.0)  # prefix_self: s_u >= x_u
+    pair(off["s"] + p - 1, s[p], -1.0, 0.0)  # prefix_chain: s_u >= s_prev
+    pair(x, r, -1.0, 0.0)  # suffix_self: r_u >= x_u
+    pair(off["r"] + q + 1, r[q], -1.0, 0.0)  # suffix_chain: r_u >= r_next
+    pair(f, x, -1.0, 0.0)  # first_taken: f_u <= x_u
+    pair(f[p], off["s"] + p - 1, 1.0, 1.0)  # first_nothing_before: f_u <= 1 - s_prev
+    pair(l_, x, -1.0, 0.0)  # last_taken: l_u <= x_u
+    pair(l_[q], off["r"] + q + 1, 1.0, 1.0)  # last_nothing_after: l_u <= 1 - r_next
+
+
+def _resource_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str, int]) -> None:
+    """(4) energy with the exact slew term, (5) memory, (6) openings, one row per orbit."""
+    inst = d.instance
+    dur = d.duration
+    half = d.slew_time()
+    where = {int(u): i for i, u in enumerate(slew.tolist())}
+    for j in d.energy_orbits:
+        seq = np.asarray(d.orbit_items[j], dtype=np.int64)
+        eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
+        pos = np.array([where[int(u)] for u in seq], dtype=np.int64)
+        h = es * half[seq]
+        rolled = h > 0
+        cols = np.concatenate([seq, off["f"] + pos[rolled], off["l"] + pos[rolled]])
+        vals = np.concatenate([eo * dur[seq] + 2.0 * h, -h[rolled], -h[rolled]])
+        rows.add(np.zeros(len(cols)), cols, vals, -np.inf, float(inst.energy_capacity[j]), 1)
+    for j in d.memory_orbits:
+        seq = np.asarray(d.orbit_items[j], dtype=np.int64)
+        w = float(inst.memory_rate[j])
+        rows.add(np.zeros(len(seq)), seq, w * dur[seq], -np.inf, float(inst.memory_capacity[j]), 1)
+    for j in d.opening_orbits:
+        seq = np.asarray(d.orbit_items[j], dtype=np.int64)
+        rows.add(np.zeros(len(seq)), seq, 1.0, -np.inf, float(inst.max_openings[j]), 1)
+
+
+# --------------------------------------------------------------------------- warm start
+def start_vector(am: ArrayModel, values: dict[str, dict[int, float]]) -> np.ndarray:
+    """A full column vector from :func:`models.solve.warm_start_values` (slacks t completed)."""
+    off = am.offsets
+    y = np.zeros(am.n_cols)
+    n = am.data.n_items
+    x = np.zeros(n)
+    for u, v in values.get("x", {}).items():
+        x[int(u)] = v
+    y[:n] = x
+    if am.data.coverage:
+        zk = values.get("z", {})
+        y[off["z"] : off["f"]] = [zk.get(int(k), 0.0) for k in am.z_targets]
+    for name in ("f", "l", "s", "r"):
+        vals = values.get(name, {})
+        y[off[name] : off[name] + len(am.slew_items)] = [
+            vals.get(int(u), 0.0) for u in am.slew_items
+        ]
+    if am.conflicts == "network" and am.data.n_events:
+        d = am.data
+        taken = np.flatnonzero((x > 0.5) & (d.event_last > d.event_first))
+        diff = np.zeros(d.n_events + 1)
+        np.add.at(diff, d.event_first[taken], 1.0)
+        np.add.at(diff, d.event_last[taken], -1.0)
+        y[off["t"] : off["end"]] = 1.0 - np.cumsum(diff[:-1])
+    return y
+
+
+# --------------------------------------------------------------------------- solve
+@dataclass
+class HighsOutcome:
+    """What :func:`run_highs` read back from HiGHS.
+
+    Attributes
+    ----------
+    status
+        ``"optimal"``, ``"time_limit"``, ``"infeasible"`` or ``"other"`` (HiGHS's model status
+        in ``model_status``).
+    objective
+        Incumbent objective (MILP) or LP optimum; None without a primal feasible solution.
+    bound
+        ``mip_dual_bound`` (MILP) or the LP optimum; None when unknown.
+    x
+        Values of the x columns (None without a solution).
+    """
+
+    status: str
+    model_status: str
+    objective: float | None
+    bound: float | None
+    x: np.ndarray | None
+    load_s: float
+    solve_s: float
+    info: dict[str, Any]
+
+
+def run_highs(
+    am: ArrayModel,
+    *,
+    time_limit: float | None = None,
+    deadline: float | None = None,
+    mip_gap: float | None = None,
+    threads: int | None = None,
+    start: np.ndarray | None = None,
+) -> HighsOutcome:
+    """Solve ``am`` with a fresh ``highspy.Highs`` (no option survives the call).
+
+    Parameters
+    ----------
+    am
+        The model.
+    time_limit
+        Seconds for HiGHS (None: no limit); with ``deadline`` (a ``time.perf_counter`` value)
+        HiGHS gets only what is left after loading the model.
+    mip_gap
+        ``mip_rel_gap`` (None: HiGHS default 1e-4).
+    threads
+        HiGHS ``threads``.
+    start
+        A full feasible column vector given as a MIP start (``setSolution``).
+    """
+    import highspy
+
+    t0 = time.perf_counter()
+    h = highspy.Highs()
+    debug = log.isEnabledFor(logging.DEBUG)
+    h.setOptionValue("output_flag", debug)
+    if debug:
+        h.setOptionValue("log_to_console", False)
+        h.cbLogging.subscribe(lambda e: log.debug("HiGHS: %s", str(e.message).rstrip()))
+    if mip_gap is not None:
+        h.setOptionValue("mip_rel_gap", float(mip_gap))
+    if threads is not None:
+        h.setOptionValue("threads", int(threads))
+    lp = highspy.HighsLp()
+    lp.num_col_ = am.n_cols
+    lp.num_row_ = am.n_rows
+    lp.col_cost_ = am.cost
+    lp.col_lower_ = am.col_lower
+    lp.col_upper_ = am.col_upper
+    lp.row_lower_ = am.row_lower
+    lp.row_upper_ = am.row_upper
+    lp.sense_ = highspy.ObjSense.kMaximize
+    a = am.matrix
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_ = am.n_cols
+    lp.a_matrix_.num_row_ = am.n_rows
+    lp.a_matrix_.start_ = a.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = a.indices.astype(np.int32)
+    lp.a_matrix_.value_ = a.data.astype(float)
+    mip = bool(am.integer.any())
+    if mip:
+        lp.integrality_ = [
+            highspy.HighsVarType.kInteger if b else highspy.HighsVarType.kContinuous
+            for b in am.integer
+        ]
+    h.passModel(lp)
+    if start is not None and mip:
+        sol = highspy.HighsSolution()
+        sol.col_value = np.asarray(start, dtype=float).tolist()
+        sol.value_valid = True
+        h.setSolution(sol)
+    load_s = time.perf_counter() - t0
+    if deadline is not None:
+        h.setOptionValue("time_limit", max(deadline - time.perf_counter(), 0.01))
+    elif time_limit is not None:
+        h.setOptionValue("time_limit", float(time_limit))
+    t1 = time.perf_counter()
+    h.run()
+    solve_s = time.perf_counter() - t1
+    ms = h.getModelStatus()
+    info = h.getInfo()
+    feasible = int(info.primal_solution_status) == 2  # kSolutionStatusFeasible
+    K = highspy.HighsModelStatus
+    if ms == K.kOptimal:
+        status = "optimal"
+    elif ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
+        status = "time_limit"
+    elif ms == K.kInfeasible:
+        status = "infeasible"
+    else:
+        status = "other"
+    objective = float(info.objective_function_value) if feasible else None
+    if mip:
+        raw = float(info.mip_dual_bound)
+        bound = raw if np.isfinite(raw) else None
+    else:
+        bound = objective if status == "optimal" else None
+    x = np.asarray(h.getSolution().col_value[: am.data.n_items]) if feasible else None
+    out_info = {
+        "mip_node_count": int(info.mip_node_count) if mip else 0,
+        "simplex_iteration_count": int(info.simplex_iteration_count),
+    }
+    return HighsOutcome(
+        status, str(h.modelStatusToString(ms)), objective, bound, x, load_s, solve_s, out_info
+    )
