@@ -365,17 +365,20 @@ def solve_milp(
     if abs(profit - float(incumbent)) > 1e-4:
         log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
     ib = _int_bound(raw_bound)
-    bound = profit if ib is None else max(ib, profit)
-    if kind == "optimal" and bound <= profit + INT_TOL:
+    bound: float | None = max(ib, profit) if ib is not None else None
+    if kind == "optimal" and (bound is None or bound <= profit + INT_TOL):
         status = Status.OPTIMAL
+        bound = profit
     elif kind == "optimal":
         status = Status.FEASIBLE  # stopped at the requested gap
         stats["stopped_at"] = "mip_gap"
     else:
+        # stopped before HiGHS had a finite bound (e.g. during the root LP): no bound, not
+        # the incumbent (which would claim a zero gap)
         status = Status.TIME_LIMIT
     stats["objective"] = float(incumbent)
     stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
-    return Result(method, status, schedule, profit, observed, runtime, float(bound), None, stats)
+    return Result(method, status, schedule, profit, observed, runtime, bound, None, stats)
 
 
 _Outcome = tuple[str, float | None, float | None, list[int] | None]

@@ -212,3 +212,19 @@ def test_time_limit_direct_does_not_raise() -> None:
     assert res.status in (Status.TIME_LIMIT, Status.OPTIMAL, Status.NO_SOLUTION)
     if res.status is Status.TIME_LIMIT:
         assert res.bound >= res.profit and validate(inst, res.schedule).feasible
+
+
+@pytest.mark.slow
+def test_no_finite_bound_is_not_a_zero_gap() -> None:
+    """Stopped during C5's root LP with a MIP start: an incumbent but no bound (not gap 0)."""
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C5", 0)
+    start = solve_greedy(inst, rng=np.random.default_rng(0)).schedule
+    res = solve_milp(inst, model="cluster", time_limit=6.0, warm_start=start, backend="highs")
+    assert res.status is Status.TIME_LIMIT and res.stats["warm_start"] is True
+    assert res.profit >= validate(inst, start).profit
+    if res.stats["raw_bound"] is None:
+        assert res.bound is None and res.gap is None
+    else:
+        assert res.bound >= res.profit
