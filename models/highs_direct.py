@@ -57,6 +57,28 @@ log = logging.getLogger("models.solve")
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
+#: Threads HiGHS's process-wide task scheduler runs with (None: HiGHS's default), as last set
+#: by :func:`use_threads`.
+_scheduler_threads: int | None = None
+
+
+def use_threads(threads: int | None) -> None:
+    """Make HiGHS's process-wide task scheduler run with ``threads`` (None: HiGHS's default).
+
+    HiGHS starts one scheduler per process at its first solve and keeps its thread count: a
+    later solve whose ``threads`` option differs ends with model status "unknown" and no
+    solution (HiGHS logs "the scheduler has already been initialized"), and a solve without
+    the option silently runs with the old count. So whenever the request changes, the
+    scheduler is restarted first. Both backends (APPSI uses highspy too) call this before
+    every solve; solves in one process are sequential, so no solve is running meanwhile.
+    """
+    global _scheduler_threads
+    if threads != _scheduler_threads:
+        import highspy
+
+        highspy.Highs.resetGlobalScheduler(True)
+        _scheduler_threads = threads
+
 
 @dataclass
 class ArrayModel:
@@ -476,6 +498,7 @@ def run_highs(
         h.setOptionValue("time_limit", max(deadline - time.perf_counter(), 0.01))
     elif time_limit is not None:
         h.setOptionValue("time_limit", float(time_limit))
+    use_threads(threads)
     t1 = time.perf_counter()
     h.run()
     solve_s = time.perf_counter() - t1

@@ -468,6 +468,9 @@ def _run_pyomo(
             stats["warm_start"] = False
     from pyomo.contrib.appsi.base import TerminationCondition as TC
 
+    from models.highs_direct import use_threads
+
+    use_threads(threads)
     res = opt.solve(m)
     stats.update(_model_size(opt, m))
     tc = res.termination_condition

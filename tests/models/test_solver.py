@@ -183,6 +183,16 @@ def test_through_sosp_solve_with_params() -> None:
         assert res.stats[key] > 0
 
 
+@pytest.mark.parametrize("backend", ["pyomo", "highs"])
+def test_changing_threads_between_solves(backend: str) -> None:
+    # HiGHS keeps one task scheduler per process: a later solve asking for another thread
+    # count used to end "unknown" with no solution (seen in CI after earlier default solves).
+    inst = tiny_cluster()
+    for threads in (None, 1, 2, 1, None):
+        res = solve_milp(inst, model="cluster", threads=threads, backend=backend, time_limit=30)
+        assert res.status is Status.OPTIMAL and res.profit == 11, (threads, res.stats)
+
+
 def test_relaxation_gives_bound_only() -> None:
     res = solve_milp(tiny_cluster(), relax=True)
     assert res.status is Status.NO_SOLUTION and len(res.schedule) == 0
