@@ -42,6 +42,8 @@ except that (3) has two forms:
 from __future__ import annotations
 
 import logging
+import os
+import sys
 import time
 from dataclasses import dataclass, field
 from itertools import chain
@@ -56,6 +58,36 @@ log = logging.getLogger("models.solve")
 
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
+
+#: Whether this process has made its first ``highspy.Highs`` (see :func:`new_highs`).
+_banner_done = False
+
+
+def new_highs() -> Any:
+    """A fresh ``highspy.Highs``, without HiGHS's start-up banner on standard output.
+
+    highspy prints its banner ("Running HiGHS ...") straight to the C-level standard output
+    when the first solver object of a process is made, whatever ``output_flag`` says; that
+    would corrupt the single JSON object ``sosp solve/bound --json`` print. So the first
+    construction runs with file descriptor 1 pointed at the null device.
+    """
+    import highspy
+
+    global _banner_done
+    if _banner_done:
+        return highspy.Highs()
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            h = highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+    _banner_done = True
+    return h
+
 
 #: Threads HiGHS's process-wide task scheduler runs with (None: HiGHS's default), as last set
 #: by :func:`use_threads`.
@@ -455,7 +487,7 @@ def run_highs(
     import highspy
 
     t0 = time.perf_counter()
-    h = highspy.Highs()
+    h = new_highs()
     debug = log.isEnabledFor(logging.DEBUG)
     h.setOptionValue("output_flag", debug)
     if debug:

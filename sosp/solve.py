@@ -40,6 +40,7 @@ METHODS: dict[str, str] = {
     "rds-stc": "heuristics.rds:solve_rds_stc",
     "sa-stc": "heuristics.sa:solve_sa_stc",
     "milp": "models.solve:solve_milp",
+    "milp-lns": "models.lns:solve_milp_lns",
 }
 
 
