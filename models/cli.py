@@ -47,6 +47,11 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="pyomo (reference builder), highs (arrays passed to HiGHS directly) or auto "
         "(default: highs from 1000 items on)",
     )
+    p.add_argument(
+        "--lp-solver",
+        default="ipm",
+        help="HiGHS LP algorithm for --method lp: ipm (default), simplex, pdlp or choose",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bound)
     return p
@@ -65,6 +70,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
         time_limit=args.time_limit,
         threads=args.threads,
         backend=args.backend,
+        lp_solver=args.lp_solver,
     )
     out["instance"] = inst.name or str(args.instance)
     if getattr(args, "json", False):

@@ -59,6 +59,9 @@ log = logging.getLogger("models.solve")
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
+#: HiGHS LP algorithms for relaxations (its ``solver`` option; "choose" lets HiGHS decide).
+LP_SOLVERS = ("choose", "simplex", "ipm", "pdlp")
+
 #: Whether this process has made its first ``highspy.Highs`` (see :func:`new_highs`).
 _banner_done = False
 
@@ -467,6 +470,7 @@ def run_highs(
     mip_gap: float | None = None,
     threads: int | None = None,
     start: np.ndarray | None = None,
+    lp_solver: str | None = None,
 ) -> HighsOutcome:
     """Solve ``am`` with a fresh ``highspy.Highs`` (no option survives the call).
 
@@ -483,6 +487,9 @@ def run_highs(
         HiGHS ``threads``.
     start
         A full feasible column vector given as a MIP start (``setSolution``).
+    lp_solver
+        HiGHS's ``solver`` option for a pure LP (``"simplex"``, ``"ipm"``, ``"pdlp"``;
+        None: HiGHS chooses); ignored for a MIP.
     """
     import highspy
 
@@ -497,6 +504,8 @@ def run_highs(
         h.setOptionValue("mip_rel_gap", float(mip_gap))
     if threads is not None:
         h.setOptionValue("threads", int(threads))
+    if lp_solver is not None and not am.integer.any():
+        h.setOptionValue("solver", str(lp_solver))
     lp = highspy.HighsLp()
     lp.num_col_ = am.n_cols
     lp.num_row_ = am.n_rows

@@ -245,6 +245,13 @@ def _check_backend(backend: Any, conflicts: Any) -> None:
         )
 
 
+def _check_lp_solver(lp_solver: Any) -> None:
+    from models.highs_direct import LP_SOLVERS
+
+    if lp_solver not in LP_SOLVERS:
+        raise InputError(f"lp_solver: expected one of {', '.join(LP_SOLVERS)}, got {lp_solver!r}")
+
+
 def choose_backend(data: ModelData, backend: str = "auto") -> str:
     """``"pyomo"`` or ``"highs"``: ``"auto"`` picks the direct backend for large models.
 
@@ -270,6 +277,7 @@ def solve_milp(
     relax: bool = False,
     backend: str = "auto",
     conflicts: str = "network",
+    lp_solver: str = "choose",
 ) -> Result:
     """Solve an exact model of (1)-(6) with HiGHS.
 
@@ -301,6 +309,10 @@ def solve_milp(
     conflicts
         Form of (3) in the direct backend: ``"network"`` (default) or ``"clique"``; the Pyomo
         builder always uses clique rows. Both give the same LP and MILP optima.
+    lp_solver
+        HiGHS's algorithm for the LP relaxation (``relax=True`` only): ``"choose"`` (HiGHS
+        decides), ``"simplex"``, ``"ipm"`` (interior point with crossover; B10's cluster LP:
+        17 s against 94 s by dual simplex) or ``"pdlp"``.
 
     Returns
     -------
@@ -314,6 +326,7 @@ def solve_milp(
     time_limit = check_time_limit(time_limit)
     _check_params(mip_gap, threads)
     _check_backend(backend, conflicts)
+    _check_lp_solver(lp_solver)
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
     data = model_data(instance, model)
@@ -337,11 +350,11 @@ def solve_milp(
         )
     if backend == "highs":
         kind, incumbent, raw_bound, chosen = _run_direct(
-            data, t0, time_limit, mip_gap, threads, warm_start, relax, conflicts, stats
+            data, t0, time_limit, mip_gap, threads, warm_start, relax, conflicts, lp_solver, stats
         )
     else:
         kind, incumbent, raw_bound, chosen = _run_pyomo(
-            data, t0, time_limit, mip_gap, threads, warm_start, relax, stats
+            data, t0, time_limit, mip_gap, threads, warm_start, relax, lp_solver, stats
         )
     runtime = time.perf_counter() - t0
 
@@ -393,6 +406,7 @@ def _run_direct(
     warm_start: Schedule | None,
     relax: bool,
     conflicts: str,
+    lp_solver: str,
     stats: dict[str, Any],
 ) -> _Outcome:
     """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`)."""
@@ -410,7 +424,14 @@ def _run_direct(
         if vals is not None:
             start = start_vector(am, vals)
     deadline = None if time_limit is None else t0 + time_limit
-    out = run_highs(am, deadline=deadline, mip_gap=mip_gap, threads=threads, start=start)
+    out = run_highs(
+        am,
+        deadline=deadline,
+        mip_gap=mip_gap,
+        threads=threads,
+        start=start,
+        lp_solver=None if lp_solver == "choose" else lp_solver,
+    )
     stats["load_s"] = round(out.load_s, 6)
     stats["solve_s"] = round(out.solve_s, 6)
     stats["termination"] = out.model_status
@@ -427,6 +448,7 @@ def _run_pyomo(
     threads: int | None,
     warm_start: Schedule | None,
     relax: bool,
+    lp_solver: str,
     stats: dict[str, Any],
 ) -> _Outcome:
     """Build ``data`` with the reference Pyomo builder and solve it through APPSI."""
@@ -436,6 +458,8 @@ def _run_pyomo(
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
     opt = _solver(None, mip_gap, threads)
+    if relax and lp_solver != "choose":
+        opt.highs_options = {**opt.highs_options, "solver": lp_solver}
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
@@ -500,6 +524,7 @@ def bound(
     threads: int | None = None,
     backend: str = "auto",
     conflicts: str = "network",
+    lp_solver: str = "ipm",
 ) -> dict[str, Any]:
     """An upper bound on the optimum of ``model``.
 
@@ -518,6 +543,9 @@ def bound(
         HiGHS threads.
     backend, conflicts
         As for :func:`solve_milp`.
+    lp_solver
+        HiGHS's LP algorithm for ``method="lp"`` (default ``"ipm"``: interior point with
+        crossover, several times faster than simplex on the large cluster LPs).
 
     Returns
     -------
@@ -535,6 +563,7 @@ def bound(
         relax=(method == "lp"),
         backend=backend,
         conflicts=conflicts,
+        lp_solver=lp_solver,
     )
     out: dict[str, Any] = {
         "bound": res.bound,
@@ -548,6 +577,7 @@ def bound(
             out[key] = res.stats[key]
     if method == "lp":
         out["lp_value"] = res.stats.get("lp_bound")
+        out["lp_solver"] = lp_solver
     else:
         out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
     return out

@@ -27,11 +27,11 @@ def test_never_above_the_optimum_and_exact_with_every_orbit_freed(seed: int) -> 
     inst = random_tiny(seed)
     optimum = brute_force(inst, "cluster").profit
     # a few orbits per step: a valid schedule, never above the optimum
-    small = solve(inst, "milp-lns", seed=seed, orbits=1, iterations=6)
+    small = solve(inst, "milp-lns", start="hpfs-stc", seed=seed, orbits=1, iterations=6)
     assert validate(inst, small.schedule).feasible
     assert small.profit <= optimum + 1e-9
     # every orbit freed at once: one step is the whole cluster model, solved to optimality
-    whole = solve(inst, "milp-lns", seed=seed, orbits=inst.n_orbits, iterations=1)
+    whole = solve(inst, "milp-lns", start="hpfs-stc", seed=seed, orbits=inst.n_orbits, iterations=1)
     assert whole.status is Status.FEASIBLE
     assert whole.profit == pytest.approx(optimum)
     assert validate(inst, whole.schedule).profit == pytest.approx(optimum)
@@ -40,7 +40,7 @@ def test_never_above_the_optimum_and_exact_with_every_orbit_freed(seed: int) -> 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(inst=small_instances(max_opps=8), seed=st.integers(0, 2**16), k=st.integers(1, 2))
 def test_property_valid_and_bounded_by_the_oracle(inst, seed: int, k: int) -> None:
-    res = solve(inst, "milp-lns", seed=seed, orbits=k, iterations=3, check=False)
+    res = solve(inst, "milp-lns", start="hpfs-stc", seed=seed, orbits=k, iterations=3, check=False)
     rep = validate(inst, res.schedule)
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(res.profit) and res.profit >= res.stats["start_profit"]
@@ -50,7 +50,7 @@ def test_property_valid_and_bounded_by_the_oracle(inst, seed: int, k: int) -> No
 @pytest.mark.parametrize("name", sorted(TINY))
 def test_tiny_named_instances_reach_the_oracle(name: str) -> None:
     inst = TINY[name]()
-    res = solve(inst, "milp-lns", seed=0, orbits=inst.n_orbits, iterations=1)
+    res = solve(inst, "milp-lns", start="hpfs-stc", seed=0, orbits=inst.n_orbits, iterations=1)
     assert res.profit == pytest.approx(brute_force(inst, "cluster").profit)
 
 
@@ -58,9 +58,11 @@ def test_targets_fixed_elsewhere_are_not_claimed_twice() -> None:
     # a is visible on both orbits; the start observes a on orbit 1, so re-planning orbit 0
     # alone must not observe a again (2), and b on orbit 0 conflicts with a there (3)
     inst = tiny_two_orbits()
-    start = solve(inst, "milp-lns", seed=0, orbits=2, iterations=1).schedule
+    start = solve(inst, "milp-lns", start="hpfs-stc", seed=0, orbits=2, iterations=1).schedule
     assert {ob.orbit for ob in start.observations} == {0, 1}  # a on 1, b on 0: profit 11
-    res = solve(inst, "milp-lns", seed=3, orbits=1, iterations=8, warm_start=start)
+    res = solve(
+        inst, "milp-lns", start="hpfs-stc", seed=3, orbits=1, iterations=8, warm_start=start
+    )
     rep = validate(inst, res.schedule)
     assert rep.feasible and rep.profit == 11
 
@@ -71,7 +73,7 @@ def test_profit_never_below_the_start_and_trace_increases() -> None:
     # 60 targets, 24 h, 64 orbits, 268 opportunities (HPFS-STC 354, LNS 390 when written)
     inst = custom_scenario(region=(30.0, 60.0, 90.0, 120.0), count=60, seed=2, hours=24.0)
     hpfs = solve(inst, "hpfs-stc", seed=0)
-    res = solve(inst, "milp-lns", seed=1, orbits=2, iterations=10)
+    res = solve(inst, "milp-lns", start="hpfs-stc", seed=1, orbits=2, iterations=10)
     assert res.stats["start_profit"] == hpfs.profit
     assert res.profit > hpfs.profit  # clustering across static tasks pays here
     profits = [row[2] for row in res.stats["trace"]]
@@ -79,18 +81,29 @@ def test_profit_never_below_the_start_and_trace_increases() -> None:
     assert validate(inst, res.schedule).profit == res.profit
 
 
+def test_default_start_is_asa_dtc_and_never_lost() -> None:
+    # the start gets the fresh generator first, so it is ASA-DTC's same-seed run
+    inst = random_tiny(3)
+    asa = solve(inst, "asa-dtc", seed=7, time_limit=10.0, iterations=300)
+    res = solve(inst, "milp-lns", seed=7, iterations=4, start_params={"iterations": 300})
+    assert res.stats["start"] == "asa-dtc" and res.stats["start_profit"] == asa.profit
+    assert res.profit >= asa.profit
+
+
 def test_same_seed_same_schedule() -> None:
     inst = random_tiny(5)
-    a = solve(inst, "milp-lns", seed=4, orbits=1, iterations=5)
-    b = solve(inst, "milp-lns", seed=4, orbits=1, iterations=5)
+    a = solve(inst, "milp-lns", start="hpfs-stc", seed=4, orbits=1, iterations=5)
+    b = solve(inst, "milp-lns", start="hpfs-stc", seed=4, orbits=1, iterations=5)
     assert a.schedule.to_dict(inst) == b.schedule.to_dict(inst)
 
 
 def test_infeasible_warm_start_is_ignored(caplog: pytest.LogCaptureFixture) -> None:
     inst = tiny_two_orbits()
-    bad = solve(inst, "milp-lns", seed=0, orbits=2, iterations=1).schedule
+    bad = solve(inst, "milp-lns", start="hpfs-stc", seed=0, orbits=2, iterations=1).schedule
     doubled = Schedule(bad.observations + bad.observations)
-    res = solve(inst, "milp-lns", seed=0, orbits=2, iterations=1, warm_start=doubled)
+    res = solve(
+        inst, "milp-lns", start="hpfs-stc", seed=0, orbits=2, iterations=1, warm_start=doubled
+    )
     assert res.stats["start"] == "hpfs-stc" and "warm start ignored" in caplog.text
     assert validate(inst, res.schedule).feasible
 
@@ -105,6 +118,7 @@ def test_infeasible_warm_start_is_ignored(caplog: pytest.LogCaptureFixture) -> N
         ({"start": "nope"}, "start"),
         ({"no_improve": 0}, "no_improve"),
         ({"threads": True}, "threads"),
+        ({"start_params": [1]}, "start_params"),
     ],
 )
 def test_bad_parameters_name_the_field(params: dict, field: str) -> None:
@@ -122,7 +136,9 @@ def test_cli_solve_json_is_one_object_and_bad_param_exits_2(tmp_path) -> None:
     out = tmp_path / "s.json"
     cmd = [sys.executable, "-m", "sosp", "solve", str(path), "--method", "milp-lns"]
     done = subprocess.run(
-        [*cmd, "--iterations", "3", "-o", str(out), "--json"], capture_output=True, text=True
+        [*cmd, "--iterations", "3", "--param", "start=hpfs-stc", "-o", str(out), "--json"],
+        capture_output=True,
+        text=True,
     )
     assert done.returncode == 0, done.stderr
     data = json.loads(done.stdout)

@@ -193,6 +193,24 @@ def test_changing_threads_between_solves(backend: str) -> None:
         assert res.status is Status.OPTIMAL and res.profit == 11, (threads, res.stats)
 
 
+@pytest.mark.parametrize("backend", ["pyomo", "highs"])
+@pytest.mark.parametrize("seed", [0, 3, 8])
+def test_lp_solvers_give_the_same_lp_value(backend: str, seed: int) -> None:
+    from models.solve import bound
+
+    inst = random_tiny(seed)
+    values = {
+        algo: bound(inst, method="lp", backend=backend, lp_solver=algo)
+        for algo in ("choose", "simplex", "ipm")
+    }
+    ref = values["choose"]["lp_value"]
+    for algo, out in values.items():
+        assert out["lp_value"] == pytest.approx(ref, abs=1e-6), algo
+        assert out["bound"] == values["choose"]["bound"] and out["lp_solver"] == algo
+    with pytest.raises(InputError, match="lp_solver"):
+        bound(inst, lp_solver="barrier")
+
+
 def test_relaxation_gives_bound_only() -> None:
     res = solve_milp(tiny_cluster(), relax=True)
     assert res.status is Status.NO_SOLUTION and len(res.schedule) == 0
