@@ -40,7 +40,10 @@ def clustering_gain(
     When both are 0 the
     test is degenerate (``0 < 0``); ``params.rule16_empty`` picks the reading (see
     ``docs/asa.md``). The saving is the right side minus the left side (capacity-normalised,
-    ``alpha = 1/E, beta = 1/W``, when (16) is switched off); larger is better.
+    ``alpha = 1/E, beta = 1/W``, when (16) is switched off); larger is better. With
+    ``params.rule16_openings`` the openings (6) count as a third resource and every term is a
+    share of its capacity: ``alpha (en - ec)/E + beta (wn - wc)/W + gamma (2 - 1)/c``, with
+    ``gamma = openings used / c`` (``1/c`` on an orbit with none).
     """
     pb = state.pb
     lo = max(c[LO], pb.opt_lo[x])
@@ -61,6 +64,17 @@ def clustering_gain(
     wc = p.w * span
     alpha = line.energy / p.E if p.E > 0 else 0.0
     beta = line.memory / p.W if p.W > 0 else 0.0
+    openings = params.rule16_openings and p.c > 0 and p.E > 0 and p.W > 0
+    gamma = max(len(line.obs), 1) / p.c if openings else 0.0
+
+    def saving_of(alpha: float, beta: float, capacity: bool = False) -> float:
+        if openings:
+            # three resources, each saving as a share of its capacity, weighted by the share
+            # consumed (1 each in the capacity reading): one opening saved is worth 1/c
+            wa, wb = (1.0, 1.0) if capacity else (line.energy / p.E, line.memory / p.W)
+            return wa * (en - ec) / p.E + wb * (wn - wc) / p.W + gamma / p.c
+        return alpha * (en - ec) + beta * (wn - wc)
+
     # (16) only judges tasks that could also be done one after the other (section 4.2):
     # tasks exclusive by (3) are always worth clustering.
     slew = p.a + (abs(c[ROLL]) + abs(pb.opt_roll[x])) / p.v
@@ -69,21 +83,22 @@ def clustering_gain(
     else:
         separable = pb.opt_end[x] + slew <= c[START] + EPS
     if not separable:
-        if alpha == 0.0 and beta == 0.0:
+        degenerate = alpha == 0.0 and beta == 0.0
+        if degenerate:
             alpha = 1.0 / p.E if p.E > 0 else 0.0
             beta = 1.0 / p.W if p.W > 0 else 0.0
-        return alpha * (en - ec) + beta * (wn - wc), new
+        return saving_of(alpha, beta, capacity=degenerate), new
     if not params.rule16 or (alpha == 0.0 and beta == 0.0):
         mode = "capacity" if not params.rule16 else params.rule16_empty
         if mode == "never":
             return None
         alpha = 1.0 / p.E if p.E > 0 else 0.0
         beta = 1.0 / p.W if p.W > 0 else 0.0
-        saving = alpha * (en - ec) + beta * (wn - wc)
+        saving = saving_of(alpha, beta, capacity=True)
         if mode == "always" or not params.rule16:
             return saving, new
         return (saving, new) if saving > 0 else None
-    saving = alpha * (en - ec) + beta * (wn - wc)
+    saving = saving_of(alpha, beta)
     return (saving, new) if saving > 0 else None
 
 

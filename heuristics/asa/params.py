@@ -47,6 +47,14 @@ class ASAParams:
         Roll of a cluster-task inside its common range: ``"midpoint"`` (9) or ``"nadir"``.
     rule16
         Apply the effectiveness test (16) to clustering insertion (``False``: (7), (11) only).
+    rule16_openings
+        Count the sensor openings (6) as a third resource in (16), beside energy and memory:
+        gamma * 1 (clustered) against gamma * 2 (separate), gamma = openings used / c (1/c on
+        an orbit that has used nothing). The paper weighs energy and memory only (default
+        False); with openings binding (the B scenarios) the literal rule refuses clusters the
+        schedule needs (``docs/asa.md``, decision 3). Default True: sosp's reading, which the
+        paper's own motivation for clustering supports (section 1: "finish more tasks at the
+        cost of fewer sensor opening times"); False is the literal rule.
     rule16_empty
         Reading of (16) when the orbit has consumed nothing (alpha = beta = 0, degenerate):
         ``"capacity"`` uses alpha = 1/E, beta = 1/W; ``"always"`` lets clustering pass;
@@ -81,6 +89,7 @@ class ASAParams:
     migration_pool: int = 8
     roll_rule: str = "midpoint"
     rule16: bool = True
+    rule16_openings: bool = True
     rule16_empty: str = "capacity"
     r_update: str = "generated"
     option_rule: str = "feasible-first"
@@ -134,8 +143,9 @@ class ASAParams:
                 raise InputError(
                     f"{name}: expected one of {', '.join(allowed)}, got {getattr(self, name)!r}"
                 )
-        if not isinstance(self.rule16, bool):
-            raise InputError(f"rule16: expected true or false, got {self.rule16!r}")
+        for name in ("rule16", "rule16_openings"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name}: expected true or false, got {getattr(self, name)!r}")
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> ASAParams:
@@ -159,7 +169,7 @@ def _coerce(key: str, value: Any, default: Any) -> Any:
     text = value.strip()
     if text.lower() in ("none", "null"):
         return None
-    if key in ("rule16",):
+    if key in ("rule16", "rule16_openings"):
         if text.lower() in ("true", "1", "yes", "on"):
             return True
         if text.lower() in ("false", "0", "no", "off"):

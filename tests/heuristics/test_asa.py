@@ -20,6 +20,7 @@ from heuristics.asa import (
     write_trace_csv,
 )
 from heuristics.asa.neighbourhoods import (
+    clustering_gain,
     initial_solution,
     insert_options,
     insertion_move,
@@ -128,12 +129,34 @@ def test_tiny_named_instances_reach_the_cluster_optimum(tiny: Instance) -> None:
 
 
 def test_rule16_ignores_openings() -> None:
-    """tiny_openings (c = 2): the optimum 10 clusters a+b and c+d over 98 s gaps. (16) sees
-    only energy and memory (roll 0: no slew saved, 98 s more memory), so ASA-DTC with (16)
-    never clusters them and keeps the best two singles, d + c = 7."""
+    """tiny_openings (c = 2): the optimum 10 clusters a+b and c+d over 98 s gaps. The literal
+    (16) sees only energy and memory (roll 0: no slew saved, 98 s more memory), so ASA-DTC
+    with it never clusters them and keeps the best two singles, d + c = 7."""
     inst = tiny_openings()
     assert brute_force(inst, "cluster").profit == 10
-    assert solve(inst, "asa-dtc", seed=3, iterations=300).profit == 7
+    assert solve(inst, "asa-dtc", seed=3, iterations=300, rule16_openings=False).profit == 7
+
+
+def test_rule16_with_openings_clusters_when_openings_are_scarce() -> None:
+    """The default reading counts openings: c joining d (d alone on the orbit) saves one of
+    c = 2 openings. By hand: d [300, 302], c [200, 202], roll 0, E = 1500, W = 1000.
+    en = 2 + 2 = 4, ec = 102 (window [200, 302]); wn = 4, wc = 102; shares consumed
+    ConE/E = 2/1500, ConW/W = 2/1000; gamma = 1 opening used / 2.
+    saving = (2/1500)(4 - 102)/1500 + (2/1000)(4 - 102)/1000 + (1/2)/2 = 0.25 - 2.83e-4."""
+    inst = tiny_openings()
+    state, params = _state(inst)
+    c, d = _opp(inst, "c"), _opp(inst, "d")
+    state.begin()
+    assert insert_options(state, [d], params) == d
+    line = state.lines[0]
+    gain = clustering_gain(state, line, line.obs[0], c, params)
+    expected = (2 / 1500) * (4 - 102) / 1500 + (2 / 1000) * (4 - 102) / 1000 + 0.5 / 2
+    assert gain is not None and gain[0] == pytest.approx(expected)
+    assert gain[1][:3] == (200.0, 302.0, 0.0)
+    # literal (16): alpha (en - ec) + beta (wn - wc) < 0, refused
+    literal = ASAParams(rule16_openings=False)
+    assert clustering_gain(state, line, line.obs[0], c, literal) is None
+    assert solve(inst, "asa-dtc", seed=3, iterations=300).profit == 10
 
 
 # ------------------------------------------------------------------------- insertion by hand
@@ -181,9 +204,10 @@ def test_insertion_removes_the_setup_conflict() -> None:
 
 def test_openings_removal_prefers_low_weight() -> None:
     """tiny_openings (c = 2): with c, d scheduled, inserting b overflows (6); equal resource
-    use (2 s, roll 0), so the lighter c (3) goes before d (4)."""
+    use (2 s, roll 0), so the lighter c (3) goes before d (4). The literal (16) keeps c and d
+    apart (with openings counted they would cluster and (6) would not overflow)."""
     inst = tiny_openings()
-    state, params = _state(inst)
+    state, params = _state(inst, rule16_openings=False)
     state.begin()
     for t in ("c", "d", "b"):
         insert_options(state, [_opp(inst, t)], params)
