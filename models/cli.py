@@ -52,6 +52,13 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         default="ipm",
         help="HiGHS LP algorithm for --method lp: ipm (default), simplex, pdlp or choose",
     )
+    p.add_argument(
+        "--slew",
+        default="auto",
+        help="slew term of (4) in the LP: exact, relaxed (one row per orbit: a valid, "
+        "possibly weaker bound from a much smaller LP) or auto (default: relaxed from 1000 "
+        "items on)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bound)
     return p
@@ -71,6 +78,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
         threads=args.threads,
         backend=args.backend,
         lp_solver=args.lp_solver,
+        slew=args.slew,
     )
     out["instance"] = inst.name or str(args.instance)
     if getattr(args, "json", False):

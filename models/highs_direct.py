@@ -59,6 +59,9 @@ log = logging.getLogger("models.solve")
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
+#: Forms of the slew term of (4) :func:`build_arrays` accepts.
+SLEW_FORMS = ("exact", "relaxed")
+
 #: HiGHS LP algorithms for relaxations (its ``solver`` option; "choose" lets HiGHS decide).
 LP_SOLVERS = ("choose", "simplex", "ipm", "pdlp")
 
@@ -205,7 +208,9 @@ class _Rows:
         return a, np.concatenate(self.lower), np.concatenate(self.upper)
 
 
-def build_arrays(data: ModelData, *, relax: bool = False, conflicts: str = "network") -> ArrayModel:
+def build_arrays(
+    data: ModelData, *, relax: bool = False, conflicts: str = "network", slew: str = "exact"
+) -> ArrayModel:
     """Assemble the model of ``data`` as arrays (the formulation of :mod:`models.formulation`).
 
     Parameters
@@ -217,6 +222,13 @@ def build_arrays(data: ModelData, *, relax: bool = False, conflicts: str = "netw
     conflicts
         Form of the setup-time constraints (3): ``"network"`` (default, O(2n + 2m) nonzeros,
         same polytope) or ``"clique"`` (one row per maximal clique, as the Pyomo builder).
+    slew
+        The slew term of (4): ``"exact"`` (default; first/last indicators, 8 rows and 4
+        columns per item of an energy-binding orbit) or ``"relaxed"``, for bounds only: the
+        scheduled items u_1..u_n of an orbit slew ``(2 sum |theta| - |theta_1| - |theta_n|)/v
+        >= (2 sum |theta| - 2 max_orbit |theta|)/v``, so the single row
+        ``sum (eo d_u + 2 es |theta_u|/v) x_u <= E + 2 es max |theta|/v`` is implied by (4):
+        a relaxation (its optimum is an upper bound) with no extra rows or columns.
 
     Returns
     -------
@@ -225,6 +237,8 @@ def build_arrays(data: ModelData, *, relax: bool = False, conflicts: str = "netw
     """
     if conflicts not in CONFLICT_FORMS:
         raise ValueError(f"conflicts: expected one of {CONFLICT_FORMS}, got {conflicts!r}")
+    if slew not in SLEW_FORMS:
+        raise ValueError(f"slew: expected one of {SLEW_FORMS}, got {slew!r}")
     n = data.n_items
     z_targets = np.array(list(data.target_items), dtype=np.int64) if data.coverage else None
     nz = 0 if z_targets is None else len(z_targets)
@@ -232,7 +246,7 @@ def build_arrays(data: ModelData, *, relax: bool = False, conflicts: str = "netw
         np.concatenate(
             [np.asarray(data.orbit_items[j], dtype=np.int64) for j in data.energy_orbits]
         )
-        if data.energy_orbits
+        if data.energy_orbits and slew == "exact"
         else np.zeros(0, dtype=np.int64)
     )
     ns = len(slew_items)
@@ -391,12 +405,18 @@ def _resource_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str, i
     for j in d.energy_orbits:
         seq = np.asarray(d.orbit_items[j], dtype=np.int64)
         eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
-        pos = np.array([where[int(u)] for u in seq], dtype=np.int64)
         h = es * half[seq]
+        cap = float(inst.energy_capacity[j])
+        if not where:  # slew="relaxed": (4) with every slew counted twice, less 2 max
+            rows.add(
+                np.zeros(len(seq)), seq, eo * dur[seq] + 2.0 * h, -np.inf, cap + 2 * h.max(), 1
+            )
+            continue
+        pos = np.array([where[int(u)] for u in seq], dtype=np.int64)
         rolled = h > 0
         cols = np.concatenate([seq, off["f"] + pos[rolled], off["l"] + pos[rolled]])
         vals = np.concatenate([eo * dur[seq] + 2.0 * h, -h[rolled], -h[rolled]])
-        rows.add(np.zeros(len(cols)), cols, vals, -np.inf, float(inst.energy_capacity[j]), 1)
+        rows.add(np.zeros(len(cols)), cols, vals, -np.inf, cap, 1)
     for j in d.memory_orbits:
         seq = np.asarray(d.orbit_items[j], dtype=np.int64)
         w = float(inst.memory_rate[j])

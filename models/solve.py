@@ -278,6 +278,7 @@ def solve_milp(
     backend: str = "auto",
     conflicts: str = "network",
     lp_solver: str = "choose",
+    slew: str = "exact",
 ) -> Result:
     """Solve an exact model of (1)-(6) with HiGHS.
 
@@ -313,6 +314,13 @@ def solve_milp(
         HiGHS's algorithm for the LP relaxation (``relax=True`` only): ``"choose"`` (HiGHS
         decides), ``"simplex"``, ``"ipm"`` (interior point with crossover; B10's cluster LP:
         17 s against 94 s by dual simplex) or ``"pdlp"``.
+    slew
+        The slew term of (4): ``"exact"`` or, with ``relax=True`` only, ``"relaxed"`` (one
+        row per orbit that over-estimates nothing, see :func:`models.highs_direct.build_arrays`;
+        a weaker but much smaller LP; direct backend) or ``"auto"`` (relaxed for an LP that
+        ``backend="auto"`` gives the direct backend, else exact). On B10 the relaxed cluster LP
+        has the exact LP's value (6188.36) in 1.2 s instead of 15 s; on C10 it is solved in
+        52 s where the exact LP is not solved in 400 s.
 
     Returns
     -------
@@ -327,10 +335,20 @@ def solve_milp(
     _check_params(mip_gap, threads)
     _check_backend(backend, conflicts)
     _check_lp_solver(lp_solver)
+    from models.highs_direct import SLEW_FORMS
+
+    if slew not in (*SLEW_FORMS, "auto"):
+        raise InputError(f"slew: expected one of {', '.join(SLEW_FORMS)}, auto, got {slew!r}")
+    if slew == "relaxed" and not relax:
+        raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
+    if slew == "relaxed" and backend == "pyomo":
+        raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
     data = model_data(instance, model)
-    backend = choose_backend(data, backend)
+    if slew == "auto":  # the small relaxed LP where the direct backend is chosen anyway
+        slew = "relaxed" if relax and choose_backend(data, backend) == "highs" else "exact"
+    backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
     stats: dict[str, Any] = {
         "model": model,
         "relax": bool(relax),
@@ -350,7 +368,17 @@ def solve_milp(
         )
     if backend == "highs":
         kind, incumbent, raw_bound, chosen = _run_direct(
-            data, t0, time_limit, mip_gap, threads, warm_start, relax, conflicts, lp_solver, stats
+            data,
+            t0,
+            time_limit,
+            mip_gap,
+            threads,
+            warm_start,
+            relax,
+            conflicts,
+            lp_solver,
+            slew,
+            stats,
         )
     else:
         kind, incumbent, raw_bound, chosen = _run_pyomo(
@@ -407,13 +435,15 @@ def _run_direct(
     relax: bool,
     conflicts: str,
     lp_solver: str,
+    slew: str,
     stats: dict[str, Any],
 ) -> _Outcome:
     """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`)."""
     from models.highs_direct import build_arrays, run_highs, start_vector
 
     t1 = time.perf_counter()
-    am = build_arrays(data, relax=bool(relax), conflicts=conflicts)
+    am = build_arrays(data, relax=bool(relax), conflicts=conflicts, slew=slew)
+    stats["slew"] = slew
     stats["build_s"] = round(time.perf_counter() - t0, 6)  # items + arrays, as for Pyomo
     stats["arrays_s"] = round(time.perf_counter() - t1, 6)
     stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
@@ -525,6 +555,7 @@ def bound(
     backend: str = "auto",
     conflicts: str = "network",
     lp_solver: str = "ipm",
+    slew: str = "auto",
 ) -> dict[str, Any]:
     """An upper bound on the optimum of ``model``.
 
@@ -546,6 +577,9 @@ def bound(
     lp_solver
         HiGHS's LP algorithm for ``method="lp"`` (default ``"ipm"``: interior point with
         crossover, several times faster than simplex on the large cluster LPs).
+    slew
+        ``"auto"`` (default), ``"exact"`` or ``"relaxed"`` (``method="lp"``; the MILP
+        bound always uses the exact term): see :func:`solve_milp`.
 
     Returns
     -------
@@ -564,6 +598,7 @@ def bound(
         backend=backend,
         conflicts=conflicts,
         lp_solver=lp_solver,
+        slew=slew if method == "lp" else "exact",
     )
     out: dict[str, Any] = {
         "bound": res.bound,
@@ -578,6 +613,7 @@ def bound(
     if method == "lp":
         out["lp_value"] = res.stats.get("lp_bound")
         out["lp_solver"] = lp_solver
+        out["slew"] = res.stats.get("slew", "exact")
     else:
         out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
     return out

@@ -211,6 +211,47 @@ def test_lp_solvers_give_the_same_lp_value(backend: str, seed: int) -> None:
         bound(inst, lp_solver="barrier")
 
 
+@pytest.mark.parametrize("case", [*range(20), "energy_slew_60", "energy_slew_59", "memory"])
+def test_relaxed_slew_lp_is_a_bound_above_the_exact_lp(case) -> None:
+    from models.solve import bound
+    from tests.models.instances import EDGE_CASES
+    from tests.oracle import brute_force
+
+    inst = random_tiny(case) if isinstance(case, int) else EDGE_CASES[case]()
+    optimum = brute_force(inst, "cluster").profit
+    exact = bound(inst, method="lp", backend="highs", slew="exact")
+    relaxed = bound(inst, method="lp", slew="relaxed")
+    assert relaxed["slew"] == "relaxed" and exact["slew"] == "exact"
+    assert relaxed["lp_value"] >= exact["lp_value"] - 1e-6 >= optimum - 1e-6
+    assert relaxed["bound"] >= optimum
+
+
+def test_relaxed_slew_row_by_hand() -> None:
+    # rolls 30, 0, 30, eo = 0, E = 59: the relaxed row counts every slew twice and gives back
+    # twice the largest: 60 x_a + 0 x_b + 60 x_c <= 59 + 60, so the LP takes a, b and 59/60 of
+    # c: 5 + 4 + 3 * 59 / 60 = 11.95 (the exact optimum is 9: a and c cannot both go)
+    from models.solve import bound
+    from tests.models.instances import energy_slew_only
+
+    out = bound(energy_slew_only(59.0), model="task", method="lp", slew="relaxed")
+    assert out["lp_value"] == pytest.approx(5 + 4 + 3 * 59 / 60) and out["bound"] == 11
+
+
+def test_slew_option_bad_input() -> None:
+    from models.solve import bound
+
+    inst = random_tiny(0)
+    with pytest.raises(InputError, match="slew"):
+        bound(inst, slew="approximate")
+    with pytest.raises(InputError, match="slew"):
+        solve_milp(inst, slew="relaxed")  # a MILP with a relaxed (4) could break (4)
+    with pytest.raises(InputError, match="slew"):
+        bound(inst, slew="relaxed", backend="pyomo")
+    # auto: exact where Pyomo is chosen (small), relaxed where the direct backend is
+    assert bound(inst)["slew"] == "exact"
+    assert bound(inst, backend="highs")["slew"] == "relaxed"
+
+
 def test_relaxation_gives_bound_only() -> None:
     res = solve_milp(tiny_cluster(), relax=True)
     assert res.status is Status.NO_SOLUTION and len(res.schedule) == 0
