@@ -134,6 +134,12 @@ def _claims_value(instance: Instance, observations: list[Observation], weight: n
     return int(weight[list(ks)].sum()) if ks else 0
 
 
+def _any_per_row(flags: np.ndarray, ptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """For each row r in ``rows``: is any of ``flags[ptr[r]:ptr[r + 1]]`` true? (rows non-empty)"""
+    counts = np.add.reduceat(flags.astype(np.int64), ptr[:-1])
+    return counts[rows] > 0
+
+
 def _shared_targets(instance: Instance) -> np.ndarray:
     """M x M: number of targets with an opportunity on both orbits (diagonal: on the orbit)."""
     inc = np.zeros((instance.n_targets, instance.n_orbits), dtype=np.int32)
@@ -220,6 +226,11 @@ def solve_milp_lns(
         for block in np.split(order, cuts):
             by_orbit[int(c_orbit[block[0]])] = block
     active = np.array(sorted(by_orbit), dtype=np.int64)
+    # candidates' opportunities and targets as flat arrays (CSR), to filter them per step
+    n_opps = np.fromiter((len(o) for o in c_opps), dtype=np.int64, count=len(c_opps))
+    ptr = np.concatenate([[0], np.cumsum(n_opps)])
+    flat_opps = np.fromiter((i for o in c_opps for i in o), dtype=np.int64, count=int(ptr[-1]))
+    flat_targets = np.asarray(instance.opp_target, dtype=np.int64)[flat_opps]
     shared = _shared_targets(instance).astype(float)
     k = min(p.orbits, len(active))
     no_improve = p.no_improve
@@ -248,6 +259,17 @@ def solve_milp_lns(
         old_value = _claims_value(instance, freed, w_sub)
 
         sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
+        # a candidate whose targets are all observed elsewhere is worth nothing and only uses
+        # resources: drop it (exact), unless it holds a freed observation (the warm start)
+        useful = _any_per_row(w_sub[flat_targets] > 0, ptr, sel)
+        if freed:
+            held = np.zeros(instance.n_opps, dtype=bool)
+            held[[i for ob in freed for i in ob.opps]] = True
+            useful |= _any_per_row(held[flat_opps], ptr, sel)
+        sel = sel[useful]
+        if not len(sel):
+            stale += 1
+            continue
         data = prepare(
             "cluster",
             instance,
