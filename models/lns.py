@@ -217,8 +217,11 @@ def solve_milp_lns(
     start_profit = profit
     trace: list[list[float]] = [[0, round(time.perf_counter() - t0, 4), float(profit)]]
 
-    # ---- candidates once; per step only a subset is prepared
-    c_orbit, c_start, c_end, c_roll, c_opps = cluster_candidates(instance)
+    # ---- candidates once (not interruptible: C10 takes ~10 s); per step only a subset is used
+    if left() > 0.05:
+        c_orbit, c_start, c_end, c_roll, c_opps = cluster_candidates(instance)
+    else:  # the start used the whole limit
+        c_orbit, c_start, c_end, c_roll, c_opps = (np.zeros(0),) * 4 + ((),)
     by_orbit: dict[int, np.ndarray] = {}
     if len(c_opps):
         order = np.argsort(c_orbit, kind="stable")

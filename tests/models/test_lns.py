@@ -90,6 +90,13 @@ def test_default_start_is_asa_dtc_and_never_lost() -> None:
     assert res.profit >= asa.profit
 
 
+def test_a_tiny_time_limit_returns_the_start() -> None:
+    inst = random_tiny(2)
+    res = solve(inst, "milp-lns", start="hpfs-stc", seed=0, time_limit=0.01)
+    assert res.iterations == 0 and res.stats["candidates"] == 0
+    assert res.profit == solve(inst, "hpfs-stc").profit and res.runtime_s < 1.0
+
+
 def test_same_seed_same_schedule() -> None:
     inst = random_tiny(5)
     a = solve(inst, "milp-lns", start="hpfs-stc", seed=4, orbits=1, iterations=5)
