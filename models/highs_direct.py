@@ -60,7 +60,7 @@ log = logging.getLogger("models.solve")
 CONFLICT_FORMS = ("network", "clique")
 
 #: Forms of the slew term of (4) :func:`build_arrays` accepts.
-SLEW_FORMS = ("exact", "relaxed")
+SLEW_FORMS = ("exact", "relaxed", "conservative")
 
 #: HiGHS LP algorithms for relaxations (its ``solver`` option; "choose" lets HiGHS decide).
 LP_SOLVERS = ("choose", "simplex", "ipm", "pdlp")
@@ -229,6 +229,9 @@ def build_arrays(
         >= (2 sum |theta| - 2 max_orbit |theta|)/v``, so the single row
         ``sum (eo d_u + 2 es |theta_u|/v) x_u <= E + 2 es max |theta|/v`` is implied by (4):
         a relaxation (its optimum is an upper bound) with no extra rows or columns.
+        ``"conservative"``, for heuristic sub-problems only: the same row with right-hand side
+        E, i.e. every slew counted twice, which over-estimates (4) (its solutions are
+        feasible, some feasible ones are cut).
 
     Returns
     -------
@@ -272,7 +275,7 @@ def build_arrays(
     _target_rows(rows, data, z_targets, off)
     _conflict_rows(rows, data, conflicts, off)
     _slew_order_rows(rows, data, slew_items, off)
-    _resource_rows(rows, data, slew_items, off)
+    _resource_rows(rows, data, slew_items, off, give_back=slew == "relaxed")
 
     # (1) objective
     if data.coverage:
@@ -396,8 +399,14 @@ def _slew_order_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str,
     pair(l_[q], off["r"] + q + 1, 1.0, 1.0)  # last_nothing_after: l_u <= 1 - r_next
 
 
-def _resource_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str, int]) -> None:
-    """(4) energy with the exact slew term, (5) memory, (6) openings, one row per orbit."""
+def _resource_rows(
+    rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str, int], give_back: bool = True
+) -> None:
+    """(4) energy with the exact slew term, (5) memory, (6) openings, one row per orbit.
+
+    Without slew variables (``slew`` empty) the energy row counts every slew twice and, with
+    ``give_back``, adds twice the orbit's largest slew to E (relaxed) or not (conservative).
+    """
     inst = d.instance
     dur = d.duration
     half = d.slew_time()
@@ -407,10 +416,9 @@ def _resource_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str, i
         eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
         h = es * half[seq]
         cap = float(inst.energy_capacity[j])
-        if not where:  # slew="relaxed": (4) with every slew counted twice, less 2 max
-            rows.add(
-                np.zeros(len(seq)), seq, eo * dur[seq] + 2.0 * h, -np.inf, cap + 2 * h.max(), 1
-            )
+        if not where:  # relaxed or conservative: every slew counted twice
+            rhs = cap + 2 * h.max() if give_back else cap
+            rows.add(np.zeros(len(seq)), seq, eo * dur[seq] + 2.0 * h, -np.inf, rhs, 1)
             continue
         pos = np.array([where[int(u)] for u in seq], dtype=np.int64)
         rolled = h > 0

@@ -42,6 +42,12 @@ log = logging.getLogger(__name__)
 #: Methods that cannot give the start (this one, and the whole MILP it replaces).
 _EXACT = ("milp", "milp-lns")
 
+#: Neighbourhoods of a step (see :class:`LNSParams`).
+NEIGHBOURHOODS = ("auto", "orbits", "window")
+
+#: Margin kept on (3) against fixed neighbours (the validator allows 1e-6; never rely on it).
+_MARGIN = 1e-9
+
 
 @dataclass(frozen=True)
 class LNSParams:
@@ -63,6 +69,17 @@ class LNSParams:
     start_time_limit
         Seconds for the start method (None: its own stopping rule); capped at half of the
         overall limit.
+    neighbourhood
+        ``"orbits"``: free whole orbits (above). ``"window"``: free the observations of the
+        seed orbit inside a time window of ``window`` seconds (the rest of that orbit stays:
+        candidates must clear its neighbours by (3), and (4)-(6) get what the fixed
+        observations leave, slews counted twice, which never under-estimates (4)).
+        ``"auto"`` (default): orbits, unless they hold more than ``max_items`` useful
+        candidates (the dense C scenarios), then a window.
+    window
+        Seconds of the time window of a window step.
+    max_items
+        Largest orbit neighbourhood (useful candidates) ``"auto"`` solves whole.
     start_params
         Keyword parameters of the start method (e.g. ``{"iterations": 5000}`` for ASA-DTC).
     iterations
@@ -80,6 +97,9 @@ class LNSParams:
     start: str = "asa-dtc"
     start_time_limit: float | None = 10.0
     start_params: dict[str, Any] | None = None
+    neighbourhood: str = "auto"
+    window: float = 300.0
+    max_items: int = 4000
     iterations: int | None = None
     no_improve: int | None = None
     threads: int = 1
@@ -108,6 +128,13 @@ class LNSParams:
         positive_int("iterations", self.iterations, allow_none=True)
         positive_int("no_improve", self.no_improve, allow_none=True)
         positive_int("threads", self.threads)
+        positive_seconds("window", self.window)
+        positive_int("max_items", self.max_items)
+        if self.neighbourhood not in NEIGHBOURHOODS:
+            raise InputError(
+                f"neighbourhood: expected one of {', '.join(NEIGHBOURHOODS)}, "
+                f"got {self.neighbourhood!r}"
+            )
         if self.start_params is not None and not isinstance(self.start_params, dict):
             raise InputError(f"start_params: expected an object, got {self.start_params!r}")
         from sosp.solve import METHODS
@@ -132,6 +159,100 @@ def _claims_value(instance: Instance, observations: list[Observation], weight: n
     """Total ``weight`` of the distinct targets the observations list."""
     ks = {int(instance.opp_target[i]) for ob in observations for i in ob.opps}
     return int(weight[list(ks)].sum()) if ks else 0
+
+
+def _useful(
+    instance: Instance,
+    fixed: list[Observation],
+    freed: list[Observation],
+    weight: np.ndarray,
+    sel: np.ndarray,
+    ptr: np.ndarray,
+    flat_opps: np.ndarray,
+    flat_targets: np.ndarray,
+) -> np.ndarray:
+    """Which candidates of ``sel`` are worth solving for.
+
+    A candidate whose targets are all observed by ``fixed`` observations is worth nothing and
+    only uses resources: dropping it is exact. Candidates holding a freed observation's
+    opportunities stay (the warm start maps onto them).
+    """
+    free = weight > 0
+    covered = [int(instance.opp_target[i]) for ob in fixed for i in ob.opps]
+    if covered:
+        free = free.copy()
+        free[covered] = False
+    useful = _any_per_row(free[flat_targets], ptr, sel)
+    if freed:
+        held = np.zeros(instance.n_opps, dtype=bool)
+        held[[i for ob in freed for i in ob.opps]] = True
+        useful |= _any_per_row(held[flat_opps], ptr, sel)
+    return useful
+
+
+def _window_plan(
+    instance: Instance,
+    current: list[Observation],
+    j: int,
+    items: np.ndarray,
+    cand: tuple[np.ndarray, np.ndarray, np.ndarray],
+    rng: np.random.Generator,
+    length: float,
+) -> tuple[list[Observation], list[Observation], np.ndarray, Instance] | None:
+    """Free orbit ``j``'s observations inside a random window; the sub-problem's data.
+
+    Returns (fixed, freed, candidates, sub-instance) or None when nothing can change. The
+    window of ``length`` seconds is centred on a random candidate's start. The orbit's other
+    observations stay: ``prev`` (the last one starting before the window) and ``nxt`` (the
+    first one starting in or after it) are consecutive among them, and every candidate kept
+    clears both by (3), so (3) holds along the orbit (pairwise exactness, ``docs/model.md``).
+    The sub-instance gives orbit j what the fixed observations leave of (4)-(6). Inserted
+    between prev and nxt, new observations add exactly ``2 es sum |theta| / v`` of slew energy;
+    with only one of them, at most that plus its |theta| (charged up front); with neither, at
+    most that. So the ``"conservative"`` energy row (slews counted twice) never lets (4) break.
+    """
+    c_start, c_end, c_roll = cand
+    t0 = float(c_start[items[rng.integers(len(items))]]) - length / 2.0
+    t1 = t0 + length
+    on_j = sorted((ob for ob in current if ob.orbit == j), key=lambda ob: ob.start)
+    inside = [t0 <= ob.start and ob.end <= t1 for ob in on_j]
+    freed = [ob for ob, f in zip(on_j, inside, strict=True) if f]
+    kept = [ob for ob, f in zip(on_j, inside, strict=True) if not f]
+    prev = next((ob for ob in reversed(kept) if ob.start < t0), None)
+    nxt = next((ob for ob in kept if ob.start >= t0), None)
+    a, v = float(instance.setup_time[j]), float(instance.slew_rate[j])
+    eo, es = float(instance.observe_energy_rate[j]), float(instance.slew_energy_rate[j])
+    st, en, th = c_start[items], c_end[items], np.abs(c_roll[items])
+    ok = (st >= t0) & (en <= t1)
+    if prev is not None:
+        ok &= st - prev.end >= a + (abs(prev.roll) + th) / v + _MARGIN
+    if nxt is not None:
+        ok &= nxt.start - en >= a + (th + abs(nxt.roll)) / v + _MARGIN
+    dur = sum(ob.end - ob.start for ob in kept)
+    slew = sum(abs(x.roll) + abs(y.roll) for x, y in zip(kept, kept[1:], strict=False)) / v
+    if prev is not None and nxt is None:
+        slew += abs(prev.roll) / v
+    if nxt is not None and prev is None:
+        slew += abs(nxt.roll) / v
+    energy = float(instance.energy_capacity[j]) - eo * dur - es * slew
+    memory = float(instance.memory_capacity[j]) - float(instance.memory_rate[j]) * dur
+    openings = int(instance.max_openings[j]) - len(kept)
+    if not ok.any() or openings <= 0 or memory <= 0 or energy <= 0:
+        return None
+
+    def with_j(column: np.ndarray, value: float) -> np.ndarray:
+        out = np.array(column, copy=True)
+        out[j] = value
+        return out
+
+    sub = replace(
+        instance,
+        energy_capacity=with_j(instance.energy_capacity, energy),
+        memory_capacity=with_j(instance.memory_capacity, memory),
+        max_openings=with_j(instance.max_openings, openings),
+    )
+    fixed = [ob for ob in current if ob.orbit != j] + kept
+    return fixed, freed, items[ok], sub
 
 
 def _any_per_row(flags: np.ndarray, ptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -255,27 +376,33 @@ def solve_milp_lns(
 
         fixed = [ob for ob in current if ob.orbit not in chosen]
         freed = [ob for ob in current if ob.orbit in chosen]
+        sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
+        sub_instance, slew = instance, "exact"
+        useful = _useful(instance, fixed, freed, weight, sel, ptr, flat_opps, flat_targets)
+        if p.neighbourhood == "window" or (
+            p.neighbourhood == "auto" and int(useful.sum()) > p.max_items
+        ):
+            plan = _window_plan(
+                instance, current, seed, by_orbit[seed], (c_start, c_end, c_roll), rng, p.window
+            )
+            if plan is None:
+                stale += 1
+                continue
+            fixed, freed, sel, sub_instance = plan
+            slew = "conservative"
+            useful = _useful(instance, fixed, freed, weight, sel, ptr, flat_opps, flat_targets)
         covered = {int(instance.opp_target[i]) for ob in fixed for i in ob.opps}
         w_sub = weight.copy()
         if covered:
             w_sub[list(covered)] = 0
         old_value = _claims_value(instance, freed, w_sub)
-
-        sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
-        # a candidate whose targets are all observed elsewhere is worth nothing and only uses
-        # resources: drop it (exact), unless it holds a freed observation (the warm start)
-        useful = _any_per_row(w_sub[flat_targets] > 0, ptr, sel)
-        if freed:
-            held = np.zeros(instance.n_opps, dtype=bool)
-            held[[i for ob in freed for i in ob.opps]] = True
-            useful |= _any_per_row(held[flat_opps], ptr, sel)
         sel = sel[useful]
         if not len(sel):
             stale += 1
             continue
         data = prepare(
             "cluster",
-            instance,
+            sub_instance,
             c_orbit[sel],
             c_start[sel],
             c_end[sel],
@@ -285,7 +412,7 @@ def solve_milp_lns(
         )
         data = replace(data, weight=w_sub)
         sizes.append(data.n_items)
-        am = build_arrays(data)
+        am = build_arrays(data, slew=slew)
         x0 = None
         if freed:
             vals = warm_start_values(data, Schedule(tuple(freed)))

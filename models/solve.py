@@ -335,10 +335,8 @@ def solve_milp(
     _check_params(mip_gap, threads)
     _check_backend(backend, conflicts)
     _check_lp_solver(lp_solver)
-    from models.highs_direct import SLEW_FORMS
-
-    if slew not in (*SLEW_FORMS, "auto"):
-        raise InputError(f"slew: expected one of {', '.join(SLEW_FORMS)}, auto, got {slew!r}")
+    if slew not in ("exact", "relaxed", "auto"):  # "conservative" is for milp-lns only
+        raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
     if slew == "relaxed" and not relax:
         raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
     if slew == "relaxed" and backend == "pyomo":

@@ -37,14 +37,72 @@ def test_never_above_the_optimum_and_exact_with_every_orbit_freed(seed: int) -> 
     assert validate(inst, whole.schedule).profit == pytest.approx(optimum)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(inst=small_instances(max_opps=8), seed=st.integers(0, 2**16), k=st.integers(1, 2))
-def test_property_valid_and_bounded_by_the_oracle(inst, seed: int, k: int) -> None:
-    res = solve(inst, "milp-lns", start="hpfs-stc", seed=seed, orbits=k, iterations=3, check=False)
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    inst=small_instances(max_opps=8),
+    seed=st.integers(0, 2**16),
+    k=st.integers(1, 2),
+    hood=st.sampled_from(["orbits", "window"]),
+    window=st.sampled_from([5.0, 30.0, 80.0, 300.0]),
+)
+def test_property_valid_and_bounded_by_the_oracle(
+    inst, seed: int, k: int, hood: str, window: float
+) -> None:
+    # window steps keep the rest of the orbit: (3) against its neighbours and the residual
+    # (4)-(6) (small_instances has binding energy, memory and openings) are what is tested
+    res = solve(
+        inst,
+        "milp-lns",
+        start="hpfs-stc",
+        seed=seed,
+        orbits=k,
+        neighbourhood=hood,
+        window=window,
+        iterations=4,
+        check=False,
+    )
     rep = validate(inst, res.schedule)
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(res.profit) and res.profit >= res.stats["start_profit"]
     assert res.profit <= brute_force(inst, "cluster").profit + 1e-9
+
+
+def _window_runs(inst, seeds=range(6)) -> list:
+    """Window steps from the HPFS-STC start, each result judged by the validator."""
+    out = []
+    for seed in seeds:
+        res = solve(
+            inst, "milp-lns", start="hpfs-stc", seed=seed, neighbourhood="window", window=30.0,
+            iterations=12,
+        )  # fmt: skip
+        assert validate(inst, res.schedule).feasible
+        out.append(res)
+    return out
+
+
+def test_window_step_respects_setup_time_to_the_fixed_neighbour() -> None:
+    # p [0, 4] roll 30 (weight 10) stays; q [20, 24] roll -30 would need 10 + 60 s after p:
+    # a window around q must not insert it (the start has p only)
+    from sosp.instance import Instance
+
+    inst = Instance.build({"p": 10, "q": 1}, [("p", 0, 0, 4, 30.0), ("q", 0, 20, 24, -30.0)])
+    assert brute_force(inst, "cluster").profit == 10
+    assert all(r.profit == 10 for r in _window_runs(inst))
+
+
+def test_window_step_charges_the_slew_back_to_the_kept_observation() -> None:
+    # energy on slews only, E = 26: p [0, 4] roll 30 (range [27, 33]) stays; q [200, 204] at
+    # nadir after it would slew 30 + 0 = 30 > 26 (27 > 26 even at p's nadir-closest roll),
+    # although q's own share (2 |0|) is 0
+    from sosp.instance import Instance, Resources
+
+    inst = Instance.build(
+        {"p": 10, "q": 5},
+        [("p", 0, 0, 4, 30.0), ("q", 0, 200, 204, 0.0)],
+        resources=Resources(observe_energy_rate=0.0, energy_capacity=26.0),
+    )
+    assert brute_force(inst, "cluster").profit == 10
+    assert all(r.profit == 10 for r in _window_runs(inst))
 
 
 @pytest.mark.parametrize("name", sorted(TINY))
@@ -126,6 +184,9 @@ def test_infeasible_warm_start_is_ignored(caplog: pytest.LogCaptureFixture) -> N
         ({"no_improve": 0}, "no_improve"),
         ({"threads": True}, "threads"),
         ({"start_params": [1]}, "start_params"),
+        ({"neighbourhood": "ring"}, "neighbourhood"),
+        ({"window": 0}, "window"),
+        ({"max_items": -3}, "max_items"),
     ],
 )
 def test_bad_parameters_name_the_field(params: dict, field: str) -> None:
