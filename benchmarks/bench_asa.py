@@ -21,8 +21,8 @@ from sosp.solve import solve
 METHODS = ("asa-dtc", "asa-stc", "asa-nontc")
 
 
-def _profit_at(trace: list[list[float]], t: float) -> float:
-    """Best profit reached by time t (trace columns: iteration, time_s, best, ...)."""
+def profit_at(trace: list[list[float]], t: float) -> float:
+    """Best profit reached by time t (trace columns: iteration or step, time_s, best, ...)."""
     best = trace[0][2]
     for row in trace:
         if row[1] <= t:
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> None:
         inst = generate_scenario(name, args.scenario_seed)
         for method in METHODS:
             res = solve(inst, method, seed=0, time_limit=args.curve_time, **extra)
-            cells = [f"{_profit_at(res.stats['trace'], t):g}" for t in marks]
+            cells = [f"{profit_at(res.stats['trace'], t):g}" for t in marks]
             print(
                 f"| {name} | {method} | {res.stats['iterations_per_s']:.0f} | "
                 + " | ".join(cells)

@@ -16,18 +16,10 @@ from __future__ import annotations
 import argparse
 import time
 
+from benchmarks.bench_asa import profit_at
 from models.solve import bound
 from sosp.scenarios import generate_scenario
 from sosp.solve import solve
-
-
-def _at(trace: list[list[float]], t: float) -> float:
-    """Best profit reached by time t (trace rows: step, time_s, profit)."""
-    best = trace[0][2]
-    for row in trace:
-        if row[1] <= t:
-            best = row[2]
-    return best
 
 
 def _pct(a: float | None, b: float | None) -> str:
@@ -70,7 +62,7 @@ def main(argv: list[str] | None = None) -> None:
         lns = solve(inst, "milp-lns", seed=args.seed, time_limit=args.time_limit, **extra)
         best = max(lns.profit, asa.profit)
         cells = [name, lp_cell, f"{asa.profit:g}"]
-        cells += [f"{_at(lns.stats['trace'], t):g}" for t in marks]
+        cells += [f"{profit_at(lns.stats['trace'], t):g}" for t in marks]
         cells += [
             f"{lns.iterations} ({lns.stats['mean_items']:.0f} items)",
             f"{100 * (best - asa.profit) / best:.1f}%" if best else "",
