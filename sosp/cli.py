@@ -182,7 +182,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
     inst = load_instance(args.instance)
     params = _parse_params(args.param or [])
-    for key in ("iterations", "model", "mip_gap", "threads"):
+    for key in ("iterations", "model", "mip_gap", "threads", "backend"):
         value = getattr(args, key)
         if value is not None:
             params[key] = value
@@ -379,7 +379,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--method",
         default="asa-dtc",
-        help="asa-dtc (default), asa-stc, asa-nontc, milp, rds, rds-stc, hpfs-stc, sa-stc, greedy",
+        help="asa-dtc (default), asa-stc, asa-nontc, milp, milp-lns, rds, rds-stc, hpfs-stc, "
+        "sa-stc, greedy",
     )
     p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument("--time-limit", type=_positive(float), default=None, help="seconds")
@@ -389,7 +390,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
     p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
     p.add_argument("--threads", type=_positive(int), default=None, help="milp: solver threads")
-    p.add_argument("--warm-start", default=None, help="milp: schedule file to start from")
+    p.add_argument(
+        "--backend", default=None, help="milp: pyomo, highs or auto (default: by model size)"
+    )
+    p.add_argument("--warm-start", default=None, help="milp, milp-lns: schedule file to start from")
     p.add_argument(
         "--param",
         action="append",

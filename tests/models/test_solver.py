@@ -252,6 +252,21 @@ def test_slew_option_bad_input() -> None:
     assert bound(inst, backend="highs")["slew"] == "relaxed"
 
 
+@pytest.mark.parametrize("backend", ["pyomo", "highs"])
+def test_cli_solve_milp_backend(tmp_path, capsys: pytest.CaptureFixture[str], backend: str) -> None:
+    from sosp.cli import main
+
+    path = tmp_path / "inst.json"
+    tiny_cluster().save(path)
+    argv = ["solve", str(path), "--method", "milp", "--backend", backend, "--json"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "optimal" and out["profit"] == 11
+    assert main(["solve", str(path), "--method", "milp", "--backend", "gurobi"]) == 2
+    err = capsys.readouterr().err
+    assert "backend" in err and len(err.strip().splitlines()) == 1
+
+
 def test_relaxation_gives_bound_only() -> None:
     res = solve_milp(tiny_cluster(), relax=True)
     assert res.status is Status.NO_SOLUTION and len(res.schedule) == 0
