@@ -162,11 +162,21 @@ def _claims_value(instance: Instance, observations: list[Observation], weight: n
     return int(weight[list(ks)].sum()) if ks else 0
 
 
+def _weights_left(
+    instance: Instance, fixed: list[Observation], weight: np.ndarray
+) -> tuple[set[int], np.ndarray]:
+    """Targets the ``fixed`` observations cover, and the weights with those set to 0."""
+    covered = {int(instance.opp_target[i]) for ob in fixed for i in ob.opps}
+    w_sub = weight.copy()
+    if covered:
+        w_sub[list(covered)] = 0
+    return covered, w_sub
+
+
 def _useful(
     instance: Instance,
-    fixed: list[Observation],
+    w_sub: np.ndarray,
     freed: list[Observation],
-    weight: np.ndarray,
     sel: np.ndarray,
     ptr: np.ndarray,
     flat_opps: np.ndarray,
@@ -174,16 +184,11 @@ def _useful(
 ) -> np.ndarray:
     """Which candidates of ``sel`` are worth solving for.
 
-    A candidate whose targets are all observed by ``fixed`` observations is worth nothing and
-    only uses resources: dropping it is exact. Candidates holding a freed observation's
-    opportunities stay (the warm start maps onto them).
+    A candidate whose targets are all worth 0 in ``w_sub`` (observed by fixed observations) is
+    worth nothing and only uses resources: dropping it is exact. Candidates holding a freed
+    observation's opportunities stay (the warm start maps onto them).
     """
-    free = weight > 0
-    covered = [int(instance.opp_target[i]) for ob in fixed for i in ob.opps]
-    if covered:
-        free = free.copy()
-        free[covered] = False
-    useful = _any_per_row(free[flat_targets], ptr, sel)
+    useful = _any_per_row(w_sub[flat_targets] > 0, ptr, sel)
     if freed:
         held = np.zeros(instance.n_opps, dtype=bool)
         held[[i for ob in freed for i in ob.opps]] = True
@@ -379,10 +384,12 @@ def solve_milp_lns(
         freed = [ob for ob in current if ob.orbit in chosen]
         sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
         sub_instance, slew = instance, "exact"
-        useful = _useful(instance, fixed, freed, weight, sel, ptr, flat_opps, flat_targets)
-        if p.neighbourhood == "window" or (
-            p.neighbourhood == "auto" and int(useful.sum()) > p.max_items
-        ):
+        use_window = p.neighbourhood == "window"
+        if not use_window:
+            covered, w_sub = _weights_left(instance, fixed, weight)
+            useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
+            use_window = p.neighbourhood == "auto" and int(useful.sum()) > p.max_items
+        if use_window:
             plan = _window_plan(
                 instance, current, seed, by_orbit[seed], (c_start, c_end, c_roll), rng, p.window
             )
@@ -391,11 +398,8 @@ def solve_milp_lns(
                 continue
             fixed, freed, sel, sub_instance = plan
             slew = "conservative"
-            useful = _useful(instance, fixed, freed, weight, sel, ptr, flat_opps, flat_targets)
-        covered = {int(instance.opp_target[i]) for ob in fixed for i in ob.opps}
-        w_sub = weight.copy()
-        if covered:
-            w_sub[list(covered)] = 0
+            covered, w_sub = _weights_left(instance, fixed, weight)
+            useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
         old_value = _claims_value(instance, freed, w_sub)
         sel = sel[useful]
         if not len(sel):

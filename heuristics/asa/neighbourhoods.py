@@ -67,12 +67,17 @@ def clustering_gain(
     openings = params.rule16_openings and p.c > 0 and p.E > 0 and p.W > 0
     gamma = max(len(line.obs), 1) / p.c if openings else 0.0
 
-    def saving_of(alpha: float, beta: float, capacity: bool = False) -> float:
+    def saving_of(capacity: bool) -> float:
+        """Right side minus left side of (16); ``capacity``: the reading alpha = 1/E, beta = 1/W."""
         if openings:
             # three resources, each saving as a share of its capacity, weighted by the share
             # consumed (1 each in the capacity reading): one opening saved is worth 1/c
-            wa, wb = (1.0, 1.0) if capacity else (line.energy / p.E, line.memory / p.W)
+            wa, wb = (1.0, 1.0) if capacity else (alpha, beta)
             return wa * (en - ec) / p.E + wb * (wn - wc) / p.W + gamma / p.c
+        if capacity:
+            wa = 1.0 / p.E if p.E > 0 else 0.0
+            wb = 1.0 / p.W if p.W > 0 else 0.0
+            return wa * (en - ec) + wb * (wn - wc)
         return alpha * (en - ec) + beta * (wn - wc)
 
     # (16) only judges tasks that could also be done one after the other (section 4.2):
@@ -82,23 +87,18 @@ def clustering_gain(
         separable = c[END] + slew <= pb.opt_start[x] + EPS
     else:
         separable = pb.opt_end[x] + slew <= c[START] + EPS
+    degenerate = alpha == 0.0 and beta == 0.0
     if not separable:
-        degenerate = alpha == 0.0 and beta == 0.0
-        if degenerate:
-            alpha = 1.0 / p.E if p.E > 0 else 0.0
-            beta = 1.0 / p.W if p.W > 0 else 0.0
-        return saving_of(alpha, beta, capacity=degenerate), new
-    if not params.rule16 or (alpha == 0.0 and beta == 0.0):
+        return saving_of(capacity=degenerate), new
+    if not params.rule16 or degenerate:
         mode = "capacity" if not params.rule16 else params.rule16_empty
         if mode == "never":
             return None
-        alpha = 1.0 / p.E if p.E > 0 else 0.0
-        beta = 1.0 / p.W if p.W > 0 else 0.0
-        saving = saving_of(alpha, beta, capacity=True)
+        saving = saving_of(capacity=True)
         if mode == "always" or not params.rule16:
             return saving, new
         return (saving, new) if saving > 0 else None
-    saving = saving_of(alpha, beta)
+    saving = saving_of(capacity=False)
     return (saving, new) if saving > 0 else None
 
 
