@@ -24,13 +24,26 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return value
+
+
 def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``bound`` subcommand to the ``sosp`` CLI's subparsers."""
     p = subparsers.add_parser(
         "bound",
         help="upper bound on the optimum (LP relaxation or MILP of an exact model)",
         description="Upper bound on the optimum profit of an instance: the clique-strengthened "
-        "LP relaxation (--method lp) or HiGHS's best bound after a MILP solve (--method milp).",
+        "LP relaxation (--method lp), HiGHS's best bound after a MILP solve (--method milp), or "
+        "the Lagrangian relaxation across orbits solved by dynamic programming (--method "
+        "lagrangian: cluster model, no LP solver, seconds on the largest scenarios).",
     )
     p.add_argument("instance", help="instance file (JSON)")
     p.add_argument(
@@ -38,7 +51,18 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         default="cluster",
         help="cluster (default: bounds every method), task (no clustering) or static",
     )
-    p.add_argument("--method", default="lp", choices=("lp", "milp"), help="lp (default) or milp")
+    p.add_argument(
+        "--method",
+        default="lp",
+        choices=("lp", "milp", "lagrangian"),
+        help="lp (default), milp or lagrangian",
+    )
+    p.add_argument(
+        "--iterations",
+        type=_positive_int,
+        default=300,
+        help="subgradient steps of --method lagrangian (default 300)",
+    )
     p.add_argument("--time-limit", type=_positive_float, default=None, help="seconds")
     p.add_argument("--threads", type=int, default=None, help="HiGHS threads")
     p.add_argument(
@@ -66,11 +90,42 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def cmd_bound(args: argparse.Namespace) -> int:
     """Run ``sosp bound``; returns the exit code (bad input raises ``InputError``)."""
-    from models.solve import bound
+    from sosp.errors import InputError
     from sosp.instance import load_instance
 
     inst = load_instance(args.instance)
-    out = bound(
+    if args.method == "lagrangian":
+        from models.orbit_dp import lagrangian_bound
+
+        if args.model != "cluster":
+            raise InputError(
+                f"--model: the lagrangian bound is of the cluster model, got {args.model!r}"
+            )
+        out = lagrangian_bound(inst, iterations=args.iterations, time_limit=args.time_limit)
+    else:
+        out = _lp_or_milp(inst, args)
+    out["instance"] = inst.name or str(args.instance)
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
+        return 0
+    if args.method == "lagrangian":
+        size = f"{out['candidates']} candidates, {out['iterations']} subgradient steps"
+    else:
+        size = (
+            f"{out.get('candidates', 0)} items, {out.get('variables', 0)} variables, "
+            f"{out.get('constraints', 0)} constraints"
+        )
+    text = f"{out['model']} model, {out['method']} bound: {out['bound']} ({out['runtime_s']:.2f} s; {size})"
+    if args.method == "milp":
+        text += f"\nincumbent {out['profit']:g}, status {out['status']}"
+    sys.stdout.write(text + "\n")
+    return 0
+
+
+def _lp_or_milp(inst: Any, args: argparse.Namespace) -> dict[str, Any]:
+    from models.solve import bound
+
+    return bound(
         inst,
         model=args.model,
         method=args.method,
@@ -80,16 +135,3 @@ def cmd_bound(args: argparse.Namespace) -> int:
         lp_solver=args.lp_solver,
         slew=args.slew,
     )
-    out["instance"] = inst.name or str(args.instance)
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
-    else:
-        text = (
-            f"{out['model']} model, {out['method']} bound: {out['bound']} "
-            f"({out['runtime_s']:.2f} s; {out.get('candidates', 0)} items, "
-            f"{out.get('variables', 0)} variables, {out.get('constraints', 0)} constraints)"
-        )
-        if args.method == "milp":
-            text += f"\nincumbent {out['profit']:g}, status {out['status']}"
-        sys.stdout.write(text + "\n")
-    return 0

@@ -41,6 +41,7 @@ METHODS: dict[str, str] = {
     "sa-stc": "heuristics.sa:solve_sa_stc",
     "milp": "models.solve:solve_milp",
     "milp-lns": "models.lns:solve_milp_lns",
+    "orbit-dp": "models.orbit_search:solve_orbit_dp",
 }
 
 

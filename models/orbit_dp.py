@@ -1,0 +1,434 @@
+"""Exact single-orbit planning by dynamic programming over candidate observations.
+
+On one orbit j, with each target given a price (what covering it is worth), the best plan is
+a sequence of candidate observations (:func:`models.candidates.cluster_candidates`; every
+feasible observation is dominated by one of them) that
+
+* respects (3) between consecutive observations: with the conflict intervals of
+  :mod:`models.cliques`, u may precede w iff ``R_u <= L_w``, where
+  ``R_u = te_u + a + |theta_u| / v`` and ``L_w = ts_w - |theta_w| / v``. The condition splits
+  into one number per item on each side, so "the best plan ending before w" is a prefix
+  maximum over the items sorted by ``R``;
+* opens the sensor at most c_j times (6): the plan is built level by level, level n holding
+  the best plan of at most n observations ending at each item (at most c_j levels, fewer when
+  a level adds nothing);
+* keeps (4) and (5). Their observation terms are sums over the plan; the slew term of (4) is
+  ``es / v * (2 sum |theta| - |theta_first| - |theta_last|)`` over consecutive pairs, exact in
+  the recursion (the first and the last observation each get ``es |theta| / v`` back). The
+  knapsacks enter as Lagrangian penalties ``lam_e * energy / E + lam_w * memory / W``: with
+  zero penalties the recursion maximises over (3) and (6) only, and the plan it finds is the
+  exact optimum whenever it also fits (4)-(5) (:func:`best_feasible_path`).
+
+Prices of the covered targets are summed per observation: a target seen twice on one orbit
+(two passes) could be counted twice, which only over-estimates (harmless in a bound, and the
+heuristic counts real coverage).
+
+Built on the recursion:
+
+* :func:`lagrangian_bound`: relax "each target counts once" across orbits with multipliers
+  ``mu_k`` (and the knapsacks with ``lam``); every multiplier vector gives an upper bound
+  ``sum_k max(0, p_k - mu_k) + sum_j max_plan_j(mu, lam) + lam_e + lam_w`` on the optimum of
+  the cluster model, minimised by subgradient steps. It is at least as tight as the LP over
+  the same candidates with the orbit constraints convexified, and needs no LP solver.
+* :mod:`models.orbit_search`: the ``orbit-dp`` heuristic, an iterated local search whose
+  move is the exact re-planning of one orbit.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from models.candidates import cluster_candidates
+from sosp.errors import InputError
+from sosp.instance import Instance
+
+log = logging.getLogger(__name__)
+
+#: Margin of the (3) test, as :data:`sosp.conflicts.EPS` (a pair with ``R_u - L_w > EPS`` is a
+#: conflict): a plan the recursion builds never relies on the validator's tolerance.
+EPS = 1e-9
+
+#: Penalty doublings tried before :func:`best_feasible_path` settles for the empty plan.
+_MAX_DOUBLINGS = 60
+
+#: Bisection steps of :func:`best_feasible_path` between an infeasible and a feasible penalty.
+_BISECTIONS = 12
+
+
+@dataclass(frozen=True, eq=False)
+class OrbitItems:
+    """The candidate observations of one orbit, arranged for the recursion.
+
+    Attributes
+    ----------
+    orbit
+        Orbit index j.
+    items
+        Global candidate indices, in (start, end) order; positions below index into it.
+    duration, slew_s
+        Per position: te - ts (seconds observed, (4)-(5)) and |theta| / v (seconds of slew to
+        or from nadir, (3)-(4)).
+    by_release
+        Positions sorted by ``R`` (the end of the conflict interval).
+    n_before
+        Per position w: how many positions of ``by_release`` may precede w by (3).
+    target_ptr, target_flat, target_seg
+        Covered targets per position (CSR: ``target_flat[target_ptr[u]:target_ptr[u+1]]``),
+        and the position of each flat entry.
+    targets
+        The distinct targets any candidate of the orbit covers.
+    openings, energy_cap, memory_cap
+        c_j, E_j, W_j.
+    observe_rate, slew_energy_rate, memory_rate
+        eo_j, es_j, w_j.
+    """
+
+    orbit: int
+    items: np.ndarray
+    duration: np.ndarray
+    slew_s: np.ndarray
+    by_release: np.ndarray
+    n_before: np.ndarray
+    target_ptr: np.ndarray
+    target_flat: np.ndarray
+    target_seg: np.ndarray
+    targets: np.ndarray
+    openings: int
+    energy_cap: float
+    memory_cap: float
+    observe_rate: float
+    slew_energy_rate: float
+    memory_rate: float
+
+    @property
+    def size(self) -> int:
+        return len(self.items)
+
+    def gains(self, price: np.ndarray) -> np.ndarray:
+        """Sum of ``price`` over the targets each position covers."""
+        return np.bincount(self.target_seg, weights=price[self.target_flat], minlength=self.size)
+
+    def usage(self, path: np.ndarray) -> tuple[float, float]:
+        """Energy (4) and memory (5) of a plan (positions in time order), slew term exact."""
+        if len(path) == 0:
+            return 0.0, 0.0
+        dur = float(self.duration[path].sum())
+        s = self.slew_s[path]
+        slew = 2.0 * float(s.sum()) - float(s[0]) - float(s[-1])
+        return self.observe_rate * dur + self.slew_energy_rate * slew, self.memory_rate * dur
+
+    def fits(self, path: np.ndarray) -> bool:
+        """Whether a plan keeps (4) and (5) ((3), (6) hold by construction)."""
+        energy, memory = self.usage(path)
+        return energy <= self.energy_cap + EPS and memory <= self.memory_cap + EPS
+
+    def covered(self, path: np.ndarray) -> np.ndarray:
+        """The distinct targets a plan covers."""
+        if len(path) == 0:
+            return np.zeros(0, dtype=np.int64)
+        ptr = self.target_ptr
+        return np.unique(np.concatenate([self.target_flat[ptr[u] : ptr[u + 1]] for u in path]))
+
+
+@dataclass(frozen=True, eq=False)
+class OrbitData:
+    """Candidate observations of every orbit (the cluster model's items) for the recursion.
+
+    ``orbit, start, end, roll, opps`` are the candidate columns (the attribute names of
+    :class:`models.data.ModelData` that :func:`models.solve.items_to_schedule` reads).
+    """
+
+    instance: Instance
+    orbit: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    roll: np.ndarray
+    opps: tuple[tuple[int, ...], ...]
+    orbits: tuple[OrbitItems, ...]
+    target_orbits_ptr: np.ndarray
+    target_orbits: np.ndarray
+
+    @property
+    def n_items(self) -> int:
+        return len(self.opps)
+
+    def orbits_seeing(self, targets: np.ndarray) -> np.ndarray:
+        """Positions in :attr:`orbits` of the orbits with a candidate covering any target."""
+        if len(targets) == 0:
+            return np.zeros(0, dtype=np.int64)
+        ptr = self.target_orbits_ptr
+        parts = [self.target_orbits[ptr[k] : ptr[k + 1]] for k in targets]
+        return np.unique(np.concatenate(parts))
+
+
+def orbit_data(instance: Instance) -> OrbitData:
+    """Build :class:`OrbitData` from the cluster model's candidates.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    """
+    orbit, start, end, roll, opps = cluster_candidates(instance)
+    tgt = instance.opp_target
+    groups: list[OrbitItems] = []
+    seen_by: list[list[int]] = [[] for _ in range(instance.n_targets)]
+    if len(opps):
+        order = np.lexsort((end, start, orbit))
+        cuts = np.flatnonzero(np.diff(orbit[order])) + 1
+        for block in np.split(order, cuts):
+            j = int(orbit[block[0]])
+            v = float(instance.slew_rate[j])
+            slew_s = np.abs(roll[block]) / v
+            left = start[block] - slew_s
+            right = end[block] + float(instance.setup_time[j]) + slew_s
+            by_release = np.argsort(right, kind="stable")
+            n_before = np.searchsorted(right[by_release], left + EPS, side="right")
+            covers = [np.unique(tgt[list(opps[u])]) for u in block]
+            sizes = np.array([len(c) for c in covers], dtype=np.int64)
+            ptr = np.zeros(len(block) + 1, dtype=np.int64)
+            ptr[1:] = np.cumsum(sizes)
+            flat = np.concatenate(covers).astype(np.int64)
+            targets = np.unique(flat)
+            for k in targets:
+                seen_by[int(k)].append(len(groups))
+            groups.append(
+                OrbitItems(
+                    orbit=j,
+                    items=block,
+                    duration=end[block] - start[block],
+                    slew_s=slew_s,
+                    by_release=by_release,
+                    n_before=n_before,
+                    target_ptr=ptr,
+                    target_flat=flat,
+                    target_seg=np.repeat(np.arange(len(block)), sizes),
+                    targets=targets,
+                    openings=int(instance.max_openings[j]),
+                    energy_cap=float(instance.energy_capacity[j]),
+                    memory_cap=float(instance.memory_capacity[j]),
+                    observe_rate=float(instance.observe_energy_rate[j]),
+                    slew_energy_rate=float(instance.slew_energy_rate[j]),
+                    memory_rate=float(instance.memory_rate[j]),
+                )
+            )
+    counts = np.array([len(s) for s in seen_by], dtype=np.int64)
+    tptr = np.zeros(instance.n_targets + 1, dtype=np.int64)
+    tptr[1:] = np.cumsum(counts)
+    flat_orbits = np.array([g for s in seen_by for g in s], dtype=np.int64)
+    return OrbitData(
+        instance=instance,
+        orbit=orbit,
+        start=start,
+        end=end,
+        roll=roll,
+        opps=opps,
+        orbits=tuple(groups),
+        target_orbits_ptr=tptr,
+        target_orbits=flat_orbits,
+    )
+
+
+def best_path(
+    o: OrbitItems, price: np.ndarray, lam_energy: float = 0.0, lam_memory: float = 0.0
+) -> tuple[float, np.ndarray]:
+    """The best plan of one orbit under (3) and (6), knapsacks (4)-(5) as penalties.
+
+    Maximises ``sum over the plan of (gain_u - lam_energy * energy_u / E - lam_memory *
+    memory_u / W)``, with the slew term of (4) exact over consecutive observations (see the
+    module docstring), over sequences of at most c_j observations pairwise compatible by (3).
+
+    Parameters
+    ----------
+    o
+        The orbit.
+    price
+        Per target of the instance, what covering it is worth (>= 0).
+    lam_energy, lam_memory
+        Penalties per whole capacity E_j, W_j (>= 0).
+
+    Returns
+    -------
+    tuple
+        ``(value, path)``: the penalised value (0 for the empty plan, never below) and the
+        plan's positions in time order.
+    """
+    m = o.size
+    if m == 0:
+        return 0.0, np.zeros(0, dtype=np.int64)
+    pe = lam_energy / o.energy_cap if o.energy_cap > 0 else 0.0
+    pw = lam_memory / o.memory_cap if o.memory_cap > 0 else 0.0
+    slew_cost = pe * o.slew_energy_rate * o.slew_s
+    g = o.gains(price) - pe * o.observe_rate * o.duration - pw * o.memory_rate * o.duration
+    g -= 2.0 * slew_cost
+    bonus = slew_cost  # the first (and, separately, the last) observation's |theta| back
+    levels = [np.full(m, -np.inf)]
+    for _ in range(max(o.openings, 0)):
+        prev = levels[-1]
+        best_before = np.empty(m + 1)
+        best_before[0] = -np.inf
+        np.maximum.accumulate(prev[o.by_release], out=best_before[1:])
+        cur = g + np.maximum(bonus, best_before[o.n_before])
+        levels.append(cur)
+        if np.array_equal(cur, prev):
+            break  # one more opening adds nothing: neither will the next
+    final = levels[-1] + bonus
+    u = int(np.argmax(final))
+    value = float(final[u])
+    if not value > 0.0:
+        return 0.0, np.zeros(0, dtype=np.int64)
+    path = [u]
+    n = len(levels) - 1
+    while n > 1:
+        k = int(o.n_before[u])
+        if k == 0:
+            break
+        before = o.by_release[:k]
+        prev = levels[n - 1][before]
+        q = int(np.argmax(prev))
+        if not prev[q] > bonus[u]:
+            break  # u starts the plan
+        u = int(before[q])
+        path.append(u)
+        n -= 1
+    return value, np.array(path[::-1], dtype=np.int64)
+
+
+def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
+    """A plan of one orbit that keeps (3)-(6), exact when the knapsacks do not bind.
+
+    The recursion without penalties gives the optimum over (3) and (6); when that plan also
+    fits (4) and (5) it is optimal. Otherwise a common penalty on energy and memory (per unit
+    of capacity) is doubled until the plan fits, then bisected 12 times towards the smallest
+    penalty that fits: a Lagrangian heuristic, feasible but not proven optimal.
+    """
+    _, path = best_path(o, price)
+    if o.fits(path):
+        return path
+    lo, hi = 0.0, 1.0
+    for _ in range(_MAX_DOUBLINGS):
+        _, path = best_path(o, price, hi, hi)
+        if o.fits(path):
+            break
+        lo, hi = hi, 2.0 * hi
+    else:
+        return np.zeros(0, dtype=np.int64)
+    best = path
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        _, path = best_path(o, price, mid, mid)
+        if o.fits(path):
+            hi, best = mid, path
+        else:
+            lo = mid
+    return best
+
+
+def lagrangian_bound(
+    instance: Instance,
+    *,
+    iterations: int = 300,
+    time_limit: float | None = None,
+    lower_bound: float | None = None,
+    data: OrbitData | None = None,
+) -> dict[str, Any]:
+    """Upper bound on the optimum (cluster model) by Lagrangian relaxation across orbits.
+
+    The cluster model is ``max sum_k p_k z_k`` s.t. ``z_k <= sum of x over the candidates
+    covering k``, ``z_k <= 1``, and per orbit the plan keeps (3)-(6). Relaxing the coverage
+    rows with ``mu_k >= 0`` and the knapsacks (4)-(5) of orbit j with ``lam_j >= 0`` (per unit
+    of capacity) gives, for any such multipliers, the upper bound
+
+        L(mu, lam) = sum_k max(0, p_k - mu_k)
+                     + sum_j [ max over plans of orbit j under (3), (6) of
+                               sum_u (mu(targets of u) - penalties of u) + lam_ej + lam_wj ],
+
+    each orbit's maximum computed exactly by :func:`best_path`. Subgradient steps (Polyak's
+    rule towards ``lower_bound``, step factor halved after 20 steps without progress) lower
+    it; the least value found, rounded down (the optimum is an integer), is returned.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    iterations
+        Subgradient steps at most.
+    time_limit
+        Seconds for everything, candidates included (None: no limit).
+    lower_bound
+        A known feasible profit (Polyak's target); None: the profit of a quick orbit-by-orbit
+        plan (:func:`models.orbit_search.ascent_profit`).
+    data
+        Prepared candidates (built here when None).
+
+    Returns
+    -------
+    dict
+        ``bound``, ``method`` ("lagrangian"), ``model`` ("cluster"), ``runtime_s``,
+        ``iterations``, ``candidates``, ``lower_bound``.
+    """
+    t0 = time.perf_counter()
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+        raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
+    if data is None:
+        data = orbit_data(instance)
+    p = np.asarray(instance.target_weight, dtype=float)
+    groups = data.orbits
+    if lower_bound is None:
+        from models.orbit_search import ascent_profit
+
+        lower_bound = ascent_profit(data)
+    mu = 0.5 * p
+    lam = np.zeros((len(groups), 2))
+    best = math.inf
+    factor, stale, done = 1.0, 0, 0
+    while done < iterations:
+        done += 1
+        value = float(np.maximum(p - mu, 0.0).sum())
+        count = np.zeros(len(p))
+        grad_lam = np.ones((len(groups), 2))
+        for g, o in enumerate(groups):
+            v, path = best_path(o, mu, lam[g, 0], lam[g, 1])
+            value += v + lam[g, 0] + lam[g, 1]
+            if len(path):
+                np.add.at(count, o.target_flat[_flat_positions(o, path)], 1.0)
+                energy, memory = o.usage(path)
+                grad_lam[g] = (1.0 - energy / o.energy_cap, 1.0 - memory / o.memory_cap)
+        if value < best - 1e-9:
+            best, stale = value, 0
+        else:
+            stale += 1
+            if stale >= 20:
+                factor, stale = factor / 2.0, 0
+        grad_mu = count - (mu < p)
+        norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
+        if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
+            break  # the plans agree with the multipliers, or the bound meets the target
+        step = factor * (value - lower_bound) / norm
+        mu = np.clip(mu - step * grad_mu, 0.0, p)
+        lam = np.maximum(lam - step * grad_lam, 0.0)
+        if time_limit is not None and time.perf_counter() - t0 > time_limit:
+            break
+    bound = float(math.floor(best + 1e-6)) if math.isfinite(best) else float(p.sum())
+    log.info("lagrangian bound %g after %d steps", bound, done)
+    return {
+        "bound": bound,
+        "method": "lagrangian",
+        "model": "cluster",
+        "runtime_s": round(time.perf_counter() - t0, 6),
+        "iterations": done,
+        "candidates": data.n_items,
+        "lower_bound": float(lower_bound),
+    }
+
+
+def _flat_positions(o: OrbitItems, path: np.ndarray) -> np.ndarray:
+    """Indices into ``o.target_flat`` of the targets of the positions in ``path``."""
+    ptr = o.target_ptr
+    return np.concatenate([np.arange(ptr[u], ptr[u + 1]) for u in path])
