@@ -115,7 +115,8 @@ def cmd_bound(args: argparse.Namespace) -> int:
             f"{out.get('candidates', 0)} items, {out.get('variables', 0)} variables, "
             f"{out.get('constraints', 0)} constraints"
         )
-    text = f"{out['model']} model, {out['method']} bound: {out['bound']} ({out['runtime_s']:.2f} s; {size})"
+    head = f"{out['model']} model, {out['method']} bound: {out['bound']}"
+    text = f"{head} ({out['runtime_s']:.2f} s; {size})"
     if args.method == "milp":
         text += f"\nincumbent {out['profit']:g}, status {out['status']}"
     sys.stdout.write(text + "\n")
