@@ -58,7 +58,7 @@ def clustering_gain(
     new = state.cluster_with(c, x)
     span = e - s
     d_sep = (c[END] - c[START]) + (pb.opt_end[x] - pb.opt_start[x])
-    en = p.eo * d_sep + p.es * (abs(c[ROLL]) + abs(pb.opt_roll[x])) / p.v
+    en = p.eo * d_sep + p.es * (abs(c[ROLL]) + abs(state.single_roll[x])) / p.v
     wn = p.w * d_sep
     ec = p.eo * span + p.es * abs(new[ROLL]) / p.v
     wc = p.w * span
@@ -82,7 +82,7 @@ def clustering_gain(
 
     # (16) only judges tasks that could also be done one after the other (section 4.2):
     # tasks exclusive by (3) are always worth clustering.
-    slew = p.a + (abs(c[ROLL]) + abs(pb.opt_roll[x])) / p.v
+    slew = p.a + (abs(c[ROLL]) + abs(state.single_roll[x])) / p.v
     if pb.opt_start[x] >= c[START]:
         separable = c[END] + slew <= pb.opt_start[x] + EPS
     else:

@@ -34,6 +34,25 @@ class ASAParams:
     pro1, pro2
         Initial probabilities of the insertion-removal and the migration neighbourhoods
         (Table 2: 0.5 each); normalised by (18).
+    replan
+        Add sosp's third neighbourhood, orbit re-planning (``heuristics.asa.replan``, not in
+        the paper): free a stretch of one orbit and rebuild it by dynamic programming over
+        candidate cluster-tasks. Default True (``docs/asa.md``: B10, C10, C1 figures);
+        ``False`` is the paper's Algorithm 1 with its two moves.
+    pro3
+        Initial probability of orbit re-planning (used when ``replan``), normalised with
+        ``pro1`` and ``pro2`` by (18).
+    replan_opps
+        Orbit re-planning frees a stretch of at most this many consecutive options of the
+        orbit (the whole orbit when it has fewer).
+    replan_pull
+        Orbit re-planning may also take tasks observed on other orbits, each worth this share
+        of its weight (0: only unscheduled tasks); the orbits they leave are re-planned next
+        (an ejection chain of depth two). DTC and NONTC; STC ignores it.
+    replan_floor
+        With ``replan``, floor of every neighbourhood probability after (18) (the larger of
+        this and ``min_probability``): without it (17) drives a neighbourhood whose moves
+        rarely improve (re-planning an already optimal stretch) to zero for good.
     tabu_length
         L, length of the FIFO tabu list; ``None`` gives ``max(1, N // 50)`` with N the number of
         observable tasks (5.3).
@@ -45,6 +64,11 @@ class ASAParams:
         the ``migration_pool`` scheduled tasks with most of them. ``1`` is deterministic.
     roll_rule
         Roll of a cluster-task inside its common range: ``"midpoint"`` (9) or ``"nadir"``.
+    nadir_singles
+        ASA-DTC only: an option observed alone is rolled to the point of its roll range closest
+        to nadir instead of its own roll (the validator accepts any roll in the range, and the
+        clustering-exact model does the same, ``docs/asa.md``). ``False``: the paper's single
+        task at its own roll. Use with ``roll_rule="nadir"``.
     rule16
         Apply the effectiveness test (16) to clustering insertion (``False``: (7), (11) only).
     rule16_openings
@@ -84,10 +108,16 @@ class ASAParams:
     itr: int = 10
     pro1: float = 0.5
     pro2: float = 0.5
+    replan: bool = True
+    pro3: float = 0.5
+    replan_opps: int = 40
+    replan_pull: float = 0.5
+    replan_floor: float = 0.1
     tabu_length: int | None = None
     pool: int = 32
     migration_pool: int = 8
     roll_rule: str = "midpoint"
+    nadir_singles: bool = False
     rule16: bool = True
     rule16_openings: bool = True
     rule16_empty: str = "capacity"
@@ -118,8 +148,15 @@ class ASAParams:
         positive("delta")
         positive("pro1", strict=False)
         positive("pro2", strict=False)
-        if self.pro1 + self.pro2 <= 0:
-            raise InputError("pro1, pro2: at least one must be > 0")
+        positive("pro3", strict=False)
+        positive("replan_pull", strict=False)
+        positive("replan_floor", strict=False)
+        if self.replan_floor >= 1 / 3:
+            raise InputError(f"replan_floor: must be < 1/3, got {self.replan_floor!r}")
+        if self.replan_pull > 1:
+            raise InputError(f"replan_pull: must lie in [0, 1], got {self.replan_pull!r}")
+        if self.pro1 + self.pro2 + (self.pro3 if self.replan is True else 0.0) <= 0:
+            raise InputError("pro1, pro2 (pro3 with replan): at least one must be > 0")
         positive("eta", strict=False)
         if self.eta > 1:
             raise InputError(f"eta: must lie in [0, 1], got {self.eta!r}")
@@ -130,6 +167,7 @@ class ASAParams:
         integer("tabu_length", optional=True, minimum=0)
         integer("pool")
         integer("migration_pool")
+        integer("replan_opps")
         integer("iterations", optional=True, minimum=0)
         integer("no_improve", optional=True)
         integer("trace_every")
@@ -143,7 +181,7 @@ class ASAParams:
                 raise InputError(
                     f"{name}: expected one of {', '.join(allowed)}, got {getattr(self, name)!r}"
                 )
-        for name in ("rule16", "rule16_openings"):
+        for name in ("rule16", "rule16_openings", "replan", "nadir_singles"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name}: expected true or false, got {getattr(self, name)!r}")
 
@@ -169,7 +207,7 @@ def _coerce(key: str, value: Any, default: Any) -> Any:
     text = value.strip()
     if text.lower() in ("none", "null"):
         return None
-    if key in ("rule16", "rule16_openings"):
+    if key in ("rule16", "rule16_openings", "replan", "nadir_singles"):
         if text.lower() in ("true", "1", "yes", "on"):
             return True
         if text.lower() in ("false", "0", "no", "off"):
@@ -183,6 +221,7 @@ def _coerce(key: str, value: Any, default: Any) -> Any:
             "tabu_length",
             "pool",
             "migration_pool",
+            "replan_opps",
             "iterations",
             "no_improve",
             "trace_every",

@@ -74,6 +74,10 @@ class Problem:
     migration_score
         Per option, its number of setup-time conflicting options, or -1 when it has no
         alternative (its task cannot migrate).
+    orbit_options
+        Per orbit, its usable options sorted by (start, index) (orbit re-planning).
+    replan_orbits
+        The orbits with at least one usable option.
     """
 
     mode: str
@@ -94,6 +98,8 @@ class Problem:
     alternatives: list[list[int]]
     tasks: TaskSet
     migration_score: list[int]
+    orbit_options: list[list[int]]
+    replan_orbits: list[int]
 
     @property
     def n_units(self) -> int:
@@ -175,6 +181,9 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         for opts in unit_options:
             for x in opts:
                 alternatives[x] = [y for y in opts if y != x]
+    orbit_options: list[list[int]] = [[] for _ in orbits]
+    for x in sorted((x for x in range(n) if usable[x]), key=lambda y: (start[y], y)):
+        orbit_options[orbit[x]].append(x)
     return Problem(
         mode=mode,
         clustering=mode == "dtc",
@@ -194,6 +203,8 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         alternatives=alternatives,
         tasks=tasks,
         migration_score=[len(conflicts[x]) if alternatives[x] else -1 for x in range(n)],
+        orbit_options=orbit_options,
+        replan_orbits=[j for j, opts in enumerate(orbit_options) if opts],
     )
 
 

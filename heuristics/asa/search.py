@@ -21,6 +21,7 @@ from heuristics.asa.neighbourhoods import (
 )
 from heuristics.asa.params import ASAParams
 from heuristics.asa.problem import Problem, build_problem
+from heuristics.asa.replan import REPLAN, replan_move
 from heuristics.asa.select import AdaptiveRoulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
@@ -49,9 +50,15 @@ TRACE_COLUMNS = (
     "rejected_insertion",
     "accepted_migration",
     "rejected_migration",
+    "pro_replan",
+    "accepted_replan",
+    "rejected_replan",
 )
 
-NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_move)
+#: The neighbourhoods by index (:data:`INSERTION`, :data:`MIGRATION`, :data:`REPLAN`); the
+#: third only with ``ASAParams.replan``.
+NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_move, replan_move)
+NAMES = ("insertion", "migration", "replan")
 
 
 def run_asa(
@@ -93,12 +100,14 @@ def run_asa(
     t0 = time.perf_counter()
     params = params or ASAParams()
     problem = build_problem(instance, mode, params.roll_rule)
-    state = State(problem, params.roll_rule)
+    state = State(problem, params.roll_rule, params.nadir_singles)
     acceptance = acceptance or AdaptiveTemperature(
         params.lambda_min, params.rho, params.delta, params.r_update
     )
+    probs = [params.pro1, params.pro2] + ([params.pro3] if params.replan else [])
+    floor = max(params.min_probability, params.replan_floor) if params.replan else None
     selector = selector or AdaptiveRoulette(
-        [params.pro1, params.pro2], params.eta, params.itr, params.min_probability
+        probs, params.eta, params.itr, params.min_probability if floor is None else floor
     )
     if stop is None:
         crit: list[Callable[[SearchStatus], bool]] = []
@@ -121,12 +130,13 @@ def run_asa(
     best = state.profit
     best_snap = state.snapshot()
     status = SearchStatus(0, 0, best)
-    counts = {o.name.lower(): [0, 0] for o in Outcome}
-    accepted = [0, 0]
-    rejected = [0, 0]
+    counts = {o.name.lower(): [0, 0, 0] for o in Outcome}
+    accepted = [0, 0, 0]
+    rejected = [0, 0, 0]
     trace: list[list[float]] = []
 
     def record(g: int) -> None:
+        pr = selector.probabilities
         trace.append(
             [
                 g,
@@ -134,12 +144,15 @@ def run_asa(
                 best,
                 state.profit,
                 acceptance.temperature,
-                selector.probabilities[INSERTION],
-                selector.probabilities[MIGRATION],
+                pr[INSERTION],
+                pr[MIGRATION],
                 accepted[0],
                 rejected[0],
                 accepted[1],
                 rejected[1],
+                pr[REPLAN] if len(pr) > REPLAN else 0.0,
+                accepted[2],
+                rejected[2],
             ]
         )
 
@@ -188,6 +201,7 @@ def run_asa(
     runtime = time.perf_counter() - t0
     schedule = build_schedule(instance, problem, best_snap)
     observed = sum(len(o.opps) for o in schedule.observations)
+    names = NAMES[: len(probs)]
     stats = {
         "mode": mode,
         "params": params.as_dict(),
@@ -195,9 +209,9 @@ def run_asa(
         "initial_time_s": round(t_init, 6),
         "iterations_per_s": round(g / max(runtime - t_init, 1e-9), 1),
         "tabu_length": length,
-        "accepted": {"insertion": accepted[0], "migration": accepted[1]},
-        "rejected": {"insertion": rejected[0], "migration": rejected[1]},
-        "outcomes": {k: {"insertion": v[0], "migration": v[1]} for k, v in counts.items()},
+        "accepted": dict(zip(names, accepted, strict=False)),
+        "rejected": dict(zip(names, rejected, strict=False)),
+        "outcomes": {k: dict(zip(names, v, strict=False)) for k, v in counts.items()},
         "trace_columns": list(TRACE_COLUMNS),
         "trace": trace,
     }

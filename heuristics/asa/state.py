@@ -230,11 +230,23 @@ class State:
         The flattened instance.
     roll_rule
         ``"midpoint"`` (9) or ``"nadir"`` for cluster-tasks of two or more components.
+    nadir_singles
+        Roll a single option to the point of its range closest to nadir (DTC only; otherwise
+        it keeps its own roll).
     """
 
-    def __init__(self, problem: Problem, roll_rule: str = "midpoint") -> None:
+    def __init__(
+        self, problem: Problem, roll_rule: str = "midpoint", nadir_singles: bool = False
+    ) -> None:
         self.pb = problem
         self.nadir = roll_rule == "nadir"
+        self.nadir_singles = nadir_singles and problem.clustering
+        #: Roll of each option observed alone.
+        self.single_roll = list(problem.opt_roll)
+        if self.nadir_singles:
+            self.single_roll = [
+                min(max(0.0, lo), hi) for lo, hi in zip(problem.opt_lo, problem.opt_hi, strict=True)
+            ]
         self.lines = [OrbitLine(p) for p in problem.orbits]
         self.sched = [-1] * problem.n_units  # option of each unit, -1 when unscheduled
         self.cover = [0] * len(problem.target_weight)
@@ -365,7 +377,7 @@ class State:
             return (
                 pb.opt_start[x],
                 pb.opt_end[x],
-                pb.opt_roll[x],
+                self.single_roll[x],
                 pb.opt_lo[x],
                 pb.opt_hi[x],
                 members,

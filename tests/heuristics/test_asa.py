@@ -27,6 +27,7 @@ from heuristics.asa.neighbourhoods import (
     migration_move,
 )
 from heuristics.asa.problem import build_problem
+from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
@@ -110,7 +111,7 @@ def test_journal_keeps_totals_exact_under_commit_and_rollback(
     for _ in range(60):
         before = (state.profit, state.snapshot(), list(state.sched))
         state.begin()
-        move = insertion_move if rng.random() < 0.5 else migration_move
+        move = (insertion_move, migration_move, replan_move)[int(rng.integers(3))]
         made = move(state, rng, params, None)
         if made and rng.random() < 0.5:
             state.commit()
@@ -131,10 +132,13 @@ def test_tiny_named_instances_reach_the_cluster_optimum(tiny: Instance) -> None:
 def test_rule16_ignores_openings() -> None:
     """tiny_openings (c = 2): the optimum 10 clusters a+b and c+d over 98 s gaps. The literal
     (16) sees only energy and memory (roll 0: no slew saved, 98 s more memory), so ASA-DTC
-    with it never clusters them and keeps the best two singles, d + c = 7."""
+    with it never clusters them and keeps the best two singles, d + c = 7 (the paper's two
+    moves; orbit re-planning, which does not consult (16), finds 10)."""
     inst = tiny_openings()
     assert brute_force(inst, "cluster").profit == 10
-    assert solve(inst, "asa-dtc", seed=3, iterations=300, rule16_openings=False).profit == 7
+    kw = {"seed": 3, "iterations": 300, "rule16_openings": False}
+    assert solve(inst, "asa-dtc", replan=False, **kw).profit == 7
+    assert solve(inst, "asa-dtc", **kw).profit == 10
 
 
 def test_rule16_with_openings_clusters_when_openings_are_scarce() -> None:
@@ -352,7 +356,13 @@ def test_tabu_length_default_is_n_over_50() -> None:
         {"roll_rule": "left"},
         {"r_update": "sometimes"},
         {"pro1": -1},
-        {"pro1": 0, "pro2": 0},
+        {"pro1": 0, "pro2": 0, "replan": False},
+        {"pro1": 0, "pro2": 0, "pro3": 0},
+        {"replan": "maybe"},
+        {"replan_pull": 1.5},
+        {"replan_opps": 0},
+        {"replan_floor": 0.5},
+        {"nadir_singles": "maybe"},
         {"delta": float("nan")},
         {"iterations": -1},
         {"no_such": 1},
