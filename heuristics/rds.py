@@ -17,6 +17,11 @@ Items
     ``rds``: single opportunities at their own roll (:func:`sosp.clustering.single_tasks`);
     ``rds-stc``: static cluster-tasks (:func:`sosp.clustering.static_cluster_tasks`), the
     paper's RDS-STC.
+Variables (``variables``)
+    ``"targets"`` (default, :func:`rds_targets_component`): one variable per target, valued by
+    a task covering it or "none", the SPOT5 formulation; ``"tasks"``
+    (:func:`rds_component`): one 0/1 variable per task. The rest of this note is about the
+    default; ``"tasks"`` is the plain RDS above.
 Objective (1) with coverage semantics
     the value of scheduling an item is the weight of its targets not yet covered. For single
     opportunities this is exactly (2): an opportunity of a covered target is worth 0 and is
@@ -31,29 +36,63 @@ Constraints
     (3)-(6) and (11) are checked incrementally with one
     :class:`heuristics.timeline.OrbitTimeline` per orbit (insert on the way down, remove on
     backtrack), including the consecutive slew term of (4).
-Variable order (``order``)
-    ``"orbit"`` (default): by orbit, then start time. Subproblems are then local: an item's
-    competitors for time and resources are its neighbours in the order, so ``opt[d]`` of the
-    suffix is close to what the prefix still allows, which is what makes RDS prune.
-    ``"weight"``: decreasing weight (ties by orbit and time), the other classic choice.
+Nesting order (``order``)
+    the order of the variables, which fixes the nested subproblems: ``"orbit"`` (default) by
+    orbit, then start time (for targets: of their earliest task), so subproblems are local;
+    ``"weight"``: decreasing weight (ties by orbit and time).
+Open tasks and coverable targets (targets search)
+    at a node, a task is *open* unless it is excluded below the node: banned by an earlier
+    branch (below), in (3) conflict with a scheduled task (:func:`pairwise_conflicts`: such
+    a pair is never in one schedule), or, on an orbit whose resources can bind, rejected by
+    the orbit's timeline (a set that breaks (4)-(6) keeps breaking them when observations are
+    added, since removing observations never breaks them and the slew sum of a sequence
+    only grows with insertions, by the triangle inequality). A target is *coverable* while
+    some open task covers it (a scheduled task is open). Every selection in the node's
+    subtree keeps the scheduled tasks and adds open tasks only, so it covers coverable
+    targets only.
+The bound of a node of P_i (targets search)
+    ``min over r in (i, n] of  w(coverable targets among i..r-1) + opt[r]``: for any
+    selection F of the subtree, the targets i..r-1 it covers are coverable, and the targets
+    r..n it covers are the value in P_r of F's tasks that cover them, a feasible selection of
+    P_r, so at most ``opt[r]`` (``opt[n] = 0``). With the targets before r decided, this is
+    the classic RDS bound "value so far + opt[r]"; r = n gives the sum of the coverable
+    weights. The term only decreases from r to r + 1 when target r is not coverable (as
+    ``opt[r] - opt[r+1] <= w_r``), so it is evaluated at r = i + 1, r = n and just after
+    each target that is not coverable.
+Search of P_i (targets search)
+    the branch "target i covered" only (a better solution than ``opt[i+1]`` needs it), then
+    repeatedly a target to branch on: each open task covering it in turn, the tasks already
+    tried being banned in the later branches (their solutions were searched), and last
+    "none", with all its tasks banned. Two branching orders are used: *static*, the first
+    uncovered coverable target in the nesting order (classic RDS); and *fail first*, the one
+    with the fewest open tasks. Each is exponentially slower than the other on some
+    instances (static on dense regions such as C1, fail first where resources bind, such as
+    B2 without clustering), so runs alternate between them with a doubling node budget
+    (restarts; the order that finished the last long run gets the full budget, the other a
+    quarter) until one finishes: exact either way, at most a constant factor slower than the
+    better order.
+Descending target (targets search)
+    P_i is first searched for a selection worth more than ``upper - 1`` with ``upper = w_i +
+    opt[i+1]`` (a pruning bound at its strongest); a pass that finds none proves ``opt[i] <=
+    upper - 1``, which becomes ``upper``, and the next pass asks for more than ``upper - 2``,
+    then ``- 4``, ..., down to ``opt[i+1]``. A pass that finds a selection searches on with it
+    as incumbent, so it ends with the optimum. Most subproblems are solved by the first pass
+    in a few nodes.
 Decomposition
     items interact only through (3) (same orbit, close in time), the per-orbit knapsacks
     (4)-(6) (same orbit) and shared targets. The connected components of that "interaction"
     graph are independent problems whose optima add up, and each is solved by its own RDS.
     The edges are those of :func:`sosp.conflicts.conflict_graph` (setup and target edges),
-    plus, on an orbit whose resources can bind, a chain linking all its items. An orbit's
-    resources cannot bind when even all its items together fit (4)-(5) (with every slew
-    counted as ``2|theta|/v``) and (6) holds for the largest (3)-compatible set (conflicts (3)
-    form an interval graph, so a greedy by end time finds it); such an orbit splits into
-    independent stretches of time. Branch and bound is exponential in the component size, so
+    plus, on an orbit whose resources can bind (:func:`orbit_resources_can_bind`), a chain
+    linking all its items. Branch and bound is exponential in the component size, so
     splitting one problem of n items into k parts of n/k items is a very large gain.
 Time limit
     on timeout the incumbent of each unfinished component is the better of its RDS incumbent
     and a highest-weight-first insertion (:func:`heuristics.hpfs.insertion_decode`); the
     status is ``time_limit`` and ``bound`` a proven upper bound (solved components give
-    their optimum, an interrupted one ``sum of weights before i + opt[i+1]``, an unstarted one
-    the weight of its targets). When every component finishes, the status is ``optimal`` and
-    ``bound`` equals the profit.
+    their optimum, an interrupted one ``sum of weights before i + upper`` with ``upper`` the
+    proven bound of the interrupted P_i, an unstarted one the weight of its targets). When
+    every component finishes, the status is ``optimal`` and ``bound`` equals the profit.
 """
 
 from __future__ import annotations
@@ -80,12 +119,19 @@ log = logging.getLogger(__name__)
 Order = Literal["orbit", "weight"]
 Variables = Literal["targets", "tasks"]
 
+#: Node budget of the first run of a search pass (then doubled, see ``search_pass``).
+_FIRST_BUDGET = 1000
+
 #: Nodes between two clock reads.
 _CLOCK_EVERY = 2048
 
 
 class _Timeout(Exception):
     """Raised inside the search when the deadline passes."""
+
+
+class _Budget(Exception):
+    """Raised inside a search run when its node budget is spent (it is then restarted)."""
 
 
 class _Done(Exception):
@@ -138,40 +184,49 @@ class RdsOutcome:
 def orbit_resources_can_bind(instance: Instance, tasks: TaskSet, idx: np.ndarray) -> bool:
     """Can (4), (5) or (6) cut a (3)-feasible subset of these tasks of one orbit?
 
-    False only when provably not: all tasks together fit memory (5) and energy (4) with every
-    consecutive slew bounded by ``(|theta_u| + |theta_v|)/v`` summed as ``2 sum |theta| / v``,
-    and the largest set without (3) conflicts has at most c members. (3) conflicts form an
-    interval graph (item u occupies ``[ts_u - |theta_u|/v, te_u + a + |theta_u|/v)``), so the
-    greedy by earliest interval end finds that largest set; it compares with a tolerance that
-    can only overcount, which keeps the answer conservative.
+    False only when provably not. Item u occupies the interval ``[ts_u - |theta_u|/v, te_u + a
+    + |theta_u|/v)`` and (3) between consecutive observations u, v says exactly that u's
+    interval ends before v's starts, so the (3)-feasible sets are the chains of pairwise
+    disjoint intervals (an interval graph). Over those chains a dynamic program by interval
+    end (weighted interval scheduling) gives the largest number of members, the largest
+    observing time and the largest ``eo dur + es 2|theta|/v`` (every slew of a sequence
+    bounded by ``(|theta_u| + |theta_v|)/v``, summed as ``2 sum |theta| / v``). The orbit
+    cannot bind when these fit c (6), W (5) and E (4). Intervals compare with a tolerance
+    that can only admit more chains, and intervals shorter than that tolerance make the
+    answer True, which keeps it conservative.
     """
     if idx.size == 0:
         return False
     j = int(tasks.orbit[idx[0]])
-    dur = float(np.sum(tasks.end[idx] - tasks.start[idx]))
+    dur = tasks.end[idx] - tasks.start[idx]
     absr = np.abs(tasks.roll[idx])
     v, a = float(instance.slew_rate[j]), float(instance.setup_time[j])
-    if float(instance.memory_rate[j]) * dur > float(instance.memory_capacity[j]) - EPS:
+    lo = tasks.start[idx] - absr / v
+    hi = tasks.end[idx] + a + absr / v
+    tol = 4 * EPS
+    if np.any(hi - lo <= tol):
         return True
     energy = (
         float(instance.observe_energy_rate[j]) * dur
-        + float(instance.slew_energy_rate[j]) * 2.0 * float(absr.sum()) / v
+        + float(instance.slew_energy_rate[j]) * 2.0 * absr / v
     )
-    if energy > float(instance.energy_capacity[j]) - EPS:
+    order = np.argsort(hi, kind="stable")
+    lo, hi, dur, energy = lo[order], hi[order], dur[order], energy[order]
+    # prev[k]: how many intervals (in end order) end before interval k starts.
+    prev = np.minimum(np.searchsorted(hi, lo + tol, side="right"), np.arange(idx.size))
+    card = [0] * (idx.size + 1)
+    obs = [0.0] * (idx.size + 1)
+    eng = [0.0] * (idx.size + 1)
+    for k in range(idx.size):
+        p = int(prev[k])
+        card[k + 1] = max(card[k], card[p] + 1)
+        obs[k + 1] = max(obs[k], obs[p] + float(dur[k]))
+        eng[k + 1] = max(eng[k], eng[p] + float(energy[k]))
+    if card[-1] > int(instance.max_openings[j]):
         return True
-    c = int(instance.max_openings[j])
-    if idx.size <= c:
-        return False
-    lo = tasks.start[idx] - absr / v
-    hi = tasks.end[idx] + a + absr / v
-    count, last = 0, -np.inf
-    for k in np.argsort(hi, kind="stable"):
-        if lo[k] >= last - 4 * EPS:
-            count += 1
-            last = hi[k]
-            if count > c:
-                return True
-    return False
+    if float(instance.memory_rate[j]) * obs[-1] > float(instance.memory_capacity[j]) - EPS:
+        return True
+    return eng[-1] > float(instance.energy_capacity[j]) - EPS
 
 
 def interaction_components(
@@ -207,6 +262,36 @@ def interaction_components(
     comps = [sorted(c) for c in nx.connected_components(g)]
     comps.sort(key=lambda c: (len(c), c[0]))
     return comps
+
+
+def pairwise_conflicts(instance: Instance, tasks: TaskSet, items: list[int]) -> list[list[int]]:
+    """For each item (by position in ``items``), the positions of the items it excludes by (3).
+
+    Two tasks u, v of one orbit with ``ts_u <= ts_v`` and ``te_u + a + (|theta_u| +
+    |theta_v|)/v > ts_v + EPS`` (:func:`sosp.conflicts.setup_conflict_pairs`) are never both
+    in a schedule that :class:`heuristics.timeline.OrbitTimeline` accepts: next to each other
+    they break (3) directly, and with w_1..w_r between them the r + 1 consecutive (3)
+    inequalities add up to ``te_u + a + (|theta_u| + |theta_v|)/v <= ts_v + (r + 1) EPS -
+    sum_i (te_w - ts_w + a + 2|theta_w|/v)``, which contradicts the conflict as soon as every
+    ``te_w - ts_w + a >= EPS``. Orbits where some item is shorter than that (never in real
+    data) get no pairs, which only weakens the bounds that use them.
+    """
+    if len(items) < 2:
+        return [[] for _ in items]
+    from sosp.conflicts import setup_conflict_pairs
+
+    idx = np.asarray(items, dtype=np.int64)
+    orbit = tasks.orbit[idx]
+    foot = tasks.end[idx] - tasks.start[idx] + instance.setup_time[orbit]
+    thin = set(int(j) for j in np.unique(orbit[foot < 4 * EPS]))
+    pairs = setup_conflict_pairs(instance, orbit, tasks.start[idx], tasks.end[idx], tasks.roll[idx])
+    conf: list[list[int]] = [[] for _ in items]
+    for u, v in pairs.tolist():
+        if int(orbit[u]) in thin:
+            continue
+        conf[u].append(v)
+        conf[v].append(u)
+    return conf
 
 
 def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
@@ -375,11 +460,12 @@ def rds_targets_component(
     first) or "none"; a task is scheduled while some target is assigned to it. This is the
     formulation of Bensana et al. on SPOT5 (photographs with their possible cameras) and the
     default here: the suffix bound ``opt[q]`` is the optimum over targets q..n, which never
-    counts a target twice, so it stays tight when targets are seen from many orbits. Two
-    exact reductions: a target covered by an already scheduled task is assigned to it at no
-    cost (single branch); and in the "none" branch of target k the tasks covering k are
-    forbidden below it (a solution scheduling one of them is explored in the branch that
-    assigns k to it).
+    counts a target twice, so it stays tight when targets are seen from many orbits. A
+    target covered by a scheduled task needs no branch; in the branches of a target, tasks
+    already tried are banned below (their solutions were searched), and in its "none"
+    branch all its tasks. The bound, the two branching orders with restarts and the passes
+    with a descending target are described in the module docstring. The domain is tried
+    with the tasks of the last subproblem's optimum first (the classic RDS value order).
 
     Parameters
     ----------
@@ -432,8 +518,92 @@ def rds_targets_component(
     forbid = [0] * m  # > 0: excluded by a "none" branch above
     opt = [0] * (n + 1)
     stack: list[int] = []
-    state: dict[str, Any] = {"best": 0, "sel": None, "ub": 0, "nodes": 0}
+    state: dict[str, Any] = {"best": 0, "sel": None, "ub": 0, "nodes": 0, "prefer_ff": False}
     incumbent: list[int] = []
+    # A task is "open" while it is not forbidden and no scheduled task excludes it by (3)
+    # (:func:`pairwise_conflicts`); ``cnt[p]`` counts the open tasks covering target p (a
+    # scheduled task is open: scheduled tasks never conflict) and ``covc[p]`` the scheduled
+    # ones. A target with ``cnt[p] == 0`` can no longer be covered below the node.
+    pos_of = {k: p for p, k in enumerate(tkeys)}
+    tpos = [[pos_of[int(k)] for k in tasks.targets[t]] for t in items]
+    conf = pairwise_conflicts(instance, tasks, items)
+    blocked = [0] * m
+    cnt = [len(d) for d in dom]
+    covc = [0] * n
+    # On an orbit whose resources can bind, a task that no longer fits (4)-(6) next to the
+    # scheduled ones never will below the node (feasibility is kept by subsets): it is
+    # closed as well, and reopened on backtrack (``killed``, one list per scheduled task).
+    on_orbit: dict[int, list[int]] = {}
+    for t in range(m):
+        on_orbit.setdefault(orb[t], []).append(t)
+    tight = {
+        j: orbit_resources_can_bind(instance, tasks, np.asarray([items[t] for t in ts]))
+        for j, ts in on_orbit.items()
+    }
+    killed: list[list[int]] = []
+    cur = {"i": n, "value": 0}  # the subproblem P_i being solved and the value of the node
+
+    def close(t: int) -> None:
+        for p in tpos[t]:
+            cnt[p] -= 1
+
+    def reopen(t: int) -> None:
+        for p in tpos[t]:
+            cnt[p] += 1
+
+    def schedule(t: int, chk: Any) -> None:
+        line_of[t].insert(chk, st[t], en[t], ro[t], t)
+        on[t] = True
+        stack.append(t)
+        i = cur["i"]
+        for p in tpos[t]:
+            covc[p] += 1
+            if covc[p] == 1 and p >= i:
+                cur["value"] += wq[p]
+        for u in conf[t]:
+            blocked[u] += 1
+            if blocked[u] == 1 and not forbid[u]:
+                close(u)
+        gone: list[int] = []
+        if tight[orb[t]]:
+            line = line_of[t]
+            for u in on_orbit[orb[t]]:
+                if not blocked[u] and not on[u]:
+                    if not line.check_insert(st[u], en[u], ro[u]).ok:
+                        blocked[u] += 1
+                        if not forbid[u]:
+                            close(u)
+                        gone.append(u)
+        killed.append(gone)
+
+    def unschedule(t: int) -> None:
+        for u in killed.pop():
+            blocked[u] -= 1
+            if blocked[u] == 0 and not forbid[u]:
+                reopen(u)
+        for u in conf[t]:
+            blocked[u] -= 1
+            if blocked[u] == 0 and not forbid[u]:
+                reopen(u)
+        i = cur["i"]
+        for p in tpos[t]:
+            covc[p] -= 1
+            if covc[p] == 0 and p >= i:
+                cur["value"] -= wq[p]
+        stack.pop()
+        on[t] = False
+        line = line_of[t]
+        line.remove(line.items.index(t))
+
+    def ban(t: int) -> None:
+        forbid[t] += 1
+        if forbid[t] == 1 and not blocked[t]:
+            close(t)
+
+    def unban(t: int) -> None:
+        forbid[t] -= 1
+        if forbid[t] == 0 and not blocked[t]:
+            reopen(t)
 
     def record(value: int) -> None:
         if value > state["best"]:
@@ -442,80 +612,141 @@ def rds_targets_component(
             if value >= state["ub"]:
                 raise _Done
 
-    def dfs(q: int, value: int) -> None:
-        forbidden: list[int] = []
+    def dfs(i: int) -> None:
+        # One node of P_i. The bound (module docstring): for every r in (i, n], targets
+        # i..r-1 add at most the weight of those still coverable, and targets r.. at most
+        # opt[r]. The branching target is the uncovered coverable one with the fewest open
+        # tasks (fail first), ties by weight then position.
+        state["nodes"] += 1
+        if state["nodes"] > state["limit"]:
+            raise _Budget
+        if deadline is not None and state["nodes"] % _CLOCK_EVERY == 0:
+            if clock() > deadline:
+                raise _Timeout
+        best = state["best"]
+        bound = opt[i + 1] + (wq[i] if cnt[i] else 0)
+        s = 0
+        pick, pick_cnt = -1, 1 << 30
+        # pick_cnt = 0 makes the first uncovered coverable target the pick (static order).
+        fail_first = state["fail_first"]
+        for p in range(i, n):
+            c = cnt[p]
+            if c:
+                s += wq[p]
+                if not covc[p] and c < pick_cnt:
+                    pick, pick_cnt = p, (c if fail_first else 0)
+            else:
+                b = s + opt[p + 1]
+                if b < bound:
+                    bound = b
+        if s < bound:
+            bound = s
+        if bound <= best:
+            return
+        if pick < 0:
+            return  # every coverable target is covered: this is a leaf (already recorded)
+        banned: list[int] = []
         try:
-            while q < n:
-                if value + opt[q] <= state["best"]:
-                    return  # the RDS bound: targets q.. add at most opt[q]
-                state["nodes"] += 1
-                if deadline is not None and state["nodes"] % _CLOCK_EVERY == 0:
-                    if clock() > deadline:
-                        raise _Timeout
-                d = dom[q]
-                if any(on[t] for t in d):  # covered for free by a scheduled task
-                    value += wq[q]
-                    record(value)
-                    q += 1
+            for t in dom[pick]:
+                if forbid[t] or blocked[t]:
                     continue
-                for t in d:
-                    if forbid[t]:
-                        continue
-                    line = line_of[t]
-                    chk = line.check_insert(st[t], en[t], ro[t])
-                    if not chk.ok:
-                        continue
-                    line.insert(chk, st[t], en[t], ro[t], t)
-                    on[t] = True
-                    stack.append(t)
+                chk = line_of[t].check_insert(st[t], en[t], ro[t])
+                if chk.ok:
+                    schedule(t, chk)
                     try:
-                        record(value + wq[q])
-                        dfs(q + 1, value + wq[q])
+                        record(cur["value"])
+                        dfs(i)
                     finally:
-                        stack.pop()
-                        on[t] = False
-                        line.remove(line.items.index(t))
-                # "none" for target q: its tasks stay out below this node
-                for t in d:
-                    forbid[t] += 1
-                    forbidden.append(t)
-                q += 1
+                        unschedule(t)
+                # Later branches and "none" exclude t (its solutions were just searched).
+                ban(t)
+                banned.append(t)
+                if state["best"] > best:
+                    best = state["best"]
+            # "none" for the picked target: all its tasks are now banned, cnt[pick] == 0.
+            dfs(i)
         finally:
-            for t in forbidden:
-                forbid[t] -= 1
+            for t in banned:
+                unban(t)
+
+    def search_pass(i: int, low: int, upper: int) -> bool:
+        # Search P_i (target i covered) for a selection worth more than ``low``, with
+        # ``upper`` a proven upper bound. Restarts alternate the static order (first
+        # uncovered target) and fail first, doubling a node budget, until one run finishes:
+        # either order alone is exponentially slow on some instances (module docstring).
+        budget, fail_first = _FIRST_BUDGET, state["prefer_ff"]
+        state["sel"] = None
+        state["best"] = low
+        while True:
+            state["ub"] = upper
+            state["fail_first"] = fail_first
+            # The order that finished the last long pass gets the full budget, the other a
+            # quarter (the order that suits an instance tends to suit all its subproblems).
+            own = budget if fail_first == state["prefer_ff"] else max(_FIRST_BUDGET, budget // 4)
+            state["limit"] = state["nodes"] + own
+            banned: list[int] = []
+            try:
+                for t in dom[i]:
+                    chk = line_of[t].check_insert(st[t], en[t], ro[t])
+                    if chk.ok:
+                        schedule(t, chk)
+                        try:
+                            record(cur["value"])
+                            dfs(i)
+                        finally:
+                            unschedule(t)
+                    ban(t)
+                    banned.append(t)
+            except _Done:
+                pass
+            except _Budget:
+                # Keep what was found (state["best"], state["sel"]) and restart.
+                if fail_first != state["prefer_ff"]:
+                    budget *= 2
+                fail_first = not fail_first
+                continue
+            finally:
+                for t in banned:
+                    unban(t)
+            if budget > _FIRST_BUDGET:
+                state["prefer_ff"] = fail_first
+            log.debug(
+                "P_%d > %d: %s order, budget %d", i, low, "ff" if fail_first else "static", own
+            )
+            return state["sel"] is not None
 
     proven = True
     interrupted_at = -1
     try:
         for i in range(n - 1, -1, -1):
-            # P_i on targets i..n-1: improving on opt[i+1] needs target i covered.
-            state["best"] = opt[i + 1]
-            state["sel"] = None
-            state["ub"] = wq[i] + opt[i + 1]
-            try:
-                for t in dom[i]:
-                    line = line_of[t]
-                    chk = line.check_insert(st[t], en[t], ro[t])
-                    if not chk.ok:
-                        continue
-                    line.insert(chk, st[t], en[t], ro[t], t)
-                    on[t] = True
-                    stack.append(t)
-                    try:
-                        record(wq[i])
-                        dfs(i + 1, wq[i])
-                    finally:
-                        stack.pop()
-                        on[t] = False
-                        line.remove(line.items.index(t))
-            except _Done:
-                pass
-            except _Timeout:
-                interrupted_at = i
-                raise
-            opt[i] = state["best"]
+            # P_i on targets i..n-1: improving on opt[i+1] needs target i covered, so
+            # opt[i+1] <= opt[i] <= upper = w_i + opt[i+1].
+            interrupted_at = i
+            upper = wq[i] + opt[i + 1]
+            if incumbent:
+                # Value order: the task that covers a target in the last optimum first.
+                prev = set(incumbent)
+                for p in range(i + 1, n):
+                    dom[p].sort(key=lambda t: t not in prev)
+            # Passes with a descending target: each searches for a selection worth more
+            # than ``low``; a pass that finds none proves opt[i] <= low (module docstring).
+            step = 1
+            low = max(opt[i + 1], upper - step)
+            cur["i"] = i
+            while True:
+                found = search_pass(i, low, upper)
+                log.debug("P_%d pass > %d: %s, %d nodes", i, low, found, state["nodes"])
+                if found or low <= opt[i + 1]:
+                    break
+                upper = low
+                step *= 2
+                low = max(opt[i + 1], upper - step)
             if state["sel"] is not None:
+                opt[i] = state["best"]
                 incumbent = state["sel"]
+            else:
+                opt[i] = opt[i + 1]
+            log.debug("P_%d: opt %d (w %d), %d nodes", i, opt[i], wq[i], state["nodes"])
     except _Timeout:
         proven = False
         if state["sel"] is not None:
@@ -527,8 +758,7 @@ def rds_targets_component(
             raise AssertionError(f"RDS bookkeeping: incumbent {value} != optimum {opt[0]}")
         bound = opt[0]
     else:
-        i = interrupted_at
-        bound = sum(wq[: i + 1]) + opt[i + 1]
+        bound = sum(wq[:interrupted_at]) + upper
     return ComponentOutcome(
         items=list(items),
         chosen=chosen,

@@ -6,14 +6,18 @@ import itertools
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from heuristics.rds import orbit_resources_can_bind, russian_doll
+import heuristics.rds as rds_module
+from heuristics.rds import orbit_resources_can_bind, pairwise_conflicts, russian_doll
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.instance import Instance, Resources
 from sosp.result import Status
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
+from tests.oracle import brute_force as oracle
 
 
 def random_tiny(seed: int) -> Instance:
@@ -76,6 +80,133 @@ def test_rds_equals_brute_force_on_random_tiny(seed: int) -> None:
                 res = solve(inst, "rds-stc", **kw)
                 assert res.status is Status.OPTIMAL and res.profit == want_static, kw
                 assert validate(inst, res.schedule).feasible
+
+
+# ------------------------------------------------------------ the search's own ingredients
+def random_orbit(seed: int, n: int, tight: bool) -> Instance:
+    """One orbit with n opportunities of distinct targets, crowded in time."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i in range(n):
+        s = float(rng.integers(0, 150))
+        r = float(rng.uniform(-20, 20))
+        rows.append((i, 0, s, s + float(rng.integers(1, 15)), r))
+    # Tight: capacities around what the crowded sequences need, so both answers occur.
+    res = (
+        Resources(
+            energy_capacity=float(rng.integers(10, 120)),
+            memory_capacity=float(rng.integers(5, 40)),
+            max_openings=int(rng.integers(1, 5)),
+            setup_time=float(rng.integers(0, 6)),
+        )
+        if tight
+        else Resources(setup_time=float(rng.integers(0, 6)))
+    )
+    return Instance.build([1] * n, rows, resources=res, name=f"orbit{seed}")
+
+
+def sequence_ok_3(inst: Instance, subset: tuple[int, ...]) -> bool:
+    """Constraint (3) alone for these opportunities of orbit 0 (consecutive pairs)."""
+    order = sorted(subset, key=lambda i: (inst.opp_start[i], inst.opp_end[i]))
+    a, v = float(inst.setup_time[0]), float(inst.slew_rate[0])
+    for u, w in zip(order, order[1:], strict=False):
+        turn = (abs(inst.opp_roll[u]) + abs(inst.opp_roll[w])) / v
+        if inst.opp_end[u] + a + turn > inst.opp_start[w] + 1e-9:
+            return False
+    return True
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**16), n=st.integers(2, 8), tight=st.booleans())
+def test_resources_that_cannot_bind_never_cut_a_sequence(seed: int, n: int, tight: bool) -> None:
+    # If orbit_resources_can_bind says False, every subset satisfying (3) satisfies (4)-(6).
+    inst = random_orbit(seed, n, tight)
+    tasks = single_tasks(inst)
+    if orbit_resources_can_bind(inst, tasks, np.arange(n)):
+        return
+    for r in range(1, n + 1):
+        for subset in itertools.combinations(range(n), r):
+            if sequence_ok_3(inst, subset):
+                rep = validate(inst, tasks_to_schedule(inst, tasks, subset))
+                assert rep.feasible, (subset, rep.violations)
+
+
+def test_resources_cannot_bind_when_only_conflicting_tasks_overflow() -> None:
+    # a and b overlap in time, so (3) never lets both in: 60 + 60 s exceeds W = 100 but no
+    # schedule can reach it. One long orbit item c apart keeps (5) at 60 + 30 = 90.
+    inst = Instance.build(
+        {"a": 1, "b": 1, "c": 1},
+        [("a", 0, 0, 60, 0.0), ("b", 0, 30, 90, 0.0), ("c", 0, 200, 230, 0.0)],
+        resources=Resources(memory_capacity=100.0),
+    )
+    assert not orbit_resources_can_bind(inst, single_tasks(inst), np.arange(3))
+    # With c 50 s long, a + c = 110 > 100: now (5) can bind.
+    inst = Instance.build(
+        {"a": 1, "b": 1, "c": 1},
+        [("a", 0, 0, 60, 0.0), ("b", 0, 30, 90, 0.0), ("c", 0, 200, 250, 0.0)],
+        resources=Resources(memory_capacity=100.0),
+    )
+    assert orbit_resources_can_bind(inst, single_tasks(inst), np.arange(3))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**16), n=st.integers(2, 8))
+def test_pairwise_conflicts_never_share_a_schedule(seed: int, n: int) -> None:
+    # The availability bound closes every task in conflict with a scheduled one: no feasible
+    # schedule may hold such a pair, whatever lies between them.
+    inst = random_orbit(seed, n, tight=False)
+    tasks = single_tasks(inst)
+    conf = pairwise_conflicts(inst, tasks, list(range(n)))
+    pairs = {(u, v) for u in range(n) for v in conf[u]}
+    assert all((v, u) in pairs for u, v in pairs)
+    for r in range(2, n + 1):
+        for subset in itertools.combinations(range(n), r):
+            if any((u, v) in pairs for u, v in itertools.combinations(subset, 2)):
+                rep = validate(inst, tasks_to_schedule(inst, tasks, subset))
+                assert not rep.feasible, subset
+    # And a pair it does not report fits alone (the conflicts are not over-reported).
+    for u, v in itertools.combinations(range(n), 2):
+        if (u, v) not in pairs:
+            assert sequence_ok_3(inst, (u, v))
+
+
+def crowded(seed: int) -> Instance:
+    """Targets seen from two or three orbits, crowded in time: losses by (3) and (4)-(6)."""
+    rng = np.random.default_rng(seed)
+    n_orbits = int(rng.integers(2, 4))
+    n_targets = int(rng.integers(4, 8))
+    rows = []
+    for k in range(n_targets):
+        for j in rng.choice(n_orbits, size=int(rng.integers(1, n_orbits + 1)), replace=False):
+            s = float(rng.integers(0, 60))
+            rows.append((k, int(j), s, s + float(rng.integers(2, 12)), float(rng.uniform(-15, 15))))
+    rows = rows[:12]
+    res = Resources(
+        energy_capacity=float(rng.choice([60.0, 1e6])),
+        memory_capacity=float(rng.choice([25.0, 1e6])),
+        max_openings=int(rng.choice([2, 10])),
+        setup_time=float(rng.integers(0, 6)),
+    )
+    weights = [int(w) for w in rng.integers(1, 11, size=n_targets)]
+    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"crowd{seed}")
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**16), order=st.sampled_from(["orbit", "weight"]))
+def test_rds_equals_the_oracle_with_restarts_in_both_branching_orders(
+    seed: int, order: str
+) -> None:
+    # A node budget of 1 makes every search pass restart many times and alternate the static
+    # and fail-first orders, so both orders and the restarts are exercised on every instance.
+    inst = crowded(seed)
+    for budget in (1, 1000):
+        for method, model in (("rds", "task"), ("rds-stc", "static")):
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setattr(rds_module, "_FIRST_BUDGET", budget)
+                res = solve(inst, method, order=order)
+            assert res.status is Status.OPTIMAL, (method, budget)
+            assert res.profit == oracle(inst, model).profit, (method, budget)
+            assert validate(inst, res.schedule).feasible
 
 
 def test_overlapping_windows_and_setup_conflicts() -> None:
