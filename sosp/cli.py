@@ -379,8 +379,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--method",
         default="asa-dtc",
-        help="asa-dtc (default), asa-stc, asa-nontc, milp, milp-lns, rds, rds-stc, hpfs-stc, "
-        "sa-stc, greedy",
+        help="asa-dtc (default), asa-stc, asa-nontc, orbit-dp, milp, milp-lns, rds, rds-stc, "
+        "hpfs-stc, sa-stc, greedy",
     )
     p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument("--time-limit", type=_positive(float), default=None, help="seconds")

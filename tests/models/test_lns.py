@@ -139,11 +139,21 @@ def test_profit_never_below_the_start_and_trace_increases() -> None:
     assert validate(inst, res.schedule).profit == res.profit
 
 
-def test_default_start_is_asa_dtc_and_never_lost() -> None:
-    # the start gets the fresh generator first, so it is ASA-DTC's same-seed run
+def test_default_start_is_orbit_dp_and_never_lost() -> None:
+    # the start gets the fresh generator first, so it is orbit-dp's same-seed run
+    inst = random_tiny(3)
+    first = solve(inst, "orbit-dp", seed=7, time_limit=10.0, iterations=30)
+    res = solve(inst, "milp-lns", seed=7, iterations=4, start_params={"iterations": 30})
+    assert res.stats["start"] == "orbit-dp" and res.stats["start_profit"] == first.profit
+    assert res.profit >= first.profit
+
+
+def test_start_from_asa_dtc_is_never_lost() -> None:
     inst = random_tiny(3)
     asa = solve(inst, "asa-dtc", seed=7, time_limit=10.0, iterations=300)
-    res = solve(inst, "milp-lns", seed=7, iterations=4, start_params={"iterations": 300})
+    res = solve(
+        inst, "milp-lns", seed=7, iterations=4, start="asa-dtc", start_params={"iterations": 300}
+    )
     assert res.stats["start"] == "asa-dtc" and res.stats["start_profit"] == asa.profit
     assert res.profit >= asa.profit
 
