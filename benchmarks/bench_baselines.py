@@ -7,6 +7,12 @@ limit. Writes a Markdown table (stdout, and ``--out`` if given) and optionally J
 Example (modest settings for a shared 2-core machine)::
 
     python -m benchmarks.bench_baselines --rds-limit 60 --sa-limit 10 --seeds 10
+
+With ``--proofs`` it compares instead the exact methods: RDS-STC and RDS (time to proof or
+timeout, profit, bound) next to the optimum of the MILP static and task models
+(``models.solve``, HiGHS), which they must equal wherever both finish::
+
+    python -m benchmarks.bench_baselines --proofs --scenarios B1 B2 C1 C2 --rds-limit 300
 """
 
 from __future__ import annotations
@@ -71,6 +77,60 @@ def bench_scenario(
     return row
 
 
+def bench_proofs(
+    name: str, *, scenario_seed: int, rds_limit: float, milp_limit: float
+) -> dict[str, Any]:
+    """RDS-STC and RDS against the MILP static and task models on one scenario."""
+    inst = generate_scenario(name, scenario_seed)
+    row: dict[str, Any] = {"scenario": name, "opportunities": inst.n_opps}
+    runs = [
+        ("rds-stc", "rds-stc", {"time_limit": rds_limit}),
+        ("milp-static", "milp", {"time_limit": milp_limit, "model": "static"}),
+        ("rds", "rds", {"time_limit": rds_limit}),
+        ("milp-task", "milp", {"time_limit": milp_limit, "model": "task"}),
+    ]
+    for key, method, params in runs:
+        t = time.perf_counter()
+        res = solve(inst, method, **params)
+        row[key] = {
+            "status": res.status.value,
+            "profit": res.profit,
+            "bound": res.bound,
+            "seconds": round(time.perf_counter() - t, 3),
+        }
+        if method != "milp":
+            row[key]["largest_component"] = res.stats["largest_component"]
+            row[key]["nodes"] = res.stats["nodes"]
+        log.info("%s %s: %s", name, key, row[key])
+    return row
+
+
+def markdown_proofs(rows: list[dict[str, Any]]) -> str:
+    """The ``--proofs`` figures as a Markdown table."""
+    lines = [
+        "| SN | TN | RDS-STC status | R | bound | time (s) | largest comp. | nodes "
+        "| MILP static | time (s) | RDS status | R | bound | time (s) | largest comp. | nodes "
+        "| MILP task | time (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        cells = [r["scenario"], str(r["opportunities"])]
+        for rds, milp in (("rds-stc", "milp-static"), ("rds", "milp-task")):
+            x, y = r[rds], r[milp]
+            cells += [
+                x["status"],
+                f"{x['profit']:g}",
+                f"{x['bound']:g}",
+                f"{x['seconds']:.2f}",
+                str(x["largest_component"]),
+                str(x["nodes"]),
+                f"{y['profit']:g}" + ("" if y["status"] == "optimal" else f" ({y['status']})"),
+                f"{y['seconds']:.2f}",
+            ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def markdown(rows: list[dict[str, Any]], with_rds_single: bool) -> str:
     """The figures as a Markdown table."""
     head = "| SN | EN | TN | RDS-STC status | R | bound | time (s) | comps (largest) |"
@@ -117,11 +177,32 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--sa-iterations", type=int, default=10**9, help="SA moves per run")
     p.add_argument("--seeds", type=int, default=10, help="SA runs (seeds 0..n-1)")
     p.add_argument("--rds-single", action="store_true", help="also run RDS without clustering")
+    p.add_argument(
+        "--proofs", action="store_true", help="RDS-STC and RDS against the MILP optima instead"
+    )
+    p.add_argument("--milp-limit", type=float, default=300.0, help="MILP seconds (--proofs)")
     p.add_argument("--out", help="write the Markdown table here")
     p.add_argument("--json", help="write the raw rows here")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     names = args.scenarios or [f"{g}{k}" for g in "BC" for k in range(1, 11)]
+    if args.proofs:
+        rows = [
+            bench_proofs(
+                n,
+                scenario_seed=args.scenario_seed,
+                rds_limit=args.rds_limit,
+                milp_limit=args.milp_limit,
+            )
+            for n in names
+        ]
+        table = markdown_proofs(rows)
+        sys.stdout.write(table)
+        if args.out:
+            atomic_write_text(args.out, table)
+        if args.json:
+            atomic_write_json(args.json, {"args": vars(args), "rows": rows})
+        return 0
     rows = [
         bench_scenario(
             n,
