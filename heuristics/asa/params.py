@@ -49,6 +49,17 @@ class ASAParams:
         Orbit re-planning may also take tasks observed on other orbits, each worth this share
         of its weight (0: only unscheduled tasks); the orbits they leave are re-planned next
         (an ejection chain of depth two). DTC and NONTC; STC ignores it.
+    replan_depth
+        Levels of the ejection chain of orbit re-planning with ``replan_pull`` (1: no pull;
+        2: the orbits that lost a task are re-planned with unscheduled tasks; 3: they may pull
+        in turn, and so on).
+    replan_target
+        Probability that orbit re-planning takes the stretch around an option of an
+        unscheduled task drawn as in step 1 (else a random stretch of a random orbit).
+    replan_pair
+        Probability that orbit re-planning re-plans two orbits together: the stretch and the
+        stretch of the orbit sharing most of its tasks, which orbit takes a shared task being
+        decided by Lagrangian relaxation of (2) (DTC and NONTC; STC ignores it).
     replan_floor
         With ``replan``, floor of every neighbourhood probability after (18) (the larger of
         this and ``min_probability``): without it (17) drives a neighbourhood whose moves
@@ -91,6 +102,13 @@ class ASAParams:
         paper's literal rule (clustering insertion first, then the orbit with most resources
         left); ``"feasible-first"`` ranks first the opportunities that fit without removing
         anything, then applies the paper's rule (see ``docs/asa.md``).
+    restart
+        Every ``restart`` iterations without a new best, make the best solution the current one
+        again (sosp's intensification, not in the paper; ``None``: never, Algorithm 1).
+        Default 2000 (``docs/asa.md``: with it and ``polish`` C1 reaches its optimum).
+    polish
+        At each restart, try two-orbit re-planning (``heuristics.asa.replan.polish``) on up
+        to this many pairs of orbits sharing options, keeping what loses nothing (0: none).
     iterations
         Stop after this many iterations (``None``: no limit from this rule).
     no_improve
@@ -112,6 +130,9 @@ class ASAParams:
     pro3: float = 0.5
     replan_opps: int = 40
     replan_pull: float = 0.5
+    replan_depth: int = 2
+    replan_target: float = 0.0
+    replan_pair: float = 0.3
     replan_floor: float = 0.1
     tabu_length: int | None = None
     pool: int = 32
@@ -123,6 +144,8 @@ class ASAParams:
     rule16_empty: str = "capacity"
     r_update: str = "generated"
     option_rule: str = "feasible-first"
+    restart: int | None = 2000
+    polish: int = 300
     iterations: int | None = None
     no_improve: int | None = None
     trace_every: int = 100
@@ -151,6 +174,12 @@ class ASAParams:
         positive("pro3", strict=False)
         positive("replan_pull", strict=False)
         positive("replan_floor", strict=False)
+        positive("replan_target", strict=False)
+        positive("replan_pair", strict=False)
+        if self.replan_pair > 1:
+            raise InputError(f"replan_pair: must lie in [0, 1], got {self.replan_pair!r}")
+        if self.replan_target > 1:
+            raise InputError(f"replan_target: must lie in [0, 1], got {self.replan_target!r}")
         if self.replan_floor >= 1 / 3:
             raise InputError(f"replan_floor: must be < 1/3, got {self.replan_floor!r}")
         if self.replan_pull > 1:
@@ -168,8 +197,11 @@ class ASAParams:
         integer("pool")
         integer("migration_pool")
         integer("replan_opps")
+        integer("replan_depth")
         integer("iterations", optional=True, minimum=0)
         integer("no_improve", optional=True)
+        integer("restart", optional=True)
+        integer("polish", minimum=0)
         integer("trace_every")
         for name, allowed in (
             ("roll_rule", ROLL_RULES),
@@ -222,6 +254,9 @@ def _coerce(key: str, value: Any, default: Any) -> Any:
             "pool",
             "migration_pool",
             "replan_opps",
+            "replan_depth",
+            "restart",
+            "polish",
             "iterations",
             "no_improve",
             "trace_every",

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from heuristics.asa.neighbourhoods import remove_member, repair
+from heuristics.asa.neighbourhoods import choose_unscheduled, remove_member, repair
 from heuristics.asa.params import ASAParams
 from heuristics.asa.problem import EPS
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
@@ -42,6 +42,9 @@ REPLAN = 2
 
 #: Bisection rounds on the Lagrange multiplier of (4), (5).
 LAGRANGE_ROUNDS = 10
+
+#: Subgradient rounds of the two-orbit re-planning (:func:`replan_pair`).
+PAIR_ROUNDS = 6
 
 
 def candidates(state: State, opts: list[int], dT: float) -> list[Cluster]:
@@ -56,45 +59,52 @@ def candidates(state: State, opts: list[int], dT: float) -> list[Cluster]:
     if not pb.clustering:
         return [state.make_cluster((x,)) for x in opts]
     st, en, lo, hi = pb.opt_start, pb.opt_end, pb.opt_lo, pb.opt_hi
-    seen: set[tuple[int, ...]] = set()
+    nadir = state.nadir
+    seen: set[int] = set()  # member sets as bit masks over positions in ``opts``
     out: list[Cluster] = []
     n = len(opts)
     for a, i in enumerate(opts):
+        out.append(state.make_cluster((i,)))
         limit = st[i] + dT + EPS
         lo_i, hi_i = lo[i], hi[i]
-        win = []
-        for b in range(n):
+        win = []  # positions b > a (same or later start: ``opts`` is sorted by start)
+        for b in range(a + 1, n):
             x = opts[b]
-            if b == a or st[x] < st[i] or (st[x] == st[i] and b < a):
-                continue
             if st[x] > limit:
                 break
             if en[x] <= limit and lo[x] <= hi_i and hi[x] >= lo_i:
-                win.append(x)
-        single = (i,)
-        if single not in seen:
-            seen.add(single)
-            out.append(state.make_cluster(single))
+                win.append(b)
         if not win:
             continue
         rolls = {min(max(0.0, lo_i), hi_i), lo_i, hi_i}
-        for x in win:
+        for b in win:
+            x = opts[b]
             if lo_i <= lo[x] <= hi_i:
                 rolls.add(lo[x])
             if lo_i <= hi[x] <= hi_i:
                 rolls.add(hi[x])
+        s0, e0 = st[i], en[i]
         for r in rolls:
-            mem = [x for x in win if lo[x] <= r <= hi[x]]
+            mem = [b for b in win if lo[opts[b]] <= r <= hi[opts[b]]]
             if not mem:
                 continue
-            mem.sort(key=lambda y: (en[y], y))
-            cur = [i]
-            for x in mem:
-                cur.append(x)
-                key = tuple(sorted(cur, key=lambda y: (st[y], y)))
-                if key not in seen:
-                    seen.add(key)
-                    out.append(state.make_cluster(key))
+            mem.sort(key=lambda b: (en[opts[b]], b))
+            key = 1 << a
+            cur = [a]
+            e, lo_c, hi_c = e0, lo_i, hi_i
+            for b in mem:
+                x = opts[b]
+                key |= 1 << b
+                cur.append(b)
+                e = max(e, en[x])
+                lo_c = max(lo_c, lo[x])
+                hi_c = min(hi_c, hi[x])
+                if key in seen:
+                    continue
+                seen.add(key)
+                roll = min(max(0.0, lo_c), hi_c) if nadir else 0.5 * (lo_c + hi_c)
+                members = tuple(opts[c] for c in sorted(cur))
+                out.append((s0, e, roll, lo_c, hi_c, members))
     return out
 
 
@@ -247,38 +257,170 @@ def best_chain(
     return best_gain, best_ch
 
 
+def _around(opts: list[int], at: int, m: int) -> list[int]:
+    """At most ``m`` consecutive options of ``opts`` centred on position ``at``."""
+    lo = max(0, min(at - m // 2, len(opts) - m))
+    return opts[lo : lo + m]
+
+
 def replan_move(
     state: State, rng: np.random.Generator, params: ASAParams, tabu: TabuList | None
 ) -> bool:
     """Orbit re-planning (steps 1-5 of the module docstring). False: no move.
 
+    The stretch is, with probability ``params.replan_target``, the ``replan_opps`` options
+    around an option of an unscheduled task drawn as in step 1 of the insertion neighbourhood
+    (roulette by weight among the ``pool`` heaviest non-tabu ones); otherwise a random stretch
+    of a random orbit.
+
     With ``params.replan_pull > 0`` (DTC and NONTC) the stretch may also take tasks observed
     on other orbits, each worth ``replan_pull`` times its weight; they leave their orbit, and
     the stretch of each orbit they left (``replan_opps`` options around the hole) is then
-    re-planned with the unscheduled tasks: an ejection chain of depth two.
+    re-planned in turn: an ejection chain of ``params.replan_depth`` levels, the last of which
+    takes unscheduled tasks only.
     """
     pb = state.pb
     orbits = pb.replan_orbits
     if not orbits:
         return False
-    j = orbits[int(rng.integers(len(orbits)))]
-    opts = pb.orbit_options[j]
     m = params.replan_opps
-    if len(opts) > m:
-        s = int(rng.integers(len(opts) - m + 1))
-        window = opts[s : s + m]
-    else:
-        window = opts
+    window = None
+    if params.replan_target > 0 and rng.random() < params.replan_target:
+        u = choose_unscheduled(state, rng, params.pool, tabu)
+        if u >= 0:
+            opts_u = pb.unit_options[u]
+            x = opts_u[int(rng.integers(len(opts_u)))]
+            j = pb.opt_orbit[x]
+            window = _around(pb.orbit_options[j], pb.orbit_options[j].index(x), m)
+    if window is None:
+        j = orbits[int(rng.integers(len(orbits)))]
+        opts = pb.orbit_options[j]
+        window = _around(opts, int(rng.integers(len(opts))), m)
+    if pb.mode != "stc" and params.replan_pair > 0 and rng.random() < params.replan_pair:
+        made = replan_pair(state, rng, j, window, m, tabu)
+        if made is not None:
+            return made and all(repair(state, i) for i in state.touched_orbits())
     pull = params.replan_pull if pb.mode != "stc" else 0.0
-    holes = replan_stretch(state, j, window, tabu, pull)
+    depth = params.replan_depth
+    holes = replan_stretch(state, j, window, tabu, pull if depth > 1 else 0.0)
     if holes is None:
         return False
-    for i, x in holes:
-        opts = pb.orbit_options[i]
-        at = opts.index(x)
-        lo = max(0, min(at - m // 2, len(opts) - m))
-        replan_stretch(state, i, opts[lo : lo + m], tabu, 0.0)
+    for level in range(2, depth + 1):
+        nxt: list[tuple[int, int]] = []
+        for i, x in holes:
+            opts = pb.orbit_options[i]
+            more = replan_stretch(
+                state, i, _around(opts, opts.index(x), m), tabu, pull if level < depth else 0.0
+            )
+            nxt.extend(more or ())
+        holes = nxt
     return all(repair(state, i) for i in state.touched_orbits())
+
+
+class _Stretch:
+    """A stretch of orbit j about to be re-planned: the freed cluster-tasks, the fixed
+    neighbours, the budgets of (4)-(6) they leave, and the options that may be used."""
+
+    __slots__ = ("j", "first", "freed", "left", "right", "energy", "memory", "openings")
+
+    def __init__(self, state: State, j: int, window: list[int]) -> None:
+        pb = state.pb
+        st, en = pb.opt_start, pb.opt_end
+        t0 = min(st[x] for x in window)
+        t1 = max(en[x] for x in window)
+        line = state.lines[j]
+        obs = line.obs
+        first = last = -1
+        for pos, c in enumerate(obs):
+            if c[END] >= t0 and c[START] <= t1:
+                if first < 0:
+                    first = pos
+                last = pos
+        if first >= 0:
+            freed = obs[first : last + 1]
+        else:
+            first = sum(1 for c in obs if c[END] < t0)
+            last = first - 1
+            freed = []
+        self.j, self.first, self.freed = j, first, freed
+        self.left = obs[first - 1] if first > 0 else None
+        self.right = obs[last + 1] if last + 1 < len(obs) else None
+        # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
+        p = line.p
+        rest_obs = line.observe - sum(c[END] - c[START] for c in freed)
+        seq = [c for c in (self.left, *freed, self.right) if c is not None]
+        rest_slew = line.slew - sum(line.turn(x, y) for x, y in zip(seq, seq[1:], strict=False))
+        self.energy = p.E - p.eo * rest_obs - p.es * rest_slew
+        self.memory = p.W - p.w * rest_obs
+        self.openings = p.c - (len(obs) - len(freed))
+
+    def units(self, state: State) -> set[int]:
+        unit = state.pb.opt_unit
+        return {unit[x] for c in self.freed for x in c[MEMBERS]}
+
+    def options(self, state: State) -> list[int]:
+        """Options of the orbit strictly between the fixed neighbours."""
+        pb = state.pb
+        st, en = pb.opt_start, pb.opt_end
+        lo_t = self.left[END] if self.left is not None else -np.inf
+        hi_t = self.right[START] if self.right is not None else np.inf
+        return [x for x in pb.orbit_options[self.j] if lo_t < st[x] and en[x] < hi_t]
+
+    def best(self, state: State, cands: list[Cluster], gains: list[float]):
+        return best_chain(
+            state,
+            self.j,
+            cands,
+            gains,
+            self.left,
+            self.right,
+            self.energy,
+            self.memory,
+            self.openings,
+        )
+
+    def free(self, state: State) -> None:
+        line = state.touch(self.j)
+        unit = state.pb.opt_unit
+        for _ in self.freed:
+            c = line.remove(self.first)
+            for x in c[MEMBERS]:
+                state.unassign(unit[x])
+
+    def build(self, state: State, chain: list[Cluster]) -> list[tuple[int, int]]:
+        """Insert the chain's cluster-tasks (tasks already scheduled on this orbit dropped,
+        tasks scheduled on other orbits pulled from them); returns the holes it left."""
+        pb = state.pb
+        sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
+        j = self.j
+        line = state.touch(j)
+        holes = []
+        for cand in chain:
+            units: set[int] = set()
+            members = []
+            for x in cand[MEMBERS]:
+                u = unit[x]
+                if u in units:
+                    continue  # a task twice in one cluster-task: once
+                if sched[u] >= 0:
+                    y = sched[u]
+                    i = orbit[y]
+                    if i == j:
+                        continue  # a task twice in the stretch: once
+                    remove_member(state, i, state.lines[i].find(y), y)
+                    holes.append((i, y))
+                units.add(u)
+                members.append(x)
+            if not members:
+                continue
+            line.insert(state.make_cluster(tuple(members)))
+            for x in members:
+                state.assign(unit[x], x)
+        # The chain is feasible by construction; a task dropped as a duplicate can move a
+        # midpoint roll, and a pulled task can move its old cluster's: repair (step 7).
+        for i in {j} | {i for i, _ in holes}:
+            repair(state, i)
+        return holes
 
 
 def replan_stretch(
@@ -290,45 +432,16 @@ def replan_stretch(
     is worth less than what it would replace (nothing is changed then).
     """
     pb = state.pb
-    st, en = pb.opt_start, pb.opt_end
-    opts = pb.orbit_options[j]
-    t0 = min(st[x] for x in window)
-    t1 = max(en[x] for x in window)
-    line = state.lines[j]
-    obs = line.obs
-    first = last = -1
-    for pos, c in enumerate(obs):
-        if c[END] >= t0 and c[START] <= t1:
-            if first < 0:
-                first = pos
-            last = pos
-    if first >= 0:
-        t0 = min(t0, obs[first][START])
-        t1 = max(t1, obs[last][END])
-        freed = obs[first : last + 1]
-    else:
-        first = sum(1 for c in obs if c[END] < t0)
-        last = first - 1
-        freed = []
-    left = obs[first - 1] if first > 0 else None
-    right = obs[last + 1] if last + 1 < len(obs) else None
-    # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
-    p = line.p
-    rest_obs = line.observe - sum(c[END] - c[START] for c in freed)
-    rest_slew = line.slew
-    seq = ([left] if left is not None else []) + freed + ([right] if right is not None else [])
-    rest_slew -= sum(line.turn(x, y) for x, y in zip(seq, seq[1:], strict=False))
-    energy = p.E - p.eo * rest_obs - p.es * rest_slew
-    memory = p.W - p.w * rest_obs
-    openings = p.c - (len(obs) - len(freed))
-    freed_units = {pb.opt_unit[x] for c in freed for x in c[MEMBERS]}
-    lo_t = left[END] if left is not None else -np.inf
-    hi_t = right[START] if right is not None else np.inf
+    stretch = _Stretch(state, j, window)
+    freed_units = stretch.units(state)
     sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
+    st, en = pb.opt_start, pb.opt_end
+    t0 = min([st[x] for x in window] + [c[START] for c in stretch.freed])
+    t1 = max([en[x] for x in window] + [c[END] for c in stretch.freed])
     avail = []
     value = {}
-    for x in opts:
-        if not (t0 <= st[x] and en[x] <= t1 and lo_t < st[x] and en[x] < hi_t):
+    for x in stretch.options(state):
+        if not (t0 <= st[x] and en[x] <= t1):
             continue
         u = unit[x]
         if u in freed_units:
@@ -342,7 +455,7 @@ def replan_stretch(
         else:
             continue
         avail.append(x)
-    cands = candidates(state, avail, p.dT)
+    cands = candidates(state, avail, state.lines[j].p.dT)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
         tw, cover = pb.target_weight, state.cover
         held: dict[int, int] = {}
@@ -357,39 +470,152 @@ def replan_stretch(
     else:
         gains = [sum(value[x] for x in c[MEMBERS]) for c in cands]
         freed_profit = sum(pb.unit_weight[u] for u in freed_units)
-    gain, chain = best_chain(state, j, cands, gains, left, right, energy, memory, openings)
+    gain, chain = stretch.best(state, cands, gains)
     if gain < freed_profit - 1e-9:
         return None
-    # Free the stretch, then put the chain in its place.
-    line = state.touch(j)
-    for _ in freed:
-        c = line.remove(first)
-        for x in c[MEMBERS]:
-            state.unassign(unit[x])
-    holes = []
-    for v in chain:
-        units: set[int] = set()
-        members = []
-        for x in cands[v][MEMBERS]:
+    stretch.free(state)
+    return stretch.build(state, [cands[v] for v in chain])
+
+
+def replan_pair(
+    state: State,
+    rng: np.random.Generator,
+    j: int,
+    window: list[int],
+    m: int,
+    tabu: TabuList | None,
+    partner: int = -1,
+) -> bool | None:
+    """Re-plan a stretch of orbit j together with a stretch of another orbit sharing its tasks
+    (DTC and NONTC), drawn by roulette on the number of shared options. None: no partner.
+
+    Which orbit takes a shared task is decided by Lagrangian relaxation of (2): each orbit is
+    re-planned by :func:`best_chain` with a shared task worth ``w - mu``; ``mu`` rises when
+    both take it and falls when neither does (:data:`PAIR_ROUNDS` rounds). Every round gives
+    two schedules (one orbit's chain, then the other's best chain without its tasks, and the
+    reverse); the best of them replaces the two stretches when it is worth at least what they
+    held.
+    """
+    pb = state.pb
+    unit, orbit = pb.opt_unit, pb.opt_orbit
+    count: dict[int, int] = {}
+    for x in window:
+        for y in pb.alternatives[x]:
+            if orbit[y] != j:
+                count[orbit[y]] = count.get(orbit[y], 0) + 1
+    if not count or (partner >= 0 and partner not in count):
+        return None
+    if partner >= 0:
+        i = partner
+    else:  # roulette by the number of shared options
+        partners = sorted(count)
+        z = rng.random() * sum(count.values())
+        for i in partners:
+            z -= count[i]
+            if z < 0:
+                break
+    opts_i = pb.orbit_options[i]
+    shared = sorted(opts_i.index(y) for x in window for y in pb.alternatives[x] if orbit[y] == i)
+    window_i = _around(opts_i, shared[len(shared) // 2], m)
+    sa, sb = _Stretch(state, j, window), _Stretch(state, i, window_i)
+    freed = sa.units(state) | sb.units(state)
+    sched = state.sched
+    weight = pb.unit_weight
+
+    def usable(stretch: _Stretch, win: list[int]) -> list[int]:
+        st, en = pb.opt_start, pb.opt_end
+        t0 = min([st[x] for x in win] + [c[START] for c in stretch.freed])
+        t1 = max([en[x] for x in win] + [c[END] for c in stretch.freed])
+        out = []
+        for x in stretch.options(state):
             u = unit[x]
-            if u in units:
-                continue  # a task twice in one cluster-task: once
-            if sched[u] >= 0:
-                y = sched[u]
-                i = orbit[y]
-                if i == j:
-                    continue  # a task twice in the stretch: once
-                remove_member(state, i, state.lines[i].find(y), y)
-                holes.append((i, y))
-            units.add(u)
-            members.append(x)
-        if not members:
-            continue
-        line.insert(state.make_cluster(tuple(members)))
-        for x in members:
-            state.assign(unit[x], x)
-    # The chain is feasible by construction; a task dropped as a duplicate can move a
-    # midpoint roll, and a pulled task can move its old cluster's: repair both (step 7).
-    for i in {j} | {i for i, _ in holes}:
-        repair(state, i)
-    return holes
+            if t0 <= st[x] and en[x] <= t1:
+                if u in freed or (sched[u] < 0 and (tabu is None or u not in tabu)):
+                    out.append(x)
+        return out
+
+    ca = candidates(state, usable(sa, window), state.lines[j].p.dT)
+    cb = candidates(state, usable(sb, window_i), state.lines[i].p.dT)
+    units_a = [{unit[x] for x in c[MEMBERS]} for c in ca]
+    units_b = [{unit[x] for x in c[MEMBERS]} for c in cb]
+    both = set().union(*units_a) & set().union(*units_b) if ca and cb else set()
+    mu = dict.fromkeys(both, 0.0)
+
+    def gains(units: list[set[int]], skip: set[int] | None = None) -> list[float]:
+        if skip is not None:
+            return [sum(weight[u] for u in us if u not in skip) for us in units]
+        return [sum(weight[u] - mu.get(u, 0.0) for u in us) for us in units]
+
+    def taken(units: list[set[int]], chain: list[int]) -> set[int]:
+        return set().union(*(units[v] for v in chain)) if chain else set()
+
+    best = (-1.0, [], [])
+    for r in range(PAIR_ROUNDS if both else 1):
+        _, ch_a = sa.best(state, ca, gains(units_a))
+        _, ch_b = sb.best(state, cb, gains(units_b))
+        ta, tb = taken(units_a, ch_a), taken(units_b, ch_b)
+        for first_a in (True, False):
+            if first_a:
+                g2, ch2 = sb.best(state, cb, gains(units_b, ta))
+                value = sum(weight[u] for u in ta) + g2
+                item = (value, [ca[v] for v in ch_a], [cb[v] for v in ch2])
+            else:
+                g2, ch2 = sa.best(state, ca, gains(units_a, tb))
+                value = sum(weight[u] for u in tb) + g2
+                item = (value, [ca[v] for v in ch2], [cb[v] for v in ch_b])
+            if item[0] > best[0] + 1e-9:
+                best = item
+        step = 0.5 / (1 + r)
+        for u in both:
+            if u in ta and u in tb:
+                mu[u] = min(weight[u], mu[u] + step * weight[u])
+            elif u not in ta and u not in tb:
+                mu[u] = max(0.0, mu[u] - step * weight[u])
+    if best[0] < sum(weight[u] for u in freed) - 1e-9:
+        return False
+    sa.free(state)
+    sb.free(state)
+    sa.build(state, best[1])
+    sb.build(state, best[2])
+    return True
+
+
+def polish(state: State, rng: np.random.Generator, params: ASAParams, tabu: TabuList | None) -> int:
+    """Two-orbit re-planning of every pair of orbits sharing options, once each in random
+    order, keeping a move when it loses nothing (at most ``params.polish`` moves).
+
+    Used when the search restarts from the best solution (``params.restart``): the annealing
+    current solution rarely sits at the best long enough for the one two-orbit step that
+    improves it. Returns the number of moves kept.
+    """
+    pb = state.pb
+    if pb.mode == "stc":
+        return 0
+    orbit = pb.opt_orbit
+    pairs: set[tuple[int, int]] = set()
+    for j in pb.replan_orbits:
+        for x in pb.orbit_options[j]:
+            for y in pb.alternatives[x]:
+                if orbit[y] != j:
+                    pairs.add((j, orbit[y]))
+    order = sorted(pairs)
+    rng.shuffle(order)
+    kept = 0
+    m = params.replan_opps
+    for j, i in order[: params.polish]:
+        opts = pb.orbit_options[j]
+        on_i = [a for a, x in enumerate(opts) if any(orbit[y] == i for y in pb.alternatives[x])]
+        window = _around(opts, on_i[int(rng.integers(len(on_i)))], m)
+        before = state.profit
+        state.begin()
+        made = replan_pair(state, rng, j, window, m, tabu, partner=i)
+        if (
+            made
+            and all(repair(state, h) for h in state.touched_orbits())
+            and (state.profit >= before - 1e-9)
+        ):
+            state.commit()
+            kept += 1
+        else:
+            state.rollback()
+    return kept

@@ -21,7 +21,7 @@ from heuristics.asa.neighbourhoods import (
 )
 from heuristics.asa.params import ASAParams
 from heuristics.asa.problem import Problem, build_problem
-from heuristics.asa.replan import REPLAN, replan_move
+from heuristics.asa.replan import REPLAN, polish, replan_move
 from heuristics.asa.select import AdaptiveRoulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
@@ -158,6 +158,8 @@ def run_asa(
 
     record(0)
     g = 0
+    restart = params.restart
+    restarts = 0
     every = params.trace_every
     log.debug("asa-%s: initial profit %g in %.3f s", mode, best, t_init)
     while not stop(status):
@@ -188,6 +190,14 @@ def run_asa(
         selector.record(i, outcome)
         counts[outcome.name.lower()][i] += 1
         status.iteration = g
+        if restart and outcome is not Outcome.BEST and (status.since_best + 1) % restart == 0:
+            # Intensify around the best (sosp's, not the paper's): restart from it, polish it.
+            state.load(best_snap)
+            restarts += 1
+            if params.polish and polish(state, rng, params, tabu) and state.profit > best + 1e-9:
+                best = state.profit
+                best_snap = state.snapshot()
+                outcome = Outcome.BEST
         if outcome is Outcome.BEST:
             status.since_best = 0
             status.best = best
@@ -209,6 +219,7 @@ def run_asa(
         "initial_time_s": round(t_init, 6),
         "iterations_per_s": round(g / max(runtime - t_init, 1e-9), 1),
         "tabu_length": length,
+        "restarts": restarts,
         "accepted": dict(zip(names, accepted, strict=False)),
         "rejected": dict(zip(names, rejected, strict=False)),
         "outcomes": {k: dict(zip(names, v, strict=False)) for k, v in counts.items()},

@@ -413,6 +413,25 @@ class State:
         """The schedule as per-orbit cluster lists (cheap: tuples are immutable)."""
         return [list(line.obs) for line in self.lines]
 
+    def load(self, snap: list[list[Cluster]]) -> None:
+        """Make a snapshot (:meth:`snapshot`) the current solution, rebuilding the totals and
+        the assignment from it (used to restart from the best; never inside a move)."""
+        pb = self.pb
+        self.sched = [-1] * pb.n_units
+        self.cover = [0] * len(pb.target_weight)
+        self.profit = 0.0
+        self.unscheduled = list(range(len(self.rank_unit)))
+        self.scheduled = set()
+        for line, obs in zip(self.lines, snap, strict=True):
+            line.obs = list(obs)
+            line.observe = sum(c[END] - c[START] for c in obs)
+            line.slew = sum(line.turn(a, b) for a, b in zip(obs, obs[1:], strict=False))
+            for c in obs:
+                for x in c[MEMBERS]:
+                    self._set(pb.opt_unit[x], x)
+        self._snaps.clear()
+        self._log.clear()
+
     def check(self) -> bool:
         """Debug helper: every orbit feasible and the totals agree with a recount."""
         for line in self.lines:

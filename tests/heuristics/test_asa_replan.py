@@ -10,7 +10,14 @@ from hypothesis import strategies as st
 from heuristics.asa import ASAParams
 from heuristics.asa.neighbourhoods import initial_solution
 from heuristics.asa.problem import build_problem
-from heuristics.asa.replan import best_chain, candidates, replan_move, replan_stretch
+from heuristics.asa.replan import (
+    best_chain,
+    candidates,
+    polish,
+    replan_move,
+    replan_pair,
+    replan_stretch,
+)
 from heuristics.asa.state import MEMBERS, State
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
@@ -100,7 +107,7 @@ def test_pull_takes_a_task_from_another_orbit_and_refills_it() -> None:
     is re-planned and takes d: 3 + 4 = 7 instead of 3."""
     rows = [("a", 0, 0.0, 2.0, 0.0), ("a", 1, 0.0, 2.0, 0.0), ("d", 1, 5.0, 7.0, 0.0)]
     inst = Instance.build({"a": 3, "d": 4}, rows, n_orbits=2)
-    state, params = _state(inst, replan_pull=0.5, replan_opps=40)
+    state, params = _state(inst, replan_pull=0.5, replan_opps=40, replan_pair=0.0)
     a1 = next(x for x in state.pb.orbit_options[1] if state.pb.opt_unit[x] == 0)
     _only(state, a1)
 
@@ -166,3 +173,54 @@ def test_replan_off_is_the_papers_two_moves() -> None:
     assert set(res.stats["accepted"]) == {"insertion", "migration"}
     res = solve(inst, "asa-dtc", seed=0, iterations=50)
     assert set(res.stats["accepted"]) == {"insertion", "migration", "replan"}
+
+
+def test_pair_moves_a_shared_task_to_free_its_orbit_by_hand() -> None:
+    """Orbit 0 sees a [0, 2] roll 0 and b [5, 7] roll 20 (no common range (7); setup 10: they
+    clash by (3)); orbit 1 sees a only. Start: a on orbit 0 (3). Re-planning orbits 0 and 1
+    together puts a on orbit 1 and b on orbit 0: 3 + 4 = 7, the optimum, in one move (orbit 1
+    alone can only take a, which is observed; orbit 0 alone trades a for b)."""
+    rows = [("a", 0, 0.0, 2.0, 0.0), ("b", 0, 5.0, 7.0, 20.0), ("a", 1, 0.0, 2.0, 0.0)]
+    inst = Instance.build({"a": 3, "b": 4}, rows, n_orbits=2)
+    state, _ = _state(inst)
+    a0 = next(x for x in state.pb.orbit_options[0] if state.pb.opt_unit[x] == 0)
+    _only(state, a0)
+    state.begin()
+    rng = np.random.default_rng(0)
+    assert replan_pair(state, rng, 0, state.pb.orbit_options[0], 40, None)
+    assert state.profit == 7 == brute_force(inst, "cluster").profit and state.check()
+    on = {u: state.pb.opt_orbit[x] for u, x in enumerate(state.sched) if x >= 0}
+    assert on == {0: 1, 1: 0}
+    state.rollback()
+    assert polish(state, rng, ASAParams(), None) == 2 and state.profit == 7  # (0, 1), (1, 0)
+
+
+def test_load_restores_a_snapshot() -> None:
+    inst = _abc()
+    state, params = _state(inst)
+    initial_solution(state, params)
+    snap, profit, sched = state.snapshot(), state.profit, list(state.sched)
+    state.begin()
+    replan_stretch(state, 0, state.pb.orbit_options[0], None)
+    state.commit()
+    state.load(snap)
+    assert (state.snapshot(), state.profit, state.sched) == (snap, profit, sched)
+    assert state.check()
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    inst=small_instances(max_opps=8),
+    seed=st.integers(0, 2**16),
+    method=st.sampled_from(["asa-dtc", "asa-stc", "asa-nontc"]),
+)
+def test_restarts_and_polish_stay_valid_and_below_the_optimum(
+    inst: Instance, seed: int, method: str
+) -> None:
+    res = solve(inst, method, seed=seed, iterations=150, restart=20, polish=5, replan_pair=1.0)
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    oracle = {"asa-dtc": "cluster", "asa-stc": "static", "asa-nontc": "task"}[method]
+    assert res.profit <= brute_force(inst, oracle).profit + 1e-9
+    assert res.stats["restarts"] >= 1 or res.iterations < 150
