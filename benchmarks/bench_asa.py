@@ -4,9 +4,14 @@ Usage (the defaults are the full protocol; shorten with the options)::
 
     PYTHONPATH=. python benchmarks/bench_asa.py --time-limit 60 --seeds 10
     PYTHONPATH=. python benchmarks/bench_asa.py --time-limit 3 --seeds 3 --curve-time 20
+    PYTHONPATH=. python benchmarks/bench_asa.py --curve --names --known C1=566 --seeds 10 \
+        --time-limit 10 [--param replan=false --param restart=none]
 
 Prints Markdown tables: iterations per second, best profit at checkpoints of one long run on
-B10 and C10, and mean and SD over seeds with equal time limits on C3, C6, C10, B6, B10.
+B10 and C10, mean and SD over seeds with equal time limits on C3, C6, C10, B6, B10, and with
+``--known NAME=VALUE`` ASA-DTC's profit per seed against a known optimum or best value.
+``--param replan=false --param restart=none`` runs the paper's Algorithm 1 (two moves, no
+restarts) for the before/after comparison of ``docs/asa.md``.
 """
 
 from __future__ import annotations
@@ -39,10 +44,26 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--curve-time", type=float, default=60.0)
     ap.add_argument("--scenario-seed", type=int, default=0, help="seed of the target draw")
     ap.add_argument("--param", action="append", default=[], help="key=value for every run")
+    ap.add_argument(
+        "--known", nargs="*", default=[], help="NAME=VALUE: ASA-DTC per seed against VALUE"
+    )
     args = ap.parse_args(argv)
     extra = dict(p.split("=", 1) for p in args.param)
 
     print(f"# ASA benchmark ({time.strftime('%Y-%m-%d %H:%M')})\n")
+    for item in args.known:
+        name, value = item.split("=", 1)
+        known = float(value)
+        inst = generate_scenario(name, args.scenario_seed)
+        runs = [
+            solve(inst, "asa-dtc", seed=s, time_limit=args.time_limit, **extra)
+            for s in range(args.seeds)
+        ]
+        profits = ", ".join(f"{r.profit:g}" for r in runs)
+        hits = sum(r.profit >= known - 1e-9 for r in runs)
+        rate = statistics.fmean(r.stats["iterations_per_s"] for r in runs)
+        print(f"## {name}: ASA-DTC per seed, {args.time_limit:g} s, against {known:g}\n")
+        print(f"profits {profits}; at or above {known:g}: {hits} of {len(runs)}; {rate:.0f} it/s\n")
     print("## Profit against time (seed 0; best profit at t seconds)\n")
     marks = [t for t in (1, 2, 5, 10, 20, 30, 60, 120) if t <= args.curve_time]
     print("| scenario | method | it/s | " + " | ".join(f"{t} s" for t in marks) + " |")
