@@ -294,6 +294,76 @@ def pairwise_conflicts(instance: Instance, tasks: TaskSet, items: list[int]) -> 
     return conf
 
 
+def fix_free_tasks(
+    instance: Instance, tasks: TaskSet, usable: list[int]
+) -> tuple[list[int], list[int]]:
+    """Exact reduction: tasks that some optimal selection contains, and the tasks still useful.
+
+    On an orbit whose resources cannot bind (:func:`orbit_resources_can_bind` over its usable
+    tasks), a task in (3) conflict with no other remaining task of its orbit
+    (:func:`sosp.conflicts.setup_conflict_pairs`) can be added to any feasible selection of
+    the remaining tasks: (3) only involves consecutive pairs, none of which can break, and
+    (4)-(6) hold for every (3)-feasible set of the orbit's tasks. Adding it never lowers (1),
+    so some optimal selection contains it: it is fixed and its targets count as covered. A
+    task whose targets are all covered then adds nothing and is dropped, which can free other
+    tasks; repeated until nothing changes.
+
+    Returns
+    -------
+    tuple of (list of int, list of int)
+        The fixed tasks and the remaining ones (task indices), both sorted.
+    """
+    from sosp.conflicts import setup_conflict_pairs
+
+    if not usable:
+        return [], []
+    idx = np.asarray(usable, dtype=np.int64)
+    loose = {
+        int(j): not orbit_resources_can_bind(instance, tasks, idx[tasks.orbit[idx] == j])
+        for j in np.unique(tasks.orbit[idx])
+    }
+    pairs = setup_conflict_pairs(
+        instance, tasks.orbit[idx], tasks.start[idx], tasks.end[idx], tasks.roll[idx]
+    )
+    nbrs: dict[int, set[int]] = {int(t): set() for t in idx}
+    for u, v in pairs.tolist():
+        nbrs[int(idx[u])].add(int(idx[v]))
+        nbrs[int(idx[v])].add(int(idx[u]))
+    alive = set(nbrs)
+    covered: set[int] = set()
+    fixed: list[int] = []
+    changed = True
+    while changed:
+        changed = False
+        for t in sorted(alive):
+            if all(int(k) in covered for k in tasks.targets[t]):
+                alive.discard(t)  # adds nothing any more (and may free a neighbour)
+                changed = True
+            elif loose[int(tasks.orbit[t])] and not (nbrs[t] & alive):
+                alive.discard(t)
+                fixed.append(t)
+                covered.update(int(k) for k in tasks.targets[t])
+                changed = True
+    return sorted(fixed), sorted(alive)
+
+
+def _restrict(instance: Instance, tasks: TaskSet, keep: list[int], fixed: list[int]) -> TaskSet:
+    """The tasks ``keep`` with the targets of the ``fixed`` tasks taken out (already covered)."""
+    covered = {int(k) for t in fixed for k in tasks.targets[t]}
+    tw = instance.target_weight
+    targets = tuple(tuple(k for k in tasks.targets[t] if int(k) not in covered) for t in keep)
+    sel = np.asarray(keep, dtype=np.int64)
+    return TaskSet(
+        orbit=tasks.orbit[sel],
+        start=tasks.start[sel],
+        end=tasks.end[sel],
+        roll=tasks.roll[sel],
+        weight=np.asarray([sum(int(tw[k]) for k in ks) for ks in targets], dtype=np.int64),
+        opps=tuple(tasks.opps[t] for t in keep),
+        targets=targets,
+    )
+
+
 def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
     """The component's items in RDS variable order (see the module docstring)."""
     if order == "orbit":
@@ -784,6 +854,7 @@ def russian_doll(
     order: Order = "orbit",
     decompose: bool = True,
     variables: Variables = "targets",
+    reduce: bool = True,
 ) -> RdsOutcome:
     """Solve the static problem over ``tasks`` exactly by Russian Doll Search.
 
@@ -803,6 +874,8 @@ def russian_doll(
         ``"targets"`` (default): one variable per target, valued by a task covering it or
         none (:func:`rds_targets_component`); ``"tasks"``: one 0/1 variable per task
         (:func:`rds_component`).
+    reduce
+        Fix the tasks that some optimal selection contains first (:func:`fix_free_tasks`).
 
     Returns
     -------
@@ -823,6 +896,16 @@ def russian_doll(
         line = OrbitTimeline(instance, int(tasks.orbit[t]))
         if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
             usable.append(t)
+    fixed: list[int] = []
+    if reduce:
+        fixed, back = fix_free_tasks(instance, tasks, usable)
+        usable = list(range(len(back)))
+        log.debug("fixed %d tasks, %d left", len(fixed), len(back))
+    else:
+        back = list(range(len(tasks)))
+    fixed_value = _coverage_value(instance, tasks, fixed)
+    # From here on ``tasks`` are the remaining ones (``back`` maps them to the originals).
+    tasks = _restrict(instance, tasks, back, fixed)
     usable_arr = np.asarray(usable, dtype=np.int64)
     if decompose:
         comps = interaction_components(instance, tasks, usable_arr)
@@ -852,10 +935,10 @@ def russian_doll(
             if gval > out.value:
                 out.chosen, out.value = greedy, gval
         outcomes.append(out)
-    chosen = [t for o in outcomes for t in o.chosen]
-    value = sum(o.value for o in outcomes)
+    chosen = sorted(fixed + [back[t] for o in outcomes for t in o.chosen])
+    value = fixed_value + sum(o.value for o in outcomes)
     proven = all(o.proven for o in outcomes)
-    bound = sum(o.bound for o in outcomes)
+    bound = fixed_value + sum(o.bound for o in outcomes)
     if proven:
         bound = value
     return RdsOutcome(chosen, value, proven, bound, outcomes)
