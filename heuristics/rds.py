@@ -928,12 +928,18 @@ def russian_doll(
                 out = rds_component(instance, tasks, items, deadline, clock)
             timed_out = not out.proven
         if not out.proven:
-            # Fall-back incumbent: highest weight first over the component.
-            greedy, gval = insertion_decode(
-                instance, tasks, sorted(items, key=lambda t: (-tasks.weight[t], t))
-            )
-            if gval > out.value:
-                out.chosen, out.value = greedy, gval
+            # Fall-back incumbents: the search's best (often a subproblem's, over the last
+            # targets only) completed highest weight first, and highest weight first alone.
+            by_weight = sorted(items, key=lambda t: (-tasks.weight[t], t))
+            lines: dict[int, OrbitTimeline] = {}
+            covered = np.zeros(instance.n_targets, dtype=bool)
+            _, gain = insertion_decode(instance, tasks, sorted(out.chosen), lines, covered)
+            more, _ = insertion_decode(instance, tasks, by_weight, lines, covered)
+            done = sorted(set(out.chosen) | set(more))
+            for cand in (done, insertion_decode(instance, tasks, by_weight)[0]):
+                cval = _coverage_value(instance, tasks, cand)
+                if cval > out.value:
+                    out.chosen, out.value = cand, cval
         outcomes.append(out)
     chosen = sorted(fixed + [back[t] for o in outcomes for t in o.chosen])
     value = fixed_value + sum(o.value for o in outcomes)
