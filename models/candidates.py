@@ -25,6 +25,7 @@ import logging
 
 import numpy as np
 
+from sosp.errors import InputError
 from sosp.instance import Instance
 
 log = logging.getLogger(__name__)
@@ -33,9 +34,14 @@ log = logging.getLogger(__name__)
 #: is never needed by a solver.
 EPS = 1e-9
 
+#: Most candidates generated before giving up (memory: roughly 0.5 GB per million). C10, the
+#: densest reference scenario, has 176 610; orbits with hundreds of windows inside one Delta T
+#: (thousands of targets in a small region) can have tens of millions.
+MAX_CANDIDATES = 2_000_000
+
 
 def cluster_candidates(
-    instance: Instance,
+    instance: Instance, max_candidates: int = MAX_CANDIDATES
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, ...], ...]]:
     """All non-dominated candidate observations of every orbit.
 
@@ -43,6 +49,9 @@ def cluster_candidates(
     ----------
     instance
         The problem.
+    max_candidates
+        Raise :class:`~sosp.errors.InputError` (naming the orbit) once more candidates than
+        this have been generated, instead of running out of memory.
 
     Returns
     -------
@@ -102,6 +111,12 @@ def cluster_candidates(
                     out_end.append(float(te_all[list(members)].max()))
                     out_roll.append(float(r_ok[t]))
                     out_opps.append(members)
+            if len(out_opps) > max_candidates:
+                raise InputError(
+                    f"orbit {instance.orbit_ids[j]!r}: more than {max_candidates} candidate "
+                    "observations; the instance is too dense for the clustering-exact "
+                    "candidate set (use asa-dtc)"
+                )
     log.debug("cluster candidates: %d", len(out_opps))
     return (
         np.array(out_orbit, dtype=np.int64),

@@ -241,3 +241,12 @@ def test_cli_bound_lagrangian_and_solve(tmp_path) -> None:
     )
     assert json.loads(out.stdout)["profit"] <= brute_force(inst, "cluster").profit
     assert sched.exists()
+
+
+def test_too_many_candidates_is_a_one_line_error_naming_the_orbit() -> None:
+    from models.candidates import cluster_candidates
+
+    inst = tiny_cluster()
+    assert len(cluster_candidates(inst)[4]) > 1
+    with pytest.raises(InputError, match="^orbit 'orbit0': more than 1 candidate observations"):
+        cluster_candidates(inst, max_candidates=1)
