@@ -22,6 +22,7 @@ candidates with the same window can dominate one another).
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 
@@ -41,7 +42,7 @@ MAX_CANDIDATES = 2_000_000
 
 
 def cluster_candidates(
-    instance: Instance, max_candidates: int = MAX_CANDIDATES
+    instance: Instance, max_candidates: int = MAX_CANDIDATES, deadline: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, ...], ...]]:
     """All non-dominated candidate observations of every orbit.
 
@@ -52,6 +53,9 @@ def cluster_candidates(
     max_candidates
         Raise :class:`~sosp.errors.InputError` (naming the orbit) once more candidates than
         this have been generated, instead of running out of memory.
+    deadline
+        A :func:`time.perf_counter` value: raise :class:`~sosp.errors.InputError` when it
+        passes before the candidates are complete (None: no limit).
 
     Returns
     -------
@@ -116,6 +120,12 @@ def cluster_candidates(
                     f"orbit {instance.orbit_ids[j]!r}: more than {max_candidates} candidate "
                     "observations; the instance is too dense for the clustering-exact "
                     "candidate set (use asa-dtc)"
+                )
+            if deadline is not None and time.perf_counter() > deadline:
+                raise InputError(
+                    f"orbit {instance.orbit_ids[j]!r}: time limit reached while generating "
+                    f"candidate observations ({len(out_opps)} so far); give more time or use "
+                    "asa-dtc"
                 )
     log.debug("cluster candidates: %d", len(out_opps))
     return (

@@ -167,15 +167,18 @@ class OrbitData:
         return np.unique(np.concatenate(parts))
 
 
-def orbit_data(instance: Instance) -> OrbitData:
+def orbit_data(instance: Instance, deadline: float | None = None) -> OrbitData:
     """Build :class:`OrbitData` from the cluster model's candidates.
 
     Parameters
     ----------
     instance
         The problem.
+    deadline
+        :func:`time.perf_counter` value by which the candidates must be complete (else
+        :class:`~sosp.errors.InputError`, see :func:`models.candidates.cluster_candidates`).
     """
-    orbit, start, end, roll, opps = cluster_candidates(instance)
+    orbit, start, end, roll, opps = cluster_candidates(instance, deadline=deadline)
     tgt = instance.opp_target
     groups: list[OrbitItems] = []
     seen_by: list[list[int]] = [[] for _ in range(instance.n_targets)]
@@ -377,7 +380,7 @@ def lagrangian_bound(
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
     if data is None:
-        data = orbit_data(instance)
+        data = orbit_data(instance, None if time_limit is None else t0 + float(time_limit))
     p = np.asarray(instance.target_weight, dtype=float)
     groups = data.orbits
     if lower_bound is None:

@@ -222,7 +222,9 @@ def solve_orbit_dp(
         The one generator.
     time_limit
         Wall-time limit in seconds, candidate generation included (None: stop by
-        ``iterations`` / ``no_improve``).
+        ``iterations`` / ``no_improve``). When the candidates are not complete by then, the
+        instance is too dense for this method in that time: :class:`InputError` (C10, the
+        densest reference scenario, needs about 5 s).
     **params
         Fields of :class:`OrbitSearchParams`.
 
@@ -241,7 +243,7 @@ def solve_orbit_dp(
     iterations, no_improve = p.iterations, p.no_improve
     if iterations is None and no_improve is None and time_limit is None:
         no_improve = DEFAULT_NO_IMPROVE
-    data = orbit_data(instance)
+    data = orbit_data(instance, deadline)
     t_data = time.perf_counter() - t0
     search = OrbitSearch(data, rng)
     search.ascent(deadline)

@@ -250,3 +250,15 @@ def test_too_many_candidates_is_a_one_line_error_naming_the_orbit() -> None:
     assert len(cluster_candidates(inst)[4]) > 1
     with pytest.raises(InputError, match="^orbit 'orbit0': more than 1 candidate observations"):
         cluster_candidates(inst, max_candidates=1)
+
+
+def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
+    import time
+
+    from models.candidates import cluster_candidates
+
+    with pytest.raises(InputError, match="^orbit 'orbit0': time limit reached"):
+        cluster_candidates(tiny_cluster(), deadline=time.perf_counter() - 1.0)
+    # orbit-dp passes its limit on: a limit too short for the candidates is that error
+    with pytest.raises(InputError, match="time limit reached while generating"):
+        solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)
