@@ -150,9 +150,6 @@ class OrbitSearch:
         others[self.covered[g]] -= 1
         return np.where(others > 0, 0.0, self.weight)
 
-    def worth(self, g: int, covered: np.ndarray, price: np.ndarray) -> float:
-        return float(price[covered].sum())
-
     # ------------------------------------------------------------------------- moves
     def replan(self, g: int) -> bool:
         """Re-plan orbit g optimally for the current prices; True when it gained."""
