@@ -24,19 +24,10 @@ def _positive_float(text: str) -> float:
     return value
 
 
-def _positive_int(text: str) -> int:
-    """argparse type: a whole number >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return value
-
-
 def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``bound`` subcommand to the ``sosp`` CLI's subparsers."""
+    from sosp.cli import _positive  # loaded already: it is the caller
+
     p = subparsers.add_parser(
         "bound",
         help="upper bound on the optimum (LP relaxation or MILP of an exact model)",
@@ -59,7 +50,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--iterations",
-        type=_positive_int,
+        type=_positive(int),
         default=300,
         help="subgradient steps of --method lagrangian (default 300)",
     )
