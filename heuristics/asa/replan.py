@@ -6,7 +6,8 @@ scenarios the search is flat after the first second well below the best known sc
 (``docs/asa.md``). This move frees a stretch of one orbit and rebuilds it by dynamic
 programming:
 
-1. choose an orbit uniformly among those with usable options, and on it a stretch of at most
+1. choose an orbit uniformly among those with usable options (or, with ``replan_target``,
+   the orbit of an option of an unscheduled task), and on it a stretch of at most
    ``replan_opps`` consecutive options (the whole orbit when it has fewer);
 2. free every cluster-task whose window meets the stretch (the stretch grows to hold them);
 3. build candidate cluster-tasks over the options of the stretch whose tasks are now
@@ -24,7 +25,12 @@ programming:
    is scheduled once) and repair the orbit as in step 7 (a safety net; the chain is feasible).
 
 The move is judged by the annealing rule and feeds the adaptive selection (17)-(18) like the
-others. A chain worth less than what was freed is not proposed (no move).
+others. A chain worth less than what was freed is not proposed (no move). Two variants widen
+it: with ``replan_pull`` the stretch may take tasks observed on other orbits, whose stretches
+are re-planned next (an ejection chain, :func:`replan_move`); with ``replan_pair`` two orbits
+sharing tasks are re-planned together, the shared tasks split by Lagrangian relaxation of (2)
+(:func:`replan_pair`). :func:`polish` applies the two-orbit move to every pair of orbits
+when the search restarts from its best solution (``ASAParams.restart``).
 """
 
 from __future__ import annotations
