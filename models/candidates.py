@@ -140,14 +140,20 @@ def cluster_candidates(
 def _nondominated(cover: np.ndarray, cost: np.ndarray) -> list[int]:
     """Columns of ``cover`` not dominated by another with a superset cover and cost <= its own.
 
-    Ties (same cover, same cost) keep the first column.
+    Columns are taken by increasing cost, then decreasing cover size, then index; a column is
+    dropped when an earlier one covers a superset. Domination is transitive, so "an earlier
+    one" may be kept or dropped itself: the kept columns are those with no earlier superset.
+    Ties (same cover, same cost) keep the first column. Returned in that order.
     """
     n = cover.shape[1]
-    masks = [int("".join("1" if b else "0" for b in cover[:, t]) or "0", 2) for t in range(n)]
-    order = sorted(range(n), key=lambda t: (cost[t], -bin(masks[t]).count("1"), t))
-    kept: list[int] = []
-    for t in order:
-        if any(masks[t] & ~masks[q] == 0 for q in kept):
-            continue  # kept q has cost <= cost[t] and covers a superset
-        kept.append(t)
-    return kept
+    if n == 1:
+        return [0]
+    size = cover.sum(axis=0)
+    order = np.lexsort((np.arange(n), -size, cost))
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    # subset[t, q]: every row covered by t is covered by q
+    subset = ~(cover[:, :, None] & ~cover[:, None, :]).any(axis=0)
+    earlier = rank[None, :] < rank[:, None]
+    dropped = (subset & earlier).any(axis=1)
+    return [int(t) for t in order if not dropped[t]]
