@@ -18,9 +18,10 @@ programming:
    alone (no clustering);
 4. choose a chain of candidates by a longest-path dynamic program in time order: consecutive
    cluster-tasks, and the fixed neighbours on both sides, meet (3); the openings left (6) are a
-   count dimension; energy (4) and memory (5) are priced by a Lagrange multiplier found by
-   bisection (the best chain within both budgets is kept), so the chain is optimal for the
-   candidates when (4), (5) do not bind and near-optimal otherwise;
+   count dimension (skipped when the chain found without it fits: it is then optimal too);
+   energy (4) and memory (5) are priced by a Lagrange multiplier found by bisection (the best
+   chain within both budgets is kept), so the chain is optimal for the candidates when (4),
+   (5) do not bind and near-optimal otherwise;
 5. put the chain in place of the freed cluster-tasks (a task with two options in the stretch
    is scheduled once) and repair the orbit as in step 7 (a safety net; the chain is feasible).
 
@@ -64,47 +65,50 @@ def candidates(state: State, opts: list[int], dT: float) -> list[Cluster]:
     pb = state.pb
     if not pb.clustering:
         return [state.make_cluster((x,)) for x in opts]
-    st, en, lo, hi = pb.opt_start, pb.opt_end, pb.opt_lo, pb.opt_hi
     nadir = state.nadir
+    # per position in ``opts``
+    st = [pb.opt_start[x] for x in opts]
+    en = [pb.opt_end[x] for x in opts]
+    lo = [pb.opt_lo[x] for x in opts]
+    hi = [pb.opt_hi[x] for x in opts]
     seen: set[int] = set()  # member sets as bit masks over positions in ``opts``
     out: list[Cluster] = []
     n = len(opts)
     for a, i in enumerate(opts):
         out.append(state.make_cluster((i,)))
-        limit = st[i] + dT + EPS
-        lo_i, hi_i = lo[i], hi[i]
+        limit = st[a] + dT + EPS
+        lo_i, hi_i = lo[a], hi[a]
         win = []  # positions b > a (same or later start: ``opts`` is sorted by start)
         for b in range(a + 1, n):
-            x = opts[b]
-            if st[x] > limit:
+            if st[b] > limit:
                 break
-            if en[x] <= limit and lo[x] <= hi_i and hi[x] >= lo_i:
+            if en[b] <= limit and lo[b] <= hi_i and hi[b] >= lo_i:
                 win.append(b)
         if not win:
             continue
         rolls = {min(max(0.0, lo_i), hi_i), lo_i, hi_i}
         for b in win:
-            x = opts[b]
-            if lo_i <= lo[x] <= hi_i:
-                rolls.add(lo[x])
-            if lo_i <= hi[x] <= hi_i:
-                rolls.add(hi[x])
-        s0, e0 = st[i], en[i]
+            if lo_i <= lo[b] <= hi_i:
+                rolls.add(lo[b])
+            if lo_i <= hi[b] <= hi_i:
+                rolls.add(hi[b])
+        win.sort(key=lambda b: (en[b], b))  # prefixes by end
+        s0, e0 = st[a], en[a]
         for r in rolls:
-            mem = [b for b in win if lo[opts[b]] <= r <= hi[opts[b]]]
-            if not mem:
-                continue
-            mem.sort(key=lambda b: (en[opts[b]], b))
             key = 1 << a
             cur = [a]
             e, lo_c, hi_c = e0, lo_i, hi_i
-            for b in mem:
-                x = opts[b]
+            for b in win:
+                if not lo[b] <= r <= hi[b]:
+                    continue
                 key |= 1 << b
                 cur.append(b)
-                e = max(e, en[x])
-                lo_c = max(lo_c, lo[x])
-                hi_c = min(hi_c, hi[x])
+                if en[b] > e:
+                    e = en[b]
+                if lo[b] > lo_c:
+                    lo_c = lo[b]
+                if hi[b] < hi_c:
+                    hi_c = hi[b]
                 if key in seen:
                     continue
                 seen.add(key)
@@ -241,18 +245,70 @@ def best_chain(
         chain.reverse()
         return chain
 
+    def run1(t: float) -> list[int]:
+        """:func:`run` without the openings dimension (one value per node): its chain is
+        optimal for ``run`` too whenever it has at most ``cap`` nodes."""
+        node_pen = [t * dur[v] * (e_share + w_share) for v in range(n)] if t > 0 else [0.0] * n
+        slew_pen = t * s_share if t > 0 else 0.0
+        neg = -np.inf
+        best = (0.0, -1) if left is None else (neg, -2)
+        val = [neg] * n
+        pred = [-2] * n
+        for _, kind, v in events:
+            if v < 0:  # ``left`` is offered (nodes offered before it cannot follow it)
+                if -slew_pen * lt > best[0]:
+                    best = (-slew_pen * lt, -1)
+            elif kind == 0:
+                x = val[v] - slew_pen * turn[v]
+                if x > best[0]:
+                    best = (x, v)
+            elif best[0] != neg:
+                b, u = best
+                tv = slew_pen * turn[v] if u >= 0 or left is not None else 0.0
+                val[v] = gains[v] - node_pen[v] + b - tv
+                pred[v] = u
+        if right is None:
+            end_val, end_node = 0.0, -1
+            for v in range(n):
+                if val[v] > end_val:
+                    end_val, end_node = val[v], v
+        else:
+            rpen = slew_pen * rt
+            end_val, end_node = neg, -2
+            if left is None:
+                end_val, end_node = 0.0, -1
+            elif left_offer <= right_at:
+                end_val, end_node = -slew_pen * lt - rpen, -1
+            for v in range(n):
+                if cands[v][END] + turn[v] <= right_at:
+                    x = val[v] - slew_pen * turn[v] - rpen
+                    if x > end_val:
+                        end_val, end_node = x, v
+        chain = []
+        v = end_node
+        while v >= 0:
+            chain.append(v)
+            v = pred[v]
+        chain.reverse()
+        return chain
+
     cap = min(openings, n)
     if cap <= 0:
         return 0.0, []
+
+    def plan(t: float) -> list[int]:
+        ch = run1(t)
+        return ch if len(ch) <= cap else run(t, cap)
+
     best_gain, best_ch = 0.0, []
-    ch = run(0.0, cap)
+    ch = plan(0.0)
     g, d, s = measure(ch)
     if fits(d, s):
         return g, ch
     lo_t, hi_t = 0.0, max(sum(gains), 1.0)
     for _ in range(LAGRANGE_ROUNDS):
         t = 0.5 * (lo_t + hi_t)
-        ch = run(t, cap)
+        ch = plan(t)
         g, d, s = measure(ch)
         if fits(d, s):
             if g > best_gain:
