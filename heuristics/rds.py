@@ -78,6 +78,10 @@ Descending target (targets search)
     then ``- 4``, ..., down to ``opt[i+1]``. A pass that finds a selection searches on with it
     as incumbent, so it ends with the optimum. Most subproblems are solved by the first pass
     in a few nodes.
+Fixed tasks (``reduce``)
+    before the search, tasks that some optimal selection contains are fixed and their
+    targets count as covered (:func:`fix_free_tasks`: conflict-free tasks on orbits whose
+    resources cannot bind); tasks left with covered targets only are dropped.
 Decomposition
     items interact only through (3) (same orbit, close in time), the per-orbit knapsacks
     (4)-(6) (same orbit) and shared targets. The connected components of that "interaction"
