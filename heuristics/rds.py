@@ -71,6 +71,11 @@ Search of P_i (targets search)
     (restarts; the order that finished the last long run gets the full budget, the other a
     quarter) until one finishes: exact either way, at most a constant factor slower than the
     better order.
+Repair (targets search)
+    before searching P_i, the last optimum (of P_{i+1}) is repaired: a task of target i put
+    in, the tasks in (3) conflict with it taken out and their lost targets covered again by
+    insertion (fewest options first). If that reaches ``w_i + opt[i+1]``, an upper bound of
+    P_i, it is P_i's optimum and no search is needed.
 Descending target (targets search)
     P_i is first searched for a selection worth more than ``upper - 1`` with ``upper = w_i +
     opt[i+1]`` (a pruning bound at its strongest); a pass that finds none proves ``opt[i] <=
@@ -789,6 +794,45 @@ def rds_targets_component(
             )
             return state["sel"] is not None
 
+    def repair(i: int, base: list[int], goal: int) -> list[int] | None:
+        # A selection of P_i worth ``goal``, if one is found by putting a task of target i
+        # into ``base`` (the last optimum), dropping the tasks in (3) conflict with it and
+        # covering their lost targets again, fewest options first. Heuristic; any selection
+        # it returns is feasible (built through the timelines) and worth ``goal``.
+        for t0 in dom[i]:
+            bad = set(conf[t0])
+            sel = sorted((t for t in base if t not in bad), key=lambda t: st[t]) + [t0]
+            tl: dict[int, OrbitTimeline] = {}
+            ok = True
+            for t in sel:
+                line = tl.get(orb[t]) or tl.setdefault(orb[t], OrbitTimeline(instance, orb[t]))
+                chk = line.check_insert(st[t], en[t], ro[t])
+                if not chk.ok:
+                    ok = False
+                    break
+                line.insert(chk, st[t], en[t], ro[t], t)
+            if not ok:
+                continue
+            have = {p for t in sel for p in tpos[t] if p >= i}
+            lost = sorted(
+                {p for t in base if t in bad for p in tpos[t] if p > i} - have,
+                key=lambda p: (len(dom[p]), p),
+            )
+            for p in lost:
+                if p in have:
+                    continue
+                for u in dom[p]:
+                    line = tl.get(orb[u]) or tl.setdefault(orb[u], OrbitTimeline(instance, orb[u]))
+                    chk = line.check_insert(st[u], en[u], ro[u])
+                    if chk.ok:
+                        line.insert(chk, st[u], en[u], ro[u], u)
+                        sel.append(u)
+                        have.update(p2 for p2 in tpos[u] if p2 >= i)
+                        break
+            if sum(wq[p] for p in have) >= goal:
+                return sel
+        return None
+
     proven = True
     interrupted_at = -1
     try:
@@ -802,6 +846,12 @@ def rds_targets_component(
                 prev = set(incumbent)
                 for p in range(i + 1, n):
                     dom[p].sort(key=lambda t: t not in prev)
+            fix = repair(i, incumbent, upper) if incumbent else None
+            if fix is not None:
+                # The last optimum repaired to cover target i too reaches the upper bound.
+                opt[i] = upper
+                incumbent = fix
+                continue
             # Passes with a descending target: each searches for a selection worth more
             # than ``low``; a pass that finds none proves opt[i] <= low (module docstring).
             step = 1
