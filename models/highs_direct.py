@@ -499,6 +499,7 @@ def run_highs(
     threads: int | None = None,
     start: np.ndarray | None = None,
     lp_solver: str | None = None,
+    probing: bool = True,
 ) -> HighsOutcome:
     """Solve ``am`` with a fresh ``highspy.Highs`` (no option survives the call).
 
@@ -518,6 +519,9 @@ def run_highs(
     lp_solver
         HiGHS's ``solver`` option for a pure LP (``"simplex"``, ``"ipm"``, ``"pdlp"``;
         None: HiGHS chooses); ignored for a MIP.
+    probing
+        False: switch off probing in MIP presolve (it checks the clock rarely and can run far
+        past ``time_limit``, see :func:`models.solve.solve_milp`).
     """
     import highspy
 
@@ -534,6 +538,8 @@ def run_highs(
         h.setOptionValue("threads", int(threads))
     if lp_solver is not None and not am.integer.any():
         h.setOptionValue("solver", str(lp_solver))
+    if not probing and am.integer.any():
+        h.setOptionValue("presolve_rule_off", 1 << 15)
     lp = highspy.HighsLp()
     lp.num_col_ = am.n_cols
     lp.num_row_ = am.n_rows

@@ -296,3 +296,27 @@ def test_cli_module_imports_nothing_heavy() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("backend", ["pyomo", "highs"])
+@pytest.mark.parametrize("seed", [0, 4, 9])
+def test_probing_on_or_off_gives_the_same_optimum(backend: str, seed: int) -> None:
+    from models.solve import solve_milp
+    from tests.models.instances import random_tiny
+    from tests.oracle import brute_force
+
+    inst = random_tiny(seed)
+    optimum = brute_force(inst, "cluster").profit
+    for probing, limit, used in (("on", 30.0, True), ("off", None, False), ("auto", 30.0, False)):
+        res = solve_milp(inst, backend=backend, probing=probing, time_limit=limit)
+        assert res.status is Status.OPTIMAL and res.profit == optimum
+        assert res.stats["probing"] is used
+    assert solve_milp(inst, backend=backend).stats["probing"] is True  # auto without a limit
+
+
+def test_probing_must_be_auto_on_or_off() -> None:
+    from models.solve import solve_milp
+    from tests.models.instances import random_tiny
+
+    with pytest.raises(InputError, match="probing"):
+        solve_milp(random_tiny(0), probing="yes")
