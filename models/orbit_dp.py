@@ -60,6 +60,11 @@ _MAX_DOUBLINGS = 60
 #: Bisection steps of :func:`best_feasible_path` between an infeasible and a feasible penalty.
 _BISECTIONS = 12
 
+#: Share of the previous direction added to the subgradient in :func:`lagrangian_bound` (0.5
+#: beat 0, 0.7 and a longer patience on C1, B10, C5 at 300 steps: 569.0 / 6190.6 / 2242.7
+#: against 570.4 / 6193.1 / 2243.5 without).
+DEFLECTION = 0.5
+
 
 @dataclass(frozen=True, eq=False)
 class OrbitItems:
@@ -353,8 +358,9 @@ def lagrangian_bound(
                                sum_u (mu(targets of u) - penalties of u) + lam_ej + lam_wj ],
 
     each orbit's maximum computed exactly by :func:`best_path`. Subgradient steps (Polyak's
-    rule towards ``lower_bound``, step factor halved after 20 steps without progress) lower
-    it; the least value found, rounded down (the optimum is an integer), is returned.
+    rule towards ``lower_bound``, the direction deflected by half the previous one, step
+    factor halved after 20 steps without progress) lower it; the least value found, rounded
+    down (the optimum is an integer), is returned.
 
     Parameters
     ----------
@@ -391,6 +397,7 @@ def lagrangian_bound(
     lam = np.zeros((len(groups), 2))
     best = math.inf
     factor, stale, done = 1.0, 0, 0
+    prev_dir: tuple[np.ndarray, np.ndarray] | None = None
     while done < iterations:
         done += 1
         value = float(np.maximum(p - mu, 0.0).sum())
@@ -410,6 +417,10 @@ def lagrangian_bound(
             if stale >= 20:
                 factor, stale = factor / 2.0, 0
         grad_mu = count - (mu < p)
+        if prev_dir is not None:  # deflection: half the last direction damps the zigzag
+            grad_mu = grad_mu + DEFLECTION * prev_dir[0]
+            grad_lam = grad_lam + DEFLECTION * prev_dir[1]
+        prev_dir = (grad_mu, grad_lam)
         norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
         if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
             break  # the plans agree with the multipliers, or the bound meets the target
