@@ -144,11 +144,15 @@ class OrbitSearch:
             self._set(g, path)
             self.journal.pop()  # _set journalled the undo itself
 
-    def prices(self, g: int) -> np.ndarray:
-        """What covering each target is worth to orbit g: p_k unless another orbit has it."""
+    def elsewhere(self, g: int) -> np.ndarray:
+        """Per target, whether an orbit other than g covers it."""
         others = self.count.copy()
         others[self.covered[g]] -= 1
-        return np.where(others > 0, 0.0, self.weight)
+        return others > 0
+
+    def prices(self, g: int) -> np.ndarray:
+        """What covering each target is worth to orbit g: p_k unless another orbit has it."""
+        return np.where(self.elsewhere(g), 0.0, self.weight)
 
     # ------------------------------------------------------------------------- moves
     def replan(self, g: int) -> bool:
@@ -179,9 +183,7 @@ class OrbitSearch:
         k = int(self.rng.integers(1, min(params.perturb_orbits, n) + 1))
         for g in self.rng.choice(n, size=k, replace=False):
             g = int(g)
-            others = self.count.copy()
-            others[self.covered[g]] -= 1
-            keep = (others == 0) | (self.rng.random(len(self.weight)) < params.steal)
+            keep = ~self.elsewhere(g) | (self.rng.random(len(self.weight)) < params.steal)
             noise = self.rng.uniform(1.0 - params.noise, 1.0 + params.noise, len(self.weight))
             price = np.where(keep, self.weight * noise, 0.0)
             self._set(g, best_feasible_path(self.data.orbits[g], price))
@@ -232,7 +234,7 @@ def solve_orbit_dp(
         perturbation steps; ``stats``: candidates, ascent profit, re-plans, accepted steps,
         seconds of candidate generation, trace of (step, seconds, best).
     """
-    from models.solve import items_to_schedule
+    from models.solve import _profit, items_to_schedule
 
     t0 = time.perf_counter()
     p = OrbitSearchParams.from_kwargs(**params)
@@ -271,15 +273,14 @@ def solve_orbit_dp(
             search.journal.clear()
     search.paths = best_paths
     schedule = items_to_schedule(data, search.chosen())
-    ks = {int(instance.opp_target[i]) for i in schedule.observed_opps()}
-    profit = float(sum(int(instance.target_weight[k]) for k in ks))
+    profit, observed = _profit(instance, schedule)
     status = Status.FEASIBLE if data.orbits else Status.NO_SOLUTION
     return Result(
         method="orbit-dp",
         status=status,
         schedule=schedule,
         profit=profit,
-        observed=len(ks),
+        observed=observed,
         runtime_s=time.perf_counter() - t0,
         iterations=steps,
         stats={
