@@ -196,13 +196,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             for n in names
         ]
-        table = markdown_proofs(rows)
-        sys.stdout.write(table)
-        if args.out:
-            atomic_write_text(args.out, table)
-        if args.json:
-            atomic_write_json(args.json, {"args": vars(args), "rows": rows})
-        return 0
+        return _emit(markdown_proofs(rows), rows, args)
     rows = [
         bench_scenario(
             n,
@@ -215,7 +209,11 @@ def main(argv: list[str] | None = None) -> int:
         )
         for n in names
     ]
-    table = markdown(rows, args.rds_single)
+    return _emit(markdown(rows, args.rds_single), rows, args)
+
+
+def _emit(table: str, rows: list[dict[str, Any]], args: argparse.Namespace) -> int:
+    """Print the table; write it (``--out``) and the raw rows (``--json``) atomically."""
     sys.stdout.write(table)
     if args.out:
         atomic_write_text(args.out, table)

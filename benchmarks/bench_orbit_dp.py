@@ -19,16 +19,11 @@ import argparse
 import time
 
 from benchmarks.bench_asa import profit_at
+from benchmarks.bench_lns import _pct
 from models.orbit_dp import lagrangian_bound
 from models.solve import bound
 from sosp.scenarios import generate_scenario
 from sosp.solve import solve
-
-
-def _pct(bound_value: float | None, best: float) -> str:
-    if bound_value is None or not best:
-        return ""
-    return f"{100 * (bound_value / best - 1.0):.1f}%"
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -108,10 +108,19 @@ def test_journal_keeps_totals_exact_under_commit_and_rollback(
     rng = np.random.default_rng(seed)
     initial_solution(state, params)
     assert state.check()
-    for _ in range(60):
+    commit_or_rollback(state, params, rng, (insertion_move, migration_move, replan_move), 60)
+
+
+def commit_or_rollback(state, params, rng, moves, steps: int) -> None:
+    """Apply ``steps`` random ``moves``, keep half, undo the rest; check the state after each.
+
+    An undone move must restore profit, lines and assignment exactly; after every step each
+    orbit line is feasible and the profit equals a recount of the covered targets.
+    """
+    for _ in range(steps):
         before = (state.profit, state.snapshot(), list(state.sched))
         state.begin()
-        move = (insertion_move, migration_move, replan_move)[int(rng.integers(3))]
+        move = moves[int(rng.integers(len(moves)))]
         made = move(state, rng, params, None)
         if made and rng.random() < 0.5:
             state.commit()

@@ -22,7 +22,7 @@ from heuristics.asa.state import MEMBERS, State
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.heuristics.test_asa import small_instances
+from tests.heuristics.test_asa import commit_or_rollback, small_instances
 from tests.oracle import brute_force
 
 
@@ -153,18 +153,7 @@ def test_replan_moves_keep_orbits_feasible_and_totals_exact(
     state, params = _state(inst, mode, replan_pull=pull, replan_opps=3)
     rng = np.random.default_rng(seed)
     initial_solution(state, params)
-    for _ in range(30):
-        before = (state.profit, state.snapshot(), list(state.sched))
-        state.begin()
-        made = replan_move(state, rng, params, None)
-        if made and rng.random() < 0.5:
-            state.commit()
-        else:
-            state.rollback()
-            assert (state.profit, state.snapshot(), list(state.sched)) == before
-        assert state.check()
-        covered = {k for u in state.scheduled for k in state.pb.unit_targets[u]}
-        assert state.profit == pytest.approx(sum(state.pb.target_weight[k] for k in covered))
+    commit_or_rollback(state, params, rng, (replan_move,), 30)
 
 
 def test_replan_off_is_the_papers_two_moves() -> None:
