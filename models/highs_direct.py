@@ -56,6 +56,9 @@ from models.data import ModelData
 
 log = logging.getLogger("models.solve")
 
+#: HiGHS ``presolve_rule_off`` bit of probing (HiGHS's own hint when probing hits the limit).
+PROBING_OFF = 1 << 15
+
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
@@ -539,7 +542,7 @@ def run_highs(
     if lp_solver is not None and not am.integer.any():
         h.setOptionValue("solver", str(lp_solver))
     if not probing and am.integer.any():
-        h.setOptionValue("presolve_rule_off", 1 << 15)
+        h.setOptionValue("presolve_rule_off", PROBING_OFF)
     lp = highspy.HighsLp()
     lp.num_col_ = am.n_cols
     lp.num_row_ = am.n_rows

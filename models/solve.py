@@ -47,9 +47,6 @@ MODELS: dict[str, str] = {
     "static": "models.static:static_data",
 }
 
-#: HiGHS ``presolve_rule_off`` bit of probing (HiGHS's own hint when probing hits the limit).
-PROBING_OFF = 1 << 15
-
 #: Slack for reading binaries and comparing objective values.
 INT_TOL = 1e-6
 
@@ -508,6 +505,8 @@ def _run_pyomo(
     if relax and lp_solver != "choose":
         opt.highs_options = {**opt.highs_options, "solver": lp_solver}
     if not relax and not probing:
+        from models.highs_direct import PROBING_OFF
+
         opt.highs_options = {**opt.highs_options, "presolve_rule_off": PROBING_OFF}
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
