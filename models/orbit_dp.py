@@ -184,6 +184,31 @@ def orbit_data(instance: Instance, deadline: float | None = None) -> OrbitData:
         :class:`~sosp.errors.InputError`, see :func:`models.candidates.cluster_candidates`).
     """
     orbit, start, end, roll, opps = cluster_candidates(instance, deadline=deadline)
+    return _arrange(instance, orbit, start, end, roll, opps)
+
+
+def with_rolls(data: OrbitData, roll: np.ndarray) -> OrbitData:
+    """The same candidate observations at other rolls (one per candidate, in degrees).
+
+    For searches whose observations follow another roll rule than the nadir-closest point
+    (ASA-DTC's midpoint (9)): each roll must lie in the range of every covered opportunity
+    (7), and then the recursion is exact for observations at these rolls.
+    """
+    roll = np.asarray(roll, dtype=float)
+    if roll.shape != data.roll.shape:
+        raise ValueError(f"roll: expected {data.roll.shape[0]} values, got {roll.shape}")
+    return _arrange(data.instance, data.orbit, data.start, data.end, roll, data.opps)
+
+
+def _arrange(
+    instance: Instance,
+    orbit: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    roll: np.ndarray,
+    opps: tuple[tuple[int, ...], ...],
+) -> OrbitData:
+    """Group candidate columns per orbit for the recursion (:class:`OrbitData`)."""
     tgt = instance.opp_target
     groups: list[OrbitItems] = []
     seen_by: list[list[int]] = [[] for _ in range(instance.n_targets)]

@@ -12,7 +12,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from models.orbit_dp import OrbitItems, best_feasible_path, best_path, lagrangian_bound, orbit_data
+from models.orbit_dp import (
+    OrbitItems,
+    best_feasible_path,
+    best_path,
+    lagrangian_bound,
+    orbit_data,
+    with_rolls,
+)
 from models.orbit_search import OrbitSearchParams
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
@@ -262,3 +269,19 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
     # orbit-dp passes its limit on: a limit too short for the candidates is that error
     with pytest.raises(InputError, match="time limit reached while generating"):
         solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)
+
+
+def test_with_rolls_rebuilds_the_slew_terms_and_checks_the_shape() -> None:
+    """Same rolls: the same arrangement; other rolls: |theta| / v and the (3) order follow;
+    a wrong number of rolls is refused."""
+    inst = tiny_cluster()
+    data = orbit_data(inst)
+    same = with_rolls(data, data.roll)
+    for a, b in zip(data.orbits, same.orbits, strict=True):
+        assert np.array_equal(a.slew_s, b.slew_s) and np.array_equal(a.n_before, b.n_before)
+    wide = with_rolls(data, np.full(data.n_items, 30.0))
+    for o in wide.orbits:
+        v = float(inst.slew_rate[o.orbit])
+        assert np.allclose(o.slew_s, 30.0 / v)
+    with pytest.raises(ValueError, match="roll"):
+        with_rolls(data, np.zeros(data.n_items + 1))
