@@ -64,6 +64,24 @@ class ASAParams:
         With ``replan``, floor of every neighbourhood probability after (18) (the larger of
         this and ``min_probability``): without it (17) drives a neighbourhood whose moves
         rarely improve (re-planning an already optimal stretch) to zero for good.
+    replan_orbit
+        ASA-DTC: probability that a re-planning move re-plans a whole orbit exactly
+        (``heuristics.asa.orbit``: the recursion of ``models.orbit_dp`` over the
+        clustering-exact candidates at the search's rolls) instead of a stretch. The
+        candidates are generated once when the search starts (C10: about 5 s); 0 turns the
+        move off. STC and NONTC ignore it.
+    orbit_steal
+        Whole-orbit re-planning: probability that a target scheduled on another orbit keeps
+        its weight for the re-planned orbit (else it is worth nothing to it); the orbits that
+        lose a target are re-planned next.
+    orbit_noise
+        Whole-orbit re-planning: the drawn orbit's prices are multiplied by
+        U(1 - orbit_noise, 1 + orbit_noise), in [0, 1) (0: exact prices; the move is then a
+        no-op on an orbit that is already optimal for the others).
+    orbit_ascent
+        Whole-orbit re-planning: after the drawn orbit, re-plan at most this many more (the
+        orbits that lost a task to it, then those seeing a task it let go, and so on), each
+        kept only when it gains (0: the drawn orbit and nothing else).
     tabu_length
         L, length of the FIFO tabu list; ``None`` gives ``max(1, N // 50)`` with N the number of
         observable tasks (5.3).
@@ -109,6 +127,8 @@ class ASAParams:
     polish
         At each restart, try two-orbit re-planning (``heuristics.asa.replan.polish``) on up
         to this many pairs of orbits sharing options, keeping what loses nothing (0: none).
+        With whole-orbit re-planning (``replan_orbit``) the restart re-plans every orbit
+        exactly until none gains instead (``heuristics.asa.orbit.ascend``).
     iterations
         Stop after this many iterations (``None``: no limit from this rule).
     no_improve
@@ -134,6 +154,10 @@ class ASAParams:
     replan_target: float = 0.0
     replan_pair: float = 0.3
     replan_floor: float = 0.1
+    replan_orbit: float = 0.5
+    orbit_steal: float = 0.3
+    orbit_noise: float = 0.5
+    orbit_ascent: int = 10
     tabu_length: int | None = None
     pool: int = 32
     migration_pool: int = 8
@@ -178,6 +202,13 @@ class ASAParams:
         positive("replan_pair", strict=False)
         if self.replan_pair > 1:
             raise InputError(f"replan_pair: must lie in [0, 1], got {self.replan_pair!r}")
+        positive("orbit_noise", strict=False)
+        if self.orbit_noise >= 1:
+            raise InputError(f"orbit_noise: must lie in [0, 1), got {self.orbit_noise!r}")
+        for name in ("replan_orbit", "orbit_steal"):
+            positive(name, strict=False)
+            if getattr(self, name) > 1:
+                raise InputError(f"{name}: must lie in [0, 1], got {getattr(self, name)!r}")
         if self.replan_target > 1:
             raise InputError(f"replan_target: must lie in [0, 1], got {self.replan_target!r}")
         if self.replan_floor >= 1 / 3:
@@ -198,6 +229,7 @@ class ASAParams:
         integer("migration_pool")
         integer("replan_opps")
         integer("replan_depth")
+        integer("orbit_ascent", minimum=0)
         integer("iterations", optional=True, minimum=0)
         integer("no_improve", optional=True)
         integer("restart", optional=True)
@@ -255,6 +287,7 @@ def _coerce(key: str, value: Any, default: Any) -> Any:
             "migration_pool",
             "replan_opps",
             "replan_depth",
+            "orbit_ascent",
             "restart",
             "polish",
             "iterations",

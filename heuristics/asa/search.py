@@ -7,6 +7,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,7 @@ from heuristics.asa.neighbourhoods import (
     insertion_move,
     migration_move,
 )
+from heuristics.asa.orbit import ascend, make_planner, replan_or_orbit
 from heuristics.asa.params import ASAParams
 from heuristics.asa.problem import Problem, build_problem
 from heuristics.asa.replan import REPLAN, polish, replan_move
@@ -125,6 +127,13 @@ def run_asa(
         length = max(1, problem.n_observable // 50)
     tabu = TabuList(length)
 
+    moves = list(NEIGHBOURHOODS)
+    deadline = None if time_limit is None else t0 + 0.5 * time_limit
+    planner = make_planner(instance, state, params, deadline)
+    if planner is not None:
+        moves[REPLAN] = partial(replan_or_orbit, planner=planner)
+    t_planner = time.perf_counter() - t0
+
     initial_solution(state, params)
     t_init = time.perf_counter() - t0
     best = state.profit
@@ -167,7 +176,7 @@ def run_asa(
         i = selector.choose(rng)
         before = state.profit
         state.begin()
-        made = NEIGHBOURHOODS[i](state, rng, params, tabu)
+        made = moves[i](state, rng, params, tabu)
         delta = state.profit - before if made else 0.0
         if made and acceptance(delta, rng):
             removed = state.commit()
@@ -194,7 +203,11 @@ def run_asa(
             # Intensify around the best (sosp's, not the paper's): restart from it, polish it.
             state.load(best_snap)
             restarts += 1
-            if params.polish and polish(state, rng, params, tabu) and state.profit > best + 1e-9:
+            if planner is not None:
+                polished = ascend(state, rng, planner) > 0
+            else:
+                polished = params.polish > 0 and polish(state, rng, params, tabu) > 0
+            if polished and state.profit > best + 1e-9:
                 best = state.profit
                 best_snap = state.snapshot()
                 outcome = Outcome.BEST
@@ -217,6 +230,8 @@ def run_asa(
         "params": params.as_dict(),
         "initial_profit": trace[0][2],
         "initial_time_s": round(t_init, 6),
+        "orbit_candidates": 0 if planner is None else planner.data.n_items,
+        "orbit_candidates_s": round(t_planner, 6) if planner is not None else 0.0,
         "iterations_per_s": round(g / max(runtime - t_init, 1e-9), 1),
         "tabu_length": length,
         "restarts": restarts,

@@ -1,0 +1,302 @@
+"""Whole-orbit re-planning by the exact single-orbit recursion (ASA-DTC; sosp's, not the paper's).
+
+The stretch re-planning of :mod:`heuristics.asa.replan` rebuilds at most ``replan_opps``
+options of one orbit with a pure-Python dynamic program over candidates it enumerates per
+move. This move re-plans a *whole* orbit with :func:`models.orbit_dp.best_feasible_path`: a
+vectorised recursion over the clustering-exact model's candidate observations, generated once
+per search (:func:`models.orbit_dp.orbit_data`), in milliseconds even on an orbit with tens
+of thousands of candidates.
+
+Candidates are re-rolled by the search's rule: a candidate covering the options S gets the
+roll that :meth:`heuristics.asa.state.State.make_cluster` gives S (midpoint (9) of the common
+range (8), or its point closest to nadir; a single option its own roll unless
+``nadir_singles``). The roll lies in every member's range (7), so the recursion's (3), (4) and
+(6) are exact for the cluster-tasks the search will build from the plan.
+
+The move (:func:`orbit_move`):
+
+1. draw an orbit uniformly among those with candidates;
+2. price each target the orbit can see: its weight p_k when it is unscheduled (and not tabu)
+   or scheduled on this orbit; with probability ``orbit_steal``, a target scheduled on another
+   orbit is worth p_k too (the orbit may take it over); otherwise 0. Every price is then
+   multiplied by U(1 - orbit_noise, 1 + orbit_noise): without noise the move is a no-op on an
+   orbit already optimal for the others, and the search stalls at the first such point;
+3. take the best plan for these prices under (3)-(6) (exact unless (4)-(5) bind, then a
+   Lagrangian plan that fits); no move when it is worth no more than the orbit's current plan
+   at the same prices (re-planning an already optimal orbit is not a move);
+4. replace the orbit's cluster-tasks by the plan's, each built by (8)-(10) from the covered
+   options whose task is still to be placed (a task covered twice by the plan is placed once;
+   a task taken over leaves its old orbit, which loses a component by (8)-(10));
+5. cascade: re-plan, at exact prices and without taking over or the tabu list, the orbits
+   that lost a task to it, then those that see a task it let go, and so on, each kept only
+   when it gains, at most ``orbit_ascent`` of them; then repair every touched orbit as in
+   step 7 (a safety net: a member dropped from a planned observation, because another orbit
+   keeps its task or the plan covers it twice, can move a midpoint roll).
+
+:func:`ascend` re-plans every orbit until none gains; the search calls it when it restarts
+from its best solution (``ASAParams.restart``).
+
+The recursion sums prices per observation, so a target seen twice on one orbit (two
+opportunities in one pass, which real orbits do not produce) can be counted twice; the move
+then compares the plan by what it really covers (step 3) and nothing infeasible results.
+
+Like the other moves it is judged by the annealing rule and feeds (17)-(18) through the
+re-planning neighbourhood, which takes this move with probability ``replan_orbit``.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from heuristics.asa.neighbourhoods import remove_member, repair
+from heuristics.asa.params import ASAParams
+from heuristics.asa.replan import replan_move
+from heuristics.asa.state import MEMBERS, State
+from heuristics.asa.tabu import TabuList
+from models.orbit_dp import OrbitData, OrbitItems, best_feasible_path, orbit_data, with_rolls
+from sosp.errors import InputError
+from sosp.instance import Instance
+
+log = logging.getLogger(__name__)
+
+
+def candidate_rolls(data: OrbitData, state: State) -> np.ndarray:
+    """Roll of every candidate of ``data`` by the search's rule (the rule of
+    :meth:`State.make_cluster` applied to the candidate's covered options)."""
+    pb = state.pb
+    n = data.n_items
+    if n == 0:
+        return np.zeros(0)
+    sizes = np.fromiter((len(s) for s in data.opps), dtype=np.int64, count=n)
+    flat = np.fromiter((x for s in data.opps for x in s), dtype=np.int64, count=int(sizes.sum()))
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    lo = np.maximum.reduceat(np.asarray(pb.opt_lo)[flat], starts)
+    hi = np.minimum.reduceat(np.asarray(pb.opt_hi)[flat], starts)
+    roll = np.clip(0.0, lo, hi) if state.nadir else 0.5 * (lo + hi)
+    single = sizes == 1
+    roll[single] = np.asarray(state.single_roll)[flat[starts[single]]]
+    return roll
+
+
+class OrbitPlanner:
+    """The candidates of every orbit, at the search's rolls, for :func:`orbit_move`.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    state
+        The search state (DTC: a unit is a target and an option an opportunity).
+    deadline
+        :func:`time.perf_counter` value by which the candidates must be complete.
+
+    Raises
+    ------
+    InputError
+        The candidates are not complete by ``deadline`` or too many (the caller runs without
+        this move then).
+    """
+
+    def __init__(self, instance: Instance, state: State, deadline: float | None) -> None:
+        if state.pb.mode != "dtc":
+            raise ValueError("whole-orbit re-planning needs dynamic clustering (asa-dtc)")
+        data = orbit_data(instance, deadline)
+        if not (state.nadir and state.nadir_singles):
+            data = with_rolls(data, candidate_rolls(data, state))
+        self.data = data
+        self.orbit_items: dict[int, OrbitItems] = {o.orbit: o for o in data.orbits}
+        self.orbits = sorted(self.orbit_items)
+        self.weight = np.asarray(state.pb.target_weight, dtype=float)
+        self._orbit_of = np.array([o.orbit for o in data.orbits], dtype=np.int64)
+
+    def seeing(self, targets: list[int]) -> list[int]:
+        """The orbits with a candidate covering any of ``targets``, in index order."""
+        if not targets:
+            return []
+        pos = self.data.orbits_seeing(np.asarray(targets, dtype=np.int64))
+        return sorted(self._orbit_of[pos].tolist())
+
+    def prices(
+        self,
+        state: State,
+        j: int,
+        tabu: TabuList | None,
+        rng: np.random.Generator,
+        steal: float = 0.0,
+        noise: float = 0.0,
+    ) -> np.ndarray:
+        """Step 2: what covering each target is worth to orbit j (a target scheduled on
+        another orbit: p_k with probability ``steal``, else 0), each price times
+        U(1 - noise, 1 + noise) when ``noise > 0``."""
+        pb = state.pb
+        sched, orbit, w = state.sched, pb.opt_orbit, self.weight
+        price = np.zeros(len(w))
+        targets = self.orbit_items[j].targets
+        draws = rng.random(len(targets)) if steal > 0 else None
+        for n, k in enumerate(targets.tolist()):
+            x = sched[k]
+            if x < 0:
+                if tabu is None or k not in tabu:
+                    price[k] = w[k]
+            elif orbit[x] == j:
+                price[k] = w[k]
+            elif draws is not None and draws[n] < steal:
+                price[k] = w[k]
+        if noise > 0:
+            price[targets] *= rng.uniform(1.0 - noise, 1.0 + noise, len(targets))
+        return price
+
+    def plan(
+        self, state: State, j: int, price: np.ndarray
+    ) -> tuple[list[tuple[int, ...]], float] | None:
+        """Step 3: the best plan of orbit j (covered options per observation, time order) and
+        its value at ``price``; None when it is worth no more than the current plan."""
+        o = self.orbit_items[j]
+        path = best_feasible_path(o, price)
+        value = float(price[o.covered(path)].sum()) if len(path) else 0.0
+        unit = state.pb.opt_unit
+        current = {unit[x] for c in state.lines[j].obs for x in c[MEMBERS]}
+        if value <= float(price[list(current)].sum()) + 1e-9:
+            return None
+        opps = self.data.opps
+        return [opps[int(o.items[u])] for u in path], value
+
+    def apply(
+        self, state: State, j: int, plan: list[tuple[int, ...]], price: np.ndarray
+    ) -> set[int]:
+        """Step 4: replace orbit j's cluster-tasks by ``plan``, placing the covered tasks worth
+        something at ``price``; returns the orbits that lost a task to it."""
+        pb = state.pb
+        sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
+        line = state.touch(j)
+        while line.obs:
+            c = line.remove(len(line.obs) - 1)
+            for x in c[MEMBERS]:
+                state.unassign(unit[x])
+        losers: set[int] = set()
+        for opps in plan:
+            members = []
+            for x in opps:
+                u = unit[x]
+                if not price[u] > 0.0:
+                    continue  # tabu, or kept by another orbit
+                y = sched[u]
+                if y >= 0:
+                    i = orbit[y]
+                    if i == j:
+                        continue  # covered by an earlier observation of the plan
+                    remove_member(state, i, state.lines[i].find(y), y)
+                    losers.add(i)
+                members.append(x)
+                state.assign(u, x)
+            if members:
+                line.insert(state.make_cluster(tuple(members)))
+        return losers
+
+
+def orbit_move(
+    state: State,
+    rng: np.random.Generator,
+    params: ASAParams,
+    tabu: TabuList | None,
+    planner: OrbitPlanner,
+) -> bool:
+    """Whole-orbit re-planning (steps 1-5 of the module docstring). False: no move."""
+    if not planner.orbits:
+        return False
+    j = planner.orbits[int(rng.integers(len(planner.orbits)))]
+    price = planner.prices(state, j, tabu, rng, params.orbit_steal, params.orbit_noise)
+    found = planner.plan(state, j, price)
+    if found is None:
+        return False
+    sched = state.sched
+    queue: list[int] = []  # orbits to re-plan next, in order
+    queued = {j}
+    left = params.orbit_ascent
+    while True:
+        before = [state.pb.opt_unit[x] for c in state.lines[j].obs for x in c[MEMBERS]]
+        losers = planner.apply(state, j, found[0], price)
+        repair(state, j)
+        # Next: the orbits that lost a task to j, then those seeing a task j let go.
+        dropped = [u for u in before if sched[u] < 0]
+        for i in [*sorted(losers), *planner.seeing(dropped)]:
+            if i not in queued:
+                queued.add(i)
+                queue.append(i)
+        found = None
+        while queue and left > 0 and found is None:
+            j = queue.pop(0)
+            queued.discard(j)
+            left -= 1
+            # The tabu list keeps the drawn orbit from re-taking what a move just removed; the
+            # cascade only gains, and barring the tasks the drawn orbit let go from the orbits
+            # that could take them cost B10 about 40 in 30 s (seeds 2, 3).
+            price = planner.prices(state, j, None, rng)
+            found = planner.plan(state, j, price)
+        if found is None:
+            break
+    return all(repair(state, i) for i in state.touched_orbits())
+
+
+def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int:
+    """Re-plan every orbit exactly, in random order, until a whole pass gains nothing.
+
+    A re-plan is kept only when the profit, after repair, rises strictly (with midpoint rolls
+    a planned observation that loses a member can need repair and end worse than planned);
+    so this ends. Used when the search restarts from its best solution. Returns the number
+    of re-plans kept.
+    """
+    kept = 0
+    gained = True
+    while gained:
+        gained = False
+        for j in rng.permutation(planner.orbits).tolist():
+            price = planner.prices(state, j, None, rng)
+            found = planner.plan(state, j, price)
+            if found is None:
+                continue
+            before = state.profit
+            state.begin()
+            planner.apply(state, j, found[0], price)
+            if repair(state, j) and state.profit > before + 1e-9:
+                state.commit()
+                kept += 1
+                gained = True
+            else:
+                state.rollback()
+    return kept
+
+
+def make_planner(
+    instance: Instance, state: State, params: ASAParams, deadline: float | None
+) -> OrbitPlanner | None:
+    """The planner when the search uses whole-orbit re-planning, else None.
+
+    Used by ASA-DTC with ``replan`` and ``replan_orbit > 0``. When the candidates cannot be
+    generated in time (an instance with hundreds of windows per Delta T on an orbit) the search
+    runs without the move and says so in the log.
+    """
+    if not (params.replan and params.replan_orbit > 0 and state.pb.mode == "dtc"):
+        return None
+    try:
+        return OrbitPlanner(instance, state, deadline)
+    except InputError as exc:
+        log.warning("asa-dtc: whole-orbit re-planning off (%s)", exc)
+        return None
+
+
+def replan_or_orbit(
+    state: State,
+    rng: np.random.Generator,
+    params: ASAParams,
+    tabu: TabuList | None,
+    *,
+    planner: OrbitPlanner,
+) -> bool:
+    """The re-planning neighbourhood with a planner: a whole orbit with probability
+    ``params.replan_orbit``, else a stretch (:func:`heuristics.asa.replan.replan_move`)."""
+    if rng.random() < params.replan_orbit:
+        return orbit_move(state, rng, params, tabu, planner)
+    return replan_move(state, rng, params, tabu)

@@ -1,0 +1,269 @@
+"""Whole-orbit re-planning (heuristics.asa.orbit): by hand, against the oracle, as properties."""
+
+from __future__ import annotations
+
+import logging
+import time
+from functools import partial
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from heuristics.asa import ASAParams
+from heuristics.asa.orbit import (
+    OrbitPlanner,
+    ascend,
+    candidate_rolls,
+    make_planner,
+    orbit_move,
+)
+from heuristics.asa.problem import build_problem
+from heuristics.asa.state import MEMBERS, ROLL, State
+from sosp.errors import InputError
+from sosp.instance import Instance, Resources
+from sosp.solve import solve
+from sosp.validate import validate
+from tests.heuristics.test_asa import commit_or_rollback, small_instances
+from tests.heuristics.test_asa_replan import _abc, _only
+from tests.oracle import brute_force
+
+
+def _planner(inst: Instance, **kw) -> tuple[State, ASAParams, OrbitPlanner]:
+    params = ASAParams(**kw)
+    pb = build_problem(inst, "dtc", params.roll_rule)
+    state = State(pb, params.roll_rule, params.nadir_singles)
+    return state, params, OrbitPlanner(inst, state, None)
+
+
+class _Draw:
+    """A generator stand-in that draws orbit ``j`` and nothing else random."""
+
+    def __init__(self, j: int = 0) -> None:
+        self.j = j
+
+    def integers(self, n: int) -> int:
+        return self.j
+
+    def random(self, n: int | None = None):
+        return 0.99 if n is None else np.full(n, 0.99)
+
+
+@pytest.mark.parametrize(
+    ("kw", "pair_roll", "c_roll"),
+    [
+        ({}, 1.0, 20.0),  # (9): midpoint of [-1, 3]; c alone at its own roll
+        ({"roll_rule": "nadir"}, 0.0, 20.0),
+        ({"roll_rule": "nadir", "nadir_singles": True}, 0.0, 17.0),  # c's range [17, 23]
+    ],
+)
+def test_candidates_take_the_searchs_roll_by_hand(kw: dict, pair_roll: float, c_roll: float):
+    inst = _abc()
+    state, _, planner = _planner(inst, **kw)
+    a, b, c = (inst.target_opps[inst.target_index[t]][0] for t in "abc")
+    rolls = dict(zip(planner.data.opps, planner.data.roll.tolist(), strict=True))
+    assert rolls[(a, b)] == pair_roll
+    assert rolls[(c,)] == c_roll
+    assert np.array_equal(candidate_rolls(planner.data, state), planner.data.roll)
+
+
+@pytest.mark.parametrize("kw", [{}, {"roll_rule": "nadir", "nadir_singles": True}])
+def test_orbit_move_reclusters_the_whole_orbit_by_hand(kw: dict) -> None:
+    """c alone (5) is replaced by the cluster {a, b} (6), at the search's roll."""
+    inst = _abc()
+    state, params, planner = _planner(inst, orbit_noise=0.0, orbit_steal=0.0, **kw)
+    a, b, c = (inst.target_opps[inst.target_index[t]][0] for t in "abc")
+    _only(state, c)
+    state.begin()
+    assert orbit_move(state, _Draw(), params, None, planner)  # type: ignore[arg-type]
+    assert state.profit == 6 and state.check()
+    (obs,) = state.lines[0].obs
+    assert set(obs[MEMBERS]) == {a, b} and obs[ROLL] == (1.0 if not kw else 0.0)
+    # Now optimal for its prices: re-planning it again is no move.
+    state.commit()
+    state.begin()
+    assert not orbit_move(state, _Draw(), params, None, planner)  # type: ignore[arg-type]
+
+
+def test_orbit_move_keeps_the_memory_budget_by_hand() -> None:
+    """W = 10: {a, b} observes 12 s > 10; c alone (5) is the best plan, and no move."""
+    inst = _abc(memory=10.0)
+    state, params, planner = _planner(inst, orbit_noise=0.0)
+    c = inst.target_opps[inst.target_index["c"]][0]
+    _only(state, c)
+    state.begin()
+    assert not orbit_move(state, _Draw(), params, None, planner)  # type: ignore[arg-type]
+    assert state.profit == 5
+
+
+def test_steal_takes_a_task_over_and_the_cascade_refills_the_loser() -> None:
+    """Orbit 0 sees a; orbit 1 sees a and d, which clash there. Start: a on orbit 1 (3).
+    Re-planning orbit 0 with a stolen moves a over, then orbit 1 takes d: 3 + 4 = 7."""
+    rows = [("a", 0, 0.0, 2.0, 0.0), ("a", 1, 0.0, 2.0, 0.0), ("d", 1, 5.0, 7.0, 0.0)]
+    inst = Instance.build({"a": 3, "d": 4}, rows, n_orbits=2)
+    state, params, planner = _planner(inst, orbit_noise=0.0, orbit_steal=1.0)
+    a1 = next(x for x in state.pb.orbit_options[1] if state.pb.opt_unit[x] == 0)
+    _only(state, a1)
+
+    class Steal(_Draw):
+        def random(self, n: int | None = None):
+            return 0.0 if n is None else np.zeros(n)
+
+    state.begin()
+    assert orbit_move(state, Steal(0), params, None, planner)  # type: ignore[arg-type]
+    assert state.profit == 7 and state.check()
+    assert brute_force(inst, "cluster").profit == 7
+    # Without the cascade the loser keeps nothing: 3.
+    state.rollback()
+    no_cascade = ASAParams(orbit_noise=0.0, orbit_steal=1.0, orbit_ascent=0)
+    state.begin()
+    assert orbit_move(state, Steal(0), no_cascade, None, planner)  # type: ignore[arg-type]
+    assert state.profit == 3 and state.check()
+
+
+def test_tabu_tasks_are_worth_nothing_to_the_drawn_orbit() -> None:
+    inst = _abc()
+    state, params, planner = _planner(inst, orbit_noise=0.0)
+    a, b, c = (inst.target_opps[inst.target_index[t]][0] for t in "abc")
+    tabu = {state.pb.opt_unit[a]}
+    price = planner.prices(state, 0, tabu, np.random.default_rng(0))  # type: ignore[arg-type]
+    assert price.tolist() == [0.0, 3.0, 5.0]
+    state.begin()
+    assert orbit_move(state, _Draw(), params, tabu, planner)  # type: ignore[arg-type]
+    assert [o[MEMBERS] for o in state.lines[0].obs] == [(c,)]  # b alone (3) < c (5)
+
+
+@st.composite
+def single_orbit_instances(draw: st.DrawFn) -> Instance:
+    """One orbit, each target seen once (one pass), loose energy and memory so (4)-(5) never
+    bind: the recursion is then exact (a target seen twice on one orbit could be counted
+    twice by it, ``models.orbit_dp``; real orbits see a target at most once)."""
+    n = draw(st.integers(1, 7))
+    weights = draw(st.lists(st.integers(2, 10), min_size=n, max_size=n))
+    rows = []
+    for k in range(n):
+        s = float(draw(st.integers(0, 120)))
+        d = float(draw(st.integers(1, 12)))
+        rows.append((k, 0, s, s + d, float(draw(st.integers(-33, 33)))))
+    res = Resources(
+        energy_capacity=1e6,
+        memory_capacity=1e6,
+        max_openings=draw(st.integers(1, 4)),
+        max_duration=float(draw(st.sampled_from([10, 30, 120]))),
+        setup_time=float(draw(st.sampled_from([2, 10]))),
+    )
+    return Instance.build(weights, rows, resources=res, n_orbits=1)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=single_orbit_instances(), rule=st.sampled_from(["midpoint", "nadir"]))
+def test_one_replan_of_a_single_orbit(inst: Instance, rule: str) -> None:
+    """From the empty schedule one exact re-plan of the only orbit gives, with nadir rolls,
+    the cluster model's optimum (the oracle's rolls); with midpoint rolls a plan that needs no
+    repair, never above the optimum."""
+    state, _, planner = _planner(inst, roll_rule=rule, nadir_singles=rule == "nadir")
+    optimum = brute_force(inst, "cluster").profit
+    if not planner.orbits:
+        assert optimum == 0
+        return
+    price = planner.prices(state, 0, None, np.random.default_rng(0))
+    found = planner.plan(state, 0, price)
+    state.begin()
+    if found is not None:
+        plan = found[0]
+        planner.apply(state, 0, plan, price)
+        assert state.lines[0].feasible()  # exact for the search's rolls: nothing to repair
+    assert ascend(state, np.random.default_rng(0), planner) >= 0
+    assert state.check()
+    if rule == "nadir":
+        assert state.profit == optimum
+    else:
+        assert state.profit <= optimum
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    inst=small_instances(max_opps=8),
+    seed=st.integers(0, 2**16),
+    rule=st.sampled_from(["midpoint", "nadir"]),
+)
+def test_orbit_moves_keep_orbits_feasible_and_totals_exact(inst: Instance, seed: int, rule: str):
+    state, params, planner = _planner(inst, roll_rule=rule, orbit_steal=0.5)
+    rng = np.random.default_rng(seed)
+    commit_or_rollback(state, params, rng, [partial(orbit_move, planner=planner)], 25)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=8), seed=st.integers(0, 2**16))
+def test_asa_dtc_with_whole_orbit_moves_is_valid_and_below_the_optimum(inst: Instance, seed: int):
+    res = solve(inst, "asa-dtc", seed=seed, iterations=150, replan_orbit=1.0, restart=20)
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    assert res.profit <= brute_force(inst, "cluster").profit + 1e-9
+
+
+def test_ascend_leaves_every_orbit_optimal_for_the_others(tiny: Instance) -> None:
+    state, _, planner = _planner(tiny)
+    rng = np.random.default_rng(1)
+    ascend(state, rng, planner)
+    for j in planner.orbits:
+        assert planner.plan(state, j, planner.prices(state, j, None, rng)) is None
+
+
+def test_no_candidates_in_time_runs_without_the_move(caplog: pytest.LogCaptureFixture) -> None:
+    inst = _abc()
+    params = ASAParams()
+    state = State(build_problem(inst, "dtc"), "midpoint")
+    with caplog.at_level(logging.WARNING):
+        assert make_planner(inst, state, params, time.perf_counter() - 1.0) is None
+    assert "whole-orbit re-planning off" in caplog.text
+    assert make_planner(inst, state, ASAParams(replan_orbit=0.0), None) is None
+    stc = State(build_problem(inst, "stc"), "midpoint")
+    assert make_planner(inst, stc, params, None) is None
+    assert make_planner(inst, state, params, None) is not None
+
+
+def test_whole_orbit_moves_are_counted_and_deterministic(tiny: Instance) -> None:
+    one = solve(tiny, "asa-dtc", seed=5, iterations=200, replan_orbit=1.0)
+    two = solve(tiny, "asa-dtc", seed=5, iterations=200, replan_orbit=1.0)
+    assert one.schedule == two.schedule and one.profit == two.profit
+    assert one.stats["orbit_candidates"] > 0
+    off = solve(tiny, "asa-dtc", seed=5, iterations=200, replan_orbit=0.0)
+    assert off.stats["orbit_candidates"] == 0
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("replan_orbit", 1.5),
+        ("replan_orbit", -0.1),
+        ("orbit_steal", 2.0),
+        ("orbit_noise", 1.0),
+        ("orbit_noise", -0.5),
+        ("orbit_ascent", -1),
+        ("orbit_ascent", 2.5),
+    ],
+)
+def test_bad_orbit_parameters_name_the_field(key: str, value: float) -> None:
+    with pytest.raises(InputError, match=key):
+        ASAParams(**{key: value})
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    inst=small_instances(max_opps=8),
+    seed=st.integers(0, 2**16),
+    rule=st.sampled_from(["midpoint", "nadir"]),
+)
+def test_ascend_only_keeps_gains(inst: Instance, seed: int, rule: str) -> None:
+    """From a state reached by random moves, every re-plan ascend keeps raises the profit (so
+    it ends even when midpoint rolls make a planned gain vanish in repair)."""
+    state, params, planner = _planner(inst, roll_rule=rule, orbit_steal=0.5)
+    rng = np.random.default_rng(seed)
+    commit_or_rollback(state, params, rng, [partial(orbit_move, planner=planner)], 5)
+    before = state.profit
+    kept = ascend(state, rng, planner)
+    assert state.check()
+    assert state.profit >= before + kept - 1e-9  # integer weights: each kept re-plan adds >= 1
