@@ -64,8 +64,6 @@ def cluster_candidates(
         covered opportunity indices, whose window is exactly [start, end].
     """
     out_orbit: list[int] = []
-    out_start: list[float] = []
-    out_end: list[float] = []
     out_roll: list[float] = []
     out_opps: list[tuple[int, ...]] = []
     ts_all, te_all = instance.opp_start, instance.opp_end
@@ -105,14 +103,12 @@ def cluster_candidates(
                 r_ok = rolls[ok_roll]
                 kept = _nondominated(cover, np.abs(r_ok))
                 for t in kept:
-                    members = tuple(int(sl.start + x) for x in w[cover[:, t]])
+                    members = tuple((w[cover[:, t]] + sl.start).tolist())
                     key = (float(ts[i]), float(te[l_]), members)
                     if key in seen:
                         continue
                     seen.add(key)
                     out_orbit.append(j)
-                    out_start.append(float(ts_all[list(members)].min()))
-                    out_end.append(float(te_all[list(members)].max()))
                     out_roll.append(float(r_ok[t]))
                     out_opps.append(members)
             if len(out_opps) > max_candidates:
@@ -128,10 +124,16 @@ def cluster_candidates(
                     "asa-dtc"
                 )
     log.debug("cluster candidates: %d", len(out_opps))
+    # Windows (10) of all candidates at once: [min ts, max te] over the members.
+    sizes = np.fromiter((len(m) for m in out_opps), dtype=np.int64, count=len(out_opps))
+    flat = np.fromiter((x for m in out_opps for x in m), dtype=np.int64, count=int(sizes.sum()))
+    first = np.concatenate(([0], np.cumsum(sizes)[:-1])) if len(sizes) else sizes
+    starts = np.minimum.reduceat(ts_all[flat], first) if len(sizes) else np.zeros(0)
+    ends = np.maximum.reduceat(te_all[flat], first) if len(sizes) else np.zeros(0)
     return (
         np.array(out_orbit, dtype=np.int64),
-        np.array(out_start, dtype=float),
-        np.array(out_end, dtype=float),
+        np.asarray(starts, dtype=float),
+        np.asarray(ends, dtype=float),
         np.array(out_roll, dtype=float),
         tuple(out_opps),
     )
