@@ -223,11 +223,10 @@ def _arrange(
             right = end[block] + float(instance.setup_time[j]) + slew_s
             by_release = np.argsort(right, kind="stable")
             n_before = np.searchsorted(right[by_release], left + EPS, side="right")
-            covers = [np.unique(tgt[list(opps[u])]) for u in block]
-            sizes = np.array([len(c) for c in covers], dtype=np.int64)
+            flat, seg = _covered_targets(tgt, [opps[u] for u in block])
+            sizes = np.bincount(seg, minlength=len(block))
             ptr = np.zeros(len(block) + 1, dtype=np.int64)
             ptr[1:] = np.cumsum(sizes)
-            flat = np.concatenate(covers).astype(np.int64)
             targets = np.unique(flat)
             for k in targets:
                 seen_by[int(k)].append(len(groups))
@@ -241,7 +240,7 @@ def _arrange(
                     n_before=n_before,
                     target_ptr=ptr,
                     target_flat=flat,
-                    target_seg=np.repeat(np.arange(len(block)), sizes),
+                    target_seg=seg,
                     targets=targets,
                     openings=int(instance.max_openings[j]),
                     energy_cap=float(instance.energy_capacity[j]),
@@ -266,6 +265,22 @@ def _arrange(
         target_orbits_ptr=tptr,
         target_orbits=flat_orbits,
     )
+
+
+def _covered_targets(
+    opp_target: np.ndarray, opps: list[tuple[int, ...]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct targets of each group of opportunities, sorted within the group, flat, and
+    the group of each entry (both in group order)."""
+    sizes = np.fromiter((len(m) for m in opps), dtype=np.int64, count=len(opps))
+    flat_opps = np.fromiter((x for m in opps for x in m), dtype=np.int64, count=int(sizes.sum()))
+    seg = np.repeat(np.arange(len(opps), dtype=np.int64), sizes)
+    tg = opp_target[flat_opps].astype(np.int64)
+    order = np.lexsort((tg, seg))
+    tg, seg = tg[order], seg[order]
+    keep = np.ones(len(tg), dtype=bool)
+    keep[1:] = (tg[1:] != tg[:-1]) | (seg[1:] != seg[:-1])
+    return tg[keep], seg[keep]
 
 
 def best_path(
