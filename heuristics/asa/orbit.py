@@ -283,7 +283,9 @@ def make_planner(
     try:
         return OrbitPlanner(instance, state, deadline)
     except InputError as exc:
-        log.warning("asa-dtc: whole-orbit re-planning off (%s)", exc)
+        # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
+        cause = str(exc).split(";")[0]
+        log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
         return None
 
 
