@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import time
+import weakref
 
 import numpy as np
 
@@ -41,9 +42,18 @@ EPS = 1e-9
 MAX_CANDIDATES = 2_000_000
 
 
+Candidates = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, ...], ...]]
+
+#: Candidates of live instances, by ``id``: methods run one after another on one instance
+#: (``milp-lns`` after its ``orbit-dp`` start, ``sosp demo``, a benchmark over seeds) generate
+#: them once. An entry leaves with its instance (``weakref.finalize``); the arrays are
+#: read-only, so a caller that wrote to them would fail instead of changing another's data.
+_CACHE: dict[int, tuple[weakref.ref, Candidates]] = {}
+
+
 def cluster_candidates(
     instance: Instance, max_candidates: int = MAX_CANDIDATES, deadline: float | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, ...], ...]]:
+) -> Candidates:
     """All non-dominated candidate observations of every orbit.
 
     Parameters
@@ -61,8 +71,23 @@ def cluster_candidates(
     -------
     tuple
         ``(orbit, start, end, roll, opps)``: one entry per candidate; ``opps`` are the sorted
-        covered opportunity indices, whose window is exactly [start, end].
+        covered opportunity indices, whose window is exactly [start, end]. The arrays are
+        read-only and shared by every call on the same instance object (computed once).
     """
+    hit = _CACHE.get(id(instance))
+    if hit is not None and hit[0]() is instance and len(hit[1][4]) <= max_candidates:
+        return hit[1]
+    result = _generate(instance, max_candidates, deadline)
+    for column in result[:4]:
+        column.flags.writeable = False
+    key = id(instance)
+    _CACHE[key] = (weakref.ref(instance), result)
+    weakref.finalize(instance, _CACHE.pop, key, None)
+    return result
+
+
+def _generate(instance: Instance, max_candidates: int, deadline: float | None) -> Candidates:
+    """The work of :func:`cluster_candidates` (uncached)."""
     out_orbit: list[int] = []
     out_roll: list[float] = []
     out_opps: list[tuple[int, ...]] = []

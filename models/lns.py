@@ -349,7 +349,8 @@ def solve_milp_lns(
     start_profit = profit
     trace: list[list[float]] = [[0, round(time.perf_counter() - t0, 4), float(profit)]]
 
-    # ---- candidates once (not interruptible: C10 takes ~10 s); per step only a subset is used
+    # ---- candidates once, shared with an orbit-dp start (cached per instance by
+    # models.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
     if left() > 0.05:
         c_orbit, c_start, c_end, c_roll, c_opps = cluster_candidates(instance)
     else:  # the start used the whole limit

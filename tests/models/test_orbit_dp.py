@@ -285,3 +285,21 @@ def test_with_rolls_rebuilds_the_slew_terms_and_checks_the_shape() -> None:
         assert np.allclose(o.slew_s, 30.0 / v)
     with pytest.raises(ValueError, match="roll"):
         with_rolls(data, np.zeros(data.n_items + 1))
+
+
+def test_candidates_are_computed_once_per_instance_and_read_only() -> None:
+    import gc
+
+    from models.candidates import _CACHE, cluster_candidates
+
+    inst = tiny_cluster()
+    first = cluster_candidates(inst)
+    assert cluster_candidates(inst) is first  # the same instance: no second generation
+    other = cluster_candidates(tiny_cluster())  # an equal but distinct instance: its own
+    assert other is not first and other[4] == first[4]
+    with pytest.raises(ValueError, match="read-only"):
+        first[3][0] = 1.0
+    key = id(inst)
+    del inst
+    gc.collect()
+    assert key not in _CACHE  # the entry leaves with its instance
