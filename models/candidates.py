@@ -24,6 +24,8 @@ from __future__ import annotations
 import logging
 import time
 import weakref
+from collections.abc import Sequence
+from itertools import chain
 
 import numpy as np
 
@@ -150,8 +152,7 @@ def _generate(instance: Instance, max_candidates: int, deadline: float | None) -
                 )
     log.debug("cluster candidates: %d", len(out_opps))
     # Windows (10) of all candidates at once: [min ts, max te] over the members.
-    sizes = np.fromiter((len(m) for m in out_opps), dtype=np.int64, count=len(out_opps))
-    flat = np.fromiter((x for m in out_opps for x in m), dtype=np.int64, count=int(sizes.sum()))
+    sizes, flat = flatten(out_opps)
     first = np.concatenate(([0], np.cumsum(sizes)[:-1])) if len(sizes) else sizes
     starts = np.minimum.reduceat(ts_all[flat], first) if len(sizes) else np.zeros(0)
     ends = np.maximum.reduceat(te_all[flat], first) if len(sizes) else np.zeros(0)
@@ -162,6 +163,13 @@ def _generate(instance: Instance, max_candidates: int, deadline: float | None) -
         np.array(out_roll, dtype=float),
         tuple(out_opps),
     )
+
+
+def flatten(groups: Sequence[Sequence[int]]) -> tuple[np.ndarray, np.ndarray]:
+    """``(sizes, flat)``: the length of each group of indices and all of them concatenated."""
+    sizes = np.fromiter((len(g) for g in groups), dtype=np.int64, count=len(groups))
+    flat = np.fromiter(chain.from_iterable(groups), dtype=np.int64, count=int(sizes.sum()))
+    return sizes, flat
 
 
 def _nondominated(cover: np.ndarray, cost: np.ndarray) -> list[int]:

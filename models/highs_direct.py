@@ -46,12 +46,12 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field
-from itertools import chain
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
+from models.candidates import flatten
 from models.data import ModelData
 
 log = logging.getLogger("models.solve")
@@ -307,9 +307,8 @@ def _target_rows(
     rows: _Rows, d: ModelData, z_targets: np.ndarray | None, off: dict[str, int]
 ) -> None:
     """(2): ``z_k - sum_{u covers k} x_u <= 0`` (coverage) or ``sum x_u <= 1`` (task)."""
-    lens = np.fromiter((len(t) for t in d.targets), dtype=np.int64, count=d.n_items)
+    lens, target = flatten(d.targets)
     item = np.repeat(np.arange(d.n_items), lens)
-    target = np.fromiter(chain.from_iterable(d.targets), dtype=np.int64, count=int(lens.sum()))
     if z_targets is not None:
         k = np.searchsorted(z_targets, target)
         nk = len(z_targets)

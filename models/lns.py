@@ -311,7 +311,7 @@ def solve_milp_lns(
         that improved, sub-MILP sizes and a ``trace`` of ``[step, time_s, profit]`` rows at
         each improvement.
     """
-    from models.candidates import cluster_candidates
+    from models.candidates import cluster_candidates, flatten
     from models.data import prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import items_to_schedule, warm_start_values
@@ -363,9 +363,8 @@ def solve_milp_lns(
             by_orbit[int(c_orbit[block[0]])] = block
     active = np.array(sorted(by_orbit), dtype=np.int64)
     # candidates' opportunities and targets as flat arrays (CSR), to filter them per step
-    n_opps = np.fromiter((len(o) for o in c_opps), dtype=np.int64, count=len(c_opps))
+    n_opps, flat_opps = flatten(c_opps)
     ptr = np.concatenate([[0], np.cumsum(n_opps)])
-    flat_opps = np.fromiter((i for o in c_opps for i in o), dtype=np.int64, count=int(ptr[-1]))
     flat_targets = np.asarray(instance.opp_target, dtype=np.int64)[flat_opps]
     shared = _shared_targets(instance).astype(float)
     k = min(p.orbits, len(active))

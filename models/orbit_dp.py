@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from models.candidates import cluster_candidates
+from models.candidates import cluster_candidates, flatten
 from sosp.errors import InputError
 from sosp.instance import Instance
 
@@ -272,8 +272,7 @@ def _covered_targets(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The distinct targets of each group of opportunities, sorted within the group, flat, and
     the group of each entry (both in group order)."""
-    sizes = np.fromiter((len(m) for m in opps), dtype=np.int64, count=len(opps))
-    flat_opps = np.fromiter((x for m in opps for x in m), dtype=np.int64, count=int(sizes.sum()))
+    sizes, flat_opps = flatten(opps)
     seg = np.repeat(np.arange(len(opps), dtype=np.int64), sizes)
     tg = opp_target[flat_opps].astype(np.int64)
     order = np.lexsort((tg, seg))

@@ -55,6 +55,7 @@ from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
+from models.candidates import flatten
 from models.orbit_dp import OrbitData, OrbitItems, best_feasible_path, orbit_data, with_rolls
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -69,8 +70,7 @@ def candidate_rolls(data: OrbitData, state: State) -> np.ndarray:
     n = data.n_items
     if n == 0:
         return np.zeros(0)
-    sizes = np.fromiter((len(s) for s in data.opps), dtype=np.int64, count=n)
-    flat = np.fromiter((x for s in data.opps for x in s), dtype=np.int64, count=int(sizes.sum()))
+    sizes, flat = flatten(data.opps)
     starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
     lo = np.maximum.reduceat(np.asarray(pb.opt_lo)[flat], starts)
     hi = np.minimum.reduceat(np.asarray(pb.opt_hi)[flat], starts)
