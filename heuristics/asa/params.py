@@ -190,36 +190,28 @@ class ASAParams:
             if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
                 raise InputError(f"{name}: expected an integer >= {minimum}, got {v!r}")
 
+        def fraction(name: str) -> None:
+            positive(name, strict=False)
+            if getattr(self, name) > 1:
+                raise InputError(f"{name}: must lie in [0, 1], got {getattr(self, name)!r}")
+
         positive("lambda_min")
         positive("rho", strict=False)
         positive("delta")
         positive("pro1", strict=False)
         positive("pro2", strict=False)
         positive("pro3", strict=False)
-        positive("replan_pull", strict=False)
+        for name in ("replan_pull", "replan_target", "replan_pair", "replan_orbit", "orbit_steal"):
+            fraction(name)
         positive("replan_floor", strict=False)
-        positive("replan_target", strict=False)
-        positive("replan_pair", strict=False)
-        if self.replan_pair > 1:
-            raise InputError(f"replan_pair: must lie in [0, 1], got {self.replan_pair!r}")
+        if self.replan_floor >= 1 / 3:
+            raise InputError(f"replan_floor: must be < 1/3, got {self.replan_floor!r}")
         positive("orbit_noise", strict=False)
         if self.orbit_noise >= 1:
             raise InputError(f"orbit_noise: must lie in [0, 1), got {self.orbit_noise!r}")
-        for name in ("replan_orbit", "orbit_steal"):
-            positive(name, strict=False)
-            if getattr(self, name) > 1:
-                raise InputError(f"{name}: must lie in [0, 1], got {getattr(self, name)!r}")
-        if self.replan_target > 1:
-            raise InputError(f"replan_target: must lie in [0, 1], got {self.replan_target!r}")
-        if self.replan_floor >= 1 / 3:
-            raise InputError(f"replan_floor: must be < 1/3, got {self.replan_floor!r}")
-        if self.replan_pull > 1:
-            raise InputError(f"replan_pull: must lie in [0, 1], got {self.replan_pull!r}")
         if self.pro1 + self.pro2 + (self.pro3 if self.replan is True else 0.0) <= 0:
             raise InputError("pro1, pro2 (pro3 with replan): at least one must be > 0")
-        positive("eta", strict=False)
-        if self.eta > 1:
-            raise InputError(f"eta: must lie in [0, 1], got {self.eta!r}")
+        fraction("eta")
         positive("min_probability", strict=False)
         if self.min_probability >= 0.5:
             raise InputError(f"min_probability: must be < 0.5, got {self.min_probability!r}")
