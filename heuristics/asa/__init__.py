@@ -5,7 +5,7 @@
 """
 
 from heuristics.asa.accept import AdaptiveTemperature, HillClimbing, Outcome
-from heuristics.asa.params import ASAParams
+from heuristics.asa.params import PRESETS, ASAParams
 from heuristics.asa.search import (
     TRACE_COLUMNS,
     run_asa,
@@ -30,6 +30,7 @@ __all__ = [
     "MaxRuntime",
     "NoImprovement",
     "Outcome",
+    "PRESETS",
     "SearchStatus",
     "TRACE_COLUMNS",
     "TabuList",

@@ -14,6 +14,23 @@ RULE16_EMPTY = ("capacity", "always", "never")
 R_UPDATES = ("accepted", "generated")
 OPTION_RULES = ("resources", "feasible-first")
 
+#: Named parameter sets, applied before the caller's own parameters (``preset="quality"``).
+#: ``"default"`` is the defaults: Table 2 and the paper's midpoint roll (9). ``"quality"`` is the
+#: configuration that came closest to the best known schedules on B10 and C10 in 60 s
+#: (``docs/asa.md``, "Whole-orbit re-planning: measured"): rolls closest to nadir for clusters
+#: and single opportunities, a cooler temperature (21) than Table 2's, and every re-planning
+#: move on a whole orbit. It leaves the paper's rules for schedule quality.
+PRESETS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "quality": {
+        "roll_rule": "nadir",
+        "nadir_singles": True,
+        "rho": 0.2,
+        "lambda_min": 0.2,
+        "replan_orbit": 1.0,
+    },
+}
+
 
 @dataclass(frozen=True)
 class ASAParams:
@@ -242,10 +259,16 @@ class ASAParams:
                 raise InputError(f"{name}: expected true or false, got {getattr(self, name)!r}")
 
     @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> ASAParams:
-        """Build from keyword parameters, coercing CLI strings (``--param key=value``)."""
+    def from_kwargs(cls, preset: str | None = None, **kwargs: Any) -> ASAParams:
+        """Build from keyword parameters, coercing CLI strings (``--param key=value``).
+
+        ``preset`` names a set of :data:`PRESETS` applied first; the other keywords override
+        it (``preset="quality", rho=0.5`` is the quality set with Table 2's rho).
+        """
+        if preset is not None and preset not in PRESETS:
+            raise InputError(f"preset: expected one of {', '.join(PRESETS)}, got {preset!r}")
         known = {f.name: f for f in fields(cls)}
-        out: dict[str, Any] = {}
+        out: dict[str, Any] = dict(PRESETS[preset]) if preset is not None else {}
         for key, value in kwargs.items():
             if key not in known:
                 raise InputError(f"asa: unknown parameter {key!r}")

@@ -308,8 +308,9 @@ def solve_asa_dtc(
         Wall-time limit, seconds.
     **params
         Any field of :class:`~heuristics.asa.params.ASAParams` (``iterations``, ``lambda_min``,
-        ``roll_rule``, ...); CLI strings are converted. Bad values raise
-        :class:`~sosp.errors.InputError`.
+        ``roll_rule``, ...), and ``preset`` (a name of
+        :data:`~heuristics.asa.params.PRESETS`, applied first); CLI strings are converted.
+        Bad values raise :class:`~sosp.errors.InputError`.
     """
     return _solve(instance, "dtc", rng, time_limit, **params)
 

@@ -393,6 +393,27 @@ def test_cli_strings_are_coerced() -> None:
     assert (p.iterations, p.lambda_min, p.rule16, p.roll_rule) == (50, 0.7, False, "nadir")
 
 
+def test_preset_applies_first_and_keywords_override() -> None:
+    p = ASAParams.from_kwargs(preset="quality", rho="0.5")
+    assert (p.roll_rule, p.nadir_singles, p.replan_orbit) == ("nadir", True, 1.0)
+    assert (p.rho, p.lambda_min) == (0.5, 0.2)
+    assert ASAParams.from_kwargs(preset="default") == ASAParams()
+    with pytest.raises(InputError, match="preset"):
+        ASAParams.from_kwargs(preset="fastest")
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=8), seed=st.integers(0, 2**16))
+def test_quality_preset_is_feasible_and_never_beats_the_optimum(inst: Instance, seed: int) -> None:
+    """The quality preset's nadir rolls and whole-orbit moves stay inside the one model."""
+    res = solve(inst, "asa-dtc", seed=seed, iterations=200, preset="quality", check=False)
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    assert res.profit <= brute_force(inst, "cluster").profit + 1e-9
+    assert res.schedule.params["preset"] == "quality"
+
+
 @pytest.mark.parametrize("method", METHODS)
 def test_same_seed_same_schedule(method: str) -> None:
     from sosp.scenarios import generate_scenario

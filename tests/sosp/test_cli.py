@@ -94,6 +94,10 @@ def write(tmp_path: Path, name: str, text: str) -> Path:
             "has no parameter 'iterations'",
         ),
         (["solve", "{inst}", "--param", "novalue", "-o", "{tmp}/out.json"], "KEY=VALUE"),
+        (
+            ["solve", "{inst}", "--param", "preset=fastest", "-o", "{tmp}/out.json"],
+            "preset: expected one of default, quality",
+        ),
         (["validate", "{inst}", "{tmp}/other.json"], "made for another instance"),
         (["frobnicate"], "invalid choice"),
     ],
