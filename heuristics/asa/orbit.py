@@ -170,29 +170,45 @@ class OrbitPlanner:
         something at ``price``; returns the orbits that lost a task to it."""
         pb = state.pb
         sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
-        line = state.touch(j)
-        while line.obs:
-            c = line.remove(len(line.obs) - 1)
-            for x in c[MEMBERS]:
-                state.unassign(unit[x])
-        losers: set[int] = set()
+        # The members each planned observation takes: options of tasks worth something at
+        # ``price`` (not tabu, not kept by another orbit), each task once (first observation).
+        planned: list[tuple[int, ...]] = []
+        seen: set[int] = set()
         for opps in plan:
             members = []
             for x in opps:
                 u = unit[x]
-                if not price[u] > 0.0:
-                    continue  # tabu, or kept by another orbit
-                y = sched[u]
+                if price[u] > 0.0 and u not in seen:
+                    seen.add(u)
+                    members.append(x)
+            if members:
+                planned.append(tuple(members))
+        # Cluster-tasks the plan keeps as they are stay in the line: a re-plan usually changes
+        # a few observations, and removing and re-inserting the others cost a third of a move.
+        wanted = {frozenset(m) for m in planned}
+        line = state.touch(j)
+        kept: set[frozenset[int]] = set()
+        for pos in range(len(line.obs) - 1, -1, -1):
+            key = frozenset(line.obs[pos][MEMBERS])
+            if key in wanted:
+                kept.add(key)
+                continue
+            c = line.remove(pos)
+            for x in c[MEMBERS]:
+                state.unassign(unit[x])
+        losers: set[int] = set()
+        for members in planned:
+            if frozenset(members) in kept:
+                continue
+            for x in members:
+                y = sched[unit[x]]
                 if y >= 0:
+                    # Not on j: j's tasks are in kept cluster-tasks or were unassigned above.
                     i = orbit[y]
-                    if i == j:
-                        continue  # covered by an earlier observation of the plan
                     remove_member(state, i, state.lines[i].find(y), y)
                     losers.add(i)
-                members.append(x)
-                state.assign(u, x)
-            if members:
-                line.insert(state.make_cluster(tuple(members)))
+                state.assign(unit[x], x)
+            line.insert(state.make_cluster(members))
         return losers
 
 
