@@ -40,6 +40,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -64,6 +65,13 @@ _BISECTIONS = 12
 #: beat 0, 0.7 and a longer patience on C1, B10, C5 at 300 steps: 569.0 / 6190.6 / 2242.7
 #: against 570.4 / 6193.1 / 2243.5 without).
 DEFLECTION = 0.5
+
+
+#: From this many (position, target) pairs on, an orbit's gains are one ``scipy.sparse`` CSR
+#: product instead of ``np.bincount`` over ``price[target_flat]``: the product's fixed cost is
+#: about 4 us, the gather and bincount's 2.7 us per 1000 pairs (C10's largest orbit, 310 000
+#: pairs: 0.1 against 0.28 ms per orbit on average, a fifth of a plan).
+_SPARSE_GAINS = 2000
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,9 +123,24 @@ class OrbitItems:
     def size(self) -> int:
         return len(self.items)
 
+    @cached_property
+    def incidence(self) -> Any:
+        """Positions x targets 0/1 matrix (``scipy.sparse`` CSR over ``target_ptr`` and
+        ``target_flat``), as many columns as the largest target covered plus one."""
+        from scipy.sparse import csr_array
+
+        cols = int(self.target_flat.max()) + 1 if len(self.target_flat) else 0
+        data = np.ones(len(self.target_flat))
+        return csr_array((data, self.target_flat, self.target_ptr), shape=(self.size, cols))
+
     def gains(self, price: np.ndarray) -> np.ndarray:
         """Sum of ``price`` over the targets each position covers."""
-        return np.bincount(self.target_seg, weights=price[self.target_flat], minlength=self.size)
+        if len(self.target_flat) < _SPARSE_GAINS:
+            return np.bincount(
+                self.target_seg, weights=price[self.target_flat], minlength=self.size
+            )
+        a = self.incidence
+        return a @ np.ascontiguousarray(price[: a.shape[1]], dtype=float)
 
     def usage(self, path: np.ndarray) -> tuple[float, float]:
         """Energy (4) and memory (5) of a plan (positions in time order), slew term exact."""

@@ -76,6 +76,28 @@ def test_recursion_equals_enumeration_of_plans(seed: int) -> None:
             assert _penalised(o, path, price, lam_e, lam_w) == pytest.approx(value, abs=1e-9)
 
 
+@pytest.mark.parametrize("seed", range(10))
+def test_sparse_and_bincount_gains_agree(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Both ways of summing prices per position (large orbits take the CSR product) give the
+    sum over each position's targets, and the recursion the same plan."""
+    import models.orbit_dp as odp
+
+    inst = random_tiny(seed)
+    data = orbit_data(inst)
+    rng = np.random.default_rng(seed)
+    price = rng.uniform(0, 10, inst.n_targets)
+    dense = [o.gains(price) for o in data.orbits]
+    plans = [best_path(o, price)[1] for o in data.orbits]
+    monkeypatch.setattr(odp, "_SPARSE_GAINS", 0)
+    for o, d, plan in zip(data.orbits, dense, plans, strict=True):
+        by_hand = [
+            price[o.target_flat[o.target_ptr[u] : o.target_ptr[u + 1]]].sum() for u in range(o.size)
+        ]
+        assert o.gains(price) == pytest.approx(by_hand, abs=1e-9)
+        assert d == pytest.approx(by_hand, abs=1e-9)
+        assert np.array_equal(best_path(o, price)[1], plan)
+
+
 @pytest.mark.parametrize("seed", range(25))
 def test_feasible_path_keeps_every_constraint_and_is_exact_when_knapsacks_are_slack(
     seed: int,
