@@ -63,6 +63,226 @@ NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_mov
 NAMES = ("insertion", "migration", "replan")
 
 
+def default_stop(
+    params: ASAParams, time_limit: float | None, t0: float
+) -> Callable[[SearchStatus], bool]:
+    """The first of ``params.iterations``, ``time_limit`` (counted from ``t0``) and
+    ``params.no_improve``; :data:`DEFAULT_ITERATIONS` when none is given."""
+    crit: list[Callable[[SearchStatus], bool]] = []
+    if params.iterations is not None:
+        crit.append(MaxIterations(params.iterations))
+    if time_limit is not None:
+        crit.append(MaxRuntime(max(0.0, time_limit - (time.perf_counter() - t0))))
+    if params.no_improve is not None:
+        crit.append(NoImprovement(params.no_improve))
+    if not crit:
+        crit.append(MaxIterations(DEFAULT_ITERATIONS))
+    return FirstOf(*crit)
+
+
+class Search:
+    """Algorithm 1 as a resumable object: build, :meth:`run` until a stop, :meth:`result`.
+
+    :func:`run_asa` runs it once. The parallel search (:mod:`heuristics.asa.parallel`) runs
+    one per chain in epochs and makes a chain adopt the best schedule of all between two
+    (:meth:`adopt`); the temperature, the neighbourhood probabilities, the tabu list and the
+    counters carry over from one :meth:`run` to the next.
+
+    Parameters
+    ----------
+    instance, mode, rng, params, acceptance, selector
+        As :func:`run_asa`.
+    time_limit
+        Wall time of the whole search, seconds: the candidates of whole-orbit re-planning
+        must be complete within half of it (else the search runs without that move).
+    t0
+        :func:`time.perf_counter` value the run's times count from (default: now).
+    """
+
+    def __init__(
+        self,
+        instance: Instance,
+        mode: str,
+        *,
+        rng: np.random.Generator,
+        time_limit: float | None = None,
+        params: ASAParams | None = None,
+        acceptance: Any = None,
+        selector: Any = None,
+        t0: float | None = None,
+    ) -> None:
+        self.t0 = t0 = time.perf_counter() if t0 is None else t0
+        self.instance = instance
+        self.mode = mode
+        self.rng = rng
+        self.params = params = params or ASAParams()
+        self.problem = build_problem(instance, mode, params.roll_rule)
+        self.state = state = State(self.problem, params.roll_rule, params.nadir_singles)
+        self.acceptance = acceptance or AdaptiveTemperature(
+            params.lambda_min, params.rho, params.delta, params.r_update
+        )
+        self.probs = [params.pro1, params.pro2] + ([params.pro3] if params.replan else [])
+        floor = max(params.min_probability, params.replan_floor) if params.replan else None
+        self.selector = selector or AdaptiveRoulette(
+            self.probs, params.eta, params.itr, params.min_probability if floor is None else floor
+        )
+        length = params.tabu_length
+        if length is None:
+            length = max(1, self.problem.n_observable // 50)
+        self.tabu = TabuList(length)
+
+        self.moves = list(NEIGHBOURHOODS)
+        deadline = None if time_limit is None else t0 + 0.5 * time_limit
+        self.planner = make_planner(instance, state, params, deadline)
+        if self.planner is not None:
+            self.moves[REPLAN] = partial(replan_or_orbit, planner=self.planner)
+        self.t_planner = time.perf_counter() - t0
+
+        initial_solution(state, params)
+        self.t_init = time.perf_counter() - t0
+        self.best = state.profit
+        self.best_snap = state.snapshot()
+        self.status = SearchStatus(0, 0, self.best)
+        self.counts = {o.name.lower(): [0, 0, 0] for o in Outcome}
+        self.accepted = [0, 0, 0]
+        self.rejected = [0, 0, 0]
+        self.restarts = 0
+        self.adopted = 0
+        self.trace: list[list[float]] = []
+        self.record()
+        log.debug("asa-%s: initial profit %g in %.3f s", mode, self.best, self.t_init)
+
+    def record(self) -> None:
+        """Append a trace row (columns :data:`TRACE_COLUMNS`)."""
+        pr = self.selector.probabilities
+        acc, rej = self.accepted, self.rejected
+        self.trace.append(
+            [
+                self.status.iteration,
+                round(time.perf_counter() - self.t0, 6),
+                self.best,
+                self.state.profit,
+                self.acceptance.temperature,
+                pr[INSERTION],
+                pr[MIGRATION],
+                acc[0],
+                rej[0],
+                acc[1],
+                rej[1],
+                pr[REPLAN] if len(pr) > REPLAN else 0.0,
+                acc[2],
+                rej[2],
+            ]
+        )
+
+    def run(self, stop: Callable[[SearchStatus], bool]) -> None:
+        """Iterate Algorithm 1 (with sosp's restarts) until ``stop`` says so."""
+        state, rng, params, tabu = self.state, self.rng, self.params, self.tabu
+        selector, acceptance, status = self.selector, self.acceptance, self.status
+        accepted, rejected, counts, moves = self.accepted, self.rejected, self.counts, self.moves
+        restart, every = params.restart, params.trace_every
+        g = status.iteration
+        while not stop(status):
+            g += 1
+            i = selector.choose(rng)
+            before = state.profit
+            state.begin()
+            made = moves[i](state, rng, params, tabu)
+            delta = state.profit - before if made else 0.0
+            if made and acceptance(delta, rng):
+                removed = state.commit()
+                tabu.add(removed)
+                accepted[i] += 1
+                if state.profit > self.best + 1e-9:
+                    self.best = state.profit
+                    self.best_snap = state.snapshot()
+                    outcome = Outcome.BEST
+                elif delta > 0:
+                    outcome = Outcome.BETTER
+                else:
+                    outcome = Outcome.ACCEPTED
+                acceptance.update(delta, True)
+            else:
+                state.rollback()
+                rejected[i] += 1
+                outcome = Outcome.REJECTED
+                acceptance.update(delta, False)
+            selector.record(i, outcome)
+            counts[outcome.name.lower()][i] += 1
+            status.iteration = g
+            if restart and outcome is not Outcome.BEST and (status.since_best + 1) % restart == 0:
+                # Intensify around the best (sosp's, not the paper's): restart from it, polish.
+                state.load(self.best_snap)
+                self.restarts += 1
+                if self.planner is not None:
+                    polished = ascend(state, rng, self.planner) > 0
+                else:
+                    polished = params.polish > 0 and polish(state, rng, params, tabu) > 0
+                if polished and state.profit > self.best + 1e-9:
+                    self.best = state.profit
+                    self.best_snap = state.snapshot()
+                    outcome = Outcome.BEST
+            if outcome is Outcome.BEST:
+                status.since_best = 0
+                status.best = self.best
+                self.record()
+            else:
+                status.since_best += 1
+                if g % every == 0:
+                    self.record()
+
+    def adopt(self, snap: list[list[Cluster]], profit: float) -> None:
+        """Make ``snap`` (worth ``profit``, a better schedule found by another chain) the
+        current and the best solution; the rest of the search state carries on."""
+        self.state.load(snap)
+        self.best = self.state.profit
+        if abs(self.best - profit) > 1e-6:
+            raise RuntimeError(f"adopted schedule is worth {self.best}, expected {profit}")
+        self.best_snap = self.state.snapshot()
+        self.status.best = self.best
+        self.status.since_best = 0
+        self.adopted += 1
+        self.record()
+
+    def result(self) -> Result:
+        """The best schedule found so far as a :class:`~sosp.result.Result`."""
+        g = self.status.iteration
+        if not self.trace or self.trace[-1][0] != g:
+            self.record()
+        runtime = time.perf_counter() - self.t0
+        schedule = build_schedule(self.instance, self.problem, self.best_snap)
+        observed = sum(len(o.opps) for o in schedule.observations)
+        names = NAMES[: len(self.probs)]
+        planner = self.planner
+        stats = {
+            "mode": self.mode,
+            "params": self.params.as_dict(),
+            "initial_profit": self.trace[0][2],
+            "initial_time_s": round(self.t_init, 6),
+            "orbit_candidates": 0 if planner is None else planner.data.n_items,
+            "orbit_candidates_s": round(self.t_planner, 6) if planner is not None else 0.0,
+            "iterations_per_s": round(g / max(runtime - self.t_init, 1e-9), 1),
+            "tabu_length": self.tabu.length,
+            "restarts": self.restarts,
+            "accepted": dict(zip(names, self.accepted, strict=False)),
+            "rejected": dict(zip(names, self.rejected, strict=False)),
+            "outcomes": {k: dict(zip(names, v, strict=False)) for k, v in self.counts.items()},
+            "trace_columns": list(TRACE_COLUMNS),
+            "trace": self.trace,
+        }
+        log.info("asa-%s: best %g after %d iterations, %.2f s", self.mode, self.best, g, runtime)
+        return Result(
+            f"asa-{self.mode}",
+            Status.FEASIBLE,
+            schedule,
+            float(self.best),
+            observed,
+            runtime_s=runtime,
+            iterations=g,
+            stats=stats,
+        )
+
+
 def run_asa(
     instance: Instance,
     mode: str,
@@ -101,157 +321,18 @@ def run_asa(
     """
     t0 = time.perf_counter()
     params = params or ASAParams()
-    problem = build_problem(instance, mode, params.roll_rule)
-    state = State(problem, params.roll_rule, params.nadir_singles)
-    acceptance = acceptance or AdaptiveTemperature(
-        params.lambda_min, params.rho, params.delta, params.r_update
+    search = Search(
+        instance,
+        mode,
+        rng=rng,
+        time_limit=time_limit,
+        params=params,
+        acceptance=acceptance,
+        selector=selector,
+        t0=t0,
     )
-    probs = [params.pro1, params.pro2] + ([params.pro3] if params.replan else [])
-    floor = max(params.min_probability, params.replan_floor) if params.replan else None
-    selector = selector or AdaptiveRoulette(
-        probs, params.eta, params.itr, params.min_probability if floor is None else floor
-    )
-    if stop is None:
-        crit: list[Callable[[SearchStatus], bool]] = []
-        if params.iterations is not None:
-            crit.append(MaxIterations(params.iterations))
-        if time_limit is not None:
-            crit.append(MaxRuntime(max(0.0, time_limit - (time.perf_counter() - t0))))
-        if params.no_improve is not None:
-            crit.append(NoImprovement(params.no_improve))
-        if not crit:
-            crit.append(MaxIterations(DEFAULT_ITERATIONS))
-        stop = FirstOf(*crit)
-    length = params.tabu_length
-    if length is None:
-        length = max(1, problem.n_observable // 50)
-    tabu = TabuList(length)
-
-    moves = list(NEIGHBOURHOODS)
-    deadline = None if time_limit is None else t0 + 0.5 * time_limit
-    planner = make_planner(instance, state, params, deadline)
-    if planner is not None:
-        moves[REPLAN] = partial(replan_or_orbit, planner=planner)
-    t_planner = time.perf_counter() - t0
-
-    initial_solution(state, params)
-    t_init = time.perf_counter() - t0
-    best = state.profit
-    best_snap = state.snapshot()
-    status = SearchStatus(0, 0, best)
-    counts = {o.name.lower(): [0, 0, 0] for o in Outcome}
-    accepted = [0, 0, 0]
-    rejected = [0, 0, 0]
-    trace: list[list[float]] = []
-
-    def record(g: int) -> None:
-        pr = selector.probabilities
-        trace.append(
-            [
-                g,
-                round(time.perf_counter() - t0, 6),
-                best,
-                state.profit,
-                acceptance.temperature,
-                pr[INSERTION],
-                pr[MIGRATION],
-                accepted[0],
-                rejected[0],
-                accepted[1],
-                rejected[1],
-                pr[REPLAN] if len(pr) > REPLAN else 0.0,
-                accepted[2],
-                rejected[2],
-            ]
-        )
-
-    record(0)
-    g = 0
-    restart = params.restart
-    restarts = 0
-    every = params.trace_every
-    log.debug("asa-%s: initial profit %g in %.3f s", mode, best, t_init)
-    while not stop(status):
-        g += 1
-        i = selector.choose(rng)
-        before = state.profit
-        state.begin()
-        made = moves[i](state, rng, params, tabu)
-        delta = state.profit - before if made else 0.0
-        if made and acceptance(delta, rng):
-            removed = state.commit()
-            tabu.add(removed)
-            accepted[i] += 1
-            if state.profit > best + 1e-9:
-                best = state.profit
-                best_snap = state.snapshot()
-                outcome = Outcome.BEST
-            elif delta > 0:
-                outcome = Outcome.BETTER
-            else:
-                outcome = Outcome.ACCEPTED
-            acceptance.update(delta, True)
-        else:
-            state.rollback()
-            rejected[i] += 1
-            outcome = Outcome.REJECTED
-            acceptance.update(delta, False)
-        selector.record(i, outcome)
-        counts[outcome.name.lower()][i] += 1
-        status.iteration = g
-        if restart and outcome is not Outcome.BEST and (status.since_best + 1) % restart == 0:
-            # Intensify around the best (sosp's, not the paper's): restart from it, polish it.
-            state.load(best_snap)
-            restarts += 1
-            if planner is not None:
-                polished = ascend(state, rng, planner) > 0
-            else:
-                polished = params.polish > 0 and polish(state, rng, params, tabu) > 0
-            if polished and state.profit > best + 1e-9:
-                best = state.profit
-                best_snap = state.snapshot()
-                outcome = Outcome.BEST
-        if outcome is Outcome.BEST:
-            status.since_best = 0
-            status.best = best
-            record(g)
-        else:
-            status.since_best += 1
-            if g % every == 0:
-                record(g)
-    if not trace or trace[-1][0] != g:
-        record(g)
-    runtime = time.perf_counter() - t0
-    schedule = build_schedule(instance, problem, best_snap)
-    observed = sum(len(o.opps) for o in schedule.observations)
-    names = NAMES[: len(probs)]
-    stats = {
-        "mode": mode,
-        "params": params.as_dict(),
-        "initial_profit": trace[0][2],
-        "initial_time_s": round(t_init, 6),
-        "orbit_candidates": 0 if planner is None else planner.data.n_items,
-        "orbit_candidates_s": round(t_planner, 6) if planner is not None else 0.0,
-        "iterations_per_s": round(g / max(runtime - t_init, 1e-9), 1),
-        "tabu_length": length,
-        "restarts": restarts,
-        "accepted": dict(zip(names, accepted, strict=False)),
-        "rejected": dict(zip(names, rejected, strict=False)),
-        "outcomes": {k: dict(zip(names, v, strict=False)) for k, v in counts.items()},
-        "trace_columns": list(TRACE_COLUMNS),
-        "trace": trace,
-    }
-    log.info("asa-%s: best %g after %d iterations, %.2f s", mode, best, g, runtime)
-    return Result(
-        f"asa-{mode}",
-        Status.FEASIBLE,
-        schedule,
-        float(best),
-        observed,
-        runtime_s=runtime,
-        iterations=g,
-        stats=stats,
-    )
+    search.run(stop if stop is not None else default_stop(params, time_limit, t0))
+    return search.result()
 
 
 def build_schedule(instance: Instance, problem: Problem, snap: list[list[Cluster]]) -> Schedule:
