@@ -264,6 +264,7 @@ class Search:
             "iterations_per_s": round(g / max(runtime - self.t_init, 1e-9), 1),
             "tabu_length": self.tabu.length,
             "restarts": self.restarts,
+            "adopted": self.adopted,
             "accepted": dict(zip(names, self.accepted, strict=False)),
             "rejected": dict(zip(names, self.rejected, strict=False)),
             "outcomes": {k: dict(zip(names, v, strict=False)) for k, v in self.counts.items()},
@@ -367,6 +368,10 @@ def _solve(
     instance: Instance, mode: str, rng: np.random.Generator, time_limit: float | None, **kw: Any
 ) -> Result:
     params = ASAParams.from_kwargs(**kw)
+    if params.workers > 1:
+        from heuristics.asa.parallel import run_parallel
+
+        return run_parallel(instance, mode, rng=rng, time_limit=time_limit, params=params)
     return run_asa(instance, mode, rng=rng, time_limit=time_limit, params=params)
 
 

@@ -98,6 +98,11 @@ def write(tmp_path: Path, name: str, text: str) -> Path:
             ["solve", "{inst}", "--param", "preset=fastest", "-o", "{tmp}/out.json"],
             "preset: expected one of default, quality",
         ),
+        (
+            ["solve", "{inst}", "--method", "asa-dtc", "--param", "workers=0"]
+            + ["-o", "{tmp}/out.json"],
+            "workers: expected an integer >= 1",
+        ),
         (["validate", "{inst}", "{tmp}/other.json"], "made for another instance"),
         (["frobnicate"], "invalid choice"),
     ],
