@@ -31,7 +31,13 @@ The move (:func:`orbit_move`):
    that lost a task to it, then those that see a task it let go, and so on, each kept only
    when it gains, at most ``orbit_ascent`` of them; then repair every touched orbit as in
    step 7 (a safety net: a member dropped from a planned observation, because another orbit
-   keeps its task or the plan covers it twice, can move a midpoint roll).
+   keeps its task or the plan covers it twice, can move a midpoint roll). With
+   ``orbit_share``, a task the drawn orbit's plan covers while another orbit keeps it is
+   *shared*: that orbit is re-planned with the task worth nothing (the drawn orbit covers it
+   anyway), and if its new plan lets the task go, the task joins the drawn orbit's planned
+   observation. This is what ``orbit-dp`` gets from letting two orbits cover a target while
+   its ascent runs; ASA-DTC's state holds one option per task, so the sharing lives only
+   within a move.
 
 :func:`ascend` re-plans every orbit until none gains; the search calls it when it restarts
 from its best solution (``ASAParams.restart``).
@@ -164,10 +170,19 @@ class OrbitPlanner:
         return [opps[int(o.items[u])] for u in path], value
 
     def apply(
-        self, state: State, j: int, plan: list[tuple[int, ...]], price: np.ndarray
+        self,
+        state: State,
+        j: int,
+        plan: list[tuple[int, ...]],
+        price: np.ndarray,
+        shared: dict[int, tuple[int, int, tuple[int, ...]]] | None = None,
     ) -> set[int]:
         """Step 4: replace orbit j's cluster-tasks by ``plan``, placing the covered tasks worth
-        something at ``price``; returns the orbits that lost a task to it."""
+        something at ``price``; returns the orbits that lost a task to it.
+
+        With ``shared`` (a dict, filled here): each task the plan covers that is worth nothing
+        because another orbit has it, as ``task -> (j, option, the planned observation's
+        options)`` (step 5 with ``orbit_share``)."""
         pb = state.pb
         sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
         # The members each planned observation takes: options of tasks worth something at
@@ -181,6 +196,9 @@ class OrbitPlanner:
                 if price[u] > 0.0 and u not in seen:
                     seen.add(u)
                     members.append(x)
+                elif shared is not None and price[u] == 0.0 and sched[u] >= 0:
+                    if orbit[sched[u]] != j:
+                        shared.setdefault(u, (j, x, opps))
             if members:
                 planned.append(tuple(members))
         # Cluster-tasks the plan keeps as they are stay in the line: a re-plan usually changes
@@ -231,10 +249,21 @@ def orbit_move(
     queue: list[int] = []  # orbits to re-plan next, in order
     queued = {j}
     left = params.orbit_ascent
+    orbit = state.pb.opt_orbit
+    # Tasks the drawn orbit covers for free while another orbit has them (orbit_share).
+    shared: dict[int, tuple[int, int, tuple[int, ...]]] = {}
+    drawn = True
     while True:
         before = [state.pb.opt_unit[x] for c in state.lines[j].obs for x in c[MEMBERS]]
-        losers = planner.apply(state, j, found[0], price)
+        keep = shared if drawn and params.orbit_share else None
+        losers = planner.apply(state, j, found[0], price, keep)
         repair(state, j)
+        if drawn:
+            drawn = False
+            # The orbits holding a shared task are re-planned with it worth nothing.
+            losers |= {orbit[sched[u]] for u in shared}
+        elif shared:
+            _take_shared(state, shared)
         # Next: the orbits that lost a task to j, then those seeing a task j let go.
         dropped = [u for u in before if sched[u] < 0]
         for i in [*sorted(losers), *planner.seeing(dropped)]:
@@ -250,10 +279,31 @@ def orbit_move(
             # cascade only gains, and barring the tasks the drawn orbit let go from the orbits
             # that could take them cost B10 about 40 in 30 s (seeds 2, 3).
             price = planner.prices(state, j, None, rng)
+            for u in shared:
+                if sched[u] >= 0 and orbit[sched[u]] == j:
+                    price[u] = 0.0
             found = planner.plan(state, j, price)
         if found is None:
             break
     return all(repair(state, i) for i in state.touched_orbits())
+
+
+def _take_shared(state: State, shared: dict[int, tuple[int, int, tuple[int, ...]]]) -> None:
+    """Step 5 with ``orbit_share``: a shared task its orbit let go joins the drawn orbit's
+    planned observation that covers it (or opens one of its own), then that orbit is repaired.
+    """
+    sched = state.sched
+    for u in [u for u in shared if sched[u] < 0]:
+        j, x, opps = shared.pop(u)
+        line = state.touch(j)
+        near = set(opps)
+        pos = next((p for p, c in enumerate(line.obs) if near.intersection(c[MEMBERS])), -1)
+        if pos >= 0:
+            line.replace(pos, state.cluster_with(line.obs[pos], x))
+        else:
+            line.insert(state.make_cluster((x,)))
+        state.assign(u, x)
+        repair(state, j)
 
 
 def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int:

@@ -372,6 +372,7 @@ def test_tabu_length_default_is_n_over_50() -> None:
         {"replan_opps": 0},
         {"replan_floor": 0.5},
         {"nadir_singles": "maybe"},
+        {"orbit_share": "maybe"},
         {"replan_pair": 2},
         {"replan_target": -1},
         {"replan_depth": 0},
@@ -396,6 +397,7 @@ def test_cli_strings_are_coerced() -> None:
 def test_preset_applies_first_and_keywords_override() -> None:
     p = ASAParams.from_kwargs(preset="quality", rho="0.5")
     assert (p.roll_rule, p.nadir_singles, p.replan_orbit) == ("nadir", True, 1.0)
+    assert p.orbit_share is True
     assert (p.rho, p.lambda_min) == (0.5, 0.2)
     assert ASAParams.from_kwargs(preset="default") == ASAParams()
     with pytest.raises(InputError, match="preset"):

@@ -20,6 +20,7 @@ from heuristics.asa.orbit import (
     orbit_move,
 )
 from heuristics.asa.problem import build_problem
+from heuristics.asa.search import build_schedule
 from heuristics.asa.state import MEMBERS, ROLL, State
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
@@ -122,6 +123,37 @@ def test_steal_takes_a_task_over_and_the_cascade_refills_the_loser() -> None:
     assert state.profit == 3 and state.check()
 
 
+@pytest.mark.parametrize(("share", "profit"), [(True, 10), (False, 7)])
+def test_shared_task_moves_to_the_drawn_orbit_when_its_orbit_lets_it_go(
+    share: bool, profit: int
+) -> None:
+    """Orbit 0: c [0, 9] rolls [8, 12] holds a [2, 6] rolls [6, 14] in its only candidate
+    (roll 8 is the one point of c's range that is a candidate roll), so planning c covers a
+    for free. Orbit 1: a and d clash (a roll 0, d roll 20, 1 s apart). Start: a on orbit 1.
+
+    Re-planning orbit 0 (no steal, no noise) takes c; a, worth nothing to orbit 0, stays on
+    orbit 1 (5 + 2 = 7). With ``orbit_share`` a is shared: orbit 1 is re-planned with a worth
+    nothing and takes d, and a joins c's observation on orbit 0: 5 + 2 + 3 = 10, the optimum.
+    """
+    rows = [
+        ("c", 0, 0.0, 9.0, 10.0, 8.0, 12.0),
+        ("a", 0, 2.0, 6.0, 10.0, 6.0, 14.0),
+        ("a", 1, 0.0, 4.0, 0.0, -1.0, 1.0),
+        ("d", 1, 5.0, 9.0, 20.0, 19.0, 21.0),
+    ]
+    inst = Instance.build({"a": 5, "c": 2, "d": 3}, rows, n_orbits=2)
+    state, params, planner = _planner(inst, orbit_noise=0.0, orbit_share=share)
+    a1 = next(x for x in state.pb.orbit_options[1] if state.pb.opt_unit[x] == 0)
+    _only(state, a1)
+    state.begin()
+    assert orbit_move(state, _Draw(0), params, None, planner)  # type: ignore[arg-type]
+    assert state.profit == profit and state.check()
+    on0 = [sorted(state.pb.opt_unit[x] for x in c[MEMBERS]) for c in state.lines[0].obs]
+    assert on0 == ([[0, 1]] if share else [[1]])  # a (unit 0) clustered with c (unit 1)
+    assert brute_force(inst, "cluster").profit == 10
+    assert validate(inst, build_schedule(inst, state.pb, state.snapshot())).feasible
+
+
 def test_tabu_tasks_are_worth_nothing_to_the_drawn_orbit() -> None:
     inst = _abc()
     state, params, planner = _planner(inst, orbit_noise=0.0)
@@ -187,9 +219,12 @@ def test_one_replan_of_a_single_orbit(inst: Instance, rule: str) -> None:
     inst=small_instances(max_opps=8),
     seed=st.integers(0, 2**16),
     rule=st.sampled_from(["midpoint", "nadir"]),
+    share=st.booleans(),
 )
-def test_orbit_moves_keep_orbits_feasible_and_totals_exact(inst: Instance, seed: int, rule: str):
-    state, params, planner = _planner(inst, roll_rule=rule, orbit_steal=0.5)
+def test_orbit_moves_keep_orbits_feasible_and_totals_exact(
+    inst: Instance, seed: int, rule: str, share: bool
+):
+    state, params, planner = _planner(inst, roll_rule=rule, orbit_steal=0.5, orbit_share=share)
     rng = np.random.default_rng(seed)
     commit_or_rollback(state, params, rng, [partial(orbit_move, planner=planner)], 25)
 
