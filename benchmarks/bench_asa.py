@@ -47,6 +47,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--scenario-seed", type=int, default=0, help="seed of the target draw")
     ap.add_argument("--param", action="append", default=[], help="key=value for every run")
     ap.add_argument(
+        "--methods",
+        nargs="+",
+        default=list(METHODS),
+        choices=METHODS,
+        help="variants of the curve and ablation runs (to re-run one column)",
+    )
+    ap.add_argument(
         "--known", nargs="*", default=[], help="NAME=VALUE: ASA-DTC per seed against VALUE"
     )
     args = ap.parse_args(argv)
@@ -78,7 +85,7 @@ def main(argv: list[str] | None = None) -> None:
     print("|---|---|---|" + "---|" * len(marks))
     for name in args.curve:
         inst = generate_scenario(name, args.scenario_seed)
-        for method in METHODS:
+        for method in args.methods:
             res = solve(inst, method, seed=0, time_limit=args.curve_time, **extra)
             cells = [f"{profit_at(res.stats['trace'], t):g}" for t in marks]
             print(
@@ -89,13 +96,15 @@ def main(argv: list[str] | None = None) -> None:
             )
 
     print(f"\n## Ablation: mean (SD) over seeds 0..{args.seeds - 1}, {args.time_limit:g} s each\n")
-    print("| scenario | " + " | ".join(METHODS) + " | order DTC>=STC>=NONTC |")
-    print("|---|" + "---|" * (len(METHODS) + 1))
+    full = tuple(args.methods) == METHODS
+    order_head = " order DTC>=STC>=NONTC |" if full else ""
+    print("| scenario | " + " | ".join(args.methods) + " |" + order_head)
+    print("|---|" + "---|" * (len(args.methods) + full))
     for name in args.names:
         inst = generate_scenario(name, args.scenario_seed)
         means = []
         cells = []
-        for method in METHODS:
+        for method in args.methods:
             vals = [
                 solve(inst, method, seed=s, time_limit=args.time_limit, **extra).profit
                 for s in range(args.seeds)
@@ -104,8 +113,8 @@ def main(argv: list[str] | None = None) -> None:
             sd = statistics.stdev(vals) if len(vals) > 1 else 0.0
             means.append(m)
             cells.append(f"{m:.1f} ({sd:.1f})")
-        order = "yes" if means[0] >= means[1] >= means[2] else "no"
-        print(f"| {name} | " + " | ".join(cells) + f" | {order} |", flush=True)
+        order = (" yes |" if means[0] >= means[1] >= means[2] else " no |") if full else ""
+        print(f"| {name} | " + " | ".join(cells) + " |" + order, flush=True)
 
 
 if __name__ == "__main__":
