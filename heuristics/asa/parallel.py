@@ -98,7 +98,14 @@ def _chain(
 class _Chains:
     """The parent's handles on the chain processes (pipes and processes)."""
 
-    def __init__(self, instance, mode, rngs, time_limit, params) -> None:
+    def __init__(
+        self,
+        instance: Instance,
+        mode: str,
+        rngs: list[np.random.Generator],
+        time_limit: float | None,
+        params: ASAParams,
+    ) -> None:
         ctx = mp.get_context()
         self.conns: list[Connection] = []
         self.procs: list[Any] = []
@@ -114,7 +121,9 @@ class _Chains:
             self.conns.append(parent)
             self.procs.append(proc)
 
-    def ask(self, which: list[int], name: str | None = None, args: list[Any] | None = None):
+    def ask(
+        self, which: list[int], name: str | None = None, args: list[Any] | None = None
+    ) -> list[Any]:
         """Send a command to each chain of ``which`` (all first, so they work side by side),
         then collect the answers in order; a chain's error is raised here."""
         if name is not None:

@@ -13,6 +13,9 @@ ROLL_RULES = ("midpoint", "nadir")
 RULE16_EMPTY = ("capacity", "always", "never")
 R_UPDATES = ("accepted", "generated")
 OPTION_RULES = ("resources", "feasible-first")
+#: The switches: validated as booleans, and read from "true"/"false" (and 1/0, yes/no, on/off)
+#: on the command line.
+BOOL_FIELDS = ("rule16", "rule16_openings", "replan", "nadir_singles", "orbit_share")
 
 #: Named parameter sets, applied before the caller's own parameters (``preset="quality"``).
 #: ``"default"`` is the defaults: Table 2 and the paper's midpoint roll (9). ``"quality"`` is the
@@ -277,7 +280,7 @@ class ASAParams:
                 raise InputError(
                     f"{name}: expected one of {', '.join(allowed)}, got {getattr(self, name)!r}"
                 )
-        for name in ("rule16", "rule16_openings", "replan", "nadir_singles", "orbit_share"):
+        for name in BOOL_FIELDS:
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name}: expected true or false, got {getattr(self, name)!r}")
 
@@ -309,7 +312,7 @@ def _coerce(key: str, value: Any, default: Any) -> Any:
     text = value.strip()
     if text.lower() in ("none", "null"):
         return None
-    if key in ("rule16", "rule16_openings", "replan", "nadir_singles", "orbit_share"):
+    if key in BOOL_FIELDS:
         if text.lower() in ("true", "1", "yes", "on"):
             return True
         if text.lower() in ("false", "0", "no", "off"):
