@@ -36,8 +36,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.asa.params import ASAParams
-from heuristics.asa.search import DEFAULT_ITERATIONS, Search
-from heuristics.asa.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement
+from heuristics.asa.search import DEFAULT_ITERATIONS, Search, stop_rule
 from sosp.instance import Instance
 from sosp.result import Result
 
@@ -66,14 +65,7 @@ def _chain(
             name, arg = conn.recv()
             if name == "run":
                 last, seconds = arg
-                crit: list[Any] = []
-                if last is not None:
-                    crit.append(MaxIterations(last))
-                if seconds is not None:
-                    crit.append(MaxRuntime(seconds))
-                if params.no_improve is not None:
-                    crit.append(NoImprovement(params.no_improve))
-                search.run(FirstOf(*crit))
+                search.run(stop_rule(last, seconds, params.no_improve))
                 conn.send(("ok", (search.best, search.status.since_best)))
             elif name == "snap":
                 conn.send(("ok", search.best_snap))
