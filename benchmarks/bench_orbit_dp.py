@@ -20,7 +20,7 @@ import time
 
 from benchmarks.bench_asa import profit_at
 from benchmarks.bench_lns import _pct
-from models.orbit_dp import lagrangian_bound
+from models.lagrangian import lagrangian_bound
 from models.solve import bound
 from sosp.scenarios import generate_scenario
 from sosp.solve import solve

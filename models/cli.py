@@ -26,7 +26,7 @@ def _positive_float(text: str) -> float:
 
 def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``bound`` subcommand to the ``sosp`` CLI's subparsers."""
-    from sosp.cli import _positive  # loaded already: it is the caller
+    from sosp.cli import positive  # loaded already: it is the caller
 
     p = subparsers.add_parser(
         "bound",
@@ -50,7 +50,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--iterations",
-        type=_positive(int),
+        type=positive(int),
         default=300,
         help="subgradient steps of --method lagrangian (default 300)",
     )
@@ -86,7 +86,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
 
     inst = load_instance(args.instance)
     if args.method == "lagrangian":
-        from models.orbit_dp import lagrangian_bound
+        from models.lagrangian import lagrangian_bound
 
         if args.model != "cluster":
             raise InputError(

@@ -1,6 +1,6 @@
 """The ``cluster`` model: the exact optimum of the validator's problem (clustering allowed).
 
-Items are the candidate observations of :func:`models.candidates.cluster_candidates`; every
+Items are the candidate observations of :func:`sosp.candidates.cluster_candidates`; every
 feasible observation is dominated by one of them, so the optimum of this model is the optimum
 of the problem of ``docs/model.md`` and an upper bound for ASA-DTC (which uses midpoint rolls).
 Each target counts once: z_k <= sum of the x of the candidates covering k.
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from models.candidates import cluster_candidates
 from models.data import ModelData, prepare
+from sosp.candidates import cluster_candidates
 from sosp.instance import Instance
 
 if TYPE_CHECKING:

@@ -51,8 +51,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from models.candidates import flatten
 from models.data import ModelData
+from sosp.candidates import flatten
 
 log = logging.getLogger("models.solve")
 

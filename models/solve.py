@@ -32,7 +32,7 @@ from models.data import ModelData
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
-from sosp.schedule import Observation, Schedule
+from sosp.schedule import Schedule, items_to_schedule
 from sosp.solve import check_time_limit
 
 if TYPE_CHECKING:
@@ -157,7 +157,7 @@ def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int
     if len(set(chosen)) < len(chosen):
         log.warning("warm start ignored: two observations map to the same item")
         return None
-    mapped = items_to_schedule(data, chosen)
+    mapped = items_to_schedule(data.instance, data, chosen)
     if not validate(inst, mapped).feasible:
         log.warning("warm start ignored: the schedule is infeasible")
         return None
@@ -186,45 +186,11 @@ def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int
     return vals
 
 
-def items_to_schedule(data: ModelData, chosen: list[int] | np.ndarray) -> Schedule:
-    """The schedule of the chosen items, each target claimed by the first item covering it.
-
-    Observations keep the item's window and roll (the model's costs); an item left with nothing
-    to claim is dropped, which never breaks (3)-(6).
-    """
-    inst = data.instance
-    claimed: set[int] = set()
-    obs = []
-    for u in sorted((int(c) for c in chosen), key=lambda u: (data.orbit[u], data.start[u])):
-        mine = []
-        for i in data.opps[u]:
-            k = int(inst.opp_target[i])
-            if k not in claimed:
-                claimed.add(k)
-                mine.append(i)
-        if mine:
-            obs.append(
-                Observation(
-                    int(data.orbit[u]),
-                    float(data.start[u]),
-                    float(data.end[u]),
-                    float(data.roll[u]),
-                    tuple(mine),
-                )
-            )
-    return Schedule(tuple(obs))
-
-
 def _int_bound(raw: float | None) -> float | None:
     """An upper bound rounded down to an integer (weights are integers), None if unknown."""
     if raw is None or not math.isfinite(float(raw)):
         return None
     return float(math.floor(float(raw) + INT_TOL))
-
-
-def _profit(instance: Instance, schedule: Schedule) -> tuple[float, int]:
-    ks = {int(instance.opp_target[i]) for i in schedule.observed_opps()}
-    return float(sum(int(instance.target_weight[k]) for k in ks)), len(ks)
 
 
 #: Backends of :func:`solve_milp` and :func:`bound`.
@@ -412,8 +378,8 @@ def solve_milp(
         bound = _int_bound(raw_bound)
         return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
 
-    schedule = items_to_schedule(data, chosen)
-    profit, observed = _profit(instance, schedule)
+    schedule = items_to_schedule(data.instance, data, chosen)
+    profit, observed = schedule.coverage_profit(instance)
     if abs(profit - float(incumbent)) > 1e-4:
         log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
     ib = _int_bound(raw_bound)

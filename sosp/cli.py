@@ -233,7 +233,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     import time
 
     from sosp import scenarios
-    from sosp.solve import available_methods, solve
+    from sosp.solve import available_methods, bound_function, solve
     from sosp.validate import validate
 
     t0 = time.perf_counter()
@@ -249,10 +249,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
         rows.append((m, res, rep))
     upper = None
     if "orbit-dp" in methods:
-        from models.orbit_dp import lagrangian_bound
-
         best = max(res.profit for _, res, _ in rows)
-        upper = lagrangian_bound(inst, lower_bound=best)["bound"]
+        upper = bound_function("lagrangian")(inst, lower_bound=best)["bound"]
     data = {
         "scenario": DEMO_SCENARIO,
         "generate_s": t_gen,
@@ -290,7 +288,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- parser
-def _positive(kind: type) -> Any:
+def positive(kind: type) -> Any:
+    """An argparse type: a number of ``kind`` that must be > 0 (NaN refused)."""
+
     def parse(text: str) -> Any:
         try:
             value = kind(text)
@@ -351,18 +351,18 @@ def build_parser() -> argparse.ArgumentParser:
         metavar=("LAT0", "LAT1", "LON0", "LON1"),
         help="random targets in this box (degrees)",
     )
-    p.add_argument("--targets", type=_positive(int), help="number of targets with --region")
+    p.add_argument("--targets", type=positive(int), help="number of targets with --region")
     p.add_argument("--targets-csv", help="targets file with header id,lat,lon,weight")
     p.add_argument("--tle", help="satellites: name line + two element lines each")
     p.add_argument("--start", help="horizon start, ISO 8601 UTC")
-    p.add_argument("--hours", type=_positive(float), help="horizon length in hours (24)")
+    p.add_argument("--hours", type=positive(float), help="horizon length in hours (24)")
     p.add_argument(
         "--max-roll",
-        type=_positive(float),
+        type=positive(float),
         default=33.0,
         help="max roll either side of nadir, deg (33)",
     )
-    p.add_argument("--fov", type=_positive(float), default=6.0, help="field of view, deg (6)")
+    p.add_argument("--fov", type=positive(float), default=6.0, help="field of view, deg (6)")
     p.add_argument(
         "--min-sun-elevation",
         type=float,
@@ -395,13 +395,13 @@ def build_parser() -> argparse.ArgumentParser:
         "hpfs-stc, sa-stc, greedy",
     )
     p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
-    p.add_argument("--time-limit", type=_positive(float), default=None, help="seconds")
+    p.add_argument("--time-limit", type=positive(float), default=None, help="seconds")
     p.add_argument(
-        "--iterations", type=_positive(int), default=None, help="iteration limit (search methods)"
+        "--iterations", type=positive(int), default=None, help="iteration limit (search methods)"
     )
     p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
     p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
-    p.add_argument("--threads", type=_positive(int), default=None, help="milp: solver threads")
+    p.add_argument("--threads", type=positive(int), default=None, help="milp: solver threads")
     p.add_argument(
         "--backend", default=None, help="milp: pyomo, highs or auto (default: by model size)"
     )
@@ -424,7 +424,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_nonneg_int, default=0)
     p.add_argument(
         "--time-limit",
-        type=_positive(float),
+        type=positive(float),
         default=5.0,
         help="seconds for the search methods (5)",
     )

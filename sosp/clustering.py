@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from sosp.instance import Instance
-from sosp.schedule import Observation, RollRule, Schedule, choose_roll
+from sosp.schedule import Observation, RollRule, Schedule, choose_roll, items_to_schedule
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,29 +195,5 @@ def _taskset(instance: Instance, groups: list[list[int]], roll_rule: RollRule) -
 
 
 def tasks_to_schedule(instance: Instance, tasks: TaskSet, chosen: Iterable[int]) -> Schedule:
-    """The schedule of a chosen set of tasks, each target claimed once.
-
-    Tasks are taken by (orbit, start); each observation keeps its task's window and roll and
-    lists the opportunities whose target is not yet claimed. A task left with nothing to claim
-    is dropped (removing an observation never breaks (3)-(6)).
-    """
-    claimed: set[int] = set()
-    obs = []
-    for t in sorted(set(int(c) for c in chosen), key=lambda t: (tasks.orbit[t], tasks.start[t])):
-        mine = []
-        for i in tasks.opps[t]:
-            k = int(instance.opp_target[i])
-            if k not in claimed:
-                claimed.add(k)
-                mine.append(i)
-        if mine:
-            obs.append(
-                Observation(
-                    int(tasks.orbit[t]),
-                    float(tasks.start[t]),
-                    float(tasks.end[t]),
-                    float(tasks.roll[t]),
-                    tuple(mine),
-                )
-            )
-    return Schedule(tuple(obs))
+    """The schedule of a chosen set of tasks (:func:`sosp.schedule.items_to_schedule`)."""
+    return items_to_schedule(instance, tasks, chosen)

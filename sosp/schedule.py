@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
@@ -143,6 +143,12 @@ class Schedule:
         """All opportunity indices covered, in observation order."""
         return [i for o in self.observations for i in o.opps]
 
+    def coverage_profit(self, instance: Instance) -> tuple[float, int]:
+        """``(profit, observed)``: objective (1) over the distinct targets covered (each once,
+        constraint (2) read as coverage), and how many there are."""
+        ks = {int(instance.opp_target[i]) for i in self.observed_opps()}
+        return float(sum(int(instance.target_weight[k]) for k in ks)), len(ks)
+
     def to_dict(self, instance: Instance) -> dict[str, Any]:
         """JSON-ready dict; ids are taken from ``instance``."""
         return {
@@ -246,6 +252,48 @@ class Schedule:
     def save(self, path: str | os.PathLike[str], instance: Instance) -> None:
         """Write the schedule file atomically."""
         atomic_write_json(path, self.to_dict(instance))
+
+
+class Items(Protocol):
+    """Columns of candidate observations (:class:`sosp.clustering.TaskSet`, the models' data,
+    :class:`sosp.planner.OrbitData`): per item its orbit, window, roll and covered
+    opportunities."""
+
+    orbit: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    roll: np.ndarray
+    opps: Sequence[Sequence[int]]
+
+
+def items_to_schedule(instance: Instance, items: Items, chosen: Iterable[int]) -> Schedule:
+    """The schedule of a chosen set of items, each target claimed once.
+
+    Items are taken by (orbit, start); each observation keeps its item's window and roll (the
+    costs the method counted) and lists the opportunities whose target is not yet claimed, so
+    a target covered twice counts once (2). An item left with nothing to claim is dropped:
+    removing an observation never breaks (3)-(6) (``docs/model.md``).
+    """
+    claimed: set[int] = set()
+    obs = []
+    for u in sorted(set(int(c) for c in chosen), key=lambda u: (items.orbit[u], items.start[u])):
+        mine = []
+        for i in items.opps[u]:
+            k = int(instance.opp_target[i])
+            if k not in claimed:
+                claimed.add(k)
+                mine.append(i)
+        if mine:
+            obs.append(
+                Observation(
+                    int(items.orbit[u]),
+                    float(items.start[u]),
+                    float(items.end[u]),
+                    float(items.roll[u]),
+                    tuple(mine),
+                )
+            )
+    return Schedule(tuple(obs))
 
 
 def load_schedule(path: str | os.PathLike[str], instance: Instance) -> Schedule:

@@ -40,8 +40,14 @@ METHODS: dict[str, str] = {
     "rds-stc": "heuristics.rds:solve_rds_stc",
     "sa-stc": "heuristics.sa:solve_sa_stc",
     "milp": "models.solve:solve_milp",
-    "milp-lns": "models.lns:solve_milp_lns",
-    "orbit-dp": "models.orbit_search:solve_orbit_dp",
+    "milp-lns": "heuristics.lns:solve_milp_lns",
+    "orbit-dp": "heuristics.orbit_search:solve_orbit_dp",
+}
+
+#: Bound name -> "module:function" (each returns a dict with at least ``bound``), so the core
+#: and its CLI reach the models only through this table.
+BOUNDS: dict[str, str] = {
+    "lagrangian": "models.lagrangian:lagrangian_bound",
 }
 
 
@@ -76,6 +82,14 @@ def method_function(method: str) -> Callable[..., Result]:
             raise InputError(f"method: {method!r} is not available in this build") from None
         raise
     return getattr(mod, func)
+
+
+def bound_function(name: str) -> Callable[..., dict[str, Any]]:
+    """The function registered for bound ``name`` in :data:`BOUNDS`."""
+    if name not in BOUNDS:
+        raise InputError(f"bound: unknown method {name!r} (choose from {', '.join(BOUNDS)})")
+    module, func = BOUNDS[name].split(":")
+    return getattr(importlib.import_module(module), func)
 
 
 def check_time_limit(time_limit: Any) -> float | None:

@@ -2,9 +2,9 @@
 
 The stretch re-planning of :mod:`heuristics.asa.replan` rebuilds at most ``replan_opps``
 options of one orbit with a pure-Python dynamic program over candidates it enumerates per
-move. This move re-plans a *whole* orbit with :func:`models.orbit_dp.best_feasible_path`: a
+move. This move re-plans a *whole* orbit with :func:`sosp.planner.best_feasible_path`: a
 vectorised recursion over the clustering-exact model's candidate observations, generated once
-per search (:func:`models.orbit_dp.orbit_data`), in milliseconds even on an orbit with tens
+per search (:func:`sosp.planner.orbit_data`), in milliseconds even on an orbit with tens
 of thousands of candidates.
 
 Candidates are re-rolled by the search's rule: a candidate covering the options S gets the
@@ -61,10 +61,10 @@ from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
-from models.candidates import flatten
-from models.orbit_dp import OrbitData, OrbitItems, best_feasible_path, orbit_data, with_rolls
+from sosp.candidates import flatten
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.planner import OrbitData, OrbitItems, best_feasible_path, orbit_data, with_rolls
 
 log = logging.getLogger(__name__)
 

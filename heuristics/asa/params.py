@@ -88,7 +88,7 @@ class ASAParams:
         rarely improve (re-planning an already optimal stretch) to zero for good.
     replan_orbit
         ASA-DTC: probability that a re-planning move re-plans a whole orbit exactly
-        (``heuristics.asa.orbit``: the recursion of ``models.orbit_dp`` over the
+        (``heuristics.asa.orbit``: the recursion of ``sosp.planner`` over the
         clustering-exact candidates at the search's rolls) instead of a stretch. The
         candidates are generated once when the search starts (C10: about 5 s); 0 turns the
         move off. STC and NONTC ignore it.

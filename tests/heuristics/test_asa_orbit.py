@@ -170,7 +170,7 @@ def test_tabu_tasks_are_worth_nothing_to_the_drawn_orbit() -> None:
 def single_orbit_instances(draw: st.DrawFn) -> Instance:
     """One orbit, each target seen once (one pass), loose energy and memory so (4)-(5) never
     bind: the recursion is then exact (a target seen twice on one orbit could be counted
-    twice by it, ``models.orbit_dp``; real orbits see a target at most once)."""
+    twice by it, ``sosp.planner``; real orbits see a target at most once)."""
     n = draw(st.integers(1, 7))
     weights = draw(st.lists(st.integers(2, 10), min_size=n, max_size=n))
     rows = []

@@ -14,9 +14,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from heuristics.greedy import solve_greedy
-from models.candidates import cluster_candidates
 from models.cliques import clique_cover_pairs, maximal_cliques, orbit_intervals
 from models.solve import solve_milp
+from sosp.candidates import cluster_candidates
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources

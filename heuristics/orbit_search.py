@@ -2,7 +2,7 @@
 
 Given the plans of the other orbits, the best plan of orbit j is the optimum of a single-orbit
 problem: targets observed elsewhere are worth nothing, the others their weight p_k, and (3)-(6)
-hold on j alone. :func:`models.orbit_dp.best_feasible_path` solves it by dynamic programming
+hold on j alone. :func:`sosp.planner.best_feasible_path` solves it by dynamic programming
 over the cluster model's candidate observations (exactly while (4)-(5) do not bind), in
 milliseconds even on an orbit with 30 000 candidates. The search is
 
@@ -33,10 +33,11 @@ from typing import Any
 
 import numpy as np
 
-from models.orbit_dp import OrbitData, best_feasible_path, orbit_data
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.result import Result, Status
+from sosp.schedule import items_to_schedule
 
 log = logging.getLogger(__name__)
 
@@ -234,7 +235,6 @@ def solve_orbit_dp(
         perturbation steps; ``stats``: candidates, ascent profit, re-plans, accepted steps,
         seconds of candidate generation, trace of (step, seconds, best).
     """
-    from models.solve import _profit, items_to_schedule
 
     t0 = time.perf_counter()
     p = OrbitSearchParams.from_kwargs(**params)
@@ -272,8 +272,8 @@ def solve_orbit_dp(
             search.undo(mark)
             search.journal.clear()
     search.paths = best_paths
-    schedule = items_to_schedule(data, search.chosen())
-    profit, observed = _profit(instance, schedule)
+    schedule = items_to_schedule(instance, data, search.chosen())
+    profit, observed = schedule.coverage_profit(instance)
     status = Status.FEASIBLE if data.orbits else Status.NO_SOLUTION
     return Result(
         method="orbit-dp",

@@ -12,17 +12,17 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from models.orbit_dp import (
+from heuristics.orbit_search import OrbitSearchParams
+from models.lagrangian import lagrangian_bound
+from sosp.errors import InputError
+from sosp.instance import Instance, Resources
+from sosp.planner import (
     OrbitItems,
     best_feasible_path,
     best_path,
-    lagrangian_bound,
     orbit_data,
     with_rolls,
 )
-from models.orbit_search import OrbitSearchParams
-from sosp.errors import InputError
-from sosp.instance import Instance, Resources
 from sosp.result import Status
 from sosp.solve import solve
 from sosp.validate import validate
@@ -80,7 +80,7 @@ def test_recursion_equals_enumeration_of_plans(seed: int) -> None:
 def test_sparse_and_bincount_gains_agree(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """Both ways of summing prices per position (large orbits take the CSR product) give the
     sum over each position's targets, and the recursion the same plan."""
-    import models.orbit_dp as odp
+    import sosp.planner as odp
 
     inst = random_tiny(seed)
     data = orbit_data(inst)
@@ -273,7 +273,7 @@ def test_cli_bound_lagrangian_and_solve(tmp_path) -> None:
 
 
 def test_too_many_candidates_is_a_one_line_error_naming_the_orbit() -> None:
-    from models.candidates import cluster_candidates
+    from sosp.candidates import cluster_candidates
 
     inst = tiny_cluster()
     assert len(cluster_candidates(inst)[4]) > 1
@@ -284,7 +284,7 @@ def test_too_many_candidates_is_a_one_line_error_naming_the_orbit() -> None:
 def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
     import time
 
-    from models.candidates import cluster_candidates
+    from sosp.candidates import cluster_candidates
 
     with pytest.raises(InputError, match="^orbit 'orbit0': time limit reached"):
         cluster_candidates(tiny_cluster(), deadline=time.perf_counter() - 1.0)
@@ -312,7 +312,7 @@ def test_with_rolls_rebuilds_the_slew_terms_and_checks_the_shape() -> None:
 def test_candidates_are_computed_once_per_instance_and_read_only() -> None:
     import gc
 
-    from models.candidates import _CACHE, cluster_candidates
+    from sosp.candidates import _CACHE, cluster_candidates
 
     inst = tiny_cluster()
     first = cluster_candidates(inst)

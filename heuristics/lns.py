@@ -39,7 +39,7 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
-from sosp.schedule import Observation, Schedule
+from sosp.schedule import Observation, Schedule, items_to_schedule
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +68,7 @@ class LNSParams:
     start
         Method giving the initial schedule (any heuristic of :data:`sosp.solve.METHODS`), run
         with ``start_time_limit``. The default, ``orbit-dp`` (exact re-planning of one orbit at
-        a time by dynamic programming, :mod:`models.orbit_search`), makes the result never
+        a time by dynamic programming, :mod:`heuristics.orbit_search`), makes the result never
         worse than orbit-dp's at that limit; it is the stronger start by far (B10, 60 s:
         about 6 100 against ASA-DTC's 5 549; C10: 3 840 against 2 819).
     start_time_limit
@@ -311,10 +311,10 @@ def solve_milp_lns(
         that improved, sub-MILP sizes and a ``trace`` of ``[step, time_s, profit]`` rows at
         each improvement.
     """
-    from models.candidates import cluster_candidates, flatten
     from models.data import prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
-    from models.solve import items_to_schedule, warm_start_values
+    from models.solve import warm_start_values
+    from sosp.candidates import cluster_candidates, flatten
     from sosp.solve import method_function
     from sosp.validate import validate
 
@@ -350,7 +350,7 @@ def solve_milp_lns(
     trace: list[list[float]] = [[0, round(time.perf_counter() - t0, 4), float(profit)]]
 
     # ---- candidates once, shared with an orbit-dp start (cached per instance by
-    # models.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
+    # sosp.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
     if left() > 0.05:
         c_orbit, c_start, c_end, c_roll, c_opps = cluster_candidates(instance)
     else:  # the start used the whole limit
@@ -437,7 +437,7 @@ def solve_milp_lns(
         stale += 1
         if out.x is None:
             continue
-        sub = items_to_schedule(data, [int(u) for u in np.flatnonzero(out.x > 0.5)])
+        sub = items_to_schedule(instance, data, [int(u) for u in np.flatnonzero(out.x > 0.5)])
         new = []
         for ob in sub.observations:
             # a target observed on a fixed orbit is worth 0 here: never claim it twice (2)

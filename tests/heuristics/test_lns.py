@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from models.lns import LNSParams
+from heuristics.lns import LNSParams
 from sosp.errors import InputError
 from sosp.result import Status
 from sosp.schedule import Schedule
