@@ -23,7 +23,7 @@ ends in increasing order and takes K(p) = {u : L_u <= p < R_u}, the items alive 
   between, so only the sets followed by a right end (or the last one) are kept: these are the
   maximal cliques, at most one per item.
 
-Comparisons use the same margin :data:`sosp.conflicts.EPS` as
+Comparisons use the solvers' margin :data:`sosp.rules.EPS`, as
 :func:`sosp.conflicts.setup_conflict_pairs` (an edge needs
 ``R_u - L_w > EPS``), and the tests check that the two agree edge for edge.
 """
@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sosp.conflicts import EPS
+from sosp import rules
+from sosp.rules import EPS
 
 
 def orbit_intervals(
@@ -52,8 +53,11 @@ def orbit_intervals(
     tuple of numpy.ndarray
         ``(L, R)``.
     """
-    r = np.abs(np.asarray(roll, dtype=float)) / slew_rate
-    return np.asarray(start, dtype=float) - r, np.asarray(end, dtype=float) + setup + r
+    roll = np.asarray(roll, dtype=float)
+    return (
+        rules.left_end(np.asarray(start, dtype=float), roll, slew_rate),
+        rules.right_end(np.asarray(end, dtype=float), roll, setup, slew_rate),
+    )
 
 
 def maximal_cliques(left: np.ndarray, right: np.ndarray) -> list[np.ndarray]:

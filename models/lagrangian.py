@@ -100,7 +100,8 @@ def lagrangian_bound(
             if len(path):
                 np.add.at(count, o.target_flat[flat_positions(o, path)], 1.0)
                 energy, memory = o.usage(path)
-                grad_lam[g] = (1.0 - energy / o.energy_cap, 1.0 - memory / o.memory_cap)
+                r = o.rules
+                grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
         if value < best - 1e-9:
             best, stale = value, 0
         else:

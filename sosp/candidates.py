@@ -31,12 +31,10 @@ import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.rules import EPS
 
 log = logging.getLogger(__name__)
 
-#: Slack (seconds, degrees) for the window and roll-range tests, as the validator's tolerance
-#: is never needed by a solver.
-EPS = 1e-9
 
 #: Most candidates generated before giving up (memory: roughly 0.5 GB per million). C10, the
 #: densest reference scenario, has 176 610; orbits with hundreds of windows inside one Delta T

@@ -26,6 +26,7 @@ from functools import cached_property
 
 import numpy as np
 
+from sosp import rules
 from sosp.instance import Instance
 from sosp.schedule import Observation, RollRule, Schedule, choose_roll, items_to_schedule
 
@@ -103,9 +104,13 @@ def can_cluster(instance: Instance, opps: Iterable[int]) -> bool:
     orbits = instance.opp_orbit[idx]
     if np.any(orbits != orbits[0]):
         return False
-    span = instance.opp_end[idx].max() - instance.opp_start[idx].min()
-    lo, hi = instance.opp_roll_min[idx].max(), instance.opp_roll_max[idx].min()
-    return bool(lo <= hi and span <= instance.max_duration[orbits[0]])
+    return rules.can_share_strip(
+        instance.opp_start[idx],
+        instance.opp_end[idx],
+        instance.opp_roll_min[idx],
+        instance.opp_roll_max[idx],
+        float(instance.max_duration[orbits[0]]),
+    )
 
 
 def static_cluster_tasks(

@@ -21,14 +21,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sosp.instance import Instance
+from sosp.rules import EPS, left_end, right_end, slew_time
 
 if TYPE_CHECKING:
     import networkx as nx
 
     from sosp.clustering import TaskSet
-
-#: Same margin as the solvers' insertion checks (``heuristics.timeline.EPS``).
-EPS = 1e-9
 
 
 def setup_conflict_pairs(
@@ -66,7 +64,7 @@ def setup_conflict_pairs(
     # Per-orbit maximum |roll| bounds the partner's slew for the binary search.
     rmax = np.zeros(instance.n_orbits)
     np.maximum.at(rmax, o, r)
-    reach = e + a + (r + rmax[o]) / v + EPS
+    reach = right_end(e, r, a, v) + slew_time(rmax[o], v) + EPS
     # Search within each orbit's block: offset keys by orbit so blocks never mix.
     span = float(max(np.max(np.abs(s)), np.max(np.abs(reach)))) * 2.0 + 1.0
     key = o * span + s
@@ -79,8 +77,8 @@ def setup_conflict_pairs(
     first = np.repeat(idx, counts)
     offsets = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
     second = first + 1 + offsets
-    need = a[first] + (r[first] + r[second]) / v[first]
-    clash = e[first] + need > s[second] + EPS
+    vf = v[first]
+    clash = right_end(e[first], r[first], a[first], vf) > left_end(s[second], r[second], vf) + EPS
     i, h = order[first[clash]], order[second[clash]]
     pairs = np.column_stack((np.minimum(i, h), np.maximum(i, h)))
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]

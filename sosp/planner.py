@@ -40,12 +40,10 @@ import numpy as np
 
 from sosp.candidates import cluster_candidates, flatten
 from sosp.instance import Instance
+from sosp.rules import EPS, OrbitRules, orbit_rules
 
 log = logging.getLogger(__name__)
 
-#: Margin of the (3) test, as :data:`sosp.conflicts.EPS` (a pair with ``R_u - L_w > EPS`` is a
-#: conflict): a plan the recursion builds never relies on the validator's tolerance.
-EPS = 1e-9
 
 #: Penalty doublings tried before :func:`best_feasible_path` settles for the empty plan.
 _MAX_DOUBLINGS = 60
@@ -70,9 +68,9 @@ class OrbitItems:
         Orbit index j.
     items
         Global candidate indices, in (start, end) order; positions below index into it.
-    duration, slew_s
-        Per position: te - ts (seconds observed, (4)-(5)) and |theta| / v (seconds of slew to
-        or from nadir, (3)-(4)).
+    duration, roll, slew_s
+        Per position: te - ts (seconds observed, (4)-(5)), the roll theta and |theta| / v
+        (seconds of slew to or from nadir, (3)-(4)).
     by_release
         Positions sorted by ``R`` (the end of the conflict interval).
     n_before
@@ -82,15 +80,14 @@ class OrbitItems:
         and the position of each flat entry.
     targets
         The distinct targets any candidate of the orbit covers.
-    openings, energy_cap, memory_cap
-        c_j, E_j, W_j.
-    observe_rate, slew_energy_rate, memory_rate
-        eo_j, es_j, w_j.
+    rules
+        The orbit's rules and parameters (:class:`sosp.rules.OrbitRules`).
     """
 
     orbit: int
     items: np.ndarray
     duration: np.ndarray
+    roll: np.ndarray
     slew_s: np.ndarray
     by_release: np.ndarray
     n_before: np.ndarray
@@ -98,12 +95,7 @@ class OrbitItems:
     target_flat: np.ndarray
     target_seg: np.ndarray
     targets: np.ndarray
-    openings: int
-    energy_cap: float
-    memory_cap: float
-    observe_rate: float
-    slew_energy_rate: float
-    memory_rate: float
+    rules: OrbitRules
 
     @property
     def size(self) -> int:
@@ -132,15 +124,13 @@ class OrbitItems:
         """Energy (4) and memory (5) of a plan (positions in time order), slew term exact."""
         if len(path) == 0:
             return 0.0, 0.0
-        dur = float(self.duration[path].sum())
-        s = self.slew_s[path]
-        slew = 2.0 * float(s.sum()) - float(s[0]) - float(s[-1])
-        return self.observe_rate * dur + self.slew_energy_rate * slew, self.memory_rate * dur
+        return self.rules.usage(self.duration[path], self.roll[path])
 
     def fits(self, path: np.ndarray) -> bool:
         """Whether a plan keeps (4) and (5) ((3), (6) hold by construction)."""
         energy, memory = self.usage(path)
-        return energy <= self.energy_cap + EPS and memory <= self.memory_cap + EPS
+        r = self.rules
+        return energy <= r.energy_capacity + EPS and memory <= r.memory_capacity + EPS
 
     def covered(self, path: np.ndarray) -> np.ndarray:
         """The distinct targets a plan covers."""
@@ -226,10 +216,10 @@ def _arrange(
         cuts = np.flatnonzero(np.diff(orbit[order])) + 1
         for block in np.split(order, cuts):
             j = int(orbit[block[0]])
-            v = float(instance.slew_rate[j])
-            slew_s = np.abs(roll[block]) / v
-            left = start[block] - slew_s
-            right = end[block] + float(instance.setup_time[j]) + slew_s
+            rj = orbit_rules(instance, j)
+            slew_s = rj.slew(roll[block])
+            left = rj.left(start[block], roll[block])
+            right = rj.right(end[block], roll[block])
             by_release = np.argsort(right, kind="stable")
             n_before = np.searchsorted(right[by_release], left + EPS, side="right")
             flat, seg = _covered_targets(tgt, [opps[u] for u in block])
@@ -244,6 +234,7 @@ def _arrange(
                     orbit=j,
                     items=block,
                     duration=end[block] - start[block],
+                    roll=roll[block],
                     slew_s=slew_s,
                     by_release=by_release,
                     n_before=n_before,
@@ -251,12 +242,7 @@ def _arrange(
                     target_flat=flat,
                     target_seg=seg,
                     targets=targets,
-                    openings=int(instance.max_openings[j]),
-                    energy_cap=float(instance.energy_capacity[j]),
-                    memory_cap=float(instance.memory_capacity[j]),
-                    observe_rate=float(instance.observe_energy_rate[j]),
-                    slew_energy_rate=float(instance.slew_energy_rate[j]),
-                    memory_rate=float(instance.memory_rate[j]),
+                    rules=rj,
                 )
             )
     counts = np.array([len(s) for s in seen_by], dtype=np.int64)
@@ -318,14 +304,16 @@ def best_path(
     m = o.size
     if m == 0:
         return 0.0, np.zeros(0, dtype=np.int64)
-    pe = lam_energy / o.energy_cap if o.energy_cap > 0 else 0.0
-    pw = lam_memory / o.memory_cap if o.memory_cap > 0 else 0.0
-    slew_cost = pe * o.slew_energy_rate * o.slew_s
-    g = o.gains(price) - pe * o.observe_rate * o.duration - pw * o.memory_rate * o.duration
+    r = o.rules
+    pe = lam_energy / r.energy_capacity if r.energy_capacity > 0 else 0.0
+    pw = lam_memory / r.memory_capacity if r.memory_capacity > 0 else 0.0
+    slew_cost = pe * r.slew_energy_rate * o.slew_s
+    g = o.gains(price) - pe * r.observe_energy_rate * o.duration
+    g -= pw * r.memory_rate * o.duration
     g -= 2.0 * slew_cost
     bonus = slew_cost  # the first (and, separately, the last) observation's |theta| back
     levels = [np.full(m, -np.inf)]
-    for _ in range(max(o.openings, 0)):
+    for _ in range(max(r.max_openings, 0)):
         prev = levels[-1]
         best_before = np.empty(m + 1)
         best_before[0] = -np.inf

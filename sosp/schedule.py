@@ -14,18 +14,18 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
+from sosp import rules
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.io import atomic_write_json, is_finite_number, read_json
+from sosp.rules import RollRule, choose_roll
 
 FORMAT_NAME = "sosp-schedule"
 FORMAT_VERSION = 1
-
-RollRule = Literal["midpoint", "nadir"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,25 +56,12 @@ class Observation:
 
 
 def common_roll_range(instance: Instance, opps: Sequence[int]) -> tuple[float, float]:
-    """The common roll range (8): the intersection of the components' roll ranges.
+    """The common roll range (8) of some opportunities (:func:`sosp.rules.common_roll_range`).
 
     Returns ``(lo, hi)``; the range is empty when ``lo > hi`` (then (7) fails).
     """
     idx = np.asarray(opps, dtype=np.int64)
-    return float(instance.opp_roll_min[idx].max()), float(instance.opp_roll_max[idx].min())
-
-
-def choose_roll(lo: float, hi: float, rule: RollRule = "midpoint") -> float:
-    """Roll of a cluster-task inside its common range [lo, hi].
-
-    ``"midpoint"`` is the paper's rule (9); ``"nadir"`` takes the point of the range closest
-    to nadir (0 deg), which never costs more slew time or energy.
-    """
-    if rule == "midpoint":
-        return 0.5 * (lo + hi)
-    if rule == "nadir":
-        return min(max(0.0, lo), hi)
-    raise InputError(f"roll rule: expected 'midpoint' or 'nadir', got {rule!r}")
+    return rules.common_roll_range(instance.opp_roll_min[idx], instance.opp_roll_max[idx])
 
 
 def make_observation(
@@ -97,8 +84,7 @@ def make_observation(
     orbits = np.unique(instance.opp_orbit[idx])
     if orbits.size != 1:
         raise ValueError("an observation's opportunities must share one orbit")
-    start = float(instance.opp_start[idx].min())
-    end = float(instance.opp_end[idx].max())
+    start, end = rules.cluster_window(instance.opp_start[idx], instance.opp_end[idx])
     if len(ids) == 1:
         roll = float(instance.opp_roll[ids[0]])
     else:

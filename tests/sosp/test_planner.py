@@ -38,7 +38,7 @@ def _plans(data, o: OrbitItems):
     j = o.orbit
     a, v = float(inst.setup_time[j]), float(inst.slew_rate[j])
     st_, en, th = data.start[o.items], data.end[o.items], np.abs(data.roll[o.items])
-    for r in range(0, min(o.openings, o.size) + 1):
+    for r in range(0, min(o.rules.max_openings, o.size) + 1):
         for combo in itertools.combinations(range(o.size), r):
             seq = sorted(combo, key=lambda u: (st_[u], en[u]))
             if all(
@@ -52,7 +52,8 @@ def _penalised(o: OrbitItems, path, price, lam_e: float, lam_w: float) -> float:
         float(price[o.target_flat[o.target_ptr[u] : o.target_ptr[u + 1]]].sum()) for u in path
     )
     energy, memory = o.usage(path)
-    return gain - lam_e * energy / o.energy_cap - lam_w * memory / o.memory_cap
+    cap = o.rules
+    return gain - lam_e * energy / cap.energy_capacity - lam_w * memory / cap.memory_capacity
 
 
 @pytest.mark.parametrize("seed", range(25))

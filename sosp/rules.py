@@ -1,0 +1,243 @@
+"""The per-orbit rules of ``docs/model.md``, written once for every solver and bound.
+
+Every search, model, bound and the conflict graph take the rules (3)-(6), (7)-(11) from here;
+the validator (:mod:`sosp.validate`) alone is written independently from ``docs/model.md``, and a
+property test checks that the two agree on random sequences.
+
+Parameter names are those of :class:`sosp.instance.Resources` (and the instance's per-orbit
+columns): ``setup_time`` a, ``slew_rate`` v (deg/s), ``observe_energy_rate`` eo,
+``slew_energy_rate`` es, ``memory_rate`` w, ``energy_capacity`` E, ``memory_capacity`` W,
+``max_openings`` c, ``max_duration`` Delta T.
+
+The functions broadcast: they take Python floats (the incremental timelines' hot path) or numpy
+arrays (the sweeps over all items of an instance) alike.
+
+Rule (3) as two ends
+--------------------
+Give each observation u the interval ``[L_u, R_u)`` with ``L_u = ts_u - |theta_u| / v`` and
+``R_u = te_u + a + |theta_u| / v``. For u before w on one orbit, (3) reads
+``ts_w - te_u >= a + (|theta_u| + |theta_w|) / v``, i.e. ``R_u <= L_w``: u may precede w iff its
+right end is not after w's left end. Gaps and slews add up along an orbit, so (3) between
+consecutive observations holds iff it holds between every pair, and (3) on one orbit is exactly
+the interval graph of these intervals (what the conflict sweep, the clique rows of the MILP and
+the single-orbit planner's prefix maxima rely on).
+
+Energy (4)
+----------
+``eo * sum (te - ts) + es * sum over consecutive pairs (|theta_u| + |theta_w|) / v``. Over a
+sequence the slew sum is ``(2 sum |theta| - |theta_first| - |theta_last|) / v``: every
+observation slews out of and back to nadir except before the first and after the last. The two
+relaxations the models use are derived here, once, with their validity argument:
+
+* :func:`slew_upper` (``2 sum |theta| / v``): never below the exact slew of any sequence of the
+  same observations, so a row with it is conservative (a schedule keeping it keeps (4));
+* :func:`slew_lower` (``2 sum |theta| / v - 2 max |theta| / v``): never above the exact slew,
+  since the first and last terms dropped sum to at most twice the largest; a row with it is a
+  relaxation (every feasible schedule keeps it), valid in a bound.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, Literal
+
+import numpy as np
+
+from sosp.errors import InputError
+
+#: The margin every solver keeps in its feasibility tests (seconds, energy, memory, degrees),
+#: so that a schedule never relies on the validator's own tolerance (``sosp.validate.TOL``,
+#: 1e-6). One value for every solver, bound and the conflict graph.
+EPS = 1e-9
+
+RollRule = Literal["midpoint", "nadir"]
+
+
+# ----------------------------------------------------------------------------- (3) slew time
+def slew_time(roll: Any, slew_rate: Any) -> Any:
+    """Seconds to slew between nadir and ``roll`` (deg) at ``slew_rate`` (deg/s)."""
+    return abs(roll) / slew_rate
+
+
+def turn_time(roll_u: Any, roll_w: Any, slew_rate: Any) -> Any:
+    """Slew seconds between consecutive observations at rolls ``roll_u``, ``roll_w``: the
+    sensor returns through nadir, ``(|theta_u| + |theta_w|) / v`` ((3), (4))."""
+    return (abs(roll_u) + abs(roll_w)) / slew_rate
+
+
+def left_end(start: Any, roll: Any, slew_rate: Any) -> Any:
+    """``L = ts - |theta| / v``: the left end of an observation's (3) interval."""
+    return start - abs(roll) / slew_rate
+
+
+def right_end(end: Any, roll: Any, setup_time: Any, slew_rate: Any) -> Any:
+    """``R = te + a + |theta| / v``: the right end of an observation's (3) interval."""
+    return end + setup_time + abs(roll) / slew_rate
+
+
+def may_precede(right_u: Any, left_w: Any) -> Any:
+    """(3) for u before w from their ends: ``R_u <= L_w`` (with the solvers' margin)."""
+    return right_u <= left_w + EPS
+
+
+# --------------------------------------------------------------------------- (4)-(6) usage
+def sequence_slew_time(rolls: np.ndarray, slew_rate: float) -> float:
+    """Exact slew seconds of (4) over a sequence (consecutive pairs only)."""
+    if len(rolls) < 2:
+        return 0.0
+    s = np.abs(np.asarray(rolls, dtype=float))
+    return float(2.0 * s.sum() - s[0] - s[-1]) / slew_rate
+
+
+def slew_upper(abs_roll_sum: Any, slew_rate: Any) -> Any:
+    """``2 sum |theta| / v``: at least the exact slew of (4) of any order of the observations
+    (conservative; see the module docstring)."""
+    return 2.0 * abs_roll_sum / slew_rate
+
+
+def slew_lower(abs_roll_sum: Any, abs_roll_max: Any, slew_rate: Any) -> Any:
+    """``(2 sum |theta| - 2 max |theta|) / v``: at most the exact slew of (4) (a relaxation,
+    valid in a bound; see the module docstring)."""
+    return 2.0 * (abs_roll_sum - abs_roll_max) / slew_rate
+
+
+def energy(observe_s: Any, slew_s: Any, observe_energy_rate: Any, slew_energy_rate: Any) -> Any:
+    """Energy of (4): ``eo * observed seconds + es * slew seconds``."""
+    return observe_energy_rate * observe_s + slew_energy_rate * slew_s
+
+
+def memory(observe_s: Any, memory_rate: Any) -> Any:
+    """Memory of (5): ``w * observed seconds``."""
+    return memory_rate * observe_s
+
+
+# ------------------------------------------------------------------- (7)-(11) cluster-tasks
+def common_roll_range(roll_min: np.ndarray, roll_max: np.ndarray) -> tuple[float, float]:
+    """(8): the rolls every covered opportunity accepts, ``[max theta_lo, min theta_hi]``
+    (empty when the first exceeds the second by more than :data:`EPS`)."""
+    return float(np.max(roll_min)), float(np.min(roll_max))
+
+
+def choose_roll(lo: float, hi: float, rule: RollRule = "midpoint") -> float:
+    """A roll in the common range ``[lo, hi]`` (7): the midpoint (9), or the point closest to
+    nadir (never more slew time or energy than any other roll in the range)."""
+    if rule == "midpoint":
+        return 0.5 * (lo + hi)
+    if rule == "nadir":
+        return float(min(max(0.0, lo), hi))
+    raise InputError(f"roll rule: expected 'midpoint' or 'nadir', got {rule!r}")
+
+
+def cluster_window(starts: np.ndarray, ends: np.ndarray) -> tuple[float, float]:
+    """(10): the window of a cluster-task, ``[min ts, max te]`` of its components."""
+    return float(np.min(starts)), float(np.max(ends))
+
+
+def can_share_strip(
+    starts: np.ndarray, ends: np.ndarray, roll_min: np.ndarray, roll_max: np.ndarray, dt: float
+) -> bool:
+    """Whether opportunities of one orbit can form one observation: a common roll (7)-(8) and
+    the window (10) no longer than Delta T (11)."""
+    lo, hi = common_roll_range(roll_min, roll_max)
+    s, e = cluster_window(starts, ends)
+    return lo <= hi + EPS and e - s <= dt + EPS
+
+
+# ---------------------------------------------------------------------------- one orbit
+@dataclass(frozen=True, slots=True)
+class OrbitRules:
+    """The rules of one orbit, its parameters under the :class:`~sosp.instance.Resources`
+    names (Table 1 of the paper).
+
+    Use :func:`orbit_rules` to get them from an instance.
+    """
+
+    memory_capacity: float
+    memory_rate: float
+    energy_capacity: float
+    observe_energy_rate: float
+    slew_energy_rate: float
+    slew_rate: float
+    setup_time: float
+    max_openings: int
+    max_duration: float
+
+    def slew(self, roll: Any) -> Any:
+        """Seconds between nadir and ``roll``."""
+        return abs(roll) / self.slew_rate
+
+    def turn(self, roll_u: Any, roll_w: Any) -> Any:
+        """Slew seconds between consecutive observations ((3), (4))."""
+        return (abs(roll_u) + abs(roll_w)) / self.slew_rate
+
+    def left(self, start: Any, roll: Any) -> Any:
+        """Left end of the (3) interval."""
+        return start - abs(roll) / self.slew_rate
+
+    def right(self, end: Any, roll: Any) -> Any:
+        """Right end of the (3) interval."""
+        return end + self.setup_time + abs(roll) / self.slew_rate
+
+    def clash(self, end_u: float, roll_u: float, start_w: float, roll_w: float) -> bool:
+        """Whether u (ending at ``end_u``) may NOT precede w (starting at ``start_w``) by (3)."""
+        return (
+            end_u + self.setup_time + (abs(roll_u) + abs(roll_w)) / self.slew_rate > start_w + EPS
+        )
+
+    def energy(self, observe_s: Any, slew_s: Any) -> Any:
+        """Energy of (4) for these observed and slew seconds."""
+        return self.observe_energy_rate * observe_s + self.slew_energy_rate * slew_s
+
+    def memory(self, observe_s: Any) -> Any:
+        """Memory of (5) for these observed seconds."""
+        return self.memory_rate * observe_s
+
+    def energy_ok(self, observe_s: float, slew_s: float) -> bool:
+        """(4) with the margin."""
+        return self.energy(observe_s, slew_s) <= self.energy_capacity + EPS
+
+    def memory_ok(self, observe_s: float) -> bool:
+        """(5) with the margin."""
+        return self.memory_rate * observe_s <= self.memory_capacity + EPS
+
+    def fits(self, observe_s: float, slew_s: float) -> bool:
+        """(4) and (5) for an orbit's totals."""
+        return self.memory_ok(observe_s) and self.energy_ok(observe_s, slew_s)
+
+    def duration_ok(self, start: float, end: float) -> bool:
+        """(11): the window is at most Delta T."""
+        return end - start <= self.max_duration + EPS
+
+    def usage(self, durations: np.ndarray, rolls: np.ndarray) -> tuple[float, float]:
+        """``(energy, memory)`` of a sequence in time order, slew over consecutive pairs."""
+        observed = float(np.sum(durations))
+        slew_s = sequence_slew_time(rolls, self.slew_rate)
+        return self.energy(observed, slew_s), self.memory(observed)
+
+    def free_share(self, energy_used: float, memory_used: float) -> float:
+        """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (the paper's 5.1, step 5)."""
+        e_cap, m_cap = self.energy_capacity, self.memory_capacity
+        e = (e_cap - energy_used) / e_cap if e_cap > 0 else 0.0
+        m = (m_cap - memory_used) / m_cap if m_cap > 0 else 0.0
+        return e + m
+
+    def alone_ok(self, start: float, end: float) -> bool:
+        """Whether one observation [start, end] fits an empty orbit: c >= 1, (11), (4), (5)
+        (no slew: a lone observation has no consecutive pair)."""
+        d = end - start
+        return self.max_openings >= 1 and self.duration_ok(start, end) and self.fits(d, 0.0)
+
+
+_RULE_FIELDS = tuple(f.name for f in fields(OrbitRules))
+
+
+def orbit_rules(instance: Any, orbit: int) -> OrbitRules:
+    """The :class:`OrbitRules` of orbit ``orbit`` of ``instance`` (its per-orbit columns)."""
+    values = {name: float(getattr(instance, name)[orbit]) for name in _RULE_FIELDS}
+    values["max_openings"] = int(values["max_openings"])
+    return OrbitRules(**values)
+
+
+def all_orbit_rules(instance: Any) -> tuple[OrbitRules, ...]:
+    """:func:`orbit_rules` of every orbit, in orbit order."""
+    return tuple(orbit_rules(instance, j) for j in range(instance.n_orbits))
