@@ -58,7 +58,9 @@ def cmd_scenario(args: argparse.Namespace) -> int:
     import numpy as np
 
     from sosp import scenarios
+    from sosp.io import check_output
 
+    check_output(args.output)
     common: dict[str, Any] = {
         "resources": _resources_from_args(args),
         "max_roll": args.max_roll,
@@ -177,9 +179,12 @@ def _parse_params(items: Sequence[str]) -> dict[str, Any]:
 
 def cmd_solve(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
+    from sosp.io import check_output
     from sosp.schedule import load_schedule
     from sosp.solve import solve
 
+    if args.output:
+        check_output(args.output)
     inst = load_instance(args.instance)
     params = _parse_params(args.param or [])
     for key in ("iterations", "model", "mip_gap", "threads", "backend"):

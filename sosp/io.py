@@ -6,23 +6,89 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from sosp.errors import InputError
 
 
-def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
-    """Write ``text`` to ``path`` atomically (temp file in the same folder, fsync, rename).
+def _umask() -> int:
+    """The process umask (read by setting it and restoring it at once)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
-    A reader never sees a half-written file, and a crash leaves the old file (or none) behind.
+
+def check_output(path: str | os.PathLike[str], option: str = "-o") -> Path:
+    """Check that ``path`` can be written as a file before any work is done.
+
+    Refuses a folder, a missing folder and a folder this user cannot write to, with one line
+    naming ``option``. Nothing is created.
+
+    Returns
+    -------
+    Path
+        ``path`` as a :class:`~pathlib.Path`.
+    """
+    target = Path(path)
+    if not str(path).strip():
+        raise InputError(f"{option}: empty file name")
+    if target.is_dir():
+        raise InputError(f"{option}: {path} is a folder; give a file name")
+    folder = target.parent if str(target.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"{option}: folder does not exist: {folder}")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{option}: cannot write to folder {folder} (permission denied)")
+    if target.exists() and not os.access(target, os.W_OK):
+        raise InputError(f"{option}: {path} is not writable (permission denied)")
+    return target
+
+
+@contextmanager
+def atomic_output(path: str | os.PathLike[str], suffix: str = ".tmp") -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on success it replaces ``path`` atomically.
+
+    For writers that want a file name (``matplotlib`` ``savefig``, ``sqlite3``). The file gets
+    the permissions of a normal new file (``0o666`` less the umask), not ``mkstemp``'s
+    ``0o600``; on any error the temporary file is removed and ``path`` is left untouched.
     """
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"output folder does not exist: {folder}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=folder)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` to ``path`` atomically (temp file in the same folder, fsync, rename).
+
+    A reader never sees a half-written file, and a crash leaves the old file (or none) behind.
+    The file gets the permissions of a normal new file (``0o666`` less the umask).
+    """
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"output folder does not exist: {folder}")
+    if target.is_dir():
+        raise InputError(f"{path} is a folder, not a file")
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
     try:
+        # mkstemp creates 0o600; give the file the mode open() would (umask respected).
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
             fh.flush()

@@ -18,7 +18,6 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,6 +26,9 @@ if TYPE_CHECKING:
 
     from sosp.instance import Instance
     from sosp.schedule import Schedule
+
+#: Figure formats of ``sosp plot -o``, chosen by the file's extension.
+PLOT_FORMATS = ("png", "pdf", "svg")
 
 #: Seconds between ground-track points.
 TRACK_STEP = 60.0
@@ -67,14 +69,15 @@ def plot_schedule(
     title: str | None = None,
     max_orbits: int = 60,
 ) -> dict[str, Any]:
-    """Draw the Gantt chart and the map into one PNG, written atomically.
+    """Draw the Gantt chart and the map into one figure (PNG, PDF or SVG by the extension of
+    ``path``), written atomically.
 
     Parameters
     ----------
     instance, schedule
         What to draw.
     path
-        PNG file to write.
+        Figure to write: ``.png``, ``.pdf`` or ``.svg`` (:func:`plot_format`).
     title
         Figure title (default: instance name, method, profit).
     max_orbits
@@ -94,9 +97,11 @@ def plot_schedule(
     from matplotlib.patches import Patch
 
     from sosp.errors import InputError
+    from sosp.io import atomic_output
     from sosp.validate import validate
 
     target = Path(path)
+    fmt = plot_format(target)
     if not target.parent.is_dir():
         raise InputError(f"output folder does not exist: {target.parent}")
     inst = instance
@@ -198,15 +203,9 @@ def plot_schedule(
         f"{rep.observed} targets, {len(schedule)} observations"
     )
     fig.tight_layout()
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".png", dir=target.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, target)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        with atomic_output(target, suffix=f".{fmt}") as tmp:
+            fig.savefig(tmp, dpi=110, format=fmt)
     finally:
         plt.close(fig)
     return {
@@ -218,17 +217,38 @@ def plot_schedule(
     }
 
 
+def plot_format(path: str | os.PathLike[str]) -> str:
+    """The figure format named by ``path``'s extension (``png``, ``pdf`` or ``svg``).
+
+    Raises
+    ------
+    InputError
+        For any other extension, naming ``-o``.
+    """
+    from sosp.errors import InputError
+
+    ext = Path(path).suffix.lower().lstrip(".")
+    if ext not in PLOT_FORMATS:
+        raise InputError(
+            f"-o: unknown figure format {Path(path).suffix or '(no extension)'!r} "
+            f"(use {', '.join('.' + f for f in PLOT_FORMATS)})"
+        )
+    return ext
+
+
 def add_plot_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``plot`` to the ``sosp`` subcommands."""
     p = subparsers.add_parser(
         "plot",
         help="draw a schedule: Gantt chart per orbit and a map of targets and ground tracks",
         description="Draw a schedule as a Gantt chart per orbit (cluster-tasks and setup gaps "
-        "marked) and a latitude/longitude map of targets and ground tracks (PNG).",
+        "marked) and a latitude/longitude map of targets and ground tracks (PNG, PDF or SVG).",
     )
     p.add_argument("instance", help="instance file (JSON)")
     p.add_argument("schedule", help="schedule file (JSON)")
-    p.add_argument("-o", "--output", required=True, help="PNG file to write")
+    p.add_argument(
+        "-o", "--output", required=True, help="figure to write: .png, .pdf or .svg (by extension)"
+    )
     p.add_argument("--title", default=None, help="figure title")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_plot)
@@ -238,8 +258,11 @@ def add_plot_parser(subparsers: Any) -> argparse.ArgumentParser:
 def cmd_plot(args: argparse.Namespace) -> int:
     """Handler of ``sosp plot``."""
     from sosp.instance import load_instance
+    from sosp.io import check_output
     from sosp.schedule import load_schedule
 
+    check_output(args.output)
+    plot_format(args.output)
     inst = load_instance(args.instance)
     sched = load_schedule(args.schedule, inst)
     info = plot_schedule(inst, sched, args.output, title=args.title)

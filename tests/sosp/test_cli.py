@@ -233,3 +233,109 @@ def test_scenario_bad_input(capsys, tmp_path: Path, argv: list[str], needle: str
     assert code == 2, err
     assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
     assert not (tmp_path / "out.json").exists()
+
+
+# --------------------------------------------------------------------------- outputs (issue 19)
+def sosp_cli(*argv: str, cwd: Path | None = None, umask: int | None = None, **kw):
+    """Run the installed ``sosp`` entry point in a subprocess (exit code, stdout, stderr)."""
+    import os
+    import shutil
+
+    exe = shutil.which("sosp", path=str(Path(sys.executable).parent)) or shutil.which("sosp")
+    cmd = [exe] if exe else [sys.executable, "-m", "sosp"]
+    pre = None if umask is None else (lambda: os.umask(umask))
+    return subprocess.run(
+        cmd + list(argv), capture_output=True, text=True, cwd=cwd, preexec_fn=pre, **kw
+    )
+
+
+def one_line_error(proc: subprocess.CompletedProcess, *needles: str) -> None:
+    assert proc.returncode == 2, (proc.returncode, proc.stderr)
+    assert proc.stderr.startswith("error: ") and proc.stderr.count("\n") == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    for needle in needles:
+        assert needle in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize(
+    ("output", "needle"),
+    [
+        ("adir", "is a folder"),
+        ("missing/s.json", "folder does not exist"),
+        ("ro/s.json", "cannot write"),
+    ],
+)
+def test_output_checked_before_any_work(tmp_path: Path, inst_file: Path, output, needle) -> None:
+    import os
+
+    (tmp_path / "adir").mkdir()
+    (tmp_path / "ro").mkdir()
+    os.chmod(tmp_path / "ro", 0o555)
+    if output.startswith("ro/") and os.access(tmp_path / "ro", os.W_OK):
+        pytest.skip("running as a user who can write anywhere (root)")
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    # A solve that would take 60 s if it started: refused at once.
+    for argv in (
+        ["solve", str(inst_file), "--time-limit", "60", "-o", output],
+        ["scenario", "C1", "-o", output],
+    ):
+        proc = sosp_cli(*argv, cwd=tmp_path, timeout=30)
+        one_line_error(proc, "-o", needle)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o002])
+def test_outputs_respect_umask(tmp_path: Path, inst_file: Path, umask: int) -> None:
+    import stat
+
+    proc = sosp_cli(
+        "solve", str(inst_file), "--method", "greedy", "-o", "s.json", cwd=tmp_path, umask=umask
+    )
+    assert proc.returncode == 0, proc.stderr
+    mode = stat.S_IMODE((tmp_path / "s.json").stat().st_mode)
+    assert mode == 0o666 & ~umask
+
+
+def test_atomic_write_respects_umask(tmp_path: Path) -> None:
+    import os
+    import stat
+
+    from sosp.io import atomic_output, atomic_write_text
+
+    old = os.umask(0o027)
+    try:
+        atomic_write_text(tmp_path / "a.txt", "x")
+        with atomic_output(tmp_path / "b.bin") as tmp:
+            tmp.write_bytes(b"y")
+    finally:
+        os.umask(old)
+    for name in ("a.txt", "b.bin"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.bin"]
+
+
+@pytest.mark.parametrize(
+    ("name", "magic"), [("p.png", b"\x89PNG"), ("p.pdf", b"%PDF"), ("p.svg", b"<?xml")]
+)
+def test_plot_writes_the_format_of_the_extension(
+    capsys, tmp_path: Path, inst_file: Path, name: str, magic: bytes
+) -> None:
+    inst = tiny_chain()
+    Schedule((make_observation(inst, [0]),)).save(tmp_path / "s.json", inst)
+    code, _, err = run(
+        capsys, "plot", str(inst_file), str(tmp_path / "s.json"), "-o", str(tmp_path / name)
+    )
+    assert code == 0, err
+    data = (tmp_path / name).read_bytes()
+    assert data.startswith(magic)
+    if name.endswith(".svg"):
+        assert b"<svg" in data[:2000]
+
+
+def test_plot_refuses_unknown_extension(tmp_path: Path, inst_file: Path) -> None:
+    inst = tiny_chain()
+    Schedule((make_observation(inst, [0]),)).save(tmp_path / "s.json", inst)
+    for out in ("p.jpgx", "p"):
+        proc = sosp_cli("plot", str(inst_file), "s.json", "-o", out, cwd=tmp_path)
+        one_line_error(proc, "-o", ".png, .pdf, .svg")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["inst.json", "s.json"]
