@@ -39,6 +39,7 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
+from sosp.rules import EPS, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
 
 log = logging.getLogger(__name__)
@@ -50,7 +51,7 @@ _EXACT = ("milp", "milp-lns")
 NEIGHBOURHOODS = ("auto", "orbits", "window")
 
 #: Margin kept on (3) against fixed neighbours (the validator allows 1e-6; never rely on it).
-_MARGIN = 1e-9
+_MARGIN = EPS
 
 
 @dataclass(frozen=True)
@@ -231,23 +232,24 @@ def _window_plan(
     kept = [ob for ob, f in zip(on_j, inside, strict=True) if not f]
     prev = next((ob for ob in reversed(kept) if ob.start < t0), None)
     nxt = next((ob for ob in kept if ob.start >= t0), None)
-    a, v = float(instance.setup_time[j]), float(instance.slew_rate[j])
-    eo, es = float(instance.observe_energy_rate[j]), float(instance.slew_energy_rate[j])
-    st, en, th = c_start[items], c_end[items], np.abs(c_roll[items])
+    r = orbit_rules(instance, j)
+    st, en, th = c_start[items], c_end[items], c_roll[items]
     ok = (st >= t0) & (en <= t1)
+    # (3) against the kept neighbours by the interval ends of sosp.rules, with a margin so the
+    # sub-MILP's plans never sit on the boundary
     if prev is not None:
-        ok &= st - prev.end >= a + (abs(prev.roll) + th) / v + _MARGIN
+        ok &= r.right(prev.end, prev.roll) + _MARGIN <= r.left(st, th)
     if nxt is not None:
-        ok &= nxt.start - en >= a + (th + abs(nxt.roll)) / v + _MARGIN
+        ok &= r.right(en, th) + _MARGIN <= r.left(nxt.start, nxt.roll)
     dur = sum(ob.end - ob.start for ob in kept)
-    slew = sum(abs(x.roll) + abs(y.roll) for x, y in zip(kept, kept[1:], strict=False)) / v
+    slew = sum(r.turn(x.roll, y.roll) for x, y in zip(kept, kept[1:], strict=False))
     if prev is not None and nxt is None:
-        slew += abs(prev.roll) / v
+        slew += r.slew(prev.roll)
     if nxt is not None and prev is None:
-        slew += abs(nxt.roll) / v
-    energy = float(instance.energy_capacity[j]) - eo * dur - es * slew
-    memory = float(instance.memory_capacity[j]) - float(instance.memory_rate[j]) * dur
-    openings = int(instance.max_openings[j]) - len(kept)
+        slew += r.slew(nxt.roll)
+    energy = r.energy_capacity - r.energy(dur, slew)
+    memory = r.memory_capacity - r.memory(dur)
+    openings = r.max_openings - len(kept)
     if not ok.any() or openings <= 0 or memory <= 0 or energy <= 0:
         return None
 

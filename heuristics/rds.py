@@ -116,11 +116,13 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import insertion_decode
-from heuristics.timeline import EPS, OrbitTimeline
+from heuristics.timeline import OrbitTimeline
+from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
+from sosp.rules import EPS, orbit_rules
 from sosp.schedule import RollRule
 
 log = logging.getLogger(__name__)
@@ -209,16 +211,13 @@ def orbit_resources_can_bind(instance: Instance, tasks: TaskSet, idx: np.ndarray
     j = int(tasks.orbit[idx[0]])
     dur = tasks.end[idx] - tasks.start[idx]
     absr = np.abs(tasks.roll[idx])
-    v, a = float(instance.slew_rate[j]), float(instance.setup_time[j])
-    lo = tasks.start[idx] - absr / v
-    hi = tasks.end[idx] + a + absr / v
+    r = orbit_rules(instance, j)
+    lo = r.left(tasks.start[idx], absr)
+    hi = r.right(tasks.end[idx], absr)
     tol = 4 * EPS
     if np.any(hi - lo <= tol):
         return True
-    energy = (
-        float(instance.observe_energy_rate[j]) * dur
-        + float(instance.slew_energy_rate[j]) * 2.0 * absr / v
-    )
+    energy = r.energy(dur, rules.slew_upper(absr, r.slew_rate))
     order = np.argsort(hi, kind="stable")
     lo, hi, dur, energy = lo[order], hi[order], dur[order], energy[order]
     # prev[k]: how many intervals (in end order) end before interval k starts.

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from sosp.instance import Instance
+from sosp.rules import EPS, orbit_rules
 
-#: Solvers keep this much margin so the validator's own tolerance is never needed.
-EPS = 1e-9
+__all__ = ["EPS", "InsertCheck", "OrbitTimeline"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,6 +34,9 @@ class InsertCheck:
 class OrbitTimeline:
     """Observations of one orbit, sorted by start, with running totals.
 
+    The rules come from :class:`sosp.rules.OrbitRules` (``self.rules``); this class only keeps
+    the sequence and its totals (observed and slew seconds) by deltas.
+
     Parameters
     ----------
     instance
@@ -42,36 +45,11 @@ class OrbitTimeline:
         Orbit index j.
     """
 
-    __slots__ = (
-        "orbit",
-        "a",
-        "v",
-        "eo",
-        "es",
-        "w",
-        "E",
-        "W",
-        "c",
-        "max_duration",
-        "starts",
-        "ends",
-        "rolls",
-        "items",
-        "observe",
-        "slew",
-    )
+    __slots__ = ("orbit", "rules", "starts", "ends", "rolls", "items", "observe", "slew")
 
     def __init__(self, instance: Instance, orbit: int) -> None:
         self.orbit = orbit
-        self.a = float(instance.setup_time[orbit])
-        self.v = float(instance.slew_rate[orbit])
-        self.eo = float(instance.observe_energy_rate[orbit])
-        self.es = float(instance.slew_energy_rate[orbit])
-        self.w = float(instance.memory_rate[orbit])
-        self.E = float(instance.energy_capacity[orbit])
-        self.W = float(instance.memory_capacity[orbit])
-        self.c = int(instance.max_openings[orbit])
-        self.max_duration = float(instance.max_duration[orbit])
+        self.rules = orbit_rules(instance, orbit)
         self.starts: list[float] = []
         self.ends: list[float] = []
         self.rolls: list[float] = []
@@ -85,47 +63,40 @@ class OrbitTimeline:
     @property
     def energy(self) -> float:
         """Energy used, constraint (4)."""
-        return self.eo * self.observe + self.es * self.slew
+        return self.rules.energy(self.observe, self.slew)
 
     @property
     def memory(self) -> float:
         """Memory used, constraint (5)."""
-        return self.w * self.observe
+        return self.rules.memory(self.observe)
 
     def free_share(self) -> float:
         """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (paper, 5.1 step 5)."""
-        e = (self.E - self.energy) / self.E if self.E > 0 else 0.0
-        m = (self.W - self.memory) / self.W if self.W > 0 else 0.0
-        return e + m
-
-    def turn(self, r1: float, r2: float) -> float:
-        """Slew time between consecutive observations with rolls r1, r2 (through nadir)."""
-        return (abs(r1) + abs(r2)) / self.v
+        return self.rules.free_share(self.energy, self.memory)
 
     def check_insert(self, start: float, end: float, roll: float) -> InsertCheck:
         """Can an observation [start, end] at ``roll`` be added without breaking (3)-(6), (11)?"""
-        if end - start > self.max_duration + EPS:
+        r = self.rules
+        if not r.duration_ok(start, end):
             return InsertCheck(False, -1, 0.0, "11")
-        if len(self.starts) >= self.c:
+        if len(self.starts) >= r.max_openings:
             return InsertCheck(False, -1, 0.0, "6")
         pos = bisect_left(self.starts, start)
         d_slew = 0.0
         if pos > 0:
-            t = self.turn(self.rolls[pos - 1], roll)
-            if self.ends[pos - 1] + self.a + t > start + EPS:
+            if r.clash(self.ends[pos - 1], self.rolls[pos - 1], start, roll):
                 return InsertCheck(False, pos, 0.0, "3")
-            d_slew += t
+            d_slew += r.turn(self.rolls[pos - 1], roll)
         if pos < len(self.starts):
-            t = self.turn(roll, self.rolls[pos])
-            if end + self.a + t > self.starts[pos] + EPS:
+            if r.clash(end, roll, self.starts[pos], self.rolls[pos]):
                 return InsertCheck(False, pos, 0.0, "3")
-            d_slew += t
+            d_slew += r.turn(roll, self.rolls[pos])
         if 0 < pos < len(self.starts):
-            d_slew -= self.turn(self.rolls[pos - 1], self.rolls[pos])
-        dur = end - start
-        if self.w * (self.observe + dur) > self.W + EPS:
+            d_slew -= r.turn(self.rolls[pos - 1], self.rolls[pos])
+        observe = self.observe + (end - start)
+        if not r.memory_ok(observe):
             return InsertCheck(False, pos, d_slew, "5")
-        if self.eo * (self.observe + dur) + self.es * (self.slew + d_slew) > self.E + EPS:
+        if not r.energy_ok(observe, self.slew + d_slew):
             return InsertCheck(False, pos, d_slew, "4")
         return InsertCheck(True, pos, d_slew)
 
@@ -142,13 +113,14 @@ class OrbitTimeline:
     def remove(self, pos: int) -> Any:
         """Remove the observation at ``pos``; returns its item."""
         n = len(self.starts)
+        turn = self.rules.turn
         d = 0.0
         if pos > 0:
-            d -= self.turn(self.rolls[pos - 1], self.rolls[pos])
+            d -= turn(self.rolls[pos - 1], self.rolls[pos])
         if pos < n - 1:
-            d -= self.turn(self.rolls[pos], self.rolls[pos + 1])
+            d -= turn(self.rolls[pos], self.rolls[pos + 1])
         if 0 < pos < n - 1:
-            d += self.turn(self.rolls[pos - 1], self.rolls[pos + 1])
+            d += turn(self.rolls[pos - 1], self.rolls[pos + 1])
         self.observe -= self.ends[pos] - self.starts[pos]
         self.slew += d
         if len(self.starts) == 1:  # avoid drift on an emptied orbit

@@ -21,6 +21,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from sosp.rules import orbit_rules
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -135,10 +137,10 @@ def plot_schedule(
             continue
         obs.sort(key=lambda o: o.start)
         t0 = float(inst.orbit_start[j])
-        a, v = float(inst.setup_time[j]), float(inst.slew_rate[j])
+        r = orbit_rules(inst, j)
         for n, ob in enumerate(obs):
             if n:
-                need = a + (abs(obs[n - 1].roll) + abs(ob.roll)) / v
+                need = r.setup_time + r.turn(obs[n - 1].roll, ob.roll)  # (3)
                 ax_g.broken_barh(
                     [(ob.start - t0 - need, need)], (row[j] - 0.3, 0.6), facecolors="#f4a6a6"
                 )

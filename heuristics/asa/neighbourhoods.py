@@ -12,7 +12,6 @@ import heapq
 import numpy as np
 
 from heuristics.asa.params import ASAParams
-from heuristics.asa.problem import EPS
 from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, OrbitLine, State
 from heuristics.asa.tabu import TabuList
 
@@ -53,19 +52,24 @@ def clustering_gain(
     s = min(c[START], pb.opt_start[x])
     e = max(c[END], pb.opt_end[x])
     p = line.p
-    if e - s > p.dT + EPS:
+    if not p.duration_ok(s, e):
         return None  # (11)
     new = state.cluster_with(c, x)
     span = e - s
     d_sep = (c[END] - c[START]) + (pb.opt_end[x] - pb.opt_start[x])
-    en = p.eo * d_sep + p.es * (abs(c[ROLL]) + abs(state.single_roll[x])) / p.v
-    wn = p.w * d_sep
-    ec = p.eo * span + p.es * abs(new[ROLL]) / p.v
-    wc = p.w * span
-    alpha = line.energy / p.E if p.E > 0 else 0.0
-    beta = line.memory / p.W if p.W > 0 else 0.0
-    openings = params.rule16_openings and p.c > 0 and p.E > 0 and p.W > 0
-    gamma = max(len(line.obs), 1) / p.c if openings else 0.0
+    en = p.energy(d_sep, p.turn(c[ROLL], state.single_roll[x]))  # apart: one slew between
+    wn = p.memory(d_sep)
+    ec = p.energy(span, p.slew(new[ROLL]))  # together: one window, one roll
+    wc = p.memory(span)
+    alpha = line.energy / p.energy_capacity if p.energy_capacity > 0 else 0.0
+    beta = line.memory / p.memory_capacity if p.memory_capacity > 0 else 0.0
+    openings = (
+        params.rule16_openings
+        and p.max_openings > 0
+        and p.energy_capacity > 0
+        and p.memory_capacity > 0
+    )
+    gamma = max(len(line.obs), 1) / p.max_openings if openings else 0.0
 
     def saving_of(capacity: bool) -> float:
         """Right side minus left side of (16); ``capacity``: the reading alpha = 1/E, beta = 1/W."""
@@ -73,20 +77,23 @@ def clustering_gain(
             # three resources, each saving as a share of its capacity, weighted by the share
             # consumed (1 each in the capacity reading): one opening saved is worth 1/c
             wa, wb = (1.0, 1.0) if capacity else (alpha, beta)
-            return wa * (en - ec) / p.E + wb * (wn - wc) / p.W + gamma / p.c
+            return (
+                wa * (en - ec) / p.energy_capacity
+                + wb * (wn - wc) / p.memory_capacity
+                + gamma / p.max_openings
+            )
         if capacity:
-            wa = 1.0 / p.E if p.E > 0 else 0.0
-            wb = 1.0 / p.W if p.W > 0 else 0.0
+            wa = 1.0 / p.energy_capacity if p.energy_capacity > 0 else 0.0
+            wb = 1.0 / p.memory_capacity if p.memory_capacity > 0 else 0.0
             return wa * (en - ec) + wb * (wn - wc)
         return alpha * (en - ec) + beta * (wn - wc)
 
     # (16) only judges tasks that could also be done one after the other (section 4.2):
     # tasks exclusive by (3) are always worth clustering.
-    slew = p.a + (abs(c[ROLL]) + abs(state.single_roll[x])) / p.v
     if pb.opt_start[x] >= c[START]:
-        separable = c[END] + slew <= pb.opt_start[x] + EPS
+        separable = not p.clash(c[END], c[ROLL], pb.opt_start[x], state.single_roll[x])
     else:
-        separable = pb.opt_end[x] + slew <= c[START] + EPS
+        separable = not p.clash(pb.opt_end[x], state.single_roll[x], c[START], c[ROLL])
     degenerate = alpha == 0.0 and beta == 0.0
     if not separable:
         return saving_of(capacity=degenerate), new
@@ -188,9 +195,10 @@ def _removal_score(state: State, line: OrbitLine, pos: int, x: int) -> tuple[flo
     else:
         d_obs, d_slew = line.delta_replace(pos, new)
     p = line.p
-    d_e = -(p.eo * d_obs + p.es * d_slew)
-    d_w = -(p.w * d_obs)
-    use = (d_e / p.E if p.E > 0 else 0.0) + (d_w / p.W if p.W > 0 else 0.0)
+    # resources freed, as a share of capacity (the free-share measure of 5.1 step 5)
+    e_cap, m_cap = p.energy_capacity, p.memory_capacity
+    d_e, d_w = -p.energy(d_obs, d_slew), -p.memory(d_obs)
+    use = (d_e / e_cap if e_cap > 0 else 0.0) + (d_w / m_cap if m_cap > 0 else 0.0)
     return use, state.loss(state.pb.opt_unit[x]), 1 if new is None else 0
 
 
@@ -234,7 +242,7 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
             return True
         best = None
         fallback = None
-        cap = line.p.c
+        cap = line.p.max_openings
         for pos, c in enumerate(line.obs):
             for x in _ends(c, pb):
                 if x == protect:

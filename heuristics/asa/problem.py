@@ -22,24 +22,7 @@ import numpy as np
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
 from sosp.conflicts import setup_conflict_pairs
 from sosp.instance import Instance
-
-#: Margin kept in every feasibility test, as in ``heuristics.timeline``.
-EPS = 1e-9
-
-
-@dataclass
-class OrbitParams:
-    """Resource parameters of one orbit (Table 1 symbols)."""
-
-    a: float
-    v: float
-    eo: float
-    es: float
-    w: float
-    E: float
-    W: float
-    c: int
-    dT: float
+from sosp.rules import OrbitRules, all_orbit_rules
 
 
 @dataclass
@@ -82,7 +65,7 @@ class Problem:
 
     mode: str
     clustering: bool
-    orbits: list[OrbitParams]
+    orbits: list[OrbitRules]
     opt_orbit: list[int]
     opt_start: list[float]
     opt_end: list[float]
@@ -117,20 +100,7 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         tasks = static_cluster_tasks(instance, roll_rule=roll_rule)  # type: ignore[arg-type]
     else:
         tasks = single_tasks(instance)
-    orbits = [
-        OrbitParams(
-            a=float(instance.setup_time[j]),
-            v=float(instance.slew_rate[j]),
-            eo=float(instance.observe_energy_rate[j]),
-            es=float(instance.slew_energy_rate[j]),
-            w=float(instance.memory_rate[j]),
-            E=float(instance.energy_capacity[j]),
-            W=float(instance.memory_capacity[j]),
-            c=int(instance.max_openings[j]),
-            dT=float(instance.max_duration[j]),
-        )
-        for j in range(instance.n_orbits)
-    ]
+    orbits = list(all_orbit_rules(instance))
     n = len(tasks)
     orbit = tasks.orbit.tolist()
     start = tasks.start.tolist()
@@ -144,11 +114,7 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         hi = instance.opp_roll_max.tolist()
     usable = []
     for x in range(n):
-        p = orbits[orbit[x]]
-        d = end[x] - start[x]
-        usable.append(
-            p.c >= 1 and d <= p.dT + EPS and p.w * d <= p.W + EPS and p.eo * d <= p.E + EPS
-        )
+        usable.append(orbits[orbit[x]].alone_ok(start[x], end[x]))
     if mode == "stc":
         unit_of = list(range(n))
         unit_targets = [tuple(t) for t in tasks.targets]

@@ -40,9 +40,9 @@ import numpy as np
 
 from heuristics.asa.neighbourhoods import choose_unscheduled, remove_member, repair
 from heuristics.asa.params import ASAParams
-from heuristics.asa.problem import EPS
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
+from sosp.rules import EPS
 
 #: Index of this neighbourhood in the selector's probabilities (after insertion, migration).
 REPLAN = 2
@@ -144,31 +144,30 @@ def best_chain(
     bisected; the best chain within both budgets is returned as (gain, candidate indices).
     """
     p = state.lines[j].p
-    a, iv = p.a, 1.0 / p.v
     if openings <= 0 or energy < -EPS or memory < -EPS:
         return 0.0, []
     n = len(cands)
-    # Events: node v is computed at s_v - a - |r_v|/v (the latest a predecessor may reach) and
-    # offered to successors at e_v + |r_v|/v; (3) holds for u -> v iff offer_u <= compute_v.
+    # Events, by the (3) interval ends of sosp.rules: node v is computed at its left end L_v
+    # (the latest a predecessor's right end may reach) and offered to successors at its right
+    # end R_v; (3) holds for u -> v iff R_u <= L_v.
     events = []
     for v, c in enumerate(cands):
-        ar = abs(c[ROLL]) * iv
-        events.append((c[START] - a - ar + EPS, 1, v))
-        events.append((c[END] + ar, 0, v))
+        events.append((p.left(c[START], c[ROLL]) + EPS, 1, v))
+        events.append((p.right(c[END], c[ROLL]), 0, v))
     if left is not None:
-        events.append((left[END] + abs(left[ROLL]) * iv, 0, -1))
+        events.append((p.right(left[END], left[ROLL]), 0, -1))
     events.sort()
     dur = [c[END] - c[START] for c in cands]
-    turn = [abs(c[ROLL]) * iv for c in cands]
-    lt = abs(left[ROLL]) * iv if left is not None else 0.0
-    left_offer = left[END] + lt if left is not None else -np.inf
+    turn = [p.slew(c[ROLL]) for c in cands]
+    lt = p.slew(left[ROLL]) if left is not None else 0.0
+    left_offer = p.right(left[END], left[ROLL]) if left is not None else -np.inf
     rt = right_at = 0.0
     if right is not None:
-        rt = abs(right[ROLL]) * iv
-        right_at = right[START] - a - rt + EPS
-    e_share = p.eo / energy if energy > EPS else np.inf
-    w_share = p.w / memory if memory > EPS else np.inf
-    s_share = p.es / energy if energy > EPS else np.inf
+        rt = p.slew(right[ROLL])
+        right_at = p.left(right[START], right[ROLL]) + EPS
+    e_share = p.observe_energy_rate / energy if energy > EPS else np.inf
+    w_share = p.memory_rate / memory if memory > EPS else np.inf
+    s_share = p.slew_energy_rate / energy if energy > EPS else np.inf
 
     def measure(chain: list[int]) -> tuple[float, float, float]:
         d = sum(dur[v] for v in chain)
@@ -179,7 +178,7 @@ def best_chain(
         return sum(gains[v] for v in chain), d, slew
 
     def fits(d: float, slew: float) -> bool:
-        return p.w * d <= memory + EPS and p.eo * d + p.es * slew <= energy + EPS
+        return p.memory(d) <= memory + EPS and p.energy(d, slew) <= energy + EPS
 
     def run(t: float, cap: int) -> list[int]:
         """Longest path with penalty t per share of the budgets, at most ``cap`` nodes."""
@@ -230,7 +229,7 @@ def best_chain(
             elif left_offer <= right_at:
                 end_val, end_node, end_k = -slew_pen * lt - rpen, -1, 0
             for v in range(n):
-                if cands[v][END] + turn[v] > right_at:
+                if p.right(cands[v][END], cands[v][ROLL]) > right_at:
                     continue
                 row = val[v]
                 tv = slew_pen * turn[v] + rpen
@@ -280,7 +279,7 @@ def best_chain(
             elif left_offer <= right_at:
                 end_val, end_node = -slew_pen * lt - rpen, -1
             for v in range(n):
-                if cands[v][END] + turn[v] <= right_at:
+                if p.right(cands[v][END], cands[v][ROLL]) <= right_at:
                     x = val[v] - slew_pen * turn[v] - rpen
                     if x > end_val:
                         end_val, end_node = x, v
@@ -412,9 +411,9 @@ class _Stretch:
         rest_obs = line.observe - sum(c[END] - c[START] for c in freed)
         seq = [c for c in (self.left, *freed, self.right) if c is not None]
         rest_slew = line.slew - sum(line.turn(x, y) for x, y in zip(seq, seq[1:], strict=False))
-        self.energy = p.E - p.eo * rest_obs - p.es * rest_slew
-        self.memory = p.W - p.w * rest_obs
-        self.openings = p.c - (len(obs) - len(freed))
+        self.energy = p.energy_capacity - p.energy(rest_obs, rest_slew)
+        self.memory = p.memory_capacity - p.memory(rest_obs)
+        self.openings = p.max_openings - (len(obs) - len(freed))
 
     def units(self, state: State) -> set[int]:
         unit = state.pb.opt_unit
@@ -517,7 +516,7 @@ def replan_stretch(
         else:
             continue
         avail.append(x)
-    cands = candidates(state, avail, state.lines[j].p.dT)
+    cands = candidates(state, avail, state.lines[j].p.max_duration)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
         tw, cover = pb.target_weight, state.cover
         held: dict[int, int] = {}
@@ -596,8 +595,8 @@ def replan_pair(
                     out.append(x)
         return out
 
-    ca = candidates(state, usable(sa, window), state.lines[j].p.dT)
-    cb = candidates(state, usable(sb, window_i), state.lines[i].p.dT)
+    ca = candidates(state, usable(sa, window), state.lines[j].p.max_duration)
+    cb = candidates(state, usable(sb, window_i), state.lines[i].p.max_duration)
     units_a = [{unit[x] for x in c[MEMBERS]} for c in ca]
     units_b = [{unit[x] for x in c[MEMBERS]} for c in cb]
     both = set().union(*units_a) & set().union(*units_b) if ca and cb else set()

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 from bisect import insort
 
-from heuristics.asa.problem import EPS, OrbitParams, Problem
+from heuristics.asa.problem import Problem
+from sosp.rules import OrbitRules
 
 #: Cluster tuple fields.
 START, END, ROLL, LO, HI, MEMBERS = range(6)
@@ -38,48 +39,44 @@ class OrbitLine:
         Total slew time over consecutive pairs, sum of (|theta_u| + |theta_v|)/v (4).
     """
 
-    __slots__ = ("p", "obs", "observe", "slew", "inv_v")
+    __slots__ = ("p", "obs", "observe", "slew")
 
-    def __init__(self, p: OrbitParams) -> None:
+    def __init__(self, p: OrbitRules) -> None:
         self.p = p
         self.obs: list[Cluster] = []
         self.observe = 0.0
         self.slew = 0.0
-        self.inv_v = 1.0 / p.v
 
     # ------------------------------------------------------------ measures
     @property
     def energy(self) -> float:
         """ConE_j, the left side of (4)."""
-        return self.p.eo * self.observe + self.p.es * self.slew
+        return self.p.energy(self.observe, self.slew)
 
     @property
     def memory(self) -> float:
         """ConW_j, the left side of (5)."""
-        return self.p.w * self.observe
+        return self.p.memory(self.observe)
 
     def free_share(self) -> float:
         """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (5.1, step 5)."""
-        p = self.p
-        e = (p.E - self.energy) / p.E if p.E > 0 else 0.0
-        m = (p.W - self.memory) / p.W if p.W > 0 else 0.0
-        return e + m
+        return self.p.free_share(self.energy, self.memory)
 
     def turn(self, c1: Cluster, c2: Cluster) -> float:
         """Slew time between consecutive cluster-tasks (through nadir), as in (3)-(4)."""
-        return (abs(c1[ROLL]) + abs(c2[ROLL])) * self.inv_v
+        return self.p.turn(c1[ROLL], c2[ROLL])
 
     def clash(self, c1: Cluster, c2: Cluster) -> bool:
         """True if c1 then c2 breaks (3)."""
-        return c1[END] + self.p.a + (abs(c1[ROLL]) + abs(c2[ROLL])) * self.inv_v > c2[START] + EPS
+        return self.p.clash(c1[END], c1[ROLL], c2[START], c2[ROLL])
 
     def first_conflict(self) -> int:
         """Position p of the first consecutive pair (p, p+1) breaking (3), or -1."""
         obs = self.obs
-        a, iv = self.p.a, self.inv_v
+        clash = self.p.clash
         for p in range(len(obs) - 1):
             u, w = obs[p], obs[p + 1]
-            if u[END] + a + (abs(u[ROLL]) + abs(w[ROLL])) * iv > w[START] + EPS:
+            if clash(u[END], u[ROLL], w[START], w[ROLL]):
                 return p
         return -1
 
@@ -87,9 +84,9 @@ class OrbitLine:
         """Which of (4) energy, (5) memory, (6) openings is exceeded."""
         p = self.p
         return (
-            p.eo * self.observe + p.es * self.slew > p.E + EPS,
-            p.w * self.observe > p.W + EPS,
-            len(self.obs) > p.c,
+            not p.energy_ok(self.observe, self.slew),
+            not p.memory_ok(self.observe),
+            len(self.obs) > p.max_openings,
         )
 
     def feasible(self) -> bool:
@@ -142,7 +139,7 @@ class OrbitLine:
     def check_insert(self, c: Cluster) -> bool:
         """Would inserting ``c`` keep (3)-(6) (on a currently feasible orbit)?"""
         p = self.p
-        if len(self.obs) >= p.c:
+        if len(self.obs) >= p.max_openings:
             return False
         pos = self.insert_pos(c)
         obs = self.obs
@@ -152,7 +149,7 @@ class OrbitLine:
             return False
         obs_t = self.observe + c[END] - c[START]
         slew = self.slew + self.delta_insert(pos, c)
-        return p.w * obs_t <= p.W + EPS and p.eo * obs_t + p.es * slew <= p.E + EPS
+        return p.fits(obs_t, slew)
 
     def check_replace(self, pos: int, c: Cluster) -> bool:
         """Would replacing the entry at ``pos`` by ``c`` keep (3)-(6)?"""
@@ -170,7 +167,7 @@ class OrbitLine:
         d_obs, d_slew = self.delta_replace(pos, c)
         p = self.p
         obs_t = self.observe + d_obs
-        return p.w * obs_t <= p.W + EPS and p.eo * obs_t + p.es * (self.slew + d_slew) <= p.E + EPS
+        return p.fits(obs_t, self.slew + d_slew)
 
     # ------------------------------------------------------------- updates
     def insert(self, c: Cluster) -> int:
