@@ -39,6 +39,7 @@ METHODS: dict[str, str] = {
     "rds": "heuristics.rds:solve_rds",
     "rds-stc": "heuristics.rds:solve_rds_stc",
     "sa-stc": "heuristics.sa:solve_sa_stc",
+    "ts-stc": "heuristics.tabu_search:solve_ts_stc",
     "milp": "models.solve:solve_milp",
     "milp-lns": "heuristics.lns:solve_milp_lns",
     "orbit-dp": "heuristics.orbit_search:solve_orbit_dp",
