@@ -34,6 +34,20 @@ EXTRA_COMMANDS: dict[str, str] = {
 #: The built-in scenario of ``sosp demo``.
 DEMO_SCENARIO = "C1"
 
+#: Units of the resource options of ``sosp scenario`` (Table 1 of the paper): metavar, help.
+#: Memory and energy are in the paper's abstract units (``docs/model.md``).
+RESOURCE_UNITS: dict[str, tuple[str, str]] = {
+    "memory_capacity": ("UNITS", "memory units per orbit"),
+    "memory_rate": ("UNITS/S", "memory units per second observed"),
+    "energy_capacity": ("UNITS", "energy units per orbit"),
+    "observe_energy_rate": ("UNITS/S", "energy units per second observed"),
+    "slew_energy_rate": ("UNITS/S", "energy units per second slewing"),
+    "slew_rate": ("DEG/S", "degrees per second"),
+    "setup_time": ("S", "seconds before each observation"),
+    "max_openings": ("N", "sensor openings per orbit"),
+    "max_duration": ("S", "longest observation, seconds"),
+}
+
 
 def _emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
     if getattr(args, "json", False):
@@ -181,7 +195,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
     from sosp.io import check_output
     from sosp.schedule import load_schedule
-    from sosp.solve import solve
 
     if args.output:
         check_output(args.output)
@@ -193,9 +206,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
             params[key] = value
     if args.warm_start is not None:
         params["warm_start"] = load_schedule(args.warm_start, inst)
-    result = solve(inst, args.method, seed=args.seed, time_limit=args.time_limit, **params)
-    if args.output:
-        result.schedule.save(args.output, inst)
+    result, interrupted = _solve_interruptibly(inst, args, params)
     data = result.summary()
     if args.output:
         data["output"] = args.output
@@ -208,7 +219,62 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
     if args.output:
         text += f"\nwrote {args.output}"
+    if interrupted:
+        text += f"\nstopped by {interrupted}: the best schedule found so far"
     _emit(args, data, text)
+    return 130 if interrupted else 0
+
+
+def _solve_interruptibly(
+    inst: Any, args: argparse.Namespace, params: dict[str, Any]
+) -> tuple[Any, str | None]:
+    """Solve with a status line on stderr (unless ``--quiet``) and with Ctrl-C / SIGTERM
+    stopping the search (not the program): the best schedule so far is then written as
+    usual. Returns the result and the name of the signal that stopped it (None)."""
+    from sosp.progress import Progress, StatusLine
+    from sosp.solve import solve
+    from sosp.stop import handle_signals, stop_reason
+
+    line = None if args.quiet else StatusLine(sys.stderr)
+    progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
+    with handle_signals():
+        try:
+            result = solve(
+                inst,
+                args.method,
+                seed=args.seed,
+                time_limit=args.time_limit,
+                progress=progress,
+                **params,
+            )
+        finally:
+            if line is not None:
+                line.close()
+        if args.output:
+            result.schedule.save(args.output, inst)
+        return result, stop_reason()
+
+
+# --------------------------------------------------------------------------- methods
+def cmd_methods(args: argparse.Namespace) -> int:
+    from sosp.methods import describe_methods, method_info
+    from sosp.solve import DEFAULT_METHOD
+
+    infos = [method_info(m) for m in args.method] if args.method else describe_methods()
+    data = {"default": DEFAULT_METHOD, "methods": [m.to_dict() for m in infos]}
+    lines = []
+    for m in infos:
+        tag = "  (default)" if m.name == DEFAULT_METHOD else ""
+        lines.append(f"{m.name}{tag}: {m.help}")
+        if not m.params:
+            lines.append("    (no parameters)")
+        for prm in m.params:
+            lines.append(f"    {prm.name} ({prm.type or 'any'}, default {prm.default!r})")
+            if prm.help:
+                lines.append(f"        {prm.help}")
+        lines.append("")
+    lines.append("Give a parameter with sosp solve --param KEY=VALUE (VALUE is JSON or text).")
+    _emit(args, data, "\n".join(lines))
     return 0
 
 
@@ -242,7 +308,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from sosp.validate import validate
 
     t0 = time.perf_counter()
-    inst = scenarios.generate_scenario(DEMO_SCENARIO, args.seed)
+    name = args.scenario
+    inst = scenarios.generate_scenario(name, args.seed)
     t_gen = time.perf_counter() - t0
     wanted = ("greedy", "hpfs-stc", "asa-dtc", "orbit-dp")
     methods = [m for m in wanted if m in available_methods()]
@@ -257,7 +324,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         best = max(res.profit for _, res, _ in rows)
         upper = bound_function("lagrangian")(inst, lower_bound=best)["bound"]
     data = {
-        "scenario": DEMO_SCENARIO,
+        "scenario": name,
         "generate_s": t_gen,
         "instance": _info_dict(inst),
         "upper_bound": upper,
@@ -267,7 +334,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         ],
     }
     lines = [
-        f"sosp demo: scenario {DEMO_SCENARIO} (seed {args.seed}) generated from real orbits "
+        f"sosp demo: scenario {name} (seed {args.seed}) generated from real orbits "
         f"in {t_gen:.2f} s",
         _info_text(inst),
         "",
@@ -335,7 +402,14 @@ def build_parser() -> argparse.ArgumentParser:
         "ASA-DTC and baselines, validation and experiments.",
     )
     parser.add_argument("--version", action="version", version=f"sosp {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=0,
+        help="log more on stderr: -v INFO (each solver's summary), -vv DEBUG (search details, "
+        "the HiGHS log); default WARNING",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     def add(name: str, help_: str) -> argparse.ArgumentParser:
@@ -383,7 +457,9 @@ def build_parser() -> argparse.ArgumentParser:
             dest=key,
             type=float,
             default=None,
-            help=f"per-orbit {key.replace('_', ' ')} ({getattr(defaults, key):g})",
+            metavar=RESOURCE_UNITS[key][0],
+            help=f"per-orbit {key.replace('_', ' ')}, {RESOURCE_UNITS[key][1]} "
+            f"({getattr(defaults, key):g})",
         )
     p.set_defaults(func=cmd_scenario)
 
@@ -391,13 +467,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("instance")
     p.set_defaults(func=cmd_info)
 
+    from sosp.solve import DEFAULT_METHOD, METHODS
+
     p = add("solve", "solve an instance and write the schedule")
+    p.epilog = (
+        "Every method and its parameters (types, defaults, help): sosp methods "
+        "(sosp methods --json for scripts)."
+    )
     p.add_argument("instance")
     p.add_argument(
         "--method",
-        default="asa-dtc",
-        help="asa-dtc (default), asa-stc, asa-nontc, orbit-dp, milp, milp-lns, rds, rds-stc, "
-        "hpfs-stc, sa-stc, greedy",
+        default=DEFAULT_METHOD,
+        help=f"{', '.join(METHODS)} (default {DEFAULT_METHOD}); see sosp methods",
     )
     p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument("--time-limit", type=positive(float), default=None, help="seconds")
@@ -415,10 +496,23 @@ def build_parser() -> argparse.ArgumentParser:
         "--param",
         action="append",
         metavar="KEY=VALUE",
-        help="method parameter (repeatable); VALUE is JSON or text",
+        help="method parameter (repeatable); VALUE is JSON or text; the keys of each method: "
+        "sosp methods",
     )
     p.add_argument("-o", "--output", help="schedule file to write (JSON)")
+    p.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="no status line (by default a solve of more than 3 s shows one on stderr: live on "
+        "a terminal, a line every 10 s otherwise); Ctrl-C or SIGTERM stops the search and "
+        "writes the best schedule so far (status interrupted, exit code 130)",
+    )
     p.set_defaults(func=cmd_solve)
+
+    p = add("methods", "list every method with its parameters, types, defaults and help")
+    p.add_argument("method", nargs="*", help="only these methods (default: all)")
+    p.set_defaults(func=cmd_methods)
 
     p = add("validate", "check a schedule against every constraint; exit 1 if infeasible")
     p.add_argument("instance")
@@ -426,6 +520,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_validate)
 
     p = add("demo", "generate a built-in scenario, solve, validate and summarise")
+    p.add_argument(
+        "scenario",
+        nargs="?",
+        default=DEMO_SCENARIO,
+        help=f"B1..B10 or C1..C10 (default {DEMO_SCENARIO}; B10 and C10 take minutes)",
+    )
     p.add_argument("--seed", type=_nonneg_int, default=0)
     p.add_argument(
         "--time-limit",

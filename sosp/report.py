@@ -32,7 +32,6 @@ import math
 import os
 import re
 import sys
-import tempfile
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -307,15 +306,10 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
 
 # --------------------------------------------------------------------------- figures
 def _save_png(fig: Any, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from sosp.io import atomic_output
+
+    with atomic_output(path, suffix=".png") as tmp:  # atomic, with the user's umask
+        fig.savefig(tmp, dpi=110, format="png")
 
 
 def _figure(

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import inspect
 import logging
 import math
 import time
@@ -44,6 +43,21 @@ METHODS: dict[str, str] = {
     "milp-lns": "heuristics.lns:solve_milp_lns",
     "orbit-dp": "heuristics.orbit_search:solve_orbit_dp",
 }
+
+#: Method name -> "module:Class" of the parameter dataclass a method taking ``**params`` builds
+#: (with its ``from_kwargs``): ``sosp methods`` lists its fields and
+#: :func:`sosp.methods.check_params` validates a parameter set with it before any run starts.
+#: Methods with explicit keyword parameters need no entry: their signature says it all.
+PARAM_CLASSES: dict[str, str] = {
+    "asa-dtc": "heuristics.asa.params:ASAParams",
+    "asa-stc": "heuristics.asa.params:ASAParams",
+    "asa-nontc": "heuristics.asa.params:ASAParams",
+    "milp-lns": "heuristics.lns:LNSParams",
+    "orbit-dp": "heuristics.orbit_search:OrbitSearchParams",
+}
+
+#: The method of :func:`solve` and of ``sosp solve`` when none is named.
+DEFAULT_METHOD = "asa-dtc"
 
 #: Bound name -> "module:function" (each returns a dict with at least ``bound``), so the core
 #: and its CLI reach the models only through this table.
@@ -106,7 +120,7 @@ def check_time_limit(time_limit: Any) -> float | None:
 
 def solve(
     instance: Instance,
-    method: str = "greedy",
+    method: str = DEFAULT_METHOD,
     *,
     seed: int = 0,
     time_limit: float | None = None,
@@ -120,7 +134,8 @@ def solve(
     instance
         The problem.
     method
-        A name from :data:`METHODS` (e.g. ``"asa-dtc"``, ``"milp"``, ``"hpfs-stc"``).
+        A name from :data:`METHODS` (e.g. ``"asa-dtc"``, ``"milp"``, ``"hpfs-stc"``);
+        :data:`DEFAULT_METHOD` by default, as on the command line.
     seed
         Seeds the one :class:`numpy.random.Generator` passed down to the method.
     time_limit
@@ -129,7 +144,8 @@ def solve(
         Run the validator on the returned schedule and raise :class:`SolverError` if it
         fails (cheap next to any solve; the validator is the referee).
     **params
-        Method parameters (see each method's docstring).
+        Method parameters (``sosp methods`` lists them; :func:`sosp.methods.check_params`
+        refuses an unknown key with the list of valid ones).
 
     Returns
     -------
@@ -141,11 +157,9 @@ def solve(
         raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
     time_limit = check_time_limit(time_limit)
     func = method_function(method)
-    sig = inspect.signature(func)
-    if not any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
-        for key in params:
-            if key not in sig.parameters or key in ("instance", "rng", "time_limit"):
-                raise InputError(f"method {method!r} has no parameter {key!r}")
+    from sosp.methods import check_params
+
+    check_params(method, params)
     rng = np.random.default_rng(int(seed))
     t0 = time.perf_counter()
     result = func(instance, rng=rng, time_limit=time_limit, **params)

@@ -91,25 +91,33 @@ def build_campaign(args: argparse.Namespace) -> tuple[Any, Path]:
 def cmd_bench(args: argparse.Namespace) -> int:
     """Run the campaign; exit 0 if every run succeeded, 1 if some failed or were infeasible."""
     from sosp.campaign.progress import Progress
-    from sosp.campaign.runner import plan, run_campaign
-    from sosp.campaign.store import Store
+    from sosp.campaign.runner import check_methods, plan, run_campaign
+    from sosp.campaign.store import Store, check_db, new_database_guard
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
     camp, db = build_campaign(args)
-    with Store(db) as store:
-        if args.dry_run:
-            p = plan(camp, store, retry_failed=args.retry_failed)
-            data = {
-                "db": str(db),
-                "total": len(p.runs),
-                "stored": p.done,
-                "pending": len(p.pending),
-                "skipped_methods": p.skipped_methods,
-            }
-            text = f"{db}: {len(p.runs)} runs, {p.done} stored, {len(p.pending)} to run"
-            sys.stdout.write((json.dumps(data) if args.json else text) + "\n")
-            return 0
+    check_db(db)
+    # Methods and their parameter values are checked before the database is touched: a
+    # refused campaign leaves nothing behind.
+    check_methods(camp)
+    if args.dry_run:  # reads the database if there is one, writes nothing
+        if db.exists():
+            with Store(db, readonly=True, allow_empty=True) as ro:
+                p = plan(camp, ro, retry_failed=args.retry_failed)
+        else:
+            p = plan(camp, None, retry_failed=args.retry_failed)
+        data = {
+            "db": str(db),
+            "total": len(p.runs),
+            "stored": p.done,
+            "pending": len(p.pending),
+            "skipped_methods": p.skipped_methods,
+        }
+        text = f"{db}: {len(p.runs)} runs, {p.done} stored, {len(p.pending)} to run"
+        sys.stdout.write((json.dumps(data) if args.json else text) + "\n")
+        return 0
+    with new_database_guard(db), Store(db) as store:
         progress: Progress | None = None
 
         def on_result(row: dict[str, Any], done: int, total: int) -> None:

@@ -163,11 +163,10 @@ def check_methods(campaign: Campaign) -> tuple[list[str], list[str]]:
     Raises
     ------
     InputError
-        On an unknown method, a method not installed (unless skipped) or an unknown
-        parameter.
+        On an unknown method, a method not installed (unless skipped), an unknown parameter
+        or a bad parameter value (:func:`sosp.methods.check_params`).
     """
-    import inspect
-
+    from sosp.methods import check_params
     from sosp.solve import METHODS, available_methods, method_function
 
     avail = set(available_methods())
@@ -184,26 +183,28 @@ def check_methods(campaign: Campaign) -> tuple[list[str], list[str]]:
                 continue
             raise InputError(f"methods: {m.name!r} is not available in this build")
         try:
-            func = method_function(m.name)
+            method_function(m.name)
         except ImportError as exc:  # installed but broken: treat as unavailable
             if campaign.skip_unavailable:
                 log.warning("skipping %s: %s", m.label, exc)
                 skipped.append(m.label)
                 continue
             raise InputError(f"methods: {m.name!r} cannot be imported: {exc}") from None
-        sig = inspect.signature(func)
-        if not any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values()):
-            for key in m.params:
-                if key not in sig.parameters or key in ("instance", "rng", "time_limit"):
-                    raise InputError(f"methods: {m.name!r} has no parameter {key!r}")
+        try:  # names and values, so that a typo is refused now, not stored as a failed run
+            check_params(m.name, m.params)
+        except InputError as exc:
+            raise InputError(f"methods: {m.label}: {exc}") from None
         usable.append(m.label)
     if not usable:
         raise InputError("methods: none of the campaign's methods is available")
     return usable, skipped
 
 
-def plan(campaign: Campaign, store: Store, retry_failed: bool = False) -> Plan:
-    """Expand the grid (fingerprinting each scenario once) and drop the runs already stored."""
+def plan(campaign: Campaign, store: Store | None, retry_failed: bool = False) -> Plan:
+    """Expand the grid (fingerprinting each scenario once) and drop the runs already stored.
+
+    ``store`` None stands for a database that does not exist yet (nothing stored).
+    """
     usable, skipped = check_methods(campaign)
     fingerprints: dict[ScenarioSpec, str] = {}
     infos = []
@@ -230,7 +231,7 @@ def plan(campaign: Campaign, store: Store, retry_failed: bool = False) -> Plan:
                             time_limit=float(tl),
                         )
                     )
-    done = store.done_keys(include_failed=not retry_failed)
+    done = set() if store is None else store.done_keys(include_failed=not retry_failed)
     pending = [r for r in runs if r.key not in done]
     return Plan(runs, pending, skipped, infos)
 

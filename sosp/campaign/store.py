@@ -1,10 +1,13 @@
 """The SQLite results store of ``sosp bench``: one row per finished run, written at once.
 
-Durability: the database runs in WAL mode and every finished run is one transaction, written
-by the parent process only. A run that crashed or was killed is simply absent and is run
-again on resume; the unique key ``(scenario, fingerprint, method, params, seed, time_limit)``
-means nothing is stored twice. A failed run (status ``error``) is replaced only when it is
-retried (``--retry-failed``) and a success is never overwritten.
+Durability: the database runs in WAL mode while a campaign writes it and every finished run is
+one transaction, written by the parent process only. When the writer closes it, the database
+goes back to a single file (rollback journal), so that readers (``sosp report``) and a
+finished campaign leave no ``-wal``/``-shm`` files behind. A run that crashed or was killed
+is simply absent and is run again on resume; the unique key
+``(scenario, fingerprint, method, params, seed, time_limit)`` means nothing is stored twice.
+A failed run (status ``error``) is replaced only when it is retried (``--retry-failed``) and a
+success is never overwritten.
 
 Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``; a database of another schema
 version is refused with an :class:`~sosp.errors.InputError` before anything is written.
@@ -15,7 +18,8 @@ from __future__ import annotations
 import json
 import os
 import sqlite3
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -93,6 +97,57 @@ def _locked(exc: sqlite3.OperationalError) -> bool:
     return "locked" in str(exc) or "busy" in str(exc)
 
 
+#: The side files of a database in WAL mode.
+SIDE_SUFFIXES = ("-wal", "-shm", "-journal")
+
+
+def check_db(path: str | os.PathLike[str]) -> None:
+    """Check a ``--db`` path before any work: not a folder, in a folder this user can write."""
+    from sosp.io import check_output
+
+    check_output(path, "--db")
+
+
+def _in_wal_mode(path: Path) -> bool:
+    """Whether the database file's header says WAL (bytes 18-19 are 2), read without SQLite."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(20)
+    except OSError:
+        return False
+    return len(head) == 20 and head[18] == 2 and head[19] == 2
+
+
+@contextmanager
+def new_database_guard(path: str | os.PathLike[str]) -> Iterator[None]:
+    """Remove a database this block created if the block fails before storing any run.
+
+    A campaign refused after the database was opened (a scenario file that does not load, an
+    interrupted start) then leaves no empty database behind; an existing database and one
+    holding runs are always kept.
+    """
+    p = Path(path)
+    created = not p.exists()
+    try:
+        yield
+    except BaseException:
+        if created and p.exists():
+            try:
+                conn = sqlite3.connect(p.resolve().as_uri() + "?mode=ro", uri=True)
+                try:
+                    runs = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+                except sqlite3.DatabaseError:
+                    runs = 0
+                finally:
+                    conn.close()
+            except sqlite3.DatabaseError:
+                runs = 0
+            if runs == 0:
+                for f in (p, *(p.with_name(p.name + s) for s in SIDE_SUFFIXES)):
+                    f.unlink(missing_ok=True)
+        raise
+
+
 class Store:
     """An open results database.
 
@@ -102,7 +157,10 @@ class Store:
         The SQLite file (created with its folder's permission when missing, unless
         ``readonly``).
     readonly
-        Open for reading only (reports); the file must exist.
+        Open for reading only (reports); the file must exist. No side file is created: a
+        database left in WAL mode with no writer attached is opened as immutable.
+    allow_empty
+        With ``readonly``: accept an empty file (no tables) as a database with no runs.
 
     Raises
     ------
@@ -111,8 +169,13 @@ class Store:
         locked by another writer.
     """
 
-    def __init__(self, path: str | os.PathLike[str], readonly: bool = False) -> None:
+    def __init__(
+        self, path: str | os.PathLike[str], readonly: bool = False, allow_empty: bool = False
+    ) -> None:
         self.path = str(path)
+        self.readonly = readonly
+        self.allow_empty = allow_empty
+        self.empty = False
         p = Path(path)
         if readonly and not p.is_file():
             raise InputError("results database not found", source=self.path)
@@ -121,6 +184,12 @@ class Store:
         try:
             if readonly:
                 uri = p.resolve().as_uri() + "?mode=ro"
+                sides = [p.with_name(p.name + s) for s in ("-wal", "-shm")]
+                if _in_wal_mode(p) and not any(f.exists() for f in sides):
+                    # No writer is attached (it would hold the -wal and -shm files): reading
+                    # as immutable creates no side files, which a plain read-only connection
+                    # to a WAL database would leave behind.
+                    uri += "&immutable=1"
                 self.conn = sqlite3.connect(uri, uri=True, timeout=OPEN_TIMEOUT)
             else:
                 self.conn = sqlite3.connect(self.path, timeout=OPEN_TIMEOUT, isolation_level=None)
@@ -157,7 +226,9 @@ class Store:
         elif tables:
             raise InputError("not a sosp results database (no meta table)", source=self.path)
         elif readonly:
-            raise InputError("empty database: no runs stored", source=self.path)
+            if not self.allow_empty:
+                raise InputError("empty database: no runs stored", source=self.path)
+            self.empty = True
         if readonly:
             return
         # Take the write lock now: a database locked by another writer is refused at once.
@@ -184,6 +255,8 @@ class Store:
     # ------------------------------------------------------------------ reading
     def done_keys(self, include_failed: bool = True) -> set[tuple[Any, ...]]:
         """Keys of stored runs (failed ones too unless ``include_failed`` is False)."""
+        if self.empty:
+            return set()
         sql = f"SELECT {', '.join(KEY_COLUMNS)} FROM runs"
         if not include_failed:
             sql += " WHERE status != 'error'"
@@ -245,6 +318,14 @@ class Store:
         return written
 
     def close(self) -> None:
+        """Close; a writer first folds the WAL back into the file and leaves WAL mode, so the
+        database is one file again (another writer still attached keeps WAL mode)."""
+        if not self.readonly:
+            try:
+                self.conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+                self.conn.execute("PRAGMA journal_mode=DELETE")
+            except sqlite3.DatabaseError:  # busy: another connection uses it; keep WAL
+                pass
         self.conn.close()
 
     def __enter__(self) -> Store:

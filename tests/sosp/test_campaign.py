@@ -282,3 +282,98 @@ def test_per_method_seeds_and_time_limits(tmp_path: Path, inst_files: list[str])
 
 def test_status_values_are_known() -> None:
     assert {s.value for s in Status} >= {"optimal", "feasible"}
+
+
+# ----------------------------------------------------------------- nothing stray (issue 19)
+def _sosp(*argv: str, cwd: Path):
+    import shutil
+    import subprocess
+    import sys
+
+    exe = shutil.which("sosp", path=str(Path(sys.executable).parent)) or shutil.which("sosp")
+    cmd = [exe] if exe else [sys.executable, "-m", "sosp"]
+    return subprocess.run(cmd + list(argv), capture_output=True, text=True, cwd=cwd, timeout=120)
+
+
+def _one_line(proc, *needles: str) -> None:
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.startswith("error: ") and proc.stderr.count("\n") == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    for needle in needles:
+        assert needle in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize(
+    ("methods", "needles"),
+    [
+        ("asa-dtc:presett=quality", ("presett", "valid: preset,")),
+        ("asa-dtc:preset=fastest", ("preset: expected one of default, quality",)),
+        ("orbit-dp:noise=2", ("noise: expected a number in [0, 1)",)),
+        ("greedy,nosuch", ("nosuch",)),
+    ],
+)
+def test_refused_bench_creates_no_database(tmp_path: Path, methods: str, needles) -> None:
+    tiny_chain().save(tmp_path / "t.json")
+    proc = _sosp(
+        "bench", "--scenarios", "t.json", "--methods", methods, "--db", "r.db", cwd=tmp_path
+    )
+    _one_line(proc, *needles)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.json"]
+
+
+def test_bench_refused_after_opening_removes_the_new_database(tmp_path: Path) -> None:
+    proc = _sosp(
+        "bench", "--scenarios", "missing.json", "--methods", "greedy", "--db", "r.db", cwd=tmp_path
+    )
+    _one_line(proc, "missing.json")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bench_db_option_checked_first(tmp_path: Path) -> None:
+    (tmp_path / "adir").mkdir()
+    for db, needle in (("adir", "is a folder"), ("nope/r.db", "folder does not exist")):
+        proc = _sosp("bench", "--scenarios", "B1", "--methods", "greedy", "--db", db, cwd=tmp_path)
+        _one_line(proc, "--db", needle)
+    assert [p.name for p in tmp_path.iterdir()] == ["adir"] and not list(
+        (tmp_path / "adir").iterdir()
+    )
+
+
+def test_dry_run_writes_nothing_and_report_leaves_no_side_files(tmp_path: Path) -> None:
+    tiny_chain().save(tmp_path / "t.json")
+    argv = ["bench", "--scenarios", "t.json", "--methods", "greedy", "--db", "r.db"]
+    proc = _sosp(*argv, "--dry-run", "--json", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["pending"] == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.json"]
+    proc = _sosp(*argv, "--workers", "1", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.db", "t.json"]
+    before = (tmp_path / "r.db").read_bytes()
+    proc = _sosp(*argv, "--seeds", "1-3", "--dry-run", "--json", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (json.loads(proc.stdout)["stored"], json.loads(proc.stdout)["pending"]) == (1, 2)
+    proc = _sosp("report", "r.db", "-o", "rep", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.db", "rep", "t.json"]
+    assert (tmp_path / "r.db").read_bytes() == before
+    import os
+    import stat
+
+    mask = os.umask(0)
+    os.umask(mask)
+    modes = {stat.S_IMODE(f.stat().st_mode) for f in (tmp_path / "rep").iterdir()}
+    assert modes == {0o666 & ~mask}  # figures and tables: the user's normal permissions
+
+
+def test_report_of_a_database_left_in_wal_mode_creates_no_side_files(tmp_path: Path) -> None:
+    db = tmp_path / "r.db"
+    with Store(db) as st:
+        assert st.count() == 0
+    con = sqlite3.connect(db)  # an older sosp left its databases in WAL mode
+    assert con.execute("PRAGMA journal_mode=WAL").fetchone()[0] == "wal"
+    con.close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.db"]
+    with Store(db, readonly=True, allow_empty=True) as ro:
+        assert ro.count() == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.db"]

@@ -339,3 +339,100 @@ def test_plot_refuses_unknown_extension(tmp_path: Path, inst_file: Path) -> None
         proc = sosp_cli("plot", str(inst_file), "s.json", "-o", out, cwd=tmp_path)
         one_line_error(proc, "-o", ".png, .pdf, .svg")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["inst.json", "s.json"]
+
+
+# --------------------------------------------------------------------------- discoverable options
+def test_methods_lists_every_registered_method_from_the_code(capsys) -> None:
+    import dataclasses
+    import inspect
+
+    from sosp.methods import param_class
+    from sosp.solve import available_methods, method_function
+
+    code, out, _ = run(capsys, "methods", "--json")
+    assert code == 0
+    data = json.loads(out)
+    by_name = {m["name"]: m for m in data["methods"]}
+    assert list(by_name) == available_methods()
+    for name, m in by_name.items():
+        assert m["help"], name
+        params = {p["name"]: p for p in m["params"]}
+        for p in m["params"]:
+            assert p["type"] and p["help"], (name, p)
+        # Oracle: the method's own signature and parameter dataclass.
+        sig = inspect.signature(method_function(name)).parameters
+        for key, prm in sig.items():
+            if key in ("instance", "rng", "time_limit") or prm.kind is prm.VAR_KEYWORD:
+                continue
+            assert key in params, (name, key)
+            if isinstance(prm.default, int | float | str | bool):
+                assert params[key]["default"] == prm.default
+        cls = param_class(name)
+        if cls is not None:
+            for f in dataclasses.fields(cls):
+                assert params[f.name]["default"] == f.default, (name, f.name)
+    assert data["default"] == "asa-dtc"
+    assert "preset" in {p["name"] for p in by_name["asa-dtc"]["params"]}
+    code, out, _ = run(capsys, "methods", "orbit-dp")
+    assert code == 0 and out.startswith("orbit-dp: ") and "noise (float, default 0.5)" in out
+
+
+def test_solve_help_points_to_methods_and_default_is_shared() -> None:
+    import inspect
+
+    from sosp.cli import build_parser
+    from sosp.solve import DEFAULT_METHOD, solve
+
+    proc = sosp_cli("solve", "--help")
+    assert proc.returncode == 0 and "sosp methods" in proc.stdout
+    solve_parser = build_parser()._subparsers._group_actions[0].choices["solve"]
+    cli_default = solve_parser.get_default("method")
+    assert cli_default == inspect.signature(solve).parameters["method"].default == DEFAULT_METHOD
+
+
+def test_unknown_param_lists_the_valid_keys(tmp_path: Path, inst_file: Path) -> None:
+    proc = sosp_cli(
+        "solve",
+        str(inst_file),
+        "--method",
+        "orbit-dp",
+        "--param",
+        "noize=0.2",
+        "-o",
+        "s.json",
+        cwd=tmp_path,
+    )
+    one_line_error(proc, "'noize'", "perturb_orbits, noise, steal, iterations, no_improve")
+    proc = sosp_cli(
+        "solve",
+        str(inst_file),
+        "--method",
+        "greedy",
+        "--param",
+        "x=1",
+        "-o",
+        "s.json",
+        cwd=tmp_path,
+    )
+    one_line_error(proc, "no parameter 'x'", "valid: none")
+    assert not (tmp_path / "s.json").exists()
+
+
+def test_resource_options_show_their_units() -> None:
+    proc = sosp_cli("scenario", "--help")
+    text = " ".join(proc.stdout.split())
+    assert "--slew-rate DEG/S" in text and "degrees per second" in text
+    assert "--setup-time S" in text and "seconds before each observation" in text
+    assert "--energy-capacity UNITS" in text and "energy units per orbit" in text
+
+
+def test_demo_refuses_an_unknown_scenario(capsys) -> None:
+    code, _, err = run(capsys, "demo", "Z9")
+    assert code == 2 and "Z9" in err and err.count("\n") == 1
+
+
+@pytest.mark.slow
+def test_demo_accepts_a_scenario_name(capsys) -> None:
+    code, out, _ = run(capsys, "demo", "C2", "--time-limit", "0.3", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["scenario"] == "C2" and data["instance"]["targets"] == 200
