@@ -1106,6 +1106,8 @@ def solve_rds_stc(
         Variable order, ``"orbit"`` or ``"weight"``.
     decompose
         Solve independent components of the interaction graph separately.
+    variables
+        ``"targets"`` (one variable per target, default) or ``"tasks"`` (0/1 per task).
     roll_rule
         Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
 
