@@ -6,8 +6,7 @@ scenarios the search is flat after the first second well below the best known sc
 (``docs/asa.md``). This move frees a stretch of one orbit and rebuilds it by dynamic
 programming:
 
-1. choose an orbit uniformly among those with usable options (or, with ``replan_target``,
-   the orbit of an option of an unscheduled task), and on it a stretch of at most
+1. choose an orbit uniformly among those with usable options, and on it a stretch of at most
    ``replan_opps`` consecutive options (the whole orbit when it has fewer);
 2. free every cluster-task whose window meets the stretch (the stretch grows to hold them);
 3. build candidate cluster-tasks over the options of the stretch whose tasks are now
@@ -38,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from heuristics.asa.neighbourhoods import choose_unscheduled, remove_member, repair
+from heuristics.asa.neighbourhoods import remove_member, repair
 from heuristics.asa.params import ASAParams
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
@@ -46,6 +45,11 @@ from sosp.rules import EPS
 
 #: Index of this neighbourhood in the selector's probabilities (after insertion, migration).
 REPLAN = 2
+
+#: Levels of the ejection chain of a stretch move with ``replan_pull``: the orbits that lost a
+#: task to the stretch are re-planned once, with unscheduled tasks only. (A parameter before;
+#: an unbounded chain measured no better on B10, ``docs/asa.md``.)
+EJECTION_DEPTH = 2
 
 #: Bisection rounds on the Lagrange multiplier of (4), (5).
 LAGRANGE_ROUNDS = 10
@@ -337,7 +341,7 @@ def replan_move(
     With ``params.replan_pull > 0`` (DTC and NONTC) the stretch may also take tasks observed
     on other orbits, each worth ``replan_pull`` times its weight; they leave their orbit, and
     the stretch of each orbit they left (``replan_opps`` options around the hole) is then
-    re-planned in turn: an ejection chain of ``params.replan_depth`` levels, the last of which
+    re-planned in turn: an ejection chain of :data:`EJECTION_DEPTH` levels, the last of which
     takes unscheduled tasks only.
     """
     pb = state.pb
@@ -345,24 +349,15 @@ def replan_move(
     if not orbits:
         return False
     m = params.replan_opps
-    window = None
-    if params.replan_target > 0 and rng.random() < params.replan_target:
-        u = choose_unscheduled(state, rng, params.pool, tabu)
-        if u >= 0:
-            opts_u = pb.unit_options[u]
-            x = opts_u[int(rng.integers(len(opts_u)))]
-            j = pb.opt_orbit[x]
-            window = _around(pb.orbit_options[j], pb.orbit_options[j].index(x), m)
-    if window is None:
-        j = orbits[int(rng.integers(len(orbits)))]
-        opts = pb.orbit_options[j]
-        window = _around(opts, int(rng.integers(len(opts))), m)
+    j = orbits[int(rng.integers(len(orbits)))]
+    opts = pb.orbit_options[j]
+    window = _around(opts, int(rng.integers(len(opts))), m)
     if pb.mode != "stc" and params.replan_pair > 0 and rng.random() < params.replan_pair:
         made = replan_pair(state, rng, j, window, m, tabu)
         if made is not None:
             return made and all(repair(state, i) for i in state.touched_orbits())
     pull = params.replan_pull if pb.mode != "stc" else 0.0
-    depth = params.replan_depth
+    depth = EJECTION_DEPTH
     holes = replan_stretch(state, j, window, tabu, pull if depth > 1 else 0.0)
     if holes is None:
         return False

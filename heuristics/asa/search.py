@@ -134,10 +134,8 @@ class Search:
             params.lambda_min, params.rho, params.delta, params.r_update
         )
         self.probs = [params.pro1, params.pro2] + ([params.pro3] if params.replan else [])
-        floor = max(params.min_probability, params.replan_floor) if params.replan else None
-        self.selector = selector or AdaptiveRoulette(
-            self.probs, params.eta, params.itr, params.min_probability if floor is None else floor
-        )
+        floor = params.replan_floor if params.replan else 0.0
+        self.selector = selector or AdaptiveRoulette(self.probs, params.eta, params.itr, floor)
         length = params.tabu_length
         if length is None:
             length = max(1, self.problem.n_observable // 50)

@@ -42,7 +42,9 @@ ORACLE = {"asa-dtc": "cluster", "asa-stc": "static", "asa-nontc": "task"}
 
 
 def _state(inst: Instance, mode: str = "dtc", **kw) -> tuple[State, ASAParams]:
-    params = ASAParams(**kw)
+    """The search state under the paper's rules (``preset="paper"``, the hand computations
+    below follow them), with ``kw`` overriding."""
+    params = ASAParams.from_kwargs(preset="paper", **kw)
     return State(build_problem(inst, mode, params.roll_rule), params.roll_rule), params
 
 
@@ -151,13 +153,13 @@ def test_rule16_ignores_openings() -> None:
 
 
 def test_rule16_with_openings_clusters_when_openings_are_scarce() -> None:
-    """The default reading counts openings: c joining d (d alone on the orbit) saves one of
+    """sosp's reading (the default) counts openings: c joining d (d alone on the orbit) saves one of
     c = 2 openings. By hand: d [300, 302], c [200, 202], roll 0, E = 1500, W = 1000.
     en = 2 + 2 = 4, ec = 102 (window [200, 302]); wn = 4, wc = 102; shares consumed
     ConE/E = 2/1500, ConW/W = 2/1000; gamma = 1 opening used / 2.
     saving = (2/1500)(4 - 102)/1500 + (2/1000)(4 - 102)/1000 + (1/2)/2 = 0.25 - 2.83e-4."""
     inst = tiny_openings()
-    state, params = _state(inst)
+    state, params = _state(inst, rule16_openings=True)
     c, d = _opp(inst, "c"), _opp(inst, "d")
     state.begin()
     assert insert_options(state, [d], params) == d

@@ -31,8 +31,13 @@ from tests.heuristics.test_asa_replan import _abc, _only
 from tests.oracle import brute_force
 
 
+#: The hand computations below use the paper's rolls (midpoint (9), singles at their own roll)
+#: unless a case says otherwise.
+PAPER_ROLLS = {"roll_rule": "midpoint", "nadir_singles": False}
+
+
 def _planner(inst: Instance, **kw) -> tuple[State, ASAParams, OrbitPlanner]:
-    params = ASAParams(**kw)
+    params = ASAParams(**{**PAPER_ROLLS, **kw})
     pb = build_problem(inst, "dtc", params.roll_rule)
     state = State(pb, params.roll_rule, params.nadir_singles)
     return state, params, OrbitPlanner(inst, state, None)

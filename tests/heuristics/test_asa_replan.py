@@ -40,8 +40,13 @@ def _abc(memory: float = 1000.0) -> Instance:
     return Instance.build({"a": 3, "b": 3, "c": 5}, rows, resources=res, n_orbits=1)
 
 
+#: The hand computations below use the paper's rolls (midpoint (9), singles at their own roll)
+#: unless a case says otherwise.
+PAPER_ROLLS = {"roll_rule": "midpoint", "nadir_singles": False}
+
+
 def _state(inst: Instance, mode: str = "dtc", **kw) -> tuple[State, ASAParams]:
-    params = ASAParams(**kw)
+    params = ASAParams(**{**PAPER_ROLLS, **kw})
     pb = build_problem(inst, mode, params.roll_rule)
     return State(pb, params.roll_rule, params.nadir_singles), params
 

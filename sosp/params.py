@@ -1,0 +1,126 @@
+"""Method parameters as small validated dataclasses, read from ``--param key=value`` strings.
+
+Every method's parameters are a frozen dataclass whose ``__post_init__`` validates the values
+(raising :class:`~sosp.errors.InputError` naming the field). This module converts command-line
+strings to each field's type *from its type hints*, so no list of field names is kept by hand:
+``bool`` reads true/false (1/0, yes/no, on/off), ``int`` and ``float`` numbers, ``Literal[...]``
+one of its values, and ``X | None`` also ``none``/``null``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from typing import Any, Literal, TypeVar, get_args, get_origin
+
+from sosp.errors import InputError
+
+P = TypeVar("P")
+
+_TRUE = ("true", "1", "yes", "on")
+_FALSE = ("false", "0", "no", "off")
+
+
+def field_types(cls: type) -> dict[str, Any]:
+    """The resolved type hint of each dataclass field of ``cls``."""
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
+
+
+def _parts(hint: Any) -> tuple[list[Any], bool]:
+    """The non-None members of a union hint, and whether None is allowed."""
+    if get_origin(hint) in (typing.Union, types.UnionType):
+        args = list(get_args(hint))
+        return [a for a in args if a is not type(None)], type(None) in args
+    return [hint], False
+
+
+def choices(hint: Any) -> tuple[Any, ...] | None:
+    """The allowed values of a ``Literal[...]`` hint (or ``Literal[...] | None``), else None."""
+    members, _ = _parts(hint)
+    for m in members:
+        if get_origin(m) is Literal:
+            return get_args(m)
+    return None
+
+
+def type_name(hint: Any) -> str:
+    """A short readable name of a field's type (``int``, ``float | None``, ``midpoint|nadir``)."""
+    members, optional = _parts(hint)
+    names = []
+    for m in members:
+        if get_origin(m) is Literal:
+            names.append("|".join(str(a) for a in get_args(m)))
+        else:
+            names.append(getattr(m, "__name__", str(m)))
+    return " | ".join(names) + (" | None" if optional else "")
+
+
+def coerce(key: str, value: Any, hint: Any) -> Any:
+    """Convert a command-line string to the type of ``hint``; other values pass through
+    unchanged (the dataclass validates them)."""
+    if not isinstance(value, str):
+        return value
+    text = value.strip()
+    members, optional = _parts(hint)
+    if optional and text.lower() in ("none", "null"):
+        return None
+    for m in members:
+        if m is bool:
+            if text.lower() in _TRUE:
+                return True
+            if text.lower() in _FALSE:
+                return False
+            raise InputError(f"{key}: expected true or false, got {value!r}")
+    allowed = choices(hint)
+    if allowed is not None:
+        return text  # checked against the choices by check_choices
+    numeric = [m for m in members if m in (int, float)]
+    if numeric:
+        try:
+            return int(text) if numeric[0] is int else float(text)
+        except ValueError:
+            kind = "an integer" if numeric[0] is int else "a number"
+            raise InputError(f"{key}: expected {kind}, got {value!r}") from None
+    return text
+
+
+def check_choices(params: Any) -> None:
+    """Raise :class:`InputError` for a ``Literal`` field whose value is not one of its choices,
+    and for a ``bool`` field holding anything but True or False."""
+    for name, hint in field_types(type(params)).items():
+        value = getattr(params, name)
+        members, optional = _parts(hint)
+        if value is None and optional:
+            continue
+        allowed = choices(hint)
+        if allowed is not None and value not in allowed:
+            raise InputError(
+                f"{name}: expected one of {', '.join(map(str, allowed))}, got {value!r}"
+            )
+        if bool in members and not isinstance(value, bool):
+            raise InputError(f"{name}: expected true or false, got {value!r}")
+
+
+def from_kwargs(
+    cls: type[P],
+    kwargs: dict[str, Any],
+    *,
+    method: str,
+    base: dict[str, Any] | None = None,
+) -> P:
+    """Build ``cls`` from keyword parameters (CLI strings converted by the field types).
+
+    ``base`` (e.g. a preset) is applied first and the keywords override it. An unknown key is
+    refused with the list of valid ones.
+    """
+    hints = field_types(cls)
+    out: dict[str, Any] = dict(base or {})
+    for key, value in kwargs.items():
+        if key not in hints:
+            raise InputError(
+                f"{method}: unknown parameter {key!r} (valid: {', '.join(sorted(hints))})"
+            )
+        out[key] = coerce(key, value, hints[key])
+    return cls(**out)
