@@ -39,14 +39,16 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("instance", help="instance file (JSON)")
     p.add_argument(
         "--model",
-        default="cluster",
-        help="cluster (default: bounds every method), task (no clustering) or static",
+        default=None,
+        help="cluster (default: bounds every method), task (no clustering) or static (the "
+        "default of --method pba)",
     )
     p.add_argument(
         "--method",
         default="lp",
-        choices=("lp", "milp", "lagrangian"),
-        help="lp (default), milp or lagrangian",
+        choices=("lp", "milp", "lagrangian", "pba"),
+        help="lp (default), milp, lagrangian or pba (PBA-STC's partition-based bound of the "
+        "static model, docs/baselines.md)",
     )
     p.add_argument(
         "--iterations",
@@ -85,6 +87,9 @@ def cmd_bound(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
 
     inst = load_instance(args.instance)
+    if args.method == "pba":
+        return _pba(inst, args)
+    args.model = args.model or "cluster"
     if args.method == "lagrangian":
         from models.lagrangian import lagrangian_bound
 
@@ -127,3 +132,22 @@ def _lp_or_milp(inst: Any, args: argparse.Namespace) -> dict[str, Any]:
         lp_solver=args.lp_solver,
         slew=args.slew,
     )
+
+
+def _pba(inst: Any, args: argparse.Namespace) -> int:
+    """``--method pba``: the partition-based bound of the static model (sosp.solve.BOUNDS)."""
+    from sosp.errors import InputError
+    from sosp.solve import bound_function
+
+    if args.model not in (None, "static"):
+        raise InputError(f"--model: the pba bound is of the static model, got {args.model!r}")
+    out = bound_function("pba")(inst, time_limit=args.time_limit)
+    out["instance"] = inst.name or str(args.instance)
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
+        return 0
+    sys.stdout.write(
+        f"static model, pba bound: {out['bound']:g} ({out['runtime_s']:.2f} s; "
+        f"{out['parts']} parts, {out['targets']} targets covered by the parts' optima)\n"
+    )
+    return 0

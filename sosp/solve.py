@@ -39,6 +39,7 @@ METHODS: dict[str, str] = {
     "rds-stc": "heuristics.rds:solve_rds_stc",
     "sa-stc": "heuristics.sa:solve_sa_stc",
     "ts-stc": "heuristics.tabu_search:solve_ts_stc",
+    "pba-stc": "heuristics.pba:solve_pba_stc",
     "milp": "models.solve:solve_milp",
     "milp-lns": "heuristics.lns:solve_milp_lns",
     "orbit-dp": "heuristics.orbit_search:solve_orbit_dp",
@@ -63,6 +64,7 @@ DEFAULT_METHOD = "asa-dtc"
 #: and its CLI reach the models only through this table.
 BOUNDS: dict[str, str] = {
     "lagrangian": "models.lagrangian:lagrangian_bound",
+    "pba": "heuristics.pba:pba_bound",
 }
 
 

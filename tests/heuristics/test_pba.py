@@ -1,0 +1,137 @@
+"""PBA-STC: the bound never below the static optimum, the parts and their recombination."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from heuristics.pba import PBAParams, part_optimum, part_problem, pba_bound, pba_partition
+from sosp.clustering import static_cluster_tasks
+from sosp.errors import InputError
+from sosp.instance import Instance, Resources
+from sosp.solve import bound_function, solve
+from sosp.validate import validate
+from tests.heuristics.test_asa import small_instances
+from tests.heuristics.test_tabu_search import chain_no_cluster, openings_no_cluster
+from tests.oracle import brute_force
+
+
+def _pp(inst: Instance):
+    return part_problem(inst, static_cluster_tasks(inst))
+
+
+def _k(inst: Instance, names: str) -> list[int]:
+    return [inst.target_index[x] for x in names]
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(), max_part=st.integers(1, 5), order=st.sampled_from(["rcm", "index"]))
+def test_bound_is_never_below_the_static_optimum(inst: Instance, max_part: int, order) -> None:
+    opt = brute_force(inst, "static").profit
+    out = pba_bound(inst, max_part=max_part, order=order)
+    assert out["bound"] >= opt - 1e-9
+    assert out["bound"] <= sum(int(w) for w in inst.target_weight)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(), seed=st.integers(0, 2**16))
+def test_schedule_is_valid_and_between_nothing_and_the_bound(inst: Instance, seed: int) -> None:
+    res = solve(inst, "pba-stc", seed=seed, max_part=3, check=False)
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    assert res.profit <= brute_force(inst, "static").profit + 1e-9 <= res.bound + 2e-9
+    again = solve(inst, "pba-stc", seed=seed + 1, max_part=3)
+    assert again.schedule.observations == res.schedule.observations  # deterministic
+
+
+def test_part_optimum_keeps_setup_conflicts_inside_a_part() -> None:
+    inst = chain_no_cluster()  # a 5 conflicts with b 4 by (3); c 3 fits with both
+    pp = _pp(inst)
+    assert part_optimum(pp, _k(inst, "abc"))[0] == 5 + 3
+    assert part_optimum(pp, _k(inst, "ab"))[0] == 5
+    assert part_optimum(pp, _k(inst, "bc"))[0] == 4 + 3
+    value, tasks, exact = part_optimum(pp, _k(inst, "abc"))
+    assert exact and sorted(k for t in tasks for k in pp.tasks.targets[t]) == _k(inst, "ac")
+
+
+def test_partition_by_dynamic_programming_takes_the_least_sum() -> None:
+    inst = chain_no_cluster()
+    # Parts of one target relax every conflict: 5 + 4 + 3.
+    assert pba_bound(inst, max_part=1, order="index")["bound"] == 12
+    # With two, [a b] [c] = 5 + 3 beats [a] [b c] = 5 + 7: the DP finds it.
+    out = pba_partition(inst, PBAParams(max_part=2, order="index"))
+    assert out["bound"] == 8
+    assert out["parts"] == [_k(inst, "ab"), _k(inst, "c")]
+    assert out["targets"] == 2 and out["inexact_parts"] == 0
+
+
+def test_openings_are_kept_inside_a_part_and_relaxed_between_parts() -> None:
+    inst = openings_no_cluster()  # c = 2 openings; weights a 1, b 2, c 3, d 4
+    assert pba_bound(inst, max_part=4, order="index")["bound"] == 3 + 4
+    assert pba_bound(inst, max_part=2, order="index")["bound"] == 1 + 2 + 3 + 4
+    assert brute_force(inst, "static").profit == 7
+
+
+def test_memory_and_energy_are_relaxed() -> None:
+    # Two targets on one orbit, each fitting memory alone, not both: the static optimum
+    # takes one, the bound (knapsacks relaxed as the paper says) both.
+    inst = Instance.build(
+        {"a": 3, "b": 2},
+        [("a", 0, 0, 10, 0.0, 0.0, 0.0), ("b", 0, 100, 110, 5.0, 5.0, 5.0)],
+        resources=Resources(memory_capacity=15.0),
+    )
+    assert brute_force(inst, "static").profit == 3
+    assert pba_bound(inst)["bound"] == 5
+
+
+def test_a_part_over_its_node_limit_counts_its_total_weight() -> None:
+    inst = chain_no_cluster()
+    value, tasks, exact = part_optimum(_pp(inst), _k(inst, "abc"), node_limit=1)
+    assert (value, tasks, exact) == (12, [], False)
+
+
+def test_registered_as_a_bound_and_a_method() -> None:
+    inst = chain_no_cluster()
+    assert bound_function("pba")(inst)["bound"] == 8
+    res = solve(inst, "pba-stc")
+    assert res.bound == 8 and res.profit == 8
+
+
+@pytest.mark.parametrize(
+    "kw", [{"max_part": 0}, {"node_limit": 1.5}, {"order": "lat"}, {"roll_rule": "x"}]
+)
+def test_bad_parameters_raise_input_error(kw: dict) -> None:
+    with pytest.raises(InputError):
+        PBAParams(**kw)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["B1", "C1"])
+def test_bound_is_at_least_the_static_milp_optimum(name: str) -> None:
+    pytest.importorskip("highspy")
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario(name, seed=0)
+    exact = solve(inst, "milp", model="static", time_limit=300)
+    assert exact.status == "optimal"
+    assert pba_bound(inst)["bound"] >= exact.profit - 1e-6
+
+
+def test_cli_bound_method_pba(tmp_path) -> None:
+    import json
+    import subprocess
+    import sys
+
+    path = tmp_path / "inst.json"
+    chain_no_cluster().save(path)
+    cmd = [sys.executable, "-m", "sosp", "bound", str(path), "--method", "pba"]
+    done = subprocess.run([*cmd, "--json"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    assert (out["bound"], out["model"], out["method"]) == (8, "static", "pba")
+    text = subprocess.run(cmd, capture_output=True, text=True)
+    assert text.returncode == 0 and "pba bound: 8" in text.stdout
+    bad = subprocess.run([*cmd, "--model", "task"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "--model" in bad.stderr and "Traceback" not in bad.stderr
