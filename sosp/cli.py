@@ -68,6 +68,35 @@ def _resources_from_args(args: argparse.Namespace):  # -> Resources
     return Resources(**given)
 
 
+def _walker_from_args(args: argparse.Namespace):  # -> list[Satellite] | None
+    """The satellites of ``--walker T/P/F --altitude KM [--inclination DEG]`` (None without)."""
+    if args.walker is None:
+        if args.altitude is not None or args.inclination is not None:
+            raise InputError("--altitude, --inclination: give them with --walker T/P/F")
+        return None
+    from sosp.orbits import walker_delta
+    from sosp.scenarios import DEFAULT_START
+
+    if args.tle is not None:
+        raise InputError("--walker and --tle: give one source of satellites, not both")
+    parts = args.walker.split("/")
+    if len(parts) != 3 or not all(x.strip().isdigit() for x in parts):
+        raise InputError(
+            f"--walker: expected SATS/PLANES/PHASING, e.g. 48/8/1, got {args.walker!r}"
+        )
+    if args.altitude is None:
+        raise InputError("--walker: give the altitude with --altitude KM")
+    total, planes, phasing = (int(x) for x in parts)
+    return walker_delta(
+        total,
+        planes,
+        phasing,
+        args.altitude,
+        epoch=args.start or DEFAULT_START,
+        inclination=args.inclination,
+    )
+
+
 def cmd_scenario(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -88,7 +117,8 @@ def cmd_scenario(args: argparse.Namespace) -> int:
         raise InputError("--targets: give it with --region LAT0 LAT1 LON0 LON1")
     if args.region is not None and args.targets_csv is not None:
         raise InputError("--region and --targets-csv: give one source of targets, not both")
-    if args.region is None and args.targets_csv is None and args.tle is None:
+    walker = _walker_from_args(args)
+    if args.region is None and args.targets_csv is None and args.tle is None and walker is None:
         if not args.name:
             raise InputError("scenario: give a name (B1..B10, C1..C10), --region or --targets-csv")
         inst = scenarios.generate_scenario(args.name, args.seed, **common)
@@ -111,7 +141,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
             )
         inst = scenarios.custom_scenario(
             targets=targets,
-            satellites=args.tle,
+            satellites=args.tle if walker is None else walker,
             seed=args.seed,
             name=args.name or "custom",
             **common,
@@ -397,6 +427,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--targets", type=positive(int), help="number of targets with --region")
     p.add_argument("--targets-csv", help="targets file with header id,lat,lon,weight")
     p.add_argument("--tle", help="satellites: name line + two element lines each")
+    p.add_argument(
+        "--walker",
+        metavar="SATS/PLANES/PHASING",
+        help="satellites: a Walker-delta constellation (circular orbits, no TLE file)",
+    )
+    p.add_argument("--altitude", type=positive(float), metavar="KM", help="--walker altitude")
+    p.add_argument(
+        "--inclination",
+        type=float,
+        metavar="DEG",
+        help="--walker inclination (default: sun-synchronous for the altitude)",
+    )
     p.add_argument("--start", help="horizon start, ISO 8601 UTC")
     p.add_argument("--hours", type=positive(float), help="horizon length in hours (24)")
     p.add_argument(

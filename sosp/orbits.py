@@ -65,21 +65,31 @@ __all__ = [
     "ascending_nodes",
     "builtin_satellites",
     "ephemeris_grids",
+    "element_epoch",
     "format_epoch",
     "from_elements",
     "gmst",
+    "mean_motion_rev_per_day",
     "parse_epoch",
     "parse_tle",
     "propagate",
     "read_tle",
     "revolutions",
+    "seconds_between",
+    "stale_elements",
     "sun_direction_ecef",
+    "sun_synchronous_inclination",
     "teme_to_ecef",
     "tle_checksum",
+    "utc_iso",
+    "walker_delta",
 ]
 
 
 # --------------------------------------------------------------------------- time
+#: Days of propagation from an element epoch past which a scenario warns (:func:`stale_elements`).
+STALE_DAYS = 3.0
+
 
 
 def parse_epoch(epoch: str) -> tuple[float, float]:
@@ -107,6 +117,58 @@ def parse_epoch(epoch: str) -> tuple[float, float]:
     jd, fr = jday(dt.year, dt.month, dt.day, dt.hour, dt.minute, 0.0)
     fr += (dt.second + dt.microsecond * 1e-6) / DAY
     return jd, fr
+
+
+def utc_iso(time: str, field: str = "start") -> str:
+    """An ISO 8601 time with any offset as the UTC string ``YYYY-MM-DDTHH:MM:SS[.mmm]Z``.
+
+    Raises
+    ------
+    InputError
+        Naming ``field`` (``"--start"`` on the command line) when ``time`` is not ISO 8601.
+    """
+    try:
+        return format_epoch(*parse_epoch(time))
+    except InputError:
+        raise InputError(
+            f"{field}: not an ISO 8601 time: {time!r} (e.g. 2026-06-01T00:00:00Z or "
+            "2026-06-01T02:00:00+02:00)"
+        ) from None
+
+
+def seconds_between(a: str, b: str) -> float:
+    """Seconds from ISO 8601 time ``a`` to ``b``."""
+    ja, fa = parse_epoch(a)
+    jb, fb = parse_epoch(b)
+    return ((jb - ja) + (fb - fa)) * DAY
+
+
+def element_epoch(sat: Satellite) -> str:
+    """The epoch of a satellite's element set, ISO 8601 UTC."""
+    return format_epoch(*sat.epoch)
+
+
+def stale_elements(
+    satellites: list[Satellite], start: str, hours: float, max_days: float = STALE_DAYS
+) -> list[tuple[str, float]]:
+    """Satellites whose element epoch lies more than ``max_days`` from some time of the horizon.
+
+    SGP4's error grows with the time propagated from the element epoch (of the order of a
+    kilometre a day for low orbits), so a horizon far from it gives wrong opportunities.
+
+    Returns
+    -------
+    list of (name, days)
+        The satellite and the longest propagation its elements need over
+        ``[start, start + hours]``, in days.
+    """
+    out = []
+    for s in satellites:
+        t0 = seconds_between(element_epoch(s), start)
+        far = max(abs(t0), abs(t0 + hours * 3600.0)) / DAY
+        if far > max_days:
+            out.append((s.name, far))
+    return out
 
 
 def format_epoch(jd: float, fr: float) -> str:
@@ -205,12 +267,16 @@ class Satellite:
         Catalogue number (99999 when unknown).
     note
         Provenance (a source, or "approximation: ...").
+    tle
+        The two element lines it was read from (None for elements given otherwise), so that an
+        instance can record its orbits.
     """
 
     name: str
     satrec: Satrec
     norad: int = 99999
     note: str = ""
+    tle: tuple[str, str] | None = None
 
     @property
     def epoch(self) -> tuple[float, float]:
@@ -257,11 +323,13 @@ def _check_tle_line(line: str, number: str, lineno: int, source: str) -> None:
 
 
 def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
-    """Parse three-line element sets (a name line, then TLE lines 1 and 2).
+    """Parse element sets: three-line (a name line, then TLE lines 1 and 2) or two-line.
 
-    Blank lines and lines starting with ``#`` are ignored; a name line may start with ``"0 "``.
-    Each element line must be exactly 69 characters (trailing white space is stripped) with a
-    valid checksum, and both lines must carry the same satellite number.
+    Satellite catalogues serve both: with a name line (which may start with ``"0 "``) or just
+    the two element lines, in which case the satellite is named by its catalogue number
+    (``"28057"``). Both kinds may be mixed in one file. Blank lines and lines starting with
+    ``#`` are ignored. Each element line must be exactly 69 characters (trailing white space
+    is stripped) with a valid checksum, and both lines must carry the same satellite number.
 
     Parameters
     ----------
@@ -285,14 +353,20 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     k = 0
     while k < len(lines):
         lineno, name = lines[k]
-        if name.startswith("1 ") and len(name) == TLE_LINE_LENGTH:
-            raise InputError(f"line {lineno}: expected a satellite name line", source=source)
-        if k + 2 >= len(lines):
-            raise InputError(
-                f"line {lineno}: satellite {name.strip()!r} lacks its two element lines",
-                source=source,
-            )
-        (n1, l1), (n2, l2) = lines[k + 1], lines[k + 2]
+        if _looks_like_line1(name):  # a two-line set: no name line
+            if k + 1 >= len(lines):
+                raise InputError(f"line {lineno}: TLE line 1 lacks its line 2", source=source)
+            (n1, l1), (n2, l2) = lines[k], lines[k + 1]
+            name = ""
+            step = 2
+        else:
+            if k + 2 >= len(lines):
+                raise InputError(
+                    f"line {lineno}: satellite {name.strip()!r} lacks its two element lines",
+                    source=source,
+                )
+            (n1, l1), (n2, l2) = lines[k + 1], lines[k + 2]
+            step = 3
         _check_tle_line(l1, "1", n1, source)
         _check_tle_line(l2, "2", n2, source)
         if l1[2:7] != l2[2:7]:
@@ -304,6 +378,8 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
         display = name.strip()
         if display.startswith("0 "):
             display = display[2:].strip()
+        if step == 2:
+            display = l1[2:7].strip()  # the catalogue number names it
         if not display:
             raise InputError(f"line {lineno}: empty satellite name", source=source)
         if display in names:
@@ -319,15 +395,22 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
         except ValueError:  # alpha-5 catalogue numbers
             norad = int(sat.satnum)
         names.add(display)
-        sats.append(Satellite(display, sat, norad, note=f"TLE from {Path(source).name}"))
-        k += 3
+        sats.append(
+            Satellite(display, sat, norad, note=f"TLE from {Path(source).name}", tle=(l1, l2))
+        )
+        k += step
     if not sats:
         raise InputError("no satellites found", source=source)
     return sats
 
 
+def _looks_like_line1(line: str) -> bool:
+    """Whether a line is TLE line 1 (not a name): ``1 NNNNN...`` of 69 characters."""
+    return line.startswith("1 ") and len(line) == TLE_LINE_LENGTH and line[68].isdigit()
+
+
 def read_tle(path: str | os.PathLike[str]) -> list[Satellite]:
-    """Read satellites from a three-line element file (see :func:`parse_tle`)."""
+    """Read satellites from a two- or three-line element file (see :func:`parse_tle`)."""
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -662,3 +745,101 @@ def revolutions(
         start=np.asarray(starts, dtype=float),
         end=np.asarray(ends, dtype=float),
     )
+
+
+# ------------------------------------------------------------ constellations from elements
+#: WGS72 constants SGP4 is defined with: gravitational parameter (km^3/s^2), equatorial
+#: radius (km) and J2.
+_MU_KM3_S2 = 398600.8
+_EARTH_RADIUS_KM = 6378.135
+_J2 = 0.001082616
+#: Rate of the mean Sun in right ascension (rad/s): one turn per tropical year.
+_SUN_RATE = 2.0 * math.pi / (365.2421897 * DAY)
+
+
+def mean_motion_rev_per_day(altitude_km: float) -> float:
+    """Two-body mean motion of a circular orbit ``altitude_km`` above the WGS72 equator."""
+    a = _EARTH_RADIUS_KM + altitude_km
+    return math.sqrt(_MU_KM3_S2 / a**3) * DAY / (2.0 * math.pi)
+
+
+def sun_synchronous_inclination(altitude_km: float) -> float:
+    """Inclination (deg) of the circular sun-synchronous orbit at ``altitude_km``.
+
+    The J2 nodal regression ``dOmega/dt = -3/2 n J2 (R/a)^2 cos i`` equals the Sun's mean
+    motion in right ascension (one turn per tropical year), so
+    ``cos i = -2 a^2 dOmega/dt / (3 n J2 R^2)`` (about 97.4 deg at 500 km).
+    """
+    a = _EARTH_RADIUS_KM + altitude_km
+    n = math.sqrt(_MU_KM3_S2 / a**3)
+    c = -2.0 * _SUN_RATE * a**2 / (3.0 * n * _J2 * _EARTH_RADIUS_KM**2)
+    if not -1.0 <= c <= 1.0:
+        raise InputError(f"altitude {altitude_km} km: no sun-synchronous inclination")
+    return math.degrees(math.acos(c))
+
+
+def walker_delta(
+    total: int,
+    planes: int,
+    phasing: int,
+    altitude_km: float,
+    *,
+    epoch: str,
+    inclination: float | None = None,
+    prefix: str = "W",
+) -> list[Satellite]:
+    """A Walker-delta constellation ``total/planes/phasing`` of circular orbits.
+
+    Plane p (0..P-1) has right ascension ``360 p / P``; satellite s (0..S-1, S = T/P) of
+    plane p has mean anomaly (argument of latitude, the orbit being circular)
+    ``360 s / S + 360 F p / T`` at ``epoch``. Elements become SGP4 satellites through
+    :func:`from_elements` (no drag), so no TLE file is needed.
+
+    Parameters
+    ----------
+    total, planes, phasing
+        T satellites in P equal planes (P divides T), phasing F in ``0..P-1``.
+    altitude_km
+        Altitude above the WGS72 equatorial radius (km, 150..40000).
+    epoch
+        Element epoch, ISO 8601 UTC (the horizon start, so every satellite is where the
+        pattern puts it at the start).
+    inclination
+        Degrees; None: the sun-synchronous inclination of the altitude
+        (:func:`sun_synchronous_inclination`).
+    prefix
+        Names are ``{prefix}{plane:02d}-{slot:02d}`` (they make the orbit ids).
+    """
+    for name, value in (("satellites", total), ("planes", planes)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise InputError(f"walker: {name} must be a positive integer, got {value!r}")
+    if total > 9999:
+        raise InputError(f"walker: at most 9999 satellites, got {total}")
+    if total % planes:
+        raise InputError(f"walker: {planes} planes must divide {total} satellites")
+    if isinstance(phasing, bool) or not isinstance(phasing, int) or not 0 <= phasing < planes:
+        raise InputError(f"walker: phasing must be an integer in 0..{planes - 1}, got {phasing!r}")
+    if not (math.isfinite(altitude_km) and 150.0 <= altitude_km <= 40000.0):
+        raise InputError(f"walker: altitude must be in [150, 40000] km, got {altitude_km}")
+    incl = sun_synchronous_inclination(altitude_km) if inclination is None else inclination
+    per_plane = total // planes
+    n = mean_motion_rev_per_day(altitude_km)
+    sats = []
+    for p in range(planes):
+        for s in range(per_plane):
+            anomaly = 360.0 * s / per_plane + 360.0 * phasing * p / total
+            sats.append(
+                from_elements(
+                    f"{prefix}{p:02d}-{s:02d}",
+                    epoch=epoch,
+                    inclination=incl,
+                    raan=360.0 * p / planes,
+                    eccentricity=0.0,
+                    arg_perigee=0.0,
+                    mean_anomaly=anomaly % 360.0,
+                    mean_motion=n,
+                    norad=90000 + len(sats),
+                    note=f"Walker-delta {total}/{planes}/{phasing} at {altitude_km:g} km",
+                )
+            )
+    return sats
