@@ -4,7 +4,7 @@ A :class:`TaskSet` is what the static methods schedule (the paper's *-STC compar
 no-clustering variants): each task is one sensor opening with a fixed window and roll covering
 one or more opportunities of one orbit.
 
-Static task clustering (the paper's ref. [10], MODEL-NOTES "static clustering") builds the
+Static task clustering (the paper's ref. [10]; ``docs/model.md``, "Static cluster-tasks") builds the
 cluster-tasks once, before scheduling, by partitioning each orbit's opportunities into groups
 that satisfy (7) (a common roll) and (11) (span <= Delta T); afterwards they are atomic. The
 partition is a greedy clique partition of the "can cluster" graph: opportunities are taken in

@@ -1,7 +1,7 @@
 """Observation opportunities of ground targets from real orbits (replaces STK).
 
 For every target and every revolution of every satellite this module finds at most one
-opportunity, following ``MODEL-NOTES`` "Geometry" (details and figures in ``docs/scenarios.md``):
+opportunity, following ``docs/model.md`` "Geometry" (details and figures in ``docs/scenarios.md``):
 
 Frames and roll
     All vectors are Earth-fixed (see :mod:`sosp.orbits`). At time ``t`` the pass frame is:

@@ -13,7 +13,8 @@ Every candidate schedule is built directly from the instance and judged by the v
   start order each opportunity is skipped, joins the current observation or opens the next one
   (3 choices each). An observation's window is [min ts, max te] of its members and its roll the
   point of their common range closest to nadir (both never cost more than any other choice,
-  MODEL-NOTES). Orbits are then combined, each target counted once.
+  ``docs/model.md``, "What makes the exact models exact"). Orbits are then combined, each
+  target counted once.
 
 Keep instances tiny: ``task`` and ``static`` are 2^n, ``cluster`` 3^n per orbit.
 """
