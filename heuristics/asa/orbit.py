@@ -277,7 +277,7 @@ def orbit_move(
             left -= 1
             # The tabu list keeps the drawn orbit from re-taking what a move just removed; the
             # cascade only gains, and barring the tasks the drawn orbit let go from the orbits
-            # that could take them cost B10 about 40 in 30 s (seeds 2, 3).
+            # that could take them measured worse (docs/asa.md).
             price = planner.prices(state, j, None, rng)
             for u in shared:
                 if sched[u] >= 0 and orbit[sched[u]] == j:

@@ -66,7 +66,7 @@ class ASAParams:
     replan
         Add sosp's third neighbourhood, orbit re-planning (``heuristics.asa.replan``, not in
         the paper): free a stretch of one orbit and rebuild it by dynamic programming over
-        candidate cluster-tasks. Default True (``docs/asa.md``: B10, C10, C1 figures);
+        candidate cluster-tasks. Default True (measured in ``docs/asa.md``);
         ``False`` is the paper's Algorithm 1 with its two moves.
     pro3
         Initial probability of orbit re-planning (used when ``replan``), normalised with
@@ -90,7 +90,7 @@ class ASAParams:
         ASA-DTC: probability that a re-planning move re-plans a whole orbit exactly
         (``heuristics.asa.orbit``: the recursion of ``sosp.planner`` over the
         clustering-exact candidates at the search's rolls) instead of a stretch. The
-        candidates are generated once when the search starts (C10: about 5 s); 0 turns the
+        candidates are generated once when the search starts; 0 turns the
         move off. Default 1 (every re-planning move on a whole orbit). STC and NONTC ignore it.
     orbit_steal
         Whole-orbit re-planning: probability that a target scheduled on another orbit keeps
@@ -108,9 +108,7 @@ class ASAParams:
         Whole-orbit re-planning: a task the drawn orbit's plan covers while another orbit
         keeps it is shared for the rest of the move: the orbit keeping it is re-planned with
         it worth nothing, and a task it lets go joins the drawn orbit's observation
-        (``heuristics.asa.orbit``, step 5). Default True: at 60 s it lifted the defaults by
-        11 (B10) and 22 (C10) over seeds 0-7 and the quality preset from 1.05 % / 1.22 % to
-        0.92 % / 0.59 % below the best known (``docs/asa.md``).
+        (``heuristics.asa.orbit``, step 5). Default True (measured in ``docs/asa.md``).
     tabu_length
         L, length of the FIFO tabu list; ``None`` gives ``max(1, N // 50)`` with N the number of
         observable tasks (5.3).
@@ -153,7 +151,7 @@ class ASAParams:
     restart
         Every ``restart`` iterations without a new best, make the best solution the current one
         again (sosp's intensification, not in the paper; ``None``: never, Algorithm 1).
-        Default 2000 (``docs/asa.md``: with it and ``polish`` C1 reaches its optimum).
+        Default 2000 (measured in ``docs/asa.md``).
     polish
         At each restart, try two-orbit re-planning (``heuristics.asa.replan.polish``) on up
         to this many pairs of orbits sharing options, keeping what loses nothing (0: none).
@@ -172,8 +170,8 @@ class ASAParams:
     epochs
         With ``workers > 1``: the limit (time, else iterations) is cut into this many equal
         parts, after each of which the chains behind adopt the best schedule of all. Default
-        1: independent chains, the best of ``workers`` runs (six epochs measured no better
-        on B10 and C10, ``docs/asa.md``).
+        1: independent chains, the best of ``workers`` runs (more epochs measured no better,
+        ``docs/asa.md``).
     """
 
     lambda_min: float = 0.2
