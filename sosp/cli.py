@@ -102,6 +102,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
 
     from sosp import scenarios
     from sosp.io import check_output
+    from sosp.orbits import utc_iso
 
     check_output(args.output)
     common: dict[str, Any] = {
@@ -109,7 +110,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
         "max_roll": args.max_roll,
         "fov": args.fov,
         "min_sun_elevation": args.min_sun_elevation,
-        "start": args.start,
+        "start": None if args.start is None else utc_iso(args.start, "--start"),
     }
     if args.hours is not None:
         common["hours"] = args.hours
@@ -133,8 +134,12 @@ def cmd_scenario(args: argparse.Namespace) -> int:
             targets = scenarios.read_targets_csv(args.targets_csv)
         else:
             # A named scenario's own targets, seen by the user's satellites (--tle).
-            if not args.name:
-                raise InputError("--tle: give a scenario name, --region or --targets-csv too")
+            if not args.name or args.name not in scenarios.scenario_names():
+                raise InputError(
+                    f"{'--tle' if args.tle is not None else 'scenario'}: targets are missing: "
+                    "give --targets-csv FILE, or --region LAT0 LAT1 LON0 LON1 --targets N, or a "
+                    "scenario name (B1..B10, C1..C10) to use its targets"
+                )
             group, k = scenarios._parse_name(args.name)
             targets = scenarios.random_targets(
                 100 * k, scenarios.REGIONS[group], scenarios._rng(args.name, args.seed)
@@ -426,7 +431,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--targets", type=positive(int), help="number of targets with --region")
     p.add_argument("--targets-csv", help="targets file with header id,lat,lon,weight")
-    p.add_argument("--tle", help="satellites: name line + two element lines each")
+    p.add_argument(
+        "--tle",
+        help="satellites: element file, two lines per satellite (named by catalogue number) "
+        "or three (a name line first); see docs/formats.md",
+    )
     p.add_argument(
         "--walker",
         metavar="SATS/PLANES/PHASING",
@@ -439,7 +448,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DEG",
         help="--walker inclination (default: sun-synchronous for the altitude)",
     )
-    p.add_argument("--start", help="horizon start, ISO 8601 UTC")
+    p.add_argument(
+        "--start",
+        help="horizon start, ISO 8601 with any offset (converted to UTC); default: with --tle "
+        "the latest element epoch, else 2026-06-01T00:00:00Z (the built-in satellites' epoch)",
+    )
     p.add_argument("--hours", type=positive(float), help="horizon length in hours (24)")
     p.add_argument(
         "--max-roll",

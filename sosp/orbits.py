@@ -87,9 +87,9 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- time
-#: Days of propagation from an element epoch past which a scenario warns (:func:`stale_elements`).
+#: Days of propagation from an element epoch past which a scenario warns
+#: (:func:`stale_elements`).
 STALE_DAYS = 3.0
-
 
 
 def parse_epoch(epoch: str) -> tuple[float, float]:

@@ -27,7 +27,14 @@ import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
-from sosp.orbits import Satellite, builtin_satellites, parse_epoch, read_tle
+from sosp.orbits import (
+    Satellite,
+    builtin_satellites,
+    element_epoch,
+    read_tle,
+    stale_elements,
+    utc_iso,
+)
 from sosp.visibility import find_opportunities
 
 log = logging.getLogger(__name__)
@@ -134,7 +141,8 @@ def generate_scenario(
     seed
         Seed of the target draw (with the name).
     start
-        Horizon start, ISO 8601 UTC; :data:`DEFAULT_START` by default.
+        Horizon start, ISO 8601 with any offset (stored as UTC); :data:`DEFAULT_START` (the
+        built-in satellites' element epoch) by default.
     hours
         Horizon length.
     resources
@@ -201,9 +209,15 @@ def custom_scenario(
     seed
         Seed of the target draw (with ``name``).
     satellites
-        A list of :class:`~sosp.orbits.Satellite`, the path of a three-line element file,
-        or None for the built-in four.
-    start, hours, resources, max_roll, fov, min_sun_elevation
+        A list of :class:`~sosp.orbits.Satellite`, the path of a two- or three-line element
+        file (:func:`~sosp.orbits.parse_tle`), or None for the built-in four.
+    start
+        Horizon start, ISO 8601 with any offset (stored as UTC). None: the latest element
+        epoch of the satellites (for the built-in ones :data:`DEFAULT_START`), so element
+        sets are not silently propagated for years. A horizon reaching more than
+        :data:`~sosp.orbits.STALE_DAYS` days from a satellite's element epoch is logged as a
+        warning naming the satellite and the distance.
+    hours, resources, max_roll, fov, min_sun_elevation
         As in :func:`generate_scenario`.
     name
         Instance name (also seeds the draw together with ``seed``).
@@ -239,6 +253,11 @@ def custom_scenario(
     names = [s.name for s in sats]
     if len(set(names)) != len(names):
         raise InputError("satellites: names must be unique (they make the orbit ids)")
+    if all(s.tle is not None for s in sats):
+        # The orbits themselves, so that exports can draw the satellites' paths.
+        meta["tle"] = [[s.name, *s.tle] for s in sats]  # type: ignore[misc]
+    if start is None:
+        start = max((element_epoch(s) for s in sats), key=lambda e: utc_iso(e))
     return _build(
         sats,
         ids,
@@ -272,10 +291,18 @@ def _build(
     min_sun_elevation: float | None,
     meta: dict[str, Any],
 ) -> Instance:
-    start = DEFAULT_START if start is None else start
-    parse_epoch(start)  # one-line error for a bad time
+    start = utc_iso(DEFAULT_START if start is None else start, "start")
     if not (isinstance(hours, int | float) and math.isfinite(hours) and hours > 0):
         raise InputError(f"hours: expected a positive number, got {hours!r}")
+    for sat_name, days in stale_elements(sats, start, hours):
+        log.warning(
+            "satellite %s: the horizon reaches %.1f days from its element epoch %s; SGP4 "
+            "errors grow with that distance (use elements near the horizon, or --start near "
+            "the epoch)",
+            sat_name,
+            days,
+            element_epoch(next(s for s in sats if s.name == sat_name)),
+        )
     lat = np.asarray(lat, dtype=float)
     lon = np.asarray(lon, dtype=float)
     if not (len(ids) == lat.size == lon.size == np.size(weight)):

@@ -436,3 +436,40 @@ def test_demo_accepts_a_scenario_name(capsys) -> None:
     code, out, _ = run(capsys, "demo", "C2", "--time-limit", "0.3", "--json")
     data = json.loads(out)
     assert code == 0 and data["scenario"] == "C2" and data["instance"]["targets"] == 200
+
+
+# --------------------------------------------------------------------------- custom orbits
+def test_scenario_tle_start_and_missing_targets(tmp_path: Path) -> None:
+    write(tmp_path, "three.tle", TLE)
+    write(tmp_path, "two.tle", "".join(TLE.splitlines(keepends=True)[1:]))
+    proc = sosp_cli(
+        "scenario", "C1", "--tle", "two.tle", "--hours", "2", "-o", "a.json", "--json", cwd=tmp_path
+    )
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert json.loads(proc.stdout)["epoch"] == "2006-06-26T18:52:04.080Z"  # the TLE's epoch
+    proc = sosp_cli(
+        "scenario",
+        "C1",
+        "--tle",
+        "three.tle",
+        "--start",
+        "2026-06-01T02:00:00+02:00",
+        "--hours",
+        "1",
+        "-o",
+        "b.json",
+        "--json",
+        cwd=tmp_path,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["epoch"] == "2026-06-01T00:00:00Z"
+    assert proc.stderr.startswith("WARNING") and proc.stderr.count("\n") == 1
+    from datetime import datetime
+
+    far = datetime(2026, 6, 1, 1) - datetime(2006, 6, 26, 18, 52, 4, 80000)  # horizon end
+    assert "CBERS 2" in proc.stderr and f"{far.total_seconds() / 86400:.1f} days" in proc.stderr
+    proc = sosp_cli("scenario", "x", "--tle", "three.tle", "-o", "c.json", cwd=tmp_path)
+    one_line_error(proc, "--tle: targets are missing", "--targets-csv")
+    proc = sosp_cli("scenario", "C1", "--start", "tomorrow", "-o", "c.json", cwd=tmp_path)
+    one_line_error(proc, "--start: not an ISO 8601 time: 'tomorrow'")
+    assert not (tmp_path / "c.json").exists()

@@ -10,6 +10,7 @@ import pytest
 from sosp.errors import InputError
 from sosp.orbits import (
     builtin_satellites,
+    element_epoch,
     ephemeris_grids,
     format_epoch,
     from_elements,
@@ -19,8 +20,10 @@ from sosp.orbits import (
     propagate,
     read_tle,
     revolutions,
+    stale_elements,
     sun_direction_ecef,
     tle_checksum,
+    utc_iso,
 )
 
 skyfield_api = pytest.importorskip("skyfield.api")
@@ -91,6 +94,41 @@ def test_read_tle_file(tmp_path):
     assert [s.name for s in read_tle(p)] == ["CBERS 2"]
     with pytest.raises(InputError, match="file not found"):
         read_tle(tmp_path / "missing.tle")
+
+
+def test_two_line_sets_are_named_by_catalogue_number_and_mix_with_three_line_ones():
+    # A second satellite: the same elements under another catalogue number.
+    m1 = _with_checksum(L1[:2] + "40001" + L1[7:])
+    m2 = _with_checksum(L2[:2] + "40001" + L2[7:])
+    sats = parse_tle(f"{L1}\n{L2}\n0 OTHER\n{m1}\n{m2}\n{m1}\n{m2}\n")
+    assert [s.name for s in sats] == ["28057", "OTHER", "40001"]
+    assert [s.norad for s in sats] == [28057, 40001, 40001]
+    assert sats[0].tle == (L1, L2) and sats[2].tle == (m1, m2)
+    assert sats[0].satrec.inclo == sats[1].satrec.inclo
+    with pytest.raises(InputError, match=r"s\.tle: line 3: TLE line 1 lacks its line 2"):
+        parse_tle(f"{L1}\n{L2}\n{L1}\n", source="s.tle")
+    with pytest.raises(InputError, match="line 3: duplicate satellite name '28057'"):
+        parse_tle(f"{L1}\n{L2}\n{L1}\n{L2}\n")
+
+
+def test_utc_iso_converts_any_offset_and_names_the_field():
+    assert utc_iso("2026-06-01T02:30:00+02:00") == "2026-06-01T00:30:00Z"
+    assert utc_iso("2026-05-31T20:00:00-04:00") == "2026-06-01T00:00:00Z"
+    assert utc_iso("2026-06-01T00:00:00Z") == "2026-06-01T00:00:00Z"
+    assert utc_iso("2026-06-01 00:00:00.250") == "2026-06-01T00:00:00.250Z"  # no zone: UTC
+    with pytest.raises(InputError, match=r"^--start: not an ISO 8601 time: 'soon'"):
+        utc_iso("soon", "--start")
+
+
+def test_stale_elements_measure_the_longest_propagation():
+    (sat,) = parse_tle(GOOD)
+    epoch = element_epoch(sat)
+    assert epoch == "2006-06-26T18:52:04.080Z"  # day 177.78615833 of 2006
+    assert stale_elements([sat], epoch, 24.0) == []
+    assert stale_elements([sat], epoch, 24.0 * 3.5) == [("CBERS 2", pytest.approx(3.5))]
+    ((name, days),) = stale_elements([sat], "2006-06-20T18:52:04.080Z", 24.0)
+    assert name == "CBERS 2" and days == pytest.approx(6.0)
+    assert stale_elements([sat], "2006-06-24T18:52:04.080Z", 24.0) == []  # 2 days at most
 
 
 # ----------------------------------------------------------------------------- elements

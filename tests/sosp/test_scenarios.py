@@ -198,3 +198,39 @@ def test_counts_grow_with_scenario_size():
         assert inst.n_opps > prev
         prev = inst.n_opps
         assert inst.observable_targets >= 0.97 * inst.n_targets
+
+
+# --------------------------------------------------------------------------- custom orbits
+def test_tle_horizon_starts_at_the_latest_element_epoch(tmp_path, caplog):
+    tle = tmp_path / "two_line.tle"
+    tle.write_text(f"{L1}\n{L2}\n")  # two-line set, as catalogues serve them
+    with caplog.at_level("WARNING", logger="sosp.scenarios"):
+        inst = custom_scenario(region=(40.0, 45.0, 10.0, 20.0), count=20, satellites=tle, hours=6)
+    assert inst.epoch == "2006-06-26T18:52:04.080Z" == inst.meta["start"]
+    assert set(inst.orbit_satellite) == {"28057"}
+    assert inst.meta["tle"] == [["28057", L1, L2]]
+    assert not caplog.records  # no propagation far from the epoch: no warning
+
+
+def test_horizon_far_from_the_elements_warns_with_satellite_and_distance(tmp_path, caplog):
+    tle = tmp_path / "one.tle"
+    tle.write_text(f"CBERS 2\n{L1}\n{L2}\n")
+    with caplog.at_level("WARNING", logger="sosp.scenarios"):
+        custom_scenario(
+            region=(40.0, 45.0, 10.0, 20.0),
+            count=5,
+            satellites=tle,
+            hours=1,
+            start="2006-07-01T18:52:04.080Z",
+        )
+    (rec,) = caplog.records
+    assert "CBERS 2" in rec.getMessage() and "5.0 days" in rec.getMessage()
+
+
+def test_start_with_an_offset_is_stored_as_utc_and_errors_name_start():
+    a = generate_scenario("C1", start="2026-06-01T02:00:00+02:00", hours=2)
+    b = generate_scenario("C1", start="2026-06-01T00:00:00Z", hours=2)
+    assert a.epoch == "2026-06-01T00:00:00Z" and a == b
+    assert generate_scenario("C1", hours=2).epoch == DEFAULT_START
+    with pytest.raises(InputError, match=r"^start: not an ISO 8601 time: 'June 1st'"):
+        generate_scenario("C1", start="June 1st")
