@@ -1,17 +1,22 @@
 """``sosp report``: the paper's Tables 3-4 and Figures 2-5 from a results database.
 
 Tables (Markdown and CSV), one per scenario group: ``table3`` (B1..B10, targets over a large
-area), ``table4`` (C1..C10, a small area) and ``table_other`` (instance files). Columns follow
-the paper's layout: SN, EN, TN; the best proven bound and the exact value and count (from runs
-that proved optimality, e.g. ``milp``); the best known profit (of any valid run, e.g.
-``milp-lns``); per method the mean profit R, mean observed targets F,
-the sample standard deviation SD of the profit and the mean run time T; then IMP, the relative
-improvement of the target method (ASA-DTC) over a baseline, and a one-tailed Welch t-test at
-the 0.05 level (``+`` when the target method is significantly better).
+area), ``table4`` (C1..C10, a small area) and ``table_other`` (instance files), in the paper's
+column layout: SN, EN, TN; PBA-STC's bound R* (and the targets F of its schedule); RDS-STC's
+proven optimum R, F; ACO-LS-STC's and ASA-DTC's mean profit R, mean observed targets F, sample
+standard deviation SD of the profit and mean run time T; IMP, the relative improvement of
+ASA-DTC over ACO-LS-STC, and a one-tailed Welch t-test at the 0.05 level (``+`` when ASA-DTC
+is significantly better); then sosp's own columns, the best proven bound (the optimum when a
+run proved it) and the best known profit of any valid run. ``<table>_methods`` has every
+method's R, F, SD, T side by side (the numbers of Fig. 2).
+
+Labels are short and stable (:func:`short_label`): the paper's configuration of a method is
+``<method>@paper`` (ASA with ``preset=paper``, or ``replan=false, restart=none``), other
+parameter sets ``<method>[k=v,...]``. A method without runs loses its columns, with a note.
 
 Figures (PNG, matplotlib with the Agg backend), one panel per scenario group:
 
-* ``fig2_methods.png``: mean profit of every method per scenario (paper Fig. 2);
+* ``fig2_methods.png``: mean profit of the eight methods of the paper's Fig. 2 per scenario;
 * ``fig3_clustering.png``: ASA-DTC vs ASA-STC vs ASA-NONTC (Fig. 3);
 * ``fig4_profit_memory.png`` and ``fig5_profit_energy.png``: profit/memory and profit/energy
   ratios of the same methods (Figs. 4-5).
@@ -41,6 +46,28 @@ from sosp.errors import InputError
 
 #: The clustering comparison of Figs. 3-5 (paper section 6.4-6.5).
 CLUSTERING = ("asa-dtc", "asa-stc", "asa-nontc")
+
+#: The eight methods of Fig. 2 (paper section 6.3), in the paper's order of merit.
+FIG2 = ("asa-dtc", "asa-stc", "ts-stc", "aco-ls-stc", "aco-stc", "ga-stc", "sa-stc", "hpfs-stc")
+
+#: Parameter sets that make a method the paper's configuration, labelled ``<method>@paper``:
+#: ASA's Algorithm 1 with its two moves (sosp's defaults add orbit re-planning and restarts).
+PAPER_PARAMS: dict[str, tuple[dict[str, Any], ...]] = {
+    m: ({"preset": "paper"}, {"replan": False, "restart": "none"})
+    for m in ("asa-dtc", "asa-stc", "asa-nontc")
+}
+
+#: Table 3-4 columns in the paper's layout: (column title, method labels in order of
+#: preference). ASA-DTC is the target of IMP and the t-test, ACO-LS-STC the baseline.
+PAPER_METHODS = {
+    "PBA-STC": ("pba-stc",),
+    "RDS-STC": ("rds-stc",),
+    "ACO-LS-STC": ("aco-ls-stc",),
+    "ASA-DTC": ("asa-dtc@paper", "asa-dtc"),
+}
+
+#: When no ACO-LS-STC runs exist, IMP and the t-test compare with the first of these (noted).
+BASELINE_FALLBACK = ("asa-stc@paper", "asa-stc")
 
 #: Significance level of the one-tailed t-test.
 ALPHA = 0.05
@@ -127,12 +154,25 @@ class Summary:
     exact: dict[str, tuple[float, int]]
     best: dict[str, float]
     notes: list[str]
+    #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*).
+    method_bound: dict[tuple[str, str], float] = field(default_factory=dict)
+    #: Per (scenario, label): the profit and count of a run that proved optimality (RDS-STC).
+    method_exact: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
+
+
+def short_label(method: str, params_json: str) -> str:
+    """A short, stable label: ``<method>@paper`` for the paper's configuration of a method
+    (:data:`PAPER_PARAMS`), else the method and its parameters (``name[k=v,...]``)."""
+    from sosp.campaign.spec import method_label
+
+    params = json.loads(params_json) if params_json else {}
+    if params and params in PAPER_PARAMS.get(method, ()):
+        return f"{method}@paper"
+    return method_label(method, params_json)
 
 
 def _label(row: dict[str, Any], multi_tl: set[str]) -> str:
-    from sosp.campaign.spec import method_label
-
-    label = method_label(row["method"], row["params"])
+    label = short_label(row["method"], row["params"])
     if label in multi_tl:
         tl = row["time_limit"]
         label += f"@{tl:g}s" if tl else "@nolimit"
@@ -141,7 +181,6 @@ def _label(row: dict[str, Any], multi_tl: set[str]) -> str:
 
 def summarise(db: str | os.PathLike[str]) -> Summary:
     """Read a results database (read-only) and aggregate runs per scenario and method."""
-    from sosp.campaign.spec import method_label
     from sosp.campaign.store import Store
 
     with Store(db, readonly=True) as st:
@@ -151,16 +190,19 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         raise InputError("no runs stored", source=str(db))
     tls: dict[str, set[float]] = defaultdict(set)
     for r in rows:
-        tls[method_label(r["method"], r["params"])].add(r["time_limit"])
+        tls[short_label(r["method"], r["params"])].add(r["time_limit"])
     multi = {k for k, v in tls.items() if len(v) > 1}
     cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
     bound: dict[str, float] = {}
     exact: dict[str, tuple[float, int]] = {}
     best: dict[str, float] = {}
+    method_bound: dict[tuple[str, str], float] = {}
+    method_exact: dict[tuple[str, str], tuple[float, int]] = {}
     notes: list[str] = []
     for r in rows:
         s = r["scenario"]
-        cell = cells[(s, _label(r, multi))]
+        key = (s, _label(r, multi))
+        cell = cells[key]
         if r["status"] == "error":
             cell.failed += 1
             continue
@@ -169,11 +211,13 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             continue
         if r["bound"] is not None:
             bound[s] = min(bound.get(s, math.inf), float(r["bound"]))
+            method_bound[key] = min(method_bound.get(key, math.inf), float(r["bound"]))
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
             best[s] = max(best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
             if s not in exact or r["profit"] > exact[s][0]:
                 exact[s] = (float(r["profit"]), int(r["observed"]))
+            method_exact[key] = (float(r["profit"]), int(r["observed"]))
         if r["status"] not in COUNTED:
             continue
         cell.profits.append(float(r["profit"]))
@@ -192,7 +236,19 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             notes.append(f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out")
     if len({i["fingerprint"] for i in insts}) > len(en):
         notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
-    return Summary(scenarios, methods, dict(cells), en, tn, bound, exact, best, notes)
+    return Summary(
+        scenarios,
+        methods,
+        dict(cells),
+        en,
+        tn,
+        bound,
+        exact,
+        best,
+        notes,
+        method_bound,
+        method_exact,
+    )
 
 
 # --------------------------------------------------------------------------- tables
@@ -220,13 +276,124 @@ def _fmt(x: float, digits: int = 1) -> str:
     return f"{x:.{digits}f}"
 
 
-def build_table(
-    summary: Summary, group: str, target: str, baseline: str
+def resolve(methods: list[str], *candidates: str) -> str | None:
+    """The first of ``candidates`` that has runs (labels of :func:`short_label`)."""
+    return next((c for c in candidates if c in methods), None)
+
+
+def comparison(
+    summary: Summary,
+    target: str | None,
+    baseline: str | None,
+    methods: list[str] | None = None,
+) -> tuple[str | None, str | None, list[str]]:
+    """The labels IMP and the t-test compare, and notes on how they were chosen.
+
+    Defaults (None): ASA-DTC in the paper's configuration (``asa-dtc@paper``, else
+    ``asa-dtc``) against ACO-LS-STC (``aco-ls-stc``, else ASA-STC with a note).
+    """
+    notes: list[str] = []
+    ms = summary.methods if methods is None else methods
+    t = target if target is not None else resolve(ms, *PAPER_METHODS["ASA-DTC"])
+    if baseline is not None:
+        b = baseline
+    else:
+        b = resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
+        if b is None:
+            b = resolve(ms, *BASELINE_FALLBACK)
+            if b is not None:
+                notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
+    return t, b, notes
+
+
+def build_paper_table(
+    summary: Summary, group: str, target: str | None = None, baseline: str | None = None
 ) -> tuple[list[str], list[list[Any]], list[str]]:
-    """Header, rows (raw values) and notes of the table of one scenario group."""
+    """Table 3 or 4 in the paper's column layout, then sosp's own columns.
+
+    SN, EN, TN; PBA-STC R* (its bound) and F (targets of its schedule); RDS-STC R, F (when
+    it proved optimality, else ``_`` as in the paper); ACO-LS-STC and ASA-DTC mean R, F, SD,
+    T; IMP (relative improvement of ``target`` over ``baseline``), the one-tailed Welch
+    t-test and its p-value; then the best proven bound (the optimum when proven, marked
+    ``opt``) and the best known profit of any run. A method without runs loses its columns
+    (noted).
+    """
+    scen = [s for s in summary.scenarios if scenario_group(s) == group]
+    present = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+    notes: list[str] = []
+    cols: dict[str, str] = {}
+    for title, cands in PAPER_METHODS.items():
+        m = resolve(present, *cands)
+        if m is None:
+            notes.append(f"{title} columns omitted: no runs of {cands[0]}")
+        else:
+            cols[title] = m
+    target, baseline, cnotes = comparison(summary, target, baseline, present)
+    notes += cnotes
+    header = ["SN", "EN", "TN"]
+    if "PBA-STC" in cols:
+        header += ["PBA-STC R*", "PBA-STC F"]
+    if "RDS-STC" in cols:
+        header += ["RDS-STC R", "RDS-STC F"]
+    for title in ("ACO-LS-STC", "ASA-DTC"):
+        if title in cols:
+            header += [f"{title} R", f"{title} F", f"{title} SD", f"{title} T (s)"]
+    compare = target in present and baseline in present and target != baseline
+    if compare:
+        header += ["IMP", "t-test", "p"]
+        notes.append(f"IMP and t-test: {target} against {baseline}")
+    else:
+        missing = [x or "?" for x in (target, baseline) if x not in present]
+        notes.append(
+            "IMP and t-test omitted: "
+            + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
+        )
+    header += ["sosp bound", "proven", "sosp best"]
+    rows: list[list[Any]] = []
+    for s in scen:
+        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s)]
+        if "PBA-STC" in cols:
+            c = summary.cells.get((s, cols["PBA-STC"]))
+            row += [
+                summary.method_bound.get((s, cols["PBA-STC"])),
+                c.mean_observed if c and c.n else None,
+            ]
+        if "RDS-STC" in cols:
+            ex = summary.method_exact.get((s, cols["RDS-STC"]))
+            row += [ex[0], ex[1]] if ex else [None, None]
+        for title in ("ACO-LS-STC", "ASA-DTC"):
+            if title in cols:
+                c = summary.cells.get((s, cols[title]))
+                if c is None or not c.n:
+                    row += [None, None, None, None]
+                else:
+                    row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
+        if compare:
+            row += _imp(summary, s, target, baseline)  # type: ignore[arg-type]
+        ex = summary.exact.get(s)
+        row += [ex[0] if ex else summary.bound.get(s), "opt" if ex else "", summary.best.get(s)]
+        rows.append(row)
+    return header, rows, notes
+
+
+def _imp(summary: Summary, s: str, target: str, baseline: str) -> list[Any]:
+    """IMP, t-test sign and p-value of one scenario (paper Tables 3-4, last columns)."""
+    t, b = summary.cells.get((s, target)), summary.cells.get((s, baseline))
+    if t and b and t.n and b.n and b.mean_profit:
+        imp = (t.mean_profit - b.mean_profit) / b.mean_profit
+        p = welch_greater(t.profits, b.profits)
+        return [imp, "+" if p < ALPHA else "", p]
+    return [None, "", None]
+
+
+def build_methods_table(
+    summary: Summary, group: str, target: str | None = None, baseline: str | None = None
+) -> tuple[list[str], list[list[Any]], list[str]]:
+    """Every method's R, F, SD, T side by side (the numbers of Fig. 2), IMP and t-test."""
     scen = [s for s in summary.scenarios if scenario_group(s) == group]
     methods = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
     notes: list[str] = []
+    target, baseline, _ = comparison(summary, target, baseline, methods)
     header = ["SN", "EN", "TN", "bound", "exact R", "exact F", "best R"]
     for m in methods:
         header += [f"{m} R", f"{m} F", f"{m} SD", f"{m} T (s)"]
@@ -234,7 +401,7 @@ def build_table(
     if compare:
         header += [f"IMP ({target} vs {baseline})", "t-test", "p"]
     else:
-        missing = [x for x in (target, baseline) if x not in methods]
+        missing = [x or "?" for x in (target, baseline) if x not in methods]
         notes.append(
             "IMP and t-test omitted: "
             + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
@@ -258,13 +425,7 @@ def build_table(
             else:
                 row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
         if compare:
-            t, b = summary.cells.get((s, target)), summary.cells.get((s, baseline))
-            if t and b and t.n and b.n and b.mean_profit:
-                imp = (t.mean_profit - b.mean_profit) / b.mean_profit
-                p = welch_greater(t.profits, b.profits)
-                row += [imp, "+" if p < ALPHA else "", p]
-            else:
-                row += [None, "", None]
+            row += _imp(summary, s, target, baseline)  # type: ignore[arg-type]
         rows.append(row)
     return header, rows, notes
 
@@ -279,6 +440,7 @@ def _csv_text(header: list[str], rows: list[list[Any]]) -> str:
 
 
 def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> str:
+    """The table in Markdown, each row's best mean profit among ``methods`` in bold."""
     r_cols = [header.index(f"{m} R") for m in methods if f"{m} R" in header]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
@@ -350,10 +512,16 @@ def _figure(
 def write_report(
     db: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
-    target: str = "asa-dtc",
-    baseline: str = "asa-stc",
+    target: str | None = None,
+    baseline: str | None = None,
 ) -> dict[str, Any]:
     """Write the tables (Markdown, CSV), figures (PNG) and ``report.md`` into ``out_dir``.
+
+    Per scenario group: ``<table>.md/.csv`` in the paper's layout
+    (:func:`build_paper_table`) and ``<table>_methods.md/.csv`` with every method
+    (:func:`build_methods_table`). ``target`` and ``baseline`` name the methods IMP and the
+    t-test compare (labels of :func:`short_label`; default ASA-DTC against ACO-LS-STC,
+    :func:`comparison`).
 
     Returns
     -------
@@ -366,6 +534,7 @@ def write_report(
     if out.exists() and not out.is_dir():
         raise InputError("-o: not a folder", source=str(out))
     summary = summarise(db)
+    ctarget, cbaseline, _ = comparison(summary, target, baseline)
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
     notes = list(summary.notes)
@@ -373,13 +542,18 @@ def write_report(
     for g, (stem, title) in GROUPS.items():
         if not any(scenario_group(s) == g for s in summary.scenarios):
             continue
-        header, rows, tnotes = build_table(summary, g, target, baseline)
-        methods = [m for m in summary.methods if f"{m} R" in header]
-        table_md = _markdown(header, rows, methods)
+        header, rows, tnotes = build_paper_table(summary, g, target, baseline)
+        table_md = _markdown(header, rows, ["RDS-STC", "ACO-LS-STC", "ASA-DTC"])
         atomic_write_text(out / f"{stem}.md", f"## {title}\n\n{table_md}")
         atomic_write_text(out / f"{stem}.csv", _csv_text(header, rows))
-        files += [f"{stem}.md", f"{stem}.csv"]
-        md += [f"## {title}", "", table_md]
+        mheader, mrows, _ = build_methods_table(summary, g, target, baseline)
+        methods = [m for m in summary.methods if f"{m} R" in mheader]
+        methods_md = _markdown(mheader, mrows, methods)
+        mtitle = f"{title.split(':')[0]}, every method"
+        atomic_write_text(out / f"{stem}_methods.md", f"## {mtitle}\n\n{methods_md}")
+        atomic_write_text(out / f"{stem}_methods.csv", _csv_text(mheader, mrows))
+        files += [f"{stem}.md", f"{stem}.csv", f"{stem}_methods.md", f"{stem}_methods.csv"]
+        md += [f"## {title}", "", table_md, f"## {mtitle}", "", methods_md]
         notes += [f"{title.split(':')[0]}: {n}" for n in tnotes]
     for name in ("table3", "table4"):
         if f"{name}.md" not in files:
@@ -393,8 +567,18 @@ def write_report(
     fig_methods = clustering or summary.methods
     if not clustering:
         notes.append("Figures 3-5 show every method instead of the ASA clustering variants")
+    fig2 = [m for m in (_fig2_label(summary.methods, x) for x in FIG2) if m]
+    if len(fig2) < len(FIG2):
+        absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
+        notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
     figs = [
-        ("fig2_methods.png", summary.methods, "mean_profit", "mean profit", "Fig. 2: methods"),
+        (
+            "fig2_methods.png",
+            fig2 or summary.methods,
+            "mean_profit",
+            "mean profit",
+            "Fig. 2: methods",
+        ),
         (
             "fig3_clustering.png",
             fig_methods,
@@ -425,14 +609,23 @@ def write_report(
         md += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     md += [
         "R: mean profit, F: mean observed targets, SD: sample standard deviation of the "
-        "profit, T: mean run time (s); bound: best proven upper bound; exact: profit and count "
-        f"of a proven optimum; t-test: one-tailed Welch test at {ALPHA} ('+': {target} "
-        f"significantly better than {baseline}).",
+        "profit, T: mean run time (s); PBA-STC R*: its upper bound on the static problem, "
+        "PBA-STC F: targets of its schedule (the bound's F* is not stored); RDS-STC R, F: "
+        "its proven optimum ('_' when it did not finish, as in the paper); IMP: (R of "
+        f"{ctarget} - R of {cbaseline}) / R of {cbaseline}; t-test: one-tailed Welch test "
+        f"at {ALPHA} ('+': {ctarget} significantly better), p its p-value; sosp bound: the "
+        "best proven upper bound of any run ('opt' when an exact run proved it optimal), "
+        "sosp best: the best profit of any valid run; exact R, F: a proven optimum.",
         "",
     ]
     atomic_write_text(out / "report.md", "\n".join(md))
     files.append("report.md")
     return {"files": files, "notes": notes, "methods": summary.methods}
+
+
+def _fig2_label(methods: list[str], name: str) -> str | None:
+    """The label of ``name`` in Fig. 2: the paper's configuration when both exist."""
+    return resolve(methods, f"{name}@paper", name)
 
 
 def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -445,8 +638,16 @@ def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("db", help="results database (sosp bench --db)")
     p.add_argument("-o", "--output", default="report", help="output folder (report)")
-    p.add_argument("--method", default="asa-dtc", help="method whose improvement is measured")
-    p.add_argument("--baseline", default="asa-stc", help="method it is compared with")
+    p.add_argument(
+        "--method",
+        default=None,
+        help="method whose improvement is measured (default asa-dtc@paper, else asa-dtc)",
+    )
+    p.add_argument(
+        "--baseline",
+        default=None,
+        help="method it is compared with (default aco-ls-stc, else asa-stc@paper or asa-stc)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_report)
     return p

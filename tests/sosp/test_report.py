@@ -14,7 +14,7 @@ from scipy.stats import ttest_ind
 from sosp.campaign import Store, campaign_from_options
 from sosp.campaign.runner import run_campaign
 from sosp.cli import main
-from sosp.report import welch_greater
+from sosp.report import short_label, welch_greater
 
 # Synthetic profits of the ASA variants on B1 and C1 (the report does not care who made them).
 FAKE = {
@@ -93,7 +93,7 @@ def test_report_tables_match_the_database(db: Path, tmp_path: Path, capsys) -> N
     res = json.loads(capsys.readouterr().out)
     for name in ("table3.md", "table3.csv", "table4.md", "table4.csv", "report.md"):
         assert name in res["files"]
-    t3, t4 = _read_csv(out / "table3.csv"), _read_csv(out / "table4.csv")
+    t3, t4 = _read_csv(out / "table3_methods.csv"), _read_csv(out / "table4_methods.csv")
     assert set(t3) == {"B1"} and set(t4) == {"C1"}
     con = sqlite3.connect(db)
     en, tn = con.execute("SELECT en, tn FROM instances WHERE scenario='B1'").fetchone()
@@ -123,7 +123,7 @@ def test_report_tables_match_the_database(db: Path, tmp_path: Path, capsys) -> N
     assert t3["B1"]["t-test"] == "+" and t4["C1"]["t-test"] == ""  # B1 better, C1 worse
     assert "asa-nontc R" not in t4["C1"] or t4["C1"]["asa-nontc R"] == ""
     assert float(t3["B1"]["asa-dtc T (s)"]) == pytest.approx(1.0)  # the error row left out
-    md = (out / "table3.md").read_text()
+    md = (out / "table3_methods.md").read_text()
     assert "**640**" in md  # the best mean profit of the row in bold (milp)
     report = (out / "report.md").read_text()
     assert "1 failed run(s) left out" in report
@@ -155,8 +155,11 @@ def test_report_degrades_without_the_asa_methods(tmp_path: Path, capsys) -> None
     text = capsys.readouterr().out
     assert "IMP and t-test omitted" in text and "Figures 3-5" in text
     assert not (out / "table3.csv").exists()
-    header = (out / "table4.csv").read_text().splitlines()[0]
+    header = (out / "table4_methods.csv").read_text().splitlines()[0]
     assert "IMP" not in header and "greedy R" in header
+    paper = (out / "table4.csv").read_text().splitlines()[0].split(",")
+    assert paper == ["SN", "EN", "TN", "sosp bound", "proven", "sosp best"]
+    assert "no runs of aco-ls-stc" in text and "Fig. 2: no runs of asa-dtc" in text
     assert (out / "fig5_profit_energy.png").stat().st_size > 0
 
 
@@ -175,3 +178,97 @@ def test_welch_greater_edge_cases() -> None:
     assert welch_greater([3.0, 4.0, 5.0], [1.0, 2.0, 3.0]) == pytest.approx(
         ttest_ind([3, 4, 5], [1, 2, 3], equal_var=False, alternative="greater").pvalue
     )
+
+
+# --------------------------------------------------------------------------- paper layout
+PAPER = json.dumps({"replan": False, "restart": "none"})
+PAPER_FAKE = {  # (scenario, method, params): profits of seeds 1.. (C1 has no ACO-LS-STC)
+    ("B1", "aco-ls-stc", "{}"): [600.0, 604.0, 602.0],
+    ("B1", "asa-dtc", PAPER): [610.0, 615.0, 612.0],
+    ("B1", "asa-dtc", "{}"): [650.0, 651.0, 652.0],  # sosp's defaults: not the paper's column
+    ("C1", "asa-dtc", PAPER): [500.0, 502.0, 504.0],
+    ("C1", "asa-stc", PAPER): [490.0, 491.0, 495.0],
+}
+
+
+@pytest.fixture(scope="module")
+def paper_db(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("paper") / "p.db"
+    with Store(path) as st:
+        run_campaign(campaign_from_options("B1,C1", "hpfs-stc", "1", "5"), st, workers=1)
+        fps = {i["scenario"]: i["fingerprint"] for i in st.instances()}
+        for (s, m, params), profits in PAPER_FAKE.items():
+            for seed, p in enumerate(profits, start=1):
+                st.put(_fake_row(s, fps[s], m, seed, p, params=params))
+        for seed, b in ((1, 700.0), (2, 690.0)):
+            st.put(_fake_row("B1", fps["B1"], "pba-stc", seed, 590.0, bound=b))
+        st.put(_fake_row("B1", fps["B1"], "rds-stc", 1, 640.0, status="optimal", bound=640.0))
+        st.put(_fake_row("C1", fps["C1"], "rds-stc", 1, 480.0, status="time_limit", bound=560))
+    return path
+
+
+def test_short_labels_name_the_papers_configuration() -> None:
+    assert short_label("asa-dtc", PAPER) == "asa-dtc@paper"
+    assert short_label("asa-stc", json.dumps({"preset": "paper"})) == "asa-stc@paper"
+    assert short_label("asa-dtc", "{}") == "asa-dtc"
+    assert short_label("asa-dtc", json.dumps({"replan": False})) == "asa-dtc[replan=False]"
+    assert short_label("ts-stc", PAPER) != "ts-stc@paper"  # only methods with a paper preset
+
+
+def test_paper_tables_have_the_papers_columns(paper_db: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "rep"
+    assert main(["report", str(paper_db), "-o", str(out), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert "asa-dtc@paper" in res["methods"] and "asa-dtc" in res["methods"]
+    header = (out / "table3.csv").read_text().splitlines()[0].split(",")
+    assert header == [
+        "SN", "EN", "TN", "PBA-STC R*", "PBA-STC F", "RDS-STC R", "RDS-STC F",
+        "ACO-LS-STC R", "ACO-LS-STC F", "ACO-LS-STC SD", "ACO-LS-STC T (s)",
+        "ASA-DTC R", "ASA-DTC F", "ASA-DTC SD", "ASA-DTC T (s)", "IMP", "t-test", "p",
+        "sosp bound", "proven", "sosp best",
+    ]  # fmt: skip
+    b1 = _read_csv(out / "table3.csv")["B1"]
+    assert float(b1["PBA-STC R*"]) == 690.0  # the least bound of its runs
+    assert float(b1["PBA-STC F"]) == 590 // 6
+    assert (float(b1["RDS-STC R"]), int(b1["RDS-STC F"])) == (640.0, 640 // 6)
+    aco, dtc = PAPER_FAKE[("B1", "aco-ls-stc", "{}")], PAPER_FAKE[("B1", "asa-dtc", PAPER)]
+    assert float(b1["ASA-DTC R"]) == pytest.approx(statistics.mean(dtc))  # not the defaults'
+    assert float(b1["ACO-LS-STC SD"]) == pytest.approx(statistics.stdev(aco))
+    imp = (statistics.mean(dtc) - statistics.mean(aco)) / statistics.mean(aco)
+    assert float(b1["IMP"]) == pytest.approx(imp)
+    p = ttest_ind(dtc, aco, equal_var=False, alternative="greater").pvalue
+    assert float(b1["p"]) == pytest.approx(p) and b1["t-test"] == "+"
+    assert (float(b1["sosp bound"]), b1["proven"]) == (640.0, "opt")
+    assert float(b1["sosp best"]) == 652.0  # any valid run, sosp's defaults included
+    c1 = _read_csv(out / "table4.csv")["C1"]
+    assert c1["RDS-STC R"] == "" and "PBA-STC R*" not in c1  # unfinished: '_'; no runs: out
+    assert float(c1["sosp bound"]) == 560.0 and c1["proven"] == ""
+    # No ACO-LS-STC on C1: IMP there is against ASA-STC in the paper's configuration, noted.
+    stc, dtc = PAPER_FAKE[("C1", "asa-stc", PAPER)], PAPER_FAKE[("C1", "asa-dtc", PAPER)]
+    assert "ACO-LS-STC R" not in c1
+    assert float(c1["IMP"]) == pytest.approx((statistics.mean(dtc) / statistics.mean(stc)) - 1)
+    assert "Table 4: IMP and t-test against asa-stc@paper: no runs of aco-ls-stc" in res["notes"]
+    md = (out / "table3.md").read_text()
+    assert "| SN | EN | TN | PBA-STC R* |" in md and "**640**" in md
+    assert "Fig. 2: no runs of ts-stc, aco-stc, ga-stc, sa-stc" in res["notes"]
+
+
+def test_imp_falls_back_to_asa_stc_without_aco_ls(paper_db: Path, tmp_path: Path) -> None:
+    import shutil
+
+    db = tmp_path / "noaco.db"
+    shutil.copy(paper_db, db)
+    con = sqlite3.connect(db)
+    con.execute("DELETE FROM runs WHERE method IN ('aco-ls-stc', 'pba-stc', 'rds-stc')")
+    con.commit()
+    con.close()
+    res = main(["report", str(db), "-o", str(tmp_path / "rep")])
+    assert res == 0
+    b1 = _read_csv(tmp_path / "rep" / "table3.csv")["B1"]
+    assert "IMP" not in b1  # B1 has neither ACO-LS-STC nor ASA-STC runs
+    header = (tmp_path / "rep" / "table3.csv").read_text().splitlines()[0]
+    assert "PBA-STC" not in header and "RDS-STC" not in header and "ACO-LS-STC" not in header
+    report = (tmp_path / "rep" / "report.md").read_text()
+    assert "Table 4: IMP and t-test against asa-stc@paper: no runs of aco-ls-stc" in report
+    assert "Table 3: IMP and t-test omitted: no runs of" in report
+    assert "PBA-STC columns omitted: no runs of pba-stc" in report
