@@ -181,7 +181,7 @@ def test_welch_greater_edge_cases() -> None:
 
 
 # --------------------------------------------------------------------------- paper layout
-PAPER = json.dumps({"replan": False, "restart": "none"})
+PAPER = json.dumps({"preset": "paper"})
 PAPER_FAKE = {  # (scenario, method, params): profits of seeds 1.. (C1 has no ACO-LS-STC)
     ("B1", "aco-ls-stc", "{}"): [600.0, 604.0, 602.0],
     ("B1", "asa-dtc", PAPER): [610.0, 615.0, 612.0],
@@ -209,9 +209,11 @@ def paper_db(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_short_labels_name_the_papers_configuration() -> None:
     assert short_label("asa-dtc", PAPER) == "asa-dtc@paper"
-    assert short_label("asa-stc", json.dumps({"preset": "paper"})) == "asa-stc@paper"
+    assert short_label("asa-stc", PAPER) == "asa-stc@paper"
     assert short_label("asa-dtc", "{}") == "asa-dtc"
     assert short_label("asa-dtc", json.dumps({"replan": False})) == "asa-dtc[replan=False]"
+    both = json.dumps({"preset": "paper", "seeds": 2})
+    assert short_label("asa-dtc", both) == "asa-dtc[preset=paper,seeds=2]"  # not the preset
     assert short_label("ts-stc", PAPER) != "ts-stc@paper"  # only methods with a paper preset
 
 
