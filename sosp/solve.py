@@ -38,6 +38,9 @@ METHODS: dict[str, str] = {
     "rds": "heuristics.rds:solve_rds",
     "rds-stc": "heuristics.rds:solve_rds_stc",
     "sa-stc": "heuristics.sa:solve_sa_stc",
+    "aco-stc": "heuristics.aco:solve_aco_stc",
+    "aco-ls-stc": "heuristics.aco:solve_aco_ls_stc",
+    "ga-stc": "heuristics.ga:solve_ga_stc",
     "ts-stc": "heuristics.tabu_search:solve_ts_stc",
     "pba-stc": "heuristics.pba:solve_pba_stc",
     "milp": "models.solve:solve_milp",
@@ -55,6 +58,9 @@ PARAM_CLASSES: dict[str, str] = {
     "asa-nontc": "heuristics.asa.params:ASAParams",
     "milp-lns": "heuristics.lns:LNSParams",
     "orbit-dp": "heuristics.orbit_search:OrbitSearchParams",
+    "aco-stc": "heuristics.aco:ACOParams",
+    "aco-ls-stc": "heuristics.aco:ACOLSParams",
+    "ga-stc": "heuristics.ga:GAParams",
 }
 
 #: The method of :func:`solve` and of ``sosp solve`` when none is named.

@@ -1,0 +1,524 @@
+"""Ant colony optimisation over static cluster-tasks: ACO-STC and ACO-LS-STC (paper, 6.3).
+
+The paper compares ASA-DTC with the ant colony optimisation of its ref. [10] (Wu, Liu, Ma and
+Qiu, "A two-phase scheduling method with the consideration of task clustering for earth
+observing satellites", Computers & Operations Research 2013) over static cluster-tasks, with
+its local search (ACO-LS-STC, Tables 3-4) and without it (ACO-STC, Fig. 2). Ref. [10] builds
+an acyclic directed graph over the cluster-tasks and lets ants find paths in it with a
+MAX-MIN Ant System (Stutzle and Hoos, 2000). ``docs/baselines.md`` says what is taken from the
+references and what sosp had to choose; in short:
+
+Construction graph
+    one acyclic directed graph per orbit: a source node, then the orbit's usable cluster-tasks
+    (:class:`heuristics.stc.StcData`) in start order; an arc u -> v when v starts after u and
+    may follow it by (3) (:func:`sosp.rules.may_precede` on their interval ends). An ant walks
+    the orbits in a random order; on each it starts at the source and repeatedly moves to a
+    successor of its current node, i.e. schedules it; a successor is a candidate when it
+    still earns something (some target not covered yet) and fits the orbit's knapsacks,
+    energy (4), memory (5) and openings (6) (:class:`heuristics.timeline.OrbitTimeline`).
+    Only the first ``candidates`` such successors in start order are considered (a
+    candidate list); the walk ends when there is none.
+Choice
+    pseudo-random proportional rule: with probability ``q0`` the candidate maximising
+    ``tau(u, v)^alpha * eta(u, v)^beta``, else one drawn with probability proportional to it.
+    The heuristic information is profit per share of resources used,
+    ``eta(u, v) = g_v / (cost_v + gap_weight * gap(u, v) / H)``: g_v the weight of v's
+    uncovered targets, cost_v the task's share of the orbit's capacities
+    (:func:`heuristics.stc.resource_cost`), gap the idle time between u's and v's (3)
+    intervals (from the orbit start for the source) over the orbit length H: on a path the
+    time skipped is lost for good, so it is priced like a resource.
+Pheromone (MAX-MIN Ant System)
+    one value per arc, initialised to tau_max. After each iteration every trail evaporates,
+    ``tau <- (1 - rho) tau``, then the iteration-best ant (every ``gb_every``-th iteration the
+    best so far) deposits ``f(s) / f(s_best)`` on the arcs of its paths, and every trail is
+    clamped to [tau_min, tau_max] with ``tau_max = 1 / rho`` (the limit of a trail reinforced
+    by the best schedule each time) and ``tau_min = tau_max (1 - p_dec) / ((avg - 1) p_dec)``,
+    ``p_dec = p_best^(1/n)``, n the arcs of the best schedule and avg = candidates / 2. After
+    ``restart`` iterations without a new best the trails are reset to tau_max.
+Local search (ACO-LS-STC)
+    applied to the iteration-best ant before the update (Lamarckian: its improved paths
+    deposit): first-improvement exchange moves, :func:`local_search`.
+Stopping
+    after ``iterations`` colony iterations or at ``time_limit``; the rng passed in is the only
+    randomness, so the same seed and iterations give the same schedule.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from heuristics.stc import Selection, StcData, check_float, check_int, params_from_kwargs, stc_data
+from sosp import rules
+from sosp.clustering import tasks_to_schedule
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.result import Result, Status
+
+log = logging.getLogger(__name__)
+
+ROLL_RULES = ("midpoint", "nadir")
+
+
+@dataclass(frozen=True)
+class ACOParams:
+    """Parameters of ACO-STC (MAX-MIN Ant System defaults without local search).
+
+    Parameters
+    ----------
+    ants
+        Ants per iteration (MMAS uses one per city on the TSP; see ``docs/baselines.md``).
+    alpha
+        Weight of the pheromone in the choice rule (MMAS: 1).
+    beta
+        Weight of the heuristic information in the choice rule (MMAS: 2).
+    rho
+        Evaporation rate (MMAS without local search: 0.02).
+    p_best
+        Probability that an ant at convergence builds the best schedule, which sets tau_min
+        (MMAS: 0.05).
+    gb_every
+        Every this many iterations the best schedule so far deposits instead of the
+        iteration's best (MMAS alternates the two; 0: never).
+    restart
+        Reset every trail to tau_max after this many iterations without a new best (MMAS's
+        re-initialisation; 0: never).
+    candidates
+        Successors an ant considers at each step (candidate list), the first that fit.
+    q0
+        Pseudo-random proportional rule (Dorigo and Gambardella's ACS, 0.9 there): with this
+        probability an ant takes the best-rated candidate instead of drawing (0: MMAS's
+        random proportional rule alone).
+    gap_weight
+        Weight of the idle time skipped in the heuristic information (``docs/baselines.md``:
+        1, 3, 10, 30 measured).
+    iterations
+        Colony iterations (each: ``ants`` constructions, then the update).
+    local_search
+        Apply :func:`local_search` to the iteration-best ant (ACO-LS-STC).
+    ls_passes
+        Most passes of the local search over the unscheduled tasks.
+    roll_rule
+        Roll of multi-opportunity cluster-tasks: ``"midpoint"`` (9) or ``"nadir"``.
+    """
+
+    ants: int = 20
+    alpha: float = 1.0
+    beta: float = 2.0
+    rho: float = 0.02
+    p_best: float = 0.05
+    gb_every: int = 10
+    restart: int = 250
+    candidates: int = 20
+    q0: float = 0.9
+    gap_weight: float = 10.0
+    iterations: int = 200
+    local_search: bool = False
+    ls_passes: int = 10
+    roll_rule: str = "midpoint"
+
+    def __post_init__(self) -> None:
+        check_int("ants", self.ants, 1)
+        check_float("alpha", self.alpha, 0.0, 100.0)
+        check_float("beta", self.beta, 0.0, 100.0)
+        check_float("rho", self.rho, 0.0, 1.0, lo_open=True)
+        check_float("p_best", self.p_best, 0.0, 1.0, lo_open=True)
+        if self.p_best >= 1.0:
+            raise InputError(f"p_best: must lie in (0, 1), got {self.p_best!r}")
+        check_int("gb_every", self.gb_every, 0)
+        check_int("restart", self.restart, 0)
+        check_int("candidates", self.candidates, 1)
+        check_float("q0", self.q0, 0.0, 1.0)
+        check_float("gap_weight", self.gap_weight, 0.0, 1e6)
+        check_int("iterations", self.iterations, 0)
+        check_int("ls_passes", self.ls_passes, 1)
+        if not isinstance(self.local_search, bool):
+            raise InputError(f"local_search: expected true or false, got {self.local_search!r}")
+        if self.roll_rule not in ROLL_RULES:
+            raise InputError(
+                f"roll_rule: expected one of {', '.join(ROLL_RULES)}, got {self.roll_rule!r}"
+            )
+
+    @classmethod
+    def from_kwargs(cls, **params: Any) -> ACOParams:
+        """Build from keyword parameters (CLI strings coerced from the type hints)."""
+        return params_from_kwargs(cls, "aco-stc", params)
+
+
+@dataclass(frozen=True)
+class ACOLSParams(ACOParams):
+    ants: int = 10
+    rho: float = 0.2
+    local_search: bool = True
+
+    @classmethod
+    def from_kwargs(cls, **params: Any) -> ACOLSParams:
+        """Build from keyword parameters (CLI strings coerced from the type hints)."""
+        return params_from_kwargs(cls, "aco-ls-stc", params)
+
+
+def _override(doc: str, title: str, entries: dict[str, str]) -> str:
+    """``doc`` with its first line replaced by ``title`` and the named numpydoc entries'
+    descriptions replaced (so ``sosp methods`` lists every field of a subclass)."""
+    lines = doc.splitlines()
+    out = [title]
+    skip = False
+    for line in lines[1:]:
+        name = line.strip()
+        if line.startswith("    ") and not line.startswith("     ") and name in entries:
+            out += [line, "        " + entries[name]]
+            skip = True
+            continue
+        if skip and line.startswith("        "):
+            continue
+        skip = False
+        out.append(line)
+    return "\n".join(out)
+
+
+ACOLSParams.__doc__ = _override(
+    ACOParams.__doc__ or "",
+    "Parameters of ACO-LS-STC: MAX-MIN Ant System with local search.",
+    {
+        "ants": "Ants per iteration (MMAS with local search: 10).",
+        "rho": "Evaporation rate (MMAS with local search: 0.2).",
+        "local_search": "Apply local_search to the iteration-best ant (ACO-LS-STC: True).",
+    },
+)
+
+
+# ----------------------------------------------------------------------------- the graph
+class Graph:
+    """The per-orbit construction graphs: node indices and their pheromone matrices.
+
+    For orbit j with m usable tasks, ``tau[j]`` has shape (m + 1, m): row 0 is the source,
+    row i + 1 the task of local index i; column v the arc's head (local index v).
+    """
+
+    def __init__(self, data: StcData) -> None:
+        self.data = data
+        self.orbits = sorted(data.orbit_tasks)
+        self.local = np.full(len(data.tasks), -1, dtype=np.int64)
+        self.horizon: dict[int, float] = {}
+        self.origin: dict[int, float] = {}
+        inst = data.instance
+        for j in self.orbits:
+            idx = data.orbit_tasks[j]
+            self.local[idx] = np.arange(len(idx))
+            self.horizon[j] = max(float(inst.orbit_end[j] - inst.orbit_start[j]), 1e-9)
+            self.origin[j] = float(inst.orbit_start[j])
+        self.tau: dict[int, np.ndarray] = {
+            j: np.ones((len(data.orbit_tasks[j]) + 1, len(data.orbit_tasks[j])))
+            for j in self.orbits
+        }
+
+    def reset(self, value: float) -> None:
+        """Set every trail to ``value``."""
+        for mat in self.tau.values():
+            mat.fill(value)
+
+    def arcs(self, sol: Selection) -> list[tuple[int, int, int]]:
+        """The arcs (orbit, row, column) of a selection's paths: source, then time order."""
+        out = []
+        for j in self.orbits:
+            row = 0
+            for t in sol.lines[j].items:
+                col = int(self.local[t])
+                out.append((j, row, col))
+                row = col + 1
+        return out
+
+
+def update_pheromone(
+    tau: dict[int, np.ndarray],
+    arcs: list[tuple[int, int, int]],
+    amount: float,
+    rho: float,
+    tau_min: float,
+    tau_max: float,
+) -> None:
+    """MMAS update: evaporate every trail by ``rho``, deposit ``amount`` on ``arcs``, clamp.
+
+    ``tau <- (1 - rho) tau`` everywhere, ``+ amount`` on each arc of the depositing schedule,
+    then every trail is clamped to ``[tau_min, tau_max]``.
+    """
+    for mat in tau.values():
+        mat *= 1.0 - rho
+    for j, row, col in arcs:
+        tau[j][row, col] += amount
+    for mat in tau.values():
+        np.clip(mat, tau_min, tau_max, out=mat)
+
+
+def tau_bounds(rho: float, p_best: float, n_arcs: int, candidates: int) -> tuple[float, float]:
+    """MMAS trail limits for deposits normalised to at most 1: ``(tau_min, tau_max)``.
+
+    ``tau_max = 1 / rho``; ``tau_min = tau_max (1 - p_dec) / ((avg - 1) p_dec)`` with
+    ``p_dec = p_best^(1/n)``, n = ``n_arcs`` decisions and avg = ``candidates / 2`` choices
+    per decision (at least 2); never above tau_max.
+    """
+    tau_max = 1.0 / rho
+    n = max(1, n_arcs)
+    avg = max(2.0, candidates / 2.0)
+    p_dec = p_best ** (1.0 / n)
+    tau_min = tau_max * (1.0 - p_dec) / ((avg - 1.0) * p_dec)
+    return min(tau_min, tau_max), tau_max
+
+
+# ---------------------------------------------------------------------------- construction
+def construct(graph: Graph, p: ACOParams, rng: np.random.Generator) -> Selection:
+    """One ant's schedule: a path per orbit (random orbit order), see the module docstring."""
+    data = graph.data
+    sol = Selection(data)
+    left, right, cost = data.left, data.right, data.cost
+    for oi in rng.permutation(len(graph.orbits)):
+        j = graph.orbits[int(oi)]
+        idx = data.orbit_tasks[j]
+        mat = graph.tau[j]
+        h = graph.horizon[j]
+        u = -1
+        r_u = graph.origin[j]
+        while True:
+            first = u + 1
+            if u < 0:
+                succ = np.arange(len(idx))
+            else:
+                succ = first + np.flatnonzero(rules.may_precede(r_u, left[idx[first:]]))
+            cand: list[int] = []
+            eta: list[float] = []
+            checks = []
+            for v in succ:
+                t = int(idx[v])
+                g = sol.gain(t)
+                if g <= 0:
+                    continue
+                chk = sol.check(t)
+                if not chk.ok:
+                    if chk.reason == "6":  # openings used up: this orbit is done
+                        break
+                    continue
+                gap = p.gap_weight * max(0.0, float(left[t]) - r_u) / h
+                cand.append(int(v))
+                eta.append(g / (float(cost[t]) + gap))
+                checks.append(chk)
+                if len(cand) >= p.candidates:
+                    break
+            if not cand:
+                break
+            w = mat[u + 1, cand] ** p.alpha * np.asarray(eta) ** p.beta
+            if p.q0 > 0 and rng.random() < p.q0:
+                i = int(np.argmax(w))
+            else:
+                cum = np.cumsum(w)
+                i = int(np.searchsorted(cum, rng.random() * cum[-1], side="right"))
+                i = min(i, len(cand) - 1)
+            t = int(idx[cand[i]])
+            sol.add(t, checks[i])
+            u, r_u = cand[i], float(right[t])
+    sol.commit()
+    return sol
+
+
+# ---------------------------------------------------------------------------- local search
+def exchange(sol: Selection, x: int, rank: np.ndarray) -> bool:
+    """Try to schedule the unscheduled task ``x`` by taking out what blocks it.
+
+    The chosen tasks of x's orbit in (3) conflict with x are removed; while x still breaks
+    (4)-(6), the chosen task of the orbit that loses least is removed too (while the loss is
+    below x's weight). If x then fits it is added and the freed room is refilled with
+    unscheduled tasks (of the orbit, and any covering a target the move uncovered) by
+    decreasing utility. The move is kept only when the profit rises; else it is undone.
+
+    Returns
+    -------
+    bool
+        Whether the move was kept.
+    """
+    data = sol.data
+    j = int(data.tasks.orbit[x])
+    line = sol.lines[j]
+    before = sol.profit
+    mark = sol.mark()
+    lx, rx = float(data.left[x]), float(data.right[x])
+    removed = [
+        t
+        for t in line.items
+        if not (rules.may_precede(data.right[t], lx) or rules.may_precede(rx, data.left[t]))
+    ]
+    for t in removed:
+        sol.remove(t)
+    chk = sol.check(x)
+    limit = int(data.tasks.weight[x])
+    while not chk.ok and chk.reason in ("4", "5", "6") and line.items:
+        if before - sol.profit >= limit:
+            break
+        y = min(line.items, key=lambda t: (sol.loss(t), data.utility[t]))
+        sol.remove(y)
+        removed.append(y)
+        chk = sol.check(x)
+    if chk.ok and sol.gain(x) > 0:
+        sol.add(x, chk)
+        refill = set(int(t) for t in data.orbit_tasks[j])
+        for t in removed:
+            for k in data.targets[t]:
+                if sol.cover[k] == 0:
+                    refill.update(data.target_tasks[k])
+        sol.fill(sorted(refill, key=lambda t: rank[t]))
+    if sol.profit > before:
+        return True
+    sol.undo(mark)
+    return False
+
+
+def local_search(sol: Selection, max_passes: int, deadline: float | None = None) -> int:
+    """First-improvement local search with :func:`exchange` moves; returns moves kept.
+
+    Each pass first adds every task that fits (by decreasing utility), then tries an exchange
+    for each unscheduled task that would earn something, by decreasing utility, keeping every
+    improving move. Stops after a pass with no improvement, ``max_passes`` passes, or at
+    ``deadline`` (a ``time.perf_counter`` value).
+    """
+    data = sol.data
+    rank = np.empty(len(data.tasks), dtype=np.int64)
+    rank[data.by_utility] = np.arange(len(data.by_utility))
+    kept = 0
+    for _ in range(max_passes):
+        sol.fill(data.by_utility)
+        sol.commit()
+        improved = False
+        for x in data.by_utility:
+            x = int(x)
+            if x in sol.chosen or sol.gain(x) <= 0:
+                continue
+            if exchange(sol, x, rank):
+                kept += 1
+                improved = True
+                sol.commit()
+            if deadline is not None and time.perf_counter() > deadline:
+                return kept
+        if not improved:
+            break
+    return kept
+
+
+# ----------------------------------------------------------------------------------- solve
+def run_aco(
+    instance: Instance,
+    p: ACOParams,
+    rng: np.random.Generator,
+    time_limit: float | None,
+    method: str,
+) -> Result:
+    """The MAX-MIN ant colony over static cluster-tasks (module docstring)."""
+    clock = time.perf_counter
+    t0 = clock()
+    deadline = None if time_limit is None else t0 + float(time_limit)
+    data = stc_data(instance, p.roll_rule)
+    graph = Graph(data)
+    tau_min, tau_max = tau_bounds(p.rho, p.p_best, 1, p.candidates)
+    graph.reset(tau_max)
+    best: Selection | None = None
+    best_profit, best_iter, since, restarts, ls_moves = -1, 0, 0, 0, 0
+    it = 0
+    stop = False
+    while it < p.iterations and graph.orbits and not stop:
+        it += 1
+        iter_best: Selection | None = None
+        for _ in range(p.ants):
+            ant = construct(graph, p, rng)
+            if iter_best is None or ant.profit > iter_best.profit:
+                iter_best = ant
+            if deadline is not None and clock() > deadline:
+                stop = True
+                break
+        assert iter_best is not None
+        if p.local_search and not stop:
+            ls_moves += local_search(iter_best, p.ls_passes, deadline)
+        if iter_best.profit > best_profit:
+            best, best_profit, best_iter, since = iter_best, iter_best.profit, it, 0
+            tau_min, tau_max = tau_bounds(p.rho, p.p_best, len(best.chosen), p.candidates)
+        else:
+            since += 1
+        if stop:
+            break
+        if p.restart and since >= p.restart:
+            graph.reset(tau_max)
+            restarts += 1
+            since = 0
+            continue
+        depositor = best if (p.gb_every and it % p.gb_every == 0) else iter_best
+        assert depositor is not None and best is not None
+        amount = depositor.profit / best_profit if best_profit > 0 else 1.0
+        update_pheromone(graph.tau, graph.arcs(depositor), amount, p.rho, tau_min, tau_max)
+    chosen = sorted(best.chosen) if best is not None else []
+    schedule = tasks_to_schedule(instance, data.tasks, chosen)
+    observed = sum(len(o.opps) for o in schedule.observations)
+    profit = max(best_profit, 0)
+    stats = {
+        "tasks": len(data.tasks),
+        "usable_tasks": len(data.usable),
+        "best_iteration": best_iter,
+        "restarts": restarts,
+        "tau_min": tau_min,
+        "tau_max": tau_max,
+        "params": asdict(p),
+    }
+    if p.local_search:
+        stats["ls_moves"] = ls_moves
+    log.info("%s: profit %d after %d iterations (best at %d)", method, profit, it, best_iter)
+    return Result(
+        method, Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
+    )
+
+
+def solve_aco_stc(
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
+) -> Result:
+    """ACO-STC: MAX-MIN ant colony over static cluster-tasks, no local search.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        The only source of randomness.
+    time_limit
+        Wall-time limit in seconds (None: stop after ``iterations``).
+    **params
+        Fields of :class:`ACOParams`.
+
+    Returns
+    -------
+    Result
+        Status ``feasible``; ``iterations`` colony iterations done; ``stats`` holds the
+        iteration of the best schedule, restarts and the trail limits.
+    """
+    return run_aco(instance, ACOParams.from_kwargs(**params), rng, time_limit, "aco-stc")
+
+
+def solve_aco_ls_stc(
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
+) -> Result:
+    """ACO-LS-STC: MAX-MIN ant colony with local search over static cluster-tasks.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    rng
+        The only source of randomness.
+    time_limit
+        Wall-time limit in seconds (None: stop after ``iterations``).
+    **params
+        Fields of :class:`ACOLSParams`.
+
+    Returns
+    -------
+    Result
+        As :func:`solve_aco_stc`, with ``stats["ls_moves"]``, the improving moves kept.
+    """
+    return run_aco(instance, ACOLSParams.from_kwargs(**params), rng, time_limit, "aco-ls-stc")

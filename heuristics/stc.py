@@ -1,0 +1,329 @@
+"""Static cluster-task data and an incremental selection, shared by ACO-STC and GA-STC.
+
+The paper (section 6) casts SOSP as a multidimensional knapsack problem over the static
+cluster-tasks (:func:`sosp.clustering.static_cluster_tasks`): each task is an item, its weight
+the sum of its targets' weights, and each orbit a set of knapsacks, energy (4), memory (5) and
+openings (6), plus the sequencing constraint (3). This module holds what both population
+methods need:
+
+* :class:`StcData`: the usable tasks per orbit in start order, their (3) interval ends from
+  :mod:`sosp.rules`, and a pseudo-utility ``weight / cost`` (the classic knapsack heuristic:
+  profit over the share of each capacity an item uses, :func:`resource_cost`);
+* :class:`Selection`: a set of chosen tasks with one :class:`heuristics.timeline.OrbitTimeline`
+  per orbit (the rules (3)-(6), (11) are checked there and nowhere else), coverage counts per
+  target (a target in tasks of several orbits counts once, ``docs/model.md``) and the profit,
+  all updated by deltas;
+* :func:`params_from_kwargs`: a parameter dataclass from keyword parameters, coercing the
+  command line's strings from the dataclass's type hints.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import types
+import typing
+from dataclasses import dataclass, fields
+from typing import Any, TypeVar
+
+import numpy as np
+
+from heuristics.timeline import OrbitTimeline
+from sosp import rules
+from sosp.clustering import TaskSet, static_cluster_tasks
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.schedule import RollRule
+
+log = logging.getLogger(__name__)
+
+P = TypeVar("P")
+
+
+# ------------------------------------------------------------------------------- parameters
+def params_from_kwargs(cls: type[P], method: str, kwargs: dict[str, Any]) -> P:
+    """Build the frozen parameter dataclass ``cls`` from keyword parameters.
+
+    A string value (``--param key=value`` on the command line) is converted to the field's
+    annotated type: ``int``, ``float``, ``bool`` (true/false, 1/0, yes/no, on/off), ``str``, or
+    ``None`` for ``none``/``null`` where the annotation allows it; an ``int`` given for a
+    ``float`` field becomes a float. Validation is the dataclass's own ``__post_init__``.
+
+    Raises
+    ------
+    InputError
+        For an unknown key (naming it and the method) or a string that does not convert.
+    """
+    hints = typing.get_type_hints(cls)
+    known = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+    out: dict[str, Any] = {}
+    for key, value in kwargs.items():
+        if key not in known:
+            raise InputError(
+                f"{method}: unknown parameter {key!r} (choose from {', '.join(sorted(known))})"
+            )
+        out[key] = _coerce(key, value, hints[key])
+    return cls(**out)
+
+
+def _coerce(key: str, value: Any, hint: Any) -> Any:
+    args = (
+        typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType) else ()
+    )
+    kinds = [a for a in args if a is not type(None)] or [hint]
+    optional = type(None) in args
+    if isinstance(value, str):
+        text = value.strip()
+        if optional and text.lower() in ("none", "null"):
+            return None
+        kind = kinds[0]
+        if kind is bool:
+            if text.lower() in ("true", "1", "yes", "on"):
+                return True
+            if text.lower() in ("false", "0", "no", "off"):
+                return False
+            raise InputError(f"{key}: expected true or false, got {value!r}")
+        if kind in (int, float):
+            try:
+                return kind(text)
+            except ValueError:
+                raise InputError(f"{key}: expected a number, got {value!r}") from None
+        return text
+    if float in kinds and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
+def check_int(name: str, value: Any, minimum: int, optional: bool = False) -> None:
+    """``value`` is an integer >= ``minimum`` (or None when ``optional``), else InputError."""
+    if value is None and optional:
+        return
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
+        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
+
+
+def check_float(name: str, value: Any, lo: float, hi: float, lo_open: bool = False) -> None:
+    """``value`` is a finite number in [lo, hi] (``(lo, hi]`` with ``lo_open``)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{name}: expected a finite number, got {value!r}")
+    if value > hi or value < lo or (lo_open and value == lo):
+        left = "(" if lo_open else "["
+        raise InputError(f"{name}: must lie in {left}{lo:g}, {hi:g}], got {value!r}")
+
+
+# ------------------------------------------------------------------------------------- data
+def resource_cost(instance: Instance, tasks: TaskSet) -> np.ndarray:
+    """Share of its orbit's capacities one task uses: the denominator of the pseudo-utility.
+
+    ``cost_u = w d_u / W + (eo d_u + es 2|theta_u| / v) / E + 1 / c + (R_u - L_u) / H``, with
+    d_u = te_u - ts_u, the memory (5), energy (4) (the slew bounded by
+    :func:`sosp.rules.slew_upper`, to and from nadir) and opening (6) it takes, and the share
+    of the orbit's length H its (3) interval ``[L_u, R_u)`` blocks. A capacity that is zero
+    counts its use as a full share. Floored at 1e-12.
+    """
+    j = tasks.orbit
+    d = np.asarray(tasks.duration, dtype=float)
+    slew = rules.slew_upper(np.abs(tasks.roll), instance.slew_rate[j])
+    mem = rules.memory(d, instance.memory_rate[j])
+    eng = rules.energy(d, slew, instance.observe_energy_rate[j], instance.slew_energy_rate[j])
+    left = rules.left_end(tasks.start, tasks.roll, instance.slew_rate[j])
+    right = rules.right_end(tasks.end, tasks.roll, instance.setup_time[j], instance.slew_rate[j])
+    horizon = np.maximum(instance.orbit_end[j] - instance.orbit_start[j], 1e-9)
+
+    def share(use: np.ndarray, cap: np.ndarray) -> np.ndarray:
+        cap = np.asarray(cap, dtype=float)
+        return np.where(cap > 0, use / np.where(cap > 0, cap, 1.0), 1.0)
+
+    cost = (
+        share(mem, instance.memory_capacity[j])
+        + share(eng, instance.energy_capacity[j])
+        + share(np.ones_like(d), instance.max_openings[j].astype(float))
+        + (right - left) / horizon
+    )
+    return np.maximum(cost, 1e-12)
+
+
+@dataclass(frozen=True, eq=False)
+class StcData:
+    """The static cluster-tasks as the population methods use them.
+
+    Attributes
+    ----------
+    instance, tasks
+        The problem and its static cluster-tasks.
+    usable
+        Tasks that can ever be scheduled (weight > 0 and feasible alone on an empty orbit),
+        in task order (orbit, start).
+    orbit_tasks
+        Per orbit with usable tasks, its usable tasks in start order.
+    left, right
+        Per task, the ends of its (3) interval (:func:`sosp.rules.left_end`, ``right_end``).
+    cost, utility
+        Per task, :func:`resource_cost` and ``weight / cost``.
+    by_utility
+        The usable tasks by decreasing utility (ties by task index).
+    position
+        Per task, its index in ``usable`` (-1 when not usable).
+    targets, weight
+        Per task its targets; per target its weight (Python lists for the scalar loops).
+    """
+
+    instance: Instance
+    tasks: TaskSet
+    usable: np.ndarray
+    orbit_tasks: dict[int, np.ndarray]
+    left: np.ndarray
+    right: np.ndarray
+    cost: np.ndarray
+    utility: np.ndarray
+    by_utility: np.ndarray
+    position: np.ndarray
+    targets: tuple[tuple[int, ...], ...]
+    weight: list[int]
+
+    @property
+    def target_tasks(self) -> dict[int, tuple[int, ...]]:
+        """Per target, the tasks covering it."""
+        return self.tasks.target_tasks
+
+
+def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
+    """Build :class:`StcData` from the static cluster-tasks of ``instance``."""
+    tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
+    usable = []
+    for t in range(len(tasks)):
+        if tasks.weight[t] <= 0:
+            continue
+        line = OrbitTimeline(instance, int(tasks.orbit[t]))
+        if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
+            usable.append(t)
+    usable_arr = np.array(usable, dtype=np.int64)
+    orbit_tasks: dict[int, np.ndarray] = {}
+    for j in np.unique(tasks.orbit[usable_arr]) if len(usable_arr) else []:
+        orbit_tasks[int(j)] = usable_arr[tasks.orbit[usable_arr] == j]
+    j = tasks.orbit
+    cost = resource_cost(instance, tasks) if len(tasks) else np.zeros(0)
+    utility = np.asarray(tasks.weight, dtype=float) / cost if len(tasks) else np.zeros(0)
+    order = np.lexsort((usable_arr, -utility[usable_arr])) if len(usable_arr) else usable_arr
+    position = np.full(len(tasks), -1, dtype=np.int64)
+    position[usable_arr] = np.arange(len(usable_arr))
+    return StcData(
+        instance=instance,
+        tasks=tasks,
+        usable=usable_arr,
+        orbit_tasks=orbit_tasks,
+        left=rules.left_end(tasks.start, tasks.roll, instance.slew_rate[j]),
+        right=rules.right_end(tasks.end, tasks.roll, instance.setup_time[j], instance.slew_rate[j]),
+        cost=cost,
+        utility=utility,
+        by_utility=usable_arr[order],
+        position=position,
+        targets=tuple(tuple(int(k) for k in ks) for ks in tasks.targets),
+        weight=[int(x) for x in instance.target_weight],
+    )
+
+
+# -------------------------------------------------------------------------------- selection
+class Selection:
+    """Chosen tasks with their orbits' timelines, target coverage counts and the profit.
+
+    Every change goes through :meth:`add` (after :meth:`check`) and :meth:`remove`, which
+    update the timelines, the counts and the profit (objective (1), each target once) by
+    deltas. :meth:`mark` and :meth:`undo` give a journal: the changes since a mark can be
+    undone exactly.
+    """
+
+    __slots__ = ("data", "lines", "cover", "chosen", "profit", "journal")
+
+    def __init__(self, data: StcData) -> None:
+        self.data = data
+        self.lines: dict[int, OrbitTimeline] = {
+            j: OrbitTimeline(data.instance, j) for j in data.orbit_tasks
+        }
+        self.cover = [0] * data.instance.n_targets
+        self.chosen: set[int] = set()
+        self.profit = 0
+        self.journal: list[tuple[bool, int]] = []
+
+    def gain(self, t: int) -> int:
+        """Weight of the targets of ``t`` no chosen task covers (what adding it earns)."""
+        cover, w = self.cover, self.data.weight
+        return sum(w[k] for k in self.data.targets[t] if cover[k] == 0)
+
+    def loss(self, t: int) -> int:
+        """Weight of the targets only ``t`` covers (what removing the chosen ``t`` costs)."""
+        cover, w = self.cover, self.data.weight
+        return sum(w[k] for k in self.data.targets[t] if cover[k] == 1)
+
+    def check(self, t: int):
+        """:meth:`OrbitTimeline.check_insert` of task ``t`` on its orbit ((3)-(6), (11))."""
+        ts = self.data.tasks
+        return self.lines[int(ts.orbit[t])].check_insert(
+            float(ts.start[t]), float(ts.end[t]), float(ts.roll[t])
+        )
+
+    def add(self, t: int, chk) -> None:
+        """Add task ``t`` where ``chk`` (a successful :meth:`check`) says."""
+        ts = self.data.tasks
+        self.lines[int(ts.orbit[t])].insert(
+            chk, float(ts.start[t]), float(ts.end[t]), float(ts.roll[t]), t
+        )
+        cover, w = self.cover, self.data.weight
+        for k in self.data.targets[t]:
+            if cover[k] == 0:
+                self.profit += w[k]
+            cover[k] += 1
+        self.chosen.add(t)
+        self.journal.append((True, t))
+
+    def try_add(self, t: int) -> bool:
+        """Add ``t`` if it fits its orbit; returns whether it was added."""
+        chk = self.check(t)
+        if chk.ok:
+            self.add(t, chk)
+        return chk.ok
+
+    def remove(self, t: int) -> None:
+        """Remove the chosen task ``t`` (never breaks (3)-(6): ``docs/model.md``)."""
+        line = self.lines[int(self.data.tasks.orbit[t])]
+        line.remove(line.items.index(t))
+        cover, w = self.cover, self.data.weight
+        for k in self.data.targets[t]:
+            cover[k] -= 1
+            if cover[k] == 0:
+                self.profit -= w[k]
+        self.chosen.discard(t)
+        self.journal.append((False, t))
+
+    def mark(self) -> int:
+        """A point of the journal to :meth:`undo` back to."""
+        return len(self.journal)
+
+    def undo(self, mark: int) -> None:
+        """Undo every change since ``mark`` (a subset of a feasible set is feasible, so each
+        task removed since then fits back)."""
+        while len(self.journal) > mark:
+            added, t = self.journal.pop()
+            if added:
+                self.remove(t)
+            else:
+                chk = self.check(t)
+                if not chk.ok:  # pragma: no cover - would be a bug in the timelines
+                    raise RuntimeError(f"undo: task {t} no longer fits ({chk.reason})")
+                self.add(t, chk)
+            self.journal.pop()  # the remove/add just logged
+
+    def commit(self) -> None:
+        """Forget the journal (the current state is kept)."""
+        self.journal.clear()
+
+    def fill(self, order: Any) -> None:
+        """Add, in ``order``, every task that earns something and fits."""
+        for t in order:
+            t = int(t)
+            if t not in self.chosen and self.gain(t) > 0:
+                self.try_add(t)
+
+    def path(self, j: int) -> list[int]:
+        """The chosen tasks of orbit ``j`` in time order."""
+        return list(self.lines[j].items)
