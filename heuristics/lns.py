@@ -354,7 +354,7 @@ def solve_milp_lns(
     # ---- candidates once, shared with an orbit-dp start (cached per instance by
     # sosp.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
     if left() > 0.05:
-        c_orbit, c_start, c_end, c_roll, c_opps = cluster_candidates(instance)
+        c_orbit, c_start, c_end, c_roll, c_opps = cluster_candidates(instance, max_candidates=None)
     else:  # the start used the whole limit
         c_orbit, c_start, c_end, c_roll, c_opps = (np.zeros(0),) * 4 + ((),)
     by_orbit: dict[int, np.ndarray] = {}

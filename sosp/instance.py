@@ -33,6 +33,16 @@ FORMAT_VERSION = 1
 #: Tolerance (seconds or degrees) for the consistency checks of loaded data.
 DATA_TOL = 1e-9
 
+#: dtype of the opportunities' target and orbit indices. Times, rolls and coordinates stay
+#: float64: the candidate observations compare windows and roll ranges to 1e-9 (seconds since
+#: the epoch reach 1e5, beyond float32's 7 digits), and the files and the fingerprint are
+#: defined by the float64 values.
+INDEX_DTYPE = np.int32
+
+#: From this many opportunities on, :meth:`Instance.save` writes the columns layout (one list
+#: per field) unless told otherwise: about half the size of the records layout.
+COLUMNS_FROM = 50_000
+
 
 @dataclass(frozen=True)
 class Resources:
@@ -356,8 +366,9 @@ class Instance:
                     f"opportunities[{bad[0]}].{key}: unknown {key} index {arr[bad[0]]:g}",
                     source=source,
                 )
-        p_target = p_target.astype(np.int64)
-        p_orbit = p_orbit.astype(np.int64)
+        # int32 indices: half the memory of int64 on instances with millions of opportunities
+        p_target = p_target.astype(INDEX_DTYPE)
+        p_orbit = p_orbit.astype(INDEX_DTYPE)
         p_start = col(opp_start, "opportunities", "start", n_p)
         p_end = col(opp_end, "opportunities", "end", n_p)
         roll = col(opp_roll, "opportunities", "roll", n_p)
@@ -616,13 +627,21 @@ class Instance:
             source=source,
         )
 
-    def save(self, path: str | os.PathLike[str], layout: str = "records") -> None:
-        """Write the instance file atomically."""
+    def save(self, path: str | os.PathLike[str], layout: str = "auto") -> None:
+        """Write the instance file atomically.
+
+        ``layout``: "records", "columns", or "auto" (columns from :data:`COLUMNS_FROM`
+        opportunities on, else records). A path ending in ``.gz`` is written gzip-compressed
+        (:func:`load_instance` reads it back).
+        """
+        if layout == "auto":
+            layout = "columns" if self.n_opps >= COLUMNS_FROM else "records"
         atomic_write_json(path, self.to_dict(layout=layout))
 
 
 def load_instance(path: str | os.PathLike[str]) -> Instance:
-    """Read and validate an instance file; :class:`InputError` names the file and field."""
+    """Read and validate an instance file (``.json`` or ``.json.gz``, either layout);
+    :class:`InputError` names the file and field."""
     return Instance.from_dict(read_json(path), source=str(path))
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 import os
@@ -76,6 +77,8 @@ def atomic_output(path: str | os.PathLike[str], suffix: str = ".tmp") -> Iterato
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """Write ``text`` to ``path`` atomically (temp file in the same folder, fsync, rename).
 
+    A path ending in ``.gz`` is written gzip-compressed (:func:`read_json` reads it back).
+
     A reader never sees a half-written file, and a crash leaves the old file (or none) behind.
     The file gets the permissions of a normal new file (``0o666`` less the umask).
     """
@@ -89,8 +92,11 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     try:
         # mkstemp creates 0o600; give the file the mode open() would (umask respected).
         os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
+        data = text.encode("utf-8")
+        if target.name.endswith(".gz"):  # gzip, transparently (mtime 0: same text, same bytes)
+            data = gzip.compress(data, compresslevel=6, mtime=0)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, target)
@@ -117,15 +123,21 @@ def _reject_constant(name: str) -> float:
 
 
 def read_json(path: str | os.PathLike[str]) -> Any:
-    """Read a JSON file, raising :class:`InputError` naming the file and position on failure."""
+    """Read a JSON file, raising :class:`InputError` naming the file and position on failure.
+
+    A file whose name ends in ``.gz`` is gzip-decompressed first.
+    """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        if p.name.endswith(".gz"):
+            text = gzip.decompress(p.read_bytes()).decode("utf-8")
+        else:
+            text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError("file not found", source=str(p)) from None
     except IsADirectoryError:
         raise InputError("is a directory, not a file", source=str(p)) from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, EOFError) as exc:
         raise InputError(f"cannot read: {exc}", source=str(p)) from None
     try:
         return json.loads(text, parse_constant=_reject_constant)

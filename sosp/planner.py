@@ -32,13 +32,14 @@ and the MILP LNS (:mod:`heuristics.lns`).
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from sosp.candidates import cluster_candidates, flatten
+from sosp.candidates import OppGroups, cluster_candidates, flatten
 from sosp.instance import Instance
 from sosp.rules import EPS, OrbitRules, orbit_rules
 
@@ -56,6 +57,16 @@ _BISECTIONS = 12
 #: about 4 us, the gather and bincount's 2.7 us per 1000 pairs (C10's largest orbit, 310 000
 #: pairs: 0.1 against 0.28 ms per orbit on average, a fifth of a plan).
 _SPARSE_GAINS = 2000
+
+#: From this many (position, target) pairs on, gains are ``np.add.reduceat`` over
+#: ``price[target_flat]`` instead: no 0/1 matrix to hold (12 bytes a pair) on dense orbits
+#: with millions of candidates.
+_REDUCE_GAINS = 2_000_000
+
+#: From this many positions on, :func:`best_path` first drops the positions that cannot be
+#: in a best plan at the given prices (:func:`_useful`); below it the recursion runs on all
+#: of them (the paper's scenarios: C10's largest orbit has about 30 000).
+PRUNE_FROM = 100_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +93,10 @@ class OrbitItems:
         The distinct targets any candidate of the orbit covers.
     rules
         The orbit's rules and parameters (:class:`sosp.rules.OrbitRules`).
+    start, end, first_target, last_target
+        Per position: the window (10) and the targets of the opportunities at its two ends
+        (None when built without them; used by the pruning of :func:`best_path` on orbits of
+        at least :data:`PRUNE_FROM` positions).
     """
 
     orbit: int
@@ -93,13 +108,22 @@ class OrbitItems:
     n_before: np.ndarray
     target_ptr: np.ndarray
     target_flat: np.ndarray
-    target_seg: np.ndarray
     targets: np.ndarray
     rules: OrbitRules
+    start: np.ndarray | None = None
+    end: np.ndarray | None = None
+    first_target: np.ndarray | None = None
+    last_target: np.ndarray | None = None
 
     @property
     def size(self) -> int:
         return len(self.items)
+
+    @cached_property
+    def target_seg(self) -> np.ndarray:
+        """The position of each entry of ``target_flat`` (made on first use: only the small
+        orbits' gains need it)."""
+        return np.repeat(np.arange(self.size, dtype=np.int32), np.diff(self.target_ptr))
 
     @cached_property
     def incidence(self) -> Any:
@@ -113,12 +137,32 @@ class OrbitItems:
 
     def gains(self, price: np.ndarray) -> np.ndarray:
         """Sum of ``price`` over the targets each position covers."""
-        if len(self.target_flat) < _SPARSE_GAINS:
+        nnz = len(self.target_flat)
+        if nnz < _SPARSE_GAINS:
             return np.bincount(
                 self.target_seg, weights=price[self.target_flat], minlength=self.size
             )
+        if nnz >= _REDUCE_GAINS:
+            # every candidate covers at least one target: no empty segment for reduceat
+            return np.add.reduceat(
+                np.asarray(price, dtype=float)[self.target_flat], self.target_ptr[:-1]
+            )
         a = self.incidence
         return a @ np.ascontiguousarray(price[: a.shape[1]], dtype=float)
+
+    @cached_property
+    def windows(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(order, rank)``: positions by (start, end, |theta|, position), and each one's
+        rank within its window (0 for the least |theta| of a window)."""
+        if self.start is None or self.end is None:
+            raise ValueError("windows: this OrbitItems was built without start and end")
+        n = self.size
+        order = np.lexsort((np.arange(n), self.slew_s, self.end, self.start))
+        s, e = self.start[order], self.end[order]
+        new = np.ones(n, dtype=bool)
+        new[1:] = (s[1:] != s[:-1]) | (e[1:] != e[:-1])
+        first = np.maximum.accumulate(np.where(new, np.arange(n), 0))
+        return order, np.arange(n) - first
 
     def usage(self, path: np.ndarray) -> tuple[float, float]:
         """Energy (4) and memory (5) of a plan (positions in time order), slew term exact."""
@@ -153,7 +197,7 @@ class OrbitData:
     start: np.ndarray
     end: np.ndarray
     roll: np.ndarray
-    opps: tuple[tuple[int, ...], ...]
+    opps: Sequence[tuple[int, ...]]
     orbits: tuple[OrbitItems, ...]
     target_orbits_ptr: np.ndarray
     target_orbits: np.ndarray
@@ -171,8 +215,12 @@ class OrbitData:
         return np.unique(np.concatenate(parts))
 
 
-def orbit_data(instance: Instance, deadline: float | None = None) -> OrbitData:
+def orbit_data(instance: Instance, deadline: float | None = None, workers: int = 1) -> OrbitData:
     """Build :class:`OrbitData` from the cluster model's candidates.
+
+    The candidates are generated orbit by orbit (:func:`sosp.candidates.orbit_candidates`)
+    and held as numpy columns; there is no cap on their number (a dense orbit of C-region
+    instances with 3 000 targets has about 600 000, some 50 MB).
 
     Parameters
     ----------
@@ -180,9 +228,17 @@ def orbit_data(instance: Instance, deadline: float | None = None) -> OrbitData:
         The problem.
     deadline
         :func:`time.perf_counter` value by which the candidates must be complete (else
-        :class:`~sosp.errors.InputError`, see :func:`sosp.candidates.cluster_candidates`).
+        :class:`~sosp.errors.InputError`, see :func:`sosp.candidates.orbit_candidates`).
+    workers
+        Processes generating the orbits' candidates side by side (1: in this process).
     """
-    orbit, start, end, roll, opps = cluster_candidates(instance, deadline=deadline)
+    if workers > 1:
+        from sosp.candidates import generate_in_processes
+
+        generate_in_processes(instance, workers, deadline)
+    orbit, start, end, roll, opps = cluster_candidates(
+        instance, max_candidates=None, deadline=deadline
+    )
     return _arrange(instance, orbit, start, end, roll, opps)
 
 
@@ -205,12 +261,14 @@ def _arrange(
     start: np.ndarray,
     end: np.ndarray,
     roll: np.ndarray,
-    opps: tuple[tuple[int, ...], ...],
+    opps: Sequence[Sequence[int]],
 ) -> OrbitData:
     """Group candidate columns per orbit for the recursion (:class:`OrbitData`)."""
+    opps = OppGroups.from_groups(opps)
     tgt = instance.opp_target
     groups: list[OrbitItems] = []
-    seen_by: list[list[int]] = [[] for _ in range(instance.n_targets)]
+    seen_t: list[np.ndarray] = [np.zeros(0, dtype=np.int64)]
+    seen_g: list[np.ndarray] = [np.zeros(0, dtype=np.int64)]
     if len(opps):
         order = np.lexsort((end, start, orbit))
         cuts = np.flatnonzero(np.diff(orbit[order])) + 1
@@ -222,13 +280,15 @@ def _arrange(
             right = rj.right(end[block], roll[block])
             by_release = np.argsort(right, kind="stable")
             n_before = np.searchsorted(right[by_release], left + EPS, side="right")
-            flat, seg = _covered_targets(tgt, [opps[u] for u in block])
+            members = opps.take(block)
+            flat, seg = _covered_targets(tgt, members)
+            first_t, last_t = _end_targets(instance, members, start[block], end[block])
             sizes = np.bincount(seg, minlength=len(block))
             ptr = np.zeros(len(block) + 1, dtype=np.int64)
             ptr[1:] = np.cumsum(sizes)
             targets = np.unique(flat)
-            for k in targets:
-                seen_by[int(k)].append(len(groups))
+            seen_t.append(targets.astype(np.int64))
+            seen_g.append(np.full(len(targets), len(groups), dtype=np.int64))
             groups.append(
                 OrbitItems(
                     orbit=j,
@@ -240,15 +300,19 @@ def _arrange(
                     n_before=n_before,
                     target_ptr=ptr,
                     target_flat=flat,
-                    target_seg=seg,
                     targets=targets,
                     rules=rj,
+                    start=start[block],
+                    end=end[block],
+                    first_target=first_t,
+                    last_target=last_t,
                 )
             )
-    counts = np.array([len(s) for s in seen_by], dtype=np.int64)
+    # per target, the orbits (positions in ``groups``, increasing) with a candidate seeing it
+    t_all, g_all = np.concatenate(seen_t), np.concatenate(seen_g)
+    by_target = np.lexsort((g_all, t_all))
     tptr = np.zeros(instance.n_targets + 1, dtype=np.int64)
-    tptr[1:] = np.cumsum(counts)
-    flat_orbits = np.array([g for s in seen_by for g in s], dtype=np.int64)
+    tptr[1:] = np.cumsum(np.bincount(t_all, minlength=instance.n_targets))
     return OrbitData(
         instance=instance,
         orbit=orbit,
@@ -258,18 +322,42 @@ def _arrange(
         opps=opps,
         orbits=tuple(groups),
         target_orbits_ptr=tptr,
-        target_orbits=flat_orbits,
+        target_orbits=g_all[by_target],
     )
 
 
-def _covered_targets(
-    opp_target: np.ndarray, opps: list[tuple[int, ...]]
+def _end_targets(
+    instance: Instance, members: OppGroups, start: np.ndarray, end: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
+    """Per group of opportunities: the target of a member whose window starts at ``start``
+    and of one whose window ends at ``end`` (the group's window (10)); -1 where there is none
+    (a window longer than its members', which the pruning then leaves alone). int32."""
+    ptr, flat = members.ptr, members.flat
+    if len(ptr) == 1:
+        return np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.int32)
+    tgt = np.asarray(instance.opp_target)
+    sizes = np.diff(ptr)
+    out = []
+    for times, bound, pick in (
+        (instance.opp_start, start, np.minimum),
+        (instance.opp_end, end, np.maximum),
+    ):
+        hit = times[flat] == np.repeat(bound, sizes)
+        none = len(flat) if pick is np.minimum else -1
+        where = pick.reduceat(np.where(hit, np.arange(len(flat)), none), ptr[:-1])
+        found = (where >= 0) & (where < len(flat))
+        t = np.full(len(sizes), -1, dtype=np.int32)
+        t[found] = tgt[flat[where[found]]]
+        out.append(t)
+    return out[0], out[1]
+
+
+def _covered_targets(opp_target: np.ndarray, opps: OppGroups) -> tuple[np.ndarray, np.ndarray]:
     """The distinct targets of each group of opportunities, sorted within the group, flat, and
-    the group of each entry (both in group order)."""
+    the group of each entry (both in group order; int32)."""
     sizes, flat_opps = flatten(opps)
-    seg = np.repeat(np.arange(len(opps), dtype=np.int64), sizes)
-    tg = opp_target[flat_opps].astype(np.int64)
+    seg = np.repeat(np.arange(len(opps), dtype=np.int32), sizes)
+    tg = opp_target[flat_opps].astype(np.int32)
     order = np.lexsort((tg, seg))
     tg, seg = tg[order], seg[order]
     keep = np.ones(len(tg), dtype=bool)
@@ -278,7 +366,11 @@ def _covered_targets(
 
 
 def best_path(
-    o: OrbitItems, price: np.ndarray, lam_energy: float = 0.0, lam_memory: float = 0.0
+    o: OrbitItems,
+    price: np.ndarray,
+    lam_energy: float = 0.0,
+    lam_memory: float = 0.0,
+    prepared: Priced | None = None,
 ) -> tuple[float, np.ndarray]:
     """The best plan of one orbit under (3) and (6), knapsacks (4)-(5) as penalties.
 
@@ -294,6 +386,9 @@ def best_path(
         Per target of the instance, what covering it is worth (>= 0).
     lam_energy, lam_memory
         Penalties per whole capacity E_j, W_j (>= 0).
+    prepared
+        :func:`priced` of ``o`` at ``price``, when the caller has it (several penalties at
+        one price vector).
 
     Returns
     -------
@@ -301,15 +396,126 @@ def best_path(
         ``(value, path)``: the penalised value (0 for the empty plan, never below) and the
         plan's positions in time order.
     """
-    m = o.size
-    if m == 0:
+    if o.size == 0:
         return 0.0, np.zeros(0, dtype=np.int64)
     r = o.rules
     pe = lam_energy / r.energy_capacity if r.energy_capacity > 0 else 0.0
     pw = lam_memory / r.memory_capacity if r.memory_capacity > 0 else 0.0
-    slew_cost = pe * r.slew_energy_rate * o.slew_s
-    g = o.gains(price) - pe * r.observe_energy_rate * o.duration
-    g -= pw * r.memory_rate * o.duration
+    sub = priced(o, price) if prepared is None else prepared
+    if sub.keep is None:
+        return _recursion(o.slew_s, o.duration, sub.gain, o.by_release, o.n_before, r, pe, pw)
+    keep = sub.keep
+    if len(keep) == 0:
+        return 0.0, np.zeros(0, dtype=np.int64)
+    value, path = _recursion(
+        o.slew_s[keep], o.duration[keep], sub.gain, sub.by_release, sub.n_before, r, pe, pw
+    )
+    return value, keep[path]
+
+
+@dataclass(frozen=True, eq=False)
+class Priced:
+    """An orbit's positions at given prices, as :func:`best_path` uses them: the gains and,
+    on orbits of at least :data:`PRUNE_FROM` positions, only the positions that can be in a
+    best plan (:func:`_useful`) with their (3) order. The same for any penalties, so
+    :func:`best_feasible_path` prepares it once per price vector.
+
+    Attributes
+    ----------
+    keep
+        Kept positions (sorted), or None for all.
+    gain
+        Gain per kept position.
+    by_release, n_before
+        As :class:`OrbitItems`' over the kept positions (None with ``keep`` None).
+    """
+
+    keep: np.ndarray | None
+    gain: np.ndarray
+    by_release: np.ndarray | None
+    n_before: np.ndarray | None
+
+
+def priced(o: OrbitItems, price: np.ndarray) -> Priced:
+    """The :class:`Priced` positions of orbit ``o`` at ``price``."""
+    gain = o.gains(price)
+    if o.size >= PRUNE_FROM and o.start is not None:
+        keep = _useful(o, gain, price)
+        if len(keep) < o.size:
+            by_release, n_before = _restrict(o, keep)
+            return Priced(keep, gain[keep], by_release, n_before)
+    return Priced(None, gain, None, None)
+
+
+def _useful(o: OrbitItems, gain: np.ndarray, price: np.ndarray) -> np.ndarray:
+    """Positions that may be in a best plan at these prices (sorted).
+
+    Dropped, as each is dominated by a kept position (the recursion's optimum is unchanged;
+    a tie may pick another plan of the same value):
+
+    * a position covering nothing worth anything: removing an observation from a plan keeps
+      (3)-(6) and never adds energy (``docs/model.md``);
+    * one whose first or last opportunity (the ones at its window's ends) is worth nothing:
+      the other members' nadir-closest common roll has no larger |theta| and their window
+      (10) lies inside, so a candidate with that window and roll covering them all exists
+      (the candidates are all such observations up to domination) and is worth as much with
+      a (3) interval inside this one's and no larger penalties;
+    * one whose window holds a position of no larger |theta| (ties: the earlier) covering at
+      least as much: the same window, so its (3) interval ``[ts - |theta| / v, te + a +
+      |theta| / v)`` lies inside the dropped one's, its gain is no lower and its penalties
+      no higher.
+    """
+    order, rank = o.windows
+    g = gain[order]
+    # inclusive running maximum of g within each window (Hillis-Steele scan, log2 passes)
+    run = g.copy()
+    shift = 1
+    while shift < len(g) and (rank >= shift).any():
+        cand = np.full(len(g), -np.inf)
+        cand[shift:] = run[:-shift]
+        run = np.where(rank >= shift, np.maximum(run, cand), run)
+        shift *= 2
+    before = np.full(len(g), -np.inf)
+    before[1:] = run[:-1]
+    before[rank == 0] = -np.inf
+    ok = (g > 0.0) & (g > before)
+    for ends in (o.first_target, o.last_target):
+        if ends is not None:
+            known = ends[order] >= 0
+            ok &= ~known | (price[np.maximum(ends[order], 0)] > 0.0)
+    return np.sort(order[ok])
+
+
+def _restrict(o: OrbitItems, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``by_release`` and ``n_before`` of the sub-orbit of positions ``keep`` (sorted), in
+    the sub-orbit's positions."""
+    inside = np.zeros(o.size, dtype=bool)
+    inside[keep] = True
+    new_pos = np.cumsum(inside) - 1
+    kept_release = inside[o.by_release]
+    by_release = new_pos[o.by_release[kept_release]]
+    # kept positions among the first n of by_release, for each n
+    prefix = np.zeros(o.size + 1, dtype=np.int64)
+    np.cumsum(kept_release, out=prefix[1:])
+    n_before = prefix[o.n_before[keep]]
+    return by_release, n_before
+
+
+def _recursion(
+    slew_s: np.ndarray,
+    duration: np.ndarray,
+    gain: np.ndarray,
+    by_release: np.ndarray,
+    n_before: np.ndarray,
+    r: OrbitRules,
+    pe: float,
+    pw: float,
+) -> tuple[float, np.ndarray]:
+    """The level-by-level recursion of :func:`best_path` on given positions."""
+    m = len(gain)
+    slew_cost = pe * r.slew_energy_rate * slew_s
+    g = gain - pe * r.observe_energy_rate * duration
+    g -= pw * r.memory_rate * duration
     g -= 2.0 * slew_cost
     bonus = slew_cost  # the first (and, separately, the last) observation's |theta| back
     levels = [np.full(m, -np.inf)]
@@ -317,8 +523,8 @@ def best_path(
         prev = levels[-1]
         best_before = np.empty(m + 1)
         best_before[0] = -np.inf
-        np.maximum.accumulate(prev[o.by_release], out=best_before[1:])
-        cur = g + np.maximum(bonus, best_before[o.n_before])
+        np.maximum.accumulate(prev[by_release], out=best_before[1:])
+        cur = g + np.maximum(bonus, best_before[n_before])
         levels.append(cur)
         # One more opening adds nothing: neither will the next. Bytes, not np.array_equal:
         # ten times faster on an orbit's few hundred items, and a false "differ" (-0.0 vs
@@ -333,10 +539,10 @@ def best_path(
     path = [u]
     n = len(levels) - 1
     while n > 1:
-        k = int(o.n_before[u])
+        k = int(n_before[u])
         if k == 0:
             break
-        before = o.by_release[:k]
+        before = by_release[:k]
         prev = levels[n - 1][before]
         q = int(np.argmax(prev))
         if not prev[q] > bonus[u]:
@@ -355,12 +561,13 @@ def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
     of capacity) is doubled until the plan fits, then bisected 12 times towards the smallest
     penalty that fits: a Lagrangian heuristic, feasible but not proven optimal.
     """
-    _, path = best_path(o, price)
+    sub = priced(o, price)
+    _, path = best_path(o, price, prepared=sub)
     if o.fits(path):
         return path
     lo, hi = 0.0, 1.0
     for _ in range(_MAX_DOUBLINGS):
-        _, path = best_path(o, price, hi, hi)
+        _, path = best_path(o, price, hi, hi, sub)
         if o.fits(path):
             break
         lo, hi = hi, 2.0 * hi
@@ -369,7 +576,7 @@ def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
     best = path
     for _ in range(_BISECTIONS):
         mid = 0.5 * (lo + hi)
-        _, path = best_path(o, price, mid, mid)
+        _, path = best_path(o, price, mid, mid, sub)
         if o.fits(path):
             hi, best = mid, path
         else:

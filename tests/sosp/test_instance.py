@@ -207,3 +207,32 @@ def test_bad_schedules_name_the_row(tmp_path: Path, change, needle: str) -> None
     with pytest.raises(InputError) as info:
         Schedule.from_dict(d, inst, source="s.json")
     assert needle in str(info.value)
+
+
+def test_index_columns_are_int32_and_times_float64(tiny: Instance) -> None:
+    assert tiny.opp_target.dtype == np.int32 and tiny.opp_orbit.dtype == np.int32
+    for name in ("opp_start", "opp_end", "opp_roll", "opp_roll_min", "opp_roll_max"):
+        assert getattr(tiny, name).dtype == np.float64
+
+
+def test_gzip_files_round_trip_and_large_ones_default_to_columns(
+    tmp_path: Path, tiny: Instance, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import gzip
+
+    import sosp.instance as si
+
+    gz = tmp_path / "i.json.gz"
+    tiny.save(gz)
+    raw = gzip.decompress(gz.read_bytes())
+    assert load_instance(gz) == tiny
+    assert isinstance(json.loads(raw)["opportunities"], list)  # small: records by default
+    monkeypatch.setattr(si, "COLUMNS_FROM", 1)
+    tiny.save(gz)
+    data = json.loads(gzip.decompress(gz.read_bytes()))
+    assert isinstance(data["opportunities"], dict)  # columns from COLUMNS_FROM on
+    assert load_instance(gz) == tiny
+    bad = tmp_path / "bad.json.gz"
+    bad.write_bytes(b"not gzip")
+    with pytest.raises(InputError, match="bad.json.gz: cannot read"):
+        load_instance(bad)

@@ -26,8 +26,7 @@ from sosp.planner import (
 from sosp.result import Status
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import TINY, tiny_cluster, tiny_openings
-from tests.heuristics.test_asa import small_instances
+from tests.conftest import TINY, small_instances, tiny_cluster, tiny_openings
 from tests.models.instances import EDGE_CASES, random_tiny
 from tests.oracle import brute_force
 
@@ -326,3 +325,113 @@ def test_candidates_are_computed_once_per_instance_and_read_only() -> None:
     del inst
     gc.collect()
     assert key not in _CACHE  # the entry leaves with its instance
+
+
+# ------------------------------------------------------------------ dense orbits: pruning
+def _zeroed(rng: np.random.Generator, n: int, share: float) -> np.ndarray:
+    """Prices in [0, 10) with about ``share`` of them 0 (targets another orbit covers)."""
+    price = rng.uniform(0, 10, n)
+    price[rng.random(n) < share] = 0.0
+    return price
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_pruned_recursion_equals_the_full_one_and_the_enumeration(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With pruning on every orbit (PRUNE_FROM = 0) the recursion keeps its optimum: the same
+    value as without, the brute-force best over all plans, and a plan worth it."""
+    import sosp.planner as odp
+
+    inst = random_tiny(seed)
+    data = orbit_data(inst)
+    rng = np.random.default_rng(seed)
+    for o in data.orbits:
+        for share in (0.0, 0.4, 0.8):
+            price = _zeroed(rng, inst.n_targets, share)
+            lam = (0.0, 0.0) if rng.random() < 0.5 else tuple(rng.uniform(0, 20, 2))
+            monkeypatch.setattr(odp, "PRUNE_FROM", 10**9)
+            full, _ = best_path(o, price, *lam)
+            monkeypatch.setattr(odp, "PRUNE_FROM", 0)
+            value, path = best_path(o, price, *lam)
+            assert value == pytest.approx(full, abs=1e-9)
+            assert _penalised(o, path, price, *lam) == pytest.approx(value, abs=1e-9)
+            if o.size <= 12:
+                best = max(_penalised(o, p, price, *lam) for p in _plans(data, o))
+                assert value == pytest.approx(max(best, 0.0), abs=1e-9)
+            assert o.fits(best_feasible_path(o, price))
+
+
+def test_pruning_drops_what_is_worth_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Positions with a worthless end opportunity or no gain are not kept; with every price
+    positive no position is dropped for its ends."""
+    import sosp.planner as odp
+
+    monkeypatch.setattr(odp, "PRUNE_FROM", 0)
+    inst = tiny_cluster()
+    o = orbit_data(inst).orbits[0]
+    price = np.ones(inst.n_targets)
+    sub = odp.priced(o, price)
+    kept = np.arange(o.size) if sub.keep is None else sub.keep
+    assert len(kept) >= 1
+    zero = int(o.first_target[kept[0]])
+    price[zero] = 0.0
+    sub = odp.priced(o, price)
+    assert sub.keep is not None
+    assert not np.any(o.first_target[sub.keep] == zero)
+    assert not np.any(o.last_target[sub.keep] == zero)
+    assert np.all(sub.gain > 0)
+
+
+def test_opp_groups_behave_as_a_tuple_of_tuples() -> None:
+    from sosp.candidates import OppGroups, flatten, ragged_positions
+
+    groups = [(1, 2, 3), (4,), (), (5, 6)]
+    g = OppGroups.from_groups(groups)
+    assert len(g) == 4 and g[0] == (1, 2, 3) and g[-1] == (5, 6) and g[2] == ()
+    assert list(g) == groups and g == groups and g == tuple(groups)
+    assert g.take(np.array([3, 0])) == [(5, 6), (1, 2, 3)]
+    assert OppGroups.concat([g, g.take(np.array([1]))]) == [*groups, (4,)]
+    sizes, flat = flatten(g)
+    assert sizes.tolist() == [3, 1, 0, 2] and flat.tolist() == [1, 2, 3, 4, 5, 6]
+    with pytest.raises(IndexError):
+        g[4]
+    starts, lens = np.array([5, 0, 9]), np.array([2, 0, 3])
+    assert ragged_positions(starts, lens).tolist() == [5, 6, 9, 10, 11]
+
+
+def test_orbit_candidates_are_the_whole_instance_columns_per_orbit() -> None:
+    """Per-orbit candidates are exactly the orbit's slice of cluster_candidates, with the
+    window (10) of their members and a roll in every member's range (7)."""
+    from sosp.candidates import cluster_candidates, orbit_candidates
+
+    inst = random_tiny(3)
+    orbit, start, end, roll, opps = cluster_candidates(inst, max_candidates=None)
+    at = 0
+    for j in range(inst.n_orbits):
+        oc = orbit_candidates(inst, j)
+        sl = slice(at, at + oc.size)
+        at += oc.size
+        assert np.all(orbit[sl] == j)
+        assert np.array_equal(oc.start, start[sl]) and np.array_equal(oc.roll, roll[sl])
+        assert list(oc.opps) == list(opps[sl])
+        for u in range(oc.size):
+            m = list(oc.opps[u])
+            assert oc.start[u] == inst.opp_start[m].min() and oc.end[u] == inst.opp_end[m].max()
+            assert np.all(inst.opp_roll_min[m] <= oc.roll[u] + 1e-9)
+            assert np.all(oc.roll[u] <= inst.opp_roll_max[m] + 1e-9)
+    assert at == len(opps)
+
+
+def test_candidates_generated_in_processes_are_the_same() -> None:
+    from sosp.candidates import cluster_candidates, generate_in_processes
+
+    serial = cluster_candidates(random_tiny(4), max_candidates=None)
+    inst = random_tiny(4)
+    generate_in_processes(inst, 2)
+    forked = cluster_candidates(inst, max_candidates=None)
+    for a, b in zip(serial[:4], forked[:4], strict=True):
+        assert np.array_equal(a, b)
+    assert serial[4] == forked[4]
+    data = orbit_data(random_tiny(4), workers=2)
+    assert data.n_items == len(serial[4])
