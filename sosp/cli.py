@@ -29,6 +29,7 @@ EXTRA_COMMANDS: dict[str, str] = {
     "bench": "sosp.campaign.cli:add_bench_parser",
     "report": "sosp.report:add_report_parser",
     "plot": "sosp.plot:add_plot_parser",
+    "export": "sosp.export:add_export_parser",
 }
 
 #: The built-in scenario of ``sosp demo``.

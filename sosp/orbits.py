@@ -75,12 +75,14 @@ __all__ = [
     "propagate",
     "read_tle",
     "revolutions",
+    "seconds_after",
     "seconds_between",
     "stale_elements",
     "sun_direction_ecef",
     "sun_synchronous_inclination",
     "teme_to_ecef",
     "tle_checksum",
+    "utc_at",
     "utc_iso",
     "walker_delta",
 ]
@@ -169,6 +171,42 @@ def stale_elements(
         if far > max_days:
             out.append((s.name, far))
     return out
+
+
+def utc_at(epoch: str, seconds: float) -> str:
+    """The ISO 8601 UTC time (``...Z``, millisecond precision) ``seconds`` after ``epoch``.
+
+    Plain calendar arithmetic (no leap seconds, as everywhere in sosp): schedule files and
+    exports print observation windows with it.
+    """
+    dt = datetime.fromisoformat(epoch.replace("Z", "+00:00"))
+    if dt.tzinfo is None:
+        dt = dt.replace(tzinfo=UTC)
+    ms = round((dt.astimezone(UTC).timestamp() + float(seconds)) * 1000.0)
+    at = datetime.fromtimestamp(ms // 1000, tz=UTC)
+    text = at.strftime("%Y-%m-%dT%H:%M:%S")
+    return text + (f".{ms % 1000:03d}Z" if ms % 1000 else "Z")
+
+
+def seconds_after(epoch: str, time: str) -> float:
+    """Seconds from ISO 8601 ``epoch`` to ``time`` (calendar arithmetic, microseconds kept).
+
+    Raises
+    ------
+    InputError
+        When ``time`` is not an ISO 8601 string.
+    """
+
+    def parse(text: str) -> datetime:
+        if not isinstance(text, str):
+            raise InputError(f"expected an ISO 8601 string, got {text!r}")
+        try:
+            dt = datetime.fromisoformat(text.replace("Z", "+00:00"))
+        except ValueError:
+            raise InputError(f"not an ISO 8601 time: {text!r}") from None
+        return dt if dt.tzinfo is not None else dt.replace(tzinfo=UTC)
+
+    return (parse(time) - parse(epoch)).total_seconds()
 
 
 def format_epoch(jd: float, fr: float) -> str:

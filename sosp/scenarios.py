@@ -253,9 +253,12 @@ def custom_scenario(
     names = [s.name for s in sats]
     if len(set(names)) != len(names):
         raise InputError("satellites: names must be unique (they make the orbit ids)")
-    if all(s.tle is not None for s in sats):
-        # The orbits themselves, so that exports can draw the satellites' paths.
-        meta["tle"] = [[s.name, *s.tle] for s in sats]  # type: ignore[misc]
+    if meta["satellite_source"] != "builtin":
+        # The orbits themselves (the lines read, or the elements written as TLE lines), so
+        # that exports can draw the satellites' paths (:func:`sosp.export.instance_satellites`).
+        from sgp4.exporter import export_tle
+
+        meta["tle"] = [[s.name, *(s.tle or export_tle(s.satrec))] for s in sats]
     if start is None:
         start = max((element_epoch(s) for s in sats), key=lambda e: utc_iso(e))
     return _build(

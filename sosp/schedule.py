@@ -136,7 +136,13 @@ class Schedule:
         return float(sum(int(instance.target_weight[k]) for k in ks)), len(ks)
 
     def to_dict(self, instance: Instance) -> dict[str, Any]:
-        """JSON-ready dict; ids are taken from ``instance``."""
+        """JSON-ready dict; ids are taken from ``instance``.
+
+        Each observation also carries its window as ISO 8601 UTC (``start_utc``, ``end_utc``)
+        for a planner's tools; the seconds from the epoch stay the reference.
+        """
+        from sosp.orbits import utc_at
+
         return {
             "format": FORMAT_NAME,
             "version": FORMAT_VERSION,
@@ -150,6 +156,8 @@ class Schedule:
                     "orbit": instance.orbit_ids[o.orbit],
                     "start": o.start,
                     "end": o.end,
+                    "start_utc": utc_at(instance.epoch, o.start),
+                    "end_utc": utc_at(instance.epoch, o.end),
                     "roll": o.roll,
                     "opportunities": [instance.opp_ids[i] for i in o.opps],
                 }
@@ -159,7 +167,13 @@ class Schedule:
 
     @classmethod
     def from_dict(cls, data: Any, instance: Instance, source: str | None = None) -> Schedule:
-        """Read a schedule dict made for ``instance``; :class:`InputError` names the row."""
+        """Read a schedule dict made for ``instance``; :class:`InputError` names the row.
+
+        ``start_utc``/``end_utc`` are optional (files written before they existed are read);
+        when present they must agree with ``start``/``end`` to the millisecond.
+        """
+        from sosp.orbits import seconds_after, utc_at
+
         if not isinstance(data, dict):
             raise InputError("expected a JSON object at the top level", source=source)
         if data.get("format", FORMAT_NAME) != FORMAT_NAME:
@@ -190,6 +204,22 @@ class Schedule:
                 if not is_finite_number(rec[key]):
                     raise InputError(
                         f"{where}.{key}: expected a finite number, got {rec[key]!r}", source=source
+                    )
+            for key in ("start", "end"):
+                utc = rec.get(f"{key}_utc")
+                if utc is None:
+                    continue
+                try:
+                    off = seconds_after(instance.epoch, utc)
+                except InputError:
+                    raise InputError(
+                        f"{where}.{key}_utc: not an ISO 8601 time: {utc!r}", source=source
+                    ) from None
+                if abs(off - rec[key]) > 1e-3:
+                    raise InputError(
+                        f"{where}.{key}_utc: {utc!r} disagrees with {key} = {rec[key]} s "
+                        f"({utc_at(instance.epoch, rec[key])}); drop it or fix one of them",
+                        source=source,
                     )
             orbit = instance.orbit_index.get(str(rec["orbit"]))
             if orbit is None or isinstance(rec["orbit"], bool):

@@ -433,7 +433,7 @@ def test_demo_refuses_an_unknown_scenario(capsys) -> None:
 
 @pytest.mark.slow
 def test_demo_accepts_a_scenario_name(capsys) -> None:
-    code, out, _ = run(capsys, "demo", "C2", "--time-limit", "0.3", "--json")
+    code, out, _ = run(capsys, "demo", "C2", "--time-limit", "3", "--json")
     data = json.loads(out)
     assert code == 0 and data["scenario"] == "C2" and data["instance"]["targets"] == 200
 

@@ -1,0 +1,541 @@
+"""``sosp export``: a schedule as CSV, KML (Google Earth) or CZML (Cesium).
+
+* **CSV**: one row per covered target, in time order: the observation's satellite, orbit, UTC
+  window and roll, and the target's id, position and weight.
+* **KML** (:mod:`xml.etree.ElementTree`): targets observed and not (two folders, two styles),
+  one placemark per observation with its UTC time span, and the satellites' ground tracks.
+* **CZML** (:mod:`json`): targets as points, each observation as an entity available over its
+  window (lines of sight from the satellite to its targets when the orbit is known), and the
+  satellites as time-tagged positions with their paths, so Cesium's clock replays the plan.
+
+Satellite paths need the orbits: instances of the built-in satellites name them in
+``meta["satellites"]``, and custom ones (TLE files, Walker constellations) carry their element
+lines in ``meta["tle"]`` (:func:`instance_satellites`). Other instances are exported without
+paths. Positions are geocentric latitude and longitude with a spherical altitude, enough to
+draw. The formats are described in ``docs/formats.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import logging
+import math
+import os
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from sosp.instance import Instance
+    from sosp.orbits import Satellite
+    from sosp.schedule import Schedule
+
+log = logging.getLogger(__name__)
+
+#: Export formats, chosen with ``--format`` or by the file's extension.
+FORMATS = ("csv", "kml", "czml")
+
+#: Columns of the CSV export.
+CSV_COLUMNS = (
+    "observation",
+    "satellite",
+    "orbit",
+    "start_utc",
+    "end_utc",
+    "roll_deg",
+    "target",
+    "lat",
+    "lon",
+    "weight",
+)
+
+#: Seconds between points of a satellite path.
+PATH_STEP = 60.0
+
+#: Equatorial radius used for the altitude of the drawn paths (km, WGS72 as in SGP4).
+EARTH_RADIUS_KM = 6378.135
+
+KML_NS = "http://www.opengis.net/kml/2.2"
+
+
+# --------------------------------------------------------------------------- shared
+def _lon180(lon: float) -> float:
+    """Longitude in [-180, 180) (instances accept [-180, 360])."""
+    return (float(lon) + 180.0) % 360.0 - 180.0
+
+
+def covered(instance: Instance, schedule: Schedule) -> list[tuple[int, int]]:
+    """``(observation index, target index)`` per covered target, in time order.
+
+    A target covered by several observations (which the validator refuses) is listed at its
+    first.
+    """
+    order = sorted(
+        range(len(schedule.observations)),
+        key=lambda u: (schedule.observations[u].start, schedule.observations[u].orbit),
+    )
+    seen: set[int] = set()
+    out = []
+    for u in order:
+        for i in schedule.observations[u].opps:
+            k = int(instance.opp_target[i])
+            if k not in seen:
+                seen.add(k)
+                out.append((u, k))
+    return out
+
+
+def instance_satellites(instance: Instance) -> list[Satellite] | None:
+    """The satellites whose orbits the instance records, or None.
+
+    Built-in satellites are named in ``meta["satellites"]`` (with ``satellite_source``
+    ``"builtin"``); others carry their element lines in ``meta["tle"]`` as
+    ``[name, line1, line2]`` records.
+    """
+    from sosp.errors import InputError
+    from sosp.orbits import builtin_satellites, parse_tle
+
+    meta = dict(instance.meta)
+    try:
+        if meta.get("tle"):
+            text = "".join(f"0 {n}\n{a}\n{b}\n" for n, a, b in meta["tle"])
+            return parse_tle(text, source="instance meta.tle")
+        if meta.get("satellite_source") == "builtin" and meta.get("satellites"):
+            return builtin_satellites(list(meta["satellites"]))
+    except (InputError, TypeError, ValueError, KeyError) as exc:
+        log.warning("the instance's recorded orbits cannot be read (%s): no paths", exc)
+    return None
+
+
+def satellite_paths(
+    instance: Instance, step: float = PATH_STEP
+) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """Sub-satellite tracks over the horizon: times and ``(n, 3)`` lat, lon, altitude (km).
+
+    None when the instance does not record its orbits (:func:`instance_satellites`).
+    """
+    import numpy as np
+
+    from sosp.orbits import propagate
+
+    sats = instance_satellites(instance)
+    if not sats or not instance.n_orbits:
+        return None
+    t0 = float(instance.orbit_start.min())
+    t1 = float(instance.orbit_end.max())
+    t = np.append(np.arange(t0, t1, step), t1)
+    r, _ = propagate(sats, instance.epoch, t)
+    out = {}
+    for s, pos in zip(sats, r, strict=True):
+        norm = np.linalg.norm(pos, axis=1)
+        lat = np.degrees(np.arcsin(np.clip(pos[:, 2] / norm, -1.0, 1.0)))
+        lon = np.degrees(np.arctan2(pos[:, 1], pos[:, 0]))
+        out[s.name] = np.column_stack([lat, lon, norm - EARTH_RADIUS_KM])
+    return t, out
+
+
+def _position_at(
+    paths: tuple[np.ndarray, dict[str, np.ndarray]] | None, name: str, t: float
+) -> tuple[float, float, float] | None:
+    """A satellite's (lat, lon, alt km) at ``t``, interpolated on its path (None: unknown)."""
+    import numpy as np
+
+    if paths is None or name not in paths[1]:
+        return None
+    times, track = paths
+    pts = track[name]
+    if not (times[0] <= t <= times[-1]) or not np.isfinite(pts).all():
+        return None
+    lat = float(np.interp(t, times, pts[:, 0]))
+    lon = float(np.degrees(np.angle(np.interp(t, times, np.exp(1j * np.radians(pts[:, 1]))))))
+    return lat, lon, float(np.interp(t, times, pts[:, 2]))
+
+
+# --------------------------------------------------------------------------- CSV
+def export_csv(instance: Instance, schedule: Schedule) -> str:
+    """One row per covered target (:data:`CSV_COLUMNS`), in time order."""
+    from sosp.orbits import utc_at
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for u, k in covered(instance, schedule):
+        ob = schedule.observations[u]
+        w.writerow(
+            [
+                u,
+                instance.orbit_satellite[ob.orbit],
+                instance.orbit_ids[ob.orbit],
+                utc_at(instance.epoch, ob.start),
+                utc_at(instance.epoch, ob.end),
+                f"{ob.roll:.6g}",
+                instance.target_ids[k],
+                f"{float(instance.target_lat[k]):.6f}",
+                f"{float(instance.target_lon[k]):.6f}",
+                int(instance.target_weight[k]),
+            ]
+        )
+    return buf.getvalue()
+
+
+# --------------------------------------------------------------------------- KML
+def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -> ET.Element:
+    el = ET.SubElement(parent, tag, attrib)
+    if text is not None:
+        el.text = text
+    return el
+
+
+def _style(doc: ET.Element, sid: str, color: str, scale: float, line: bool = False) -> None:
+    st = _sub(doc, "Style", id=sid)
+    if line:
+        ls = _sub(st, "LineStyle")
+        _sub(ls, "color", color)
+        _sub(ls, "width", f"{scale:g}")
+    else:
+        ic = _sub(st, "IconStyle")
+        _sub(ic, "color", color)
+        _sub(ic, "scale", f"{scale:g}")
+        icon = _sub(ic, "Icon")
+        _sub(icon, "href", "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png")
+
+
+def _split_antimeridian(points: list[tuple[float, float, float]]) -> list[list[tuple]]:
+    """Cut a track where it crosses the antimeridian (else the line wraps round the globe)."""
+    parts: list[list[tuple]] = [[]]
+    for p in points:
+        if parts[-1] and abs(p[1] - parts[-1][-1][1]) > 180.0:
+            parts.append([])
+        parts[-1].append(p)
+    return [q for q in parts if len(q) > 1]
+
+
+def _coords(points: list[tuple[float, float, float]]) -> str:
+    return " ".join(f"{lon:.5f},{lat:.5f},{alt:.0f}" for lat, lon, alt in points)
+
+
+def export_kml(instance: Instance, schedule: Schedule) -> str:
+    """A KML document: targets observed and not, observations with time spans, paths."""
+    from sosp.orbits import utc_at
+
+    ET.register_namespace("", KML_NS)
+    root = ET.Element("kml", xmlns=KML_NS)
+    doc = _sub(root, "Document")
+    _sub(doc, "name", f"{instance.name or 'instance'}: {schedule.method or 'schedule'}")
+    _sub(
+        doc,
+        "description",
+        f"epoch {instance.epoch}; {len(schedule)} observations; made by sosp",
+    )
+    _style(doc, "observed", "ff00c000", 0.9)  # KML colours are aabbggrr
+    _style(doc, "unobserved", "ff0000ff", 0.6)
+    _style(doc, "path", "9fffffff", 1.5, line=True)
+    _style(doc, "sight", "ff00ffff", 2.0, line=True)
+    cov = covered(instance, schedule)
+    by_target = {k: u for u, k in cov}
+    paths = satellite_paths(instance)
+
+    def target_mark(folder: ET.Element, k: int, style: str, desc: str) -> None:
+        pm = _sub(folder, "Placemark")
+        _sub(pm, "name", str(instance.target_ids[k]))
+        _sub(pm, "description", desc)
+        _sub(pm, "styleUrl", f"#{style}")
+        pt = _sub(pm, "Point")
+        _sub(
+            pt,
+            "coordinates",
+            f"{_lon180(instance.target_lon[k]):.6f},{float(instance.target_lat[k]):.6f},0",
+        )
+
+    f_obs = _sub(doc, "Folder")
+    _sub(f_obs, "name", f"targets observed ({len(cov)})")
+    for u, k in cov:
+        ob = schedule.observations[u]
+        target_mark(
+            f_obs,
+            k,
+            "observed",
+            f"weight {int(instance.target_weight[k])}; observed by "
+            f"{instance.orbit_satellite[ob.orbit]} ({instance.orbit_ids[ob.orbit]}) "
+            f"{utc_at(instance.epoch, ob.start)} to {utc_at(instance.epoch, ob.end)}, "
+            f"roll {ob.roll:.2f} deg",
+        )
+    f_not = _sub(doc, "Folder")
+    missed = [k for k in range(instance.n_targets) if k not in by_target]
+    _sub(f_not, "name", f"targets not observed ({len(missed)})")
+    _sub(f_not, "visibility", "1")
+    for k in missed:
+        target_mark(f_not, k, "unobserved", f"weight {int(instance.target_weight[k])}")
+
+    f_win = _sub(doc, "Folder")
+    _sub(f_win, "name", f"observations ({len(schedule)})")
+    for u, ob in enumerate(schedule.observations):
+        ks = [k for uu, k in cov if uu == u]
+        sat = instance.orbit_satellite[ob.orbit]
+        pm = _sub(f_win, "Placemark")
+        _sub(pm, "name", f"{sat} {utc_at(instance.epoch, ob.start)}")
+        _sub(
+            pm,
+            "description",
+            f"{instance.orbit_ids[ob.orbit]}: {len(ks)} target(s) "
+            f"({', '.join(str(instance.target_ids[k]) for k in ks)}), roll {ob.roll:.2f} deg, "
+            f"{ob.end - ob.start:.1f} s",
+        )
+        span = _sub(pm, "TimeSpan")
+        _sub(span, "begin", utc_at(instance.epoch, ob.start))
+        _sub(span, "end", utc_at(instance.epoch, ob.end))
+        _sub(pm, "styleUrl", "#sight")
+        geo = _sub(pm, "MultiGeometry")
+        at = _position_at(paths, sat, 0.5 * (ob.start + ob.end))
+        for k in ks:
+            tgt = (float(instance.target_lat[k]), _lon180(instance.target_lon[k]), 0.0)
+            if at is not None:  # line of sight from the satellite to the target
+                ls = _sub(geo, "LineString")
+                _sub(ls, "altitudeMode", "absolute")
+                _sub(ls, "coordinates", _coords([(at[0], at[1], at[2] * 1000.0), tgt]))
+            else:
+                pt = _sub(geo, "Point")
+                _sub(pt, "coordinates", _coords([tgt]))
+
+    if paths is not None:
+        f_path = _sub(doc, "Folder")
+        _sub(f_path, "name", "satellite paths")
+        for name, pts in paths[1].items():
+            pm = _sub(f_path, "Placemark")
+            _sub(pm, "name", name)
+            _sub(pm, "styleUrl", "#path")
+            geo = _sub(pm, "MultiGeometry")
+            finite = [(float(a), float(b), 0.0) for a, b, _ in pts if math.isfinite(a + b)]
+            for part in _split_antimeridian(finite):
+                ls = _sub(geo, "LineString")
+                _sub(ls, "tessellate", "1")
+                _sub(ls, "coordinates", _coords(part))
+    ET.indent(root, space=" ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+# --------------------------------------------------------------------------- CZML
+def _rgba(r: int, g: int, b: int, a: int = 255) -> dict[str, Any]:
+    return {"rgba": [r, g, b, a]}
+
+
+def export_czml(instance: Instance, schedule: Schedule) -> str:
+    """A CZML document (a JSON list of packets) replaying the schedule in Cesium."""
+    from sosp.orbits import utc_at
+
+    cov = covered(instance, schedule)
+    by_target = {k: u for u, k in cov}
+    paths = satellite_paths(instance)
+    t0 = float(instance.orbit_start.min()) if instance.n_orbits else 0.0
+    t1 = float(instance.orbit_end.max()) if instance.n_orbits else 0.0
+    horizon = f"{utc_at(instance.epoch, t0)}/{utc_at(instance.epoch, t1)}"
+    packets: list[dict[str, Any]] = [
+        {
+            "id": "document",
+            "name": f"{instance.name or 'instance'}: {schedule.method or 'schedule'}",
+            "version": "1.0",
+            "clock": {
+                "interval": horizon,
+                "currentTime": utc_at(instance.epoch, t0),
+                "multiplier": 60,
+                "range": "LOOP_STOP",
+                "step": "SYSTEM_CLOCK_MULTIPLIER",
+            },
+        }
+    ]
+    for k in range(instance.n_targets):
+        u = by_target.get(k)
+        lat, lon = float(instance.target_lat[k]), _lon180(instance.target_lon[k])
+        pkt: dict[str, Any] = {
+            "id": f"target/{instance.target_ids[k]}",
+            "name": str(instance.target_ids[k]),
+            "position": {"cartographicDegrees": [lon, lat, 0.0]},
+            "properties": {"weight": int(instance.target_weight[k]), "observed": u is not None},
+        }
+        if u is None:
+            pkt["description"] = f"weight {int(instance.target_weight[k])}; not observed"
+            pkt["point"] = {"pixelSize": 6, "color": _rgba(220, 40, 40)}
+        else:
+            ob = schedule.observations[u]
+            t_end = utc_at(instance.epoch, ob.end)
+            pkt["description"] = (
+                f"weight {int(instance.target_weight[k])}; observed by "
+                f"{instance.orbit_satellite[ob.orbit]} {utc_at(instance.epoch, ob.start)} to "
+                f"{t_end}, roll {ob.roll:.2f} deg"
+            )
+            # Yellow until its observation ends, then green.
+            pkt["point"] = {
+                "pixelSize": 8,
+                "color": [
+                    {"interval": f"{utc_at(instance.epoch, t0)}/{t_end}", **_rgba(240, 200, 0)},
+                    {
+                        "interval": f"{t_end}/{utc_at(instance.epoch, max(t1, ob.end))}",
+                        **_rgba(0, 190, 0),
+                    },
+                ],
+            }
+        packets.append(pkt)
+    for u, ob in enumerate(schedule.observations):
+        ks = [k for uu, k in cov if uu == u]
+        sat = instance.orbit_satellite[ob.orbit]
+        window = f"{utc_at(instance.epoch, ob.start)}/{utc_at(instance.epoch, ob.end)}"
+        pkt = {
+            "id": f"observation/{u}",
+            "name": f"{sat} {utc_at(instance.epoch, ob.start)}",
+            "availability": window,
+            "description": (
+                f"{instance.orbit_ids[ob.orbit]}: {len(ks)} target(s) "
+                f"({', '.join(str(instance.target_ids[k]) for k in ks)}), roll "
+                f"{ob.roll:.2f} deg, {ob.end - ob.start:.1f} s"
+            ),
+            "properties": {
+                "satellite": sat,
+                "orbit": instance.orbit_ids[ob.orbit],
+                "roll": ob.roll,
+                "targets": [str(instance.target_ids[k]) for k in ks],
+            },
+        }
+        at = _position_at(paths, sat, 0.5 * (ob.start + ob.end))
+        if at is not None and ks:
+            coords: list[float] = []
+            for k in ks:  # a fan of lines of sight from the satellite
+                coords += [at[1], at[0], at[2] * 1000.0]
+                coords += [_lon180(instance.target_lon[k]), float(instance.target_lat[k]), 0.0]
+            pkt["polyline"] = {
+                "positions": {"cartographicDegrees": coords},
+                "width": 2,
+                "arcType": "NONE",
+                "material": {"solidColor": {"color": _rgba(255, 220, 0)}},
+            }
+        packets.append(pkt)
+    if paths is not None:
+        times, tracks = paths
+        for name, pts in tracks.items():
+            samples: list[float] = []
+            for t, (lat, lon, alt) in zip(times, pts, strict=True):
+                if math.isfinite(lat + lon + alt):
+                    samples += [float(t), float(lon), float(lat), float(alt) * 1000.0]
+            packets.append(
+                {
+                    "id": f"satellite/{name}",
+                    "name": name,
+                    "availability": horizon,
+                    "position": {
+                        "epoch": instance.epoch,
+                        "interpolationAlgorithm": "LAGRANGE",
+                        "interpolationDegree": 5,
+                        "cartographicDegrees": samples,
+                    },
+                    "point": {"pixelSize": 7, "color": _rgba(255, 255, 255)},
+                    "label": {
+                        "text": name,
+                        "font": "11pt sans-serif",
+                        "pixelOffset": {"cartesian2": [10, 0]},
+                    },
+                    "path": {
+                        "width": 1,
+                        "leadTime": 0,
+                        "trailTime": 6000,
+                        "resolution": 60,
+                        "material": {"solidColor": {"color": _rgba(255, 255, 255, 140)}},
+                    },
+                }
+            )
+    return json.dumps(packets, indent=1, allow_nan=False) + "\n"
+
+
+# --------------------------------------------------------------------------- files, CLI
+def export_format(path: str | os.PathLike[str], fmt: str | None = None) -> str:
+    """The export format: ``fmt`` if given, else the file's extension (refused if unknown)."""
+    from sosp.errors import InputError
+
+    if fmt is not None:
+        if fmt not in FORMATS:
+            raise InputError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+        return fmt
+    ext = Path(path).suffix.lower().lstrip(".")
+    if ext not in FORMATS:
+        raise InputError(
+            f"-o: cannot tell the format from {Path(path).name!r}; give --format "
+            f"({', '.join(FORMATS)}) or a .csv, .kml or .czml file"
+        )
+    return ext
+
+
+def export_text(instance: Instance, schedule: Schedule, fmt: str) -> str:
+    """The export of ``schedule`` in format ``fmt`` (one of :data:`FORMATS`)."""
+    return {"csv": export_csv, "kml": export_kml, "czml": export_czml}[fmt](instance, schedule)
+
+
+def write_export(
+    instance: Instance,
+    schedule: Schedule,
+    path: str | os.PathLike[str],
+    fmt: str | None = None,
+) -> str:
+    """Write the export atomically (:func:`sosp.io.atomic_write_text`); returns the format."""
+    from sosp.io import atomic_write_text
+
+    fmt = export_format(path, fmt)
+    atomic_write_text(path, export_text(instance, schedule, fmt))
+    return fmt
+
+
+def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``export`` to the ``sosp`` subcommands."""
+    p = subparsers.add_parser(
+        "export",
+        help="write a schedule as CSV (a row per observed target), KML or CZML",
+        description="Write a schedule for a planner's tools: CSV (one row per covered target "
+        "with satellite, orbit, UTC window, roll, target and weight), KML for Google Earth or "
+        "CZML for Cesium (targets observed and not, observation intervals, and the satellites' "
+        "paths when the instance records its orbits). See docs/formats.md.",
+    )
+    p.add_argument("instance", help="instance file (JSON)")
+    p.add_argument("schedule", help="schedule file (JSON)")
+    p.add_argument(
+        "--format", choices=FORMATS, default=None, help="csv, kml or czml (default: by extension)"
+    )
+    p.add_argument("-o", "--output", required=True, help="file to write")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_export)
+    return p
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """Handler of ``sosp export``."""
+    from sosp.instance import load_instance
+    from sosp.io import check_output
+    from sosp.schedule import load_schedule
+
+    check_output(args.output)
+    fmt = export_format(args.output, args.format)
+    inst = load_instance(args.instance)
+    sched = load_schedule(args.schedule, inst)
+    write_export(inst, sched, args.output, fmt)
+    n = len(covered(inst, sched))
+    info = {
+        "output": args.output,
+        "format": fmt,
+        "observations": len(sched),
+        "targets_observed": n,
+        "targets": inst.n_targets,
+        "paths": instance_satellites(inst) is not None if fmt != "csv" else False,
+    }
+    if args.json:
+        sys.stdout.write(json.dumps(info) + "\n")
+    else:
+        text = (
+            f"wrote {args.output} ({fmt}): {len(sched)} observations, {n} of "
+            f"{inst.n_targets} targets observed"
+        )
+        if fmt != "csv" and not info["paths"]:
+            text += "; no satellite paths (the instance does not record its orbits)"
+        sys.stdout.write(text + "\n")
+    return 0
