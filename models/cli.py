@@ -31,10 +31,12 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "bound",
         help="upper bound on the optimum (LP relaxation or MILP of an exact model)",
-        description="Upper bound on the optimum profit of an instance: the clique-strengthened "
-        "LP relaxation (--method lp), HiGHS's best bound after a MILP solve (--method milp), or "
-        "the Lagrangian relaxation across orbits solved by dynamic programming (--method "
-        "lagrangian: cluster model, no LP solver, seconds on the largest scenarios).",
+        description="Upper bound on the optimum profit of an instance, within --time-limit: "
+        "the clique-strengthened LP relaxation (--method lp), the bound of a time-limited MILP "
+        "solve (--method milp), the Lagrangian relaxation across orbits solved by dynamic "
+        "programming (--method lagrangian: no LP solver, seconds on the largest scenarios), or "
+        "(default, auto) the Lagrangian bound then the LP with the time left. Every bound is "
+        "at most the total weight of the targets some schedule could observe.",
     )
     p.add_argument("instance", help="instance file (JSON)")
     p.add_argument(
@@ -45,10 +47,11 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--method",
-        default="lp",
-        choices=("lp", "milp", "lagrangian", "pba"),
-        help="lp (default), milp, lagrangian or pba (PBA-STC's partition-based bound of the "
-        "static model, docs/baselines.md)",
+        default="auto",
+        choices=("auto", "lp", "milp", "lagrangian", "pba"),
+        help="auto (default: the Lagrangian bound, then the LP with the time left; the "
+        "least), lp, milp, lagrangian or pba (PBA-STC's partition-based bound of the static "
+        "model, docs/baselines.md)",
     )
     p.add_argument(
         "--iterations",
@@ -83,46 +86,14 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def cmd_bound(args: argparse.Namespace) -> int:
     """Run ``sosp bound``; returns the exit code (bad input raises ``InputError``)."""
-    from sosp.errors import InputError
+    from models.solve import bound
     from sosp.instance import load_instance
 
     inst = load_instance(args.instance)
     if args.method == "pba":
         return _pba(inst, args)
     args.model = args.model or "cluster"
-    if args.method == "lagrangian":
-        from models.lagrangian import lagrangian_bound
-
-        if args.model != "cluster":
-            raise InputError(
-                f"--model: the lagrangian bound is of the cluster model, got {args.model!r}"
-            )
-        out = lagrangian_bound(inst, iterations=args.iterations, time_limit=args.time_limit)
-    else:
-        out = _lp_or_milp(inst, args)
-    out["instance"] = inst.name or str(args.instance)
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
-        return 0
-    if args.method == "lagrangian":
-        size = f"{out['candidates']} candidates, {out['iterations']} subgradient steps"
-    else:
-        size = (
-            f"{out.get('candidates', 0)} items, {out.get('variables', 0)} variables, "
-            f"{out.get('constraints', 0)} constraints"
-        )
-    head = f"{out['model']} model, {out['method']} bound: {out['bound']}"
-    text = f"{head} ({out['runtime_s']:.2f} s; {size})"
-    if args.method == "milp":
-        text += f"\nincumbent {out['profit']:g}, status {out['status']}"
-    sys.stdout.write(text + "\n")
-    return 0
-
-
-def _lp_or_milp(inst: Any, args: argparse.Namespace) -> dict[str, Any]:
-    from models.solve import bound
-
-    return bound(
+    out = bound(
         inst,
         model=args.model,
         method=args.method,
@@ -131,7 +102,23 @@ def _lp_or_milp(inst: Any, args: argparse.Namespace) -> dict[str, Any]:
         backend=args.backend,
         lp_solver=args.lp_solver,
         slew=args.slew,
+        iterations=args.iterations,
     )
+    out["instance"] = inst.name or str(args.instance)
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
+        return 0
+    size = f"{out.get('candidates', 0)} items"
+    if "variables" in out:
+        size += f", {out['variables']} variables, {out.get('constraints', 0)} constraints"
+    if "iterations" in out:
+        size += f", {out['iterations']} subgradient steps"
+    head = f"{out['model']} model, {out['method']} bound: {out['bound']:g}"
+    text = f"{head} (from {out['source']}; {out['runtime_s']:.2f} s; {size})"
+    if args.method == "milp":
+        text += f"\nincumbent {out['profit']:g}, status {out['status']}"
+    sys.stdout.write(text + "\n")
+    return 0
 
 
 def _pba(inst: Any, args: argparse.Namespace) -> int:

@@ -18,9 +18,14 @@ if TYPE_CHECKING:
     import pyomo.environ as pyo
 
 
-def cluster_data(instance: Instance) -> ModelData:
-    """Items of the cluster model: the non-dominated candidate observations."""
-    orbit, start, end, roll, opps = cluster_candidates(instance)
+def cluster_data(instance: Instance, deadline: float | None = None) -> ModelData:
+    """Items of the cluster model: the non-dominated candidate observations.
+
+    ``deadline`` (a :func:`time.perf_counter` value) stops the candidate generation with an
+    :class:`~sosp.errors.InputError` when it passes (see
+    :func:`sosp.candidates.cluster_candidates`).
+    """
+    orbit, start, end, roll, opps = cluster_candidates(instance, deadline=deadline)
     return prepare("cluster", instance, orbit, start, end, roll, opps, coverage=True)
 
 

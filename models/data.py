@@ -103,9 +103,27 @@ class ModelData:
         """|theta_u| / v_j, half of each consecutive slew that touches item u, (3)-(4)."""
         return np.abs(self.roll) / self.instance.slew_rate[self.orbit]
 
+    def covered_weight(self) -> float:
+        """Total weight of the targets some item covers: no schedule of the model exceeds it
+        (at most :func:`observable_weight`)."""
+        if not self.target_items:
+            return 0.0
+        return float(self.weight[np.fromiter(self.target_items, dtype=np.int64)].sum())
+
     def item_weight(self) -> np.ndarray:
         """Sum of the weights of the targets each item covers."""
         return np.array([int(self.weight[list(t)].sum()) for t in self.targets], dtype=np.int64)
+
+
+def observable_weight(instance: Instance) -> float:
+    """Total weight of the targets with at least one opportunity: a bound on (1) for free.
+
+    A target nobody can see adds nothing to any schedule, so every upper bound the suite
+    reports (LP, MILP, Lagrangian) is capped by this sum.
+    """
+    seen = np.zeros(instance.n_targets, dtype=bool)
+    seen[np.asarray(instance.opp_target, dtype=np.int64)] = True
+    return float(np.asarray(instance.target_weight, dtype=float)[seen].sum())
 
 
 def prepare(

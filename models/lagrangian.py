@@ -51,7 +51,8 @@ def lagrangian_bound(
     each orbit's maximum computed exactly by :func:`best_path`. Subgradient steps (Polyak's
     rule towards ``lower_bound``, the direction deflected by half the previous one, step
     factor halved after 20 steps without progress) lower it; the least value found, rounded
-    down (the optimum is an integer), is returned.
+    down (the optimum is an integer) and capped by the total weight of the targets some
+    candidate covers (no schedule observes more), is returned.
 
     Parameters
     ----------
@@ -78,7 +79,13 @@ def lagrangian_bound(
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
     if data is None:
         data = orbit_data(instance, None if time_limit is None else t0 + float(time_limit))
-    p = np.asarray(instance.target_weight, dtype=float)
+    # a target no candidate covers adds nothing: its weight is left out of the bound
+    p = np.zeros(instance.n_targets)
+    seen = np.zeros(instance.n_targets, dtype=bool)
+    for o in data.orbits:
+        seen[o.targets] = True
+    p[seen] = np.asarray(instance.target_weight, dtype=float)[seen]
+    cap = float(p.sum())
     groups = data.orbits
     if lower_bound is None:
         from heuristics.orbit_search import ascent_profit
@@ -121,7 +128,9 @@ def lagrangian_bound(
         lam = np.maximum(lam - step * grad_lam, 0.0)
         if time_limit is not None and time.perf_counter() - t0 > time_limit:
             break
-    bound = float(math.floor(best + 1e-6)) if math.isfinite(best) else float(p.sum())
+    # never above the total weight of the targets some candidate covers (at most the total
+    # observable weight): an unfinished subgradient run can end a unit or two above it
+    bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
     log.info("lagrangian bound %g after %d steps", bound, done)
     return {
         "bound": bound,

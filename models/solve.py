@@ -51,15 +51,32 @@ MODELS: dict[str, str] = {
 INT_TOL = 1e-6
 
 
-def model_data(instance: Instance, model: str = "cluster") -> ModelData:
-    """Prepare the data of ``model`` (``"task"``, ``"cluster"`` or ``"static"``)."""
+def model_data(
+    instance: Instance, model: str = "cluster", deadline: float | None = None
+) -> ModelData:
+    """Prepare the data of ``model`` (``"task"``, ``"cluster"`` or ``"static"``).
+
+    With a ``deadline`` (a :func:`time.perf_counter` value) the cluster model's candidate
+    generation stops when it passes, raising :class:`TimeUp`.
+    """
     import importlib
 
     if not isinstance(model, str) or model not in MODELS:
         raise InputError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
     module, func = MODELS[model].split(":")
-    prep: Callable[[Instance], ModelData] = getattr(importlib.import_module(module), func)
-    return prep(instance)
+    prep: Callable[..., ModelData] = getattr(importlib.import_module(module), func)
+    if model != "cluster" or deadline is None:
+        return prep(instance)
+    try:
+        return prep(instance, deadline=deadline)
+    except InputError:
+        if time.perf_counter() > deadline:  # the candidates' own "time limit reached"
+            raise TimeUp("candidate generation") from None
+        raise
+
+
+class TimeUp(Exception):
+    """The deadline passed while a model was being built (caught inside this module)."""
 
 
 def _check_params(mip_gap: Any, threads: Any) -> None:
@@ -110,13 +127,13 @@ def _model_size(opt: Any, m: pyo.ConcreteModel) -> dict[str, int]:
     return {"variables": m.nvariables(), "constraints": m.nconstraints(), "nonzeros": -1}
 
 
-def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int, float]] | None:
-    """Values of x (and z, f, l, s, r) reproducing ``schedule`` with the model's items.
+def start_items(data: ModelData, schedule: Schedule) -> list[int] | None:
+    """The model's items reproducing ``schedule`` (None, with a warning, when it cannot).
 
     Each observation is mapped to an item on its orbit that covers all its opportunities with a
     window inside the observation's and a roll no farther from nadir (such an item is feasible
-    wherever the observation is). Returns None (with a warning) when some observation has no
-    such item or the mapped schedule is infeasible.
+    wherever the observation is). None when some observation has no such item, two map to the
+    same item, or the mapped schedule is infeasible.
     """
     from sosp.validate import validate
 
@@ -161,6 +178,20 @@ def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int
     if not validate(inst, mapped).feasible:
         log.warning("warm start ignored: the schedule is infeasible")
         return None
+    return chosen
+
+
+def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int, float]] | None:
+    """Values of x (and z, f, l, s, r) reproducing ``schedule`` with the model's items.
+
+    See :func:`start_items` (None, with a warning, when the schedule does not map).
+    """
+    chosen = start_items(data, schedule)
+    return None if chosen is None else item_values(data, chosen)
+
+
+def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float]]:
+    """Values of x, z and the slew-order variables f, l, s, r when ``chosen`` are scheduled."""
     x = dict.fromkeys(range(data.n_items), 0.0)
     for u in chosen:
         x[u] = 1.0
@@ -184,6 +215,66 @@ def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int
             l_[u] = 1.0 if taken and u == taken[-1] else 0.0
     vals.update({"f": f, "l": l_, "s": s, "r": r})
     return vals
+
+
+#: Share of ``time_limit`` the default warm start of :func:`solve_milp` may use (an orbit
+#: search over the model's own items, :func:`heuristic_start`).
+WARM_START_SHARE = 0.1
+
+#: Perturbation steps without a new best after which :func:`heuristic_start` stops.
+WARM_START_STEPS = 200
+
+#: Share of ``time_limit`` for the Lagrangian (or LP) bound :func:`solve_milp` computes before
+#: the MILP (it stops sooner when it meets the warm start: then no MILP is needed).
+EXTRA_BOUND_SHARE = 0.1
+
+#: What :func:`solve_milp` computes besides HiGHS's dual bound.
+EXTRA_BOUNDS = ("lagrangian", "lp", "none")
+
+
+def heuristic_start(
+    data: ModelData,
+    rng: np.random.Generator,
+    deadline: float | None = None,
+    no_improve: int = WARM_START_STEPS,
+) -> list[int]:
+    """A fast schedule over the model's items: orbit-dp's search (:mod:`heuristics.orbit_search`).
+
+    Each orbit is re-planned exactly over the model's own items (:mod:`sosp.planner`: (3)-(6)
+    with the exact slew term), then perturbation steps until ``no_improve`` steps in a row
+    bring nothing or ``deadline`` passes. The items are those of the model, so the schedule
+    maps onto the model's variables one to one (a MIP start HiGHS accepts as it is).
+
+    Returns
+    -------
+    list of int
+        The chosen items (each target claimed once by :func:`sosp.schedule.items_to_schedule`).
+    """
+    from heuristics.orbit_search import OrbitSearch, OrbitSearchParams
+    from sosp.planner import with_rolls
+
+    od = with_rolls(data, data.roll)  # the model's items arranged for the planner
+    search = OrbitSearch(od, rng)
+    search.ascent(deadline)
+    best_profit, best_paths = search.profit, list(search.paths)
+    params = OrbitSearchParams()
+    since = 0
+    while od.orbits and since < no_improve:
+        if deadline is not None and time.perf_counter() >= deadline:
+            break
+        since += 1
+        mark, before = len(search.journal), search.profit
+        search.perturb(params)
+        search.ascent(deadline)
+        if search.profit + 1e-9 >= before:
+            search.journal.clear()
+            if search.profit > best_profit + 1e-9:
+                best_profit, best_paths, since = search.profit, list(search.paths), 0
+        else:
+            search.undo(mark)
+            search.journal.clear()
+    search.paths = best_paths
+    return search.chosen()
 
 
 def _int_bound(raw: float | None) -> float | None:
@@ -239,7 +330,8 @@ def solve_milp(
     model: str = "cluster",
     mip_gap: float | None = None,
     threads: int | None = None,
-    warm_start: Schedule | None = None,
+    warm_start: Schedule | str | None = "auto",
+    extra_bound: str = "lagrangian",
     relax: bool = False,
     backend: str = "auto",
     conflicts: str = "network",
@@ -249,14 +341,31 @@ def solve_milp(
 ) -> Result:
     """Solve an exact model of (1)-(6) with HiGHS.
 
+    Steps (each within ``time_limit``, model building included: the deadline is checked
+    between the steps and while the cluster model's candidates are generated, and HiGHS gets
+    only what is left):
+
+    1. the model's items (:func:`model_data`);
+    2. a warm start (``warm_start="auto"``: :func:`heuristic_start`, at most
+       :data:`WARM_START_SHARE` of the limit);
+    3. an upper bound besides HiGHS's own (``extra_bound``: the Lagrangian bound over the
+       model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit); when it meets the warm
+       start, the start is optimal and no MILP is built;
+    4. the MILP, started from the warm start.
+
+    The schedule returned is never worse than the warm start, and the bound is the least of
+    HiGHS's dual bound, the extra bound and the total weight of the targets the model's items
+    cover (never below the profit).
+
     Parameters
     ----------
     instance
         The problem.
     rng
-        Unused (HiGHS is deterministic for fixed options); accepted for the common signature.
+        The generator of the warm start's search (HiGHS itself is deterministic for fixed
+        options); None: ``default_rng(0)``.
     time_limit
-        Wall-time limit in seconds for building and solving (None: until optimal).
+        Wall-time limit in seconds for everything (None: until optimal).
     model
         ``"cluster"`` (default: clustering-exact, the optimum of the problem), ``"task"``
         (the paper's IP (1)-(6), no clustering) or ``"static"`` (static cluster-tasks).
@@ -266,8 +375,13 @@ def solve_milp(
     threads
         HiGHS threads.
     warm_start
-        A schedule mapped to the model's variables as a MIP start (ignored with a warning
-        when it does not fit the model or is infeasible).
+        ``"auto"`` (default): :func:`heuristic_start`; ``"none"`` (or None): no start; or a
+        schedule, mapped to the model's variables (ignored with a warning when it does not fit
+        the model or is infeasible).
+    extra_bound
+        ``"lagrangian"`` (default: :func:`models.lagrangian.lagrangian_bound` over the model's
+        items), ``"lp"`` (the LP relaxation with the relaxed slew row, direct backend) or
+        ``"none"``. Either bounds the MILP's optimum when HiGHS stops before its root LP.
     relax
         Solve the LP relaxation instead: the result has no schedule, only ``bound``.
     backend
@@ -279,30 +393,24 @@ def solve_milp(
         builder always uses clique rows. Both give the same LP and MILP optima.
     lp_solver
         HiGHS's algorithm for the LP relaxation (``relax=True`` only): ``"choose"`` (HiGHS
-        decides), ``"simplex"``, ``"ipm"`` (interior point with crossover; B10's cluster LP:
-        17 s against 94 s by dual simplex) or ``"pdlp"``.
+        decides), ``"simplex"``, ``"ipm"`` (interior point with crossover) or ``"pdlp"``.
     slew
         The slew term of (4): ``"exact"`` or, with ``relax=True`` only, ``"relaxed"`` (one
         row per orbit that over-estimates nothing, see :func:`models.highs_direct.build_arrays`;
         a weaker but much smaller LP; direct backend) or ``"auto"`` (relaxed for an LP that
-        ``backend="auto"`` gives the direct backend, else exact). On B10 the relaxed cluster LP
-        has the exact LP's value (6188.36) in 1.2 s instead of 15 s; on C10 it is solved in
-        52 s where the exact LP is not solved in 400 s.
+        ``backend="auto"`` gives the direct backend, else exact).
     probing
         HiGHS's probing in MIP presolve: ``"on"``, ``"off"`` or ``"auto"`` (default: off when
-        a time limit is given). Probing checks the clock rarely: on C2's cluster model it ran
-        32 s under a 20 s limit (73 s under 60 s) and left no bound; without it the limit holds
-        (20.0 s, bound 1207). It does prove some models sooner (B6: 41 s instead of not within
-        60 s), so it stays on when there is no limit.
+        a time limit is given; it checks the clock rarely and can run far past the limit).
 
     Returns
     -------
     Result
-        ``status`` optimal / time_limit (incumbent) / feasible (stopped at ``mip_gap``) /
-        no_solution; ``bound`` the best bound (never below the profit); ``stats`` the model
-        size, the number of items (``candidates``), the backend and the solver's own figures.
+        ``status`` optimal (the bound meets the profit) / time_limit / feasible (stopped at
+        ``mip_gap``) / no_solution (LP relaxation: no schedule); ``bound`` the best bound
+        (never below the profit); ``stats`` the model size, the number of items
+        (``candidates``), the backend, the warm start's and the extra bound's figures.
     """
-    del rng
     t0 = time.perf_counter()
     time_limit = check_time_limit(time_limit)
     _check_params(mip_gap, threads)
@@ -317,86 +425,202 @@ def solve_milp(
         raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
     if slew == "relaxed" and backend == "pyomo":
         raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
-    if warm_start is not None and not isinstance(warm_start, Schedule):
-        raise InputError("warm_start: expected a Schedule")
-    data = model_data(instance, model)
+    if warm_start is None:
+        warm_start = "none"
+    if isinstance(warm_start, str):
+        if warm_start not in ("auto", "none"):
+            raise InputError(
+                f"warm_start: expected 'auto', 'none' or a schedule, got {warm_start!r}"
+            )
+    elif not isinstance(warm_start, Schedule):
+        raise InputError("warm_start: expected 'auto', 'none' or a Schedule")
+    if extra_bound not in EXTRA_BOUNDS:
+        raise InputError(
+            f"extra_bound: expected one of {', '.join(EXTRA_BOUNDS)}, got {extra_bound!r}"
+        )
+    rng = np.random.default_rng(0) if rng is None else rng
+    deadline = None if time_limit is None else t0 + time_limit
+    method = "milp"
+    empty = Schedule(())
+    stats: dict[str, Any] = {"model": model, "relax": bool(relax)}
+    try:
+        data = model_data(instance, model, deadline)
+    except TimeUp:
+        # nothing to schedule with in time: the empty schedule and the free bound
+        from models.data import observable_weight
+
+        stats["timed_out"] = "candidates"
+        upper = observable_weight(instance)
+        status = Status.NO_SOLUTION if relax else Status.TIME_LIMIT
+        return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, upper, None, stats)
+    cap = data.covered_weight()
     if slew == "auto":  # the small relaxed LP where the direct backend is chosen anyway
         slew = "relaxed" if relax and choose_backend(data, backend) == "highs" else "exact"
     backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
-    stats: dict[str, Any] = {
-        "model": model,
-        "relax": bool(relax),
-        "backend": backend,
-        "candidates": data.n_items,
-        "cliques": data.n_events,
-    }
+    stats.update(
+        {"backend": backend, "candidates": data.n_items, "cliques": data.n_events, "cap": cap}
+    )
     if backend == "highs":
         stats["conflicts"] = conflicts
     if not relax:
         stats["probing"] = use_probing
-    method = "milp"
-    empty = Schedule(())
     if data.n_items == 0:
         stats.update({"build_s": round(time.perf_counter() - t0, 6)})
         stats.update({"variables": 0, "constraints": 0, "nonzeros": 0})
-        return Result(
-            method, Status.OPTIMAL, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats
-        )
-    if backend == "highs":
-        kind, incumbent, raw_bound, chosen = _run_direct(
-            data,
-            t0,
-            time_limit,
-            mip_gap,
-            threads,
-            warm_start,
-            relax,
-            conflicts,
-            lp_solver,
-            slew,
-            use_probing,
-            stats,
-        )
-    else:
-        kind, incumbent, raw_bound, chosen = _run_pyomo(
-            data, t0, time_limit, mip_gap, threads, warm_start, relax, lp_solver, use_probing, stats
-        )
-    runtime = time.perf_counter() - t0
+        status = Status.NO_SOLUTION if relax else Status.OPTIMAL
+        return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
 
     if relax:
+        kind, incumbent, _, _ = _solve(
+            data, t0, deadline, None, threads, None, True, conflicts, lp_solver, slew,
+            False, backend, stats,
+        )  # fmt: skip
         bound = None
         if kind == "optimal" and incumbent is not None:
             stats["lp_bound"] = float(incumbent)
-            bound = _int_bound(incumbent)
+            bound = min(_int_bound(incumbent) or 0.0, cap)
+        runtime = time.perf_counter() - t0
         return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
 
+    # ---- warm start (never worse than it) and a bound besides HiGHS's
+    start: list[int] | None = None
+    if isinstance(warm_start, Schedule):
+        start = start_items(data, warm_start)
+        stats["warm_start"] = start is not None
+    elif warm_start == "auto":
+        share = None if deadline is None else time.perf_counter() + WARM_START_SHARE * time_limit
+        start = heuristic_start(data, rng, share)
+        stats["warm_start"] = "auto"
+    start_profit = 0.0
+    if start is not None:
+        start_profit = items_to_schedule(instance, data, start).coverage_profit(instance)[0]
+        stats["start_profit"] = float(start_profit)
+        stats["start_s"] = round(time.perf_counter() - t0, 6)
+    upper = cap
+    if extra_bound != "none" and start_profit < cap:
+        extra = _extra_bound(data, extra_bound, start_profit, deadline, time_limit, threads)
+        if extra is not None:
+            stats["extra_bound"] = extra
+            upper = min(upper, extra)
+        stats["extra_bound_s"] = round(time.perf_counter() - t0, 6)
+
+    kind, incumbent, raw_bound, chosen = "not_run", None, None, None
+    if start_profit >= upper - INT_TOL:
+        stats["proven_by"] = "extra_bound" if upper < cap else "cap"
+    elif deadline is not None and time.perf_counter() >= deadline:
+        stats["timed_out"] = "before the MILP"
+    else:
+        kind, incumbent, raw_bound, chosen = _solve(
+            data, t0, deadline, mip_gap, threads, start, False, conflicts, lp_solver, slew,
+            use_probing, backend, stats,
+        )  # fmt: skip
+        if start is not None and chosen is not None and incumbent is not None:
+            value = items_to_schedule(instance, data, chosen).coverage_profit(instance)[0]
+            if value < float(incumbent) - 1e-4 and (
+                deadline is None or time.perf_counter() < deadline
+            ):
+                # Seen with highspy 1.16 when presolve alone finishes a model given a MIP
+                # start: the right optimum (27) read back with the start's solution (25),
+                # on both backends. Solve again without the start (the model was small).
+                log.debug("HiGHS returned the start (%g) for objective %g", value, incumbent)
+                stats["resolved_without_start"] = True
+                kind, incumbent, raw_bound, chosen = _solve(
+                    data, t0, deadline, mip_gap, threads, None, False, conflicts, lp_solver,
+                    slew, use_probing, backend, stats,
+                )  # fmt: skip
+    runtime = time.perf_counter() - t0
     if kind == "infeasible":  # cannot happen (the empty schedule is feasible) but map it
         return Result(method, Status.INFEASIBLE, empty, 0.0, 0, runtime, None, None, stats)
-    if incumbent is None or chosen is None or kind not in ("optimal", "time_limit"):
-        if kind != "time_limit":
-            log.warning("HiGHS stopped with %s and no solution", stats.get("termination"))
-        bound = _int_bound(raw_bound)
-        return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, bound, None, stats)
+    if kind not in ("optimal", "time_limit", "not_run"):
+        log.warning("HiGHS stopped with %s", stats.get("termination"))
 
-    schedule = items_to_schedule(data.instance, data, chosen)
-    profit, observed = schedule.coverage_profit(instance)
-    if abs(profit - float(incumbent)) > 1e-4:
-        log.warning("schedule profit %g differs from the model's objective %g", profit, incumbent)
+    profit, schedule = 0.0, empty
+    if chosen is not None:
+        schedule = items_to_schedule(data.instance, data, chosen)
+        profit = schedule.coverage_profit(instance)[0]
+        if incumbent is not None and profit < float(incumbent) - 1e-4:
+            log.warning("schedule profit %g below the model's objective %g", profit, incumbent)
+        stats["objective"] = None if incumbent is None else float(incumbent)
+    if start is not None and start_profit > profit:
+        # HiGHS did not reach its start (stopped while loading, or refused it): keep the start
+        schedule, profit = items_to_schedule(data.instance, data, start), start_profit
+        stats["returned"] = "warm_start"
+    observed = schedule.coverage_profit(instance)[1]
     ib = _int_bound(raw_bound)
-    bound: float | None = max(ib, profit) if ib is not None else None
-    if kind == "optimal" and (bound is None or bound <= profit + INT_TOL):
-        status = Status.OPTIMAL
-        bound = profit
+    stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
+    bound = upper if ib is None else min(ib, upper)
+    bound = max(bound, profit)
+    if bound <= profit + INT_TOL:
+        status, bound = Status.OPTIMAL, profit
     elif kind == "optimal":
         status = Status.FEASIBLE  # stopped at the requested gap
         stats["stopped_at"] = "mip_gap"
     else:
-        # stopped before HiGHS had a finite bound (e.g. during the root LP): no bound, not
-        # the incumbent (which would claim a zero gap)
         status = Status.TIME_LIMIT
-    stats["objective"] = float(incumbent)
-    stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
     return Result(method, status, schedule, profit, observed, runtime, bound, None, stats)
+
+
+def _extra_bound(
+    data: ModelData,
+    how: str,
+    lower: float,
+    deadline: float | None,
+    time_limit: float | None,
+    threads: int | None,
+) -> float | None:
+    """The Lagrangian or LP bound of ``data``'s model within its share of the limit."""
+    limit = None
+    if deadline is not None and time_limit is not None:
+        limit = min(EXTRA_BOUND_SHARE * time_limit, deadline - time.perf_counter())
+        if limit <= 0:
+            return None
+    if how == "lagrangian":
+        from models.lagrangian import lagrangian_bound
+        from sosp.planner import with_rolls
+
+        out = lagrangian_bound(
+            data.instance,
+            time_limit=limit,
+            lower_bound=lower if lower > 0 else None,
+            data=with_rolls(data, data.roll),
+        )
+        return float(out["bound"])
+    return _lp_bound(data, None if limit is None else time.perf_counter() + limit, threads)
+
+
+def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
+    """The LP relaxation with the relaxed slew row (direct backend), rounded down; None if
+    not solved by ``deadline``."""
+    from models.highs_direct import build_arrays, run_highs
+
+    am = build_arrays(data, relax=True, slew="relaxed")
+    if deadline is not None and time.perf_counter() >= deadline:
+        return None
+    out = run_highs(am, deadline=deadline, threads=threads, lp_solver="ipm")
+    return _int_bound(out.bound) if out.status == "optimal" else None
+
+
+def _solve(
+    data: ModelData,
+    t0: float,
+    deadline: float | None,
+    mip_gap: float | None,
+    threads: int | None,
+    start: list[int] | None,
+    relax: bool,
+    conflicts: str,
+    lp_solver: str,
+    slew: str,
+    probing: bool,
+    backend: str,
+    stats: dict[str, Any],
+) -> _Outcome:
+    if backend == "highs":
+        return _run_direct(
+            data, t0, deadline, mip_gap, threads, start, relax, conflicts, lp_solver, slew,
+            probing, stats,
+        )  # fmt: skip
+    return _run_pyomo(data, t0, deadline, mip_gap, threads, start, relax, lp_solver, probing, stats)
 
 
 _Outcome = tuple[str, float | None, float | None, list[int] | None]
@@ -405,10 +629,10 @@ _Outcome = tuple[str, float | None, float | None, list[int] | None]
 def _run_direct(
     data: ModelData,
     t0: float,
-    time_limit: float | None,
+    deadline: float | None,
     mip_gap: float | None,
     threads: int | None,
-    warm_start: Schedule | None,
+    start_items_: list[int] | None,
     relax: bool,
     conflicts: str,
     lp_solver: str,
@@ -416,22 +640,25 @@ def _run_direct(
     probing: bool,
     stats: dict[str, Any],
 ) -> _Outcome:
-    """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`)."""
+    """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`).
+
+    The deadline is checked after building (HiGHS is not started when it has passed) and
+    HiGHS gets what is left of it after loading.
+    """
     from models.highs_direct import build_arrays, run_highs, start_vector
 
     t1 = time.perf_counter()
     am = build_arrays(data, relax=bool(relax), conflicts=conflicts, slew=slew)
     stats["slew"] = slew
-    stats["build_s"] = round(time.perf_counter() - t0, 6)  # items + arrays, as for Pyomo
+    stats["build_s"] = round(time.perf_counter() - t0, 6)  # everything before the arrays too
     stats["arrays_s"] = round(time.perf_counter() - t1, 6)
     stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
+    if deadline is not None and time.perf_counter() >= deadline:
+        stats["timed_out"] = "building"
+        return "time_limit", None, None, None
     start = None
-    if warm_start is not None and not relax:
-        vals = warm_start_values(data, warm_start)
-        stats["warm_start"] = vals is not None
-        if vals is not None:
-            start = start_vector(am, vals)
-    deadline = None if time_limit is None else t0 + time_limit
+    if start_items_ is not None and not relax:
+        start = start_vector(am, item_values(data, start_items_))
     out = run_highs(
         am,
         deadline=deadline,
@@ -452,10 +679,10 @@ def _run_direct(
 def _run_pyomo(
     data: ModelData,
     t0: float,
-    time_limit: float | None,
+    deadline: float | None,
     mip_gap: float | None,
     threads: int | None,
-    warm_start: Schedule | None,
+    start_items_: list[int] | None,
     relax: bool,
     lp_solver: str,
     probing: bool,
@@ -491,19 +718,17 @@ def _run_pyomo(
         if hasattr(opt.update_config, flag):
             setattr(opt.update_config, flag, False)
     stats["load_s"] = round(time.perf_counter() - t0 - build_s, 6)
-    if time_limit is not None:
-        opt.config.time_limit = max(time_limit - (time.perf_counter() - t0), 0.01)
-    if warm_start is not None and not relax:
-        vals = warm_start_values(data, warm_start)
-        if vals is not None:
-            for name, values in vals.items():
-                var = getattr(m, name)
-                for key, val in values.items():
-                    var[key].set_value(val)
-            opt.config.warmstart = True
-            stats["warm_start"] = True
-        else:
-            stats["warm_start"] = False
+    if deadline is not None:
+        if time.perf_counter() >= deadline:
+            stats["timed_out"] = "building"
+            return "time_limit", None, None, None
+        opt.config.time_limit = max(deadline - time.perf_counter(), 0.01)
+    if start_items_ is not None and not relax:
+        for name, values in item_values(data, start_items_).items():
+            var = getattr(m, name)
+            for key, val in values.items():
+                var[key].set_value(val)
+        opt.config.warmstart = True
     from pyomo.contrib.appsi.base import TerminationCondition as TC
 
     from models.highs_direct import use_threads
@@ -525,23 +750,46 @@ def _run_pyomo(
     incumbent = res.best_feasible_objective
     chosen = None
     if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
-        res.solution_loader.load_vars()
-        chosen = [int(u) for u in m.U if (m.x[u].value or 0.0) > 0.5]
+        chosen = _pyomo_chosen(opt, m, res)
     return kind, incumbent, res.best_objective_bound, chosen
+
+
+def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel, res: Any) -> list[int]:
+    """The scheduled items of APPSI's HiGHS solution (HiGHS's solution vector)."""
+    h = getattr(opt, "_solver_model", None)
+    index = getattr(opt, "_pyomo_var_to_solver_var_map", None)
+    if h is not None and index is not None:
+        col = h.getSolution().col_value
+        return [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
+    res.solution_loader.load_vars()  # pragma: no cover - other APPSI versions
+    return [int(u) for u in m.U if (m.x[u].value or 0.0) > 0.5]
+
+
+#: Methods of :func:`bound`.
+BOUND_METHODS = ("auto", "lp", "milp", "lagrangian")
+
+#: Share of ``time_limit`` :func:`bound` with ``method="auto"`` gives the Lagrangian bound
+#: before the LP gets the rest.
+AUTO_LAGRANGIAN_SHARE = 0.4
 
 
 def bound(
     instance: Instance,
     model: str = "cluster",
-    method: str = "lp",
+    method: str = "auto",
     time_limit: float | None = None,
     threads: int | None = None,
     backend: str = "auto",
     conflicts: str = "network",
     lp_solver: str = "ipm",
     slew: str = "auto",
+    iterations: int = 300,
+    lower_bound: float | None = None,
 ) -> dict[str, Any]:
-    """An upper bound on the optimum of ``model``.
+    """An upper bound on the optimum of ``model``, within ``time_limit``.
+
+    Every bound returned is at most the total weight of the targets the model's items cover
+    (a target no schedule can observe adds nothing), so at most the total observable weight.
 
     Parameters
     ----------
@@ -550,54 +798,167 @@ def bound(
     model
         ``"cluster"`` (bounds the problem and so every heuristic), ``"task"`` or ``"static"``.
     method
-        ``"lp"``: the clique-strengthened LP relaxation (cliques of (3), exact slew term of
-        (4)); ``"milp"``: HiGHS's best bound after a (time-limited) MILP solve.
+        ``"auto"`` (default): the Lagrangian bound (at most :data:`AUTO_LAGRANGIAN_SHARE` of
+        the limit), then the LP relaxation with what is left; the least of the two that
+        finished. ``"lp"``: the clique-strengthened LP relaxation (cliques of (3), slew term
+        of (4) as ``slew``); ``"milp"``: the bound of a time-limited :func:`solve_milp` (its
+        dual bound, the Lagrangian bound, the cap); ``"lagrangian"``:
+        :func:`models.lagrangian.lagrangian_bound` over the model's items.
     time_limit
-        Seconds (None: no limit).
+        Seconds for everything, building included (None: no limit).
     threads
         HiGHS threads.
     backend, conflicts
         As for :func:`solve_milp`.
     lp_solver
-        HiGHS's LP algorithm for ``method="lp"`` (default ``"ipm"``: interior point with
-        crossover, several times faster than simplex on the large cluster LPs).
+        HiGHS's LP algorithm for the LP (default ``"ipm"``: interior point with crossover,
+        several times faster than simplex on the large cluster LPs).
     slew
-        ``"auto"`` (default), ``"exact"`` or ``"relaxed"`` (``method="lp"``; the MILP
-        bound always uses the exact term): see :func:`solve_milp`.
+        ``"auto"`` (default), ``"exact"`` or ``"relaxed"`` (LP; the MILP bound always uses
+        the exact term): see :func:`solve_milp`.
+    iterations
+        Subgradient steps of the Lagrangian bound.
+    lower_bound
+        A known schedule's profit: the Lagrangian bound's target (None: one quick ascent).
 
     Returns
     -------
     dict
-        ``bound``, ``method``, ``model``, ``runtime_s``, the model size, and for ``"milp"``
-        the incumbent ``profit``, ``status`` and ``gap``.
+        ``bound``, ``method``, ``source`` (what gave the bound: ``"lp"``, ``"lagrangian"``,
+        ``"milp"`` or ``"cap"`` when nothing finished below it), ``model``, ``runtime_s``,
+        ``cap`` (the covered weight), the model size; ``"auto"``: ``parts`` (each method's
+        bound, None when it did not finish); ``"milp"``: the incumbent ``profit``,
+        ``status`` and ``gap``.
     """
-    if method not in ("lp", "milp"):
-        raise InputError(f"method: expected 'lp' or 'milp', got {method!r}")
-    res = solve_milp(
-        instance,
-        time_limit=time_limit,
-        model=model,
-        threads=threads,
-        relax=(method == "lp"),
-        backend=backend,
-        conflicts=conflicts,
-        lp_solver=lp_solver,
-        slew=slew if method == "lp" else "exact",
-    )
+    t0 = time.perf_counter()
+    if method not in BOUND_METHODS:
+        raise InputError(f"method: expected one of {', '.join(BOUND_METHODS)}, got {method!r}")
+    time_limit = check_time_limit(time_limit)
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+        raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
+    if method == "milp":
+        res = solve_milp(
+            instance,
+            time_limit=time_limit,
+            model=model,
+            threads=threads,
+            backend=backend,
+            conflicts=conflicts,
+        )
+        out = _bound_out(res.bound, method, model, t0, res.stats)
+        out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
+        out["source"] = "milp"
+        return out
+    deadline = None if time_limit is None else t0 + time_limit
+    _check_backend(backend, conflicts)
+    _check_lp_solver(lp_solver)
+    _check_params(None, threads)
+    if slew not in ("exact", "relaxed", "auto"):
+        raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
+    if slew == "relaxed" and backend == "pyomo":
+        raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
+    try:
+        data = model_data(instance, model, deadline)
+    except TimeUp:
+        from models.data import observable_weight
+
+        upper = observable_weight(instance)
+        out = _bound_out(upper, method, model, t0, {"timed_out": "candidates"})
+        out["source"] = "cap"
+        return out
+    cap = data.covered_weight()
+    parts: dict[str, float | None] = {}
+    stats: dict[str, Any] = {"candidates": data.n_items, "cliques": data.n_events, "cap": cap}
+    if method in ("auto", "lagrangian") and data.n_items:
+        from models.lagrangian import lagrangian_bound
+        from sosp.planner import with_rolls
+
+        limit = None
+        if deadline is not None:
+            share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
+            limit = max(min(share * time_limit, deadline - time.perf_counter()), 1e-3)
+        lag = lagrangian_bound(
+            instance,
+            iterations=iterations,
+            time_limit=limit,
+            lower_bound=lower_bound if lower_bound else None,
+            data=with_rolls(data, data.roll),
+        )
+        parts["lagrangian"] = lag["bound"]
+        stats["iterations"] = lag["iterations"]
+        stats["lower_bound"] = lag["lower_bound"]
+    proven = "lagrangian" in parts and parts["lagrangian"] <= stats["lower_bound"] + INT_TOL
+    if method == "lp" or (method == "auto" and data.n_items and not proven):
+        # (auto: no LP when the Lagrangian bound already meets a schedule's profit)
+        left = None if deadline is None else deadline - time.perf_counter()
+        if left is None or left > 0.05:
+            res = solve_milp(
+                instance,
+                time_limit=left,
+                model=model,
+                threads=threads,
+                relax=True,
+                backend=backend,
+                conflicts=conflicts,
+                lp_solver=lp_solver,
+                slew=slew,
+            )
+            parts["lp"] = res.bound
+            keys = ("variables", "constraints", "nonzeros", "termination", "backend")
+            stats.update({k: res.stats[k] for k in (*keys, "build_s", "load_s", "solve_s")
+                          if k in res.stats})  # fmt: skip
+            stats["lp_value"] = res.stats.get("lp_bound")
+            stats["lp_solver"] = lp_solver
+            stats["slew"] = res.stats.get("slew", "exact")
+        else:
+            parts["lp"] = None
+    found = [v for v in parts.values() if v is not None]
+    upper = min([cap, *found])
+    out = _bound_out(upper, method, model, t0, stats)
+    # which computation gave the bound: a method, or the cap when none finished below it
+    best = min((k for k, v in parts.items() if v is not None), key=lambda k: parts[k], default=None)
+    out["source"] = best if best is not None and parts[best] <= cap else "cap"
+    if method == "auto":
+        out["parts"] = parts
+    return out
+
+
+def _bound_out(
+    value: float | None, method: str, model: str, t0: float, stats: dict[str, Any]
+) -> dict[str, Any]:
     out: dict[str, Any] = {
-        "bound": res.bound,
+        "bound": value,
         "method": method,
         "model": model,
-        "runtime_s": round(res.runtime_s, 6),
+        "runtime_s": round(time.perf_counter() - t0, 6),
     }
     keys = ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination")
-    for key in (*keys, "backend", "build_s", "load_s", "solve_s"):
-        if key in res.stats:
-            out[key] = res.stats[key]
-    if method == "lp":
-        out["lp_value"] = res.stats.get("lp_bound")
-        out["lp_solver"] = lp_solver
-        out["slew"] = res.stats.get("slew", "exact")
-    else:
-        out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
+    more = ("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound")
+    for key in (*keys, *more, "lp_value", "lp_solver", "slew", "timed_out"):
+        if key in stats:
+            out[key] = stats[key]
     return out
+
+
+def auto_bound(
+    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+) -> dict[str, Any]:
+    """``bound(method="auto")`` of the cluster model (the problem's optimum): for
+    :data:`sosp.solve.BOUNDS`."""
+    return bound(instance, method="auto", time_limit=time_limit, lower_bound=lower_bound)
+
+
+def lp_bound(
+    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+) -> dict[str, Any]:
+    """``bound(method="lp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
+    del lower_bound
+    return bound(instance, method="lp", time_limit=time_limit)
+
+
+def milp_bound(
+    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+) -> dict[str, Any]:
+    """``bound(method="milp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
+    del lower_bound
+    return bound(instance, method="milp", time_limit=time_limit)

@@ -19,31 +19,48 @@ BACKENDS = (("pyomo", "network"), ("highs", "network"), ("highs", "clique"))
 
 
 def _check(inst: Instance) -> None:
-    """Every backend proves the oracle's optimum, with a valid schedule and equal LP values."""
+    """Every backend proves the oracle's optimum, with a valid schedule and equal LP values.
+
+    Each backend runs twice: the MILP alone (no warm start, no extra bound) and the default
+    (heuristic warm start, Lagrangian bound first, which may prove the start optimal with no
+    MILP at all). Every bound is checked against the oracle, the LP and the covered weight.
+    """
+    from models.data import observable_weight
+
     best = {}
+    cap = observable_weight(inst)
     for model in MODELS:
         expected = brute_force(inst, model).profit
         lp_values = []
         for backend, conflicts in BACKENDS:
-            res = solve_milp(inst, model=model, backend=backend, conflicts=conflicts)
-            assert res.status is Status.OPTIMAL, (model, backend, res.stats)
-            assert res.profit == pytest.approx(expected), (model, backend, conflicts)
-            assert res.bound == pytest.approx(res.profit)
-            rep = validate(inst, res.schedule)
-            assert rep.feasible, rep.violations
-            assert rep.profit == pytest.approx(res.profit)
             lp = bound(
                 inst, model=model, method="lp", backend=backend, conflicts=conflicts, slew="exact"
             )
-            assert lp["bound"] >= res.profit - 1e-6, (model, backend)
+            assert expected - 1e-6 <= lp["bound"] <= cap, (model, backend)
             lp_values.append(lp["lp_value"] if lp["lp_value"] is not None else 0.0)
+            for kw in ({"warm_start": "none", "extra_bound": "none"}, {}):
+                res = solve_milp(inst, model=model, backend=backend, conflicts=conflicts, **kw)
+                assert res.status is Status.OPTIMAL, (model, backend, kw, res.stats)
+                assert res.profit == pytest.approx(expected), (model, backend, conflicts, kw)
+                assert res.bound == pytest.approx(res.profit)
+                assert res.bound <= lp["bound"] + 1e-6
+                rep = validate(inst, res.schedule)
+                assert rep.feasible, rep.violations
+                assert rep.profit == pytest.approx(res.profit)
+                if kw:
+                    assert "start_profit" not in res.stats
+                else:  # never below its warm start
+                    assert res.profit >= res.stats["start_profit"]
         # the same polytope in every backend and form: the same LP optimum
         assert lp_values == pytest.approx([lp_values[0]] * len(lp_values), abs=1e-6), model
+        lag = bound(inst, model=model, method="lagrangian", iterations=40)["bound"]
+        assert expected - 1e-6 <= lag <= cap, model
         best[model] = res.profit
     # the cluster model is the problem's optimum: it dominates the other two
     assert best["cluster"] >= max(best["task"], best["static"])
-    lp = bound(inst, model="cluster", method="lp")["bound"]
-    assert lp >= best["cluster"] - 1e-6
+    for method in ("lp", "auto", "lagrangian"):
+        upper = bound(inst, model="cluster", method=method)["bound"]
+        assert best["cluster"] - 1e-6 <= upper <= cap, method
 
 
 @pytest.mark.parametrize("seed", SEEDS)

@@ -61,8 +61,9 @@ def test_clique_form_has_the_pyomo_size() -> None:
     for seed in range(6):
         inst = random_tiny(seed)
         for model in ("task", "cluster", "static"):
-            a = solve_milp(inst, model=model, backend="pyomo")
-            b = solve_milp(inst, model=model, backend="highs", conflicts="clique")
+            kw = {"warm_start": "none", "extra_bound": "none"}  # the MILP is always built
+            a = solve_milp(inst, model=model, backend="pyomo", **kw)
+            b = solve_milp(inst, model=model, backend="highs", conflicts="clique", **kw)
             for key in ("variables", "constraints", "nonzeros"):
                 assert a.stats[key] == b.stats[key], (seed, model, key)
 
@@ -148,7 +149,7 @@ def test_direct_is_silent(capfd: pytest.CaptureFixture[str]) -> None:
 
 def test_direct_log_at_debug(caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.DEBUG, logger="models.solve"):
-        solve_milp(random_tiny(1), model="cluster", backend="highs")
+        solve_milp(random_tiny(1), model="cluster", backend="highs", warm_start="none")
     assert any("HiGHS" in r.getMessage() for r in caplog.records)
 
 
@@ -183,7 +184,9 @@ def test_empty_instance_direct() -> None:
 
 
 def test_through_sosp_solve_direct() -> None:
-    res = solve(tiny_cluster(), "milp", model="cluster", backend="highs", time_limit=30)
+    res = solve(
+        tiny_cluster(), "milp", model="cluster", backend="highs", time_limit=30, warm_start="none"
+    )
     assert res.status is Status.OPTIMAL and res.profit == 11
     assert res.stats["backend"] == "highs" and res.stats["nonzeros"] > 0
 
@@ -193,7 +196,7 @@ def test_cli_bound_backend(tmp_path, capsys: pytest.CaptureFixture[str]) -> None
 
     path = tmp_path / "inst.json"
     tiny_cluster().save(path)
-    assert main(["bound", str(path), "--backend", "highs", "--json"]) == 0
+    assert main(["bound", str(path), "--method", "lp", "--backend", "highs", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["backend"] == "highs" and out["bound"] >= 11
     assert main(["bound", str(path), "--backend", "nope"]) == 2

@@ -112,7 +112,7 @@ def test_highs_is_silent(capfd: pytest.CaptureFixture[str]) -> None:
 
 def test_highs_log_at_debug(caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.DEBUG, logger="models.solve"):
-        solve_milp(random_tiny(1), model="cluster")
+        solve_milp(random_tiny(1), model="cluster", warm_start="none")
     assert any("HiGHS" in r.getMessage() or "MIP" in r.getMessage() for r in caplog.records)
 
 
@@ -179,6 +179,10 @@ def test_through_sosp_solve_with_params() -> None:
     res = solve(inst, "milp", model="cluster", mip_gap=0.0, threads=1, time_limit=30)
     assert res.status is Status.OPTIMAL and res.profit == 11
     assert res.schedule.method == "milp"
+    # the warm start observes every target: proven without building the MILP
+    assert res.stats["proven_by"] == "cap" and "variables" not in res.stats
+    res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=30, warm_start="none")
+    assert res.status is Status.OPTIMAL and res.profit == 11
     for key in ("variables", "constraints", "nonzeros", "candidates"):
         assert res.stats[key] > 0
 
@@ -248,8 +252,8 @@ def test_slew_option_bad_input() -> None:
     with pytest.raises(InputError, match="slew"):
         bound(inst, slew="relaxed", backend="pyomo")
     # auto: exact where Pyomo is chosen (small), relaxed where the direct backend is
-    assert bound(inst)["slew"] == "exact"
-    assert bound(inst, backend="highs")["slew"] == "relaxed"
+    assert bound(inst, method="lp")["slew"] == "exact"
+    assert bound(inst, method="lp", backend="highs")["slew"] == "relaxed"
 
 
 @pytest.mark.parametrize("backend", ["pyomo", "highs"])
@@ -280,7 +284,10 @@ def test_cli_bound_json(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     tiny_cluster().save(path)
     assert main(["bound", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["method"] == "lp" and out["bound"] >= 11 and out["runtime_s"] >= 0
+    assert out["method"] == "auto" and out["bound"] >= 11 and out["runtime_s"] >= 0
+    assert out["bound"] <= out["cap"] and out["source"] in ("lp", "lagrangian", "cap")
+    assert main(["bound", str(path), "--method", "lp", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "lp"
     assert main(["bound", str(path), "--method", "milp", "--model", "task", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["bound"] == 7 and out["profit"] == 7
