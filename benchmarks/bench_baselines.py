@@ -8,6 +8,13 @@ Example (modest settings for a shared 2-core machine)::
 
     python -m benchmarks.bench_baselines --rds-limit 60 --sa-limit 10 --seeds 10
 
+With ``--compare`` it runs instead the named methods side by side at one equal time limit
+over several seeds (mean, standard deviation, best, iterations), e.g. the population
+baselines of issue 18 against ASA-STC and SA-STC::
+
+    python -m benchmarks.bench_baselines --compare aco-stc aco-ls-stc ga-stc asa-stc sa-stc \
+        --scenarios B1 B5 C1 C5 --limit 10 --seeds 3
+
 With ``--proofs`` it compares instead the exact methods: RDS-STC and RDS (time to proof or
 timeout, profit, bound) next to the optimum of the MILP static and task models
 (``models.solve``, HiGHS), which they must equal wherever both finish::
@@ -105,6 +112,48 @@ def bench_proofs(
     return row
 
 
+def bench_compare(
+    name: str, *, scenario_seed: int, methods: list[str], limit: float, seeds: int
+) -> dict[str, Any]:
+    """Each method on one scenario at the same time limit, seeds 0..seeds-1."""
+    inst = generate_scenario(name, scenario_seed)
+    row: dict[str, Any] = {"scenario": name, "opportunities": inst.n_opps}
+    for m in methods:
+        profits, iters = [], []
+        for s in range(seeds):
+            res = solve(inst, m, seed=s, time_limit=limit, iterations=10**9)
+            profits.append(res.profit)
+            iters.append(res.iterations or 0)
+        row[m] = {
+            "profits": profits,
+            "mean": statistics.fmean(profits),
+            "sd": statistics.stdev(profits) if len(profits) > 1 else 0.0,
+            "best": max(profits),
+            "mean_iterations": statistics.fmean(iters),
+        }
+        log.info("%s %s: mean %.1f over %d seeds", name, m, row[m]["mean"], seeds)
+    return row
+
+
+def markdown_compare(rows: list[dict[str, Any]], methods: list[str]) -> str:
+    """The ``--compare`` figures: per method mean, SD, best and mean iterations."""
+    head = "| SN | TN |" + "".join(f" {m} mean | SD | best | iter. |" for m in methods)
+    sep = "|---|---|" + "---|---|---|---|" * len(methods)
+    lines = [head, sep]
+    for r in rows:
+        cells = [r["scenario"], str(r["opportunities"])]
+        for m in methods:
+            x = r[m]
+            cells += [
+                f"{x['mean']:.1f}",
+                f"{x['sd']:.1f}",
+                f"{x['best']:g}",
+                f"{x['mean_iterations']:.0f}",
+            ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def markdown_proofs(rows: list[dict[str, Any]]) -> str:
     """The ``--proofs`` figures as a Markdown table."""
     lines = [
@@ -181,11 +230,27 @@ def main(argv: list[str] | None = None) -> int:
         "--proofs", action="store_true", help="RDS-STC and RDS against the MILP optima instead"
     )
     p.add_argument("--milp-limit", type=float, default=300.0, help="MILP seconds (--proofs)")
+    p.add_argument(
+        "--compare", nargs="+", metavar="METHOD", help="these methods side by side instead"
+    )
+    p.add_argument("--limit", type=float, default=10.0, help="seconds per run (--compare)")
     p.add_argument("--out", help="write the Markdown table here")
     p.add_argument("--json", help="write the raw rows here")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     names = args.scenarios or [f"{g}{k}" for g in "BC" for k in range(1, 11)]
+    if args.compare:
+        rows = [
+            bench_compare(
+                n,
+                scenario_seed=args.scenario_seed,
+                methods=args.compare,
+                limit=args.limit,
+                seeds=args.seeds,
+            )
+            for n in names
+        ]
+        return _emit(markdown_compare(rows, args.compare), rows, args)
     if args.proofs:
         rows = [
             bench_proofs(
