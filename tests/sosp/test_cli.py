@@ -473,3 +473,18 @@ def test_scenario_tle_start_and_missing_targets(tmp_path: Path) -> None:
     proc = sosp_cli("scenario", "C1", "--start", "tomorrow", "-o", "c.json", cwd=tmp_path)
     one_line_error(proc, "--start: not an ISO 8601 time: 'tomorrow'")
     assert not (tmp_path / "c.json").exists()
+
+
+def test_notebooks_extra_brings_jupyterlab_and_the_readme_says_how() -> None:
+    import re
+    import tomllib
+
+    root = Path(__file__).resolve().parents[2]
+    extras = tomllib.loads((root / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"
+    ]
+    names = {re.split(r"[<>=\[ ;]", req, maxsplit=1)[0].lower() for req in extras["notebooks"]}
+    assert "jupyterlab" in names
+    readme = (root / "README.md").read_text()
+    assert "pip install -e '.[notebooks]' && jupyter lab notebooks/" in readme
+    assert list((root / "notebooks").glob("*.ipynb"))
