@@ -38,9 +38,11 @@ import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
+from sosp.stop import FirstOf, Interrupted, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -376,10 +378,17 @@ def solve_milp_lns(
 
     steps = improved = stale = 0
     sizes: list[int] = []
-    while len(active) and left() > 0.05:
-        if p.iterations is not None and steps >= p.iterations:
-            break
-        if no_improve is not None and stale >= no_improve:
+    crit: list[Any] = [current_progress(), Interrupted()]
+    if time_limit is not None:
+        crit.append(MaxRuntime(time_limit - 0.05, start=t0))  # no step in the last 50 ms
+    if p.iterations is not None:
+        crit.append(MaxIterations(p.iterations))
+    if no_improve is not None:
+        crit.append(NoImprovement(no_improve))
+    stop, now = FirstOf(*crit), SearchStatus()
+    while len(active):
+        now.iteration, now.since_best, now.best = steps, stale, float(profit)
+        if stop(now):
             break
         steps += 1
         seed = int(active[rng.integers(len(active))])

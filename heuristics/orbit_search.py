@@ -36,8 +36,18 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import items_to_schedule
+from sosp.stop import (
+    FirstOf,
+    Interrupted,
+    MaxIterations,
+    MaxRuntime,
+    NoImprovement,
+    SearchStatus,
+    stop_requested,
+)
 
 log = logging.getLogger(__name__)
 
@@ -170,12 +180,15 @@ class OrbitSearch:
         return False
 
     def ascent(self, deadline: float | None = None) -> None:
-        """Re-plan dirty orbits in random order until none gains (or the deadline passes)."""
+        """Re-plan dirty orbits in random order until none gains (or the deadline passes, or a
+        stop is requested: :func:`sosp.stop.request_stop`)."""
         while self.dirty.any():
             for g in self.rng.permutation(np.flatnonzero(self.dirty)):
                 if self.dirty[g]:
                     self.replan(int(g))
             if deadline is not None and time.perf_counter() > deadline:
+                return
+            if stop_requested():
                 return
 
     def perturb(self, params: OrbitSearchParams) -> None:
@@ -250,12 +263,17 @@ def solve_orbit_dp(
     best_profit, best_paths = search.profit, list(search.paths)
     trace = [(0, round(time.perf_counter() - t0, 4), best_profit)]
     steps = accepted = since = 0
+    crit: list[Any] = [current_progress(), Interrupted()]
+    if time_limit is not None:
+        crit.append(MaxRuntime(float(time_limit), start=t0))
+    if iterations is not None:
+        crit.append(MaxIterations(iterations))
+    if no_improve is not None:
+        crit.append(NoImprovement(no_improve))
+    stop, now = FirstOf(*crit), SearchStatus()
     while data.orbits:
-        if deadline is not None and time.perf_counter() >= deadline:
-            break
-        if iterations is not None and steps >= iterations:
-            break
-        if no_improve is not None and since >= no_improve:
+        now.iteration, now.since_best, now.best = steps, since, best_profit
+        if stop(now):
             break
         steps += 1
         since += 1

@@ -121,9 +121,11 @@ from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
 from sosp.schedule import RollRule
+from sosp.stop import stop_requested
 
 log = logging.getLogger(__name__)
 
@@ -138,7 +140,14 @@ _CLOCK_EVERY = 2048
 
 
 class _Timeout(Exception):
-    """Raised inside the search when the deadline passes."""
+    """Raised inside the search when the deadline passes or a stop is requested."""
+
+
+def _halt(deadline: float | None, clock: Callable[[], float], nodes: int) -> bool:
+    """The search's periodic check: report ``nodes`` to the solve's progress; True when the
+    deadline has passed or a stop was requested (:func:`sosp.stop.request_stop`)."""
+    current_progress().update(nodes, None)
+    return (deadline is not None and clock() > deadline) or stop_requested()
 
 
 class _Budget(Exception):
@@ -447,8 +456,8 @@ def rds_component(
             if value + opt[p] <= state["best"]:
                 return  # the RDS bound: the rest adds at most opt[p]
             state["nodes"] += 1
-            if state["nodes"] % _CLOCK_EVERY == 0 and deadline is not None:
-                if clock() > deadline:
+            if state["nodes"] % _CLOCK_EVERY == 0:
+                if _halt(deadline, clock, state["nodes"]):
                     raise _Timeout
             gain = 0
             for k, w in zip(tg[p], wts[p], strict=True):
@@ -698,8 +707,8 @@ def rds_targets_component(
         state["nodes"] += 1
         if state["nodes"] > state["limit"]:
             raise _Budget
-        if deadline is not None and state["nodes"] % _CLOCK_EVERY == 0:
-            if clock() > deadline:
+        if state["nodes"] % _CLOCK_EVERY == 0:
+            if _halt(deadline, clock, state["nodes"]):
                 raise _Timeout
         best = state["best"]
         bound = opt[i + 1] + (wq[i] if cnt[i] else 0)
@@ -994,6 +1003,8 @@ def russian_doll(
                 if cval > out.value:
                     out.chosen, out.value = cand, cval
         outcomes.append(out)
+        done = fixed_value + sum(o.value for o in outcomes)
+        current_progress().update(sum(o.nodes for o in outcomes), done)
     chosen = sorted(fixed + [back[t] for o in outcomes for t in o.chosen])
     value = fixed_value + sum(o.value for o in outcomes)
     proven = all(o.proven for o in outcomes)

@@ -54,8 +54,10 @@ from heuristics.timeline import OrbitTimeline
 from sosp.clustering import static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import RollRule
+from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -171,7 +173,14 @@ def solve_sa_stc(
     new_acc: list[bool] = []
     new_gain: list[int] = []
 
+    # the limits (iterations, deadline) set the cooling schedule, so they stay in the loop;
+    # the shared criteria add progress and stop requests, every 16 moves
+    stop, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
     while it < iterations and n >= 2:
+        if (it & 15) == 0:
+            seen.iteration, seen.best = it, best_total
+            if stop(seen):
+                break
         if deadline is not None and (it & 15) == 0:
             now = clock()
             if now > deadline:

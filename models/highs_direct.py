@@ -53,6 +53,7 @@ import scipy.sparse as sp
 
 from models.data import ModelData
 from sosp.candidates import flatten
+from sosp.stop import stop_requested
 
 log = logging.getLogger("models.solve")
 
@@ -492,6 +493,12 @@ class HighsOutcome:
     info: dict[str, Any]
 
 
+def _stop_if_requested(event: Any) -> None:
+    """HiGHS interrupt callback: stop once :func:`sosp.stop.request_stop` was called."""
+    if stop_requested():
+        event.interrupt()
+
+
 def run_highs(
     am: ArrayModel,
     *,
@@ -576,6 +583,11 @@ def run_highs(
     elif time_limit is not None:
         h.setOptionValue("time_limit", float(time_limit))
     use_threads(threads)
+    # A stop request (sosp.stop: Ctrl-C / SIGTERM under the CLI) ends the solve at HiGHS's
+    # next interrupt point with its incumbent, as a time limit would.
+    h.cbMipInterrupt += _stop_if_requested
+    h.cbSimplexInterrupt += _stop_if_requested
+    h.cbIpmInterrupt += _stop_if_requested
     t1 = time.perf_counter()
     h.run()
     solve_s = time.perf_counter() - t1

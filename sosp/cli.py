@@ -231,7 +231,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
     from sosp.io import check_output
     from sosp.schedule import load_schedule
-    from sosp.solve import solve
 
     if args.output:
         check_output(args.output)
@@ -243,9 +242,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
             params[key] = value
     if args.warm_start is not None:
         params["warm_start"] = load_schedule(args.warm_start, inst)
-    result = solve(inst, args.method, seed=args.seed, time_limit=args.time_limit, **params)
-    if args.output:
-        result.schedule.save(args.output, inst)
+    result, interrupted = _solve_interruptibly(inst, args, params)
     data = result.summary()
     if args.output:
         data["output"] = args.output
@@ -258,8 +255,40 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
     if args.output:
         text += f"\nwrote {args.output}"
+    if interrupted:
+        text += f"\nstopped by {interrupted}: the best schedule found so far"
     _emit(args, data, text)
-    return 0
+    return 130 if interrupted else 0
+
+
+def _solve_interruptibly(
+    inst: Any, args: argparse.Namespace, params: dict[str, Any]
+) -> tuple[Any, str | None]:
+    """Solve with a status line on stderr (unless ``--quiet``) and with Ctrl-C / SIGTERM
+    stopping the search (not the program): the best schedule so far is then written as
+    usual. Returns the result and the name of the signal that stopped it (None)."""
+    from sosp.progress import Progress, StatusLine
+    from sosp.solve import solve
+    from sosp.stop import handle_signals, stop_reason
+
+    line = None if args.quiet else StatusLine(sys.stderr)
+    progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
+    with handle_signals():
+        try:
+            result = solve(
+                inst,
+                args.method,
+                seed=args.seed,
+                time_limit=args.time_limit,
+                progress=progress,
+                **params,
+            )
+        finally:
+            if line is not None:
+                line.close()
+        if args.output:
+            result.schedule.save(args.output, inst)
+        return result, stop_reason()
 
 
 # --------------------------------------------------------------------------- methods
@@ -409,7 +438,14 @@ def build_parser() -> argparse.ArgumentParser:
         "ASA-DTC and baselines, validation and experiments.",
     )
     parser.add_argument("--version", action="version", version=f"sosp {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=0,
+        help="log more on stderr: -v INFO (each solver's summary), -vv DEBUG (search details, "
+        "the HiGHS log); default WARNING",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     def add(name: str, help_: str) -> argparse.ArgumentParser:
@@ -520,6 +556,14 @@ def build_parser() -> argparse.ArgumentParser:
         "sosp methods",
     )
     p.add_argument("-o", "--output", help="schedule file to write (JSON)")
+    p.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="no status line (by default a solve of more than 3 s shows one on stderr: live on "
+        "a terminal, a line every 10 s otherwise); Ctrl-C or SIGTERM stops the search and "
+        "writes the best schedule so far (status interrupted, exit code 130)",
+    )
     p.set_defaults(func=cmd_solve)
 
     p = add("methods", "list every method with its parameters, types, defaults and help")

@@ -15,6 +15,8 @@ class Status(StrEnum):
     ``optimal``: optimality proven. ``feasible``: a heuristic's schedule, optimality not
     proven. ``time_limit``: an exact method stopped at its limit with an incumbent.
     ``no_solution``: stopped without any schedule. ``infeasible``: proven infeasible.
+    ``interrupted``: stopped on request (Ctrl-C, SIGTERM, :func:`sosp.stop.request_stop`)
+    with the best schedule found so far.
     """
 
     OPTIMAL = "optimal"
@@ -22,6 +24,7 @@ class Status(StrEnum):
     TIME_LIMIT = "time_limit"
     NO_SOLUTION = "no_solution"
     INFEASIBLE = "infeasible"
+    INTERRUPTED = "interrupted"
 
 
 @dataclass

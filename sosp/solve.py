@@ -23,7 +23,9 @@ import numpy as np
 
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance
-from sosp.result import Result
+from sosp.progress import Progress, reporting
+from sosp.result import Result, Status
+from sosp.stop import stop_requested
 from sosp.validate import validate
 
 log = logging.getLogger(__name__)
@@ -133,6 +135,7 @@ def solve(
     seed: int = 0,
     time_limit: float | None = None,
     check: bool = True,
+    progress: Progress | None = None,
     **params: Any,
 ) -> Result:
     """Solve ``instance`` with ``method``.
@@ -151,6 +154,11 @@ def solve(
     check
         Run the validator on the returned schedule and raise :class:`SolverError` if it
         fails (cheap next to any solve; the validator is the referee).
+    progress
+        Receives the search's state from its stopping checks (:mod:`sosp.progress`; the
+        caller's callback draws it). The searches stop early, with their best schedule so
+        far, once :func:`sosp.stop.request_stop` is called (e.g. by a signal handler): the
+        status is then ``interrupted`` (unless optimality or infeasibility was proven).
     **params
         Method parameters (``sosp methods`` lists them; :func:`sosp.methods.check_params`
         refuses an unknown key with the list of valid ones).
@@ -170,7 +178,9 @@ def solve(
     check_params(method, params)
     rng = np.random.default_rng(int(seed))
     t0 = time.perf_counter()
-    result = func(instance, rng=rng, time_limit=time_limit, **params)
+    with reporting(progress) as prog:
+        prog.start(method)
+        result = func(instance, rng=rng, time_limit=time_limit, **params)
     runtime = time.perf_counter() - t0
     schedule = replace(
         result.schedule,
@@ -180,7 +190,10 @@ def solve(
         profit=float(result.profit),
         fingerprint=instance.fingerprint,
     )
-    result = replace(result, method=method, schedule=schedule, runtime_s=runtime)
+    status = result.status
+    if stop_requested() and status in (Status.FEASIBLE, Status.TIME_LIMIT):
+        status = Status.INTERRUPTED  # stopped on request: its limits were not reached
+    result = replace(result, method=method, schedule=schedule, runtime_s=runtime, status=status)
     if check:
         report = validate(instance, schedule)
         if not report.feasible:

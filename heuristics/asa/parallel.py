@@ -21,6 +21,11 @@ of one. Exchanging the best in six epochs measured no better on B10 and C10 (``d
 "Two cores"): the chains then search near one schedule, and what two chains buy on these
 instances is a second draw. A chain that fails sends its error to the parent, which stops
 the others and raises it.
+
+A stop request (:func:`sosp.stop.request_stop`, e.g. Ctrl-C or SIGTERM under the CLI) in the
+parent reaches the chains through a shared event; they end their epoch at the next check and
+the best of their schedules so far is returned. The chains publish their iterations and best
+in shared memory, which the parent reports to the solve's progress while it waits.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from __future__ import annotations
 import logging
 import math
 import multiprocessing as mp
+import signal
 import time
 from dataclasses import replace
 from multiprocessing.connection import Connection
@@ -38,7 +44,13 @@ import numpy as np
 from heuristics.asa.params import ASAParams
 from heuristics.asa.search import DEFAULT_ITERATIONS, Search, stop_rule
 from sosp.instance import Instance
+from sosp.progress import Progress, Snapshot, reporting
+from sosp.progress import current as current_progress
 from sosp.result import Result
+from sosp.stop import request_stop, stop_requested
+
+#: Seconds between two looks of a waiting parent at the stop flag and the chains' progress.
+POLL_S = 0.2
 
 log = logging.getLogger(__name__)
 
@@ -50,33 +62,51 @@ def _chain(
     rng: np.random.Generator,
     time_limit: float | None,
     params: ASAParams,
+    index: int = 0,
+    shared: Any = None,
+    halt: Any = None,
 ) -> None:
     """One chain, in its own process: build the search, then obey the parent's commands.
+
+    ``shared`` (a shared array of doubles, two per chain) receives the chain's iterations and
+    best at each progress report; once ``halt`` (a shared event) is set, the chain stops its
+    search as on a stop request. SIGINT (Ctrl-C reaches the whole process group) requests a
+    stop too instead of killing the chain, so its best schedule is not lost.
 
     Commands (``(name, argument)``): ``run`` ``(last_iteration, seconds)`` runs until either
     limit (None: none) or ``params.no_improve`` and answers the chain's best profit; ``snap``
     answers the best schedule; ``adopt`` ``(snapshot, profit)`` takes it over; ``result``
     answers the :class:`~sosp.result.Result` and ends the chain.
     """
+
+    def publish(snap: Snapshot) -> None:
+        if shared is not None:
+            shared[2 * index] = snap.iterations
+            shared[2 * index + 1] = snap.best or 0.0
+        if halt is not None and halt.is_set():
+            request_stop("parent")
+
     try:
-        search = Search(instance, mode, rng=rng, time_limit=time_limit, params=params)
-        conn.send(("ok", search.best))
-        while True:
-            name, arg = conn.recv()
-            if name == "run":
-                last, seconds = arg
-                search.run(stop_rule(last, seconds, params.no_improve))
-                conn.send(("ok", (search.best, search.status.since_best)))
-            elif name == "snap":
-                conn.send(("ok", search.best_snap))
-            elif name == "adopt":
-                search.adopt(*arg)
-                conn.send(("ok", None))
-            elif name == "result":
-                conn.send(("ok", search.result()))
-                return
-            else:  # pragma: no cover - the parent sends only the names above
-                raise ValueError(f"unknown command {name!r}")
+        signal.signal(signal.SIGINT, lambda signum, frame: request_stop("SIGINT"))
+        with reporting(Progress(publish, interval=POLL_S)):
+            search = Search(instance, mode, rng=rng, time_limit=time_limit, params=params)
+            conn.send(("ok", search.best))
+            while True:
+                name, arg = conn.recv()
+                if name == "run":
+                    last, seconds = arg
+                    search.run(stop_rule(last, seconds, params.no_improve))
+                    conn.send(("ok", (search.best, search.status.since_best)))
+                elif name == "snap":
+                    conn.send(("ok", search.best_snap))
+                elif name == "adopt":
+                    search.adopt(*arg)
+                    conn.send(("ok", None))
+                elif name == "result":
+                    conn.send(("ok", search.result()))
+                    return
+                else:  # pragma: no cover - the parent sends only the names above
+                    raise ValueError(f"unknown command {name!r}")
     except (KeyboardInterrupt, EOFError):  # the parent is gone or interrupted
         return
     except Exception as exc:
@@ -101,11 +131,14 @@ class _Chains:
         ctx = mp.get_context()
         self.conns: list[Connection] = []
         self.procs: list[Any] = []
-        for rng in rngs:
+        self.shared = ctx.RawArray("d", 2 * len(rngs))
+        self.halt = ctx.Event()
+        self.progress = current_progress()
+        for i, rng in enumerate(rngs):
             parent, child = ctx.Pipe()
             proc = ctx.Process(
                 target=_chain,
-                args=(child, instance, mode, rng, time_limit, params),
+                args=(child, instance, mode, rng, time_limit, params, i, self.shared, self.halt),
                 daemon=True,
             )
             proc.start()
@@ -123,6 +156,8 @@ class _Chains:
                 self.conns[i].send((name, None if args is None else args[n]))
         out = []
         for i in which:
+            while not self.conns[i].poll(POLL_S):
+                self.tick()
             try:
                 kind, value = self.conns[i].recv()
             except EOFError:
@@ -135,6 +170,15 @@ class _Chains:
                 raise RuntimeError(f"asa chain {i}: {value}")
             out.append(value)
         return out
+
+    def tick(self) -> None:
+        """While waiting: pass a stop request on to the chains, report their progress."""
+        if stop_requested() and not self.halt.is_set():
+            self.halt.set()
+        n = len(self.procs)
+        iterations = sum(int(self.shared[2 * i]) for i in range(n))
+        best = max(self.shared[2 * i + 1] for i in range(n))
+        self.progress.update(iterations, best)
 
     def close(self) -> None:
         for conn in self.conns:
@@ -204,7 +248,7 @@ def run_parallel(
             if e < epochs and behind:
                 (snap,) = chains.ask([leader], "snap")
                 chains.ask(behind, "adopt", [(snap, top)] * len(behind))
-            if not live:
+            if not live or stop_requested():
                 break
         results: list[Result] = chains.ask(everyone, "result")
     finally:

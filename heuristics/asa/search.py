@@ -26,13 +26,21 @@ from heuristics.asa.problem import Problem, build_problem
 from heuristics.asa.replan import REPLAN, polish, replan_move
 from heuristics.asa.select import AdaptiveRoulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
-from heuristics.asa.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
 from heuristics.asa.tabu import TabuList
 from sosp.clustering import tasks_to_schedule
 from sosp.instance import Instance
 from sosp.io import atomic_write_text
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import Observation, Schedule
+from sosp.stop import (
+    FirstOf,
+    Interrupted,
+    MaxIterations,
+    MaxRuntime,
+    NoImprovement,
+    SearchStatus,
+)
 
 log = logging.getLogger(__name__)
 
@@ -186,7 +194,10 @@ class Search:
         )
 
     def run(self, stop: Callable[[SearchStatus], bool]) -> None:
-        """Iterate Algorithm 1 (with sosp's restarts) until ``stop`` says so."""
+        """Iterate Algorithm 1 (with sosp's restarts) until ``stop`` says so or a stop is
+        requested (:class:`~sosp.stop.Interrupted`); each check also reports to the solve's
+        :func:`~sosp.progress.current` progress."""
+        stop = FirstOf(current_progress(), Interrupted(), stop)
         state, rng, params, tabu = self.state, self.rng, self.params, self.tabu
         selector, acceptance, status = self.selector, self.acceptance, self.status
         accepted, rejected, counts, moves = self.accepted, self.rejected, self.counts, self.moves

@@ -1,0 +1,176 @@
+"""Stopping criteria shared by every search, and the process-wide stop flag.
+
+A criterion is a small callable (in the style of PyVRP's ``pyvrp.stop``): called with the
+search's :class:`SearchStatus` at each stopping check, it returns True to stop. Searches
+combine them with :class:`FirstOf`; none of them draws random numbers, so a criterion never
+changes what a seeded search does before it stops.
+
+:class:`Interrupted` stops a search once :func:`request_stop` was called: from another
+thread, or from a signal handler installed by :func:`handle_signals` (the CLI installs it,
+so Ctrl-C or SIGTERM ends the search and the best schedule found so far is kept). Reading the
+flag is one attribute lookup, cheap enough for every iteration.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+
+@dataclass
+class SearchStatus:
+    """What a stopping criterion (and a :class:`~sosp.progress.Progress`) may look at.
+
+    Attributes
+    ----------
+    iteration
+        Iterations (moves, steps, nodes) done so far.
+    since_best
+        Iterations since the last new best.
+    best
+        Profit (1) of the best schedule found so far.
+    bound
+        A proven upper bound on the optimum, when the search has one.
+    """
+
+    iteration: int = 0
+    since_best: int = 0
+    best: float = 0.0
+    bound: float | None = None
+
+
+class StoppingCriterion(Protocol):
+    def __call__(self, status: SearchStatus) -> bool: ...
+
+
+class MaxIterations:
+    """Stop after ``n`` iterations."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+
+    def __call__(self, status: SearchStatus) -> bool:
+        return status.iteration >= self.n
+
+
+class MaxRuntime:
+    """Stop once ``seconds`` of wall time have passed since ``start`` (default: construction).
+
+    ``start`` is a ``clock()`` value, for a search whose limit counts from before the
+    criterion is built (e.g. candidate generation included).
+    """
+
+    def __init__(
+        self,
+        seconds: float,
+        clock: Callable[[], float] = time.perf_counter,
+        start: float | None = None,
+    ) -> None:
+        self.clock = clock
+        self.deadline = (clock() if start is None else start) + seconds
+
+    def __call__(self, status: SearchStatus) -> bool:
+        return self.clock() >= self.deadline
+
+
+class NoImprovement:
+    """Stop after ``n`` consecutive iterations without a new best."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+
+    def __call__(self, status: SearchStatus) -> bool:
+        return status.since_best >= self.n
+
+
+class FirstOf:
+    """Stop when any of the criteria says so (an empty list never stops).
+
+    The criteria are asked in order and the first True ends the check, so a criterion with a
+    side effect that must run at every check (a :class:`~sosp.progress.Progress`) goes first.
+    """
+
+    def __init__(self, *criteria: StoppingCriterion) -> None:
+        self.criteria = criteria
+
+    def __call__(self, status: SearchStatus) -> bool:
+        for c in self.criteria:  # a loop, not any(genexpr): this runs every iteration
+            if c(status):
+                return True
+        return False
+
+
+# --------------------------------------------------------------------------- stop flag
+class _Flag:
+    """The process-wide stop request (a plain attribute: one lookup per check)."""
+
+    requested: bool = False
+    reason: str | None = None
+
+
+_FLAG = _Flag()
+
+
+def request_stop(reason: str = "requested") -> None:
+    """Ask every running search of this process to stop at its next check (thread-safe: it
+    only sets a flag). The searches return their best schedule so far."""
+    _FLAG.reason = _FLAG.reason or reason
+    _FLAG.requested = True
+
+
+def stop_requested() -> bool:
+    """True once :func:`request_stop` was called (until :func:`clear_stop`)."""
+    return _FLAG.requested
+
+
+def stop_reason() -> str | None:
+    """What asked to stop (e.g. ``"SIGINT"``), or None."""
+    return _FLAG.reason if _FLAG.requested else None
+
+
+def clear_stop() -> None:
+    """Forget a stop request, so the next search runs to its own limits."""
+    _FLAG.requested = False
+    _FLAG.reason = None
+
+
+class Interrupted:
+    """Stop once :func:`request_stop` was called (e.g. by Ctrl-C under :func:`handle_signals`)."""
+
+    def __call__(self, status: SearchStatus | None = None) -> bool:
+        return _FLAG.requested
+
+
+@contextmanager
+def handle_signals(
+    signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM),
+) -> Iterator[None]:
+    """Within the block, the first of ``signals`` requests a stop; a second one raises
+    :class:`KeyboardInterrupt` (for a user who does not want to wait for the search's next
+    check). The previous handlers are restored on exit and the flag is cleared on entry and
+    exit. Outside the main thread (where Python cannot install handlers) it does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        if _FLAG.requested:
+            raise KeyboardInterrupt
+        request_stop(signal.Signals(signum).name)
+
+    previous = {s: signal.getsignal(s) for s in signals}
+    clear_stop()
+    try:
+        for s in signals:
+            signal.signal(s, handler)
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+        clear_stop()

@@ -1,0 +1,217 @@
+"""The shared stopping criteria (sosp.stop), stop requests reaching every search, and Ctrl-C /
+SIGTERM during ``sosp solve`` through the real entry point: exit 130, the best schedule so far
+written, valid and marked ``interrupted``."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import heuristics.asa as asa
+import sosp.stop as stop_mod
+from sosp.progress import Progress
+from sosp.result import Status
+from sosp.scenarios import generate_scenario
+from sosp.solve import solve
+from sosp.stop import (
+    FirstOf,
+    Interrupted,
+    MaxIterations,
+    MaxRuntime,
+    NoImprovement,
+    SearchStatus,
+    clear_stop,
+    handle_signals,
+    request_stop,
+    stop_reason,
+    stop_requested,
+)
+from sosp.validate import validate
+from tests.conftest import tiny_chain
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(autouse=True)
+def _clear_flag():
+    clear_stop()
+    yield
+    clear_stop()
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def test_limits() -> None:
+    s = SearchStatus(iteration=4, since_best=2, best=7.0)
+    assert MaxIterations(4)(s) and not MaxIterations(5)(s)
+    assert NoImprovement(2)(s) and not NoImprovement(3)(s)
+    clock = FakeClock()
+    rt = MaxRuntime(5.0, clock)
+    assert not rt(s)
+    clock.t = 104.9
+    assert not rt(s)
+    clock.t = 105.0
+    assert rt(s)
+    # counted from an earlier start
+    assert MaxRuntime(5.0, clock, start=99.0)(s)
+    assert not MaxRuntime(5.0, clock, start=101.0)(s)
+
+
+def test_first_of_asks_in_order_and_stops_at_the_first_true() -> None:
+    asked: list[str] = []
+
+    def crit(name: str, answer: bool):
+        def c(status: SearchStatus) -> bool:
+            asked.append(name)
+            return answer
+
+        return c
+
+    assert not FirstOf()(SearchStatus())
+    assert FirstOf(crit("a", False), crit("b", True), crit("c", True))(SearchStatus())
+    assert asked == ["a", "b"]
+
+
+def test_request_and_clear() -> None:
+    crit = Interrupted()
+    assert not stop_requested() and not crit(SearchStatus()) and stop_reason() is None
+    request_stop("test")
+    request_stop("later")  # the first reason is kept
+    assert stop_requested() and crit(SearchStatus()) and stop_reason() == "test"
+    clear_stop()
+    assert not stop_requested() and not crit(SearchStatus())
+
+
+def test_asa_keeps_exporting_the_criteria() -> None:
+    for name in ("FirstOf", "MaxIterations", "MaxRuntime", "NoImprovement", "SearchStatus"):
+        assert getattr(asa, name) is getattr(stop_mod, name)
+    from heuristics.asa.stop import MaxIterations as old
+
+    assert old is MaxIterations
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_first_signal_requests_a_stop_the_second_aborts(sig: signal.Signals) -> None:
+    before = signal.getsignal(sig)
+    with handle_signals():
+        os.kill(os.getpid(), sig)
+        time.sleep(0.01)  # the handler runs at the next bytecode boundary
+        assert stop_requested() and stop_reason() == sig.name
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), sig)
+            time.sleep(0.01)
+    assert signal.getsignal(sig) is before
+    assert not stop_requested()
+
+
+# ------------------------------------------------------------------- every search obeys
+@pytest.fixture(scope="module")
+def c1():
+    return generate_scenario("C1", 0)
+
+
+SEARCHES = [
+    ("asa-dtc", {"iterations": 10**9}),
+    ("asa-stc", {"iterations": 10**9}),
+    ("asa-dtc", {"iterations": 10**9, "workers": 2}),
+    ("orbit-dp", {"iterations": 10**9}),
+    ("sa-stc", {"iterations": 10**9}),
+    ("rds", {}),
+    ("rds-stc", {}),
+]
+
+
+@pytest.mark.parametrize(("method", "params"), SEARCHES, ids=lambda v: str(v))
+def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params: dict) -> None:
+    """Limits far out of reach: only the request (made from the progress callback, as a
+    signal handler would between two checks) can end these runs."""
+    seen: list[float] = []
+
+    def cb(snap) -> None:
+        seen.append(snap.elapsed)
+        if snap.elapsed > 0.3:
+            request_stop("test")
+
+    t0 = time.perf_counter()
+    result = solve(c1, method, seed=1, progress=Progress(cb, interval=0.05), **params)
+    assert time.perf_counter() - t0 < 60
+    assert result.status is Status.INTERRUPTED
+    assert seen, "the search never reported progress"
+    assert validate(c1, result.schedule).feasible
+    assert result.profit > 0
+
+
+def test_an_exact_answer_keeps_its_status() -> None:
+    """A request arriving once optimality is proven does not hide the proof."""
+    inst = tiny_chain()
+    request_stop("test")
+    result = solve(inst, "rds")
+    assert result.status is Status.OPTIMAL
+
+
+def test_no_request_no_change() -> None:
+    a = solve(tiny_chain(), "asa-dtc", seed=3, iterations=200)
+    assert a.status is Status.FEASIBLE
+
+
+# ------------------------------------------------------------------- the CLI, for real
+def _start(args: list[str], tmp: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.Popen(
+        [sys.executable, "-m", "sosp", *args],
+        cwd=tmp,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("sig", "extra"),
+    [
+        (signal.SIGINT, ["--method", "asa-dtc"]),
+        (signal.SIGTERM, ["--method", "asa-dtc", "--param", "workers=2"]),
+        (signal.SIGTERM, ["--method", "orbit-dp"]),
+    ],
+    ids=["sigint-asa", "sigterm-asa-workers", "sigterm-orbit-dp"],
+)
+def test_cli_signal_writes_the_best_so_far(
+    tmp_path: Path, c1, sig: signal.Signals, extra: list[str]
+) -> None:
+    inst = tmp_path / "c1.json"
+    c1.save(inst)
+    out = tmp_path / "s.json"
+    args = ["solve", str(inst), "--iterations", str(10**9), "-o", str(out), "--json", *extra]
+    proc = _start(args, tmp_path)
+    time.sleep(3.0)  # imports and the search's start; then the search is running
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    data = json.loads(stdout)
+    assert data["status"] == "interrupted"
+    assert out.exists()
+    check = subprocess.run(
+        [sys.executable, "-m", "sosp", "validate", str(inst), str(out), "--json"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert check.returncode == 0, check.stdout
+    assert json.loads(check.stdout)["profit"] == data["profit"]
