@@ -236,13 +236,21 @@ def method_info(method: str) -> MethodInfo:
         if builder is not None:  # extra keywords of from_kwargs (e.g. ASA's preset)
             bsig = inspect.signature(builder)
             bhints = _hints(builder)
+            module = inspect.getmodule(cls)
             for p in bsig.parameters.values():
                 if p.kind in (p.VAR_KEYWORD, p.VAR_POSITIONAL) or p.name == "cls":
                     continue
+                # A keyword naming an entry of a module table (preset -> PRESETS): its keys.
+                table = getattr(module, f"{p.name.upper()}S", None)
+                type_text = _type_text(bhints.get(p.name, p.annotation), p.annotation)
+                if isinstance(table, dict) and table:
+                    type_text = " | ".join(repr(k) for k in table) + (
+                        " | None" if "None" in type_text else ""
+                    )
                 params.append(
                     ParamInfo(
                         p.name,
-                        _type_text(bhints.get(p.name, p.annotation), p.annotation),
+                        type_text,
                         _jsonable(p.default),
                         cdocs.get(p.name)
                         or _mentions(builder.__doc__, p.name)

@@ -372,7 +372,10 @@ def test_methods_lists_every_registered_method_from_the_code(capsys) -> None:
             for f in dataclasses.fields(cls):
                 assert params[f.name]["default"] == f.default, (name, f.name)
     assert data["default"] == "asa-dtc"
-    assert "preset" in {p["name"] for p in by_name["asa-dtc"]["params"]}
+    from heuristics.asa.params import PRESETS
+
+    (preset,) = [p for p in by_name["asa-dtc"]["params"] if p["name"] == "preset"]
+    assert all(repr(name) in preset["type"] for name in PRESETS)
     code, out, _ = run(capsys, "methods", "orbit-dp")
     assert code == 0 and out.startswith("orbit-dp: ") and "noise (float, default 0.5)" in out
 
