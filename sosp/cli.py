@@ -240,8 +240,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
         value = getattr(args, key)
         if value is not None:
             params[key] = value
-    if args.warm_start is not None:
+    if args.warm_start in ("none", "auto"):
+        params["warm_start"] = args.warm_start
+    elif args.warm_start is not None:
         params["warm_start"] = load_schedule(args.warm_start, inst)
+    if args.bound is not None:
+        params["bound"] = args.bound  # solve()'s own keyword: certify the schedule
     result, interrupted = _solve_interruptibly(inst, args, params)
     data = result.summary()
     if args.output:
@@ -251,7 +255,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
         f"{result.observed} targets in {len(result.schedule)} observations, "
         f"{result.runtime_s:.2f} s"
     )
-    if result.bound is not None:
+    if result.status.value == "optimal":
+        text += ", proven optimal (gap 0)"
+    elif result.bound is not None:
         text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
     if args.output:
         text += f"\nwrote {args.output}"
@@ -384,9 +390,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
             f"{res.runtime_s:>6.2f}s  {'yes' if rep.feasible else 'NO'}"
         )
     lines.append("")
-    if upper is not None:
+    if upper is not None and upper <= best:
         lines.append(
-            f"No schedule can exceed {upper:g} (Lagrangian bound of the clustering-exact model)."
+            f"The best schedule (profit {best:g}) is optimal: it meets the Lagrangian bound of "
+            "the clustering-exact model (gap 0)."
+        )
+    elif upper is not None:
+        lines.append(
+            f"No schedule can exceed {upper:g} (Lagrangian bound of the clustering-exact "
+            f"model): the best one is within {100 * (upper - best) / upper:.2f}% of optimal."
         )
     lines.append(
         "Every schedule was checked by the independent validator (constraints (2)-(7), (11))."
@@ -547,7 +559,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--backend", default=None, help="milp: pyomo, highs or auto (default: by model size)"
     )
-    p.add_argument("--warm-start", default=None, help="milp, milp-lns: schedule file to start from")
+    p.add_argument(
+        "--warm-start",
+        default=None,
+        help="milp, milp-lns: schedule file to start from; milp: none (no start) or auto "
+        "(default: a fast orbit search over the model's items)",
+    )
+    p.add_argument(
+        "--bound",
+        nargs="?",
+        const="auto",
+        default=None,
+        choices=("auto", "lp", "lagrangian", "milp"),
+        help="certify the schedule: compute an upper bound of the problem after the solve "
+        "(auto if no value; its own time limit = --time-limit) and report the gap",
+    )
     p.add_argument(
         "--param",
         action="append",

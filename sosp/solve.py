@@ -71,6 +71,9 @@ DEFAULT_METHOD = "asa-dtc"
 #: Bound name -> "module:function" (each returns a dict with at least ``bound``), so the core
 #: and its CLI reach the models only through this table.
 BOUNDS: dict[str, str] = {
+    "auto": "models.solve:auto_bound",
+    "lp": "models.solve:lp_bound",
+    "milp": "models.solve:milp_bound",
     "lagrangian": "models.lagrangian:lagrangian_bound",
     "pba": "heuristics.pba:pba_bound",
 }
@@ -136,6 +139,7 @@ def solve(
     time_limit: float | None = None,
     check: bool = True,
     progress: Progress | None = None,
+    bound: str | None = None,
     **params: Any,
 ) -> Result:
     """Solve ``instance`` with ``method``.
@@ -159,6 +163,12 @@ def solve(
         caller's callback draws it). The searches stop early, with their best schedule so
         far, once :func:`sosp.stop.request_stop` is called (e.g. by a signal handler): the
         status is then ``interrupted`` (unless optimality or infeasibility was proven).
+    bound
+        Certify the schedule: one of :data:`CERTIFYING_BOUNDS` (bounds of the problem itself,
+        the cluster model) computed after the solve, with a time limit of its own equal to
+        ``time_limit``; the result's ``bound`` is then the least of the method's and this one,
+        ``gap`` how far the schedule may be from optimal, and the status ``optimal`` when the
+        bound meets the profit. None (default): the method's own bound only.
     **params
         Method parameters (``sosp methods`` lists them; :func:`sosp.methods.check_params`
         refuses an unknown key with the list of valid ones).
@@ -173,6 +183,11 @@ def solve(
         raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
     time_limit = check_time_limit(time_limit)
     func = method_function(method)
+    if bound is not None and bound not in CERTIFYING_BOUNDS:
+        raise InputError(
+            f"bound: expected one of {', '.join(CERTIFYING_BOUNDS)} (bounds of the problem), "
+            f"got {bound!r}"
+        )
     from sosp.methods import check_params
 
     check_params(method, params)
@@ -202,5 +217,30 @@ def solve(
                 f"{method} returned an infeasible schedule ({len(report.violations)} "
                 f"violations; first: ({first.constraint}) {first.message})"
             )
+    if bound is not None:
+        result = certify(instance, result, bound, time_limit)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
     return result
+
+
+#: Bounds of :data:`BOUNDS` that bound the problem itself (the cluster model's optimum), so
+#: every method's schedule: what :func:`solve`'s ``bound`` accepts.
+CERTIFYING_BOUNDS = ("auto", "lp", "lagrangian", "milp")
+
+
+def certify(
+    instance: Instance, result: Result, bound: str = "auto", time_limit: float | None = None
+) -> Result:
+    """``result`` with the least of its own bound and bound ``bound`` (within ``time_limit``).
+
+    The status becomes ``optimal`` when the bound meets the profit (nothing better exists).
+    """
+    out = bound_function(bound)(instance, time_limit=time_limit, lower_bound=result.profit)
+    value = out.get("bound")
+    if value is None:
+        return result
+    best = float(value) if result.bound is None else min(float(value), result.bound)
+    best = max(best, float(result.profit))
+    status = Status.OPTIMAL if best <= result.profit + 1e-6 else result.status
+    stats = {**result.stats, "certified_by": bound, "certify_s": out.get("runtime_s")}
+    return replace(result, bound=best, status=status, stats=stats)

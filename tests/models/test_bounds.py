@@ -1,0 +1,128 @@
+"""Bounds that hold up: never above the covered weight, never below the optimum, and the MILP
+never worse than its warm start nor looser than the LP; ``solve(..., bound=...)`` certifies any
+method's schedule."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from models.data import observable_weight
+from models.lagrangian import lagrangian_bound
+from models.solve import bound, heuristic_start, model_data, solve_milp
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.result import Status
+from sosp.schedule import items_to_schedule
+from sosp.solve import solve
+from sosp.validate import validate
+from tests.conftest import tiny_cluster
+from tests.models.instances import random_tiny
+from tests.oracle import brute_force
+
+
+def _with_unseen_target(inst: Instance, weight: int = 100) -> Instance:
+    """``inst`` plus a heavy target no orbit sees (it must add nothing to any bound)."""
+    d = inst.to_dict(layout="columns")
+    t = d["targets"]
+    t["id"] = [*t["id"], "unseen"]
+    t["lat"] = [*t["lat"], 0.0]
+    t["lon"] = [*t["lon"], 0.0]
+    t["weight"] = [*t["weight"], weight]
+    return Instance.from_dict(d)
+
+
+def test_unseen_target_adds_nothing_to_any_bound() -> None:
+    inst = _with_unseen_target(tiny_cluster())
+    cap = observable_weight(inst)
+    assert cap == 11  # tiny_cluster's three targets (2 + 4 + 5), not the unseen 100
+    assert lagrangian_bound(inst, iterations=5)["bound"] <= cap
+    for method in ("auto", "lp", "milp", "lagrangian"):
+        out = bound(inst, method=method)
+        assert 11 <= out["bound"] <= cap, method
+    res = solve_milp(inst, warm_start="none", extra_bound="none")
+    assert res.status is Status.OPTIMAL and res.bound == 11
+
+
+def test_lagrangian_bound_capped_when_the_subgradient_stops_early() -> None:
+    # one step from mu = p/2 is far above the optimum: the cap is what holds it
+    inst = _with_unseen_target(random_tiny(4), weight=50)
+    out = lagrangian_bound(inst, iterations=1, lower_bound=0.0)
+    assert out["bound"] <= observable_weight(inst)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_milp_and_bounds_against_the_oracle(seed: int) -> None:
+    inst = random_tiny(seed)
+    optimum = brute_force(inst, "cluster").profit
+    cap = observable_weight(inst)
+    lp = bound(inst, method="lp", slew="exact")["bound"]
+    assert optimum <= lp <= cap
+    for method in ("auto", "lagrangian", "milp"):
+        assert optimum <= bound(inst, method=method)["bound"] <= cap, method
+    res = solve_milp(inst, time_limit=30)
+    assert validate(inst, res.schedule).feasible
+    assert res.profit >= res.stats["start_profit"]  # never below its warm start
+    assert res.profit <= res.bound <= lp  # never looser than the LP
+    assert res.status is Status.OPTIMAL and res.profit == optimum
+
+
+def test_heuristic_start_is_a_valid_schedule_of_each_model() -> None:
+    inst = random_tiny(11)
+    for model in ("task", "cluster", "static"):
+        data = model_data(inst, model)
+        chosen = heuristic_start(data, np.random.default_rng(0))
+        sched = items_to_schedule(inst, data, chosen)
+        rep = validate(inst, sched)
+        assert rep.feasible, (model, rep.violations)
+        assert rep.profit <= brute_force(inst, model).profit
+
+
+def test_warm_start_none_and_bad_values() -> None:
+    inst = tiny_cluster()
+    res = solve_milp(inst, warm_start="none")
+    assert "start_profit" not in res.stats and res.profit == 11
+    with pytest.raises(InputError, match="warm_start"):
+        solve_milp(inst, warm_start="greedy")
+    with pytest.raises(InputError, match="warm_start"):
+        solve_milp(inst, warm_start=3)
+    with pytest.raises(InputError, match="extra_bound"):
+        solve_milp(inst, extra_bound="pba")
+    with pytest.raises(InputError, match="method"):
+        bound(inst, method="simplex")
+
+
+@pytest.mark.parametrize("seed", [0, 2, 6])
+def test_solve_bound_certifies_a_heuristic(seed: int) -> None:
+    inst = random_tiny(seed)
+    optimum = brute_force(inst, "cluster").profit
+    res = solve(inst, "greedy", bound="auto")
+    assert res.profit <= optimum <= res.bound <= observable_weight(inst)
+    assert res.stats["certified_by"] == "auto"
+    assert (res.status is Status.OPTIMAL) == (res.bound == res.profit)
+    assert res.gap == pytest.approx((res.bound - res.profit) / res.bound if res.bound else 0.0)
+    with pytest.raises(InputError, match="bound"):
+        solve(inst, "greedy", bound="pba")  # bounds the static problem, not the problem
+
+
+def test_cli_solve_bound_and_optimal_wording(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from sosp.cli import main
+
+    path = tmp_path / "inst.json"
+    tiny_cluster().save(path)
+    assert main(["solve", str(path), "--method", "milp", "-q"]) == 0
+    assert "proven optimal (gap 0)" in capsys.readouterr().out
+    assert main(["solve", str(path), "--method", "greedy", "--bound", "--json", "-q"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["profit"] <= 11 <= out["bound"] and out["gap"] is not None
+    assert main(["solve", str(path), "--method", "milp", "--warm-start", "none", "-q"]) == 0
+    capsys.readouterr()
+    written = tmp_path / "out.json"
+    code = main(["solve", str(path), "--method", "greedy", "--bound", "nope", "-o", str(written)])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and not written.exists()
