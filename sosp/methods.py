@@ -17,6 +17,7 @@ import dataclasses
 import importlib
 import inspect
 import re
+import types
 import typing
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -130,6 +131,7 @@ def param_docs(doc: str | None) -> dict[str, str]:
 
 
 def _is_rule(line: str) -> bool:
+    """Whether a docstring line is a section underline (``----------``)."""
     return bool(line.strip()) and set(line.strip()) == {"-"}
 
 
@@ -157,12 +159,14 @@ def _mentions(doc: str | None, name: str) -> str:
 
 # --------------------------------------------------------------------------- types, defaults
 def _type_text(hint: Any, raw: Any) -> str:
+    """A type hint as text (``Literal`` as its values); ``raw`` (the annotation string) when
+    the hint could not be resolved."""
     if hint is inspect.Parameter.empty or hint is None:
         return "" if raw is inspect.Parameter.empty else str(raw)
     origin = typing.get_origin(hint)
     if origin is typing.Literal:
         return " | ".join(repr(a) for a in typing.get_args(hint))
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
+    if origin in (typing.Union, types.UnionType):
         return " | ".join(_type_text(a, a) for a in typing.get_args(hint))
     if hint is type(None):
         return "None"

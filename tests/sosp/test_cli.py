@@ -491,3 +491,32 @@ def test_notebooks_extra_brings_jupyterlab_and_the_readme_says_how() -> None:
     readme = (root / "README.md").read_text()
     assert "pip install -e '.[notebooks]' && jupyter lab notebooks/" in readme
     assert list((root / "notebooks").glob("*.ipynb"))
+
+
+def test_param_docs_reads_numpydoc_entries() -> None:
+    from sosp.methods import param_docs
+
+    doc = """Summary.
+
+    Parameters
+    ----------
+    alpha
+        First sentence, e.g. with (a. b) inside. Second sentence.
+    pro1, pro2
+        Shared ``line``; more
+        on the next line.
+    **params
+        Keywords.
+
+    Returns
+    -------
+    thing
+        Not a parameter.
+    """
+    assert param_docs(doc) == {
+        "alpha": "First sentence, e.g. with (a. b) inside.",
+        "pro1": "Shared line; more on the next line.",
+        "pro2": "Shared line; more on the next line.",
+        "params": "Keywords.",
+    }
+    assert param_docs("No sections.") == {}
