@@ -1,12 +1,15 @@
 """``sosp plot``: a schedule as a Gantt chart per orbit and a map of targets and ground tracks.
 
 The Gantt chart has one row per orbit that has opportunities (time measured from the orbit's
-start): opportunities as thin grey ticks, observations as bars (ordinary tasks blue,
-cluster-tasks covering several opportunities orange and labelled with their count) and the
-setup + slew time each observation needs before it, constraint (3), as a red band.
+start, or UTC clock time with ``utc=True`` / ``sosp plot --utc``): opportunities as thin grey
+ticks, observations as bars (ordinary tasks blue, cluster-tasks covering several
+opportunities orange and labelled with their count) and the setup + slew time each
+observation needs before it, constraint (3), as a red band.
 
-The map (plain latitude/longitude axes, no map download) shows observed targets, unobserved
-targets and the satellites' ground tracks. Ground tracks are propagated with
+The map (plain latitude/longitude axes, no map download) is zoomed to the targets: observed
+targets as green dots, unobserved ones as red crosses drawn on top (so none hides under an
+observed one), and the satellites' ground tracks. Legends sit outside the data, below the
+Gantt chart and beside the map. Ground tracks are propagated with
 :func:`sosp.orbits.propagate` when the instance was generated from the built-in satellites
 (``meta["satellite_source"] == "builtin"``); for other instances (user TLEs are not stored in
 the instance) the map shows only the targets, and the title says so.
@@ -34,6 +37,57 @@ PLOT_FORMATS = ("png", "pdf", "svg")
 
 #: Seconds between ground-track points.
 TRACK_STEP = 60.0
+
+#: Ground-track colours: blues, purples and browns, away from the targets' green and red.
+TRACK_COLOURS = ("#3182ce", "#805ad5", "#b7791f", "#319795", "#d53f8c", "#4a5568", "#2c5282")
+
+#: Margin around the targets on the map, as a share of their extent (at least 1 degree).
+MAP_MARGIN = 0.15
+
+
+def map_extent(lat: np.ndarray, lon: np.ndarray) -> tuple[float, float, float, float, bool]:
+    """The map's frame around the targets: ``(lon0, lon1, lat0, lat1, wrap)``.
+
+    ``wrap`` is True when the targets are closer together measured across the antimeridian;
+    longitudes are then drawn in [0, 360) (:func:`map_lon`) instead of [-180, 180). The
+    frame has a margin of :data:`MAP_MARGIN` of the extent, at least 1 degree.
+    """
+    import numpy as np
+
+    if not len(lat):
+        return -180.0, 180.0, -90.0, 90.0, False
+    plain = map_lon(lon, False)
+    wrapped = map_lon(lon, True)
+    wrap = bool(np.ptp(wrapped) < np.ptp(plain) - 1e-6)
+    x = wrapped if wrap else plain
+    x0, x1 = float(x.min()), float(x.max())
+    y0, y1 = float(np.min(lat)), float(np.max(lat))
+    mx = max(1.0, MAP_MARGIN * (x1 - x0))
+    my = max(1.0, MAP_MARGIN * (y1 - y0))
+    lo_min, lo_max = (0.0, 360.0) if wrap else (-180.0, 180.0)
+    return (
+        max(lo_min, x0 - mx),
+        min(lo_max, x1 + mx),
+        max(-90.0, y0 - my),
+        min(90.0, y1 + my),
+        wrap,
+    )
+
+
+def _clock(epoch: str, t: float) -> str:
+    """``HH:MM`` UTC of ``t`` seconds from the ISO 8601 ``epoch``."""
+    from datetime import datetime, timedelta
+
+    when = datetime.fromisoformat(epoch.replace("Z", "+00:00")) + timedelta(seconds=t)
+    return when.strftime("%H:%MZ")
+
+
+def map_lon(lon: np.ndarray, wrap: bool) -> np.ndarray:
+    """Longitudes in [-180, 180) or, with ``wrap``, in [0, 360)."""
+    import numpy as np
+
+    lon = np.asarray(lon, dtype=float)
+    return np.mod(lon, 360.0) if wrap else np.mod(lon + 180.0, 360.0) - 180.0
 
 
 def ground_tracks(instance: Instance) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
@@ -70,6 +124,7 @@ def plot_schedule(
     path: str | os.PathLike[str],
     title: str | None = None,
     max_orbits: int = 60,
+    utc: bool = False,
 ) -> dict[str, Any]:
     """Draw the Gantt chart and the map into one figure (PNG, PDF or SVG by the extension of
     ``path``), written atomically.
@@ -84,6 +139,9 @@ def plot_schedule(
         Figure title (default: instance name, method, profit).
     max_orbits
         At most this many orbit rows (those with observations first, then by opportunities).
+    utc
+        Gantt time axis in UTC clock time (the instance's epoch plus seconds) instead of
+        seconds from each orbit's start.
 
     Returns
     -------
@@ -91,6 +149,33 @@ def plot_schedule(
         ``orbits`` drawn, ``observations``, ``clusters``, ``observed`` and ``tracks``
         (whether ground tracks were drawn).
     """
+    import matplotlib.pyplot as plt
+
+    from sosp.errors import InputError
+    from sosp.io import atomic_output
+
+    target = Path(path)
+    fmt = plot_format(target)
+    if not target.parent.is_dir():
+        raise InputError(f"output folder does not exist: {target.parent}")
+    fig, info = schedule_figure(instance, schedule, title, max_orbits, utc)
+    try:
+        with atomic_output(target, suffix=f".{fmt}") as tmp:
+            fig.savefig(tmp, dpi=110, format=fmt)
+    finally:
+        plt.close(fig)
+    return info
+
+
+def schedule_figure(
+    instance: Instance,
+    schedule: Schedule,
+    title: str | None = None,
+    max_orbits: int = 60,
+    utc: bool = False,
+) -> tuple[Any, dict[str, Any]]:
+    """The figure of :func:`plot_schedule` (a matplotlib ``Figure``, Agg backend; the caller
+    closes it) and its counts. Parameters as :func:`plot_schedule`."""
     import matplotlib
     import numpy as np
 
@@ -98,33 +183,54 @@ def plot_schedule(
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
-    from sosp.errors import InputError
-    from sosp.io import atomic_output
     from sosp.validate import validate
 
-    target = Path(path)
-    fmt = plot_format(target)
-    if not target.parent.is_dir():
-        raise InputError(f"output folder does not exist: {target.parent}")
     inst = instance
     rep = validate(inst, schedule)
     counts = np.diff(inst.orbit_offsets)
     used = {o.orbit for o in schedule.observations}
     orbits = [j for j in range(inst.n_orbits) if counts[j] > 0 or j in used]
     orbits.sort(key=lambda j: (j not in used, -counts[j], j))
-    orbits = sorted(orbits[:max_orbits])
+    orbits = orbits[:max_orbits]
+    # by satellite then time; on a UTC axis by time alone, so the passes read as a timeline
+    orbits.sort(key=lambda j: (float(inst.orbit_start[j]), j) if utc else j)
     row = {j: r for r, j in enumerate(orbits)}
 
     fig, (ax_g, ax_m) = plt.subplots(
-        1, 2, figsize=(14, max(4.0, 0.22 * len(orbits) + 2)), width_ratios=[1.3, 1]
+        1,
+        2,
+        figsize=(14, max(4.5, 0.22 * len(orbits) + 2.5)),
+        width_ratios=[1.3, 1],
+        layout="constrained",
     )
-    # Gantt: opportunities, setup + slew gaps (3), observations.
+    # Gantt: x is seconds from the orbit's start, or UTC clock time as matplotlib dates.
+    if utc:
+        from datetime import datetime
+
+        import matplotlib.dates as mdates
+
+        day0 = mdates.date2num(datetime.fromisoformat(inst.epoch.replace("Z", "+00:00")))
+
+        def x_of(j: int, t: Any) -> Any:
+            return day0 + np.asarray(t) / 86400.0
+
+        def dx(d: Any) -> Any:
+            return np.asarray(d) / 86400.0
+
+    else:
+
+        def x_of(j: int, t: Any) -> Any:
+            return np.asarray(t) - float(inst.orbit_start[j])
+
+        def dx(d: Any) -> Any:
+            return np.asarray(d)
+
+    # opportunities, setup + slew gaps (3), observations
     for j in orbits:
-        t0 = float(inst.orbit_start[j])
         sl = inst.orbit_opps(j)
-        starts = inst.opp_start[sl] - t0
+        starts = x_of(j, inst.opp_start[sl])
         ax_g.broken_barh(
-            list(zip(starts, inst.opp_end[sl] - inst.opp_start[sl], strict=True)),
+            list(zip(starts, dx(inst.opp_end[sl] - inst.opp_start[sl]), strict=True)),
             (row[j] - 0.15, 0.3),
             facecolors="0.75",
         )
@@ -136,29 +242,42 @@ def plot_schedule(
         if j not in row:
             continue
         obs.sort(key=lambda o: o.start)
-        t0 = float(inst.orbit_start[j])
         r = orbit_rules(inst, j)
         for n, ob in enumerate(obs):
             if n:
                 need = r.setup_time + r.turn(obs[n - 1].roll, ob.roll)  # (3)
                 ax_g.broken_barh(
-                    [(ob.start - t0 - need, need)], (row[j] - 0.3, 0.6), facecolors="#f4a6a6"
+                    [(x_of(j, ob.start - need), dx(need))],
+                    (row[j] - 0.3, 0.6),
+                    facecolors="#f4a6a6",
                 )
             cluster = len(ob.opps) > 1
             n_clusters += cluster
             ax_g.broken_barh(
-                [(ob.start - t0, ob.end - ob.start)],
+                [(x_of(j, ob.start), dx(ob.end - ob.start))],
                 (row[j] - 0.35, 0.7),
                 facecolors="#e8890c" if cluster else "#2b6cb0",
             )
             if cluster:
-                ax_g.text(ob.end - t0, row[j], f" {len(ob.opps)}", va="center", fontsize=6)
-    ax_g.set_yticks(range(len(orbits)), [inst.orbit_ids[j] for j in orbits], fontsize=6)
+                ax_g.text(x_of(j, ob.end), row[j], f" {len(ob.opps)}", va="center", fontsize=6)
+    labels = [inst.orbit_ids[j] for j in orbits]
+    if utc:  # each pass's first opportunity, clock time: the axis spans the whole horizon
+        first = [
+            float(inst.opp_start[inst.orbit_opps(j)].min(initial=inst.orbit_end[j])) for j in orbits
+        ]
+        labels = [f"{name} {_clock(inst.epoch, t)}" for name, t in zip(labels, first, strict=True)]
+    ax_g.set_yticks(range(len(orbits)), labels, fontsize=6)
     ax_g.set_ylim(-1, max(len(orbits), 1))
     ax_g.invert_yaxis()
-    ax_g.set_xlabel("time from orbit start (s)")
-    ax_g.set_title("observations per orbit")
-    ax_g.legend(
+    if utc:
+        loc = mdates.AutoDateLocator()
+        ax_g.xaxis.set_major_locator(loc)
+        ax_g.xaxis.set_major_formatter(mdates.ConciseDateFormatter(loc, tz=None))
+        ax_g.set_xlabel("UTC")
+    else:
+        ax_g.set_xlabel("time from orbit start (s)")
+    ax_g.set_title("observations per orbit", pad=20)
+    ax_g.legend(  # between the title and the chart, never over a bar
         handles=[
             Patch(color="#2b6cb0", label="task"),
             Patch(color="#e8890c", label="cluster-task (n covered)"),
@@ -166,13 +285,21 @@ def plot_schedule(
             Patch(color="0.75", label="opportunity"),
         ],
         fontsize=7,
-        loc="lower right",
+        loc="lower center",
+        bbox_to_anchor=(0.5, 1.0),
+        ncol=4,
+        frameon=False,
     )
 
-    # Map: ground tracks, unobserved and observed targets.
+    # Map, zoomed to the targets: ground tracks, observed targets, unobserved ones on top.
+    observed = np.zeros(inst.n_targets, dtype=bool)
+    for i in schedule.observed_opps():
+        observed[int(inst.opp_target[i])] = True
+    x0, x1, y0, y1, wrap = map_extent(inst.target_lat, inst.target_lon)
     tracks = ground_tracks(inst)
     if tracks:
         for name, (lat, lon) in tracks.items():
+            lon = map_lon(lon, wrap)
             jump = np.flatnonzero(np.abs(np.diff(lon)) > 180) + 1
             for k, (la, lo) in enumerate(
                 zip(np.split(lat, jump), np.split(lon, jump), strict=True)
@@ -180,37 +307,40 @@ def plot_schedule(
                 ax_m.plot(
                     lo,
                     la,
-                    lw=0.5,
+                    lw=0.6,
                     alpha=0.5,
-                    color=f"C{list(tracks).index(name) + 2}",
+                    color=TRACK_COLOURS[list(tracks).index(name) % len(TRACK_COLOURS)],
                     label=name if k == 0 else None,
+                    zorder=1,
                 )
-    observed = np.zeros(inst.n_targets, dtype=bool)
-    for i in schedule.observed_opps():
-        observed[int(inst.opp_target[i])] = True
-    lon = np.where(inst.target_lon > 180, inst.target_lon - 360, inst.target_lon)
-    ax_m.scatter(lon[~observed], inst.target_lat[~observed], s=8, c="0.6", label="unobserved")
-    ax_m.scatter(lon[observed], inst.target_lat[observed], s=10, c="#2f855a", label="observed")
-    ax_m.set_xlim(-180, 180)
-    ax_m.set_ylim(-90, 90)
-    ax_m.set_xlabel("longitude (deg)")
+    lon = map_lon(inst.target_lon, wrap)
+    ax_m.scatter(
+        lon[observed], inst.target_lat[observed], s=12, c="#2f855a", label="observed", zorder=2
+    )
+    ax_m.scatter(
+        lon[~observed],
+        inst.target_lat[~observed],
+        s=14,
+        c="#c53030",
+        marker="x",
+        linewidths=0.8,
+        label="unobserved",
+        zorder=3,
+    )
+    ax_m.set_xlim(x0, x1)
+    ax_m.set_ylim(y0, y1)
+    ax_m.set_xlabel("longitude (deg)" + (", 0-360" if wrap else ""))
     ax_m.set_ylabel("latitude (deg)")
-    ax_m.set_aspect("equal")
+    ax_m.set_aspect("equal", adjustable="box")
     ax_m.grid(alpha=0.3)
     ax_m.set_title("targets and ground tracks" if tracks else "targets (ground tracks unknown)")
-    ax_m.legend(fontsize=7, loc="lower left")
+    ax_m.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     fig.suptitle(
         title
         or f"{inst.name or 'instance'}: {schedule.method or 'schedule'}, profit {rep.profit:g}, "
         f"{rep.observed} targets, {len(schedule)} observations"
     )
-    fig.tight_layout()
-    try:
-        with atomic_output(target, suffix=f".{fmt}") as tmp:
-            fig.savefig(tmp, dpi=110, format=fmt)
-    finally:
-        plt.close(fig)
-    return {
+    return fig, {
         "orbits": len(orbits),
         "observations": len(schedule),
         "clusters": n_clusters,
@@ -252,6 +382,11 @@ def add_plot_parser(subparsers: Any) -> argparse.ArgumentParser:
         "-o", "--output", required=True, help="figure to write: .png, .pdf or .svg (by extension)"
     )
     p.add_argument("--title", default=None, help="figure title")
+    p.add_argument(
+        "--utc",
+        action="store_true",
+        help="Gantt time axis in UTC clock time (default: seconds from each orbit's start)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_plot)
     return p
@@ -267,7 +402,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     plot_format(args.output)
     inst = load_instance(args.instance)
     sched = load_schedule(args.schedule, inst)
-    info = plot_schedule(inst, sched, args.output, title=args.title)
+    info = plot_schedule(inst, sched, args.output, title=args.title, utc=args.utc)
     info["output"] = args.output
     if args.json:
         sys.stdout.write(json.dumps(info) + "\n")

@@ -8,7 +8,14 @@ from pathlib import Path
 import pytest
 
 from sosp.cli import main
-from sosp.plot import ground_tracks, plot_schedule
+from sosp.plot import (
+    MAP_MARGIN,
+    ground_tracks,
+    map_extent,
+    map_lon,
+    plot_schedule,
+    schedule_figure,
+)
 from sosp.schedule import Schedule, make_observation
 from tests.conftest import tiny_cluster
 
@@ -49,3 +56,117 @@ def test_plot_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     sched_p.write_text('{"observations": [{"orbit": "zz"}]}')
     assert main(["plot", str(inst_p), str(sched_p), "-o", str(tmp_path / "x.png")]) == 2
     assert not (tmp_path / "x.png").exists()
+
+
+# ------------------------------------------------------------------- figures people read
+def _c1_figure(utc: bool = False):
+    from sosp.scenarios import generate_scenario
+    from sosp.solve import solve
+
+    inst = generate_scenario("C1", 0)
+    sched = solve(inst, "greedy").schedule
+    fig, info = schedule_figure(inst, sched, utc=utc)
+    return inst, sched, fig, info
+
+
+def _extent(fig, artist):
+    return artist.get_window_extent(fig.canvas.get_renderer())
+
+
+def test_legends_sit_outside_the_data() -> None:
+    import matplotlib.pyplot as plt
+
+    _, _, fig, _ = _c1_figure()
+    try:
+        fig.canvas.draw()
+        ax_g, ax_m = fig.axes[:2]
+        for ax in (ax_g, ax_m):
+            legend, box = _extent(fig, ax.get_legend()), _extent(fig, ax)
+            # no overlap with the axes' data area
+            assert (
+                legend.y0 >= box.y1 - 1
+                or legend.x0 >= box.x1 - 1
+                or legend.y1 <= box.y0 + 1
+                or legend.x1 <= box.x0 + 1
+            ), (ax.get_title(), legend, box)
+            # and inside the figure
+            assert legend.x1 <= fig.bbox.x1 + 1 and legend.y1 <= fig.bbox.y1 + 1
+    finally:
+        plt.close(fig)
+
+
+def test_unobserved_targets_are_drawn_on_top_and_distinct() -> None:
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    inst, sched, fig, info = _c1_figure()
+    try:
+        ax_m = fig.axes[1]
+        by_label = {c.get_label(): c for c in ax_m.collections}
+        obs, unobs = by_label["observed"], by_label["unobserved"]
+        assert len(obs.get_offsets()) == info["observed"]
+        assert len(unobs.get_offsets()) == inst.n_targets - info["observed"]
+        assert unobs.get_zorder() > obs.get_zorder()
+        assert unobs.get_zorder() > max(ln.get_zorder() for ln in ax_m.lines)  # over tracks
+        assert not np.allclose(unobs.get_facecolor()[0], obs.get_facecolor()[0])
+    finally:
+        plt.close(fig)
+
+
+def test_the_map_is_zoomed_to_the_targets() -> None:
+    import matplotlib.pyplot as plt
+
+    inst, _, fig, _ = _c1_figure()
+    try:
+        x0, x1 = fig.axes[1].get_xlim()
+        y0, y1 = fig.axes[1].get_ylim()
+        lon, lat = inst.target_lon, inst.target_lat
+        assert x0 <= lon.min() and lon.max() <= x1 and y0 <= lat.min() and lat.max() <= y1
+        # no more than the margin around them (C1 covers a few degrees, not the globe)
+        assert x1 - x0 <= (lon.max() - lon.min()) * (1 + 2 * MAP_MARGIN) + 2.01
+        assert y1 - y0 <= (lat.max() - lat.min()) * (1 + 2 * MAP_MARGIN) + 2.01
+    finally:
+        plt.close(fig)
+
+
+def test_map_extent_across_the_antimeridian() -> None:
+    import numpy as np
+
+    lat = np.array([10.0, 12.0, 14.0])
+    x0, x1, y0, y1, wrap = map_extent(lat, np.array([175.0, -178.0, 179.0]))
+    assert wrap and 170 < x0 < 175 and 182 < x1 < 190  # drawn in 0..360, 175..182
+    assert list(map_lon(np.array([-178.0, 175.0]), wrap)) == [182.0, 175.0]
+    assert y0 < 10 and y1 > 14
+    x0, x1, _, _, wrap = map_extent(lat, np.array([-10.0, 0.0, 10.0]))
+    assert not wrap and x0 < -10 and x1 > 10
+    assert map_extent(lat[:0], lat[:0]) == (-180.0, 180.0, -90.0, 90.0, False)
+
+
+def test_utc_axis_shows_clock_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from datetime import datetime
+
+    import matplotlib.dates as mdates
+    import matplotlib.pyplot as plt
+
+    inst, sched, fig, _ = _c1_figure(utc=True)
+    try:
+        ax_g = fig.axes[0]
+        fig.canvas.draw()
+        lo, hi = (mdates.num2date(x) for x in ax_g.get_xlim())
+        epoch = datetime.fromisoformat(inst.epoch.replace("Z", "+00:00"))
+        first = epoch.timestamp() + min(o.start for o in sched.observations)
+        last = epoch.timestamp() + max(o.end for o in sched.observations)
+        assert lo.timestamp() <= first and last <= hi.timestamp()
+        assert ax_g.get_xlabel() == "UTC"
+        labels = [t.get_text() for t in ax_g.get_yticklabels()]
+        assert all(lab.endswith("Z") for lab in labels)  # each pass with its clock time
+        stamps = [datetime.strptime(lab.split()[-1], "%H:%MZ").time() for lab in labels]
+        assert stamps == sorted(stamps)  # a timeline: passes in time order (one day)
+    finally:
+        plt.close(fig)
+    # through the CLI
+    inst_p, sched_p, png = tmp_path / "c1.json", tmp_path / "s.json", tmp_path / "u.png"
+    inst.save(inst_p)
+    sched.save(sched_p, inst)
+    assert main(["plot", str(inst_p), str(sched_p), "-o", str(png), "--utc"]) == 0
+    assert png.stat().st_size > 10_000
