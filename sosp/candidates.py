@@ -369,7 +369,253 @@ def _too_many(instance: Instance, j: int, max_candidates: int) -> InputError:
 def _generate_orbit(
     instance: Instance, j: int, deadline: float | None, max_candidates: int | None
 ) -> OrbitCandidates:
-    """The work of :func:`orbit_candidates` (uncached)."""
+    """The work of :func:`orbit_candidates` (uncached): :func:`_start_candidates` for each
+    first opportunity, then duplicates dropped (two starts or two ends at the same time can
+    give the same candidate; the first is kept)."""
+    sl = instance.orbit_opps(j)
+    ts = np.asarray(instance.opp_start[sl], dtype=float)
+    te = np.asarray(instance.opp_end[sl], dtype=float)
+    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
+    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
+    limit = float(instance.max_duration[j])
+    stop = np.searchsorted(ts, ts + limit + EPS, side="right")
+    n = len(ts)
+    tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
+    if n > 1:
+        same = ts[1:] == ts[:-1]
+        tied[1:] |= same
+        tied[:-1] |= same
+    out_roll: list[np.ndarray] = []
+    out_sizes: list[np.ndarray] = []
+    out_members: list[np.ndarray] = []
+    count = 0
+    seen: set[tuple[float, bytes]] = set()
+    seen_ts = None
+    for i in range(n):
+        if ts[i] != seen_ts:
+            seen.clear()
+            seen_ts = ts[i]
+        got = _start_candidates(i, ts, te, lo, hi, int(stop[i]), limit)
+        if got is not None:
+            end_pos, roll, ptr, members = got
+            members = (members + sl.start).astype(np.int32)
+            sizes = np.diff(ptr)
+            if tied[i] or len(np.unique(te[end_pos])) < len(np.unique(end_pos)):
+                keep = []
+                for u in range(len(roll)):
+                    key = (float(te[end_pos[u]]), members[ptr[u] : ptr[u + 1]].tobytes())
+                    if key not in seen:
+                        seen.add(key)
+                        keep.append(u)
+                if len(keep) < len(roll):
+                    keep_a = np.asarray(keep, dtype=np.int64)
+                    members = members[ragged_positions(ptr[keep_a], sizes[keep_a])]
+                    roll, sizes = roll[keep_a], sizes[keep_a]
+            out_roll.append(roll)
+            out_sizes.append(sizes)
+            out_members.append(members)
+            count += len(roll)
+        if max_candidates is not None and count > max_candidates:
+            raise _too_many(instance, j, max_candidates)
+        if deadline is not None and time.perf_counter() > deadline:
+            raise InputError(
+                f"orbit {instance.orbit_ids[j]!r}: time limit reached while generating "
+                f"candidate observations ({count} so far); give more time or use "
+                "asa-dtc"
+            )
+    return _pack(instance, j, out_roll, out_sizes, out_members)
+
+
+def _pack(
+    instance: Instance,
+    j: int,
+    out_roll: list[np.ndarray],
+    out_sizes: list[np.ndarray],
+    out_members: list[np.ndarray],
+) -> OrbitCandidates:
+    """One orbit's candidates as read-only columns, windows (10) from the members."""
+    sizes = np.concatenate(out_sizes) if out_sizes else np.zeros(0, dtype=np.int64)
+    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=ptr[1:])
+    flat = np.concatenate(out_members) if out_members else np.zeros(0, dtype=np.int32)
+    roll = np.concatenate(out_roll) if out_roll else np.zeros(0)
+    # Windows (10) of all candidates at once: [min ts, max te] over the members.
+    if len(sizes):
+        starts = np.minimum.reduceat(instance.opp_start[flat], ptr[:-1]).astype(float)
+        ends_ = np.maximum.reduceat(instance.opp_end[flat], ptr[:-1]).astype(float)
+    else:
+        starts, ends_ = np.zeros(0), np.zeros(0)
+    opps = OppGroups(ptr, flat)
+    for column in (starts, ends_, roll, opps.ptr, opps.flat):
+        column.flags.writeable = False
+    log.debug("orbit %d: %d cluster candidates", j, len(sizes))
+    return OrbitCandidates(orbit=j, start=starts, end=ends_, roll=roll, opps=opps)
+
+
+def _start_candidates(
+    i: int,
+    ts: np.ndarray,
+    te: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    stop: int,
+    limit: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The candidates whose first opportunity is i (orbit positions), vectorised.
+
+    The same candidates, in the same order, as the reference loop
+    :func:`_generate_orbit_loop`: for each end l (in index order) the rolls of the common
+    range of i and l, those not dominated (:func:`_nondominated`) at l in their rank order.
+    Domination is decided without building each l's cover matrix:
+
+    * each opportunity k's roll range holds an interval ``[a_k, b_k]`` of the sorted rolls,
+      so ``cover_l(t)`` is not inside ``cover_l(q)`` iff some k with ``te_k <= te_l`` has
+      ``t`` in its interval and ``q`` not; with the opportunities in te order, ``viol[t, q]``
+      is the first such k, found for every pair (t, q) from the intervals by cumulative
+      minima, and ``cover_l(t) <= cover_l(q)`` iff ``viol[t, q] >= n_l`` (those with
+      ``te_k <= te_l``);
+    * the rolls of no larger |theta| than t form an interval around nadir, so "an earlier one
+      covers a superset" is a range maximum of ``viol[t, .]`` (sparse table) over that
+      interval cut to l's rolls, plus the one roll of equal |theta| (-theta), if any.
+
+    Returns
+    -------
+    tuple or None
+        ``(end_pos, roll, member_ptr, member_pos)``: per candidate the end opportunity and the
+        roll, and the covered opportunities (orbit positions, CSR); None when there are none.
+    """
+    w = np.arange(i, stop)
+    te_w, lo_w, hi_w = te[w], lo[w], hi[w]
+    end_ok = (te_w >= te[i] - EPS) & (te_w - ts[i] <= limit + EPS)
+    if not end_ok.any():
+        return None
+    rolls = np.unique(np.concatenate(([0.0], lo_w[lo_w > 0], hi_w[hi_w < 0])))
+    rolls = rolls[(rolls >= lo[i] - EPS) & (rolls <= hi[i] + EPS)]
+    n_t = len(rolls)
+    if n_t == 0:
+        return None
+    inside = (lo_w[:, None] <= rolls[None, :] + EPS) & (rolls[None, :] <= hi_w[:, None] + EPS)
+    n_k = len(w)
+    has = inside.any(axis=1)
+    a = np.where(has, inside.argmax(axis=1), n_t)  # interval [a_k, b_k] of rolls (empty: a > b)
+    b = np.where(has, n_t - 1 - inside[:, ::-1].argmax(axis=1), -1)
+    # opportunities in te order: position p of each, and n_l = how many have te <= te_l + EPS
+    by_te = np.argsort(te_w, kind="stable")
+    p_of = np.empty(n_k, dtype=np.int64)
+    p_of[by_te] = np.arange(n_k)
+    ends = np.flatnonzero(end_ok & has)
+    if ends.size == 0:
+        return None
+    n_l = np.searchsorted(te_w[by_te], te_w[ends] + EPS, side="right")
+    # viol[t, q]: first te position of a k with t in [a_k, b_k] and q outside (n_k: none)
+    big = n_k
+    m0 = np.full((n_t, n_t), big, dtype=np.int64)  # m0[a, b]: first k with interval (a, b)
+    hk = np.flatnonzero(has)
+    np.minimum.at(m0, (a[hk], b[hk]), p_of[hk])
+    # q < t: violators have a_k in (q, t] and b_k >= t
+    m = np.minimum.accumulate(m0[:, ::-1], axis=1)[:, ::-1]  # m[a, t] = min over b >= t
+    tri = np.arange(n_t)
+    m_up = np.where(tri[:, None] <= tri[None, :], m, big)  # keep a <= t
+    r = np.minimum.accumulate(m_up[::-1], axis=0)[::-1]  # r[a, t] = min over a' in [a, t]
+    viol = np.full((n_t, n_t), big, dtype=np.int64)
+    low = tri[:, None] > tri[None, :]  # (t, q) with q < t
+    tq_t, tq_q = np.nonzero(low)
+    viol[tq_t, tq_q] = r[tq_q + 1, tq_t]
+    # q > t: violators have b_k in [t, q) and a_k <= t
+    n0 = m0.T  # n0[b, a]
+    nn = np.minimum.accumulate(n0, axis=1)  # nn[b, t] = min over a <= t
+    n_dn = np.where(tri[:, None] >= tri[None, :], nn, big)  # keep b >= t
+    qq = np.minimum.accumulate(n_dn, axis=0)  # qq[b, t] = min over b' in [t, b]
+    tq_t, tq_q = np.nonzero(~low & (tri[:, None] != tri[None, :]))
+    viol[tq_t, tq_q] = qq[tq_q - 1, tq_t]
+    # sizes: cnt[t, n] = opportunities among the first n in te order whose range holds t
+    cnt = np.zeros((n_t, n_k + 1), dtype=np.int64)
+    np.cumsum(inside[by_te].T, axis=1, out=cnt[:, 1:])
+    # every (end, roll) pair with the roll in the end's range, ends in index order
+    a_l, b_l = a[ends], b[ends]
+    per = b_l - a_l + 1
+    pair_l = np.repeat(np.arange(len(ends)), per)
+    pair_t = _ragged(a_l, per)
+    nl = n_l[pair_l]
+    size = cnt[pair_t, nl]
+    cost = np.abs(rolls)
+    # rolls of strictly smaller |theta| than t: an interval [lo_t, hi_t] around nadir
+    order_abs = np.searchsorted(rolls, 0.0)
+    lo_t = np.searchsorted(rolls, -cost, side="right")
+    hi_t = np.searchsorted(rolls, cost, side="left") - 1
+    del order_abs
+    qa = np.maximum(lo_t[pair_t], a_l[pair_l])
+    qb = np.minimum(hi_t[pair_t], b_l[pair_l])
+    dropped = np.zeros(len(pair_t), dtype=bool)
+    nonempty = qa <= qb
+    if nonempty.any():
+        best = _range_max_rows(viol, pair_t[nonempty], qa[nonempty], qb[nonempty])
+        dropped[nonempty] = best >= nl[nonempty]
+    # the roll of equal |theta| (-theta), if in the grid and in l's range
+    mirror = np.searchsorted(rolls, -rolls)
+    mirror = np.where(
+        (mirror < n_t) & (rolls[np.minimum(mirror, n_t - 1)] == -rolls) & (rolls != 0), mirror, -1
+    )
+    q = mirror[pair_t]
+    has_q = (q >= a_l[pair_l]) & (q <= b_l[pair_l]) & (q >= 0)
+    if has_q.any():
+        idx = np.flatnonzero(has_q)
+        qi, ti = q[idx], pair_t[idx]
+        size_q = cnt[qi, nl[idx]]
+        earlier = (size_q > size[idx]) | ((size_q == size[idx]) & (qi < ti))
+        dropped[idx] |= earlier & (viol[ti, qi] >= nl[idx])
+    keep = np.flatnonzero(~dropped)
+    # per end, the kept rolls in rank order (|theta|, then larger cover, then roll index)
+    keep = keep[np.lexsort((pair_t[keep], -size[keep], cost[pair_t[keep]], pair_l[keep]))]
+    kl, kt = pair_l[keep], pair_t[keep]
+    # members: k with the roll in range and te_k <= te_l + EPS, in index order
+    cover = inside[:, kt].T & (te_w[None, :] <= te_w[ends[kl]][:, None] + EPS)
+    rows, cols = np.nonzero(cover)
+    ptr = np.zeros(len(kt) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=len(kt)), out=ptr[1:])
+    return w[ends[kl]], rolls[kt], ptr, w[cols]
+
+
+def _ragged(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(s, s + n) ...])`` (sizes >= 1)."""
+    total = int(sizes.sum())
+    out = np.ones(total, dtype=np.int64)
+    first = np.cumsum(sizes) - sizes
+    out[first[0]] = starts[0]
+    if len(starts) > 1:
+        out[first[1:]] = starts[1:] - (starts[:-1] + sizes[:-1] - 1)
+    return np.cumsum(out)
+
+
+def _range_max_rows(
+    mat: np.ndarray, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """``max(mat[r, lo:hi + 1])`` for each query (lo <= hi), by a sparse table per row."""
+    n = mat.shape[1]
+    tables = [mat]
+    span = 1
+    while 2 * span <= n:
+        prev = tables[-1]
+        width = prev.shape[1]  # n - span + 1 windows of length span
+        tables.append(np.maximum(prev[:, : width - span], prev[:, span:]))  # length 2 * span
+        span *= 2
+    length = hi - lo + 1
+    level = np.floor(np.log2(length)).astype(np.int64)
+    out = np.empty(len(rows), dtype=mat.dtype)
+    for lev in np.unique(level):
+        sel = level == lev
+        tab = tables[lev]
+        width = 1 << int(lev)
+        r, a_, b_ = rows[sel], lo[sel], hi[sel]
+        out[sel] = np.maximum(tab[r, a_], tab[r, b_ - width + 1])
+    return out
+
+
+def _generate_orbit_loop(
+    instance: Instance, j: int, deadline: float | None, max_candidates: int | None
+) -> OrbitCandidates:
+    """The reference for :func:`_generate_orbit`: one end and one cover matrix at a time
+    (the tests check that both give the same candidates in the same order)."""
     sl = instance.orbit_opps(j)
     out_roll: list[np.ndarray] = []
     out_sizes: list[np.ndarray] = []
@@ -430,22 +676,7 @@ def _generate_orbit(
                 f"candidate observations ({count} so far); give more time or use "
                 "asa-dtc"
             )
-    sizes = np.concatenate(out_sizes) if out_sizes else np.zeros(0, dtype=np.int64)
-    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=ptr[1:])
-    flat = np.concatenate(out_members) if out_members else np.zeros(0, dtype=np.int32)
-    roll = np.concatenate(out_roll) if out_roll else np.zeros(0)
-    # Windows (10) of all candidates at once: [min ts, max te] over the members.
-    if len(sizes):
-        starts = np.minimum.reduceat(instance.opp_start[flat], ptr[:-1]).astype(float)
-        ends_ = np.maximum.reduceat(instance.opp_end[flat], ptr[:-1]).astype(float)
-    else:
-        starts, ends_ = np.zeros(0), np.zeros(0)
-    opps = OppGroups(ptr, flat)
-    for column in (starts, ends_, roll, opps.ptr, opps.flat):
-        column.flags.writeable = False
-    log.debug("orbit %d: %d cluster candidates", j, len(sizes))
-    return OrbitCandidates(orbit=j, start=starts, end=ends_, roll=roll, opps=opps)
+    return _pack(instance, j, out_roll, out_sizes, out_members)
 
 
 def flatten(groups: Sequence[Sequence[int]]) -> tuple[np.ndarray, np.ndarray]:

@@ -329,9 +329,10 @@ def _arrange(
 def _end_targets(
     instance: Instance, members: OppGroups, start: np.ndarray, end: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per group of opportunities: the target of a member whose window starts at ``start``
-    and of one whose window ends at ``end`` (the group's window (10)); -1 where there is none
-    (a window longer than its members', which the pruning then leaves alone). int32."""
+    """Per group of opportunities: the target of the one member whose window starts at
+    ``start``, and of the one whose window ends at ``end`` (the group's window (10)); -1
+    where there is no such member or more than one (dropping that member would not shrink
+    the window), which the pruning then leaves alone. int32."""
     ptr, flat = members.ptr, members.flat
     if len(ptr) == 1:
         return np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.int32)
@@ -345,7 +346,8 @@ def _end_targets(
         hit = times[flat] == np.repeat(bound, sizes)
         none = len(flat) if pick is np.minimum else -1
         where = pick.reduceat(np.where(hit, np.arange(len(flat)), none), ptr[:-1])
-        found = (where >= 0) & (where < len(flat))
+        once = np.add.reduceat(hit.astype(np.int64), ptr[:-1]) == 1
+        found = once & (where >= 0) & (where < len(flat))
         t = np.full(len(sizes), -1, dtype=np.int32)
         t[found] = tgt[flat[where[found]]]
         out.append(t)
@@ -455,15 +457,18 @@ def _useful(o: OrbitItems, gain: np.ndarray, price: np.ndarray) -> np.ndarray:
 
     * a position covering nothing worth anything: removing an observation from a plan keeps
       (3)-(6) and never adds energy (``docs/model.md``);
-    * one whose first or last opportunity (the ones at its window's ends) is worth nothing:
-      the other members' nadir-closest common roll has no larger |theta| and their window
-      (10) lies inside, so a candidate with that window and roll covering them all exists
-      (the candidates are all such observations up to domination) and is worth as much with
-      a (3) interval inside this one's and no larger penalties;
+    * one whose first or last opportunity (the only one at that end of its window) is worth
+      nothing: the other members' nadir-closest common roll has no larger |theta| and their
+      window (10) lies strictly inside, so a candidate with that window and roll covering
+      them all exists (the candidates are all such observations up to domination) and is
+      worth as much with a (3) interval inside this one's and no larger penalties;
     * one whose window holds a position of no larger |theta| (ties: the earlier) covering at
       least as much: the same window, so its (3) interval ``[ts - |theta| / v, te + a +
       |theta| / v)`` lies inside the dropped one's, its gain is no lower and its penalties
       no higher.
+
+    Each domination moves to a strictly smaller window or, within a window, to an earlier
+    position, so every dropped position has a kept one dominating it.
     """
     order, rank = o.windows
     g = gain[order]
