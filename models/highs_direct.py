@@ -45,6 +45,7 @@ import logging
 import os
 import sys
 import time
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -213,7 +214,12 @@ class _Rows:
 
 
 def build_arrays(
-    data: ModelData, *, relax: bool = False, conflicts: str = "network", slew: str = "exact"
+    data: ModelData,
+    *,
+    relax: bool = False,
+    conflicts: str = "network",
+    slew: str = "exact",
+    exact_orbits: Collection[int] | None = None,
 ) -> ArrayModel:
     """Assemble the model of ``data`` as arrays (the formulation of :mod:`models.formulation`).
 
@@ -236,6 +242,12 @@ def build_arrays(
         ``"conservative"``, for heuristic sub-problems only: the same row with right-hand side
         E, i.e. every slew counted twice, which over-estimates (4) (its solutions are
         feasible, some feasible ones are cut).
+    exact_orbits
+        With ``slew="exact"``: the energy-binding orbits that get the exact term; the others
+        get the relaxed row (None: all of them). A model with some orbits relaxed is a
+        relaxation (its dual bound and optimum bound the problem); its solution is feasible
+        when it keeps (4) on the relaxed orbits (see :func:`models.solve.solve_milp`,
+        ``slew="lazy"``).
 
     Returns
     -------
@@ -249,11 +261,14 @@ def build_arrays(
     n = data.n_items
     z_targets = np.array(list(data.target_items), dtype=np.int64) if data.coverage else None
     nz = 0 if z_targets is None else len(z_targets)
+    exact = [
+        j
+        for j in data.energy_orbits
+        if slew == "exact" and (exact_orbits is None or j in exact_orbits)
+    ]
     slew_items = (
-        np.concatenate(
-            [np.asarray(data.orbit_items[j], dtype=np.int64) for j in data.energy_orbits]
-        )
-        if data.energy_orbits and slew == "exact"
+        np.concatenate([np.asarray(data.orbit_items[j], dtype=np.int64) for j in exact])
+        if exact
         else np.zeros(0, dtype=np.int64)
     )
     ns = len(slew_items)
@@ -279,7 +294,7 @@ def build_arrays(
     _target_rows(rows, data, z_targets, off)
     _conflict_rows(rows, data, conflicts, off)
     _slew_order_rows(rows, data, slew_items, off)
-    _resource_rows(rows, data, slew_items, off, give_back=slew == "relaxed")
+    _resource_rows(rows, data, slew_items, off, give_back=slew != "conservative")
 
     # (1) objective
     if data.coverage:
@@ -407,8 +422,9 @@ def _resource_rows(
 ) -> None:
     """(4) energy with the exact slew term, (5) memory, (6) openings, one row per orbit.
 
-    Without slew variables (``slew`` empty) the energy row counts every slew twice and, with
-    ``give_back``, adds twice the orbit's largest slew to E (relaxed) or not (conservative).
+    On an orbit without slew variables (its items not in ``slew``) the energy row counts
+    every slew twice and, with ``give_back``, adds twice the orbit's largest slew to E
+    (relaxed) or not (conservative).
     """
     inst = d.instance
     dur = d.duration
@@ -419,7 +435,7 @@ def _resource_rows(
         eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
         h = es * half[seq]
         cap = float(inst.energy_capacity[j])
-        if not where:  # relaxed or conservative: every slew counted twice
+        if int(seq[0]) not in where:  # relaxed or conservative: every slew counted twice
             rhs = cap + 2 * h.max() if give_back else cap
             rows.add(np.zeros(len(seq)), seq, eo * dur[seq] + 2.0 * h, -np.inf, rhs, 1)
             continue

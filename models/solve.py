@@ -395,7 +395,9 @@ def solve_milp(
         HiGHS's algorithm for the LP relaxation (``relax=True`` only): ``"choose"`` (HiGHS
         decides), ``"simplex"``, ``"ipm"`` (interior point with crossover) or ``"pdlp"``.
     slew
-        The slew term of (4): ``"exact"`` or, with ``relax=True`` only, ``"relaxed"`` (one
+        The slew term of (4): ``"exact"``; ``"lazy"`` (MILP, direct backend; the exact term
+        added only on the orbits where a solution breaks (4), see :func:`_run_lazy`; exact
+        with the Pyomo backend); or, with ``relax=True`` only, ``"relaxed"`` (one
         row per orbit that over-estimates nothing, see :func:`models.highs_direct.build_arrays`;
         a weaker but much smaller LP; direct backend) or ``"auto"`` (relaxed for an LP that
         ``backend="auto"`` gives the direct backend, else exact).
@@ -419,8 +421,10 @@ def solve_milp(
     if probing not in ("auto", "on", "off"):
         raise InputError(f"probing: expected one of auto, on, off, got {probing!r}")
     use_probing = probing == "on" or (probing == "auto" and time_limit is None)
-    if slew not in ("exact", "relaxed", "auto"):  # "conservative" is for milp-lns only
-        raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
+    if slew not in ("exact", "relaxed", "auto", "lazy"):  # "conservative": milp-lns only
+        raise InputError(f"slew: expected one of exact, lazy, relaxed, auto, got {slew!r}")
+    if slew == "lazy" and relax:
+        raise InputError("slew: 'lazy' is for MILP solves (an LP takes relaxed or exact)")
     if slew == "relaxed" and not relax:
         raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
     if slew == "relaxed" and backend == "pyomo":
@@ -457,6 +461,8 @@ def solve_milp(
     if slew == "auto":  # the small relaxed LP where the direct backend is chosen anyway
         slew = "relaxed" if relax and choose_backend(data, backend) == "highs" else "exact"
     backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
+    if slew == "lazy" and backend == "pyomo":
+        slew = "exact"  # the reference builder has the exact term only
     stats.update(
         {"backend": backend, "candidates": data.n_items, "cliques": data.n_events, "cap": cap}
     )
@@ -615,12 +621,95 @@ def _solve(
     backend: str,
     stats: dict[str, Any],
 ) -> _Outcome:
+    if backend == "highs" and slew == "lazy":
+        return _run_lazy(data, t0, deadline, mip_gap, threads, start, conflicts, probing, stats)
     if backend == "highs":
         return _run_direct(
             data, t0, deadline, mip_gap, threads, start, relax, conflicts, lp_solver, slew,
             probing, stats,
         )  # fmt: skip
     return _run_pyomo(data, t0, deadline, mip_gap, threads, start, relax, lp_solver, probing, stats)
+
+
+def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
+    """Orbits where the chosen items break (4) with its exact slew term (consecutive pairs).
+
+    Only orbits whose energy can bind (``data.energy_orbits``) are checked; a 1e-9 margin
+    keeps clear of the validator's tolerance.
+    """
+    inst = data.instance
+    taken = np.asarray(sorted(chosen), dtype=np.int64)
+    bad: set[int] = set()
+    if not len(taken):
+        return bad
+    for j in data.energy_orbits:
+        u = taken[data.orbit[taken] == j]
+        if not len(u):
+            continue
+        u = u[np.argsort(data.start[u], kind="stable")]
+        s = np.abs(data.roll[u]) / float(inst.slew_rate[j])
+        slew = 2.0 * float(s.sum()) - float(s[0]) - float(s[-1])
+        energy = float(inst.observe_energy_rate[j]) * float(data.duration[u].sum())
+        energy += float(inst.slew_energy_rate[j]) * slew
+        if energy > float(inst.energy_capacity[j]) + 1e-9:
+            bad.add(int(j))
+    return bad
+
+
+def _run_lazy(
+    data: ModelData,
+    t0: float,
+    deadline: float | None,
+    mip_gap: float | None,
+    threads: int | None,
+    start: list[int] | None,
+    conflicts: str,
+    probing: bool,
+    stats: dict[str, Any],
+) -> _Outcome:
+    """The MILP with the exact slew term of (4) added only where a solution needs it.
+
+    Round 1 gives every energy-binding orbit the relaxed row of
+    :func:`models.highs_direct.build_arrays` (one row, no slew columns: a relaxation, so its
+    dual bound bounds the problem). When the solution keeps (4) on every orbit it is feasible,
+    and optimal when the round was. Otherwise the orbits it breaks get the exact term and the
+    model is solved again, started from the best feasible schedule so far (the solution
+    without the observations of the broken orbits, or the warm start). Every round's dual
+    bound is valid; the least is returned.
+    """
+    exact: set[int] = set()
+    best = list(start) if start is not None else None
+    best_value = _items_value(data, best)
+    dual: float | None = None
+    rounds = 0
+    while True:
+        rounds += 1
+        kind, incumbent, raw, chosen = _run_direct(
+            data, t0, deadline, mip_gap, threads, best, False, conflicts, "choose", "exact",
+            probing, stats, exact_orbits=exact,
+        )  # fmt: skip
+        if raw is not None:
+            dual = raw if dual is None else min(dual, raw)
+        stats.update({"lazy_rounds": rounds, "lazy_exact_orbits": len(exact)})
+        if chosen is None:
+            return kind, (best_value if best else None), dual, best
+        bad = energy_violations(data, chosen)
+        if not bad and _items_value(data, chosen) + INT_TOL >= best_value:
+            return kind, incumbent, dual, chosen
+        if not bad:  # stopped early below a schedule of an earlier round
+            return kind, best_value, dual, best
+        kept = [u for u in chosen if int(data.orbit[u]) not in bad]  # feasible: (4) elsewhere
+        if _items_value(data, kept) > best_value:
+            best, best_value = kept, _items_value(data, kept)
+        exact |= bad
+        if deadline is not None and time.perf_counter() >= deadline:
+            return "time_limit", (best_value if best else None), dual, best
+
+
+def _items_value(data: ModelData, chosen: list[int] | None) -> float:
+    if not chosen:
+        return 0.0
+    return items_to_schedule(data.instance, data, chosen).coverage_profit(data.instance)[0]
 
 
 _Outcome = tuple[str, float | None, float | None, list[int] | None]
@@ -639,6 +728,7 @@ def _run_direct(
     slew: str,
     probing: bool,
     stats: dict[str, Any],
+    exact_orbits: set[int] | None = None,
 ) -> _Outcome:
     """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`).
 
@@ -648,7 +738,9 @@ def _run_direct(
     from models.highs_direct import build_arrays, run_highs, start_vector
 
     t1 = time.perf_counter()
-    am = build_arrays(data, relax=bool(relax), conflicts=conflicts, slew=slew)
+    am = build_arrays(
+        data, relax=bool(relax), conflicts=conflicts, slew=slew, exact_orbits=exact_orbits
+    )
     stats["slew"] = slew
     stats["build_s"] = round(time.perf_counter() - t0, 6)  # everything before the arrays too
     stats["arrays_s"] = round(time.perf_counter() - t1, 6)
