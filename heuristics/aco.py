@@ -39,8 +39,9 @@ Local search (ACO-LS-STC)
     applied to the iteration-best ant before the update (Lamarckian: its improved paths
     deposit): first-improvement exchange moves, :func:`local_search`.
 Stopping
-    after ``iterations`` colony iterations or at ``time_limit``; the rng passed in is the only
-    randomness, so the same seed and iterations give the same schedule.
+    after ``iterations`` colony iterations, at ``time_limit``, or on a stop request
+    (:mod:`sosp.stop`, checked after each ant, which also reports progress); the rng passed
+    in is the only randomness, so the same seed and iterations give the same schedule.
 """
 
 from __future__ import annotations
@@ -57,7 +58,9 @@ from sosp import rules
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
+from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -366,7 +369,7 @@ def exchange(sol: Selection, x: int, rank: np.ndarray) -> bool:
         for t in removed:
             for k in data.targets[t]:
                 if sol.cover[k] == 0:
-                    refill.update(data.target_tasks[k])
+                    refill.update(u for u in data.target_tasks[k] if data.position[u] >= 0)
         sol.fill(sorted(refill, key=lambda t: rank[t]))
     if sol.profit > before:
         return True
@@ -425,6 +428,8 @@ def run_aco(
     best_profit, best_iter, since, restarts, ls_moves = -1, 0, 0, 0, 0
     it = 0
     stop = False
+    # progress and stop requests (sosp.stop), checked after each ant
+    halt, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
     while it < p.iterations and graph.orbits and not stop:
         it += 1
         iter_best: Selection | None = None
@@ -432,7 +437,9 @@ def run_aco(
             ant = construct(graph, p, rng)
             if iter_best is None or ant.profit > iter_best.profit:
                 iter_best = ant
-            if deadline is not None and clock() > deadline:
+            seen.iteration, seen.since_best = it, since
+            seen.best = float(max(best_profit, iter_best.profit))
+            if (deadline is not None and clock() > deadline) or halt(seen):
                 stop = True
                 break
         assert iter_best is not None

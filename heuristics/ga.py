@@ -29,8 +29,9 @@ Replacement
 Initial population
     each member adds the tasks in a random order, each when it earns and fits (no duplicates).
 Stopping
-    after ``iterations`` children or at ``time_limit``; the rng passed in is the only
-    randomness, so the same seed and iterations give the same schedule.
+    after ``iterations`` children, at ``time_limit``, or on a stop request (:mod:`sosp.stop`,
+    which also reports progress); the rng passed in is the only randomness, so the same seed
+    and iterations give the same schedule.
 """
 
 from __future__ import annotations
@@ -46,7 +47,9 @@ from heuristics.stc import Selection, StcData, check_int, params_from_kwargs, st
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
+from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -202,15 +205,22 @@ def solve_ga_stc(
         seen.add(key)
         pop.append(bits)
         fit.append(f)
-        if deadline is not None and clock() > deadline:
+        if (deadline is not None and clock() > deadline) or Interrupted()():
             break
     fitness = np.array(fit, dtype=np.int64)
     best_i = int(np.argmax(fitness))
     best_bits, best_fit, best_child = pop[best_i], int(fitness[best_i]), 0
     children = duplicates = 0
+    # progress and stop requests (sosp.stop), checked before every 8th child
+    halt, status = FirstOf(current_progress(), Interrupted()), SearchStatus()
     while children < p.iterations and len(pop) >= 2:
         if deadline is not None and clock() > deadline:
             break
+        if (children & 7) == 0:
+            status.iteration, status.since_best = children, children - best_child
+            status.best = best_fit
+            if halt(status):
+                break
         children += 1
         a = tournament(fitness, p.tournament, rng)
         b = tournament(fitness, p.tournament, rng)

@@ -163,3 +163,23 @@ def test_params_from_command_line_strings() -> None:
 def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
     with pytest.raises(InputError, match=field):
         GAParams.from_kwargs(**kwargs)
+
+
+def test_a_stop_request_ends_the_ga_with_its_best() -> None:
+    from sosp.progress import Progress
+    from sosp.result import Status
+    from sosp.scenarios import generate_scenario
+    from sosp.stop import clear_stop, request_stop
+
+    inst = generate_scenario("C1", 0)
+
+    def cb(snap) -> None:  # noqa: ANN001
+        if snap.elapsed > 0.3:
+            request_stop("test")
+
+    try:
+        res = solve(inst, "ga-stc", seed=1, iterations=10**9, progress=Progress(cb, interval=0.05))
+    finally:
+        clear_stop()
+    assert res.status is Status.INTERRUPTED and res.iterations < 10**9
+    assert validate(inst, res.schedule).feasible and res.profit > 0
