@@ -21,8 +21,10 @@ Figures (PNG, matplotlib with the Agg backend), one panel per scenario group:
 * ``fig4_profit_memory.png`` and ``fig5_profit_energy.png``: profit/memory and profit/energy
   ratios of the same methods (Figs. 4-5).
 
-When methods are missing the report degrades: their columns are omitted, Figures 3-5 show the
-clustering variants that exist (or every method) and ``report.md`` says so in a note.
+Legends sit below the panels, outside the data. When methods are missing the report degrades:
+their columns are omitted, Figures 3-5 show the clustering variants that exist, a method's
+line needs runs on two scenarios of a group (one point is not a line), and a figure with
+nothing to draw is left out; ``report.md`` says so in a note.
 Failed runs (status ``error``) and schedules the validator rejects are left out of every
 mean and counted in the notes.
 """
@@ -473,36 +475,93 @@ def _save_png(fig: Any, path: Path) -> None:
         fig.savefig(tmp, dpi=110, format="png")
 
 
-def _figure(
-    summary: Summary, methods: list[str], measure: str, ylabel: str, title: str, path: Path
-) -> None:
-    import matplotlib
+#: Scenarios a method needs in a panel for its line: one point is not a line.
+MIN_POINTS = 2
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+#: Panel titles by scenario group.
+PANELS = {"B": "(a) first group", "C": "(b) second group", "": "other scenarios"}
 
-    groups = [g for g in ("B", "C", "") if any(scenario_group(s) == g for s in summary.scenarios)]
-    fig, axes = plt.subplots(1, len(groups), figsize=(6.0 * len(groups), 4.2), squeeze=False)
-    for ax, g in zip(axes[0], groups, strict=True):
+
+def figure_series(
+    summary: Summary, methods: list[str], measure: str
+) -> tuple[dict[str, dict[str, list[float]]], list[str]]:
+    """What a figure can draw: per scenario group, per method, ``measure`` per scenario of
+    the group (NaN where the method has no valid run), for the methods with at least
+    :data:`MIN_POINTS` scenarios in the group; and notes naming the lines left out.
+
+    A group none of whose methods has enough scenarios has no panel; a figure without any
+    panel is not drawn (:func:`write_report` says so in a note).
+    """
+    panels: dict[str, dict[str, list[float]]] = {}
+    left_out: list[str] = []
+    for g in ("B", "C", ""):
         scen = [s for s in summary.scenarios if scenario_group(s) == g]
-        x = list(range(len(scen)))
+        if not scen:
+            continue
+        lines: dict[str, list[float]] = {}
         for m in methods:
             ys = []
             for s in scen:
                 c = summary.cells.get((s, m))
                 ys.append(getattr(c, measure) if c and c.n else math.nan)
-            if all(math.isnan(y) for y in ys):
-                continue
-            ax.plot(x, ys, marker="o", label=m)
+            points = sum(not math.isnan(y) for y in ys)
+            if points >= MIN_POINTS:
+                lines[m] = ys
+            elif points:
+                left_out.append(f"{m} in {PANELS[g]} (runs on {points} scenario)")
+        if lines:
+            panels[g] = lines
+    notes = []
+    if left_out:
+        notes.append(f"lines left out (fewer than {MIN_POINTS} scenarios): {', '.join(left_out)}")
+    return panels, notes
+
+
+def _figure(
+    summary: Summary,
+    panels: dict[str, dict[str, list[float]]],
+    ylabel: str,
+    title: str,
+    path: Path,
+) -> None:
+    """Draw ``panels`` (:func:`figure_series`) side by side, one legend for all of them
+    below the panels (outside the data), and write the PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = list(panels)
+    fig, axes = plt.subplots(
+        1,
+        len(groups),
+        figsize=(6.0 * len(groups), 4.6),
+        squeeze=False,
+        layout="constrained",
+    )
+    handles: dict[str, Any] = {}
+    methods = [m for g in groups for m in panels[g]]
+    colour = {m: f"C{i}" for i, m in enumerate(dict.fromkeys(methods))}
+    for ax, g in zip(axes[0], groups, strict=True):
+        scen = [s for s in summary.scenarios if scenario_group(s) == g]
+        x = list(range(len(scen)))
+        for m, ys in panels[g].items():
+            (line,) = ax.plot(x, ys, marker="o", label=m, color=colour[m])
+            handles.setdefault(m, line)
         ax.set_xticks(x, scen, rotation=45 if len(scen) > 10 else 0)
         ax.set_xlabel("scenario")
         ax.set_ylabel(ylabel)
-        sub = {"B": "(a) first group", "C": "(b) second group", "": "other scenarios"}[g]
-        ax.set_title(sub)
+        ax.set_title(PANELS[g])
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    fig.legend(
+        list(handles.values()),
+        list(handles),
+        loc="outside lower center",
+        ncol=min(len(handles), 4),
+        fontsize=8,
+        frameon=False,
+    )
     fig.suptitle(title)
-    fig.tight_layout()
     _save_png(fig, path)
     plt.close(fig)
 
@@ -563,9 +622,7 @@ def write_report(
         have = {m.split("[")[0].split("@")[0] for m in clustering}
         absent = [m for m in CLUSTERING if m not in have]
         notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
-    fig_methods = clustering or summary.methods
-    if not clustering:
-        notes.append("Figures 3-5 show every method instead of the ASA clustering variants")
+    fig_methods = clustering
     fig2 = [m for m in (_fig2_label(summary.methods, x) for x in FIG2) if m]
     if len(fig2) < len(FIG2):
         absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
@@ -573,7 +630,7 @@ def write_report(
     figs = [
         (
             "fig2_methods.png",
-            fig2 or summary.methods,
+            fig2,
             "mean_profit",
             "mean profit",
             "Fig. 2: methods",
@@ -601,7 +658,18 @@ def write_report(
         ),
     ]
     for name, ms, measure, ylabel, title in figs:
-        _figure(summary, ms, measure, ylabel, title, out / name)
+        panels, fnotes = figure_series(summary, ms, measure)
+        short = title.split(":")[0]
+        notes += [f"{short}: {n}" for n in fnotes]
+        if not panels:
+            # not drawn from a single point or from other methods: said instead
+            why = f"no method ran on {MIN_POINTS} or more scenarios of a group"
+            if not ms:
+                why = "no runs of its methods"
+            notes.append(f"{short} ({name}) left out: {why}")
+            (out / name).unlink(missing_ok=True)  # no stale figure from an earlier report
+            continue
+        _figure(summary, panels, ylabel, title, out / name)
         files.append(name)
         md += [f"![{title}]({name})", ""]
     if notes:

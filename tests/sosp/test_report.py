@@ -129,21 +129,74 @@ def test_report_tables_match_the_database(db: Path, tmp_path: Path, capsys) -> N
     assert "1 failed run(s) left out" in report
 
 
-def test_report_figures_are_pngs_with_both_groups(db: Path, tmp_path: Path) -> None:
+FIGURES = (
+    "fig2_methods.png",
+    "fig3_clustering.png",
+    "fig4_profit_memory.png",
+    "fig5_profit_energy.png",
+)
+
+
+@pytest.fixture(scope="module")
+def fig_db(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two scenarios per group; asa-nontc ran on C1 alone (one point: no line)."""
+    path = tmp_path_factory.mktemp("figs") / "f.db"
+    with Store(path) as st:
+        run_campaign(campaign_from_options("B1,B2,C1,C2", "greedy", "1", "5"), st, workers=1)
+        fps = {i["scenario"]: i["fingerprint"] for i in st.instances()}
+        for s in ("B1", "B2", "C1", "C2"):
+            for k, m in enumerate(("asa-dtc", "asa-stc")):
+                for seed in (1, 2):
+                    st.put(_fake_row(s, fps[s], m, seed, 600.0 - 10 * k + seed))
+        st.put(_fake_row("C1", fps["C1"], "asa-nontc", 1, 500.0))
+    return path
+
+
+def test_report_figures_are_pngs_with_both_groups(fig_db: Path, tmp_path: Path, capsys) -> None:
     import matplotlib.image as mpimg
 
     out = tmp_path / "rep"
-    assert main(["report", str(db), "-o", str(out)]) == 0
-    for name in (
-        "fig2_methods.png",
-        "fig3_clustering.png",
-        "fig4_profit_memory.png",
-        "fig5_profit_energy.png",
-    ):
+    assert main(["report", str(fig_db), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    for name in FIGURES:
         img = mpimg.imread(out / name)
         assert img.shape[1] > img.shape[0] > 100  # two panels side by side
         assert img.std() > 0.01  # something drawn
     assert not list(out.glob(".*"))  # no temp files left behind
+    # asa-nontc's single point is no line: left out of Figs. 3-5 with a note
+    assert "asa-nontc in (b) second group (runs on 1 scenario)" in text
+    report = (out / "report.md").read_text()
+    assert all(f"]({name})" in report for name in FIGURES)
+
+
+def test_figures_from_a_single_scenario_are_left_out(db: Path, tmp_path: Path, capsys) -> None:
+    """One scenario per group: every line would be a single point, so no figure is drawn,
+    and report.md says why instead of linking it."""
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "fig2_methods.png").write_bytes(b"stale")  # from an earlier report
+    assert main(["report", str(db), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert not any((out / name).exists() for name in FIGURES)
+    report = (out / "report.md").read_text()
+    assert "![" not in report
+    for n, name in enumerate(FIGURES, start=2):
+        assert f"Fig. {n} ({name}) left out: no method ran on 2 or more scenarios" in report
+    assert "left out" in text
+
+
+def test_figure_series_keeps_lines_of_two_points_or_more(fig_db: Path) -> None:
+    from sosp.report import figure_series, summarise
+
+    summary = summarise(fig_db)
+    panels, notes = figure_series(summary, ["asa-dtc", "asa-nontc", "milp"], "mean_profit")
+    assert list(panels) == ["B", "C"]
+    assert list(panels["C"]) == ["asa-dtc"] and list(panels["B"]) == ["asa-dtc"]
+    assert panels["C"]["asa-dtc"] == pytest.approx([601.5, 601.5])
+    assert notes == [
+        "lines left out (fewer than 2 scenarios): asa-nontc in (b) second group "
+        "(runs on 1 scenario)"
+    ]
 
 
 def test_report_degrades_without_the_asa_methods(tmp_path: Path, capsys) -> None:
@@ -160,7 +213,10 @@ def test_report_degrades_without_the_asa_methods(tmp_path: Path, capsys) -> None
     paper = (out / "table4.csv").read_text().splitlines()[0].split(",")
     assert paper == ["SN", "EN", "TN", "sosp bound", "proven", "sosp best"]
     assert "no runs of aco-ls-stc" in text and "Fig. 2: no runs of asa-dtc" in text
-    assert (out / "fig5_profit_energy.png").stat().st_size > 0
+    # no ASA runs: Figs. 3-5 are left out (not drawn with other methods), said in a note;
+    # greedy ran on C2 alone, so Fig. 2 has no line either
+    assert not any((out / name).exists() for name in FIGURES)
+    assert "Fig. 5 (fig5_profit_energy.png) left out: no runs of its methods" in text
 
 
 def test_report_bad_input(tmp_path: Path, capsys) -> None:
