@@ -208,6 +208,8 @@ class Graph:
         self.local = np.full(len(data.tasks), -1, dtype=np.int64)
         self.horizon: dict[int, float] = {}
         self.origin: dict[int, float] = {}
+        self.left = {j: data.left[data.orbit_tasks[j]] for j in self.orbits}
+        self.right = {j: data.right[data.orbit_tasks[j]] for j in self.orbits}
         inst = data.instance
         for j in self.orbits:
             idx = data.orbit_tasks[j]
@@ -274,54 +276,63 @@ def tau_bounds(rho: float, p_best: float, n_arcs: int, candidates: int) -> tuple
 
 # ---------------------------------------------------------------------------- construction
 def construct(graph: Graph, p: ACOParams, rng: np.random.Generator) -> Selection:
-    """One ant's schedule: a path per orbit (random orbit order), see the module docstring."""
+    """One ant's schedule: a path per orbit (random orbit order), see the module docstring.
+
+    The candidates are the first ``candidates`` successors that earn something ((3) with the
+    current node is tested on the whole orbit at once with :func:`sosp.rules.may_precede`);
+    the drawn one is then checked against the knapsacks (4)-(6) by the orbit's timeline, and
+    a candidate that does not fit is removed and the choice made again among the others
+    (the same distribution as drawing among the fitting candidates only, with one timeline
+    check per step instead of one per candidate).
+    """
     data = graph.data
     sol = Selection(data)
-    left, right, cost = data.left, data.right, data.cost
+    cost, weight, targets, cover = data.cost, data.weight, data.targets, sol.cover
     for oi in rng.permutation(len(graph.orbits)):
         j = graph.orbits[int(oi)]
-        idx = data.orbit_tasks[j]
+        idx, lft, rgt = data.orbit_tasks[j], graph.left[j], graph.right[j]
         mat = graph.tau[j]
         h = graph.horizon[j]
+        line = sol.lines[j]
+        openings = line.rules.max_openings
         u = -1
         r_u = graph.origin[j]
-        while True:
+        while len(line) < openings:
             first = u + 1
-            if u < 0:
-                succ = np.arange(len(idx))
-            else:
-                succ = first + np.flatnonzero(rules.may_precede(r_u, left[idx[first:]]))
+            succ = first + np.flatnonzero(rules.may_precede(r_u, lft[first:]))
             cand: list[int] = []
             eta: list[float] = []
-            checks = []
-            for v in succ:
+            for v in succ.tolist():
                 t = int(idx[v])
-                g = sol.gain(t)
+                g = sum(weight[k] for k in targets[t] if cover[k] == 0)
                 if g <= 0:
                     continue
-                chk = sol.check(t)
-                if not chk.ok:
-                    if chk.reason == "6":  # openings used up: this orbit is done
-                        break
-                    continue
-                gap = p.gap_weight * max(0.0, float(left[t]) - r_u) / h
-                cand.append(int(v))
+                gap = p.gap_weight * max(0.0, float(lft[v]) - r_u) / h
+                cand.append(v)
                 eta.append(g / (float(cost[t]) + gap))
-                checks.append(chk)
                 if len(cand) >= p.candidates:
                     break
             if not cand:
                 break
             w = mat[u + 1, cand] ** p.alpha * np.asarray(eta) ** p.beta
-            if p.q0 > 0 and rng.random() < p.q0:
-                i = int(np.argmax(w))
-            else:
-                cum = np.cumsum(w)
-                i = int(np.searchsorted(cum, rng.random() * cum[-1], side="right"))
-                i = min(i, len(cand) - 1)
+            chk = None
+            while cand:
+                if p.q0 > 0 and rng.random() < p.q0:
+                    i = int(np.argmax(w))
+                else:
+                    cum = np.cumsum(w)
+                    i = int(np.searchsorted(cum, rng.random() * cum[-1], side="right"))
+                    i = min(i, len(cand) - 1)
+                chk = sol.check(int(idx[cand[i]]))
+                if chk.ok:
+                    break
+                del cand[i]
+                w = np.delete(w, i)
+            if not cand or chk is None or not chk.ok:
+                break
             t = int(idx[cand[i]])
-            sol.add(t, checks[i])
-            u, r_u = cand[i], float(right[t])
+            sol.add(t, chk)
+            u, r_u = cand[i], float(rgt[cand[i]])
     sol.commit()
     return sol
 
