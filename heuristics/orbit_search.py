@@ -73,6 +73,9 @@ class OrbitSearchParams:
     no_improve
         Stop after this many steps in a row without a new best (None: no limit from this
         rule; with no limit at all it is 500).
+    workers
+        Processes generating the orbits' candidate observations side by side (the search's
+        re-plans depend on one another and run in one process; the result is the same).
     """
 
     perturb_orbits: int = 2
@@ -80,11 +83,12 @@ class OrbitSearchParams:
     steal: float = 0.3
     iterations: int | None = None
     no_improve: int | None = None
+    workers: int = 1
 
     def __post_init__(self) -> None:
-        for name in ("perturb_orbits", "iterations", "no_improve"):
+        for name in ("perturb_orbits", "iterations", "no_improve", "workers"):
             value = getattr(self, name)
-            if value is None and name != "perturb_orbits":
+            if value is None and name not in ("perturb_orbits", "workers"):
                 continue
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
                 raise InputError(f"{name}: expected a positive integer, got {value!r}")
@@ -255,7 +259,7 @@ def solve_orbit_dp(
     iterations, no_improve = p.iterations, p.no_improve
     if iterations is None and no_improve is None and time_limit is None:
         no_improve = DEFAULT_NO_IMPROVE
-    data = orbit_data(instance, deadline)
+    data = orbit_data(instance, deadline, workers=p.workers)
     t_data = time.perf_counter() - t0
     search = OrbitSearch(data, rng)
     search.ascent(deadline)

@@ -19,7 +19,7 @@ import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.planner import OrbitData, best_path, flat_positions, orbit_data
+from sosp.planner import OrbitData, PlanPool, orbit_data
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +36,7 @@ def lagrangian_bound(
     time_limit: float | None = None,
     lower_bound: float | None = None,
     data: OrbitData | None = None,
+    workers: int = 1,
 ) -> dict[str, Any]:
     """Upper bound on the optimum (cluster model) by Lagrangian relaxation across orbits.
 
@@ -67,6 +68,9 @@ def lagrangian_bound(
         plan (:func:`heuristics.orbit_search.ascent_profit`).
     data
         Prepared candidates (built here when None).
+    workers
+        Processes for the candidates and for the orbits' plans of each step
+        (:class:`sosp.planner.PlanPool`; the bound is the same for any number).
 
     Returns
     -------
@@ -78,7 +82,8 @@ def lagrangian_bound(
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
     if data is None:
-        data = orbit_data(instance, None if time_limit is None else t0 + float(time_limit))
+        deadline = None if time_limit is None else t0 + float(time_limit)
+        data = orbit_data(instance, deadline, workers=workers)
     # a target no candidate covers adds nothing: its weight is left out of the bound
     p = np.zeros(instance.n_targets)
     seen = np.zeros(instance.n_targets, dtype=bool)
@@ -96,18 +101,18 @@ def lagrangian_bound(
     best = math.inf
     factor, stale, done = 1.0, 0, 0
     prev_dir: tuple[np.ndarray, np.ndarray] | None = None
+    pool = PlanPool(groups, workers)
     while done < iterations:
         done += 1
         value = float(np.maximum(p - mu, 0.0).sum())
         count = np.zeros(len(p))
         grad_lam = np.ones((len(groups), 2))
-        for g, o in enumerate(groups):
-            v, path = best_path(o, mu, lam[g, 0], lam[g, 1])
+        for g, (v, covered, used) in enumerate(pool.best_paths(mu, lam)):
             value += v + lam[g, 0] + lam[g, 1]
-            if len(path):
-                np.add.at(count, o.target_flat[flat_positions(o, path)], 1.0)
-                energy, memory = o.usage(path)
-                r = o.rules
+            if used is not None:
+                np.add.at(count, covered, 1.0)
+                energy, memory = used
+                r = groups[g].rules
                 grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
         if value < best - 1e-9:
             best, stale = value, 0
@@ -131,6 +136,7 @@ def lagrangian_bound(
     # never above the total weight of the targets some candidate covers (at most the total
     # observable weight): an unfinished subgradient run can end a unit or two above it
     bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
+    pool.close()
     log.info("lagrangian bound %g after %d steps", bound, done)
     return {
         "bound": bound,

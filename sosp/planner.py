@@ -593,3 +593,95 @@ def flat_positions(o: OrbitItems, path: np.ndarray) -> np.ndarray:
     """Indices into ``o.target_flat`` of the targets of the positions in ``path``."""
     ptr = o.target_ptr
     return np.concatenate([np.arange(ptr[u], ptr[u + 1]) for u in path])
+
+
+#: The orbits of the :class:`PlanPool` being forked (read by its worker processes).
+_POOL_ORBITS: tuple[OrbitItems, ...] = ()
+
+
+def _plans_of(
+    orbits: tuple[OrbitItems, ...], idx: list[int], price: np.ndarray, lam: np.ndarray
+) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
+    """:func:`best_path` of the orbits ``idx`` at ``price`` and their rows of ``lam``: per orbit
+    the value, the covered targets (with repeats) and the plan's (energy, memory) (None for the
+    empty plan)."""
+    out = []
+    for g in idx:
+        o = orbits[g]
+        v, path = best_path(o, price, float(lam[g, 0]), float(lam[g, 1]))
+        if len(path):
+            out.append((v, o.target_flat[flat_positions(o, path)], o.usage(path)))
+        else:
+            out.append((v, np.zeros(0, dtype=np.int32), None))
+    return out
+
+
+def _pool_task(
+    task: tuple[list[int], np.ndarray, np.ndarray],
+) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
+    idx, price, lam = task
+    return _plans_of(_POOL_ORBITS, idx, price, lam)
+
+
+class PlanPool:
+    """The best plans of every orbit at one price vector, in ``workers`` processes.
+
+    The orbits are shared with forked workers once (copy-on-write, nothing is pickled but
+    the prices and the penalties of each call), split into ``workers`` groups of about equal
+    size (positions), largest first. The results are those of one process, in orbit order,
+    whatever ``workers`` is. With ``workers`` 1, or where processes cannot be forked, the
+    plans are made here.
+
+    Parameters
+    ----------
+    orbits
+        The orbits (:attr:`OrbitData.orbits`).
+    workers
+        Processes.
+    """
+
+    def __init__(self, orbits: tuple[OrbitItems, ...], workers: int = 1) -> None:
+        import multiprocessing as mp
+
+        self.orbits = orbits
+        self.pool: Any = None
+        if workers > 1 and len(orbits) > 1 and "fork" in mp.get_all_start_methods():
+            global _POOL_ORBITS
+            _POOL_ORBITS = orbits
+            try:
+                self.pool = mp.get_context("fork").Pool(min(workers, len(orbits)))
+            finally:
+                _POOL_ORBITS = ()
+            loads = np.zeros(min(workers, len(orbits)))
+            groups: list[list[int]] = [[] for _ in loads]
+            for g in sorted(range(len(orbits)), key=lambda g: -orbits[g].size):
+                k = int(np.argmin(loads))
+                groups[k].append(g)
+                loads[k] += orbits[g].size + 1
+            self.groups = [sorted(x) for x in groups if x]
+
+    def best_paths(
+        self, price: np.ndarray, lam: np.ndarray
+    ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
+        """Per orbit (in order): :func:`best_path` value at ``price`` and penalties
+        ``lam[g]`` (energy, memory), the targets its plan covers (with repeats) and the plan's
+        (energy, memory), None for the empty plan."""
+        if self.pool is None:
+            return _plans_of(self.orbits, list(range(len(self.orbits))), price, lam)
+        parts = self.pool.map(_pool_task, [(idx, price, lam) for idx in self.groups])
+        out: list[Any] = [None] * len(self.orbits)
+        for idx, part in zip(self.groups, parts, strict=True):
+            for g, res in zip(idx, part, strict=True):
+                out[g] = res
+        return out
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.terminate()
+            self.pool = None
+
+    def __enter__(self) -> PlanPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -501,3 +501,33 @@ def test_pruning_keeps_the_optimum_on_crowded_orbits(
         value, path = best_path(o, price, *lam)
         assert value == pytest.approx(full, abs=1e-9)
         assert _penalised(o, path, price, *lam) == pytest.approx(value, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", [1, 7])
+def test_workers_give_the_same_bound_and_plans(seed: int) -> None:
+    """The Lagrangian bound and the orbits' plans are the same in two processes as in one."""
+    from sosp.planner import PlanPool
+
+    inst = random_tiny(seed)
+    one = lagrangian_bound(inst, iterations=40)
+    two = lagrangian_bound(inst, iterations=40, workers=2)
+    assert two["bound"] == one["bound"] and two["iterations"] == one["iterations"]
+    data = orbit_data(inst)
+    rng = np.random.default_rng(seed)
+    price = rng.uniform(0, 5, inst.n_targets)
+    lam = rng.uniform(0, 3, (len(data.orbits), 2))
+    with PlanPool(data.orbits, 1) as a, PlanPool(data.orbits, 2) as b:
+        for (va, ca, ua), (vb, cb, ub) in zip(
+            a.best_paths(price, lam), b.best_paths(price, lam), strict=True
+        ):
+            assert va == vb and np.array_equal(ca, cb) and ua == ub
+
+
+def test_orbit_dp_with_workers_finds_the_same_schedule() -> None:
+    inst = random_tiny(3)
+    one = solve(inst, "orbit-dp", seed=1, iterations=30)
+    two = solve(inst, "orbit-dp", seed=1, iterations=30, workers=2)
+    assert one.schedule.observations == two.schedule.observations
+    assert validate(inst, two.schedule).feasible
+    with pytest.raises(InputError, match="workers"):
+        OrbitSearchParams(workers=0)
