@@ -299,7 +299,10 @@ def construct(graph: Graph, p: ACOParams, rng: np.random.Generator) -> Selection
         r_u = graph.origin[j]
         while len(line) < openings:
             first = u + 1
-            succ = first + np.flatnonzero(rules.may_precede(r_u, lft[first:]))
+            if u < 0:  # from the source every task may come first
+                succ = np.arange(len(idx))
+            else:
+                succ = first + np.flatnonzero(rules.may_precede(r_u, lft[first:]))
             cand: list[int] = []
             eta: list[float] = []
             for v in succ.tolist():
