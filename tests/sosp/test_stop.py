@@ -215,3 +215,17 @@ def test_cli_signal_writes_the_best_so_far(
     )
     assert check.returncode == 0, check.stdout
     assert json.loads(check.stdout)["profit"] == data["profit"]
+
+
+@pytest.mark.slow
+def test_milp_on_the_highs_backend_stops_with_its_incumbent() -> None:
+    """HiGHS asks its interrupt callback (models.highs_direct) and stops at once when a stop
+    was requested; the incumbent (the warm start at least) is returned, ``interrupted``."""
+    inst = generate_scenario("C2", 0)  # a limit of 60 s is reached without a request
+    request_stop("test")
+    t0 = time.perf_counter()
+    result = solve(inst, "milp", backend="highs", time_limit=60)
+    assert time.perf_counter() - t0 < 40
+    assert result.status is Status.INTERRUPTED
+    assert result.stats["termination"] == "Interrupted by user"
+    assert result.profit > 0 and validate(inst, result.schedule).feasible
