@@ -39,7 +39,8 @@ Local search (ACO-LS-STC)
     applied to the iteration-best ant before the update (Lamarckian: its improved paths
     deposit): first-improvement exchange moves, :func:`local_search`.
 Stopping
-    after ``iterations`` colony iterations, at ``time_limit``, or on a stop request
+    after ``iterations`` colony iterations (default: none with a time limit, else
+    :data:`DEFAULT_ITERATIONS`), at ``time_limit``, or on a stop request
     (:mod:`sosp.stop`, checked after each ant, which also reports progress); the rng passed
     in is the only randomness, so the same seed and iterations give the same schedule.
 """
@@ -47,6 +48,7 @@ Stopping
 from __future__ import annotations
 
 import logging
+import sys
 import time
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -65,6 +67,9 @@ from sosp.stop import FirstOf, Interrupted, SearchStatus
 log = logging.getLogger(__name__)
 
 ROLL_RULES = ("midpoint", "nadir")
+
+#: Colony iterations when neither ``iterations`` nor a time limit is given.
+DEFAULT_ITERATIONS = 200
 
 
 @dataclass(frozen=True)
@@ -100,7 +105,8 @@ class ACOParams:
         Weight of the idle time skipped in the heuristic information (``docs/baselines.md``:
         1, 3, 10, 30 measured).
     iterations
-        Colony iterations (each: ``ants`` constructions, then the update).
+        Colony iterations (each: ``ants`` constructions, then the update); None: until the
+        time limit, or :data:`DEFAULT_ITERATIONS` when there is none.
     local_search
         Apply :func:`local_search` to the iteration-best ant (ACO-LS-STC).
     ls_passes
@@ -119,7 +125,7 @@ class ACOParams:
     candidates: int = 20
     q0: float = 0.9
     gap_weight: float = 10.0
-    iterations: int = 200
+    iterations: int | None = None
     local_search: bool = False
     ls_passes: int = 10
     roll_rule: str = "midpoint"
@@ -137,7 +143,7 @@ class ACOParams:
         check_int("candidates", self.candidates, 1)
         check_float("q0", self.q0, 0.0, 1.0)
         check_float("gap_weight", self.gap_weight, 0.0, 1e6)
-        check_int("iterations", self.iterations, 0)
+        check_int("iterations", self.iterations, 0, optional=True)
         check_int("ls_passes", self.ls_passes, 1)
         if not isinstance(self.local_search, bool):
             raise InputError(f"local_search: expected true or false, got {self.local_search!r}")
@@ -444,7 +450,11 @@ def run_aco(
     stop = False
     # progress and stop requests (sosp.stop), checked after each ant
     halt, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
-    while it < p.iterations and graph.orbits and not stop:
+    if p.iterations is not None:
+        max_iterations = p.iterations
+    else:
+        max_iterations = DEFAULT_ITERATIONS if time_limit is None else sys.maxsize
+    while it < max_iterations and graph.orbits and not stop:
         it += 1
         iter_best: Selection | None = None
         for _ in range(p.ants):

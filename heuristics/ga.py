@@ -29,7 +29,8 @@ Replacement
 Initial population
     each member adds the tasks in a random order, each when it earns and fits (no duplicates).
 Stopping
-    after ``iterations`` children, at ``time_limit``, or on a stop request (:mod:`sosp.stop`,
+    after ``iterations`` children (default: none with a time limit, else
+    :data:`DEFAULT_ITERATIONS`), at ``time_limit``, or on a stop request (:mod:`sosp.stop`,
     which also reports progress); the rng passed in is the only randomness, so the same seed
     and iterations give the same schedule.
 """
@@ -37,6 +38,7 @@ Stopping
 from __future__ import annotations
 
 import logging
+import sys
 import time
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -55,6 +57,9 @@ log = logging.getLogger(__name__)
 
 ROLL_RULES = ("midpoint", "nadir")
 
+#: Children generated when neither ``iterations`` nor a time limit is given.
+DEFAULT_ITERATIONS = 20000
+
 
 @dataclass(frozen=True)
 class GAParams:
@@ -69,7 +74,8 @@ class GAParams:
     mutation_bits
         Bits flipped in each child (Chu and Beasley: 2).
     iterations
-        Children generated (Chu and Beasley stop after 10^6 non-duplicate children).
+        Children generated (Chu and Beasley stop after 10^6 non-duplicate children); None:
+        until the time limit, or :data:`DEFAULT_ITERATIONS` when there is none.
     roll_rule
         Roll of multi-opportunity cluster-tasks: ``"midpoint"`` (9) or ``"nadir"``.
     """
@@ -77,14 +83,14 @@ class GAParams:
     population: int = 100
     tournament: int = 2
     mutation_bits: int = 2
-    iterations: int = 20000
+    iterations: int | None = None
     roll_rule: str = "midpoint"
 
     def __post_init__(self) -> None:
         check_int("population", self.population, 2)
         check_int("tournament", self.tournament, 1)
         check_int("mutation_bits", self.mutation_bits, 0)
-        check_int("iterations", self.iterations, 0)
+        check_int("iterations", self.iterations, 0, optional=True)
         if self.tournament > self.population:
             raise InputError(
                 f"tournament: must not exceed population ({self.population}), "
@@ -213,7 +219,11 @@ def solve_ga_stc(
     children = duplicates = 0
     # progress and stop requests (sosp.stop), checked before every 8th child
     halt, status = FirstOf(current_progress(), Interrupted()), SearchStatus()
-    while children < p.iterations and len(pop) >= 2:
+    if p.iterations is not None:
+        max_children = p.iterations
+    else:
+        max_children = DEFAULT_ITERATIONS if time_limit is None else sys.maxsize
+    while children < max_children and len(pop) >= 2:
         if deadline is not None and clock() > deadline:
             break
         if (children & 7) == 0:

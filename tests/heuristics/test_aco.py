@@ -237,3 +237,12 @@ def test_a_stop_request_ends_the_colony_with_its_best(method: str) -> None:
         clear_stop()
     assert res.status is Status.INTERRUPTED and 0 < res.iterations < 10**9
     assert validate(inst, res.schedule).feasible and res.profit > 0
+
+
+def test_iterations_default_to_the_time_limit_else_a_constant(monkeypatch) -> None:  # noqa: ANN001
+    import heuristics.aco as aco
+
+    monkeypatch.setattr(aco, "DEFAULT_ITERATIONS", 3)
+    inst = x_blocks_y_and_z()
+    assert solve(inst, "aco-stc", seed=0).iterations == 3
+    assert solve(inst, "aco-stc", seed=0, time_limit=0.3).iterations > 3

@@ -183,3 +183,12 @@ def test_a_stop_request_ends_the_ga_with_its_best() -> None:
         clear_stop()
     assert res.status is Status.INTERRUPTED and res.iterations < 10**9
     assert validate(inst, res.schedule).feasible and res.profit > 0
+
+
+def test_iterations_default_to_the_time_limit_else_a_constant(monkeypatch) -> None:  # noqa: ANN001
+    import heuristics.ga as ga
+
+    monkeypatch.setattr(ga, "DEFAULT_ITERATIONS", 7)
+    inst = x_blocks_y_and_z()
+    assert solve(inst, "ga-stc", seed=0, population=4).iterations == 7
+    assert solve(inst, "ga-stc", seed=0, population=4, time_limit=0.3).iterations > 7
