@@ -32,7 +32,7 @@ and the MILP LNS (:mod:`heuristics.lns`).
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -215,7 +215,12 @@ class OrbitData:
         return np.unique(np.concatenate(parts))
 
 
-def orbit_data(instance: Instance, deadline: float | None = None, workers: int = 1) -> OrbitData:
+def orbit_data(
+    instance: Instance,
+    deadline: float | None = None,
+    workers: int = 1,
+    roll: Callable[[OppGroups], np.ndarray] | None = None,
+) -> OrbitData:
     """Build :class:`OrbitData` from the cluster model's candidates.
 
     The candidates are generated orbit by orbit (:func:`sosp.candidates.orbit_candidates`)
@@ -231,15 +236,22 @@ def orbit_data(instance: Instance, deadline: float | None = None, workers: int =
         :class:`~sosp.errors.InputError`, see :func:`sosp.candidates.orbit_candidates`).
     workers
         Processes generating the orbits' candidates side by side (1: in this process).
+    roll
+        A rule giving each candidate another roll from its covered opportunities (as
+        :func:`with_rolls`, without arranging the candidates twice); None: the nadir-closest
+        point of their common range.
     """
     if workers > 1:
         from sosp.candidates import generate_in_processes
 
         generate_in_processes(instance, workers, deadline)
-    orbit, start, end, roll, opps = cluster_candidates(
+    orbit, start, end, nadir, opps = cluster_candidates(
         instance, max_candidates=None, deadline=deadline
     )
-    return _arrange(instance, orbit, start, end, roll, opps)
+    rolls = nadir if roll is None else np.asarray(roll(opps), dtype=float)
+    if rolls.shape != nadir.shape:
+        raise ValueError(f"roll: expected {nadir.shape[0]} values, got {rolls.shape}")
+    return _arrange(instance, orbit, start, end, rolls, opps)
 
 
 def with_rolls(data: OrbitData, roll: np.ndarray) -> OrbitData:

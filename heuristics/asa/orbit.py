@@ -53,6 +53,7 @@ re-planning neighbourhood, which takes this move with probability ``replan_orbit
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -64,7 +65,7 @@ from heuristics.asa.tabu import TabuList
 from sosp.candidates import flatten
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.planner import OrbitData, OrbitItems, best_feasible_path, orbit_data, with_rolls
+from sosp.planner import OrbitData, OrbitItems, best_feasible_path, orbit_data
 
 log = logging.getLogger(__name__)
 
@@ -72,14 +73,27 @@ log = logging.getLogger(__name__)
 def candidate_rolls(data: OrbitData, state: State) -> np.ndarray:
     """Roll of every candidate of ``data`` by the search's rule (the rule of
     :meth:`State.make_cluster` applied to the candidate's covered options)."""
+    return _rolls_of(data.opps, state)
+
+
+def _rolls_of(opps: Sequence[Sequence[int]], state: State) -> np.ndarray:
+    """:func:`candidate_rolls` from the candidates' covered options (the common range (8) by
+    blocks of candidates, so that millions of them need no gather of every member at once)."""
     pb = state.pb
-    n = data.n_items
+    n = len(opps)
     if n == 0:
         return np.zeros(0)
-    sizes, flat = flatten(data.opps)
+    sizes, flat = flatten(opps)
     starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-    lo = np.maximum.reduceat(np.asarray(pb.opt_lo)[flat], starts)
-    hi = np.minimum.reduceat(np.asarray(pb.opt_hi)[flat], starts)
+    opt_lo, opt_hi = np.asarray(pb.opt_lo), np.asarray(pb.opt_hi)
+    lo, hi = np.empty(n), np.empty(n)
+    block = 1 << 18
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        f0, f1 = int(starts[a]), int(starts[b - 1] + sizes[b - 1])
+        part = flat[f0:f1]
+        lo[a:b] = np.maximum.reduceat(opt_lo[part], starts[a:b] - f0)
+        hi[a:b] = np.minimum.reduceat(opt_hi[part], starts[a:b] - f0)
     roll = np.clip(0.0, lo, hi) if state.nadir else 0.5 * (lo + hi)
     single = sizes == 1
     roll[single] = np.asarray(state.single_roll)[flat[starts[single]]]
@@ -108,9 +122,10 @@ class OrbitPlanner:
     def __init__(self, instance: Instance, state: State, deadline: float | None) -> None:
         if state.pb.mode != "dtc":
             raise ValueError("whole-orbit re-planning needs dynamic clustering (asa-dtc)")
-        data = orbit_data(instance, deadline)
-        if not (state.nadir and state.nadir_singles):
-            data = with_rolls(data, candidate_rolls(data, state))
+        if state.nadir and state.nadir_singles:
+            data = orbit_data(instance, deadline)
+        else:  # the search's rolls, arranged once
+            data = orbit_data(instance, deadline, roll=lambda opps: _rolls_of(opps, state))
         self.data = data
         self.orbit_items: dict[int, OrbitItems] = {o.orbit: o for o in data.orbits}
         self.orbits = sorted(self.orbit_items)
