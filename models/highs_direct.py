@@ -54,6 +54,7 @@ import scipy.sparse as sp
 
 from models.data import ModelData
 from sosp.candidates import flatten
+from sosp.progress import current as current_progress
 from sosp.stop import stop_requested
 
 log = logging.getLogger("models.solve")
@@ -515,6 +516,14 @@ def _stop_if_requested(event: Any) -> None:
         event.interrupt()
 
 
+def _mip_check(event: Any) -> None:
+    """HiGHS's MIP interrupt callback: report the node count to the solve's progress (its
+    time and rate; a sub-MILP's bounds are not the problem's, so none are reported), then
+    :func:`_stop_if_requested`."""
+    current_progress().update(int(event.data_out.mip_node_count), None)
+    _stop_if_requested(event)
+
+
 def run_highs(
     am: ArrayModel,
     *,
@@ -601,7 +610,7 @@ def run_highs(
     use_threads(threads)
     # A stop request (sosp.stop: Ctrl-C / SIGTERM under the CLI) ends the solve at HiGHS's
     # next interrupt point with its incumbent, as a time limit would.
-    h.cbMipInterrupt += _stop_if_requested
+    h.cbMipInterrupt += _mip_check
     h.cbSimplexInterrupt += _stop_if_requested
     h.cbIpmInterrupt += _stop_if_requested
     t1 = time.perf_counter()
