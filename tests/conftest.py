@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import strategies as st
 
 from sosp.instance import Instance, Resources
 
@@ -72,3 +73,31 @@ TINY = {
 def tiny(request: pytest.FixtureRequest) -> Instance:
     """Each tiny named instance in turn."""
     return TINY[request.param]()
+
+
+# ------------------------------------------------------------------- the random-instance strategy
+@st.composite
+def small_instances(draw: st.DrawFn, max_opps: int = 9) -> Instance:
+    """Random tiny instances for property tests (every solver's and the validator's): one or
+    two orbits, up to five targets, up to ``max_opps`` opportunities, tight or loose
+    resources, small enough for the brute-force oracle (``tests/oracle.py``)."""
+    n_orbits = draw(st.integers(1, 2))
+    n_targets = draw(st.integers(1, 5))
+    weights = draw(st.lists(st.integers(2, 10), min_size=n_targets, max_size=n_targets))
+    n = draw(st.integers(1, max_opps))
+    rows = []
+    for _ in range(n):
+        k = draw(st.integers(0, n_targets - 1))
+        j = draw(st.integers(0, n_orbits - 1))
+        s = float(draw(st.integers(0, 120)))
+        d = float(draw(st.integers(1, 12)))
+        r = float(draw(st.integers(-33, 33)))
+        rows.append((k, j, s, s + d, r))
+    res = Resources(
+        energy_capacity=float(draw(st.sampled_from([40, 90, 1500]))),
+        memory_capacity=float(draw(st.sampled_from([15, 40, 1000]))),
+        max_openings=draw(st.integers(1, 4)),
+        max_duration=float(draw(st.sampled_from([10, 30, 120]))),
+        setup_time=float(draw(st.sampled_from([2, 10]))),
+    )
+    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits)

@@ -30,10 +30,16 @@ from heuristics.asa.problem import build_problem
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from sosp.errors import InputError
-from sosp.instance import Instance, Resources
+from sosp.instance import Instance
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
+from tests.conftest import (
+    small_instances,
+    tiny_chain,
+    tiny_cluster,
+    tiny_openings,
+    tiny_two_orbits,
+)
 from tests.oracle import brute_force
 
 METHODS = ("asa-dtc", "asa-stc", "asa-nontc")
@@ -55,31 +61,6 @@ def _opp(inst: Instance, target: str, orbit: int = 0) -> int:
 
 def _scheduled(state: State, inst: Instance) -> set[str]:
     return {inst.target_ids[u] for u in state.scheduled}
-
-
-# ----------------------------------------------------------------------------- random instances
-@st.composite
-def small_instances(draw: st.DrawFn, max_opps: int = 9) -> Instance:
-    n_orbits = draw(st.integers(1, 2))
-    n_targets = draw(st.integers(1, 5))
-    weights = draw(st.lists(st.integers(2, 10), min_size=n_targets, max_size=n_targets))
-    n = draw(st.integers(1, max_opps))
-    rows = []
-    for _ in range(n):
-        k = draw(st.integers(0, n_targets - 1))
-        j = draw(st.integers(0, n_orbits - 1))
-        s = float(draw(st.integers(0, 120)))
-        d = float(draw(st.integers(1, 12)))
-        r = float(draw(st.integers(-33, 33)))
-        rows.append((k, j, s, s + d, r))
-    res = Resources(
-        energy_capacity=float(draw(st.sampled_from([40, 90, 1500]))),
-        memory_capacity=float(draw(st.sampled_from([15, 40, 1000]))),
-        max_openings=draw(st.integers(1, 4)),
-        max_duration=float(draw(st.sampled_from([10, 30, 120]))),
-        setup_time=float(draw(st.sampled_from([2, 10]))),
-    )
-    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

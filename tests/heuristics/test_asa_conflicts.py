@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from sosp.conflicts import conflict_graph
 from sosp.instance import Instance
-from tests.heuristics.test_asa import small_instances
+from tests.conftest import small_instances
 
 
 def _brute(inst: Instance) -> set[tuple[int, int]]:

@@ -26,10 +26,10 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.heuristics.test_asa import commit_or_rollback, small_instances
+from tests.conftest import small_instances
+from tests.heuristics.test_asa import commit_or_rollback
 from tests.heuristics.test_asa_replan import _abc, _only
 from tests.oracle import brute_force
-
 
 #: The hand computations below use the paper's rolls (midpoint (9), singles at their own roll)
 #: unless a case says otherwise.

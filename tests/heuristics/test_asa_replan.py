@@ -22,7 +22,8 @@ from heuristics.asa.state import MEMBERS, State
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.heuristics.test_asa import commit_or_rollback, small_instances
+from tests.conftest import small_instances
+from tests.heuristics.test_asa import commit_or_rollback
 from tests.oracle import brute_force
 
 
