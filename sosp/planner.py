@@ -23,6 +23,14 @@ Prices of the covered targets are summed per observation: a target seen twice on
 (two passes) could be counted twice, which only over-estimates (harmless in a bound, and the
 heuristic counts real coverage).
 
+Dense orbits (thousands of opportunities, hundreds inside one Delta T) have hundreds of
+thousands of candidates. They are held as numpy columns (:class:`sosp.candidates.OppGroups`,
+no cap on their number), and on orbits of at least :data:`PRUNE_FROM` positions each pricing
+first keeps only the positions that can be in a best plan at these prices (:func:`_useful`:
+no gain, a worthless opportunity alone at an end of the window, or a same-window position of
+no larger |theta| worth as much are dominated); the recursion then runs on those, with the
+same optimum. :class:`PlanPool` plans every orbit at one price vector in worker processes.
+
 Built on the recursion: :func:`models.lagrangian.lagrangian_bound` (an upper bound with no LP
 solver), ``orbit-dp`` (:mod:`heuristics.orbit_search`, an iterated local search whose move is
 the exact re-planning of one orbit), ASA-DTC's whole-orbit move (:mod:`heuristics.asa.orbit`)
@@ -419,6 +427,16 @@ def best_path(
     if sub.keep is None:
         return _recursion(o.slew_s, o.duration, sub.gain, o.by_release, o.n_before, r, pe, pw)
     keep = sub.keep
+    rate = pe * r.observe_energy_rate + pw * r.memory_rate
+    if rate > 0 and len(keep):
+        # Under penalties a position worth no more than its observing penalty never helps a
+        # plan: its gain net of penalties plus the slew it gives back at either end,
+        # gain - rate * duration, is <= 0, so dropping it from any plan loses nothing.
+        worth = sub.gain > rate * o.duration[keep]
+        if np.count_nonzero(worth) < 0.8 * len(keep):
+            keep = keep[worth]
+            by_release, n_before = _restrict(o, keep)
+            sub = Priced(keep, sub.gain[worth], by_release, n_before)
     if len(keep) == 0:
         return 0.0, np.zeros(0, dtype=np.int64)
     value, path = _recursion(
@@ -455,9 +473,8 @@ def priced(o: OrbitItems, price: np.ndarray) -> Priced:
     gain = o.gains(price)
     if o.size >= PRUNE_FROM and o.start is not None:
         keep = _useful(o, gain, price)
-        if len(keep) < o.size:
-            by_release, n_before = _restrict(o, keep)
-            return Priced(keep, gain[keep], by_release, n_before)
+        by_release, n_before = _restrict(o, keep)
+        return Priced(keep, gain[keep], by_release, n_before)
     return Priced(None, gain, None, None)
 
 
