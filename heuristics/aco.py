@@ -162,6 +162,7 @@ class ACOParams:
 class ACOLSParams(ACOParams):
     ants: int = 10
     rho: float = 0.2
+    q0: float = 0.0
     local_search: bool = True
 
     @classmethod
@@ -195,6 +196,8 @@ ACOLSParams.__doc__ = _override(
     {
         "ants": "Ants per iteration (MMAS with local search: 10).",
         "rho": "Evaporation rate (MMAS with local search: 0.2).",
+        "q0": "Pseudo-random proportional rule (ACO-LS-STC: 0, MMAS's random proportional "
+        "rule alone: the local search intensifies, the ants keep diverse).",
         "local_search": "Apply local_search to the iteration-best ant (ACO-LS-STC: True).",
     },
 )

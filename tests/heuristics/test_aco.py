@@ -196,7 +196,7 @@ def test_params_from_command_line_strings() -> None:
     assert (p.ants, p.rho, p.local_search, p.alpha) == (5, 0.5, False, 2.0)
     assert isinstance(p.alpha, float)
     q = ACOLSParams.from_kwargs()
-    assert (q.ants, q.rho, q.local_search) == (10, 0.2, True)
+    assert (q.ants, q.rho, q.q0, q.local_search) == (10, 0.2, 0.0, True)
 
 
 @pytest.mark.parametrize(
