@@ -15,8 +15,8 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.solve import solve
 from sosp.validate import validate
+from tests.conftest import small_instances
 from tests.heuristics.test_aco import four_apart
-from tests.heuristics.test_asa import small_instances
 from tests.heuristics.test_hpfs import x_blocks_y_and_z
 from tests.oracle import brute_force
 
