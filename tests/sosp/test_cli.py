@@ -520,3 +520,21 @@ def test_param_docs_reads_numpydoc_entries() -> None:
         "params": "Keywords.",
     }
     assert param_docs("No sections.") == {}
+
+
+def test_unwritable_output_folder_is_refused_in_process(
+    capsys, tmp_path: Path, inst_file: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The permission branch of the -o check (root writes anywhere, so simulate the refusal)."""
+    import os
+
+    real_access = os.access
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    monkeypatch.setattr(
+        os, "access", lambda p, mode: False if Path(p) == ro else real_access(p, mode)
+    )
+    code, _, err = run(capsys, "solve", str(inst_file), "-o", str(ro / "s.json"))
+    assert code == 2 and err.count("\n") == 1
+    assert f"-o: cannot write to folder {ro} (permission denied)" in err
+    assert list(ro.iterdir()) == []
