@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from models.data import ModelData, prepare
+from models.data import ModelData, TimeUp, fits, prepare
 from sosp.candidates import cluster_candidates
 from sosp.instance import Instance
 
@@ -23,9 +23,12 @@ def cluster_data(instance: Instance, deadline: float | None = None) -> ModelData
 
     ``deadline`` (a :func:`time.perf_counter` value) stops the candidate generation with an
     :class:`~sosp.errors.InputError` when it passes (see
-    :func:`sosp.candidates.cluster_candidates`).
+    :func:`sosp.candidates.cluster_candidates`), and raises :class:`models.data.TimeUp` when
+    arranging them would not end before it.
     """
     orbit, start, end, roll, opps = cluster_candidates(instance, deadline=deadline)
+    if not fits("prepare", len(opps), deadline):
+        raise TimeUp("no time left to arrange the candidates")
     return prepare("cluster", instance, orbit, start, end, roll, opps, coverage=True)
 
 

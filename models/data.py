@@ -10,12 +10,15 @@ builder does no geometry and no search.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
 from models.cliques import clique_events, cliques_from_events, orbit_intervals
+from sosp.candidates import OppGroups
 from sosp.instance import Instance
 
 
@@ -30,9 +33,10 @@ class ModelData:
     orbit, start, end, roll
         Per item: orbit j, window [ts_u, te_u] (10), roll theta_u.
     opps
-        Per item, the sorted opportunity indices it covers.
+        Per item, the sorted opportunity indices it covers (a
+        :class:`~sosp.candidates.OppGroups`: indexing gives a tuple).
     targets
-        Per item, the sorted distinct targets it covers.
+        Per item, the sorted distinct targets it covers (an ``OppGroups`` of target indices).
     coverage
         True: a target's weight is counted once through z_k <= sum of the x covering it
         (cluster and static models, where an item covers several targets). False: the paper's
@@ -61,8 +65,8 @@ class ModelData:
     start: np.ndarray
     end: np.ndarray
     roll: np.ndarray
-    opps: tuple[tuple[int, ...], ...]
-    targets: tuple[tuple[int, ...], ...]
+    opps: Sequence[tuple[int, ...]]
+    targets: Sequence[tuple[int, ...]]
     coverage: bool
     weight: np.ndarray
     target_items: dict[int, tuple[int, ...]]
@@ -115,6 +119,26 @@ class ModelData:
         return np.array([int(self.weight[list(t)].sum()) for t in self.targets], dtype=np.int64)
 
 
+class TimeUp(Exception):
+    """The deadline passed, or would pass, while a model was being built (caught by
+    :mod:`models.solve`, which then reports what it has)."""
+
+
+#: Seconds per item of the building stages that cannot stop midway: twice what they took on
+#: C10's cluster model (176 610 items; 1.1e-5, 0.6e-5, 1.7e-5) with the 2 cores shared by
+#: other jobs (a load of 10): a stage whose estimate does not fit before the deadline is not
+#: started (:func:`fits`).
+SECONDS_PER_ITEM = {"prepare": 3.0e-5, "arrange": 2.0e-5, "build": 5.0e-5}
+
+
+def fits(stage: str, n_items: int, deadline: float | None) -> bool:
+    """Whether ``stage`` (a key of :data:`SECONDS_PER_ITEM`) on ``n_items`` items is expected
+    to end before ``deadline`` (a :func:`time.perf_counter` value; None: always)."""
+    if deadline is None:
+        return True
+    return time.perf_counter() + SECONDS_PER_ITEM[stage] * n_items < deadline
+
+
 def observable_weight(instance: Instance) -> float:
     """Total weight of the targets with at least one opportunity: a bound on (1) for free.
 
@@ -133,7 +157,7 @@ def prepare(
     start: np.ndarray,
     end: np.ndarray,
     roll: np.ndarray,
-    opps: tuple[tuple[int, ...], ...],
+    opps: Sequence[Sequence[int]],
     *,
     coverage: bool,
 ) -> ModelData:
@@ -158,12 +182,7 @@ def prepare(
     start = np.asarray(start, dtype=float)
     end = np.asarray(end, dtype=float)
     roll = np.asarray(roll, dtype=float)
-    tgt = instance.opp_target
-    targets = tuple(tuple(sorted({int(tgt[i]) for i in o})) for o in opps)
-    target_items: dict[int, list[int]] = {}
-    for u, ks in enumerate(targets):
-        for k in ks:
-            target_items.setdefault(k, []).append(u)
+    opps, targets, target_items = _coverage(instance, opps)
     orbit_items: dict[int, np.ndarray] = {}
     event_first = np.zeros(len(opps), dtype=np.int64)
     event_last = np.zeros(len(opps), dtype=np.int64)
@@ -205,11 +224,11 @@ def prepare(
         start=start,
         end=end,
         roll=roll,
-        opps=tuple(tuple(int(i) for i in o) for o in opps),
+        opps=opps,
         targets=targets,
         coverage=coverage,
         weight=np.asarray(instance.target_weight),
-        target_items={k: tuple(v) for k, v in sorted(target_items.items())},
+        target_items=target_items,
         orbit_items=orbit_items,
         event_first=event_first,
         event_last=event_last,
@@ -218,3 +237,32 @@ def prepare(
         memory_orbits=tuple(memory_orbits),
         opening_orbits=tuple(opening_orbits),
     )
+
+
+def _coverage(
+    instance: Instance, opps: Sequence[Sequence[int]]
+) -> tuple[OppGroups, OppGroups, dict[int, tuple[int, ...]]]:
+    """Per item its opportunities and its distinct targets (sorted groups, CSR), and per
+    covered target the items covering it (in item order), by array operations: C10's 176 610
+    candidates cover millions of (item, opportunity) pairs, and tuples of tuples or a loop
+    over sets took seconds."""
+    groups = OppGroups.from_groups(opps)
+    sizes, flat = groups.sizes, np.asarray(groups.flat, dtype=np.int64)
+    n = len(sizes)
+    seg = np.repeat(np.arange(n, dtype=np.int64), sizes)
+    tg = np.asarray(instance.opp_target, dtype=np.int64)[flat]
+    order = np.lexsort((tg, seg))
+    tg, seg = tg[order], seg[order]
+    keep = np.ones(len(tg), dtype=bool)
+    keep[1:] = (tg[1:] != tg[:-1]) | (seg[1:] != seg[:-1])
+    tg, seg = tg[keep], seg[keep]
+    tptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(seg, minlength=n), out=tptr[1:])
+    by_target = np.lexsort((seg, tg))  # items of each target, in item order
+    k_sorted, u_sorted = tg[by_target], seg[by_target]
+    ks, first = np.unique(k_sorted, return_index=True)
+    cuts = [*first.tolist(), len(u_sorted)]
+    target_items = {
+        int(k): tuple(u_sorted[cuts[i] : cuts[i + 1]].tolist()) for i, k in enumerate(ks.tolist())
+    }
+    return groups, OppGroups(tptr, tg), target_items

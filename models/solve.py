@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from models.data import ModelData
+from models.data import ModelData, TimeUp, fits
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
@@ -37,6 +37,8 @@ from sosp.solve import check_time_limit
 
 if TYPE_CHECKING:
     import pyomo.environ as pyo
+
+    from sosp.planner import OrbitData
 
 log = logging.getLogger(__name__)
 
@@ -73,10 +75,6 @@ def model_data(
         if time.perf_counter() > deadline:  # the candidates' own "time limit reached"
             raise TimeUp("candidate generation") from None
         raise
-
-
-class TimeUp(Exception):
-    """The deadline passed while a model was being built (caught inside this module)."""
 
 
 def _check_params(mip_gap: Any, threads: Any) -> None:
@@ -237,6 +235,7 @@ def heuristic_start(
     rng: np.random.Generator,
     deadline: float | None = None,
     no_improve: int = WARM_START_STEPS,
+    arranged: OrbitData | None = None,
 ) -> list[int]:
     """A fast schedule over the model's items: orbit-dp's search (:mod:`heuristics.orbit_search`).
 
@@ -244,6 +243,8 @@ def heuristic_start(
     with the exact slew term), then perturbation steps until ``no_improve`` steps in a row
     bring nothing or ``deadline`` passes. The items are those of the model, so the schedule
     maps onto the model's variables one to one (a MIP start HiGHS accepts as it is).
+
+    ``arranged`` is ``sosp.planner.with_rolls(data, data.roll)`` when the caller has it.
 
     Returns
     -------
@@ -253,7 +254,7 @@ def heuristic_start(
     from heuristics.orbit_search import OrbitSearch, OrbitSearchParams
     from sosp.planner import with_rolls
 
-    od = with_rolls(data, data.roll)  # the model's items arranged for the planner
+    od = arranged if arranged is not None else with_rolls(data, data.roll)
     search = OrbitSearch(od, rng)
     search.ascent(deadline)
     best_profit, best_paths = search.profit, list(search.paths)
@@ -490,12 +491,19 @@ def solve_milp(
 
     # ---- warm start (never worse than it) and a bound besides HiGHS's
     start: list[int] | None = None
+    arranged = None  # the items arranged per orbit for the planner (warm start, Lagrangian)
+    if (warm_start == "auto" or extra_bound == "lagrangian") and fits(
+        "arrange", data.n_items, deadline
+    ):
+        from sosp.planner import with_rolls
+
+        arranged = with_rolls(data, data.roll)
     if isinstance(warm_start, Schedule):
         start = start_items(data, warm_start)
         stats["warm_start"] = start is not None
-    elif warm_start == "auto":
+    elif warm_start == "auto" and arranged is not None:
         share = None if deadline is None else time.perf_counter() + WARM_START_SHARE * time_limit
-        start = heuristic_start(data, rng, share)
+        start = heuristic_start(data, rng, share, arranged=arranged)
         stats["warm_start"] = "auto"
     start_profit = 0.0
     if start is not None:
@@ -503,8 +511,10 @@ def solve_milp(
         stats["start_profit"] = float(start_profit)
         stats["start_s"] = round(time.perf_counter() - t0, 6)
     upper = cap
-    if extra_bound != "none" and start_profit < cap:
-        extra = _extra_bound(data, extra_bound, start_profit, deadline, time_limit, threads)
+    if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
+        extra = _extra_bound(
+            data, extra_bound, start_profit, deadline, time_limit, threads, arranged
+        )
         if extra is not None:
             stats["extra_bound"] = extra
             upper = min(upper, extra)
@@ -516,8 +526,11 @@ def solve_milp(
     elif deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "before the MILP"
     else:
+        # HiGHS overruns its limit a little and the solution is read back after it: keep a
+        # reserve (5 % of the limit, at most 0.5 s)
+        solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
         kind, incumbent, raw_bound, chosen = _solve(
-            data, t0, deadline, mip_gap, threads, start, False, conflicts, lp_solver, slew,
+            data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver, slew,
             use_probing, backend, stats,
         )  # fmt: skip
         if start is not None and chosen is not None and incumbent is not None:
@@ -531,7 +544,7 @@ def solve_milp(
                 log.debug("HiGHS returned the start (%g) for objective %g", value, incumbent)
                 stats["resolved_without_start"] = True
                 kind, incumbent, raw_bound, chosen = _solve(
-                    data, t0, deadline, mip_gap, threads, None, False, conflicts, lp_solver,
+                    data, t0, solve_by, mip_gap, threads, None, False, conflicts, lp_solver,
                     slew, use_probing, backend, stats,
                 )  # fmt: skip
     runtime = time.perf_counter() - t0
@@ -573,6 +586,7 @@ def _extra_bound(
     deadline: float | None,
     time_limit: float | None,
     threads: int | None,
+    arranged: OrbitData | None,
 ) -> float | None:
     """The Lagrangian or LP bound of ``data``'s model within its share of the limit."""
     limit = None
@@ -582,13 +596,12 @@ def _extra_bound(
             return None
     if how == "lagrangian":
         from models.lagrangian import lagrangian_bound
-        from sosp.planner import with_rolls
 
         out = lagrangian_bound(
             data.instance,
             time_limit=limit,
             lower_bound=lower if lower > 0 else None,
-            data=with_rolls(data, data.roll),
+            data=arranged,
         )
         return float(out["bound"])
     return _lp_bound(data, None if limit is None else time.perf_counter() + limit, threads)
@@ -599,6 +612,8 @@ def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> f
     not solved by ``deadline``."""
     from models.highs_direct import build_arrays, run_highs
 
+    if not fits("build", data.n_items, deadline):
+        return None
     am = build_arrays(data, relax=True, slew="relaxed")
     if deadline is not None and time.perf_counter() >= deadline:
         return None
@@ -737,6 +752,9 @@ def _run_direct(
     """
     from models.highs_direct import build_arrays, run_highs, start_vector
 
+    if not fits("build", data.n_items, deadline):
+        stats["timed_out"] = "building"
+        return "time_limit", None, None, None
     t1 = time.perf_counter()
     am = build_arrays(
         data, relax=bool(relax), conflicts=conflicts, slew=slew, exact_orbits=exact_orbits
@@ -961,7 +979,8 @@ def bound(
     cap = data.covered_weight()
     parts: dict[str, float | None] = {}
     stats: dict[str, Any] = {"candidates": data.n_items, "cliques": data.n_events, "cap": cap}
-    if method in ("auto", "lagrangian") and data.n_items:
+    lagrangian = method in ("auto", "lagrangian") and data.n_items > 0
+    if lagrangian and fits("arrange", data.n_items, deadline):
         from models.lagrangian import lagrangian_bound
         from sosp.planner import with_rolls
 

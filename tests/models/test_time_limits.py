@@ -1,0 +1,63 @@
+"""Time limits hold, model building included: a run ends within max(1 s, 5 %) of its limit.
+
+C10 (176 610 candidate observations, about 4 s to generate, more to arrange and build) is the
+instance where building alone takes seconds; C5 is a mid-size one. Slow: seconds each.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from models.data import observable_weight
+from models.solve import bound
+from sosp.instance import Instance
+from sosp.scenarios import generate_scenario
+from sosp.solve import solve
+
+
+def _slack(limit: float) -> float:
+    return max(1.0, 0.05 * limit)
+
+
+@pytest.fixture(scope="module")
+def c5() -> Instance:
+    return generate_scenario("C5", 0)
+
+
+@pytest.fixture(scope="module")
+def c10() -> Instance:
+    return generate_scenario("C10", 0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "method, limit", [("milp", 8.0), ("milp-lns", 8.0), ("rds", 4.0), ("rds-stc", 4.0)]
+)
+def test_methods_keep_their_time_limit(c5: Instance, method: str, limit: float) -> None:
+    t0 = time.perf_counter()
+    res = solve(c5, method, time_limit=limit)  # validated by solve
+    assert time.perf_counter() - t0 <= limit + _slack(limit), res.stats
+    assert res.profit > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("limit", [3.0, 12.0])
+def test_milp_keeps_its_limit_while_building(c10: Instance, limit: float) -> None:
+    # 3 s: the candidates are not even complete; 12 s: warm start, Lagrangian bound and part
+    # of the build fit, the MILP may not
+    t0 = time.perf_counter()
+    res = solve(c10, "milp", time_limit=limit)
+    assert time.perf_counter() - t0 <= limit + _slack(limit), res.stats
+    assert res.bound is not None and res.profit <= res.bound <= observable_weight(c10)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["auto", "lp", "milp", "lagrangian"])
+def test_bound_keeps_its_time_limit(c10: Instance, method: str) -> None:
+    limit = 6.0
+    t0 = time.perf_counter()
+    out = bound(c10, method=method, time_limit=limit)
+    assert time.perf_counter() - t0 <= limit + _slack(limit), out
+    assert 0 < out["bound"] <= observable_weight(c10)
