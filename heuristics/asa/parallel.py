@@ -178,7 +178,7 @@ class _Chains:
         n = len(self.procs)
         iterations = sum(int(self.shared[2 * i]) for i in range(n))
         best = max(self.shared[2 * i + 1] for i in range(n))
-        self.progress.update(iterations, best)
+        self.progress.update(iterations, best or None)  # None: the chains are still building
 
     def close(self) -> None:
         for conn in self.conns:
