@@ -279,6 +279,10 @@ def _solve_interruptibly(
 
     line = None if args.quiet else StatusLine(sys.stderr)
     progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
+    clear = line.log_filter() if line is not None and line.tty else None
+    handlers = logging.getLogger().handlers if clear is not None else []
+    for h in handlers:
+        h.addFilter(clear)
     with handle_signals():
         try:
             result = solve(
@@ -292,6 +296,8 @@ def _solve_interruptibly(
         finally:
             if line is not None:
                 line.close()
+            for h in handlers:
+                h.removeFilter(clear)
         if args.output:
             result.schedule.save(args.output, inst)
         return result, stop_reason()

@@ -16,6 +16,7 @@ snapshot.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -199,6 +200,19 @@ class StatusLine:
             self.stream.write(line + "\n")
             self._printed_at = snap.elapsed
         self.stream.flush()
+
+    def log_filter(self) -> logging.Filter:
+        """A filter for the log handlers writing to the same terminal: it clears the live
+        line before each record, so a log line never lands after the status text (the next
+        snapshot draws it again)."""
+        line = self
+
+        class ClearLine(logging.Filter):
+            def filter(self, record: logging.LogRecord) -> bool:
+                line.close()
+                return True
+
+        return ClearLine()
 
     def close(self) -> None:
         """Clear the live line (terminal only)."""

@@ -184,3 +184,22 @@ def test_cli_status_line_and_quiet(tmp_path: Path, quiet: bool) -> None:
         assert err == ""
     else:
         assert "\r" in err and "orbit-dp" in err and "best" in err and "it/s" in err
+
+
+def test_log_records_clear_the_live_line_first() -> None:
+    import logging
+
+    out = io.StringIO()
+    line = StatusLine(out, tty=True, delay=0.0)
+    handler = logging.StreamHandler(out)
+    handler.addFilter(line.log_filter())
+    logger = logging.getLogger("sosp.test_progress")
+    logger.addHandler(handler)
+    try:
+        line(snap(1.0, best=42.0))
+        logger.warning("something")
+    finally:
+        logger.removeHandler(handler)
+    text = out.getvalue()
+    drawn = text.split("\r")[1]
+    assert text.endswith("\r" + " " * len(drawn) + "\rsomething\n")
