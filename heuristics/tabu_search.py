@@ -50,6 +50,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -114,9 +115,12 @@ def tabu_tenure(params: TSParams, drops: int) -> int:
     return params.tenure_min + int(params.tenure_freq * max(drops - 1, 0))
 
 
-def is_allowed(tabu_until: int, it: int, value: int, gain: int, best: int) -> bool:
-    """The tabu rule with aspiration: allowed when not tabu or when it beats the best."""
-    return tabu_until <= it or value + gain > best
+def is_allowed(tabu_until: Any, it: int, value: int, gain: Any, best: int) -> Any:
+    """The tabu rule with aspiration: allowed when not tabu or when it beats the best.
+
+    Elementwise on numpy arrays (``tabu_until`` and ``gain`` per move).
+    """
+    return (tabu_until <= it) | (value + gain > best)
 
 
 class TabuSearch:
@@ -173,7 +177,7 @@ class TabuSearch:
         self.in_s = [False] * n
         self.lines = {j: OrbitTimeline(instance, j) for j in self.orbit_tasks}
         self.value = 0
-        self.tabu_until = [0] * n
+        self.tabu_until = np.zeros(n, dtype=np.int64)
         self.drops = [0] * n
         self.gain = np.full(n, -np.inf)
         self.plan: list[tuple[int, ...] | None] = [None] * n
@@ -301,8 +305,7 @@ class TabuSearch:
     def choose(self, it: int, best: int) -> int:
         """The best allowed move (ties uniformly at random), or -1 if there is none."""
         g = self.gain
-        tabu = np.fromiter((u > it for u in self.tabu_until), dtype=bool, count=self.n)
-        allowed = np.isfinite(g) & (~tabu | (self.value + g > best))
+        allowed = np.isfinite(g) & is_allowed(self.tabu_until, it, self.value, g, best)
         if not allowed.any():
             return -1
         top = g[allowed].max()

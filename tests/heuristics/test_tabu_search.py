@@ -85,6 +85,8 @@ def test_aspiration_allows_a_tabu_move_only_above_the_best() -> None:
     assert is_allowed(tabu_until=5, it=5, value=10, gain=-3, best=20)  # tenure over
     assert not is_allowed(tabu_until=6, it=5, value=10, gain=10, best=20)  # ties the best
     assert is_allowed(tabu_until=6, it=5, value=10, gain=11, best=20)  # beats it
+    got = is_allowed(np.array([5, 6, 6]), 5, 10, np.array([-3.0, 10.0, 11.0]), 20)
+    assert got.tolist() == [True, False, True]  # the same rule per move, as the search uses it
 
 
 def test_a_dropped_task_is_tabu_for_its_tenure_unless_it_aspires() -> None:
