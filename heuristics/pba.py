@@ -35,7 +35,8 @@ The parts' optima (exact search)
     covering it in turn, then "not covered"; the bound is the value so far plus the weight of
     the part's undecided targets; the search stops when the value reaches the part's total
     weight. A part whose search exceeds ``node_limit`` nodes, or is not reached before the
-    time limit, gets its total weight (always a valid bound): the result stays an upper bound.
+    time limit or a stop request (:mod:`sosp.stop`), gets its total weight (always a valid
+    bound): the result stays an upper bound.
 The schedule (method ``pba-stc``)
     the tasks of the best partition's part optima, by decreasing weight, then every other
     task by decreasing weight, inserted when they add profit and keep (3)-(6)
@@ -59,6 +60,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
 from sosp.schedule import RollRule
+from sosp.stop import Interrupted
 
 log = logging.getLogger(__name__)
 
@@ -282,11 +284,15 @@ def pba_partition(
     arg = [0] * (n + 1)
     memo: dict[tuple[int, int], tuple[int, list[int], bool]] = {}
     solved = 0
+    stopped = False
+    interrupted = Interrupted()
     for j in range(1, n + 1):
+        stopped = stopped or interrupted()
         for length in range(1, min(lmax, j) + 1):
             i = j - length
             part = order[i:j]
-            if deadline is not None and time.perf_counter() > deadline:
+            if stopped or (deadline is not None and time.perf_counter() > deadline):
+                stopped = True
                 res = (sum(pp.weight[k] for k in part), [], False)
             else:
                 res = part_optimum(pp, part, params.node_limit)

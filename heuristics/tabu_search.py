@@ -41,8 +41,9 @@ Incremental evaluation
 Initial configuration
     highest weight first insertion (HPFS-STC, :func:`heuristics.hpfs.insertion_decode`).
 Stopping
-    after ``iterations`` moves or at ``time_limit`` seconds. The rng is the only randomness:
-    the same seed and iterations give the same schedule.
+    after ``iterations`` moves, at ``time_limit`` seconds or on a stop request
+    (:mod:`sosp.stop`; the best configuration so far is returned). The rng is the only
+    randomness: the same seed and iterations give the same schedule.
 """
 
 from __future__ import annotations
@@ -60,8 +61,10 @@ from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import RollRule
+from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -333,8 +336,13 @@ def run_tabu_search(
     ts.load([local[t] for t in start])
     best, best_set, best_iter = ts.value, ts.chosen(), 0
     it = last_best = restarts = idle = aspired = 0
+    # the shared criteria: progress reports and stop requests (Ctrl-C keeps the best so far)
+    stop, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
     while it < params.iterations and ts.n:
         if deadline is not None and clock() > deadline:
+            break
+        seen.iteration, seen.since_best, seen.best = it, it - best_iter, best
+        if stop(seen):
             break
         it += 1
         i = ts.choose(it, best)

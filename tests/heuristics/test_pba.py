@@ -135,3 +135,15 @@ def test_cli_bound_method_pba(tmp_path) -> None:
     assert text.returncode == 0 and "pba bound: 8" in text.stdout
     bad = subprocess.run([*cmd, "--model", "task"], capture_output=True, text=True)
     assert bad.returncode == 2 and "--model" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_a_stop_request_leaves_a_valid_bound() -> None:
+    from sosp.stop import clear_stop, request_stop
+
+    inst = chain_no_cluster()
+    request_stop("test")
+    try:
+        out = pba_bound(inst, max_part=3, order="index")
+    finally:
+        clear_stop()
+    assert out["bound"] == 5 + 4 + 3 and out["subproblems"] == 0  # every part at its weight

@@ -131,3 +131,23 @@ def test_bad_parameters_raise_input_error(kw: dict) -> None:
         TSParams(**kw)
     with pytest.raises(InputError):
         solve(tiny_chain(), "ts-stc", **kw)
+
+
+def test_a_stop_request_ends_the_search_with_its_best() -> None:
+    from sosp.progress import Progress
+    from sosp.result import Status
+    from sosp.scenarios import generate_scenario
+    from sosp.stop import clear_stop, request_stop
+
+    inst = generate_scenario("C1", 0)
+
+    def cb(snap) -> None:  # noqa: ANN001
+        if snap.elapsed > 0.3:
+            request_stop("test")
+
+    try:
+        res = solve(inst, "ts-stc", seed=1, iterations=10**9, progress=Progress(cb, interval=0.05))
+    finally:
+        clear_stop()
+    assert res.status is Status.INTERRUPTED and 0 < res.iterations < 10**9
+    assert validate(inst, res.schedule).feasible and res.profit > 0
