@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from sosp.errors import InputError
-from sosp.io import atomic_write_json, is_finite_number, read_json
+from sosp.io import atomic_write_json, atomic_write_text, is_finite_number, read_json
 
 FORMAT_NAME = "sosp-instance"
 FORMAT_VERSION = 1
@@ -634,9 +634,16 @@ class Instance:
         opportunities on, else records). A path ending in ``.gz`` is written gzip-compressed
         (:func:`load_instance` reads it back).
         """
+        big = self.n_opps >= COLUMNS_FROM
         if layout == "auto":
-            layout = "columns" if self.n_opps >= COLUMNS_FROM else "records"
-        atomic_write_json(path, self.to_dict(layout=layout))
+            layout = "columns" if big else "records"
+        if not big:
+            atomic_write_json(path, self.to_dict(layout=layout))
+            return
+        # one line, no indentation: with millions of values the indented text is mostly
+        # white space and takes several times longer to write
+        text = json.dumps(self.to_dict(layout=layout), separators=(",", ":"), allow_nan=False)
+        atomic_write_text(path, text + "\n")
 
 
 def load_instance(path: str | os.PathLike[str]) -> Instance:
