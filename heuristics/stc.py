@@ -23,12 +23,13 @@ import logging
 import math
 import types
 import typing
+from collections.abc import Iterable
 from dataclasses import dataclass, fields
 from typing import Any, TypeVar
 
 import numpy as np
 
-from heuristics.timeline import OrbitTimeline
+from heuristics.timeline import InsertCheck, OrbitTimeline
 from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
@@ -255,14 +256,14 @@ class Selection:
         cover, w = self.cover, self.data.weight
         return sum(w[k] for k in self.data.targets[t] if cover[k] == 1)
 
-    def check(self, t: int):
+    def check(self, t: int) -> InsertCheck:
         """:meth:`OrbitTimeline.check_insert` of task ``t`` on its orbit ((3)-(6), (11))."""
         ts = self.data.tasks
         return self.lines[int(ts.orbit[t])].check_insert(
             float(ts.start[t]), float(ts.end[t]), float(ts.roll[t])
         )
 
-    def add(self, t: int, chk) -> None:
+    def add(self, t: int, chk: InsertCheck) -> None:
         """Add task ``t`` where ``chk`` (a successful :meth:`check`) says."""
         ts = self.data.tasks
         self.lines[int(ts.orbit[t])].insert(
@@ -317,7 +318,7 @@ class Selection:
         """Forget the journal (the current state is kept)."""
         self.journal.clear()
 
-    def fill(self, order: Any) -> None:
+    def fill(self, order: Iterable[int] | np.ndarray) -> None:
         """Add, in ``order``, every task that earns something and fits."""
         for t in order:
             t = int(t)
