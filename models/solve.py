@@ -337,7 +337,7 @@ def solve_milp(
     backend: str = "auto",
     conflicts: str = "network",
     lp_solver: str = "choose",
-    slew: str = "exact",
+    slew: str | None = None,
     probing: str = "auto",
 ) -> Result:
     """Solve an exact model of (1)-(6) with HiGHS.
@@ -398,10 +398,11 @@ def solve_milp(
     slew
         The slew term of (4): ``"exact"``; ``"lazy"`` (MILP, direct backend; the exact term
         added only on the orbits where a solution breaks (4), see :func:`_run_lazy`; exact
-        with the Pyomo backend); or, with ``relax=True`` only, ``"relaxed"`` (one
-        row per orbit that over-estimates nothing, see :func:`models.highs_direct.build_arrays`;
-        a weaker but much smaller LP; direct backend) or ``"auto"`` (relaxed for an LP that
-        ``backend="auto"`` gives the direct backend, else exact).
+        with the Pyomo backend); ``"auto"`` (lazy for a MILP; for an LP, relaxed where the
+        direct backend is chosen, else exact); None (default): lazy for a MILP, exact for an
+        LP; or, with ``relax=True`` only, ``"relaxed"`` (one row per orbit that
+        over-estimates nothing, see :func:`models.highs_direct.build_arrays`; a weaker but
+        much smaller LP; direct backend).
     probing
         HiGHS's probing in MIP presolve: ``"on"``, ``"off"`` or ``"auto"`` (default: off when
         a time limit is given; it checks the clock rarely and can run far past the limit).
@@ -422,7 +423,7 @@ def solve_milp(
     if probing not in ("auto", "on", "off"):
         raise InputError(f"probing: expected one of auto, on, off, got {probing!r}")
     use_probing = probing == "on" or (probing == "auto" and time_limit is None)
-    if slew not in ("exact", "relaxed", "auto", "lazy"):  # "conservative": milp-lns only
+    if slew not in (None, "exact", "relaxed", "auto", "lazy"):  # "conservative": milp-lns
         raise InputError(f"slew: expected one of exact, lazy, relaxed, auto, got {slew!r}")
     if slew == "lazy" and relax:
         raise InputError("slew: 'lazy' is for MILP solves (an LP takes relaxed or exact)")
@@ -459,8 +460,12 @@ def solve_milp(
         status = Status.NO_SOLUTION if relax else Status.TIME_LIMIT
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, upper, None, stats)
     cap = data.covered_weight()
+    if slew is None:  # lazy measured better (docs/exact.md: B6-B8, C1 proven, exact not)
+        slew = "exact" if relax else "lazy"
+    if slew == "auto" and not relax:
+        slew = "lazy"
     if slew == "auto":  # the small relaxed LP where the direct backend is chosen anyway
-        slew = "relaxed" if relax and choose_backend(data, backend) == "highs" else "exact"
+        slew = "relaxed" if choose_backend(data, backend) == "highs" else "exact"
     backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
     if slew == "lazy" and backend == "pyomo":
         slew = "exact"  # the reference builder has the exact term only

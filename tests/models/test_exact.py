@@ -21,9 +21,10 @@ BACKENDS = (("pyomo", "network"), ("highs", "network"), ("highs", "clique"))
 def _check(inst: Instance) -> None:
     """Every backend proves the oracle's optimum, with a valid schedule and equal LP values.
 
-    Each backend runs twice: the MILP alone (no warm start, no extra bound) and the default
-    (heuristic warm start, Lagrangian bound first, which may prove the start optimal with no
-    MILP at all). Every bound is checked against the oracle, the LP and the covered weight.
+    Each backend runs twice: the MILP alone with the exact slew term (no warm start, no extra
+    bound) and the defaults (heuristic warm start, Lagrangian bound first, which may prove the
+    start optimal with no MILP at all; the lazy slew term on the direct backend). Every bound
+    is checked against the oracle, the LP and the covered weight.
     """
     from models.data import observable_weight
 
@@ -38,7 +39,7 @@ def _check(inst: Instance) -> None:
             )
             assert expected - 1e-6 <= lp["bound"] <= cap, (model, backend)
             lp_values.append(lp["lp_value"] if lp["lp_value"] is not None else 0.0)
-            for kw in ({"warm_start": "none", "extra_bound": "none"}, {}):
+            for kw in ({"warm_start": "none", "extra_bound": "none", "slew": "exact"}, {}):
                 res = solve_milp(inst, model=model, backend=backend, conflicts=conflicts, **kw)
                 assert res.status is Status.OPTIMAL, (model, backend, kw, res.stats)
                 assert res.profit == pytest.approx(expected), (model, backend, conflicts, kw)
