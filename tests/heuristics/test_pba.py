@@ -12,7 +12,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import bound_function, solve
 from sosp.validate import validate
-from tests.heuristics.test_asa import small_instances
+from tests.conftest import small_instances
 from tests.heuristics.test_tabu_search import chain_no_cluster, openings_no_cluster
 from tests.oracle import brute_force
 

@@ -13,8 +13,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import tiny_chain
-from tests.heuristics.test_asa import small_instances
+from tests.conftest import small_instances, tiny_chain
 from tests.oracle import brute_force
 
 
