@@ -20,13 +20,14 @@ from sosp.rules import RollRule
 #:
 #: * ``"default"``: the defaults (sosp's best measured configuration; ``"quality"`` is kept as
 #:   its former name).
-#: * ``"paper"``: Algorithm 1 as published: Table 2's lambda_min and rho, the midpoint roll (9)
-#:   and singles at their own roll, the literal (16) (energy and memory only) and the literal
-#:   choice of opportunity (clustering first, then the orbit with most resources left), the
-#:   paper's two neighbourhoods only, no restarts. Where the paper is silent or contradicts
-#:   itself sosp's documented reading stays (``docs/asa.md``, "Decisions"): step 1's roulette
-#:   among the ``pool`` heaviest tasks (the literal rule retries a rejected task forever), the
-#:   update of r on every generated move (section 5.2's text), (16) on an empty orbit.
+#: * ``"paper"``: Algorithm 1 as published: Table 2's parameters (lambda_min, rho), the midpoint
+#:   roll (9) with single tasks at their own roll, the paper's two neighbourhoods only, no
+#:   restarts. Where the paper is silent or contradicts itself sosp's documented reading stays
+#:   (``docs/asa.md``, "Decisions" 2-5 and 8): step 1's roulette among the ``pool`` heaviest
+#:   tasks (the literal rule retries a rejected task forever), (16) counting the openings it
+#:   saves (the literal rule refuses the clusters the paper's own motivation asks for), the
+#:   feasible-first choice of opportunity (the literal one builds an initial solution below
+#:   plain greedy), r of (20) updated on every generated move (section 5.2's text).
 PRESETS: dict[str, dict[str, Any]] = {
     "default": {},
     "quality": {},
@@ -35,8 +36,6 @@ PRESETS: dict[str, dict[str, Any]] = {
         "rho": 1.0,
         "roll_rule": "midpoint",
         "nadir_singles": False,
-        "rule16_openings": False,
-        "option_rule": "resources",
         "replan": False,
         "restart": None,
     },

@@ -73,12 +73,9 @@ def test_asa_presets() -> None:
         10,
     )
     assert (paper.pro1, paper.pro2, paper.replan, paper.restart) == (0.5, 0.5, False, None)
-    assert (paper.roll_rule, paper.nadir_singles, paper.rule16_openings) == (
-        "midpoint",
-        False,
-        False,
-    )
-    assert paper.option_rule == "resources"
+    assert (paper.roll_rule, paper.nadir_singles) == ("midpoint", False)
+    # the paper's self-contradicting rules read as docs/asa.md decides (decisions 3 and 5)
+    assert (paper.rule16_openings, paper.option_rule) == (True, "feasible-first")
     # keywords override the preset
     assert ASAParams.from_kwargs(preset="paper", rho="0.3").rho == 0.3
     assert set(PRESETS) == {"default", "quality", "paper"}
