@@ -20,8 +20,8 @@ resident memory (``resource.getrusage``), so the figures are those of one ``sosp
 * ``generate``: the scenario, written as ``.json.gz`` (peak bytes per opportunity);
 * ``orbit-dp``, ``asa-dtc``: one run of ``--time-limit`` seconds each (seed 0; candidate
   generation included), the schedule checked by the validator;
-* ``bound``: the Lagrangian bound (``sosp bound --method lagrangian``) with ``--time-limit``,
-  its Polyak target the best profit found.
+* ``bound``: the Lagrangian bound (``sosp bound --method lagrangian``) with ``--time-limit``
+  and at most ``--bound-iterations`` steps, its Polyak target the best profit found.
 
 Prints a Markdown table with the gap ``(bound - best) / bound``.
 """
@@ -99,13 +99,19 @@ def _solve(path: str, method: str, time_limit: float, workers: int) -> dict[str,
     }
 
 
-def _bound(path: str, time_limit: float, lower: float | None, workers: int) -> dict[str, Any]:
+def _bound(
+    path: str, time_limit: float, lower: float | None, workers: int, iterations: int
+) -> dict[str, Any]:
     from models.lagrangian import lagrangian_bound
     from sosp.instance import load_instance
 
     inst = load_instance(path)
     t0 = time.perf_counter()
-    kwargs: dict[str, Any] = {"time_limit": time_limit, "lower_bound": lower}
+    kwargs: dict[str, Any] = {
+        "time_limit": time_limit,
+        "lower_bound": lower,
+        "iterations": iterations,
+    }
     if workers > 1:
         kwargs["workers"] = workers
     out = lagrangian_bound(inst, **kwargs)
@@ -144,6 +150,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", nargs="+", default=list(STEPS), choices=STEPS)
     ap.add_argument("--time-limit", type=float, default=300.0, help="seconds per solve/bound")
     ap.add_argument("--workers", type=int, default=1, help="processes for orbit-dp and bound")
+    ap.add_argument(
+        "--bound-iterations", type=int, default=300, help="subgradient steps at most (300)"
+    )
     ap.add_argument("--dir", default="bench_scale_data", help="where the instances go")
     ap.add_argument("--json", help="also write the rows to this JSON file")
     args = ap.parse_args(argv)
@@ -162,7 +171,9 @@ def main(argv: list[str] | None = None) -> None:
         profits = [row[m]["profit"] for m in ("orbit-dp", "asa-dtc") if "profit" in row.get(m, {})]
         best = max(profits) if profits else None
         if "bound" in args.steps:
-            row["bound"] = in_process("bound", path, args.time_limit, best, args.workers)
+            row["bound"] = in_process(
+                "bound", path, args.time_limit, best, args.workers, args.bound_iterations
+            )
             print(name, "bound", row["bound"], flush=True)
             b = row["bound"].get("bound")
             if best is not None and b:

@@ -46,6 +46,19 @@ from sosp.rules import EPS
 log = logging.getLogger(__name__)
 
 
+#: Bytes the planner's candidates may take in all (estimated before any is generated, see
+#: :func:`estimate_bytes`): beyond it :func:`cluster_candidates` refuses with a one-line error
+#: instead of running the machine out of memory. D30 (3,000 targets in the C region) needs
+#: about 0.4 GB; 10,000 targets there would need tens of GB.
+MAX_CANDIDATE_BYTES = 3 * 2**30
+
+#: Orbits with fewer (first, covered) pairs inside one Delta T than this are not sampled by
+#: :func:`estimate_bytes` (their candidates are few: C10's densest orbit has about 10 000).
+_SAMPLE_FROM = 100_000
+
+#: First opportunities sampled per dense orbit by :func:`estimate_bytes`.
+_SAMPLES = 24
+
 #: Most candidates the MILP models take (a Pyomo variable each: about 0.5 GB per million).
 #: C10, the densest reference scenario, has 176 610; orbits with hundreds of windows inside
 #: one Delta T (thousands of targets in a small region) have millions. The single-orbit
@@ -276,6 +289,16 @@ def cluster_candidates(
     hit = store.get("all")
     if hit is not None and (max_candidates is None or len(hit[4]) <= max_candidates):
         return hit
+    if max_candidates is None:
+        need = estimate_bytes(instance)
+        if need > MAX_CANDIDATE_BYTES:
+            raise InputError(
+                f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
+                f"orbit {instance.orbit_ids[_densest(instance)]!r}); more than the "
+                f"{MAX_CANDIDATE_BYTES / 2**30:.1f} GB allowed "
+                "(sosp.candidates.MAX_CANDIDATE_BYTES): too dense for the clustering-exact "
+                "candidates (use asa-dtc without whole-orbit moves)"
+            )
     parts: list[OrbitCandidates] = []
     total = 0
     for j in range(instance.n_orbits):
@@ -356,6 +379,58 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
                 store[out.orbit] = out
     finally:
         _WORKER_INSTANCE = None
+
+
+def _window_pairs(instance: Instance, j: int) -> tuple[np.ndarray, np.ndarray]:
+    """Orbit j's starts (sorted) and, per start, the end of its Delta T run of starts."""
+    sl = instance.orbit_opps(j)
+    ts = np.asarray(instance.opp_start[sl], dtype=float)
+    stop = np.searchsorted(ts, ts + float(instance.max_duration[j]) + EPS, side="right")
+    return ts, stop
+
+
+def _densest(instance: Instance) -> int:
+    """The orbit with the most (first, covered) pairs inside one Delta T."""
+    best, arg = -1, 0
+    for j in range(instance.n_orbits):
+        ts, stop = _window_pairs(instance, j)
+        pairs = int((stop - np.arange(len(ts))).sum())
+        if pairs > best:
+            best, arg = pairs, j
+    return arg
+
+
+def estimate_bytes(instance: Instance) -> int:
+    """Estimated bytes of every orbit's candidates (what :func:`cluster_candidates` would hold).
+
+    Orbits with few (first, covered) pairs inside one Delta T count 0 (their candidates are a
+    few megabytes); on the others the candidates of a fixed, evenly spaced sample of first
+    opportunities are generated and scaled to the orbit (about a second on an orbit with
+    thousands of opportunities). Deterministic.
+    """
+    store = _cache_of(instance)
+    total = 0.0
+    for j in range(instance.n_orbits):
+        if j in store:
+            total += store[j].nbytes
+            continue
+        ts, stop = _window_pairs(instance, j)
+        n = len(ts)
+        if n == 0 or int((stop - np.arange(n)).sum()) < _SAMPLE_FROM:
+            continue
+        sl = instance.orbit_opps(j)
+        te = np.asarray(instance.opp_end[sl], dtype=float)
+        lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
+        hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
+        limit = float(instance.max_duration[j])
+        picks = np.unique(np.linspace(0, n - 1, min(_SAMPLES, n)).astype(np.int64))
+        size = 0.0
+        for i in picks:
+            got = _start_candidates(int(i), ts, te, lo, hi, int(stop[i]), limit)
+            if got is not None:
+                size += 32.0 * len(got[1]) + 4.0 * len(got[3])
+        total += size * n / len(picks)
+    return int(total)
 
 
 def _too_many(instance: Instance, j: int, max_candidates: int) -> InputError:

@@ -531,3 +531,23 @@ def test_orbit_dp_with_workers_finds_the_same_schedule() -> None:
     assert validate(inst, two.schedule).feasible
     with pytest.raises(InputError, match="workers"):
         OrbitSearchParams(workers=0)
+
+
+def test_candidates_beyond_the_memory_budget_are_a_one_line_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The planner's candidates are estimated before any is generated; beyond the budget the
+    one-line error names the densest orbit (no half-built cache is left behind)."""
+    import sosp.candidates as sc
+
+    inst = _dense_orbit(3)
+    monkeypatch.setattr(sc, "_SAMPLE_FROM", 0)
+    need = sc.estimate_bytes(inst)
+    exact = sc._generate_orbit(inst, 0, None, None)
+    assert need > 0 and 0.2 * exact.nbytes < need < 5 * exact.nbytes
+    monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need // 2)
+    with pytest.raises(InputError, match=r"^about .* GB of candidate observations estimated"):
+        orbit_data(inst)
+    assert sc._cache_of(inst) == {}
+    monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need * 2)
+    assert orbit_data(inst).n_items == exact.size
