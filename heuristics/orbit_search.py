@@ -241,7 +241,9 @@ def solve_orbit_dp(
         Wall-time limit in seconds, candidate generation included (None: stop by
         ``iterations`` / ``no_improve``). When the candidates are not complete by then, the
         instance is too dense for this method in that time: :class:`InputError` (C10, the
-        densest reference scenario, needs about 5 s).
+        densest reference scenario, needs about 5 s); so is an instance whose candidates
+        would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES`` (estimated before any is
+        generated; 3,000 targets in the C region take 0.4 GB).
     **params
         Fields of :class:`OrbitSearchParams`.
 
