@@ -21,10 +21,8 @@ from __future__ import annotations
 
 import logging
 import math
-import types
-import typing
 from collections.abc import Iterable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import numpy as np
@@ -34,6 +32,7 @@ from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import from_kwargs
 from sosp.schedule import RollRule
 
 log = logging.getLogger(__name__)
@@ -43,56 +42,10 @@ P = TypeVar("P")
 
 # ------------------------------------------------------------------------------- parameters
 def params_from_kwargs(cls: type[P], method: str, kwargs: dict[str, Any]) -> P:
-    """Build the frozen parameter dataclass ``cls`` from keyword parameters.
-
-    A string value (``--param key=value`` on the command line) is converted to the field's
-    annotated type: ``int``, ``float``, ``bool`` (true/false, 1/0, yes/no, on/off), ``str``, or
-    ``None`` for ``none``/``null`` where the annotation allows it; an ``int`` given for a
-    ``float`` field becomes a float. Validation is the dataclass's own ``__post_init__``.
-
-    Raises
-    ------
-    InputError
-        For an unknown key (naming it and the method) or a string that does not convert.
-    """
-    hints = typing.get_type_hints(cls)
-    known = {f.name for f in fields(cls)}  # type: ignore[arg-type]
-    out: dict[str, Any] = {}
-    for key, value in kwargs.items():
-        if key not in known:
-            raise InputError(
-                f"{method}: unknown parameter {key!r} (choose from {', '.join(sorted(known))})"
-            )
-        out[key] = _coerce(key, value, hints[key])
-    return cls(**out)
-
-
-def _coerce(key: str, value: Any, hint: Any) -> Any:
-    args = (
-        typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType) else ()
-    )
-    kinds = [a for a in args if a is not type(None)] or [hint]
-    optional = type(None) in args
-    if isinstance(value, str):
-        text = value.strip()
-        if optional and text.lower() in ("none", "null"):
-            return None
-        kind = kinds[0]
-        if kind is bool:
-            if text.lower() in ("true", "1", "yes", "on"):
-                return True
-            if text.lower() in ("false", "0", "no", "off"):
-                return False
-            raise InputError(f"{key}: expected true or false, got {value!r}")
-        if kind in (int, float):
-            try:
-                return kind(text)
-            except ValueError:
-                raise InputError(f"{key}: expected a number, got {value!r}") from None
-        return text
-    if float in kinds and isinstance(value, int) and not isinstance(value, bool):
-        return float(value)
-    return value
+    """Build the frozen parameter dataclass ``cls`` from keyword parameters, CLI strings
+    converted by the fields' type hints (:func:`sosp.params.from_kwargs`); validation is the
+    dataclass's own ``__post_init__``."""
+    return from_kwargs(cls, kwargs, method=method)
 
 
 def check_int(name: str, value: Any, minimum: int, optional: bool = False) -> None:

@@ -60,10 +60,12 @@ def type_name(hint: Any) -> str:
 def coerce(key: str, value: Any, hint: Any) -> Any:
     """Convert a command-line string to the type of ``hint``; other values pass through
     unchanged (the dataclass validates them)."""
+    members, optional = _parts(hint)
     if not isinstance(value, str):
+        if float in members and isinstance(value, int) and not isinstance(value, bool):
+            return float(value)  # 2 for a float field is 2.0
         return value
     text = value.strip()
-    members, optional = _parts(hint)
     if optional and text.lower() in ("none", "null"):
         return None
     for m in members:
