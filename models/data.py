@@ -18,8 +18,10 @@ from functools import cached_property
 import numpy as np
 
 from models.cliques import clique_events, cliques_from_events, orbit_intervals
+from sosp import rules
 from sosp.candidates import OppGroups
 from sosp.instance import Instance
+from sosp.rules import orbit_rules
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,13 +211,15 @@ def prepare(
             n_events += m
             block_ends.append(np.full(m, n_events, dtype=np.int64))
             dur = float((end[block] - start[block]).sum())
-            slew = 2.0 * float(np.abs(roll[block]).sum()) / float(inst.slew_rate[j])
-            energy = inst.observe_energy_rate[j] * dur + inst.slew_energy_rate[j] * slew
-            if energy > inst.energy_capacity[j]:
+            # Can (4)-(6) bind on this orbit at all? Taking every item, with the slew bounded
+            # above (sosp.rules.slew_upper), decides it conservatively.
+            rj = orbit_rules(inst, j)
+            slew = rules.slew_upper(float(np.abs(roll[block]).sum()), rj.slew_rate)
+            if rj.energy(dur, slew) > rj.energy_capacity:
                 energy_orbits.append(j)
-            if inst.memory_rate[j] * dur > inst.memory_capacity[j]:
+            if rj.memory(dur) > rj.memory_capacity:
                 memory_orbits.append(j)
-            if len(block) > inst.max_openings[j]:
+            if len(block) > rj.max_openings:
                 opening_orbits.append(j)
     return ModelData(
         name=name,

@@ -32,6 +32,7 @@ from models.data import ModelData, TimeUp, fits
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
+from sosp.rules import EPS, orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
 from sosp.solve import check_time_limit
 
@@ -667,11 +668,9 @@ def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
         if not len(u):
             continue
         u = u[np.argsort(data.start[u], kind="stable")]
-        s = np.abs(data.roll[u]) / float(inst.slew_rate[j])
-        slew = 2.0 * float(s.sum()) - float(s[0]) - float(s[-1])
-        energy = float(inst.observe_energy_rate[j]) * float(data.duration[u].sum())
-        energy += float(inst.slew_energy_rate[j]) * slew
-        if energy > float(inst.energy_capacity[j]) + 1e-9:
+        rj = orbit_rules(inst, j)
+        energy, _ = rj.usage(data.duration[u], data.roll[u])  # (4), exact slew
+        if not energy <= rj.energy_capacity + EPS:
             bad.add(int(j))
     return bad
 
