@@ -62,11 +62,11 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
+from sosp.rules import RollRule, check_roll_rule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
-ROLL_RULES = ("midpoint", "nadir")
 
 #: Colony iterations when neither ``iterations`` nor a time limit is given.
 DEFAULT_ITERATIONS = 200
@@ -128,7 +128,7 @@ class ACOParams:
     iterations: int | None = None
     local_search: bool = False
     ls_passes: int = 10
-    roll_rule: str = "midpoint"
+    roll_rule: RollRule = "midpoint"
 
     def __post_init__(self) -> None:
         check_int("ants", self.ants, 1)
@@ -147,10 +147,7 @@ class ACOParams:
         check_int("ls_passes", self.ls_passes, 1)
         if not isinstance(self.local_search, bool):
             raise InputError(f"local_search: expected true or false, got {self.local_search!r}")
-        if self.roll_rule not in ROLL_RULES:
-            raise InputError(
-                f"roll_rule: expected one of {', '.join(ROLL_RULES)}, got {self.roll_rule!r}"
-            )
+        check_roll_rule(self.roll_rule)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:

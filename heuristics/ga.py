@@ -51,11 +51,11 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
+from sosp.rules import RollRule, check_roll_rule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
-ROLL_RULES = ("midpoint", "nadir")
 
 #: Children generated when neither ``iterations`` nor a time limit is given.
 DEFAULT_ITERATIONS = 20000
@@ -84,7 +84,7 @@ class GAParams:
     tournament: int = 2
     mutation_bits: int = 2
     iterations: int | None = None
-    roll_rule: str = "midpoint"
+    roll_rule: RollRule = "midpoint"
 
     def __post_init__(self) -> None:
         check_int("population", self.population, 2)
@@ -96,10 +96,7 @@ class GAParams:
                 f"tournament: must not exceed population ({self.population}), "
                 f"got {self.tournament!r}"
             )
-        if self.roll_rule not in ROLL_RULES:
-            raise InputError(
-                f"roll_rule: expected one of {', '.join(ROLL_RULES)}, got {self.roll_rule!r}"
-            )
+        check_roll_rule(self.roll_rule)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> GAParams:

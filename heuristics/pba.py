@@ -59,6 +59,7 @@ from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
+from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
 from sosp.stop import Interrupted
 
@@ -96,8 +97,7 @@ class PBAParams:
                 raise InputError(f"{name}: expected an integer >= 1, got {v!r}")
         if self.order not in ("rcm", "index"):
             raise InputError(f"order: expected 'rcm' or 'index', got {self.order!r}")
-        if self.roll_rule not in ("midpoint", "nadir"):
-            raise InputError(f"roll_rule: expected 'midpoint' or 'nadir', got {self.roll_rule!r}")
+        check_roll_rule(self.roll_rule)
 
 
 @dataclass

@@ -63,6 +63,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
+from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -109,8 +110,7 @@ class TSParams:
         tf = self.tenure_freq
         if isinstance(tf, bool) or not isinstance(tf, int | float) or not 0 <= tf < 1e6:
             raise InputError(f"tenure_freq: expected a number in [0, 1e6), got {tf!r}")
-        if self.roll_rule not in ("midpoint", "nadir"):
-            raise InputError(f"roll_rule: expected 'midpoint' or 'nadir', got {self.roll_rule!r}")
+        check_roll_rule(self.roll_rule)
 
 
 def tabu_tenure(params: TSParams, drops: int) -> int:

@@ -118,6 +118,15 @@ def common_roll_range(roll_min: np.ndarray, roll_max: np.ndarray) -> tuple[float
     return float(np.max(roll_min)), float(np.min(roll_max))
 
 
+ROLL_RULES: tuple[str, ...] = ("midpoint", "nadir")
+
+
+def check_roll_rule(rule: Any, name: str = "roll_rule") -> None:
+    """Raise :class:`InputError` naming ``name`` unless ``rule`` is a :data:`RollRule`."""
+    if rule not in ROLL_RULES:
+        raise InputError(f"{name}: expected one of {', '.join(ROLL_RULES)}, got {rule!r}")
+
+
 def choose_roll(lo: float, hi: float, rule: RollRule = "midpoint") -> float:
     """A roll in the common range ``[lo, hi]`` (7): the midpoint (9), or the point closest to
     nadir (never more slew time or energy than any other roll in the range)."""
