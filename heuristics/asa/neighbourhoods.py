@@ -51,7 +51,7 @@ def clustering_gain(
         return None  # (7)
     s = min(c[START], pb.opt_start[x])
     e = max(c[END], pb.opt_end[x])
-    p = line.p
+    p = line.rules
     if not p.duration_ok(s, e):
         return None  # (11)
     new = state.cluster_with(c, x)
@@ -194,7 +194,7 @@ def _removal_score(state: State, line: OrbitLine, pos: int, x: int) -> tuple[flo
         d_obs, d_slew = -((c[END] - c[START]) - (new[END] - new[START])), 0.0
     else:
         d_obs, d_slew = line.delta_replace(pos, new)
-    p = line.p
+    p = line.rules
     # resources freed, as a share of capacity (the free-share measure of 5.1 step 5)
     e_cap, m_cap = p.energy_capacity, p.memory_capacity
     d_e, d_w = -p.energy(d_obs, d_slew), -p.memory(d_obs)
@@ -242,7 +242,7 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
             return True
         best = None
         fallback = None
-        cap = line.p.max_openings
+        cap = line.rules.max_openings
         for pos, c in enumerate(line.obs):
             for x in _ends(c, pb):
                 if x == protect:

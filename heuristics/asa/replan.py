@@ -147,7 +147,7 @@ def best_chain(
     Energy and memory are priced by one multiplier ``t`` (per share of budget) and ``t`` is
     bisected; the best chain within both budgets is returned as (gain, candidate indices).
     """
-    p = state.lines[j].p
+    p = state.lines[j].rules
     if openings <= 0 or energy < -EPS or memory < -EPS:
         return 0.0, []
     n = len(cands)
@@ -402,7 +402,7 @@ class _Stretch:
         self.left = obs[first - 1] if first > 0 else None
         self.right = obs[last + 1] if last + 1 < len(obs) else None
         # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
-        p = line.p
+        p = line.rules
         rest_obs = line.observe - sum(c[END] - c[START] for c in freed)
         seq = [c for c in (self.left, *freed, self.right) if c is not None]
         rest_slew = line.slew - sum(line.turn(x, y) for x, y in zip(seq, seq[1:], strict=False))
@@ -511,7 +511,7 @@ def replan_stretch(
         else:
             continue
         avail.append(x)
-    cands = candidates(state, avail, state.lines[j].p.max_duration)
+    cands = candidates(state, avail, state.lines[j].rules.max_duration)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
         tw, cover = pb.target_weight, state.cover
         held: dict[int, int] = {}
@@ -590,8 +590,8 @@ def replan_pair(
                     out.append(x)
         return out
 
-    ca = candidates(state, usable(sa, window), state.lines[j].p.max_duration)
-    cb = candidates(state, usable(sb, window_i), state.lines[i].p.max_duration)
+    ca = candidates(state, usable(sa, window), state.lines[j].rules.max_duration)
+    cb = candidates(state, usable(sb, window_i), state.lines[i].rules.max_duration)
     units_a = [{unit[x] for x in c[MEMBERS]} for c in ca]
     units_b = [{unit[x] for x in c[MEMBERS]} for c in cb]
     both = set().union(*units_a) & set().union(*units_b) if ca and cb else set()

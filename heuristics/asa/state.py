@@ -39,10 +39,10 @@ class OrbitLine:
         Total slew time over consecutive pairs, sum of (|theta_u| + |theta_v|)/v (4).
     """
 
-    __slots__ = ("p", "obs", "observe", "slew")
+    __slots__ = ("rules", "obs", "observe", "slew")
 
-    def __init__(self, p: OrbitRules) -> None:
-        self.p = p
+    def __init__(self, rules: OrbitRules) -> None:
+        self.rules = rules
         self.obs: list[Cluster] = []
         self.observe = 0.0
         self.slew = 0.0
@@ -51,29 +51,29 @@ class OrbitLine:
     @property
     def energy(self) -> float:
         """ConE_j, the left side of (4)."""
-        return self.p.energy(self.observe, self.slew)
+        return self.rules.energy(self.observe, self.slew)
 
     @property
     def memory(self) -> float:
         """ConW_j, the left side of (5)."""
-        return self.p.memory(self.observe)
+        return self.rules.memory(self.observe)
 
     def free_share(self) -> float:
         """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (5.1, step 5)."""
-        return self.p.free_share(self.energy, self.memory)
+        return self.rules.free_share(self.energy, self.memory)
 
     def turn(self, c1: Cluster, c2: Cluster) -> float:
         """Slew time between consecutive cluster-tasks (through nadir), as in (3)-(4)."""
-        return self.p.turn(c1[ROLL], c2[ROLL])
+        return self.rules.turn(c1[ROLL], c2[ROLL])
 
     def clash(self, c1: Cluster, c2: Cluster) -> bool:
         """True if c1 then c2 breaks (3)."""
-        return self.p.clash(c1[END], c1[ROLL], c2[START], c2[ROLL])
+        return self.rules.clash(c1[END], c1[ROLL], c2[START], c2[ROLL])
 
     def first_conflict(self) -> int:
         """Position p of the first consecutive pair (p, p+1) breaking (3), or -1."""
         obs = self.obs
-        clash = self.p.clash
+        clash = self.rules.clash
         for p in range(len(obs) - 1):
             u, w = obs[p], obs[p + 1]
             if clash(u[END], u[ROLL], w[START], w[ROLL]):
@@ -82,7 +82,7 @@ class OrbitLine:
 
     def over(self) -> tuple[bool, bool, bool]:
         """Which of (4) energy, (5) memory, (6) openings is exceeded."""
-        p = self.p
+        p = self.rules
         return (
             not p.energy_ok(self.observe, self.slew),
             not p.memory_ok(self.observe),
@@ -138,7 +138,7 @@ class OrbitLine:
 
     def check_insert(self, c: Cluster) -> bool:
         """Would inserting ``c`` keep (3)-(6) (on a currently feasible orbit)?"""
-        p = self.p
+        p = self.rules
         if len(self.obs) >= p.max_openings:
             return False
         pos = self.insert_pos(c)
@@ -165,7 +165,7 @@ class OrbitLine:
         ):
             return False
         d_obs, d_slew = self.delta_replace(pos, c)
-        p = self.p
+        p = self.rules
         obs_t = self.observe + d_obs
         return p.fits(obs_t, self.slew + d_slew)
 
