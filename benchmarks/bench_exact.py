@@ -18,6 +18,13 @@ Lagrangian bound first, direct backend) and the result: optimal with its time, o
 and the gap at the limit.
 
     python benchmarks/bench_exact.py --proofs --time-limit 120 --names B7 B8 --slews exact lazy
+
+Besides the paper's names, ``--names`` takes the generated dense instances of :data:`GENERATED`
+(300-500 targets in regions that are none of the paper's; target draw seed ``--seed``), e.g.
+the proofs of ``docs/exact.md``'s table of generated instances::
+
+    python benchmarks/bench_exact.py --proofs --time-limit 600 --slews lazy --names \\
+        europe-400 india-350 japan-500 andes-300 iberia-450 mekong-400
 """
 
 from __future__ import annotations
@@ -30,12 +37,33 @@ import time
 from typing import Any
 
 from models.solve import bound, solve_milp
-from sosp.scenarios import generate_scenario
+from sosp.instance import Instance
+from sosp.scenarios import custom_scenario, generate_scenario
 from sosp.solve import solve
 
 log = logging.getLogger("bench_exact")
 
 NAMES = [f"B{i}" for i in range(1, 11)] + [f"C{i}" for i in range(1, 11)]
+
+#: Generated dense instances (name -> region lat0, lat1, lon0, lon1; targets), with the four
+#: built-in satellites over 24 h: the first four are ASA-DTC's tuning set
+#: (``benchmarks/bench_tuning.py``), the last two are used nowhere else.
+GENERATED: dict[str, tuple[tuple[float, float, float, float], int]] = {
+    "europe-400": ((40.0, 55.0, -5.0, 25.0), 400),
+    "india-350": ((10.0, 30.0, 70.0, 90.0), 350),
+    "japan-500": ((32.0, 42.0, 130.0, 142.0), 500),
+    "andes-300": ((-35.0, -10.0, -75.0, -65.0), 300),
+    "iberia-450": ((36.0, 44.0, -10.0, 4.0), 450),
+    "mekong-400": ((10.0, 22.0, 98.0, 110.0), 400),
+}
+
+
+def scenario(name: str, seed: int) -> Instance:
+    """A paper scenario by name, or one of :data:`GENERATED`."""
+    if name in GENERATED:
+        region, count = GENERATED[name]
+        return custom_scenario(region=region, count=count, seed=seed, name=name)
+    return generate_scenario(name, seed)
 
 
 def run(
@@ -49,7 +77,7 @@ def run(
 ) -> dict[str, Any]:
     """Benchmark one scenario; returns a JSON-ready record."""
     t0 = time.perf_counter()
-    inst = generate_scenario(name, seed)
+    inst = scenario(name, seed)
     rec: dict[str, Any] = {
         "name": name,
         "seed": seed,
@@ -118,7 +146,7 @@ def run(
 
 def run_proof(name: str, seed: int, time_limit: float, slew: str, threads: int) -> dict[str, Any]:
     """One proof attempt on the cluster model (direct backend) with the ``slew`` form."""
-    inst = generate_scenario(name, seed)
+    inst = scenario(name, seed)
     res = solve_milp(
         inst, model="cluster", time_limit=time_limit, threads=threads, backend="highs", slew=slew
     )
