@@ -237,7 +237,7 @@ class Graph:
         out = []
         for j in self.orbits:
             row = 0
-            for t in sol.lines[j].items:
+            for t in sol.path(j):
                 col = int(self.local[t])
                 out.append((j, row, col))
                 row = col + 1
@@ -369,17 +369,17 @@ def exchange(sol: Selection, x: int, rank: np.ndarray) -> bool:
     lx, rx = float(data.left[x]), float(data.right[x])
     removed = [
         t
-        for t in line.items
+        for t in sol.path(j)
         if not (rules.may_precede(data.right[t], lx) or rules.may_precede(rx, data.left[t]))
     ]
     for t in removed:
         sol.remove(t)
     chk = sol.check(x)
     limit = int(data.tasks.weight[x])
-    while not chk.ok and chk.reason in ("4", "5", "6") and line.items:
+    while not chk.ok and chk.reason in ("4", "5", "6") and line.obs:
         if before - sol.profit >= limit:
             break
-        y = min(line.items, key=lambda t: (sol.loss(t), data.utility[t]))
+        y = min(sol.path(j), key=lambda t: (sol.loss(t), data.utility[t]))
         sol.remove(y)
         removed.append(y)
         chk = sol.check(x)

@@ -30,7 +30,7 @@ def solve_greedy(
         Unused: the method is one pass over the targets.
     """
     del rng, time_limit
-    lines = [OrbitTimeline(instance, j) for j in range(instance.n_orbits)]
+    lines = [OrbitTimeline.of(instance, j) for j in range(instance.n_orbits)]
     order = np.lexsort((np.arange(instance.n_targets), -instance.target_weight))
     profit = 0.0
     observed = 0
@@ -41,20 +41,21 @@ def solve_greedy(
         cand = sorted(opps.tolist(), key=lambda i: -lines[instance.opp_orbit[i]].free_share())
         for i in cand:
             line = lines[int(instance.opp_orbit[i])]
-            s, e, r = (
+            entry = (
                 float(instance.opp_start[i]),
                 float(instance.opp_end[i]),
                 float(instance.opp_roll[i]),
+                i,
             )
-            chk = line.check_insert(s, e, r)
-            if chk.ok:
-                line.insert(chk, s, e, r, i)
+            chk = line.check_insert(entry)
+            if chk:
+                line.insert(entry, chk)
                 profit += float(instance.target_weight[k])
                 observed += 1
                 break
     obs = tuple(
-        Observation(line.orbit, s, e, r, (int(i),))
-        for line in lines
-        for s, e, r, i in zip(line.starts, line.ends, line.rolls, line.items, strict=True)
+        Observation(j, s, e, r, (int(i),))
+        for j, line in enumerate(lines)
+        for s, e, r, i in line.obs
     )
     return Result("greedy", Status.FEASIBLE, Schedule(obs), profit, observed)

@@ -78,12 +78,12 @@ def insertion_decode(
         j = int(tasks.orbit[t])
         line = lines.get(j)
         if line is None:
-            line = lines[j] = OrbitTimeline(instance, j)
-        s, e, r = float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])
-        chk = line.check_insert(s, e, r)  # (3)-(6), (11) incrementally
-        if not chk.ok:
+            line = lines[j] = OrbitTimeline.of(instance, j)
+        entry = (float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t]), t)
+        chk = line.check_insert(entry)  # (3)-(6), (11) incrementally
+        if not chk:
             continue
-        line.insert(chk, s, e, r, t)
+        line.insert(entry, chk)
         covered[list(tasks.targets[t])] = True
         chosen.append(t)
         profit += gain

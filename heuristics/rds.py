@@ -116,7 +116,7 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import insertion_decode
-from heuristics.timeline import OrbitTimeline
+from heuristics.timeline import OrbitTimeline, fits_alone
 from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
@@ -426,9 +426,10 @@ def rds_component(
     st = [float(tasks.start[t]) for t in items]
     en = [float(tasks.end[t]) for t in items]
     ro = [float(tasks.roll[t]) for t in items]
+    ent = [(s, e, r, p) for p, (s, e, r) in enumerate(zip(st, en, ro, strict=True))]
     tg = [tuple(int(k) for k in tasks.targets[t]) for t in items]
     wt = [int(sum(int(tw[k]) for k in ks)) for ks in tg]
-    lines = {j: OrbitTimeline(instance, j) for j in set(orb)}
+    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
     line_of = [lines[j] for j in orb]
     cover: dict[int, int] = {k: 0 for ks in tg for k in ks}
     opt = [0] * (m + 1)
@@ -439,14 +440,14 @@ def rds_component(
     wts = [[int(tw[k]) for k in ks] for ks in tg]
 
     def add(p: int, chk: Any) -> None:
-        line_of[p].insert(chk, st[p], en[p], ro[p], p)
+        line_of[p].insert(ent[p], chk)
         for k in tg[p]:
             cover[k] += 1
         stack.append(p)
 
     def undo(p: int) -> None:
         line = line_of[p]
-        line.remove(line.items.index(p))
+        line.remove(line.obs.index(ent[p]))
         for k in tg[p]:
             cover[k] -= 1
         stack.pop()
@@ -465,8 +466,8 @@ def rds_component(
                 if cover[k] == 0:
                     gain += w
             if gain > 0:
-                chk = line_of[p].check_insert(st[p], en[p], ro[p])
-                if chk.ok:
+                chk = line_of[p].check_insert(ent[p])
+                if chk:
                     add(p, chk)
                     nv = value + gain
                     if nv > state["best"]:
@@ -489,8 +490,8 @@ def rds_component(
             state["best"] = opt[i + 1]
             state["sel"] = None
             state["ub"] = wt[i] + opt[i + 1]
-            chk = line_of[i].check_insert(st[i], en[i], ro[i])
-            if chk.ok and wt[i] > 0:
+            chk = line_of[i].check_insert(ent[i])
+            if chk and wt[i] > 0:
                 add(i, chk)
                 try:
                     if wt[i] > state["best"]:
@@ -590,6 +591,7 @@ def rds_targets_component(
     st = [float(tasks.start[t]) for t in items]
     en = [float(tasks.end[t]) for t in items]
     ro = [float(tasks.roll[t]) for t in items]
+    ent = [(s, e, r, p) for p, (s, e, r) in enumerate(zip(st, en, ro, strict=True))]
     dom = [
         [
             local[t]
@@ -599,7 +601,7 @@ def rds_targets_component(
         ]
         for k in tkeys
     ]
-    lines = {j: OrbitTimeline(instance, j) for j in set(orb)}
+    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
     line_of = [lines[j] for j in orb]
     m = len(items)
     on = [False] * m  # task scheduled
@@ -640,7 +642,7 @@ def rds_targets_component(
             cnt[p] += 1
 
     def schedule(t: int, chk: Any) -> None:
-        line_of[t].insert(chk, st[t], en[t], ro[t], t)
+        line_of[t].insert(ent[t], chk)
         on[t] = True
         stack.append(t)
         i = cur["i"]
@@ -657,7 +659,7 @@ def rds_targets_component(
             line = line_of[t]
             for u in on_orbit[orb[t]]:
                 if not blocked[u] and not on[u]:
-                    if not line.check_insert(st[u], en[u], ro[u]).ok:
+                    if not line.check_insert(ent[u]):
                         blocked[u] += 1
                         if not forbid[u]:
                             close(u)
@@ -681,7 +683,7 @@ def rds_targets_component(
         stack.pop()
         on[t] = False
         line = line_of[t]
-        line.remove(line.items.index(t))
+        line.remove(line.obs.index(ent[t]))
 
     def ban(t: int) -> None:
         forbid[t] += 1
@@ -738,8 +740,8 @@ def rds_targets_component(
             for t in dom[pick]:
                 if forbid[t] or blocked[t]:
                     continue
-                chk = line_of[t].check_insert(st[t], en[t], ro[t])
-                if chk.ok:
+                chk = line_of[t].check_insert(ent[t])
+                if chk:
                     schedule(t, chk)
                     try:
                         record(cur["value"])
@@ -775,8 +777,8 @@ def rds_targets_component(
             banned: list[int] = []
             try:
                 for t in dom[i]:
-                    chk = line_of[t].check_insert(st[t], en[t], ro[t])
-                    if chk.ok:
+                    chk = line_of[t].check_insert(ent[t])
+                    if chk:
                         schedule(t, chk)
                         try:
                             record(cur["value"])
@@ -814,12 +816,12 @@ def rds_targets_component(
             tl: dict[int, OrbitTimeline] = {}
             ok = True
             for t in sel:
-                line = tl.get(orb[t]) or tl.setdefault(orb[t], OrbitTimeline(instance, orb[t]))
-                chk = line.check_insert(st[t], en[t], ro[t])
-                if not chk.ok:
+                line = tl.setdefault(orb[t], OrbitTimeline(lines[orb[t]].rules))
+                chk = line.check_insert(ent[t])
+                if not chk:
                     ok = False
                     break
-                line.insert(chk, st[t], en[t], ro[t], t)
+                line.insert(ent[t], chk)
             if not ok:
                 continue
             have = {p for t in sel for p in tpos[t] if p >= i}
@@ -831,10 +833,10 @@ def rds_targets_component(
                 if p in have:
                     continue
                 for u in dom[p]:
-                    line = tl.get(orb[u]) or tl.setdefault(orb[u], OrbitTimeline(instance, orb[u]))
-                    chk = line.check_insert(st[u], en[u], ro[u])
-                    if chk.ok:
-                        line.insert(chk, st[u], en[u], ro[u], u)
+                    line = tl.setdefault(orb[u], OrbitTimeline(lines[orb[u]].rules))
+                    chk = line.check_insert(ent[u])
+                    if chk:
+                        line.insert(ent[u], chk)
                         sel.append(u)
                         have.update(p2 for p2 in tpos[u] if p2 >= i)
                         break
@@ -952,13 +954,8 @@ def russian_doll(
     if variables not in ("targets", "tasks"):
         raise InputError(f"variables: expected 'targets' or 'tasks', got {variables!r}")
     # Tasks that can never be scheduled: no weight, or infeasible alone ((4)-(6), (11)).
-    usable = []
-    for t in range(len(tasks)):
-        if tasks.weight[t] <= 0:
-            continue
-        line = OrbitTimeline(instance, int(tasks.orbit[t]))
-        if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
-            usable.append(t)
+    alone = fits_alone(instance, tasks)
+    usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
     fixed: list[int] = []
     if reduce:
         fixed, back = fix_free_tasks(instance, tasks, usable)

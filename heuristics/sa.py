@@ -50,7 +50,7 @@ import time
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order
-from heuristics.timeline import OrbitTimeline
+from heuristics.timeline import OrbitTimeline, fits_alone
 from sosp.clustering import static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -109,13 +109,8 @@ def solve_sa_stc(
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
     tw = instance.target_weight
 
-    usable = []
-    for t in priority_order(tasks):
-        if tasks.weight[t] <= 0:
-            continue
-        line = OrbitTimeline(instance, int(tasks.orbit[t]))
-        if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
-            usable.append(int(t))
+    alone = fits_alone(instance, tasks)
+    usable = [int(t) for t in priority_order(tasks) if tasks.weight[t] > 0 and alone[t]]
     n = len(usable)
     if t0 is None:
         t0 = float(np.mean(tasks.weight[usable])) if n else 1.0
@@ -128,12 +123,14 @@ def solve_sa_stc(
 
     # Per-task data as Python lists (the inner loops are scalar).
     orb = [int(x) for x in tasks.orbit]
-    st = [float(x) for x in tasks.start]
-    en = [float(x) for x in tasks.end]
-    ro = [float(x) for x in tasks.roll]
+    # timeline entries (start, end, roll, task), built once
+    ent = [
+        (float(s), float(e), float(r), t)
+        for t, (s, e, r) in enumerate(zip(tasks.start, tasks.end, tasks.roll, strict=True))
+    ]
     tg = [tuple(int(k) for k in ks) for ks in tasks.targets]
     twl = [int(x) for x in tw]
-    lines = {j: OrbitTimeline(instance, j) for j in set(orb[t] for t in usable)}
+    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb[t] for t in usable)}
     cover = [0] * instance.n_targets
 
     perm = list(usable)
@@ -141,14 +138,13 @@ def solve_sa_stc(
     gain = [0] * len(tasks)  # its profit contribution there
 
     def put(t: int) -> None:
-        line = lines[orb[t]]
-        line.insert(line.check_insert(st[t], en[t], ro[t]), st[t], en[t], ro[t], t)
+        lines[orb[t]].insert(ent[t])  # replays an accepted insertion: it fits
         for k in tg[t]:
             cover[k] += 1
 
     def take(t: int) -> None:
         line = lines[orb[t]]
-        line.remove(line.items.index(t))
+        line.remove(line.obs.index(ent[t]))
         for k in tg[t]:
             cover[k] -= 1
 
@@ -158,9 +154,9 @@ def solve_sa_stc(
         g = sum(twl[k] for k in tg[t] if cover[k] == 0)
         if g > 0:
             line = lines[orb[t]]
-            chk = line.check_insert(st[t], en[t], ro[t])
-            if chk.ok:
-                line.insert(chk, st[t], en[t], ro[t], t)
+            chk = line.check_insert(ent[t])
+            if chk:
+                line.insert(ent[t], chk)
                 for k in tg[t]:
                     cover[k] += 1
                 acc[t], gain[t] = True, g
@@ -218,9 +214,9 @@ def solve_sa_stc(
             ok = False
             if g > 0:
                 line = lines[orb[t]]
-                chk = line.check_insert(st[t], en[t], ro[t])
-                if chk.ok:
-                    line.insert(chk, st[t], en[t], ro[t], t)
+                chk = line.check_insert(ent[t])
+                if chk:
+                    line.insert(ent[t], chk)
                     for k in tg[t]:
                         cover[k] += 1
                     ok = True

@@ -27,7 +27,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from heuristics.timeline import InsertCheck, OrbitTimeline
+from heuristics.timeline import InsertCheck, OrbitTimeline, fits_alone
 from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
@@ -120,6 +120,9 @@ class StcData:
         Per task, its index in ``usable`` (-1 when not usable).
     targets, weight
         Per task its targets; per target its weight (Python lists for the scalar loops).
+    entries
+        Per task its timeline entry ``(start, end, roll, task)``
+        (:class:`heuristics.timeline.OrbitTimeline`).
     """
 
     instance: Instance
@@ -134,6 +137,7 @@ class StcData:
     position: np.ndarray
     targets: tuple[tuple[int, ...], ...]
     weight: list[int]
+    entries: list[tuple[float, float, float, int]]
 
     @property
     def target_tasks(self) -> dict[int, tuple[int, ...]]:
@@ -144,13 +148,8 @@ class StcData:
 def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
     """Build :class:`StcData` from the static cluster-tasks of ``instance``."""
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
-    usable = []
-    for t in range(len(tasks)):
-        if tasks.weight[t] <= 0:
-            continue
-        line = OrbitTimeline(instance, int(tasks.orbit[t]))
-        if line.check_insert(float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])).ok:
-            usable.append(t)
+    alone = fits_alone(instance, tasks)
+    usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
     usable_arr = np.array(usable, dtype=np.int64)
     orbit_tasks: dict[int, np.ndarray] = {}
     for j in np.unique(tasks.orbit[usable_arr]) if len(usable_arr) else []:
@@ -174,6 +173,15 @@ def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
         position=position,
         targets=tuple(tuple(int(k) for k in ks) for ks in tasks.targets),
         weight=[int(x) for x in instance.target_weight],
+        entries=list(
+            zip(
+                tasks.start.tolist(),
+                tasks.end.tolist(),
+                tasks.roll.tolist(),
+                range(len(tasks)),
+                strict=True,
+            )
+        ),
     )
 
 
@@ -192,7 +200,7 @@ class Selection:
     def __init__(self, data: StcData) -> None:
         self.data = data
         self.lines: dict[int, OrbitTimeline] = {
-            j: OrbitTimeline(data.instance, j) for j in data.orbit_tasks
+            j: OrbitTimeline.of(data.instance, j) for j in data.orbit_tasks
         }
         self.cover = [0] * data.instance.n_targets
         self.chosen: set[int] = set()
@@ -211,17 +219,11 @@ class Selection:
 
     def check(self, t: int) -> InsertCheck:
         """:meth:`OrbitTimeline.check_insert` of task ``t`` on its orbit ((3)-(6), (11))."""
-        ts = self.data.tasks
-        return self.lines[int(ts.orbit[t])].check_insert(
-            float(ts.start[t]), float(ts.end[t]), float(ts.roll[t])
-        )
+        return self.lines[int(self.data.tasks.orbit[t])].check_insert(self.data.entries[t])
 
     def add(self, t: int, chk: InsertCheck) -> None:
         """Add task ``t`` where ``chk`` (a successful :meth:`check`) says."""
-        ts = self.data.tasks
-        self.lines[int(ts.orbit[t])].insert(
-            chk, float(ts.start[t]), float(ts.end[t]), float(ts.roll[t]), t
-        )
+        self.lines[int(self.data.tasks.orbit[t])].insert(self.data.entries[t], chk)
         cover, w = self.cover, self.data.weight
         for k in self.data.targets[t]:
             if cover[k] == 0:
@@ -240,7 +242,7 @@ class Selection:
     def remove(self, t: int) -> None:
         """Remove the chosen task ``t`` (never breaks (3)-(6): ``docs/model.md``)."""
         line = self.lines[int(self.data.tasks.orbit[t])]
-        line.remove(line.items.index(t))
+        line.remove(line.obs.index(self.data.entries[t]))
         cover, w = self.cover, self.data.weight
         for k in self.data.targets[t]:
             cover[k] -= 1
@@ -280,4 +282,4 @@ class Selection:
 
     def path(self, j: int) -> list[int]:
         """The chosen tasks of orbit ``j`` in time order."""
-        return list(self.lines[j].items)
+        return [o[3] for o in self.lines[j].obs]

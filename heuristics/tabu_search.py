@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order
-from heuristics.timeline import OrbitTimeline
+from heuristics.timeline import OrbitTimeline, fits_alone
 from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
@@ -145,14 +145,8 @@ class TabuSearch:
         self, instance: Instance, tasks: TaskSet, params: TSParams, rng: np.random.Generator
     ) -> None:
         self.instance, self.tasks, self.params, self.rng = instance, tasks, params, rng
-        usable = []
-        for t in priority_order(tasks):
-            if tasks.weight[t] <= 0:
-                continue
-            line = OrbitTimeline(instance, int(tasks.orbit[t]))
-            s, e, r = float(tasks.start[t]), float(tasks.end[t]), float(tasks.roll[t])
-            if line.check_insert(s, e, r).ok:
-                usable.append(int(t))
+        alone = fits_alone(instance, tasks)
+        usable = [int(t) for t in priority_order(tasks) if tasks.weight[t] > 0 and alone[t]]
         usable.sort()  # local index order = (orbit, start)
         self.usable = usable
         n = self.n = len(usable)
@@ -160,6 +154,8 @@ class TabuSearch:
         self.st = [float(tasks.start[t]) for t in usable]
         self.en = [float(tasks.end[t]) for t in usable]
         self.ro = [float(tasks.roll[t]) for t in usable]
+        # timeline entries (start, end, roll, local index), built once
+        self.ent = [(self.st[i], self.en[i], self.ro[i], i) for i in range(n)]
         self.tg = [tasks.targets[t] for t in usable]
         self.tw = [int(x) for x in instance.target_weight]
         idx = np.array(usable, dtype=np.int64)
@@ -178,7 +174,7 @@ class TabuSearch:
                 self.target_tasks.setdefault(k, []).append(i)
         self.cover = [0] * instance.n_targets
         self.in_s = [False] * n
-        self.lines = {j: OrbitTimeline(instance, j) for j in self.orbit_tasks}
+        self.lines = {j: OrbitTimeline.of(instance, j) for j in self.orbit_tasks}
         self.value = 0
         self.tabu_until = np.zeros(n, dtype=np.int64)
         self.drops = [0] * n
@@ -189,10 +185,10 @@ class TabuSearch:
     def add(self, i: int) -> None:
         """Put task i in (its orbit must accept it)."""
         line = self.lines[self.orb[i]]
-        chk = line.check_insert(self.st[i], self.en[i], self.ro[i])
-        if not chk.ok:
+        chk = line.check_insert(self.ent[i])
+        if not chk:
             raise RuntimeError(f"ts-stc: task {i} rejected ({chk.reason}) after its repair")
-        line.insert(chk, self.st[i], self.en[i], self.ro[i], i)
+        line.insert(self.ent[i], chk)
         for k in self.tg[i]:
             if self.cover[k] == 0:
                 self.value += self.tw[k]
@@ -202,7 +198,7 @@ class TabuSearch:
     def drop(self, i: int) -> None:
         """Take task i out."""
         line = self.lines[self.orb[i]]
-        line.remove(line.items.index(i))
+        line.remove(line.obs.index(self.ent[i]))
         for k in self.tg[i]:
             self.cover[k] -= 1
             if self.cover[k] == 0:
@@ -226,7 +222,7 @@ class TabuSearch:
             return None
         j = self.orb[i]
         conflicting = {h for h in self.conf[i] if self.in_s[h]}
-        keep = [h for h in self.lines[j].items if h not in conflicting]
+        keep = [o[3] for o in self.lines[j].obs if o[3] not in conflicting]
         dropped = list(conflicting)
         dec: dict[int, int] = {}
         for h in dropped:
@@ -234,11 +230,11 @@ class TabuSearch:
                 dec[k] = dec.get(k, 0) + 1
         mine = set(self.tg[i])
         while True:
-            line = OrbitTimeline(self.instance, j)
-            for h in keep:
-                line.insert(line.check_insert(self.st[h], self.en[h], self.ro[h]), *self._w(h), h)
-            chk = line.check_insert(self.st[i], self.en[i], self.ro[i])
-            if chk.ok:
+            line = OrbitTimeline(self.lines[j].rules)
+            for h in keep:  # a subset of a feasible orbit: fits, no check needed
+                line.insert(self.ent[h])
+            chk = line.check_insert(self.ent[i])
+            if chk:
                 break
             if chk.reason == "3" or not keep:  # cannot happen: (3) conflicts are dropped
                 return None
@@ -260,9 +256,6 @@ class TabuSearch:
         gain = sum(self.tw[k] for k in mine if self.cover[k] == 0)
         gain -= sum(self.tw[k] for k, d in dec.items() if k not in mine and self.cover[k] == d)
         return gain, tuple(sorted(dropped))
-
-    def _w(self, h: int) -> tuple[float, float, float]:
-        return self.st[h], self.en[h], self.ro[h]
 
     def _refresh(self, i: int) -> None:
         ev = self.evaluate(i)

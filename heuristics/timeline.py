@@ -1,129 +1,313 @@
 """Incremental per-orbit state: observations in time order with resource totals.
 
-Every method that builds schedules by insertion keeps one :class:`OrbitTimeline` per orbit.
-A move is evaluated first (:meth:`OrbitTimeline.check_insert`) and applied only if chosen
-(:meth:`OrbitTimeline.insert`); totals are updated by deltas, never recomputed.
+Every method that builds schedules by insertion, ASA-DTC and the baselines alike, keeps one
+:class:`OrbitTimeline` per orbit. An entry is a tuple whose first three fields are the window
+and the roll, ``(start, end, roll, *payload)``: ASA's cluster-tasks
+``(start, end, roll, lo, hi, members)`` (:mod:`heuristics.asa.state`) and the baselines'
+``(start, end, roll, task)`` alike. A move is evaluated first (:meth:`OrbitTimeline.check_insert`,
+:meth:`OrbitTimeline.check_replace`) and applied only if chosen; totals are updated by deltas,
+never recomputed.
 
-The constraints are those of ``docs/model.md``: (3) setup and slew time between consecutive
-observations, (4) energy with the slew term over consecutive pairs, (5) memory, (6) openings
-and (11) the longest observation.
+The constraints are those of ``docs/model.md``, taken from the kernel
+:class:`sosp.rules.OrbitRules`: (3) setup and slew time between consecutive observations, (4)
+energy with the slew term over consecutive pairs, (5) memory, (6) openings and (11) the longest
+observation.
 """
 
 from __future__ import annotations
 
-from bisect import bisect_left
-from dataclasses import dataclass
-from typing import Any
+from bisect import bisect_right
+from typing import Any, NamedTuple
 
 from sosp.instance import Instance
-from sosp.rules import EPS, orbit_rules
+from sosp.rules import EPS, OrbitRules, all_orbit_rules, orbit_rules
 
-__all__ = ["EPS", "InsertCheck", "OrbitTimeline"]
+__all__ = ["EPS", "Entry", "InsertCheck", "OrbitTimeline", "fits_alone"]
+
+#: ``(start, end, roll, *payload)``: an observation's window [ts, te], its roll, then anything.
+Entry = tuple
+
+_INF = float("inf")
 
 
-@dataclass(frozen=True, slots=True)
-class InsertCheck:
-    """Outcome of :meth:`OrbitTimeline.check_insert`: where, and the slew-time delta."""
+class InsertCheck(NamedTuple):
+    """Outcome of :meth:`OrbitTimeline.check_insert`: truthy iff the insertion keeps the rules.
+
+    Attributes
+    ----------
+    ok
+        Whether (3)-(6) and (11) stay met.
+    pos
+        Where the entry goes (-1 when refused).
+    d_slew
+        Change of the orbit's slew seconds, the slew term of (4) (0 when refused).
+    reason
+        The constraint refused, ``"3"``, ``"4"``, ``"5"``, ``"6"`` or ``"11"`` (``""`` when ok).
+    """
 
     ok: bool
     pos: int
     d_slew: float
     reason: str = ""
 
+    def __bool__(self) -> bool:
+        return self.ok
+
+
+# Refusals carry no position: shared constants, so a refused check allocates nothing.
+_REFUSED = {r: InsertCheck(False, -1, 0.0, r) for r in ("3", "4", "5", "6", "11")}
+_NO3, _NO4, _NO5, _NO6, _NO11 = (_REFUSED[r] for r in ("3", "4", "5", "6", "11"))
+
 
 class OrbitTimeline:
-    """Observations of one orbit, sorted by start, with running totals.
-
-    The rules come from :class:`sosp.rules.OrbitRules` (``self.rules``); this class only keeps
-    the sequence and its totals (observed and slew seconds) by deltas.
+    """Entries of one orbit, sorted by (start, end), with running totals.
 
     Parameters
     ----------
-    instance
-        The problem.
-    orbit
-        Orbit index j.
+    rules
+        The orbit's rules (:func:`sosp.rules.orbit_rules`); :meth:`of` builds them from an
+        instance.
+
+    Attributes
+    ----------
+    rules
+        The kernel's :class:`~sosp.rules.OrbitRules` of the orbit.
+    obs
+        The entries in time order: by (start, end), an entry inserted after those with the same
+        key.
+    observe
+        Total observation time, sum of te - ts (the terms of (4), (5)).
+    slew
+        Total slew time over consecutive pairs, sum of (|theta_u| + |theta_w|)/v (4).
     """
 
-    __slots__ = ("orbit", "rules", "starts", "ends", "rolls", "items", "observe", "slew")
+    __slots__ = ("rules", "obs", "observe", "slew")
 
-    def __init__(self, instance: Instance, orbit: int) -> None:
-        self.orbit = orbit
-        self.rules = orbit_rules(instance, orbit)
-        self.starts: list[float] = []
-        self.ends: list[float] = []
-        self.rolls: list[float] = []
-        self.items: list[Any] = []
-        self.observe = 0.0  # total observation time, seconds
-        self.slew = 0.0  # total slew time over consecutive pairs, seconds
+    def __init__(self, rules: OrbitRules) -> None:
+        self.rules = rules
+        self.obs: list[Entry] = []
+        self.observe = 0.0
+        self.slew = 0.0
+
+    @classmethod
+    def of(cls, instance: Instance, orbit: int) -> OrbitTimeline:
+        """An empty timeline of orbit ``orbit`` of ``instance``."""
+        return cls(orbit_rules(instance, orbit))
 
     def __len__(self) -> int:
-        return len(self.starts)
+        return len(self.obs)
 
+    # ------------------------------------------------------------------------ measures
     @property
     def energy(self) -> float:
-        """Energy used, constraint (4)."""
+        """ConE_j, the left side of (4)."""
         return self.rules.energy(self.observe, self.slew)
 
     @property
     def memory(self) -> float:
-        """Memory used, constraint (5)."""
+        """ConW_j, the left side of (5)."""
         return self.rules.memory(self.observe)
 
     def free_share(self) -> float:
-        """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (paper, 5.1 step 5)."""
+        """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (the paper's 5.1, step 5)."""
         return self.rules.free_share(self.energy, self.memory)
 
-    def check_insert(self, start: float, end: float, roll: float) -> InsertCheck:
-        """Can an observation [start, end] at ``roll`` be added without breaking (3)-(6), (11)?"""
+    def turn(self, u: Entry, w: Entry) -> float:
+        """Slew seconds between consecutive entries u then w (through nadir), (3)-(4)."""
+        return self.rules.turn(u[2], w[2])
+
+    def first_conflict(self) -> int:
+        """Position p of the first consecutive pair (p, p+1) breaking (3), or -1."""
+        obs = self.obs
+        clash = self.rules.clash
+        for p in range(len(obs) - 1):
+            u, w = obs[p], obs[p + 1]
+            if clash(u[1], u[2], w[0], w[2]):
+                return p
+        return -1
+
+    def over(self) -> tuple[bool, bool, bool]:
+        """Which of (4) energy, (5) memory, (6) openings is exceeded."""
         r = self.rules
+        return (
+            not r.energy_ok(self.observe, self.slew),
+            not r.memory_ok(self.observe),
+            len(self.obs) > r.max_openings,
+        )
+
+    def feasible(self) -> bool:
+        """(3)-(6) hold on the orbit ((11) is checked per entry when it comes in)."""
+        e, m, c = self.over()
+        return not (e or m or c) and self.first_conflict() < 0
+
+    # -------------------------------------------------------------------------- deltas
+    def insert_pos(self, entry: Entry) -> int:
+        """Where ``entry`` goes: after every entry with (start, end) at most its own."""
+        # The probe's third field (inf) is above every roll, so tuple order never reaches
+        # the payloads and ties in (start, end) go to the right.
+        return bisect_right(self.obs, (entry[0], entry[1], _INF))
+
+    def _slew_around(self, pos: int, entry: Entry | None, skip: int) -> float:
+        """Slew of the pairs touching position ``pos`` if it held ``entry`` (None: nothing).
+
+        ``skip`` is 1 when the current entry at ``pos`` is replaced or removed, 0 when
+        ``entry`` goes in before it.
+        """
+        obs = self.obs
+        turn = self.rules.turn
+        right = pos + skip
+        if entry is None:
+            if pos > 0 and right < len(obs):
+                return turn(obs[pos - 1][2], obs[right][2])
+            return 0.0
+        s = 0.0
+        roll = entry[2]
+        if pos > 0:
+            s += turn(obs[pos - 1][2], roll)
+        if right < len(obs):
+            s += turn(roll, obs[right][2])
+        return s
+
+    def delta_insert(self, pos: int, entry: Entry) -> float:
+        """Change of the slew seconds (4) of inserting ``entry`` at ``pos``."""
+        return self._slew_around(pos, entry, 0) - self._slew_around(pos, None, 0)
+
+    def delta_replace(self, pos: int, entry: Entry | None) -> tuple[float, float]:
+        """(d observe, d slew) of replacing the entry at ``pos`` by ``entry`` (None: removing
+        it). Valid when ``entry`` keeps the time order (the caller checks)."""
+        old = self.obs[pos]
+        d_obs = -(old[1] - old[0])
+        if entry is not None:
+            d_obs += entry[1] - entry[0]
+        d_slew = self._slew_around(pos, entry, 1) - self._slew_around(pos, old, 1)
+        return d_obs, d_slew
+
+    def check_insert(self, entry: Entry) -> InsertCheck:
+        """Would inserting ``entry`` keep (11), (6), (3), (5), (4) (checked in this order, on
+        a feasible orbit)? The result is truthy iff so, and says where and the slew delta, or
+        which rule refused."""
+        r = self.rules
+        start, end, roll = entry[0], entry[1], entry[2]
         if not r.duration_ok(start, end):
-            return InsertCheck(False, -1, 0.0, "11")
-        if len(self.starts) >= r.max_openings:
-            return InsertCheck(False, -1, 0.0, "6")
-        pos = bisect_left(self.starts, start)
+            return _NO11
+        obs = self.obs
+        n = len(obs)
+        if n >= r.max_openings:
+            return _NO6
+        pos = bisect_right(obs, (start, end, _INF))
+        clash, turn = r.clash, r.turn
+        # the same additions, in the same order, as delta_insert: equal totals to the bit
         d_slew = 0.0
         if pos > 0:
-            if r.clash(self.ends[pos - 1], self.rolls[pos - 1], start, roll):
-                return InsertCheck(False, pos, 0.0, "3")
-            d_slew += r.turn(self.rolls[pos - 1], roll)
-        if pos < len(self.starts):
-            if r.clash(end, roll, self.starts[pos], self.rolls[pos]):
-                return InsertCheck(False, pos, 0.0, "3")
-            d_slew += r.turn(roll, self.rolls[pos])
-        if 0 < pos < len(self.starts):
-            d_slew -= r.turn(self.rolls[pos - 1], self.rolls[pos])
+            u = obs[pos - 1]
+            if clash(u[1], u[2], start, roll):
+                return _NO3
+            d_slew += turn(u[2], roll)
+        if pos < n:
+            w = obs[pos]
+            if clash(end, roll, w[0], w[2]):
+                return _NO3
+            d_slew += turn(roll, w[2])
+            if pos > 0:
+                d_slew -= turn(u[2], w[2])
         observe = self.observe + (end - start)
         if not r.memory_ok(observe):
-            return InsertCheck(False, pos, d_slew, "5")
+            return _NO5
         if not r.energy_ok(observe, self.slew + d_slew):
-            return InsertCheck(False, pos, d_slew, "4")
+            return _NO4
         return InsertCheck(True, pos, d_slew)
 
-    def insert(self, check: InsertCheck, start: float, end: float, roll: float, item: Any) -> None:
-        """Apply an insertion evaluated by :meth:`check_insert`."""
-        pos = check.pos
-        self.starts.insert(pos, start)
-        self.ends.insert(pos, end)
-        self.rolls.insert(pos, roll)
-        self.items.insert(pos, item)
-        self.observe += end - start
-        self.slew += check.d_slew
-
-    def remove(self, pos: int) -> Any:
-        """Remove the observation at ``pos``; returns its item."""
-        n = len(self.starts)
-        turn = self.rules.turn
-        d = 0.0
+    def check_replace(self, pos: int, entry: Entry) -> bool:
+        """Would replacing the entry at ``pos`` by ``entry`` keep (11), (3)-(5) and the time
+        order ((6) does not change)?"""
+        r = self.rules
+        start, end, roll = entry[0], entry[1], entry[2]
+        if not r.duration_ok(start, end):
+            return False
+        obs = self.obs
+        clash = r.clash
         if pos > 0:
-            d -= turn(self.rolls[pos - 1], self.rolls[pos])
-        if pos < n - 1:
-            d -= turn(self.rolls[pos], self.rolls[pos + 1])
-        if 0 < pos < n - 1:
-            d += turn(self.rolls[pos - 1], self.rolls[pos + 1])
-        self.observe -= self.ends[pos] - self.starts[pos]
-        self.slew += d
-        if len(self.starts) == 1:  # avoid drift on an emptied orbit
+            u = obs[pos - 1]
+            if (u[0], u[1]) > (start, end) or clash(u[1], u[2], start, roll):
+                return False
+        if pos + 1 < len(obs):
+            w = obs[pos + 1]
+            if (start, end) > (w[0], w[1]) or clash(end, roll, w[0], w[2]):
+                return False
+        d_obs, d_slew = self.delta_replace(pos, entry)
+        return r.fits(self.observe + d_obs, self.slew + d_slew)
+
+    # ------------------------------------------------------------------------- updates
+    def insert(self, entry: Entry, check: InsertCheck | None = None) -> int:
+        """Insert ``entry`` in time order; returns its position.
+
+        With ``check`` (a successful :meth:`check_insert` of this entry on the unchanged
+        timeline) its position and slew delta are used as they are. Without it nothing is
+        checked: the orbit may become infeasible (ASA repairs it afterwards).
+        """
+        if check is None:
+            pos = self.insert_pos(entry)
+            d_slew = self.delta_insert(pos, entry)
+        elif check.ok:
+            pos, d_slew = check.pos, check.d_slew
+        else:
+            raise ValueError(f"insert: the check refused the entry (rule {check.reason})")
+        self.obs.insert(pos, entry)
+        self.observe += entry[1] - entry[0]
+        self.slew += d_slew
+        return pos
+
+    def remove(self, pos: int) -> Entry:
+        """Remove the entry at ``pos`` and return it."""
+        d_obs, d_slew = self.delta_replace(pos, None)
+        self.observe += d_obs
+        self.slew += d_slew
+        entry = self.obs.pop(pos)
+        if not self.obs:  # no drift on an emptied orbit
             self.observe = self.slew = 0.0
-        del self.starts[pos], self.ends[pos], self.rolls[pos]
-        return self.items.pop(pos)
+        return entry
+
+    def replace(self, pos: int, entry: Entry | None) -> None:
+        """Replace (or with None remove) the entry at ``pos``, keeping the time order."""
+        if entry is None:
+            self.remove(pos)
+            return
+        obs = self.obs
+        key = (entry[0], entry[1])
+        if (pos == 0 or (obs[pos - 1][0], obs[pos - 1][1]) <= key) and (
+            pos + 1 == len(obs) or key <= (obs[pos + 1][0], obs[pos + 1][1])
+        ):
+            d_obs, d_slew = self.delta_replace(pos, entry)
+            self.observe += d_obs
+            self.slew += d_slew
+            obs[pos] = entry
+        else:
+            self.remove(pos)
+            self.insert(entry)
+
+    def load(self, entries: list[Entry]) -> None:
+        """Make ``entries`` (in time order) the content, the totals recounted from scratch."""
+        self.obs = list(entries)
+        self.observe = sum(e[1] - e[0] for e in self.obs)
+        self.slew = sum(self.turn(a, b) for a, b in zip(self.obs, self.obs[1:], strict=False))
+
+    def snapshot(self) -> tuple[list[Entry], float, float]:
+        """The content and totals, for :meth:`restore` (a copy of the short list only)."""
+        return (list(self.obs), self.observe, self.slew)
+
+    def restore(self, snap: tuple[list[Entry], float, float]) -> None:
+        """Go back to a :meth:`snapshot` (which is taken over, not copied)."""
+        self.obs, self.observe, self.slew = snap[0], snap[1], snap[2]
+
+
+def fits_alone(instance: Instance, tasks: Any) -> list[bool]:
+    """Per task of ``tasks`` (a :class:`sosp.clustering.TaskSet`), whether it fits its empty
+    orbit: what :meth:`OrbitTimeline.check_insert` answers there, (6) c >= 1, (11), (4), (5)
+    (:meth:`sosp.rules.OrbitRules.alone_ok`)."""
+    rules = all_orbit_rules(instance)
+    return [
+        rules[j].alone_ok(s, e)
+        for j, s, e in zip(
+            tasks.orbit.tolist(), tasks.start.tolist(), tasks.end.tolist(), strict=True
+        )
+    ]

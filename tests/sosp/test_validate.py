@@ -238,7 +238,7 @@ def independent_feasible(inst: Instance, sched: Schedule) -> bool:
 def test_constructive_schedules_always_pass(inst: Instance, seed: int) -> None:
     """Random insertion of single opportunities and random pairs as clusters: all valid."""
     rng = np.random.default_rng(seed)
-    lines = [OrbitTimeline(inst, j) for j in range(inst.n_orbits)]
+    lines = [OrbitTimeline.of(inst, j) for j in range(inst.n_orbits)]
     used: set[int] = set()
     profit = 0
     for i in rng.permutation(inst.n_opps):
@@ -258,13 +258,13 @@ def test_constructive_schedules_always_pass(inst: Instance, seed: int) -> None:
             o = make_observation(inst, group, rule=rng.choice(["midpoint", "nadir"]))
         except ValueError:
             continue
-        chk = lines[j].check_insert(o.start, o.end, o.roll)
-        if chk.ok:
-            lines[j].insert(chk, o.start, o.end, o.roll, o)
+        chk = lines[j].check_insert((o.start, o.end, o.roll, o))
+        if chk:
+            lines[j].insert((o.start, o.end, o.roll, o), chk)
             ks = {int(inst.opp_target[h]) for h in o.opps}
             used |= ks
             profit += int(inst.target_weight[list(ks)].sum())
-    sched = Schedule(tuple(o for line in lines for o in line.items))
+    sched = Schedule(tuple(e[3] for line in lines for e in line.obs))
     rep = validate(inst, sched)
     assert rep.feasible, rep.violations
     assert rep.profit == profit
