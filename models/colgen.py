@@ -1,0 +1,321 @@
+"""Upper bound by column generation (Dantzig-Wolfe) over orbit plans, priced by the planner.
+
+The Lagrangian dual that :func:`models.lagrangian.lagrangian_bound` approaches by subgradient
+steps is the linear programme of the Dantzig-Wolfe reformulation of the cluster model: one
+column per plan of one orbit under (3) and (6) (its covered targets, its energy (4) and memory
+(5)), per orbit a convexity row and the two knapsack rows (4)-(5) over the plans' usages, per
+target ``z_k <= sum of the plans covering k`` and ``z_k <= 1``. Its duals are the multipliers:
+``mu_k`` of the coverage rows, ``lam_j`` of the knapsacks. Column generation solves it exactly
+with a small restricted master (HiGHS) and the exact single-orbit planner
+(:func:`sosp.planner.best_path`) as pricing, where subgradient steps only creep towards it.
+
+Every pricing round, at any multipliers ``mu >= 0``, ``lam >= 0``, gives the valid upper bound
+
+    L(mu, lam) = sum_k max(0, p_k - mu_k)
+                 + sum_j [ max over plans of orbit j under (3), (6) of
+                           sum_u (mu(targets of u) - penalties of u) + lam_ej + lam_wj ]
+
+(the bound of ``lagrangian_bound``); the least one found is returned. The duals are smoothed
+(Wentges): each round prices at a point between the duals of the best bound so far and the
+master's, which damps the oscillation of plain column generation.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
+
+log = logging.getLogger(__name__)
+
+#: Weight of the best-bound duals in the pricing point (Wentges smoothing). 0 is plain column
+#: generation (pricing at the master's duals).
+SMOOTHING = 0.5
+
+#: A column enters the master when its reduced cost at the master's duals exceeds this.
+_RC_TOL = 1e-7
+
+
+class _Master:
+    """The restricted master LP (minimising ``-sum p_k z_k``, so HiGHS's duals of the ``<=``
+    rows are <= 0 and the multipliers are their negatives).
+
+    Rows: one coverage row per covered target ``z_k - sum_P n_kP y_P <= 0`` (``n_kP``: how
+    many of plan P's observations cover k, as the planner counts), then per orbit the
+    convexity row ``sum_P y_P <= 1`` and the knapsacks ``sum_P E_P y_P <= E_j``,
+    ``sum_P M_P y_P <= W_j``. Columns: ``z_k`` in [0, 1], then ``y_P >= 0``.
+    """
+
+    def __init__(self, p: np.ndarray, targets: np.ndarray, data: OrbitData) -> None:
+        import highspy
+
+        from models.highs_direct import new_highs
+
+        self.h = new_highs()
+        h = self.h
+        h.setOptionValue("output_flag", False)
+        h.setOptionValue("solver", "simplex")
+        # (no "threads" option: HiGHS keeps one scheduler per process, and a solve asking
+        # for another count than it started with fails, see models.highs_direct.use_threads)
+        # re-solves start from the last basis: presolve would discard it (C2: 20 ms a solve
+        # with it)
+        h.setOptionValue("presolve", "off")
+        self.n_targets = len(targets)
+        self.row_of = np.full(len(p), -1, dtype=np.int64)
+        self.row_of[targets] = np.arange(len(targets))
+        n_orb = len(data.orbits)
+        self.conv0 = len(targets)
+        upper = np.concatenate(
+            [
+                np.zeros(len(targets)),
+                np.ones(n_orb),
+                [o.rules.energy_capacity for o in data.orbits],
+                [o.rules.memory_capacity for o in data.orbits],
+            ]
+        )
+        inf = highspy.kHighsInf
+        h.addRows(len(upper), np.full(len(upper), -inf), upper, 0, [], [], [])
+        n = len(targets)
+        h.addCols(
+            n,
+            -p[targets],
+            np.zeros(n),
+            np.ones(n),
+            n,
+            np.arange(n, dtype=np.int32),
+            np.arange(n, dtype=np.int32),
+            np.ones(n),
+        )
+        self.n_orb = n_orb
+        self.keys: set[tuple[int, bytes, float, float]] = set()
+        self.columns: list[tuple[int, np.ndarray, float, float]] = []
+
+    def add(self, g: int, covered: np.ndarray, energy: float, memory: float) -> bool:
+        """Add the plan of orbit ``g`` covering ``covered`` (targets with repeats); False when
+        the master has it already."""
+        tg, cnt = np.unique(covered, return_counts=True)
+        key = (g, tg.tobytes() + cnt.tobytes(), round(energy, 6), round(memory, 6))
+        if key in self.keys:
+            return False
+        self.keys.add(key)
+        self.columns.append((g, tg, energy, memory))
+        rows = np.concatenate(
+            [
+                self.row_of[tg],
+                [self.conv0 + g, self.conv0 + self.n_orb + g, self.conv0 + 2 * self.n_orb + g],
+            ]
+        ).astype(np.int32)
+        vals = np.concatenate([-cnt.astype(float), [1.0, energy, memory]])
+        self.h.addCol(0.0, 0.0, np.inf, len(rows), rows, vals)
+        return True
+
+    def solve(
+        self, seconds: float | None
+    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
+        """Solve within ``seconds`` (None: no limit); ``(value, mu, sigma, pi)``: the master's
+        optimum (a maximum), the coverage duals per covered target, the convexity duals and
+        the knapsack duals per unit of energy and memory (orbits x 2), all >= 0. None when
+        HiGHS stops before the optimum (time limit)."""
+        import highspy
+
+        h = self.h
+        h.setOptionValue("time_limit", float("inf") if seconds is None else max(seconds, 1e-3))
+        h.run()
+        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+            return None
+        value = -float(h.getInfo().objective_function_value)
+        dual = -np.asarray(h.getSolution().row_dual, dtype=float)
+        dual = np.maximum(dual, 0.0)
+        n, m = self.n_targets, self.n_orb
+        mu = dual[:n]
+        sigma = dual[n : n + m]
+        pi = np.stack([dual[n + m : n + 2 * m], dual[n + 2 * m : n + 3 * m]], axis=1)
+        return value, mu, sigma, pi
+
+
+def colgen_bound(
+    instance: Instance,
+    *,
+    time_limit: float | None = None,
+    lower_bound: float | None = None,
+    data: OrbitData | None = None,
+    workers: int = 1,
+    max_rounds: int = 10_000,
+    smoothing: float = SMOOTHING,
+    start: tuple[np.ndarray, np.ndarray] | None = None,
+) -> dict[str, Any]:
+    """Upper bound on the optimum (cluster model) by column generation over orbit plans.
+
+    Solves the Dantzig-Wolfe master of the module docstring by column generation, pricing
+    each orbit exactly with :func:`sosp.planner.best_path`; every round's multipliers give
+    the Lagrangian bound ``L(mu, lam)`` (coverage rows of (2) relaxed with ``mu``, knapsacks
+    (4)-(5) with ``lam``), and the least one found, rounded down (the optimum is an integer)
+    and capped by the total weight of the targets some candidate covers, is returned. Its
+    limit is the optimum of the master LP, the least value any ``lagrangian_bound`` run can
+    reach.
+
+    Parameters
+    ----------
+    instance
+        The problem.
+    time_limit
+        Seconds for everything, candidates included (None: until the master is solved).
+    lower_bound
+        A known feasible profit: stop once the bound meets it (None: no such stop).
+    data
+        Prepared candidates (built here when None).
+    workers
+        Processes for the orbits' plans of each round (:class:`sosp.planner.PlanPool`).
+    max_rounds
+        Pricing rounds at most.
+    smoothing
+        Weight in [0, 1) of the best bound's multipliers in each pricing point.
+    start
+        Multipliers ``(mu, lam)`` to start from (per target of the instance, and orbits x 2
+        per whole capacity as ``lagrangian_bound`` uses them), e.g. a subgradient run's;
+        None: ``mu = p / 2``, ``lam = 0``.
+
+    Returns
+    -------
+    dict
+        ``bound``, ``method`` ("colgen"), ``model`` ("cluster"), ``runtime_s``, ``rounds``,
+        ``columns``, ``master`` (the last restricted master's optimum, a lower bound on the
+        limit; None before the first), ``converged`` (the rounded bound has reached the
+        rounded master optimum: no Lagrangian bound of this relaxation, nor the LP over the
+        same candidates, is lower), ``candidates``.
+    """
+    t0 = time.perf_counter()
+    if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
+        raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
+    if not 0.0 <= float(smoothing) < 1.0:
+        raise InputError(f"smoothing: expected a number in [0, 1), got {smoothing!r}")
+    deadline = None if time_limit is None else t0 + float(time_limit)
+    if data is None:
+        data = orbit_data(instance, deadline, workers=workers)
+    groups = data.orbits
+    p = np.zeros(instance.n_targets)
+    seen = np.zeros(instance.n_targets, dtype=bool)
+    for o in groups:
+        seen[o.targets] = True
+    p[seen] = np.asarray(instance.target_weight, dtype=float)[seen]
+    cap = float(p.sum())
+    targets = np.flatnonzero(seen)
+    e_cap = np.array([o.rules.energy_capacity for o in groups], dtype=float)
+    w_cap = np.array([o.rules.memory_capacity for o in groups], dtype=float)
+
+    def out(
+        bound: float, rounds: int, columns: int, master: float | None, converged: bool
+    ) -> dict[str, Any]:
+        log.info("colgen bound %g after %d rounds, %d columns", bound, rounds, columns)
+        return {
+            "bound": bound,
+            "method": "colgen",
+            "model": "cluster",
+            "runtime_s": round(time.perf_counter() - t0, 6),
+            "rounds": rounds,
+            "columns": columns,
+            "master": master,
+            "converged": converged,
+            "candidates": data.n_items,
+        }
+
+    if not groups or cap == 0.0:
+        return out(cap, 0, 0, None, True)
+    if start is None:
+        mu_c, lam_c = 0.5 * p, np.zeros((len(groups), 2))
+    else:
+        mu_c = np.clip(np.asarray(start[0], dtype=float), 0.0, p)
+        lam_c = np.maximum(np.asarray(start[1], dtype=float), 0.0)
+        if lam_c.shape != (len(groups), 2):
+            raise InputError(f"start: expected lam of shape {(len(groups), 2)}")
+    pool = PlanPool(groups, workers)
+    master = _Master(p, targets, data)
+    best = math.inf
+    master_value: float | None = None
+    rounds = 0
+    mu_m: np.ndarray | None = None
+    lam_m = np.zeros((len(groups), 2))
+    sigma = np.zeros(len(groups))
+    alpha = 0.0  # the first round prices at the start point itself
+    converged = False
+    try:
+        while rounds < max_rounds:
+            if deadline is not None and time.perf_counter() > deadline:
+                break
+            if mu_m is None:
+                mu_s, lam_s = mu_c, lam_c
+            else:
+                mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
+                lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
+            plans = _price(groups, pool, mu_s, lam_s, deadline)
+            if plans is None:
+                break  # the deadline fell inside the round: its bound is incomplete
+            rounds += 1
+            value = float(np.maximum(p - mu_s, 0.0).sum())
+            value += sum(v for v, _, _ in plans) + float(lam_s.sum())
+            if value < best - 1e-9:
+                best, mu_c, lam_c = value, mu_s, lam_s
+            improving = 0
+            for g, (_, covered, used) in enumerate(plans):
+                if used is None:
+                    continue
+                if mu_m is not None:
+                    rc = float(mu_m[covered].sum()) - lam_m[g, 0] * used[0] / max(e_cap[g], 1e-12)
+                    rc -= lam_m[g, 1] * used[1] / max(w_cap[g], 1e-12) + sigma[g]
+                    improving += rc > _RC_TOL
+                master.add(g, covered, used[0], used[1])
+            if mu_m is not None and improving == 0:
+                if alpha == 0.0:
+                    converged = True  # no plan prices out at the master's duals: solved
+                    break
+                alpha = 0.0  # mis-pricing: the next round prices at the master's duals
+                continue
+            if lower_bound is not None and math.floor(best + 1e-6) <= lower_bound + 1e-9:
+                break
+            left = None if deadline is None else deadline - time.perf_counter()
+            solved = master.solve(left)
+            if solved is None:
+                break  # out of time inside the master: the best bound so far stands
+            master_value, mu_t, sigma, pi = solved
+            mu_m = np.zeros(len(p))
+            mu_m[targets] = np.minimum(mu_t, p[targets])
+            lam_m = pi * np.stack([e_cap, w_cap], axis=1)
+            alpha = smoothing
+            if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
+                converged = True  # the rounded bound cannot fall below the master's optimum
+                break
+    finally:
+        pool.close()
+    bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
+    return out(bound, rounds, len(master.columns), master_value, converged)
+
+
+def _price(
+    groups: tuple[Any, ...],
+    pool: PlanPool,
+    mu: np.ndarray,
+    lam: np.ndarray,
+    deadline: float | None,
+) -> list[tuple[float, np.ndarray, tuple[float, float] | None]] | None:
+    """Every orbit's best plan at ``mu``, ``lam`` (as :meth:`PlanPool.best_paths`); None when
+    the deadline passes before all are planned (in this process the deadline is checked
+    between orbits, a dense instance's round taking seconds)."""
+    if pool.pool is not None:
+        return pool.best_paths(mu, lam)
+    plans = []
+    for g, o in enumerate(groups):
+        if deadline is not None and time.perf_counter() > deadline:
+            return None
+        v, path = best_path(o, mu, float(lam[g, 0]), float(lam[g, 1]))
+        if len(path):
+            plans.append((v, o.target_flat[flat_positions(o, path)], o.usage(path)))
+        else:
+            plans.append((v, np.zeros(0, dtype=np.int32), None))
+    return plans

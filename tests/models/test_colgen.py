@@ -1,0 +1,111 @@
+"""The column-generation bound (models/colgen.py): never below the optimum, never above the cap,
+at its limit no looser than any Lagrangian bound of the same relaxation nor than the LP, and
+within its time limit."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+
+from models.colgen import colgen_bound
+from models.data import observable_weight
+from models.lagrangian import lagrangian_bound
+from models.solve import bound
+from sosp.errors import InputError
+from sosp.instance import Instance
+from sosp.planner import orbit_data
+from sosp.solve import bound_function
+from tests.conftest import small_instances
+from tests.models.instances import random_tiny
+from tests.oracle import brute_force
+
+
+def _check(inst: Instance) -> dict:
+    optimum = brute_force(inst, "cluster").profit
+    out = colgen_bound(inst)
+    assert optimum <= out["bound"] <= observable_weight(inst)
+    assert out["converged"]
+    if out["master"] is not None:
+        # converged: the rounded bound is the rounded optimum of the master LP
+        assert out["bound"] == min(math.floor(out["master"] + 1e-6), observable_weight(inst))
+    return out
+
+
+@settings(max_examples=60, deadline=None)
+@given(inst=small_instances())
+def test_colgen_bound_against_the_oracle(inst: Instance) -> None:
+    out = _check(inst)
+    # every subgradient step's value is a Lagrangian bound of the relaxation whose master
+    # the column generation solves: none is below the master's optimum
+    assert out["bound"] <= lagrangian_bound(inst, iterations=50)["bound"]
+
+
+@pytest.mark.parametrize("seed", range(0, 40, 3))
+def test_colgen_bound_no_looser_than_the_lp(seed: int) -> None:
+    # the master LP is the LP over the convex hulls of the orbits' plans under (3), (6), with
+    # the exact knapsacks of each plan: inside the clique LP's feasible set
+    inst = random_tiny(seed)
+    out = _check(inst)
+    assert out["bound"] <= bound(inst, method="lp", slew="exact")["bound"]
+
+
+def test_tiny_named_instances(tiny: Instance) -> None:
+    _check(tiny)
+
+
+def test_registered_and_dispatched(tiny: Instance) -> None:
+    cap = observable_weight(tiny)
+    optimum = brute_force(tiny, "cluster").profit
+    for out in (
+        bound(tiny, method="colgen"),
+        bound_function("colgen")(tiny, time_limit=10.0, lower_bound=None),
+    ):
+        assert optimum <= out["bound"] <= cap
+    auto = bound(tiny, method="auto")
+    assert "colgen" in auto["parts"] and optimum <= auto["bound"] <= cap
+    # a converged column generation leaves no LP to run: the LP could not be tighter
+    assert auto["converged"] is True and "lp" not in auto["parts"]
+
+
+def test_lower_bound_stops_early() -> None:
+    inst = random_tiny(5)
+    optimum = brute_force(inst, "cluster").profit
+    out = colgen_bound(inst, lower_bound=optimum + 100.0)
+    assert out["rounds"] == 1 and out["bound"] >= optimum
+
+
+def test_bad_parameters() -> None:
+    inst = random_tiny(1)
+    with pytest.raises(InputError, match="max_rounds"):
+        colgen_bound(inst, max_rounds=0)
+    with pytest.raises(InputError, match="smoothing"):
+        colgen_bound(inst, smoothing=1.0)
+    with pytest.raises(InputError, match="start"):
+        colgen_bound(inst, start=(np.zeros(inst.n_targets), np.zeros((99, 2))))
+
+
+def test_warm_start_reaches_the_same_limit() -> None:
+    inst = random_tiny(19)
+    cold = colgen_bound(inst)
+    p = np.asarray(inst.target_weight, dtype=float)
+    data = orbit_data(inst)
+    warm = colgen_bound(inst, data=data, start=(p, np.ones((len(data.orbits), 2))))
+    assert warm["bound"] == cold["bound"] and warm["converged"]
+
+
+@pytest.mark.slow
+def test_keeps_its_time_limit() -> None:
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C2")  # about 50 rounds and 1-3 s to converge
+    data = orbit_data(inst)
+    full = colgen_bound(inst, data=data)
+    limit = 0.2
+    t0 = time.perf_counter()
+    out = colgen_bound(inst, data=data, time_limit=limit)
+    assert time.perf_counter() - t0 <= limit + 0.2
+    assert not out["converged"] and out["bound"] >= full["bound"]
