@@ -880,10 +880,10 @@ def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel, res: Any) -> list[int]:
 
 
 #: Methods of :func:`bound`.
-BOUND_METHODS = ("auto", "lp", "milp", "lagrangian")
+BOUND_METHODS = ("auto", "lp", "milp", "lagrangian", "colgen")
 
-#: Share of ``time_limit`` :func:`bound` with ``method="auto"`` gives the Lagrangian bound
-#: before the LP gets the rest.
+#: Share of ``time_limit`` :func:`bound` with ``method="auto"`` gives the column-generation
+#: bound before the LP gets the rest.
 AUTO_LAGRANGIAN_SHARE = 0.4
 
 
@@ -912,12 +912,15 @@ def bound(
     model
         ``"cluster"`` (bounds the problem and so every heuristic), ``"task"`` or ``"static"``.
     method
-        ``"auto"`` (default): the Lagrangian bound (at most :data:`AUTO_LAGRANGIAN_SHARE` of
-        the limit), then the LP relaxation with what is left; the least of the two that
-        finished. ``"lp"``: the clique-strengthened LP relaxation (cliques of (3), slew term
-        of (4) as ``slew``); ``"milp"``: the bound of a time-limited :func:`solve_milp` (its
-        dual bound, the Lagrangian bound, the cap); ``"lagrangian"``:
-        :func:`models.lagrangian.lagrangian_bound` over the model's items.
+        ``"auto"`` (default): the column-generation bound (at most
+        :data:`AUTO_LAGRANGIAN_SHARE` of the limit), then, unless it converged, the LP
+        relaxation with what is left; the least of the two that finished (a converged
+        column generation has the optimum of a master LP at least as tight as this LP, see
+        :mod:`models.colgen`). ``"lp"``: the clique-strengthened LP relaxation (cliques of
+        (3), slew term of (4) as ``slew``); ``"milp"``: the bound of a time-limited
+        :func:`solve_milp` (its dual bound, the Lagrangian bound, the cap);
+        ``"lagrangian"``: :func:`models.lagrangian.lagrangian_bound` over the model's items;
+        ``"colgen"``: :func:`models.colgen.colgen_bound` over the model's items.
     time_limit
         Seconds for everything, building included (None: no limit).
     threads
@@ -939,7 +942,8 @@ def bound(
     -------
     dict
         ``bound``, ``method``, ``source`` (what gave the bound: ``"lp"``, ``"lagrangian"``,
-        ``"milp"`` or ``"cap"`` when nothing finished below it), ``model``, ``runtime_s``,
+        ``"colgen"``, ``"milp"`` or ``"cap"`` when nothing finished below it), ``model``,
+        ``runtime_s``,
         ``cap`` (the covered weight), the model size; ``"auto"``: ``parts`` (each method's
         bound, None when it did not finish); ``"milp"``: the incumbent ``profit``,
         ``status`` and ``gap``.
@@ -983,7 +987,33 @@ def bound(
     cap = data.covered_weight()
     parts: dict[str, float | None] = {}
     stats: dict[str, Any] = {"candidates": data.n_items, "cliques": data.n_events, "cap": cap}
-    lagrangian = method in ("auto", "lagrangian") and data.n_items > 0
+    converged = False
+    if (
+        method in ("auto", "colgen")
+        and data.n_items > 0
+        and fits("arrange", data.n_items, deadline)
+    ):
+        from models.colgen import colgen_bound
+        from sosp.planner import with_rolls
+
+        limit = None
+        if deadline is not None:
+            share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
+            limit = max(min(share * time_limit, deadline - time.perf_counter()), 1e-3)
+        cg = colgen_bound(
+            instance,
+            time_limit=limit,
+            lower_bound=lower_bound if lower_bound else None,
+            data=with_rolls(data, data.roll),
+        )
+        parts["colgen"] = cg["bound"]
+        stats["rounds"] = cg["rounds"]
+        stats["converged"] = bool(cg["converged"])
+        # the argument that the LP cannot be tighter is made for the cluster model's rows
+        converged = stats["converged"] and model == "cluster"
+        if lower_bound:
+            stats["lower_bound"] = float(lower_bound)
+    lagrangian = method == "lagrangian" and data.n_items > 0
     if lagrangian and fits("arrange", data.n_items, deadline):
         from models.lagrangian import lagrangian_bound
         from sosp.planner import with_rolls
@@ -1002,9 +1032,11 @@ def bound(
         parts["lagrangian"] = lag["bound"]
         stats["iterations"] = lag["iterations"]
         stats["lower_bound"] = lag["lower_bound"]
-    proven = "lagrangian" in parts and parts["lagrangian"] <= stats["lower_bound"] + INT_TOL
-    if method == "lp" or (method == "auto" and data.n_items and not proven):
-        # (auto: no LP when the Lagrangian bound already meets a schedule's profit)
+    first = parts.get("lagrangian", parts.get("colgen"))
+    proven = first is not None and first <= stats.get("lower_bound", -math.inf) + INT_TOL
+    if method == "lp" or (method == "auto" and data.n_items and not proven and not converged):
+        # (auto: no LP when the first bound already meets a schedule's profit, or when the
+        # column generation converged: its master LP is at least as tight as this LP)
         left = None if deadline is None else deadline - time.perf_counter()
         if left is None or left > 0.05:
             res = solve_milp(
@@ -1049,6 +1081,7 @@ def _bound_out(
     }
     keys = ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination")
     more = ("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound")
+    more = (*more, "rounds", "converged")
     for key in (*keys, *more, "lp_value", "lp_solver", "slew", "timed_out"):
         if key in stats:
             out[key] = stats[key]

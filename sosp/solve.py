@@ -75,6 +75,7 @@ BOUNDS: dict[str, str] = {
     "lp": "models.solve:lp_bound",
     "milp": "models.solve:milp_bound",
     "lagrangian": "models.lagrangian:lagrangian_bound",
+    "colgen": "models.colgen:colgen_bound",
     "pba": "heuristics.pba:pba_bound",
 }
 
@@ -225,7 +226,7 @@ def solve(
 
 #: Bounds of :data:`BOUNDS` that bound the problem itself (the cluster model's optimum), so
 #: every method's schedule: what :func:`solve`'s ``bound`` accepts.
-CERTIFYING_BOUNDS = ("auto", "lp", "lagrangian", "milp")
+CERTIFYING_BOUNDS = ("auto", "lp", "lagrangian", "colgen", "milp")
 
 
 def certify(

@@ -285,7 +285,7 @@ def test_cli_bound_json(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bound", str(path), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["method"] == "auto" and out["bound"] >= 11 and out["runtime_s"] >= 0
-    assert out["bound"] <= out["cap"] and out["source"] in ("lp", "lagrangian", "cap")
+    assert out["bound"] <= out["cap"] and out["source"] in ("lp", "lagrangian", "colgen", "cap")
     assert main(["bound", str(path), "--method", "lp", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["method"] == "lp"
     assert main(["bound", str(path), "--method", "milp", "--model", "task", "--json"]) == 0
