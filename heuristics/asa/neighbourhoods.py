@@ -12,8 +12,9 @@ import heapq
 import numpy as np
 
 from heuristics.asa.params import ASAParams
-from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, OrbitLine, State
+from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
+from heuristics.timeline import OrbitTimeline
 
 #: Which neighbourhood: index into the selector's probabilities.
 INSERTION, MIGRATION = 0, 1
@@ -21,7 +22,7 @@ INSERTION, MIGRATION = 0, 1
 
 # --------------------------------------------------------------------------- clustering test
 def clustering_gain(
-    state: State, line: OrbitLine, c: Cluster, x: int, params: ASAParams
+    state: State, line: OrbitTimeline, c: Cluster, x: int, params: ASAParams
 ) -> tuple[float, Cluster] | None:
     r"""Can option ``x`` join cluster-task ``c`` by (7), (11) and (16)? Returns (saving, new).
 
@@ -146,7 +147,7 @@ def insert_options(
             key = (found[0], 1, share, -idx)
             item = (key, x, found[2], found[3])
         else:
-            fits = feasible_first and line.check_insert(state.make_cluster((x,)))
+            fits = feasible_first and line.check_insert(state.make_cluster((x,))).ok
             key = (fits, 0, share, -idx)
             item = (key, x, -1, None)
         if best is None or item[0] > best[0]:
@@ -182,7 +183,7 @@ def remove_member(state: State, j: int, pos: int, x: int) -> None:
     state.unassign(state.pb.opt_unit[x])
 
 
-def _removal_score(state: State, line: OrbitLine, pos: int, x: int) -> tuple[float, float, int]:
+def _removal_score(state: State, line: OrbitTimeline, pos: int, x: int) -> tuple[float, float, int]:
     """(resource use freed, profit lost, openings freed) if x leaves the cluster at pos."""
     c = line.obs[pos]
     new = state.cluster_without(c, x)
@@ -358,8 +359,9 @@ def try_insert_feasible(state: State, x: int, params: ASAParams) -> bool:
             state.assign(pb.opt_unit[x], x)
             return True
     single = state.make_cluster((x,))
-    if line.check_insert(single):
-        state.touch(j).insert(single)
+    chk = line.check_insert(single)
+    if chk:
+        state.touch(j).insert(single, chk)
         state.assign(pb.opt_unit[x], x)
         return True
     return False
@@ -384,8 +386,7 @@ def migration_move(
         return False
     x_old = state.sched[u]
     j_old = pb.opt_orbit[x_old]
-    line = state.lines[j_old]
-    remove_member(state, j_old, line.find(x_old), x_old)
+    remove_member(state, j_old, state.find(j_old, x_old), x_old)
     # Removing a component can move a cluster's midpoint roll: re-check the freed orbit.
     if not repair(state, j_old):
         return False

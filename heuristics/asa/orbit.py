@@ -238,7 +238,7 @@ class OrbitPlanner:
                 if y >= 0:
                     # Not on j: j's tasks are in kept cluster-tasks or were unassigned above.
                     i = orbit[y]
-                    remove_member(state, i, state.lines[i].find(y), y)
+                    remove_member(state, i, state.find(i, y), y)
                     losers.add(i)
                 state.assign(unit[x], x)
             line.insert(state.make_cluster(members))

@@ -6,11 +6,13 @@ roll range (8) and its component options sorted by start. Changing a cluster-tas
 tuple by (8)-(10) from its new members, so the roll and window are always recomputed whenever
 its components change (section 5.1).
 
-Each orbit keeps its cluster-tasks in time order with the totals of observation time and slew
-time, updated by deltas (constraints (4)-(6)). A move is applied with a journal: the first
-time a move touches an orbit, that orbit's short list (at most c_j + 1 entries) is saved, and
-every unit assignment is logged; :meth:`State.rollback` restores both, so a rejected move
-costs no copy of the schedule.
+Each orbit keeps its cluster-tasks in a :class:`heuristics.timeline.OrbitTimeline` (the
+timeline every insertion method shares: time order, totals of observation time and slew time
+updated by deltas, constraints (3)-(6), (11)); a cluster-task is an entry whose payload is
+``(lo, hi, members)``. A move is applied with a journal: the first time a move touches an
+orbit, that orbit's short list (at most c_j + 1 entries) is saved, and every unit assignment
+is logged; :meth:`State.rollback` restores both, so a rejected move costs no copy of the
+schedule.
 """
 
 from __future__ import annotations
@@ -18,204 +20,12 @@ from __future__ import annotations
 from bisect import insort
 
 from heuristics.asa.problem import Problem
-from sosp.rules import OrbitRules
+from heuristics.timeline import OrbitTimeline
 
 #: Cluster tuple fields.
 START, END, ROLL, LO, HI, MEMBERS = range(6)
 
 Cluster = tuple  # (start, end, roll, lo, hi, members)
-
-
-class OrbitLine:
-    """Cluster-tasks of one orbit, sorted by (start, end), with running totals.
-
-    Attributes
-    ----------
-    obs
-        The cluster-tasks in time order.
-    observe
-        Total observation time, sum of te_u - ts_u (terms of (4), (5)).
-    slew
-        Total slew time over consecutive pairs, sum of (|theta_u| + |theta_v|)/v (4).
-    """
-
-    __slots__ = ("rules", "obs", "observe", "slew")
-
-    def __init__(self, rules: OrbitRules) -> None:
-        self.rules = rules
-        self.obs: list[Cluster] = []
-        self.observe = 0.0
-        self.slew = 0.0
-
-    # ------------------------------------------------------------ measures
-    @property
-    def energy(self) -> float:
-        """ConE_j, the left side of (4)."""
-        return self.rules.energy(self.observe, self.slew)
-
-    @property
-    def memory(self) -> float:
-        """ConW_j, the left side of (5)."""
-        return self.rules.memory(self.observe)
-
-    def free_share(self) -> float:
-        """Resources left, ``(E - ConE)/E + (W - ConW)/W`` (5.1, step 5)."""
-        return self.rules.free_share(self.energy, self.memory)
-
-    def turn(self, c1: Cluster, c2: Cluster) -> float:
-        """Slew time between consecutive cluster-tasks (through nadir), as in (3)-(4)."""
-        return self.rules.turn(c1[ROLL], c2[ROLL])
-
-    def clash(self, c1: Cluster, c2: Cluster) -> bool:
-        """True if c1 then c2 breaks (3)."""
-        return self.rules.clash(c1[END], c1[ROLL], c2[START], c2[ROLL])
-
-    def first_conflict(self) -> int:
-        """Position p of the first consecutive pair (p, p+1) breaking (3), or -1."""
-        obs = self.obs
-        clash = self.rules.clash
-        for p in range(len(obs) - 1):
-            u, w = obs[p], obs[p + 1]
-            if clash(u[END], u[ROLL], w[START], w[ROLL]):
-                return p
-        return -1
-
-    def over(self) -> tuple[bool, bool, bool]:
-        """Which of (4) energy, (5) memory, (6) openings is exceeded."""
-        p = self.rules
-        return (
-            not p.energy_ok(self.observe, self.slew),
-            not p.memory_ok(self.observe),
-            len(self.obs) > p.max_openings,
-        )
-
-    def feasible(self) -> bool:
-        e, m, c = self.over()
-        return not (e or m or c) and self.first_conflict() < 0
-
-    # -------------------------------------------------------------- deltas
-    def _slew_around(self, pos: int, c: Cluster | None, skip: int) -> float:
-        """Slew of the pairs touching position ``pos`` if it held ``c`` (None: removed).
-
-        ``skip`` is 1 when the current entry at ``pos`` is replaced or removed, 0 when ``c`` is
-        inserted before it.
-        """
-        obs = self.obs
-        left = obs[pos - 1] if pos > 0 else None
-        right = obs[pos + skip] if pos + skip < len(obs) else None
-        if c is None:
-            return self.turn(left, right) if left is not None and right is not None else 0.0
-        s = 0.0
-        if left is not None:
-            s += self.turn(left, c)
-        if right is not None:
-            s += self.turn(c, right)
-        return s
-
-    def delta_replace(self, pos: int, c: Cluster | None) -> tuple[float, float]:
-        """(d observe, d slew) of replacing the entry at ``pos`` by ``c`` (None: removing it).
-
-        Valid when ``c`` keeps the time order (the caller checks).
-        """
-        old = self.obs[pos]
-        d_obs = -(old[END] - old[START])
-        if c is not None:
-            d_obs += c[END] - c[START]
-        d_slew = self._slew_around(pos, c, 1) - self._slew_around(pos, old, 1)
-        return d_obs, d_slew
-
-    def insert_pos(self, c: Cluster) -> int:
-        key = (c[START], c[END])
-        obs = self.obs
-        pos = 0
-        while pos < len(obs) and (obs[pos][START], obs[pos][END]) <= key:
-            pos += 1
-        return pos
-
-    def delta_insert(self, pos: int, c: Cluster) -> float:
-        """d slew of inserting ``c`` at ``pos``."""
-        return self._slew_around(pos, c, 0) - self._slew_around(pos, None, 0)
-
-    def check_insert(self, c: Cluster) -> bool:
-        """Would inserting ``c`` keep (3)-(6) (on a currently feasible orbit)?"""
-        p = self.rules
-        if len(self.obs) >= p.max_openings:
-            return False
-        pos = self.insert_pos(c)
-        obs = self.obs
-        if pos > 0 and self.clash(obs[pos - 1], c):
-            return False
-        if pos < len(obs) and self.clash(c, obs[pos]):
-            return False
-        obs_t = self.observe + c[END] - c[START]
-        slew = self.slew + self.delta_insert(pos, c)
-        return p.fits(obs_t, slew)
-
-    def check_replace(self, pos: int, c: Cluster) -> bool:
-        """Would replacing the entry at ``pos`` by ``c`` keep (3)-(6)?"""
-        obs = self.obs
-        if pos > 0 and (
-            (obs[pos - 1][START], obs[pos - 1][END]) > (c[START], c[END])
-            or self.clash(obs[pos - 1], c)
-        ):
-            return False
-        if pos + 1 < len(obs) and (
-            (c[START], c[END]) > (obs[pos + 1][START], obs[pos + 1][END])
-            or self.clash(c, obs[pos + 1])
-        ):
-            return False
-        d_obs, d_slew = self.delta_replace(pos, c)
-        p = self.rules
-        obs_t = self.observe + d_obs
-        return p.fits(obs_t, self.slew + d_slew)
-
-    # ------------------------------------------------------------- updates
-    def insert(self, c: Cluster) -> int:
-        pos = self.insert_pos(c)
-        self.slew += self.delta_insert(pos, c)
-        self.observe += c[END] - c[START]
-        self.obs.insert(pos, c)
-        return pos
-
-    def remove(self, pos: int) -> Cluster:
-        d_obs, d_slew = self.delta_replace(pos, None)
-        self.observe += d_obs
-        self.slew += d_slew
-        c = self.obs.pop(pos)
-        if not self.obs:  # no drift on an emptied orbit
-            self.observe = self.slew = 0.0
-        return c
-
-    def replace(self, pos: int, c: Cluster | None) -> None:
-        """Replace (or with None remove) the entry at ``pos``, keeping the time order."""
-        if c is None:
-            self.remove(pos)
-            return
-        obs = self.obs
-        key = (c[START], c[END])
-        if (pos == 0 or (obs[pos - 1][START], obs[pos - 1][END]) <= key) and (
-            pos + 1 == len(obs) or key <= (obs[pos + 1][START], obs[pos + 1][END])
-        ):
-            d_obs, d_slew = self.delta_replace(pos, c)
-            self.observe += d_obs
-            self.slew += d_slew
-            obs[pos] = c
-        else:
-            self.remove(pos)
-            self.insert(c)
-
-    def find(self, x: int) -> int:
-        """Position of the cluster-task holding option ``x`` (-1 if none)."""
-        for pos, c in enumerate(self.obs):
-            if x in c[MEMBERS]:
-                return pos
-        return -1
-
-    def snapshot(self) -> tuple[list[Cluster], float, float]:
-        return (list(self.obs), self.observe, self.slew)
-
-    def restore(self, snap: tuple[list[Cluster], float, float]) -> None:
-        self.obs, self.observe, self.slew = snap[0], snap[1], snap[2]
 
 
 class State:
@@ -244,7 +54,7 @@ class State:
             self.single_roll = [
                 min(max(0.0, lo), hi) for lo, hi in zip(problem.opt_lo, problem.opt_hi, strict=True)
             ]
-        self.lines = [OrbitLine(p) for p in problem.orbits]
+        self.lines = [OrbitTimeline(p) for p in problem.orbits]
         self.sched = [-1] * problem.n_units  # option of each unit, -1 when unscheduled
         self.cover = [0] * len(problem.target_weight)
         self.profit = 0.0
@@ -271,7 +81,14 @@ class State:
         self._log.clear()
         self._profit0 = self.profit
 
-    def touch(self, j: int) -> OrbitLine:
+    def find(self, j: int, x: int) -> int:
+        """Position on orbit j of the cluster-task holding option ``x`` (-1 if none)."""
+        for pos, c in enumerate(self.lines[j].obs):
+            if x in c[MEMBERS]:
+                return pos
+        return -1
+
+    def touch(self, j: int) -> OrbitTimeline:
         """The line of orbit j, saved in the journal on first touch."""
         line = self.lines[j]
         if j not in self._snaps:
@@ -420,9 +237,7 @@ class State:
         self.unscheduled = list(range(len(self.rank_unit)))
         self.scheduled = set()
         for line, obs in zip(self.lines, snap, strict=True):
-            line.obs = list(obs)
-            line.observe = sum(c[END] - c[START] for c in obs)
-            line.slew = sum(line.turn(a, b) for a, b in zip(obs, obs[1:], strict=False))
+            line.load(obs)
             for c in obs:
                 for x in c[MEMBERS]:
                     self._set(pb.opt_unit[x], x)
