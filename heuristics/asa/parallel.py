@@ -1,37 +1,30 @@
 """Several ASA chains on several cores, the best of them returned (sosp's, not the paper's).
 
 Algorithm 1 is one sequential chain. On a machine with more than one core, ``workers=n``
-runs ``n`` chains side by side, one process each, optionally cooperating:
+runs ``n`` independent chains side by side, one process each:
 
 1. each chain is a :class:`~heuristics.asa.search.Search` with its own generator, spawned from
    the entry point's (:meth:`numpy.random.Generator.spawn`), so the chains differ from the
    first iteration and the run is reproducible from the one seed;
-2. the run's limit (time, else iterations) is cut into ``epochs`` equal parts; every chain
-   runs one part;
-3. between two parts, every chain whose best is below the best of all adopts that schedule as
-   its current and best solution (:meth:`~heuristics.asa.search.Search.adopt`); its
-   temperature (21), neighbourhood probabilities (17)-(18), tabu list and counters carry on.
-   Ties go to the chain with the lower index, so with an iteration limit the result depends
-   on the seed alone;
-4. the result is the best chain's, with the iterations of all chains summed and a per-chain
-   summary in ``stats["chains"]``.
+2. every chain runs to the run's limit (time, iterations or ``no_improve``, counted per chain);
+3. the result is the best chain's (ties: the lower index), with the iterations of all chains
+   summed and a per-chain summary in ``stats["chains"]``.
 
-``epochs=1`` (the default) gives independent chains: the best of ``n`` runs, in the wall time
-of one. Exchanging the best in six epochs measured no better on B10 and C10 (``docs/asa.md``,
-"Two cores"): the chains then search near one schedule, and what two chains buy on these
-instances is a second draw. A chain that fails sends its error to the parent, which stops
-the others and raises it.
+The chains do not exchange schedules: making the chains behind adopt the best of all a few
+times per run measured no better on B10 and C10 (``docs/asa.md``, "Two cores"; it was removed
+with its parameter ``epochs``): the chains then search near one schedule, and what two chains
+buy on these instances is a second draw. A chain that fails sends its error to the parent,
+which stops the others and raises it.
 
 A stop request (:func:`sosp.stop.request_stop`, e.g. Ctrl-C or SIGTERM under the CLI) in the
-parent reaches the chains through a shared event; they end their epoch at the next check and
-the best of their schedules so far is returned. The chains publish their iterations and best
-in shared memory, which the parent reports to the solve's progress while it waits.
+parent reaches the chains through a shared event; they stop at the next check and the best of
+their schedules so far is returned. The chains publish their iterations and best in shared
+memory, which the parent reports to the solve's progress while it waits.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import multiprocessing as mp
 import signal
 import time
@@ -42,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.asa.params import ASAParams
-from heuristics.asa.search import DEFAULT_ITERATIONS, Search, stop_rule
+from heuristics.asa.search import run_asa
 from sosp.instance import Instance
 from sosp.progress import Progress, Snapshot, reporting
 from sosp.progress import current as current_progress
@@ -62,21 +55,21 @@ def _chain(
     rng: np.random.Generator,
     time_limit: float | None,
     params: ASAParams,
+    started: float,
     index: int = 0,
     shared: Any = None,
     halt: Any = None,
 ) -> None:
-    """One chain, in its own process: build the search, then obey the parent's commands.
+    """One chain, in its own process: :func:`~heuristics.asa.search.run_asa`, its result sent.
+
+    ``started`` is the parent's :func:`time.time` at the start of the run: ``time_limit``
+    counts from it, so starting the process does not lengthen the run.
 
     ``shared`` (a shared array of doubles, two per chain) receives the chain's iterations and
     best at each progress report; once ``halt`` (a shared event) is set, the chain stops its
     search as on a stop request. SIGINT (Ctrl-C reaches the whole process group) requests a
-    stop too instead of killing the chain, so its best schedule is not lost.
-
-    Commands (``(name, argument)``): ``run`` ``(last_iteration, seconds)`` runs until either
-    limit (None: none) or ``params.no_improve`` and answers the chain's best profit; ``snap``
-    answers the best schedule; ``adopt`` ``(snapshot, profit)`` takes it over; ``result``
-    answers the :class:`~sosp.result.Result` and ends the chain.
+    stop too instead of killing the chain, so its best schedule is not lost. The answer is
+    ``("ok", Result)`` or ``("error", message)``.
     """
 
     def publish(snap: Snapshot) -> None:
@@ -89,24 +82,11 @@ def _chain(
     try:
         signal.signal(signal.SIGINT, lambda signum, frame: request_stop("SIGINT"))
         with reporting(Progress(publish, interval=POLL_S)):
-            search = Search(instance, mode, rng=rng, time_limit=time_limit, params=params)
-            conn.send(("ok", search.best))
-            while True:
-                name, arg = conn.recv()
-                if name == "run":
-                    last, seconds = arg
-                    search.run(stop_rule(last, seconds, params.no_improve))
-                    conn.send(("ok", (search.best, search.status.since_best)))
-                elif name == "snap":
-                    conn.send(("ok", search.best_snap))
-                elif name == "adopt":
-                    search.adopt(*arg)
-                    conn.send(("ok", None))
-                elif name == "result":
-                    conn.send(("ok", search.result()))
-                    return
-                else:  # pragma: no cover - the parent sends only the names above
-                    raise ValueError(f"unknown command {name!r}")
+            if time_limit is not None:  # the parent's limit, counted from its start
+                time_limit = max(0.0, time_limit - (time.time() - started))
+            conn.send(
+                ("ok", run_asa(instance, mode, rng=rng, time_limit=time_limit, params=params))
+            )
     except (KeyboardInterrupt, EOFError):  # the parent is gone or interrupted
         return
     except Exception as exc:
@@ -129,6 +109,7 @@ class _Chains:
         params: ASAParams,
     ) -> None:
         ctx = mp.get_context()
+        started = time.time()
         self.conns: list[Connection] = []
         self.procs: list[Any] = []
         self.shared = ctx.RawArray("d", 2 * len(rngs))
@@ -138,7 +119,18 @@ class _Chains:
             parent, child = ctx.Pipe()
             proc = ctx.Process(
                 target=_chain,
-                args=(child, instance, mode, rng, time_limit, params, i, self.shared, self.halt),
+                args=(
+                    child,
+                    instance,
+                    mode,
+                    rng,
+                    time_limit,
+                    params,
+                    started,
+                    i,
+                    self.shared,
+                    self.halt,
+                ),
                 daemon=True,
             )
             proc.start()
@@ -146,20 +138,14 @@ class _Chains:
             self.conns.append(parent)
             self.procs.append(proc)
 
-    def ask(
-        self, which: list[int], name: str | None = None, args: list[Any] | None = None
-    ) -> list[Any]:
-        """Send a command to each chain of ``which`` (all first, so they work side by side),
-        then collect the answers in order; a chain's error is raised here."""
-        if name is not None:
-            for n, i in enumerate(which):
-                self.conns[i].send((name, None if args is None else args[n]))
+    def results(self) -> list[Result]:
+        """Each chain's result, in order; a chain's error is raised here."""
         out = []
-        for i in which:
-            while not self.conns[i].poll(POLL_S):
+        for i, conn in enumerate(self.conns):
+            while not conn.poll(POLL_S):
                 self.tick()
             try:
-                kind, value = self.conns[i].recv()
+                kind, value = conn.recv()
             except EOFError:
                 self.procs[i].join(timeout=1.0)
                 code = self.procs[i].exitcode
@@ -198,68 +184,32 @@ def run_parallel(
     time_limit: float | None,
     params: ASAParams,
 ) -> Result:
-    """Run ``params.workers`` cooperating chains (module docstring) and return the best.
+    """Run ``params.workers`` independent chains (module docstring) and return the best.
 
     Parameters
     ----------
     instance, mode, rng, time_limit
         As :func:`heuristics.asa.search.run_asa`; ``rng`` only spawns the chains' generators.
     params
-        The chains' parameters; ``workers`` chains, limit cut into ``epochs`` parts.
-        ``iterations`` and ``no_improve`` count per chain.
+        The chains' parameters; ``workers`` chains. ``iterations`` and ``no_improve`` count
+        per chain.
 
     Returns
     -------
     Result
         The best chain's result; ``iterations`` is the sum over the chains, ``stats["chains"]``
-        holds each chain's best, iterations and adoptions, ``stats["epochs"]`` the best of all
-        after each epoch.
+        holds each chain's best and iterations.
     """
     t0 = time.perf_counter()
     n = params.workers
-    child_params = replace(params, workers=1)
-    chains = _Chains(instance, mode, rng.spawn(n), time_limit, child_params)
+    chains = _Chains(instance, mode, rng.spawn(n), time_limit, replace(params, workers=1))
     try:
-        everyone = list(range(n))
-        chains.ask(everyone)  # built: candidates and initial solutions
-        epochs = params.epochs
-        iterations = params.iterations
-        if time_limit is None and iterations is None and params.no_improve is None:
-            iterations = DEFAULT_ITERATIONS
-        if time_limit is None and iterations is None:
-            epochs = 1  # no_improve alone: nothing to cut into parts
-        live = everyone
-        history: list[float] = []
-        for e in range(1, epochs + 1):
-            last = None if iterations is None else math.ceil(iterations * e / epochs)
-            seconds = None
-            if time_limit is not None:
-                seconds = max(0.0, t0 + time_limit * e / epochs - time.perf_counter())
-            answers = chains.ask(live, "run", [(last, seconds)] * len(live))
-            bests = dict(zip(live, (a[0] for a in answers), strict=True))
-            if params.no_improve is not None:
-                # A chain stopped by its own no_improve rule is done.
-                live = [i for i, a in zip(live, answers, strict=True) if a[1] < params.no_improve]
-            top = max(bests.values())
-            leader = min(i for i, b in bests.items() if b == top)
-            history.append(top)
-            log.debug("asa x%d: epoch %d/%d, best %g (chain %d)", n, e, epochs, top, leader)
-            behind = [i for i in live if bests[i] < top - 1e-9]
-            if e < epochs and behind:
-                (snap,) = chains.ask([leader], "snap")
-                chains.ask(behind, "adopt", [(snap, top)] * len(behind))
-            if not live or stop_requested():
-                break
-        results: list[Result] = chains.ask(everyone, "result")
+        results = chains.results()
     finally:
         chains.close()
     best = max(range(n), key=lambda i: (results[i].profit, -i))
     out = results[best]
-    out.stats["chains"] = [
-        {"best": r.profit, "iterations": r.iterations, "adopted": r.stats["adopted"]}
-        for r in results
-    ]
-    out.stats["epochs"] = history
+    out.stats["chains"] = [{"best": r.profit, "iterations": r.iterations} for r in results]
     out.stats["workers"] = n
     out.iterations = sum(r.iterations or 0 for r in results)
     out.runtime_s = time.perf_counter() - t0

@@ -166,11 +166,6 @@ class ASAParams:
         Chains run side by side, one process each (``heuristics.asa.parallel``; sosp's, not
         the paper's): 1 is Algorithm 1's single chain. ``iterations`` and ``no_improve``
         count per chain; set it to the number of cores the run may use.
-    epochs
-        With ``workers > 1``: the limit (time, else iterations) is cut into this many equal
-        parts, after each of which the chains behind adopt the best schedule of all. Default
-        1: independent chains, the best of ``workers`` runs (more epochs measured no better,
-        ``docs/asa.md``).
     """
 
     lambda_min: float = 0.2
@@ -207,7 +202,6 @@ class ASAParams:
     no_improve: int | None = None
     trace_every: int = 100
     workers: int = 1
-    epochs: int = 1
 
     def __post_init__(self) -> None:
         def positive(name: str, strict: bool = True) -> None:
@@ -258,7 +252,6 @@ class ASAParams:
         integer("polish", minimum=0)
         integer("trace_every")
         integer("workers")
-        integer("epochs")
         P.check_choices(self)
 
     @classmethod

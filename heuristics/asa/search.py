@@ -103,9 +103,8 @@ def default_stop(
 class Search:
     """Algorithm 1 as a resumable object: build, :meth:`run` until a stop, :meth:`result`.
 
-    :func:`run_asa` runs it once. The parallel search (:mod:`heuristics.asa.parallel`) runs
-    one per chain in epochs and makes a chain adopt the best schedule of all between two
-    (:meth:`adopt`); the temperature, the neighbourhood probabilities, the tabu list and the
+    :func:`run_asa` runs it once (the parallel search, :mod:`heuristics.asa.parallel`, once
+    per chain); the temperature, the neighbourhood probabilities, the tabu list and the
     counters carry over from one :meth:`run` to the next.
 
     Parameters
@@ -165,7 +164,6 @@ class Search:
         self.accepted = [0, 0, 0]
         self.rejected = [0, 0, 0]
         self.restarts = 0
-        self.adopted = 0
         self.trace: list[list[float]] = []
         self.record()
         log.debug("asa-%s: initial profit %g in %.3f s", mode, self.best, self.t_init)
@@ -252,19 +250,6 @@ class Search:
                 if g % every == 0:
                     self.record()
 
-    def adopt(self, snap: list[list[Cluster]], profit: float) -> None:
-        """Make ``snap`` (worth ``profit``, a better schedule found by another chain) the
-        current and the best solution; the rest of the search state carries on."""
-        self.state.load(snap)
-        self.best = self.state.profit
-        if abs(self.best - profit) > 1e-6:
-            raise RuntimeError(f"adopted schedule is worth {self.best}, expected {profit}")
-        self.best_snap = self.state.snapshot()
-        self.status.best = self.best
-        self.status.since_best = 0
-        self.adopted += 1
-        self.record()
-
     def result(self) -> Result:
         """The best schedule found so far as a :class:`~sosp.result.Result`."""
         g = self.status.iteration
@@ -285,7 +270,6 @@ class Search:
             "iterations_per_s": round(g / max(runtime - self.t_init, 1e-9), 1),
             "tabu_length": self.tabu.length,
             "restarts": self.restarts,
-            "adopted": self.adopted,
             "accepted": dict(zip(names, self.accepted, strict=False)),
             "rejected": dict(zip(names, self.rejected, strict=False)),
             "outcomes": {k: dict(zip(names, v, strict=False)) for k, v in self.counts.items()},

@@ -1,4 +1,4 @@
-"""Cooperating ASA chains (``workers > 1``, :mod:`heuristics.asa.parallel`)."""
+"""Independent ASA chains (``workers > 1``, :mod:`heuristics.asa.parallel`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,6 @@ import pytest
 from heuristics.asa.parallel import run_parallel
 from heuristics.asa.params import ASAParams
 from heuristics.asa.search import Search
-from heuristics.asa.stop import MaxIterations
 from sosp.errors import InputError
 from sosp.scenarios import generate_scenario
 from sosp.solve import solve
@@ -24,8 +23,8 @@ def c1():
 
 @pytest.mark.parametrize("method", ["asa-dtc", "asa-stc", "asa-nontc"])
 def test_same_seed_same_schedule_with_two_chains(c1, method: str) -> None:
-    r1 = solve(c1, method, seed=3, iterations=300, workers=2, epochs=3)
-    r2 = solve(c1, method, seed=3, iterations=300, workers=2, epochs=3)
+    r1 = solve(c1, method, seed=3, iterations=300, workers=2)
+    r2 = solve(c1, method, seed=3, iterations=300, workers=2)
     assert r1.schedule.observations == r2.schedule.observations
     assert r1.profit == r2.profit
     rep = validate(c1, r1.schedule)
@@ -33,38 +32,14 @@ def test_same_seed_same_schedule_with_two_chains(c1, method: str) -> None:
 
 
 def test_chains_differ_and_the_best_is_returned(c1) -> None:
-    res = solve(c1, "asa-dtc", seed=5, iterations=200, workers=2, epochs=1)
+    res = solve(c1, "asa-dtc", seed=5, iterations=200, workers=2)
     chains = res.stats["chains"]
     assert len(chains) == 2 and res.stats["workers"] == 2
     assert res.profit == max(c["best"] for c in chains)
     assert res.iterations == sum(c["iterations"] for c in chains) == 400
-    # Independent chains (one epoch) adopt nothing; their generators differ.
-    assert all(c["adopted"] == 0 for c in chains)
+    # The chains' generators differ.
     seeds = np.random.default_rng(5).spawn(2)
     assert seeds[0].random() != seeds[1].random()
-
-
-def test_chains_behind_adopt_the_best_between_epochs(c1) -> None:
-    res = solve(c1, "asa-dtc", seed=1, iterations=300, workers=2, epochs=3)
-    epochs = res.stats["epochs"]
-    assert len(epochs) == 3 and epochs == sorted(epochs)
-    assert res.profit == epochs[-1]
-    # After an epoch every chain is at least as good as the best of all before it.
-    assert all(c["best"] >= epochs[-2] for c in res.stats["chains"])
-
-
-def test_adopt_makes_a_schedule_current_and_best(c1) -> None:
-    params = ASAParams()
-    a = Search(c1, "dtc", rng=np.random.default_rng(0), params=params)
-    b = Search(c1, "dtc", rng=np.random.default_rng(1), params=params)
-    a.run(MaxIterations(300))
-    b.adopt(a.best_snap, a.best)
-    assert b.best == a.best == b.state.profit and b.status.since_best == 0
-    assert b.best_snap == a.best_snap and b.adopted == 1
-    b.run(MaxIterations(100))  # carries on from the adopted schedule
-    assert b.best >= a.best and b.status.iteration == 100
-    with pytest.raises(RuntimeError, match="worth"):
-        b.adopt(a.best_snap, a.best + 1)
 
 
 def test_never_beats_the_optimum_on_tiny_instances() -> None:
@@ -74,15 +49,14 @@ def test_never_beats_the_optimum_on_tiny_instances() -> None:
 
 
 def test_time_limit_and_no_improve_stop_the_chains(c1) -> None:
-    res = solve(c1, "asa-dtc", seed=0, time_limit=2.0, workers=2, epochs=4)
-    assert res.runtime_s < 6.0 and len(res.stats["epochs"]) == 4
+    res = solve(c1, "asa-dtc", seed=0, time_limit=2.0, workers=2)
+    assert res.runtime_s < 3.0
     res = solve(c1, "asa-dtc", seed=0, no_improve=50, workers=2)
-    assert len(res.stats["epochs"]) == 1
     assert all(c["iterations"] >= 50 for c in res.stats["chains"])
 
 
-@pytest.mark.parametrize("kw", [{"workers": 0}, {"epochs": 0}, {"workers": "two"}])
-def test_bad_workers_or_epochs(kw: dict) -> None:
+@pytest.mark.parametrize("kw", [{"workers": 0}, {"workers": "two"}, {"epochs": 3}])
+def test_bad_workers(kw: dict) -> None:
     with pytest.raises(InputError, match=next(iter(kw))):
         solve(tiny_cluster(), "asa-dtc", seed=0, iterations=10, **kw)
 
