@@ -36,7 +36,8 @@ from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_d
 log = logging.getLogger(__name__)
 
 #: Weight of the best-bound duals in the pricing point (Wentges smoothing). 0 is plain column
-#: generation (pricing at the master's duals).
+#: generation (pricing at the master's duals). Rounds to convergence for 0 / 0.3 / 0.5 / 0.7 /
+#: 0.85: C10 75 / 51 / 52 / 51 / 63, europe-400 31 / 27 / 29 / 32 / 42.
 SMOOTHING = 0.5
 
 #: A column enters the master when its reduced cost at the master's duals exceeds this.
@@ -189,7 +190,7 @@ def colgen_bound(
         ``columns``, ``master`` (the last restricted master's optimum, a lower bound on the
         limit; None before the first), ``converged`` (the rounded bound has reached the
         rounded master optimum: no Lagrangian bound of this relaxation, nor the LP over the
-        same candidates, is lower), ``candidates``.
+        same candidates, is lower), ``candidates``, ``cap`` (the covered weight).
     """
     t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
@@ -224,6 +225,7 @@ def colgen_bound(
             "master": master,
             "converged": converged,
             "candidates": data.n_items,
+            "cap": cap,
         }
 
     if not groups or cap == 0.0:

@@ -65,6 +65,9 @@ def test_registered_and_dispatched(tiny: Instance) -> None:
         bound_function("colgen")(tiny, time_limit=10.0, lower_bound=None),
     ):
         assert optimum <= out["bound"] <= cap
+    out = bound(tiny, method="colgen")
+    assert out["bound"] == colgen_bound(tiny)["bound"] and out["converged"] is True
+    assert out["cap"] == cap and out["source"] in ("colgen", "cap") and out["rounds"] >= 1
     auto = bound(tiny, method="auto")
     assert "colgen" in auto["parts"] and optimum <= auto["bound"] <= cap
     # a converged column generation leaves no LP to run: the LP could not be tighter
@@ -109,3 +112,17 @@ def test_keeps_its_time_limit() -> None:
     out = colgen_bound(inst, data=data, time_limit=limit)
     assert time.perf_counter() - t0 <= limit + 0.2
     assert not out["converged"] and out["bound"] >= full["bound"]
+
+
+@pytest.mark.slow
+def test_bound_dispatch_keeps_its_time_limit() -> None:
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C2")
+    for limit in (0.3, 2.5):  # candidates unfinished (about 1.3 s); colgen cut short
+        t0 = time.perf_counter()
+        out = bound(inst, method="colgen", time_limit=limit)
+        assert time.perf_counter() - t0 <= limit + 0.3, out
+        assert out["bound"] <= observable_weight(inst)
+        if limit < 1.0:
+            assert out["source"] == "cap" and out["timed_out"] == "candidates"
