@@ -986,6 +986,16 @@ def bound(
         out = _bound_out(upper, method, model, t0, {"timed_out": "candidates"})
         out["source"] = "cap"
         return out
+    except InputError:
+        if method != "auto" or model != "cluster":
+            raise
+        # more candidates than the MILPs take (D30): no LP, but the column generation's own
+        # candidates have no such cap, so auto is its bound alone, with all the time left
+        log.info("bound: the cluster model is too large for the LP; column generation alone")
+        out = _colgen_bound(instance, t0, deadline, lower_bound)
+        out["method"] = "auto"
+        out["parts"] = {"colgen": out["bound"]}
+        return out
     cap = data.covered_weight()
     parts: dict[str, float | None] = {}
     stats: dict[str, Any] = {"candidates": data.n_items, "cliques": data.n_events, "cap": cap}

@@ -126,3 +126,27 @@ def test_bound_dispatch_keeps_its_time_limit() -> None:
         assert out["bound"] <= observable_weight(inst)
         if limit < 1.0:
             assert out["source"] == "cap" and out["timed_out"] == "candidates"
+
+
+def test_auto_falls_back_to_colgen_when_the_model_is_too_large(monkeypatch) -> None:
+    import models.solve as ms
+
+    inst = random_tiny(7)
+    optimum = brute_force(inst, "cluster").profit
+
+    def refuse(*args, **kwargs):
+        raise InputError("orbit 'x': more than 10 candidate observations")
+
+    monkeypatch.setattr(ms, "model_data", refuse)
+    out = bound(inst, method="auto")
+    assert out["method"] == "auto" and out["parts"] == {"colgen": out["bound"]}
+    assert optimum <= out["bound"] <= observable_weight(inst)
+    with pytest.raises(InputError, match="candidate"):
+        bound(inst, method="lp")  # the LP has no such fallback
+
+
+def test_workers_give_the_same_bound() -> None:
+    inst = next(random_tiny(s) for s in range(100) if random_tiny(s).n_orbits >= 2)
+    one = colgen_bound(inst)
+    two = colgen_bound(inst, workers=2)
+    assert (two["bound"], two["rounds"]) == (one["bound"], one["rounds"])
