@@ -225,17 +225,25 @@ class OrbitTimeline:
         if not r.duration_ok(start, end):
             return False
         obs = self.obs
-        clash = r.clash
+        clash, turn = r.clash, r.turn
+        old = obs[pos]
+        # the slew of the pairs around pos with the new and the old entry, added as in
+        # delta_replace (equal totals to the bit)
+        s_new = s_old = 0.0
         if pos > 0:
             u = obs[pos - 1]
             if (u[0], u[1]) > (start, end) or clash(u[1], u[2], start, roll):
                 return False
+            s_new += turn(u[2], roll)
+            s_old += turn(u[2], old[2])
         if pos + 1 < len(obs):
             w = obs[pos + 1]
             if (start, end) > (w[0], w[1]) or clash(end, roll, w[0], w[2]):
                 return False
-        d_obs, d_slew = self.delta_replace(pos, entry)
-        return r.fits(self.observe + d_obs, self.slew + d_slew)
+            s_new += turn(roll, w[2])
+            s_old += turn(old[2], w[2])
+        d_obs = -(old[1] - old[0]) + (end - start)
+        return r.fits(self.observe + d_obs, self.slew + (s_new - s_old))
 
     # ------------------------------------------------------------------------- updates
     def insert(self, entry: Entry, check: InsertCheck | None = None) -> int:
