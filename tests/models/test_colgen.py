@@ -150,3 +150,13 @@ def test_workers_give_the_same_bound() -> None:
     one = colgen_bound(inst)
     two = colgen_bound(inst, workers=2)
     assert (two["bound"], two["rounds"]) == (one["bound"], one["rounds"])
+
+
+def test_certifies_a_schedule() -> None:
+    from sosp.solve import solve
+
+    inst = random_tiny(2)
+    optimum = brute_force(inst, "cluster").profit
+    res = solve(inst, "greedy", bound="colgen")
+    assert res.profit <= optimum <= res.bound <= observable_weight(inst)
+    assert res.stats["certified_by"] == "colgen"
