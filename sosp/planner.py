@@ -31,6 +31,11 @@ no gain, a worthless opportunity alone at an end of the window, or a same-window
 no larger |theta| worth as much are dominated); the recursion then runs on those, with the
 same optimum. :class:`PlanPool` plans every orbit at one price vector in worker processes.
 
+:func:`plan_sequence` runs the same recursion on a stretch of an orbit given as plain
+columns: between fixed neighbours (the observations before and after the stretch, which
+stay), within what the orbit's other observations leave of (4)-(6); ASA-DTC's stretch moves
+(:mod:`heuristics.asa.replan`) use it.
+
 Built on the recursion: :func:`models.lagrangian.lagrangian_bound` (an upper bound with no LP
 solver), ``orbit-dp`` (:mod:`heuristics.orbit_search`, an iterated local search whose move is
 the exact re-planning of one orbit), ASA-DTC's whole-orbit move (:mod:`heuristics.asa.orbit`)
@@ -49,7 +54,7 @@ import numpy as np
 
 from sosp.candidates import OppGroups, cluster_candidates, flatten
 from sosp.instance import Instance
-from sosp.rules import EPS, OrbitRules, orbit_rules
+from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
 
 log = logging.getLogger(__name__)
 
@@ -539,52 +544,245 @@ def _recursion(
     slew_s: np.ndarray,
     duration: np.ndarray,
     gain: np.ndarray,
-    by_release: np.ndarray,
+    by_release: np.ndarray | None,
     n_before: np.ndarray,
     r: OrbitRules,
     pe: float,
     pw: float,
+    *,
+    openings: int | None = None,
+    left_slew: float | None = None,
+    right_slew: float | None = None,
 ) -> tuple[float, np.ndarray]:
-    """The level-by-level recursion of :func:`best_path` on given positions."""
+    """The level-by-level recursion of :func:`best_path` and :func:`plan_sequence`.
+
+    Level n holds, per position, the best penalised value of a plan of at most n
+    observations ending there ((3) through ``by_release``/``n_before``, ``by_release`` None
+    when the positions are already in ``R`` order; (6) through the
+    number of levels, at most ``openings``, default c_j). The slew term of (4) runs over
+    consecutive pairs: each observation pays ``2 |theta| / v`` and the first one gets
+    ``|theta_first| / v`` back, or, after a fixed neighbour of slew ``left_slew`` (seconds
+    ``|theta| / v``), pays that neighbour's half of the turn instead; the same at the end
+    with ``right_slew``.
+
+    Returns
+    -------
+    tuple
+        ``(value, path)``: the plan's penalised value and its positions in (3) order; the
+        empty plan (value ``-pe * es * (left_slew + right_slew)`` with both neighbours, the
+        turn between them, else 0) when nothing beats it.
+    """
     m = len(gain)
-    slew_cost = pe * r.slew_energy_rate * slew_s
-    g = gain - pe * r.observe_energy_rate * duration
-    g -= pw * r.memory_rate * duration
-    g -= 2.0 * slew_cost
-    bonus = slew_cost  # the first (and, separately, the last) observation's |theta| back
-    levels = [np.full(m, -np.inf)]
-    for _ in range(max(r.max_openings, 0)):
-        prev = levels[-1]
-        best_before = np.empty(m + 1)
-        best_before[0] = -np.inf
-        np.maximum.accumulate(prev[by_release], out=best_before[1:])
-        cur = g + np.maximum(bonus, best_before[n_before])
-        levels.append(cur)
+    es = pe * r.slew_energy_rate
+    cap = min(r.max_openings if openings is None else openings, m)
+    empty = 0.0
+    if left_slew is not None and right_slew is not None:
+        empty = -es * (left_slew + right_slew)
+    if cap <= 0:
+        return empty, np.zeros(0, dtype=np.int64)
+    # What the first (last) observation gets back: |theta| of the missing turn from (to)
+    # nadir, or minus the fixed neighbour's half of the turn to it. Scalars where they are
+    # the same for every position (no slew penalty, or a fixed neighbour): the stretches of
+    # a local search have a few dozen positions, where every array operation counts.
+    first: Any = 0.0
+    last: Any = 0.0
+    g = gain
+    if pe > 0.0 or pw > 0.0:
+        slew_cost = es * slew_s
+        g = gain - (pe * r.observe_energy_rate + pw * r.memory_rate) * duration
+        g -= 2.0 * slew_cost
+        first = slew_cost if left_slew is None else -es * left_slew
+        last = slew_cost if right_slew is None else -es * right_slew
+    # The levels are held with a slot 0 before the positions: the value of starting a plan
+    # there. Where that is one number (``first`` a scalar) the slot carries it through the
+    # prefix maxima, so a level is three array operations: a few dozen positions in a local
+    # search's stretch, where each one counts. Otherwise the slot is -inf and ``first`` is
+    # taken position by position.
+    scalar = not isinstance(first, np.ndarray)
+    nbx = np.zeros(m + 1, dtype=np.int64)
+    nbx[1:] = n_before
+    gx = np.zeros(m + 1)
+    gx[1:] = g
+    firstx = None if scalar else np.concatenate(([-np.inf], first))
+    order = None if by_release is None else np.concatenate(([0], by_release + 1))
+    cur = np.empty(m + 1)
+    cur[0] = first if scalar else -np.inf
+    cur[1:] = g + first  # level 1: every position starts a plan
+    # bbs[n][k]: slot 0 and the best of level n - 1 over the first k positions by R (what
+    # level n offers a position with k possible predecessors), kept for the way back
+    bbs: list[Any] = [None, None]
+    for _ in range(cap - 1):
+        bb = np.maximum.accumulate(cur if order is None else cur[order])
+        nxt = bb[nbx]
+        if firstx is not None:
+            np.maximum(nxt, firstx, out=nxt)
+        nxt += gx
+        bbs.append(bb)
         # One more opening adds nothing: neither will the next. Bytes, not np.array_equal:
         # ten times faster on an orbit's few hundred items, and a false "differ" (-0.0 vs
         # 0.0) only costs one more level.
-        if cur.tobytes() == prev.tobytes():
+        if nxt.tobytes() == cur.tobytes():
             break
-    final = levels[-1] + bonus
-    u = int(np.argmax(final))
+        cur = nxt
+    final = cur[1:] + last
+    u = int(final.argmax())
     value = float(final[u])
-    if not value > 0.0:
-        return 0.0, np.zeros(0, dtype=np.int64)
+    if not value > empty:
+        return empty, np.zeros(0, dtype=np.int64)
     path = [u]
-    n = len(levels) - 1
+    n = len(bbs) - 1
     while n > 1:
-        k = int(n_before[u])
-        if k == 0:
-            break
-        before = by_release[:k]
-        prev = levels[n - 1][before]
-        q = int(np.argmax(prev))
-        if not prev[q] > bonus[u]:
-            break  # u starts the plan
-        u = int(before[q])
+        bb = bbs[n]
+        best = bb[n_before[u]]
+        if not best > (first if scalar else first[u]):
+            break  # u starts the plan (or has no predecessor: best is -inf)
+        # the first position by R reaching that prefix maximum (argmax's pick): prefix k
+        # ends with the k-th position by R
+        q = int(bb.searchsorted(best)) - 1
+        u = q if by_release is None else int(by_release[q])
         path.append(u)
         n -= 1
     return value, np.array(path[::-1], dtype=np.int64)
+
+
+#: Bisection steps of :func:`plan_sequence` on its multiplier of (4)-(5).
+LAGRANGE_ROUNDS = 10
+
+
+def plan_sequence(
+    start: np.ndarray,
+    end: np.ndarray,
+    roll: np.ndarray,
+    gain: np.ndarray,
+    rules: OrbitRules,
+    *,
+    left: tuple[float, float] | None = None,
+    right: tuple[float, float] | None = None,
+    energy: float | None = None,
+    memory: float | None = None,
+    openings: int | None = None,
+    rounds: int = LAGRANGE_ROUNDS,
+) -> tuple[float, np.ndarray]:
+    r"""The best sequence of candidate observations between fixed neighbours, within budgets.
+
+    The recursion of :func:`best_path` over plain columns, for a stretch of an orbit whose
+    other observations stay: it maximises the sum of ``gain`` over sequences in time order
+    that keep (3) between consecutive observations, including the fixed neighbour ``left``
+    before the first and ``right`` after the last; have at most ``openings`` observations
+    (6); and keep the budgets of (4) and (5):
+
+    .. math::
+        eo \sum_u d_u + es \sum_{(u, w)} (|	heta_u| + |	heta_w|) / v \le energy, \qquad
+        w \sum_u d_u \le memory,
+
+    the slew sum over the consecutive pairs of ``left``, the sequence, ``right`` (so the turn
+    between the two neighbours is the sequence's to pay, as when it is empty). The optimum
+    under (3) and (6) is returned when it keeps the budgets (it is then exact); otherwise the
+    budgets are priced by one multiplier ``t`` (``t / budget`` per unit, the energy budget
+    net of the neighbours' own turn), bisected ``rounds`` times from ``t`` = the sum of the
+    gains (where no sequence over the budgets can beat the empty one), and the best sequence
+    within both budgets met is returned: a Lagrangian heuristic.
+
+    Parameters
+    ----------
+    start, end, roll
+        Per candidate: window (10) and roll (7), degrees.
+    gain
+        Per candidate, what observing it is worth (candidates of gain <= 0 are never used).
+    rules
+        The orbit's rules (:class:`sosp.rules.OrbitRules`).
+    left, right
+        ``(end, roll)`` of the fixed observation before the stretch and ``(start, roll)`` of
+        the one after it, or None (the stretch reaches that end of the orbit).
+    energy, memory
+        Budgets of (4) and (5) (None: the orbit's capacities E_j, W_j).
+    openings
+        Most observations (None: c_j).
+    rounds
+        Bisection steps on the multiplier.
+
+    Returns
+    -------
+    tuple
+        ``(gain, positions)``: the sequence's summed gain and its candidates' indices in time
+        order ((0.0, empty) when no sequence is worth anything).
+    """
+    nothing = (0.0, np.zeros(0, dtype=np.int64))
+    e_budget = rules.energy_capacity if energy is None else float(energy)
+    w_budget = rules.memory_capacity if memory is None else float(memory)
+    cap = rules.max_openings if openings is None else int(openings)
+    if cap <= 0 or e_budget < -EPS or w_budget < -EPS:
+        return nothing
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    roll, gain = np.asarray(roll, dtype=float), np.asarray(gain, dtype=float)
+    lo_end, hi_end = rules.left(start, roll), rules.right(end, roll)
+    ok = gain > 0.0
+    left_slew = right_slew = None
+    if left is not None:
+        ok &= rules.right(left[0], left[1]) <= lo_end + EPS  # (3) after ``left``
+        left_slew = float(rules.slew(left[1]))
+    if right is not None:
+        ok &= hi_end <= rules.left(right[0], right[1]) + EPS  # (3) before ``right``
+        right_slew = float(rules.slew(right[1]))
+    # the usable candidates in R order, so that the recursion's prefix maxima need no gather
+    idx = np.flatnonzero(ok)
+    if len(idx) == 0:
+        return nothing
+    idx = idx[np.argsort(hi_end[idx], kind="stable")]
+    lo_end, hi_end, roll, gain = lo_end[idx], hi_end[idx], roll[idx], gain[idx]
+    duration = end[idx] - start[idx]
+    n_before = np.searchsorted(hi_end, lo_end + EPS, side="right")
+    # rolls of the fixed neighbours, around the sequence in the exact slew of (4)
+    lead = [float(left[1])] if left is not None else []
+    trail = [float(right[1])] if right is not None else []
+    # the turn between both neighbours is paid by every sequence, the empty one included
+    base_slew = left_slew + right_slew if left_slew is not None and right_slew is not None else 0
+    e_net = e_budget - rules.slew_energy_rate * base_slew
+    if e_net < -EPS:
+        return nothing  # the neighbours' turn alone is over the budget
+
+    def plan(t: float) -> np.ndarray:
+        pe, pw = t / max(e_net, EPS), t / max(w_budget, EPS)
+        _, path = _recursion(
+            rules.slew(roll),
+            duration,
+            gain,
+            None,
+            n_before,
+            rules,
+            pe,
+            pw,
+            openings=cap,
+            left_slew=left_slew,
+            right_slew=right_slew,
+        )
+        return path
+
+    def fits(path: np.ndarray) -> bool:
+        rolls = np.concatenate((lead, roll[path], trail))
+        observed = float(duration[path].sum())
+        slew = sequence_slew_time(rolls, rules.slew_rate)
+        return (
+            rules.memory(observed) <= w_budget + EPS
+            and rules.energy(observed, slew) <= e_budget + EPS
+        )
+
+    path = plan(0.0)
+    if fits(path):
+        return float(gain[path].sum()), idx[path]
+    best_gain, best = nothing
+    lo_t, hi_t = 0.0, float(gain.sum())
+    for _ in range(rounds):
+        t = 0.5 * (lo_t + hi_t)
+        path = plan(t)
+        if fits(path):
+            hi_t = t
+            value = float(gain[path].sum())
+            if value > best_gain:
+                best_gain, best = value, idx[path]
+        else:
+            lo_t = t
+    return best_gain, best
 
 
 def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:

@@ -18,12 +18,16 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.planner import (
     OrbitItems,
+    _recursion,
     best_feasible_path,
     best_path,
     orbit_data,
+    plan_sequence,
     with_rolls,
 )
 from sosp.result import Status
+from sosp.rules import orbit_rules
+from sosp.schedule import Observation, Schedule
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import TINY, small_instances, tiny_cluster, tiny_openings
@@ -551,3 +555,212 @@ def test_candidates_beyond_the_memory_budget_are_a_one_line_error(
     assert sc._cache_of(inst) == {}
     monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need * 2)
     assert orbit_data(inst).n_items == exact.size
+
+
+def _stretch_case(seed: int):
+    """A random stretch: up to 7 single-opportunity candidates on one orbit, optional fixed
+    neighbours, budgets net of the neighbours' observing, an openings cap below c_j.
+
+    Returns the one-orbit instance (candidates first, then the neighbours), its rules and
+    the keyword arguments of :func:`plan_sequence`."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 8))
+    start = rng.integers(5, 100, n).astype(float)
+    end = start + rng.integers(1, 9, n)
+    roll = rng.integers(-30, 31, n).astype(float)
+    gain = rng.integers(0, 10, n).astype(float)  # zero gains: never worth a place
+    res = Resources(
+        energy_capacity=float(rng.choice([40, 90, 1500])),
+        memory_capacity=float(rng.choice([10, 25, 1000])),
+        max_openings=int(rng.integers(1, 6)),
+        setup_time=float(rng.choice([1, 4])),
+        slew_rate=float(rng.choice([1, 3])),
+        slew_energy_rate=float(rng.choice([0.5, 2])),
+    )
+    rows = [(u, 0, start[u], end[u], roll[u], roll[u] - 1, roll[u] + 1) for u in range(n)]
+    kw: dict = {}
+    fixed = 0
+    if rng.random() < 0.6:
+        s0, r0 = float(rng.integers(0, 10)), float(rng.integers(-30, 31))
+        rows.append((n + fixed, 0, s0, s0 + 2, r0, r0 - 1, r0 + 1))
+        kw["left"] = (s0 + 2, r0)
+        fixed += 1
+    if rng.random() < 0.6:
+        s1, r1 = float(rng.integers(95, 115)), float(rng.integers(-30, 31))
+        rows.append((n + fixed, 0, s1, s1 + 2, r1, r1 - 1, r1 + 1))
+        kw["right"] = (s1, r1)
+        fixed += 1
+    weights = [max(int(g), 1) for g in gain] + [1] * fixed
+    inst = Instance.build(weights, rows, resources=res, n_orbits=1)
+    r = orbit_rules(inst, 0)
+    kw["energy"] = r.energy_capacity - r.observe_energy_rate * 2 * fixed
+    kw["memory"] = r.memory_capacity - r.memory_rate * 2 * fixed
+    kw["openings"] = r.max_openings - fixed - int(rng.integers(0, 2))
+    return inst, r, (start, end, roll, gain), kw
+
+
+def _sequences(r, cols, kw):
+    """Every sequence of the candidates keeping (3) with the neighbours and (6), by
+    enumeration, with its (gain, observed seconds, exact slew seconds of (4))."""
+    start, end, roll, gain = cols
+    n = len(start)
+    a, v = r.setup_time, r.slew_rate
+    for k in range(0, min(max(kw["openings"], 0), n) + 1):
+        for combo in itertools.combinations(range(n), k):
+            seq = sorted(combo, key=lambda u: (start[u], end[u]))
+            obs = [(kw["left"][0] - 2, kw["left"][0], kw["left"][1])] if "left" in kw else []
+            obs += [(start[u], end[u], roll[u]) for u in seq]
+            if "right" in kw:
+                obs.append((kw["right"][0], kw["right"][0] + 2, kw["right"][1]))
+            # (3) written out from docs/model.md, independently of the kernel
+            if all(
+                w[0] - u[1] >= a + (abs(u[2]) + abs(w[2])) / v - 1e-9
+                for u, w in itertools.pairwise(obs)
+            ):
+                slew = sum((abs(u[2]) + abs(w[2])) / v for u, w in itertools.pairwise(obs))
+                observed = float(sum(end[u] - start[u] for u in seq))
+                yield seq, float(sum(gain[u] for u in seq)), observed, slew
+
+
+@pytest.mark.parametrize("seed", range(150))
+def test_plan_sequence_against_enumeration_and_validator(seed: int) -> None:
+    inst, r, cols, kw = _stretch_case(seed)
+    gain, path = plan_sequence(*cols, r, **kw)
+    start, end, roll, g = cols
+    seqs = list(_sequences(r, cols, kw))
+
+    def fits(observed: float, slew: float) -> bool:
+        e = r.observe_energy_rate * observed + r.slew_energy_rate * slew
+        return e <= kw["energy"] + 1e-9 and r.memory_rate * observed <= kw["memory"] + 1e-9
+
+    # the plan is one of the enumerated sequences, within the budgets, worth its gain
+    found = [x for x in seqs if list(x[0]) == list(path)]
+    assert len(found) == 1 or (len(path) == 0 and gain == 0.0)
+    if len(path):
+        _, value, observed, slew = found[0]
+        assert fits(observed, slew) and gain == pytest.approx(value)
+        # the kernel agrees on (3) between consecutive observations
+        assert not any(
+            r.clash(end[u], roll[u], start[w], roll[w]) for u, w in itertools.pairwise(path)
+        )
+    optimum = max([x[1] for x in seqs if fits(x[2], x[3])], default=0.0)
+    assert gain <= optimum + 1e-9
+    unconstrained = max(seqs, key=lambda x: x[1], default=None)
+    if unconstrained is not None and fits(unconstrained[2], unconstrained[3]):
+        assert gain == pytest.approx(unconstrained[1])  # exact when (4)-(5) do not bind
+    # with neighbours the validator accepts on their own, the validator accepts the orbit
+    # with the plan between them
+    n = len(start)
+
+    def schedule(opps: list[int]) -> Schedule:
+        return Schedule(
+            tuple(
+                Observation(
+                    0,
+                    float(inst.opp_start[x]),
+                    float(inst.opp_end[x]),
+                    float(inst.opp_roll[x]),
+                    (int(x),),
+                )
+                for x in opps
+            )
+        )
+
+    opp = [int(inst.target_opps[k][0]) for k in range(inst.n_targets)]  # target k: row k
+    fixed = opp[n:]
+    if validate(inst, schedule(fixed)).feasible:
+        rep = validate(inst, schedule(fixed + [opp[u] for u in path]))
+        assert rep.feasible, rep.violations
+    else:
+        assert len(path) == 0 or kw["openings"] < len(path) + 1
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_stretch_recursion_is_exact_under_penalties(seed: int) -> None:
+    """The recursion with fixed neighbours maximises the penalised value (gain minus
+    ``pe`` per unit of (4), its slew term over the consecutive pairs with the neighbours, and
+    ``pw`` per unit of (5)) over the enumerated sequences, the empty one included."""
+    inst, r, cols, kw = _stretch_case(seed)
+    start, end, roll, gain = cols
+    rng = np.random.default_rng(seed + 1000)
+    pe, pw = float(rng.uniform(0, 0.5)), float(rng.uniform(0, 0.5))
+    lo_end, hi_end = r.left(start, roll), r.right(end, roll)
+    ok = np.ones(len(start), dtype=bool)
+    if "left" in kw:
+        ok &= r.right(*kw["left"]) <= lo_end + 1e-9
+    if "right" in kw:
+        ok &= hi_end <= r.left(*kw["right"]) + 1e-9
+    idx = np.flatnonzero(ok)
+    by_release = np.argsort(hi_end[idx], kind="stable")
+    n_before = np.searchsorted(hi_end[idx][by_release], lo_end[idx] + 1e-9, side="right")
+    value, path = _recursion(
+        r.slew(roll[idx]),
+        (end - start)[idx],
+        gain[idx],
+        by_release,
+        n_before,
+        r,
+        pe,
+        pw,
+        openings=kw["openings"],
+        left_slew=r.slew(kw["left"][1]) if "left" in kw else None,
+        right_slew=r.slew(kw["right"][1]) if "right" in kw else None,
+    )
+
+    def penalised(x) -> float:
+        _, g, observed, slew = x
+        energy = r.observe_energy_rate * observed + r.slew_energy_rate * slew
+        return g - pe * energy - pw * r.memory_rate * observed
+
+    seqs = {tuple(x[0]): penalised(x) for x in _sequences(r, cols, kw)}
+    assert value == pytest.approx(max(seqs.values()), abs=1e-9)
+    assert seqs[tuple(idx[path])] == pytest.approx(value, abs=1e-9)
+
+
+def test_plan_sequence_without_neighbours_is_best_path() -> None:
+    """Without neighbours and with slack budgets, the stretch planner is the orbit planner:
+    the same optimum of the same recursion."""
+    for seed in range(10):
+        inst = random_tiny(seed)
+        data = orbit_data(inst)
+        rng = np.random.default_rng(seed)
+        for o in data.orbits:
+            price = rng.uniform(0, 10, inst.n_targets)
+            value, path = best_path(o, price)
+            if not o.fits(path):
+                continue
+            gain, seq = plan_sequence(
+                data.start[o.items], data.end[o.items], o.roll, o.gains(price), o.rules
+            )
+            assert gain == pytest.approx(value)
+            assert o.fits(seq)
+
+
+def test_plan_sequence_fixed_neighbours_by_hand() -> None:
+    """Setup 10 s, slew 1 deg/s; A [30, 32] roll 5 (gain 4), B [20, 22] roll 0 (9), C [60, 62]
+    roll 0 (1). Alone: B then A clashes (22 + 10 + 5 > 30), B then C fits: 10. After a
+    neighbour ending at 8 with roll 5 (R = 8 + 10 + 5 = 23) B cannot start (L = 20 < 23) but
+    A can (L = 25): A then C, 5. Before a neighbour starting at 75 with roll 10 (L = 65) C
+    cannot end (R = 72): A alone, 4, which observes 2 s and slews 5 + 5 + 5 + 10 = 25 s:
+    energy 27 (eo = es = 1)."""
+    r = orbit_rules(Instance.build([1], [(0, 0, 0.0, 1.0, 0.0)]), 0)
+    cols = (
+        np.array([30.0, 20.0, 60.0]),
+        np.array([32.0, 22.0, 62.0]),
+        np.array([5.0, 0.0, 0.0]),
+        np.array([4.0, 9.0, 1.0]),
+    )
+    left, right = (8.0, 5.0), (75.0, 10.0)
+
+    def plan(**kw) -> tuple[float, list[int]]:
+        g, path = plan_sequence(*cols, r, **kw)
+        return g, path.tolist()
+
+    assert plan() == (10.0, [1, 2])
+    assert plan(left=left) == (5.0, [0, 2])
+    assert plan(left=left, openings=1) == (4.0, [0])
+    assert plan(left=left, right=right) == (4.0, [0])
+    assert plan(left=left, right=right, energy=27.0) == (4.0, [0])
+    assert plan(left=left, right=right, energy=26.9) == (0.0, [])
+    assert plan(left=left, right=right, memory=1.9) == (0.0, [])
+    assert plan(right=right) == (9.0, [1])
