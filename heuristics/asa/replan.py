@@ -15,12 +15,13 @@ programming:
    (11); members are the options whose window lies inside and whose range holds r, and the
    cluster-task is made by (8)-(10) with the search's roll rule. STC and NONTC use their units
    alone (no clustering);
-4. choose a chain of candidates by a longest-path dynamic program in time order: consecutive
-   cluster-tasks, and the fixed neighbours on both sides, meet (3); the openings left (6) are a
-   count dimension (skipped when the chain found without it fits: it is then optimal too);
-   energy (4) and memory (5) are priced by a Lagrange multiplier found by bisection (the best
-   chain within both budgets is kept), so the chain is optimal for the candidates when (4),
-   (5) do not bind and near-optimal otherwise;
+4. choose a chain of candidates by the single-orbit planner's recursion
+   (:func:`sosp.planner.plan_sequence`, the one :func:`sosp.planner.best_path` runs on whole
+   orbits): consecutive cluster-tasks, and the fixed neighbours on both sides, meet (3); at
+   most the openings left (6); energy (4) (the turns to and from the neighbours included)
+   and memory (5) within what the other cluster-tasks leave, priced by a Lagrange multiplier
+   found by bisection when they bind (the best chain within both budgets is kept), so the
+   chain is optimal for the candidates when (4), (5) do not bind and near-optimal otherwise;
 5. put the chain in place of the freed cluster-tasks (a task with two options in the stretch
    is scheduled once) and repair the orbit as in step 7 (a safety net; the chain is feasible).
 
@@ -35,12 +36,15 @@ when the search restarts from its best solution (``ASAParams.restart``).
 
 from __future__ import annotations
 
+from bisect import bisect_left
+
 import numpy as np
 
 from heuristics.asa.neighbourhoods import remove_member, repair
 from heuristics.asa.params import ASAParams
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
+from sosp.planner import plan_sequence
 from sosp.rules import EPS
 
 #: Index of this neighbourhood in the selector's probabilities (after insertion, migration).
@@ -50,9 +54,6 @@ REPLAN = 2
 #: task to the stretch are re-planned once, with unscheduled tasks only. (A parameter before;
 #: an unbounded chain measured no better on B10, ``docs/asa.md``.)
 EJECTION_DEPTH = 2
-
-#: Bisection rounds on the Lagrange multiplier of (4), (5).
-LAGRANGE_ROUNDS = 10
 
 #: Subgradient rounds of the two-orbit re-planning (:func:`replan_pair`).
 PAIR_ROUNDS = 6
@@ -133,193 +134,36 @@ def best_chain(
     memory: float,
     openings: int,
 ) -> tuple[float, list[int]]:
-    r"""The best chain of candidates between the fixed neighbours ``left`` and ``right``.
+    """The best chain of candidates between the fixed neighbours ``left`` and ``right``.
 
-    Maximises the sum of ``gains`` over a chain in time order meeting (3) between consecutive
-    cluster-tasks (including ``left`` before the first and ``right`` after the last), with at
-    most ``openings`` cluster-tasks (6) and within the budgets of (4) and (5):
+    :func:`sosp.planner.plan_sequence` (the single-orbit planner's recursion) on the
+    candidates' columns: (3) between consecutive cluster-tasks and the neighbours, at most
+    ``openings`` of them (6), within the budgets ``energy`` (4) and ``memory`` (5) left by
+    the orbit's other cluster-tasks (the turns to and from the neighbours included).
 
-    .. math::
-        eo \sum_u d_u + es \sum_{(u, v)} (|\theta_u| + |\theta_v|)/v \le energy,\qquad
-        w \sum_u d_u \le memory
-
-    where the slew sum runs over the consecutive pairs of ``left``, the chain, ``right``.
-    Energy and memory are priced by one multiplier ``t`` (per share of budget) and ``t`` is
-    bisected; the best chain within both budgets is returned as (gain, candidate indices).
+    Returns
+    -------
+    tuple
+        ``(gain, chain)``: the summed gain and the candidates' indices in time order.
     """
-    p = state.lines[j].rules
-    if openings <= 0 or energy < -EPS or memory < -EPS:
+    # candidates worth nothing never help (plan_sequence drops them): not even converted
+    use = [v for v, g in enumerate(gains) if g > 0.0]
+    if not use:
         return 0.0, []
-    n = len(cands)
-    # Events, by the (3) interval ends of sosp.rules: node v is computed at its left end L_v
-    # (the latest a predecessor's right end may reach) and offered to successors at its right
-    # end R_v; (3) holds for u -> v iff R_u <= L_v.
-    events = []
-    for v, c in enumerate(cands):
-        events.append((p.left(c[START], c[ROLL]) + EPS, 1, v))
-        events.append((p.right(c[END], c[ROLL]), 0, v))
-    if left is not None:
-        events.append((p.right(left[END], left[ROLL]), 0, -1))
-    events.sort()
-    dur = [c[END] - c[START] for c in cands]
-    turn = [p.slew(c[ROLL]) for c in cands]
-    lt = p.slew(left[ROLL]) if left is not None else 0.0
-    left_offer = p.right(left[END], left[ROLL]) if left is not None else -np.inf
-    rt = right_at = 0.0
-    if right is not None:
-        rt = p.slew(right[ROLL])
-        right_at = p.left(right[START], right[ROLL]) + EPS
-    e_share = p.observe_energy_rate / energy if energy > EPS else np.inf
-    w_share = p.memory_rate / memory if memory > EPS else np.inf
-    s_share = p.slew_energy_rate / energy if energy > EPS else np.inf
-
-    def measure(chain: list[int]) -> tuple[float, float, float]:
-        d = sum(dur[v] for v in chain)
-        rolls = ([lt] if left is not None else []) + [turn[v] for v in chain]
-        if right is not None:
-            rolls.append(rt)
-        slew = sum(x + y for x, y in zip(rolls, rolls[1:], strict=False))
-        return sum(gains[v] for v in chain), d, slew
-
-    def fits(d: float, slew: float) -> bool:
-        return p.memory(d) <= memory + EPS and p.energy(d, slew) <= energy + EPS
-
-    def run(t: float, cap: int) -> list[int]:
-        """Longest path with penalty t per share of the budgets, at most ``cap`` nodes."""
-        node_pen = [t * dur[v] * (e_share + w_share) for v in range(n)] if t > 0 else [0.0] * n
-        slew_pen = t * s_share if t > 0 else 0.0
-        neg = -np.inf
-        # best[k]: (value - slew_pen * turn, node) over the nodes offered so far with k in the
-        # chain; node -1 is the start (``left`` once offered, or the orbit's start)
-        best: list[tuple[float, int]] = [(neg, -2)] * (cap + 1)
-        if left is None:
-            best[0] = (0.0, -1)
-        val = [[neg] * (cap + 1) for _ in range(n)]
-        pred = [[-2] * (cap + 1) for _ in range(n)]
-        for _, kind, v in events:
-            if v < 0:  # ``left`` is offered
-                best[0] = (-slew_pen * lt, -1)
-                continue
-            if kind == 0:
-                tv = slew_pen * turn[v]
-                row = val[v]
-                for k in range(1, cap + 1):
-                    x = row[k] - tv
-                    if x > best[k][0]:
-                        best[k] = (x, v)
-                continue
-            base = gains[v] - node_pen[v]
-            tv = slew_pen * turn[v]
-            row, prow = val[v], pred[v]
-            for k in range(1, cap + 1):
-                b, u = best[k - 1]
-                if b == neg:
-                    continue
-                row[k] = base + b - (tv if u >= 0 or left is not None else 0.0)
-                prow[k] = u
-        # the end: ``right`` (with the slew from the last) or the end of the orbit
-        end_val, end_node, end_k = neg, -2, 0
-        if right is None:
-            end_val, end_node, end_k = 0.0, -1, 0
-            for v in range(n):
-                row = val[v]
-                for k in range(1, cap + 1):
-                    if row[k] > end_val:
-                        end_val, end_node, end_k = row[k], v, k
-        else:
-            rpen = slew_pen * rt
-            if left is None:
-                end_val, end_node, end_k = 0.0, -1, 0
-            elif left_offer <= right_at:
-                end_val, end_node, end_k = -slew_pen * lt - rpen, -1, 0
-            for v in range(n):
-                if p.right(cands[v][END], cands[v][ROLL]) > right_at:
-                    continue
-                row = val[v]
-                tv = slew_pen * turn[v] + rpen
-                for k in range(1, cap + 1):
-                    if row[k] - tv > end_val:
-                        end_val, end_node, end_k = row[k] - tv, v, k
-        chain = []
-        v, k = end_node, end_k
-        while v >= 0:
-            chain.append(v)
-            v, k = pred[v][k], k - 1
-        chain.reverse()
-        return chain
-
-    def run1(t: float) -> list[int]:
-        """:func:`run` without the openings dimension (one value per node): its chain is
-        optimal for ``run`` too whenever it has at most ``cap`` nodes."""
-        node_pen = [t * dur[v] * (e_share + w_share) for v in range(n)] if t > 0 else [0.0] * n
-        slew_pen = t * s_share if t > 0 else 0.0
-        neg = -np.inf
-        best = (0.0, -1) if left is None else (neg, -2)
-        val = [neg] * n
-        pred = [-2] * n
-        for _, kind, v in events:
-            if v < 0:  # ``left`` is offered (nodes offered before it cannot follow it)
-                if -slew_pen * lt > best[0]:
-                    best = (-slew_pen * lt, -1)
-            elif kind == 0:
-                x = val[v] - slew_pen * turn[v]
-                if x > best[0]:
-                    best = (x, v)
-            elif best[0] != neg:
-                b, u = best
-                tv = slew_pen * turn[v] if u >= 0 or left is not None else 0.0
-                val[v] = gains[v] - node_pen[v] + b - tv
-                pred[v] = u
-        if right is None:
-            end_val, end_node = 0.0, -1
-            for v in range(n):
-                if val[v] > end_val:
-                    end_val, end_node = val[v], v
-        else:
-            rpen = slew_pen * rt
-            end_val, end_node = neg, -2
-            if left is None:
-                end_val, end_node = 0.0, -1
-            elif left_offer <= right_at:
-                end_val, end_node = -slew_pen * lt - rpen, -1
-            for v in range(n):
-                if p.right(cands[v][END], cands[v][ROLL]) <= right_at:
-                    x = val[v] - slew_pen * turn[v] - rpen
-                    if x > end_val:
-                        end_val, end_node = x, v
-        chain = []
-        v = end_node
-        while v >= 0:
-            chain.append(v)
-            v = pred[v]
-        chain.reverse()
-        return chain
-
-    cap = min(openings, n)
-    if cap <= 0:
-        return 0.0, []
-
-    def plan(t: float) -> list[int]:
-        ch = run1(t)
-        return ch if len(ch) <= cap else run(t, cap)
-
-    best_gain, best_ch = 0.0, []
-    ch = plan(0.0)
-    g, d, s = measure(ch)
-    if fits(d, s):
-        return g, ch
-    lo_t, hi_t = 0.0, max(sum(gains), 1.0)
-    for _ in range(LAGRANGE_ROUNDS):
-        t = 0.5 * (lo_t + hi_t)
-        ch = plan(t)
-        g, d, s = measure(ch)
-        if fits(d, s):
-            if g > best_gain:
-                best_gain, best_ch = g, ch
-            hi_t = t
-        else:
-            lo_t = t
-    return best_gain, best_ch
+    cols = np.array([(*cands[v][:3], gains[v]) for v in use], dtype=float).T
+    gain, chain = plan_sequence(
+        cols[0],
+        cols[1],
+        cols[2],
+        cols[3],
+        state.lines[j].rules,
+        left=None if left is None else (left[END], left[ROLL]),
+        right=None if right is None else (right[START], right[ROLL]),
+        energy=energy,
+        memory=memory,
+        openings=openings,
+    )
+    return gain, [use[v] for v in chain.tolist()]
 
 
 def _around(opts: list[int], at: int, m: int) -> list[int]:
@@ -414,13 +258,22 @@ class _Stretch:
         unit = state.pb.opt_unit
         return {unit[x] for c in self.freed for x in c[MEMBERS]}
 
-    def options(self, state: State) -> list[int]:
-        """Options of the orbit strictly between the fixed neighbours."""
+    def options(self, state: State, t0: float, t1: float) -> list[int]:
+        """Options of the orbit strictly between the fixed neighbours whose window lies in
+        ``[t0, t1]`` (by start, as ``orbit_options``)."""
         pb = state.pb
         st, en = pb.opt_start, pb.opt_end
         lo_t = self.left[END] if self.left is not None else -np.inf
         hi_t = self.right[START] if self.right is not None else np.inf
-        return [x for x in pb.orbit_options[self.j] if lo_t < st[x] and en[x] < hi_t]
+        opts = pb.orbit_options[self.j]
+        out = []
+        for a in range(bisect_left(opts, t0, key=st.__getitem__), len(opts)):
+            x = opts[a]
+            if st[x] > t1:
+                break
+            if lo_t < st[x] and en[x] < hi_t and en[x] <= t1:
+                out.append(x)
+        return out
 
     def best(self, state: State, cands: list[Cluster], gains: list[float]):
         return best_chain(
@@ -463,7 +316,7 @@ class _Stretch:
                     i = orbit[y]
                     if i == j:
                         continue  # a task twice in the stretch: once
-                    remove_member(state, i, state.lines[i].find(y), y)
+                    remove_member(state, i, state.find(i, y), y)
                     holes.append((i, y))
                 units.add(u)
                 members.append(x)
@@ -496,9 +349,7 @@ def replan_stretch(
     t1 = max([en[x] for x in window] + [c[END] for c in stretch.freed])
     avail = []
     value = {}
-    for x in stretch.options(state):
-        if not (t0 <= st[x] and en[x] <= t1):
-            continue
+    for x in stretch.options(state, t0, t1):
         u = unit[x]
         if u in freed_units:
             value[x] = pb.unit_weight[u]
@@ -511,26 +362,35 @@ def replan_stretch(
         else:
             continue
         avail.append(x)
-    cands = candidates(state, avail, state.lines[j].rules.max_duration)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
-        tw, cover = pb.target_weight, state.cover
+        tw, cover, targets = pb.target_weight, state.cover, pb.unit_targets
         held: dict[int, int] = {}
         for u in freed_units:
-            for k in pb.unit_targets[u]:
+            for k in targets[u]:
                 held[k] = held.get(k, 0) + 1
         freed_profit = sum(tw[k] for k, n in held.items() if cover[k] == n)
-        gains = [
-            sum(tw[k] for k in pb.unit_targets[unit[c[MEMBERS][0]]] if cover[k] == held.get(k, 0))
-            for c in cands
+        # the candidates are the options alone (:func:`candidates`); only those worth
+        # something can be in a best chain, so only they are made
+        worth = [
+            (x, sum(tw[k] for k in targets[unit[x]] if cover[k] == held.get(k, 0))) for x in avail
         ]
+        cands = [state.make_cluster((x,)) for x, w in worth if w > 0]
+        gains = [w for _, w in worth if w > 0]
     else:
+        cands = candidates(state, avail, state.lines[j].rules.max_duration)
         gains = [sum(value[x] for x in c[MEMBERS]) for c in cands]
         freed_profit = sum(pb.unit_weight[u] for u in freed_units)
     gain, chain = stretch.best(state, cands, gains)
     if gain < freed_profit - 1e-9:
         return None
+    chosen = [cands[v] for v in chain]
+    if chosen == stretch.freed:
+        # The best chain is the stretch as it stands (the same cluster-tasks, tasks all of
+        # this orbit): freeing and rebuilding it would give back the same state. A move that
+        # changes nothing, as before, at no cost (the common case once the search settles).
+        return []
     stretch.free(state)
-    return stretch.build(state, [cands[v] for v in chain])
+    return stretch.build(state, chosen)
 
 
 def replan_pair(
@@ -583,11 +443,10 @@ def replan_pair(
         t0 = min([st[x] for x in win] + [c[START] for c in stretch.freed])
         t1 = max([en[x] for x in win] + [c[END] for c in stretch.freed])
         out = []
-        for x in stretch.options(state):
+        for x in stretch.options(state, t0, t1):
             u = unit[x]
-            if t0 <= st[x] and en[x] <= t1:
-                if u in freed or (sched[u] < 0 and (tabu is None or u not in tabu)):
-                    out.append(x)
+            if u in freed or (sched[u] < 0 and (tabu is None or u not in tabu)):
+                out.append(x)
         return out
 
     ca = candidates(state, usable(sa, window), state.lines[j].rules.max_duration)

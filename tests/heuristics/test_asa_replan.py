@@ -219,3 +219,21 @@ def test_restarts_and_polish_stay_valid_and_below_the_optimum(
     oracle = {"asa-dtc": "cluster", "asa-stc": "static", "asa-nontc": "task"}[method]
     assert res.profit <= brute_force(inst, oracle).profit + 1e-9
     assert res.stats["restarts"] >= 1 or res.iterations < 150
+
+
+def test_replan_leaves_a_best_stretch_untouched() -> None:
+    """With {a, b} already clustered (the optimum of ``_abc``), the best chain is the stretch
+    as it stands: the move changes nothing and does not even free it (no orbit touched)."""
+    inst = _abc()
+    state, _ = _state(inst)
+    a, b = (inst.target_opps[inst.target_index[t]][0] for t in "ab")
+    state.begin()
+    state.touch(0).insert(state.make_cluster((a, b)))
+    state.assign(state.pb.opt_unit[a], a)
+    state.assign(state.pb.opt_unit[b], b)
+    state.commit()
+    before = list(state.lines[0].obs)
+    state.begin()
+    assert replan_stretch(state, 0, state.pb.orbit_options[0], None) == []
+    assert list(state.touched_orbits()) == [] and state.lines[0].obs == before
+    assert state.profit == 6 and state.check()
