@@ -576,7 +576,7 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="?",
         const="auto",
         default=None,
-        choices=("auto", "lp", "lagrangian", "milp"),
+        choices=("auto", "lp", "lagrangian", "colgen", "milp"),
         help="certify the schedule: compute an upper bound of the problem after the solve "
         "(auto if no value; its own time limit = --time-limit) and report the gap",
     )
