@@ -55,8 +55,7 @@ class InsertCheck(NamedTuple):
 
 
 # Refusals carry no position: shared constants, so a refused check allocates nothing.
-_REFUSED = {r: InsertCheck(False, -1, 0.0, r) for r in ("3", "4", "5", "6", "11")}
-_NO3, _NO4, _NO5, _NO6, _NO11 = (_REFUSED[r] for r in ("3", "4", "5", "6", "11"))
+_NO3, _NO4, _NO5, _NO6, _NO11 = (InsertCheck(False, -1, 0.0, r) for r in ("3", "4", "5", "6", "11"))
 
 
 class OrbitTimeline:
