@@ -29,16 +29,21 @@ import logging
 import math
 import time
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sosp.candidates import MAX_CANDIDATE_BYTES, estimate_bytes
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
-from sosp.schedule import items_to_schedule
+from sosp.schedule import Schedule, items_to_schedule
+
+if TYPE_CHECKING:
+    from sosp.windows import OrbitOpps
+
 from sosp.stop import (
     FirstOf,
     Interrupted,
@@ -76,6 +81,12 @@ class OrbitSearchParams:
     workers
         Processes generating the orbits' candidate observations side by side (the search's
         re-plans depend on one another and run in one process; the result is the same).
+    candidates
+        ``"explicit"``: every candidate observation, made once (:mod:`sosp.candidates`);
+        ``"windows"``: none made up front, each re-plan prices the orbit's windows at its
+        prices and plans over the real observations of the argmax rolls
+        (:func:`sosp.windows.window_plan`, a restricted set); ``"auto"`` (default):
+        explicit unless they would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES``.
     """
 
     perturb_orbits: int = 2
@@ -84,8 +95,13 @@ class OrbitSearchParams:
     iterations: int | None = None
     no_improve: int | None = None
     workers: int = 1
+    candidates: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.candidates not in ("auto", "explicit", "windows"):
+            raise InputError(
+                f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
+            )
         for name in ("perturb_orbits", "iterations", "no_improve", "workers"):
             value = getattr(self, name)
             if value is None and name not in ("perturb_orbits", "workers"):
@@ -137,9 +153,8 @@ class OrbitSearch:
     # ------------------------------------------------------------------ state changes
     def _set(self, g: int, path: np.ndarray) -> None:
         """Replace orbit g's plan (journalled), update coverage, profit and dirty flags."""
-        o = self.data.orbits[g]
         old = self.covered[g]
-        new = o.covered(path)
+        new = self._covered(g, path)
         self.journal.append((g, self.paths[g]))
         self.count[old] -= 1
         lost = old[self.count[old] == 0]
@@ -169,14 +184,21 @@ class OrbitSearch:
         """What covering each target is worth to orbit g: p_k unless another orbit has it."""
         return np.where(self.elsewhere(g), 0.0, self.weight)
 
+    def _plan(self, g: int, price: np.ndarray) -> Any:
+        """A feasible plan of orbit g at ``price`` (the exact re-planning)."""
+        return best_feasible_path(self.data.orbits[g], price)
+
+    def _covered(self, g: int, path: Any) -> np.ndarray:
+        """The distinct targets plan ``path`` of orbit g covers."""
+        return self.data.orbits[g].covered(path)
+
     # ------------------------------------------------------------------------- moves
     def replan(self, g: int) -> bool:
         """Re-plan orbit g optimally for the current prices; True when it gained."""
         self.replans += 1
-        o = self.data.orbits[g]
         price = self.prices(g)
-        path = best_feasible_path(o, price)
-        new_value = float(price[o.covered(path)].sum())
+        path = self._plan(g, price)
+        new_value = float(price[self._covered(g, path)].sum())
         if new_value > float(price[self.covered[g]].sum()) + 1e-9:
             self._set(g, path)
             return True
@@ -204,7 +226,7 @@ class OrbitSearch:
             keep = ~self.elsewhere(g) | (self.rng.random(len(self.weight)) < params.steal)
             noise = self.rng.uniform(1.0 - params.noise, 1.0 + params.noise, len(self.weight))
             price = np.where(keep, self.weight * noise, 0.0)
-            self._set(g, best_feasible_path(self.data.orbits[g], price))
+            self._set(g, self._plan(g, price))
 
     def chosen(self) -> list[int]:
         """Global candidate indices of the current plans."""
@@ -213,6 +235,96 @@ class OrbitSearch:
             for o, path in zip(self.data.orbits, self.paths, strict=True)
             for u in path
         ]
+
+    def schedule(self) -> Schedule:
+        """The schedule of the current plans."""
+        return items_to_schedule(self.data.instance, self.data, self.chosen())
+
+
+@dataclass(frozen=True, eq=False)
+class WindowData:
+    """Every orbit's opportunities (no candidates), for :class:`WindowSearch`."""
+
+    instance: Instance
+    orbits: tuple[OrbitOpps, ...]
+    target_orbits_ptr: np.ndarray
+    target_orbits: np.ndarray
+
+    n_items = 0
+
+    @classmethod
+    def build(cls, instance: Instance) -> WindowData:
+        from sosp.windows import orbit_opps  # numba's import only where it is used
+
+        orbits = tuple(orbit_opps(instance, j) for j in range(instance.n_orbits))
+        tgt = np.asarray(instance.opp_target, dtype=np.int64)
+        orb = np.asarray(instance.opp_orbit, dtype=np.int64)
+        order = np.lexsort((orb, tgt))
+        pairs = np.unique(np.stack((tgt[order], orb[order]), axis=1), axis=0)
+        ptr = np.zeros(instance.n_targets + 1, dtype=np.int64)
+        ptr[1:] = np.cumsum(np.bincount(pairs[:, 0], minlength=instance.n_targets))
+        return cls(instance, orbits, ptr, pairs[:, 1].copy())
+
+    def orbits_seeing(self, targets: np.ndarray) -> np.ndarray:
+        """The orbits with an opportunity of any of ``targets``."""
+        if len(targets) == 0:
+            return np.zeros(0, dtype=np.int64)
+        ptr = self.target_orbits_ptr
+        return np.unique(np.concatenate([self.target_orbits[ptr[k] : ptr[k + 1]] for k in targets]))
+
+
+class WindowSearch(OrbitSearch):
+    """:class:`OrbitSearch` whose re-plan prices the orbit's windows at its prices and plans
+    over the real observations of the argmax rolls (:func:`sosp.windows.window_plan`): no
+    candidate list, so it runs where the explicit candidates do not fit in memory. A plan is a
+    :class:`sosp.windows.WindowPlan`."""
+
+    def __init__(self, data: WindowData, rng: np.random.Generator) -> None:
+        from sosp.windows import empty_plan, window_plan
+
+        super().__init__(data, rng)  # type: ignore[arg-type]
+        self._window_plan = window_plan
+        self.paths = [empty_plan() for _ in data.orbits]  # type: ignore[misc]
+
+    def _plan(self, g: int, price: np.ndarray) -> Any:
+        return self._window_plan(self.data.orbits[g], price)  # type: ignore[arg-type]
+
+    def _covered(self, g: int, path: Any) -> np.ndarray:
+        return path.targets
+
+    def schedule(self) -> Schedule:
+        obs = []
+        for g, plan in enumerate(self.paths):
+            for u in range(plan.size):  # type: ignore[attr-defined]
+                p: Any = plan
+                obs.append((g, p.start[u], p.end[u], p.roll[u], p.opps[u]))
+        cols = _Columns(
+            orbit=np.array([o[0] for o in obs], dtype=np.int64),
+            start=np.array([o[1] for o in obs], dtype=float),
+            end=np.array([o[2] for o in obs], dtype=float),
+            roll=np.array([o[3] for o in obs], dtype=float),
+            opps=[o[4] for o in obs],
+        )
+        return items_to_schedule(self.data.instance, cols, range(len(obs)))
+
+
+@dataclass(frozen=True)
+class _Columns:
+    """Observation columns as :func:`sosp.schedule.items_to_schedule` reads them."""
+
+    orbit: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    roll: np.ndarray
+    opps: list[tuple[int, ...]]
+
+
+def window_ascent_profit(instance: Instance, seed: int = 0, deadline: float | None = None) -> float:
+    """Profit of one ascent of :class:`WindowSearch` from the empty schedule (a quick lower
+    bound without candidates; stopped at ``deadline``, a :func:`time.perf_counter` value)."""
+    search = WindowSearch(WindowData.build(instance), np.random.default_rng(seed))
+    search.ascent(deadline)
+    return search.profit
 
 
 def ascent_profit(data: OrbitData, seed: int = 0) -> float:
@@ -261,9 +373,17 @@ def solve_orbit_dp(
     iterations, no_improve = p.iterations, p.no_improve
     if iterations is None and no_improve is None and time_limit is None:
         no_improve = DEFAULT_NO_IMPROVE
-    data = orbit_data(instance, deadline, workers=p.workers)
+    mode = p.candidates
+    if mode == "auto":
+        mode = "explicit" if estimate_bytes(instance) <= MAX_CANDIDATE_BYTES else "windows"
+    search: OrbitSearch
+    if mode == "windows":
+        data: Any = WindowData.build(instance)
+        search = WindowSearch(data, rng)
+    else:
+        data = orbit_data(instance, deadline, workers=p.workers)
+        search = OrbitSearch(data, rng)
     t_data = time.perf_counter() - t0
-    search = OrbitSearch(data, rng)
     search.ascent(deadline)
     first = search.profit
     best_profit, best_paths = search.profit, list(search.paths)
@@ -296,7 +416,7 @@ def solve_orbit_dp(
             search.undo(mark)
             search.journal.clear()
     search.paths = best_paths
-    schedule = items_to_schedule(instance, data, search.chosen())
+    schedule = search.schedule()
     profit, observed = schedule.coverage_profit(instance)
     status = Status.FEASIBLE if data.orbits else Status.NO_SOLUTION
     return Result(
@@ -309,6 +429,7 @@ def solve_orbit_dp(
         iterations=steps,
         stats={
             "candidates": data.n_items,
+            "candidate_mode": mode,
             "candidates_s": round(t_data, 4),
             "ascent_profit": first,
             "replans": search.replans,

@@ -1,0 +1,716 @@
+"""Pricing over rolls by a sweep inside each time window: single-orbit planning without the
+explicit candidate observations.
+
+:mod:`sosp.candidates` lists every non-dominated (first, last, roll) observation of an orbit;
+on dense orbits (thousands of opportunities, a thousand inside one Delta T) that is tens of
+gigabytes. At given prices, though, only the best roll of each window matters. For an orbit's
+opportunities sorted by start, a first opportunity i and a last one k (``ts_k >= ts_i``,
+``te_k >= te_i``, ``te_k <= ts_i + Delta T`` (11)), let
+
+    G(i, k) = max over r in [lo_i, hi_i] of sum of price over the opportunities j with
+              ts_j >= ts_i, te_j <= te_k and r in [lo_j, hi_j]            ((7)-(8))
+
+(opportunities of price 0 add nothing and are left out). With i fixed and k growing in end
+order this is "insert an interval of rolls with weight p, query the largest total weight at
+one roll": a segment tree over the window's (clipped) left ends of the roll ranges, where the
+maximum is reached, answers each insertion in O(log m) (:func:`_sweep`, compiled by numba:
+about 6 times faster than a numpy sweep vectorised per first opportunity on the densest
+orbit of 10,000 targets in the C region, ``benchmarks/bench_windows.py``). Only
+the k where G grows are kept: a larger k at the same gain is a longer window worth no more.
+
+Two uses:
+
+* :func:`relaxed_items` (an upper-bound relaxation for the bounds). Item (i, k) has gain
+  G(i, k), window [ts_i, te_k] and |theta| the least |r| over [lo_i, hi_i]. Every real
+  observation whose first opportunity is i (nothing starts before ts_i) and whose last is k'
+  (the latest end) has roll r in [lo_i, hi_i] and covers only opportunities counted in
+  G(i, k'); the kept item (i, k) with the largest te_k <= te_k' has G(i, k) = G(i, k') (G did
+  not grow in between). So its gain is at most G(i, k), its window holds [ts_i, te_k] and its
+  |theta| is at least the item's. Hence the item's (3) interval
+  ``[ts - |theta| / v, te + a + |theta| / v)`` (:mod:`sosp.rules`) lies inside the
+  observation's, its duration (observe terms of (4)-(5)) is no longer, and its |theta| no
+  larger (the exact slew term of (4), ``(2 sum |theta| - |theta_first| - |theta_last|) / v``,
+  has nonnegative coefficients). Observations starting at an opportunity of price 0 are
+  dominated the same way by the item starting at their earliest priced member. Two
+  observations of one plan never map to the same item (both would start at ts_i and overlap
+  in time, against (3)). So mapping a plan's observations to their items gives a sequence of
+  as many items, pairwise compatible by (3), worth at least as much, with no larger
+  penalties: the single-orbit recursion of :mod:`sosp.planner` (levels for (6), (4)-(5) as
+  Lagrangian penalties) over the items is an upper bound on the best plan of the orbit at
+  these prices, the explicit candidates' included (:func:`relaxed_best_path`).
+* :func:`window_candidates` (real candidates for the schedule planners). The argmax roll
+  r*(i, k) of each kept item (ties: closest to nadir) gives an observation: the priced
+  opportunities of the window whose range holds r*, window (10) over them, roll by the roll
+  rule in their common range (8). A restricted candidate set at those prices, which
+  :func:`window_data` arranges for the single-orbit planner (``orbit-dp``).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sosp.candidates import OppGroups
+from sosp.instance import Instance
+from sosp.rules import EPS, OrbitRules, RollRule, check_roll_rule, orbit_rules
+
+log = logging.getLogger(__name__)
+
+try:  # numba compiles the sweep; without it the same code runs as (slow) Python
+    from numba import njit
+except ImportError:  # pragma: no cover - numba is a dependency
+
+    def njit(*args: Any, **kwargs: Any) -> Any:
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+# ------------------------------------------------------------------------ the sweep kernel
+@njit(cache=True)
+def _combine(t: np.ndarray, at: np.ndarray, absp: np.ndarray, node: int, add: float) -> None:
+    """Node ``node`` from its two children: the larger value (ties: the point closer to
+    nadir), plus the node's pending addition."""
+    a, b = 2 * node, 2 * node + 1
+    va, vb = t[a], t[b]
+    if vb > va or (vb == va and absp[at[b]] < absp[at[a]]):
+        t[node] = vb + add
+        at[node] = at[b]
+    else:
+        t[node] = va + add
+        at[node] = at[a]
+
+
+@njit(cache=True)
+def _sweep(
+    ts: np.ndarray,
+    te: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    w: np.ndarray,
+    limit: float,
+    eps: float,
+    out_first: np.ndarray,
+    out_last: np.ndarray,
+    out_gain: np.ndarray,
+    out_point: np.ndarray,
+) -> int:
+    """G(i, k) of the module docstring for every priced first opportunity i of one orbit.
+
+    ``ts`` sorted; ``w`` the prices per opportunity. Writes one row per kept (i, k): first i,
+    last k (the last opportunity inserted before G was read), G and the argmax roll, and
+    returns the number of rows. The outputs must hold the sum over priced i of the
+    opportunities starting in [ts_i, ts_i + limit].
+    """
+    n = len(ts)
+    n_out = 0
+    first_same = 0
+    # scratch, grown to the largest window
+    cap = 16
+    idx = np.empty(cap, dtype=np.int64)
+    a_of = np.empty(cap)
+    b_of = np.empty(cap)
+    for i in range(n):
+        if i > 0 and ts[i] != ts[i - 1]:
+            first_same = i
+        if w[i] <= 0.0:
+            continue
+        lo_i, hi_i = lo[i], hi[i]
+        horizon = ts[i] + limit + eps
+        # the window's priced opportunities (ties in start before i included) whose range
+        # meets i's, their ranges clipped to i's
+        m = 0
+        j = first_same
+        while j < n and ts[j] <= horizon:
+            if w[j] > 0.0 and te[j] <= horizon:
+                a = max(lo[j], lo_i)
+                b = min(hi[j], hi_i)
+                if a <= b + eps:
+                    if m == cap:
+                        cap *= 2
+                        idx2 = np.empty(cap, dtype=np.int64)
+                        a2 = np.empty(cap)
+                        b2 = np.empty(cap)
+                        idx2[:m] = idx[:m]
+                        a2[:m] = a_of[:m]
+                        b2[:m] = b_of[:m]
+                        idx, a_of, b_of = idx2, a2, b2
+                    idx[m] = j
+                    a_of[m] = a
+                    b_of[m] = b if b >= a else a
+                    m += 1
+            j += 1
+        # the maximum of a sum of intervals is reached at some interval's left end
+        points = np.sort(a_of[:m])
+        absp = np.abs(points)
+        size = 1
+        while size < m:
+            size *= 2
+        t = np.full(2 * size, -np.inf)
+        d = np.zeros(2 * size)
+        at = np.zeros(2 * size, dtype=np.int64)
+        for q in range(size):
+            at[size + q] = min(q, m - 1)
+            if q < m:
+                t[size + q] = 0.0
+        for node in range(size - 1, 0, -1):
+            _combine(t, at, absp, node, 0.0)
+        order = np.argsort(te[idx[:m]], kind="mergesort")
+        best = 0.0
+        for s in range(m):
+            q = idx[order[s]]
+            lft = np.searchsorted(points, a_of[order[s]] - eps, side="left")
+            rgt = np.searchsorted(points, b_of[order[s]] + eps, side="right")
+            # range add of w[q] on leaves [lft, rgt) (bottom-up, no push-down)
+            val = w[q]
+            l0 = lft + size
+            r0 = rgt + size
+            lq, rq = l0, r0
+            while lq < rq:
+                if lq & 1:
+                    t[lq] += val
+                    if lq < size:
+                        d[lq] += val
+                    lq += 1
+                if rq & 1:
+                    rq -= 1
+                    t[rq] += val
+                    if rq < size:
+                        d[rq] += val
+                lq >>= 1
+                rq >>= 1
+            p = l0 >> 1
+            while p >= 1:
+                _combine(t, at, absp, p, d[p])
+                p >>= 1
+            p = (r0 - 1) >> 1
+            while p >= 1:
+                _combine(t, at, absp, p, d[p])
+                p >>= 1
+            if s + 1 < m and te[idx[order[s + 1]]] == te[q]:
+                continue  # read G once all opportunities ending at te[q] are in
+            if te[q] < te[i]:
+                continue  # the last opportunity ends no earlier than the first
+            if t[1] > best:
+                best = t[1]
+                out_first[n_out] = i
+                out_last[n_out] = q
+                out_gain[n_out] = best
+                out_point[n_out] = points[at[1]]
+                n_out += 1
+    return n_out
+
+
+@njit(cache=True)
+def _members(
+    ts: np.ndarray,
+    te: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    w: np.ndarray,
+    first: np.ndarray,
+    last: np.ndarray,
+    point: np.ndarray,
+    eps: float,
+    ptr: np.ndarray,
+    flat: np.ndarray,
+) -> int:
+    """Members of each row's observation: the priced opportunities with ts >= ts_first,
+    te <= te_last and ``point`` in their range (``ptr`` filled, ``flat`` as long as
+    needed when given enough room; returns the total)."""
+    n = len(ts)
+    total = 0
+    for u in range(len(first)):
+        i, k, r = first[u], last[u], point[u]
+        j = i
+        while j > 0 and ts[j - 1] == ts[i]:
+            j -= 1
+        ptr[u] = total
+        while j < n and ts[j] <= te[k]:
+            if w[j] > 0.0 and te[j] <= te[k] and lo[j] - eps <= r and r <= hi[j] + eps:
+                if total < len(flat):
+                    flat[total] = j
+                total += 1
+            j += 1
+    ptr[len(first)] = total
+    return total
+
+
+@njit(cache=True)
+def _spans(
+    ts: np.ndarray,
+    te: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    w: np.ndarray,
+    first: np.ndarray,
+    last: np.ndarray,
+    point: np.ndarray,
+    eps: float,
+    out: np.ndarray,
+) -> None:
+    """Per row, the members' (as :func:`_members`) window (10) and common range (8):
+    ``out[u] = (min ts, max te, max lo, min hi)``."""
+    n = len(ts)
+    for u in range(len(first)):
+        i, k, r = first[u], last[u], point[u]
+        j = i
+        while j > 0 and ts[j - 1] == ts[i]:
+            j -= 1
+        s, e, a, b = np.inf, -np.inf, -np.inf, np.inf
+        while j < n and ts[j] <= te[k]:
+            if w[j] > 0.0 and te[j] <= te[k] and lo[j] - eps <= r and r <= hi[j] + eps:
+                s = min(s, ts[j])
+                e = max(e, te[j])
+                a = max(a, lo[j])
+                b = min(hi[j], b)
+            j += 1
+        out[u, 0] = s
+        out[u, 1] = e
+        out[u, 2] = a
+        out[u, 3] = b
+
+
+# ---------------------------------------------------------------------------- one orbit
+@dataclass(frozen=True, eq=False)
+class OrbitOpps:
+    """One orbit's opportunities as columns (sorted by start, as the instance holds them).
+
+    Attributes
+    ----------
+    orbit
+        Orbit index j.
+    first
+        Global index of the orbit's first opportunity (the orbit's are ``first + local``).
+    start, end, roll_min, roll_max
+        Windows and roll ranges (7).
+    target
+        Target of each opportunity.
+    rules
+        The orbit's rules (:class:`sosp.rules.OrbitRules`).
+    """
+
+    orbit: int
+    first: int
+    start: np.ndarray
+    end: np.ndarray
+    roll_min: np.ndarray
+    roll_max: np.ndarray
+    target: np.ndarray
+    rules: OrbitRules
+
+    @property
+    def size(self) -> int:
+        return len(self.start)
+
+
+def orbit_opps(instance: Instance, j: int) -> OrbitOpps:
+    """The :class:`OrbitOpps` of orbit ``j``."""
+    sl = instance.orbit_opps(j)
+    return OrbitOpps(
+        orbit=j,
+        first=int(sl.start),
+        start=np.ascontiguousarray(instance.opp_start[sl], dtype=float),
+        end=np.ascontiguousarray(instance.opp_end[sl], dtype=float),
+        roll_min=np.ascontiguousarray(instance.opp_roll_min[sl], dtype=float),
+        roll_max=np.ascontiguousarray(instance.opp_roll_max[sl], dtype=float),
+        target=np.asarray(instance.opp_target[sl], dtype=np.int64),
+        rules=orbit_rules(instance, j),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class WindowItems:
+    """The kept (i, k) of one orbit at some prices (local opportunity indices).
+
+    Attributes
+    ----------
+    first, last
+        First opportunity i and last opportunity k.
+    gain
+        G(i, k).
+    point
+        The argmax roll r*(i, k) (ties: closest to nadir).
+    """
+
+    first: np.ndarray
+    last: np.ndarray
+    gain: np.ndarray
+    point: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return len(self.first)
+
+
+def window_items(oo: OrbitOpps, price: np.ndarray) -> WindowItems:
+    """G(i, k) and r*(i, k) of every kept (i, k) of the orbit at ``price`` (per target)."""
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
+    limit = float(oo.rules.max_duration)
+    ts = oo.start
+    priced = np.flatnonzero(w > 0.0)
+    if len(priced) == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return WindowItems(z, z, np.zeros(0), np.zeros(0))
+    # room: per priced start, the opportunities starting in its window (ties before it too)
+    lo_at = np.searchsorted(ts, ts[priced], side="left")
+    hi_at = np.searchsorted(ts, ts[priced] + limit + EPS, side="right")
+    room = int((hi_at - lo_at).sum())
+    first = np.empty(room, dtype=np.int64)
+    last = np.empty(room, dtype=np.int64)
+    gain, point = np.empty(room), np.empty(room)
+    n = _sweep(ts, oo.end, oo.roll_min, oo.roll_max, w, limit, EPS, first, last, gain, point)
+    return WindowItems(first[:n].copy(), last[:n].copy(), gain[:n].copy(), point[:n].copy())
+
+
+# ----------------------------------------------------------------------- (a) the relaxation
+@dataclass(frozen=True, eq=False)
+class RelaxedItems:
+    """The relaxation's items of one orbit at some prices (see the module docstring), in
+    the arrangement :func:`sosp.planner._recursion` takes.
+
+    Attributes
+    ----------
+    items
+        The kept (i, k) with their G and r*.
+    start, end, duration, slew_s
+        Per item: window [ts_i, te_k], its length and ``min |r| / v`` over [lo_i, hi_i].
+    by_release, n_before
+        Items by the right end ``R`` of their (3) interval, and per item how many of those
+        may precede it (``R <= L``).
+    """
+
+    items: WindowItems
+    start: np.ndarray
+    end: np.ndarray
+    duration: np.ndarray
+    slew_s: np.ndarray
+    by_release: np.ndarray
+    n_before: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return self.items.size
+
+
+def least_abs_roll(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The least |r| over [lo, hi] (0 when the range holds nadir)."""
+    return np.where(lo > 0.0, lo, np.where(hi < 0.0, -hi, 0.0))
+
+
+def relaxed_items(oo: OrbitOpps, price: np.ndarray) -> RelaxedItems:
+    """The items of the relaxation of orbit ``oo`` at ``price`` (per target)."""
+    wi = window_items(oo, price)
+    r = oo.rules
+    start = oo.start[wi.first]
+    end = oo.end[wi.last]
+    theta = least_abs_roll(oo.roll_min[wi.first], oo.roll_max[wi.first])
+    slew_s = theta / r.slew_rate
+    left = start - slew_s
+    right = end + r.setup_time + slew_s
+    by_release = np.argsort(right, kind="stable")
+    n_before = np.searchsorted(right[by_release], left + EPS, side="right")
+    return RelaxedItems(wi, start, end, end - start, slew_s, by_release, n_before)
+
+
+def relaxed_best_path(
+    oo: OrbitOpps,
+    price: np.ndarray,
+    lam_energy: float = 0.0,
+    lam_memory: float = 0.0,
+    prepared: RelaxedItems | None = None,
+) -> tuple[float, np.ndarray, RelaxedItems]:
+    """An upper bound on :func:`sosp.planner.best_path` of the orbit at these prices and
+    penalties, with no candidate list: the same recursion over :func:`relaxed_items`.
+
+    Returns
+    -------
+    tuple
+        ``(value, path, items)``: the relaxation's value (>= the best plan's penalised value
+        over the explicit candidates, 0 for the empty plan), its items in time order
+        (positions into ``items``) and the items.
+    """
+    from sosp.planner import _recursion
+
+    ri = relaxed_items(oo, price) if prepared is None else prepared
+    if ri.size == 0:
+        return 0.0, np.zeros(0, dtype=np.int64), ri
+    r = oo.rules
+    pe = lam_energy / r.energy_capacity if r.energy_capacity > 0 else 0.0
+    pw = lam_memory / r.memory_capacity if r.memory_capacity > 0 else 0.0
+    value, path = _recursion(
+        ri.slew_s, ri.duration, ri.items.gain, ri.by_release, ri.n_before, r, pe, pw
+    )
+    return float(value), path, ri
+
+
+def item_targets(oo: OrbitOpps, price: np.ndarray, ri: RelaxedItems, path: np.ndarray) -> Any:
+    """The targets the items ``path`` count in their gain (priced members at r*), with
+    repeats across items."""
+    if len(path) == 0:
+        return np.zeros(0, dtype=np.int64)
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
+    it = ri.items
+    ptr, flat = _member_lists(oo, w, it.first[path], it.last[path], it.point[path])
+    return oo.target[flat]
+
+
+def _member_lists(
+    oo: OrbitOpps, w: np.ndarray, first: np.ndarray, last: np.ndarray, point: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (ptr, flat local indices) of :func:`_members`."""
+    first = np.ascontiguousarray(first, dtype=np.int64)
+    last = np.ascontiguousarray(last, dtype=np.int64)
+    point = np.ascontiguousarray(point, dtype=float)
+    ptr = np.zeros(len(first) + 1, dtype=np.int64)
+    guess = np.zeros(max(8 * len(first), 1), dtype=np.int64)
+    args = (oo.start, oo.end, oo.roll_min, oo.roll_max, w, first, last, point, EPS)
+    total = _members(*args, ptr, guess)
+    if total > len(guess):
+        guess = np.zeros(total, dtype=np.int64)
+        _members(*args, ptr, guess)
+    return ptr, guess[:total]
+
+
+def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[Any, Any]:
+    """The groups with each target once (its first opportunity kept): a target seen twice
+    inside one window is covered once (2)."""
+    seg = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
+    tgt = oo.target[flat]
+    order = np.lexsort((flat, tgt, seg))
+    dup = np.zeros(len(flat), dtype=bool)
+    dup[order[1:]] = (seg[order[1:]] == seg[order[:-1]]) & (tgt[order[1:]] == tgt[order[:-1]])
+    if not dup.any():
+        return ptr, flat
+    keep = ~dup
+    new_ptr = np.zeros_like(ptr)
+    np.cumsum(np.bincount(seg[keep], minlength=len(ptr) - 1), out=new_ptr[1:])
+    return new_ptr, flat[keep]
+
+
+# --------------------------------------------------------------------- (b) real candidates
+def orbit_window_candidates(
+    oo: OrbitOpps,
+    price: np.ndarray,
+    roll_rule: RollRule = "nadir",
+    singles: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, OppGroups]:
+    """Real candidate observations of one orbit from the argmax rolls at ``price``.
+
+    For each kept (i, k): the priced opportunities of the window [ts_i, te_k] whose range
+    holds r*(i, k) (i among them, and k when G grew at k), window (10) over them, roll by
+    ``roll_rule`` in their common range (8) (which holds r*). With ``singles`` each priced
+    opportunity no longer than Delta T is added alone too (its roll by the same rule over its
+    own range). Windows longer than Delta T cannot arise (every member lies in
+    [ts_i, ts_i + Delta T]).
+
+    Returns
+    -------
+    tuple
+        ``(start, end, roll, opps)``, opps global opportunity indices.
+    """
+    check_roll_rule(roll_rule)
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
+    wi = window_items(oo, price)
+    ptr, flat = _one_per_target(oo, *_member_lists(oo, w, wi.first, wi.last, wi.point))
+    if singles:
+        alone = np.flatnonzero((w > 0.0) & (oo.end - oo.start <= oo.rules.max_duration + EPS))
+        ptr = np.concatenate((ptr, ptr[-1] + np.arange(1, len(alone) + 1)))
+        flat = np.concatenate((flat, alone))
+    n = len(ptr) - 1
+    if n == 0:
+        z = np.zeros(0)
+        return z, z, z, OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+    heads = ptr[:-1]
+    start = np.minimum.reduceat(oo.start[flat], heads)
+    end = np.maximum.reduceat(oo.end[flat], heads)
+    lo = np.maximum.reduceat(oo.roll_min[flat], heads)
+    hi = np.minimum.reduceat(oo.roll_max[flat], heads)
+    if roll_rule == "nadir":
+        roll = np.minimum(np.maximum(0.0, lo), hi)
+    else:
+        roll = 0.5 * (lo + hi)
+    # members sorted by opportunity index, as the explicit candidates hold them
+    seg = np.repeat(np.arange(n), np.diff(ptr))
+    order = np.lexsort((flat, seg))
+    groups = OppGroups(ptr, (flat[order] + oo.first).astype(np.int32))
+    return start, end, roll, groups
+
+
+def window_candidates(
+    instance: Instance,
+    price: np.ndarray | None = None,
+    roll_rule: RollRule = "nadir",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
+    """:func:`orbit_window_candidates` of every orbit at ``price`` (None: the targets'
+    weights), as :func:`sosp.candidates.cluster_candidates` returns its columns:
+    ``(orbit, start, end, roll, opps)``. Duplicates (same window, roll and members) are
+    dropped."""
+    if price is None:
+        price = np.asarray(instance.target_weight, dtype=float)
+    parts = []
+    for j in range(instance.n_orbits):
+        oo = orbit_opps(instance, j)
+        s, e, r, g = orbit_window_candidates(oo, price, roll_rule)
+        if len(g):
+            parts.append((j, s, e, r, g))
+    if not parts:
+        z = np.zeros(0)
+        empty = OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+        return np.zeros(0, dtype=np.int64), z, z, z, empty
+    orbit = np.concatenate([np.full(len(p[1]), p[0], dtype=np.int64) for p in parts])
+    start = np.concatenate([p[1] for p in parts])
+    end = np.concatenate([p[2] for p in parts])
+    roll = np.concatenate([p[3] for p in parts])
+    opps = OppGroups.concat([p[4] for p in parts])
+    keep = _distinct(orbit, start, end, roll, opps)
+    return orbit[keep], start[keep], end[keep], roll[keep], opps.take(keep)
+
+
+def _distinct(
+    orbit: np.ndarray, start: np.ndarray, end: np.ndarray, roll: np.ndarray, opps: OppGroups
+) -> np.ndarray:
+    """Indices of the first of each group of identical candidates, in their order."""
+    sizes = opps.sizes
+    # a cheap fingerprint of the members; equal keys are compared member by member
+    pos = np.repeat(np.arange(len(sizes)), sizes)
+    fp = np.bincount(pos, weights=(opps.flat.astype(float) + 1.0) ** 1.5, minlength=len(sizes))
+    order = np.lexsort((np.arange(len(sizes)), fp, sizes, roll, end, start, orbit))
+    keys = (orbit, start, end, roll, sizes, fp)
+    same = np.ones(len(order) - 1, dtype=bool) if len(order) > 1 else np.zeros(0, dtype=bool)
+    for col in keys:
+        c = col[order]
+        same &= c[1:] == c[:-1]
+    drop = np.zeros(len(order), dtype=bool)
+    for q in np.flatnonzero(same):
+        a, b = order[q], order[q + 1]
+        if opps[a] == opps[b]:
+            drop[b] = True
+    return np.flatnonzero(~drop)
+
+
+def window_data(
+    instance: Instance, price: np.ndarray | None = None, roll_rule: RollRule = "nadir"
+) -> Any:
+    """:class:`sosp.planner.OrbitData` over :func:`window_candidates` (a restricted candidate
+    set: the single-orbit planner over it gives real, feasible plans, not the optimum over
+    every candidate)."""
+    from sosp.planner import _arrange
+
+    orbit, start, end, roll, opps = window_candidates(instance, price, roll_rule)
+    return _arrange(instance, orbit, start, end, roll, opps)
+
+
+#: Penalty doublings and bisection steps of :func:`window_plan` (as
+#: :func:`sosp.planner.best_feasible_path`).
+_DOUBLINGS, _BISECTIONS = 60, 12
+
+
+@dataclass(frozen=True, eq=False)
+class WindowPlan:
+    """A feasible plan of one orbit made of real observations (time order).
+
+    Attributes
+    ----------
+    start, end, roll
+        Per observation: window (10) and roll (7).
+    opps
+        Covered opportunities (global indices) per observation.
+    targets
+        The distinct targets the plan covers.
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    roll: np.ndarray
+    opps: OppGroups
+    targets: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return len(self.start)
+
+
+def empty_plan() -> WindowPlan:
+    z = np.zeros(0)
+    groups = OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+    return WindowPlan(z, z, z, groups, np.zeros(0, dtype=np.int64))
+
+
+def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir") -> WindowPlan:
+    """A feasible plan of orbit ``oo`` at ``price`` over the real candidates of the argmax
+    rolls (:func:`orbit_window_candidates` without the singles, made at these prices).
+
+    Each kept (i, k) becomes its real observation: members, window (10), roll by
+    ``roll_rule`` in their common range, gain G(i, k) (the members' prices). The recursion of
+    :mod:`sosp.planner` over these observations keeps (3) and (6) exactly; when its best plan
+    breaks (4) or (5), a common penalty on both is doubled until it fits and bisected back
+    (as :func:`sosp.planner.best_feasible_path`): the plan is always feasible, optimal over
+    this restricted set when the knapsacks do not bind.
+    """
+    from sosp.planner import _recursion
+
+    check_roll_rule(roll_rule)
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
+    wi = window_items(oo, price)
+    if wi.size == 0:
+        return empty_plan()
+    r = oo.rules
+    spans = np.empty((wi.size, 4))
+    _spans(oo.start, oo.end, oo.roll_min, oo.roll_max, w, wi.first, wi.last, wi.point, EPS, spans)
+    start, end, lo, hi = spans.T
+    if roll_rule == "nadir":
+        roll = np.minimum(np.maximum(0.0, lo), hi)
+    else:
+        roll = 0.5 * (lo + hi)
+    ok = (end - start <= r.max_duration + EPS) & r.fits(0.0, 0.0)
+    keep = np.flatnonzero(ok)
+    start, end, roll, gain = start[keep], end[keep], roll[keep], wi.gain[keep]
+    duration = end - start
+    slew_s = np.abs(roll) / r.slew_rate
+    right = end + r.setup_time + slew_s
+    by_release = np.argsort(right, kind="stable")
+    n_before = np.searchsorted(right[by_release], start - slew_s + EPS, side="right")
+
+    def plan(pen: float) -> np.ndarray:
+        pe = pen / r.energy_capacity if r.energy_capacity > 0 else 0.0
+        pw = pen / r.memory_capacity if r.memory_capacity > 0 else 0.0
+        _, path = _recursion(slew_s, duration, gain, by_release, n_before, r, pe, pw)
+        return path
+
+    def fits(path: np.ndarray) -> bool:
+        energy, memory = r.usage(duration[path], roll[path])
+        return energy <= r.energy_capacity + EPS and memory <= r.memory_capacity + EPS
+
+    path = plan(0.0)
+    if not fits(path):
+        lo_p, hi_p = 0.0, 1.0
+        for _ in range(_DOUBLINGS):
+            path = plan(hi_p)
+            if fits(path):
+                break
+            lo_p, hi_p = hi_p, 2.0 * hi_p
+        else:
+            return empty_plan()
+        for _ in range(_BISECTIONS):
+            mid = 0.5 * (lo_p + hi_p)
+            trial = plan(mid)
+            if fits(trial):
+                hi_p, path = mid, trial
+            else:
+                lo_p = mid
+    if len(path) == 0:
+        return empty_plan()
+    rows = keep[path]
+    ptr, flat = _member_lists(oo, w, wi.first[rows], wi.last[rows], wi.point[rows])
+    ptr, flat = _one_per_target(oo, ptr, flat)
+    return WindowPlan(
+        start=start[path],
+        end=end[path],
+        roll=roll[path],
+        opps=OppGroups(ptr, (flat + oo.first).astype(np.int32)),
+        targets=np.unique(oo.target[flat]),
+    )

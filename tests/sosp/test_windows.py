@@ -1,0 +1,189 @@
+"""The window pricing (sosp.windows): G(i, k) against brute force over rolls, the relaxation
+never below the exact single-orbit plan, the real candidates and plans feasible."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from heuristics.orbit_search import WindowData, WindowSearch, ascent_profit
+from models.window_bound import window_lagrangian_bound
+from sosp.instance import Instance, Resources
+from sosp.planner import best_path, orbit_data
+from sosp.rules import EPS, orbit_rules
+from sosp.scenarios import generate_scenario
+from sosp.schedule import Observation, Schedule
+from sosp.solve import solve
+from sosp.validate import validate
+from sosp.windows import (
+    OrbitOpps,
+    orbit_opps,
+    relaxed_best_path,
+    window_candidates,
+    window_items,
+    window_plan,
+)
+from tests.conftest import small_instances
+from tests.oracle import brute_force
+
+
+def _random_orbit(seed: int, n: int = 30, span: float = 200.0, limit: float = 60.0):
+    rng = np.random.default_rng(seed)
+    ts = np.sort(rng.integers(0, span, n)).astype(float)  # integer starts: ties happen
+    te = ts + rng.integers(1, 15, n)
+    theta = rng.integers(-33, 34, n).astype(float)
+    lo, hi = np.maximum(theta - 3.0, -33.0), np.minimum(theta + 3.0, 33.0)
+    price = np.where(rng.random(n) < 0.2, 0.0, rng.integers(1, 10, n).astype(float))
+    rules = orbit_rules(Instance.build([1], [(0, 0, 0, 1, 0.0)]), 0)
+    rules = dataclasses.replace(rules, max_duration=limit)
+    oo = OrbitOpps(0, 0, ts, te, lo, hi, np.arange(n), rules)
+    return oo, price
+
+
+def _brute_gain(oo: OrbitOpps, w: np.ndarray, i: int, k: int) -> tuple[float, np.ndarray]:
+    """max over rolls in i's range of the priced opportunities inside [ts_i, te_k] holding it,
+    over every range end (the maximum of a sum of intervals is at an end)."""
+    inside = (oo.start >= oo.start[i]) & (oo.end <= oo.end[k]) & (w > 0)
+    rolls = np.concatenate((oo.roll_min, oo.roll_max))
+    rolls = rolls[(rolls >= oo.roll_min[i] - EPS) & (rolls <= oo.roll_max[i] + EPS)]
+    best, at = -1.0, np.zeros(0)
+    for r in rolls:
+        hold = inside & (oo.roll_min - EPS <= r) & (r <= oo.roll_max + EPS)
+        v = float(w[hold].sum())
+        if v > best:
+            best, at = v, hold
+    return best, at
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_gains_against_brute_force_over_rolls(seed: int) -> None:
+    oo, w = _random_orbit(seed)
+    wi = window_items(oo, w)
+    limit = oo.rules.max_duration
+    # every kept row is worth G(i, k) exactly, at a roll in i's range that reaches it
+    for i, k, g, r in zip(wi.first, wi.last, wi.gain, wi.point, strict=True):
+        assert w[i] > 0 and oo.end[k] >= oo.end[i] and oo.end[k] <= oo.start[i] + limit + EPS
+        assert g == pytest.approx(_brute_gain(oo, w, i, k)[0])
+        assert oo.roll_min[i] - EPS <= r <= oo.roll_max[i] + EPS
+        inside = (oo.start >= oo.start[i]) & (oo.end <= oo.end[k]) & (w > 0)
+        hold = inside & (oo.roll_min - EPS <= r) & (r <= oo.roll_max + EPS)
+        assert float(w[hold].sum()) == pytest.approx(g)
+    # every (i, k) is covered: the kept row of i with the latest end <= te_k is worth G(i, k)
+    for i in np.flatnonzero(w > 0):
+        for k in range(oo.size):
+            if (
+                oo.end[k] < oo.end[i]
+                or oo.end[k] > oo.start[i] + limit
+                or oo.start[k] < oo.start[i]
+            ):
+                continue
+            rows = np.flatnonzero((wi.first == i) & (oo.end[wi.last] <= oo.end[k]))
+            assert len(rows), (i, k)
+            assert wi.gain[rows].max() == pytest.approx(_brute_gain(oo, w, i, k)[0])
+
+
+def _relaxation_holds(inst: Instance, rng: np.random.Generator) -> None:
+    data = orbit_data(inst)
+    for o in data.orbits:
+        oo = orbit_opps(inst, o.orbit)
+        for lam_e, lam_w in ((0.0, 0.0), tuple(rng.uniform(0, 50, 2))):
+            price = rng.uniform(0, 10, inst.n_targets) * (rng.random(inst.n_targets) < 0.8)
+            exact, _ = best_path(o, price, lam_e, lam_w)
+            relaxed, _, _ = relaxed_best_path(oo, price, lam_e, lam_w)
+            assert relaxed >= exact - 1e-9
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=9), seed=st.integers(0, 2**16))
+def test_relaxation_is_never_below_the_exact_plan(inst: Instance, seed: int) -> None:
+    _relaxation_holds(inst, np.random.default_rng(seed))
+
+
+@pytest.fixture(scope="module")
+def c1() -> Instance:
+    return generate_scenario("C1", 0)
+
+
+def test_relaxation_on_c1_orbits(c1: Instance) -> None:
+    _relaxation_holds(c1, np.random.default_rng(0))
+
+
+def test_relaxation_equals_the_exact_plan_when_every_range_holds_nadir() -> None:
+    # every roll range holds 0: the relaxed |theta| (0) and the real nadir rolls agree, and
+    # every window's real observation covers what G counts, so both optima are the same
+    rows = [(k, 0, 10.0 * k, 10.0 * k + 4, 0.0, -3.0, 3.0) for k in range(6)]
+    inst = Instance.build([3, 1, 4, 1, 5, 9], rows, resources=Resources(max_duration=15))
+    price = np.asarray(inst.target_weight, dtype=float)
+    exact, _ = best_path(orbit_data(inst).orbits[0], price)
+    relaxed, _, _ = relaxed_best_path(orbit_opps(inst, 0), price)
+    assert relaxed == pytest.approx(exact)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=9))
+def test_window_candidates_are_valid_observations(inst: Instance) -> None:
+    orbit, start, end, roll, opps = window_candidates(inst)
+    for u in range(len(opps)):
+        sched = Schedule((Observation(int(orbit[u]), start[u], end[u], roll[u], opps[u]),))
+        rep = validate(inst, sched)
+        # alone, an observation can break only the orbit's knapsacks (4)-(5)
+        assert rep.feasible or all(v.constraint in ("4", "5") for v in rep.violations)
+
+
+def test_window_candidates_on_c1_are_valid_and_cover_every_opportunity(c1: Instance) -> None:
+    orbit, start, end, roll, opps = window_candidates(c1)
+    assert len(opps) > 0
+    assert np.all(end - start <= np.asarray(c1.max_duration)[orbit] + 1e-9)
+    covered = np.unique(opps.flat)
+    short = np.flatnonzero(c1.opp_end - c1.opp_start <= np.asarray(c1.max_duration)[c1.opp_orbit])
+    assert np.array_equal(covered, short)  # the singles at least
+    for u in range(0, len(opps), 97):
+        sched = Schedule((Observation(int(orbit[u]), start[u], end[u], roll[u], opps[u]),))
+        assert validate(c1, sched).feasible
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=9), seed=st.integers(0, 2**16))
+def test_window_plans_are_feasible_and_bounded(inst: Instance, seed: int) -> None:
+    price = np.asarray(inst.target_weight, dtype=float)
+    for j in range(inst.n_orbits):
+        plan = window_plan(orbit_opps(inst, j), price)
+        claimed: set[int] = set()
+        obs = []
+        for u in range(plan.size):
+            mine = tuple(i for i in plan.opps[u] if int(inst.opp_target[i]) not in claimed)
+            claimed.update(int(inst.opp_target[i]) for i in mine)
+            if mine:  # a target seen twice on the orbit may be planned twice (as the planner)
+                obs.append(Observation(j, plan.start[u], plan.end[u], plan.roll[u], mine))
+        rep = validate(inst, Schedule(tuple(obs)))
+        assert rep.feasible, rep.violations
+    res = solve(inst, "orbit-dp", seed=seed, iterations=10, candidates="windows", check=False)
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    optimum = brute_force(inst, "cluster").profit
+    assert res.profit <= optimum + 1e-9
+    assert window_lagrangian_bound(inst, iterations=40)["bound"] >= optimum
+
+
+def test_windows_orbit_dp_on_c1(c1: Instance) -> None:
+    res = solve(c1, "orbit-dp", seed=0, iterations=5, candidates="windows")
+    assert validate(c1, res.schedule).feasible
+    assert res.stats["candidate_mode"] == "windows"
+    # the restricted candidates reach most of what every candidate reaches
+    explicit = ascent_profit(orbit_data(c1))
+    assert res.profit >= 0.9 * explicit
+    ws = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    ws.ascent()
+    assert validate(c1, ws.schedule()).profit == pytest.approx(ws.profit)
+
+
+def test_window_bound_on_c1_is_above_the_best_schedule(c1: Instance) -> None:
+    out = window_lagrangian_bound(c1, iterations=30)
+    best = solve(c1, "orbit-dp", seed=0, iterations=20).profit
+    assert out["bound"] >= best
+    assert out["model"] == "windows" and out["bound"] == int(out["bound"])
