@@ -715,11 +715,13 @@ def plan_sequence(
         return nothing
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
     roll, gain = np.asarray(roll, dtype=float), np.asarray(gain, dtype=float)
-    lo_end, hi_end = rules.left(start, roll), rules.right(end, roll)
+    # (3) as interval ends, with the solvers' margin on the left ones: u may precede w iff
+    # R_u <= L_w + EPS
+    lo_eps, hi_end = rules.left(start, roll) + EPS, rules.right(end, roll)
     ok = gain > 0.0
     left_slew = right_slew = None
     if left is not None:
-        ok &= rules.right(left[0], left[1]) <= lo_end + EPS  # (3) after ``left``
+        ok &= rules.right(left[0], left[1]) <= lo_eps  # (3) after ``left``
         left_slew = float(rules.slew(left[1]))
     if right is not None:
         ok &= hi_end <= rules.left(right[0], right[1]) + EPS  # (3) before ``right``
@@ -729,9 +731,9 @@ def plan_sequence(
     if len(idx) == 0:
         return nothing
     idx = idx[np.argsort(hi_end[idx], kind="stable")]
-    lo_end, hi_end, roll, gain = lo_end[idx], hi_end[idx], roll[idx], gain[idx]
-    duration = end[idx] - start[idx]
-    n_before = np.searchsorted(hi_end, lo_end + EPS, side="right")
+    duration = (end - start)[idx]
+    lo_eps, hi_end, roll, gain = lo_eps[idx], hi_end[idx], roll[idx], gain[idx]
+    n_before = np.searchsorted(hi_end, lo_eps, side="right")
     # rolls of the fixed neighbours, around the sequence in the exact slew of (4)
     lead = [float(left[1])] if left is not None else []
     trail = [float(right[1])] if right is not None else []

@@ -368,14 +368,18 @@ def replan_stretch(
         for u in freed_units:
             for k in targets[u]:
                 held[k] = held.get(k, 0) + 1
-        freed_profit = sum(tw[k] for k, n in held.items() if cover[k] == n)
+        # a target covered now is worth its weight only when freed tasks alone cover it
+        back = {k: tw[k] for k, n in held.items() if cover[k] == n}
+        freed_profit = sum(back.values())
+        get = back.get
         # the candidates are the options alone (:func:`candidates`); only those worth
         # something can be in a best chain, so only they are made
-        worth = [
-            (x, sum(tw[k] for k in targets[unit[x]] if cover[k] == held.get(k, 0))) for x in avail
-        ]
-        cands = [state.make_cluster((x,)) for x, w in worth if w > 0]
-        gains = [w for _, w in worth if w > 0]
+        cands, gains = [], []
+        for x in avail:
+            w = sum([get(k, 0.0) if cover[k] else tw[k] for k in targets[unit[x]]])
+            if w > 0:
+                cands.append(state.make_cluster((x,)))
+                gains.append(w)
     else:
         cands = candidates(state, avail, state.lines[j].rules.max_duration)
         gains = [sum(value[x] for x in c[MEMBERS]) for c in cands]
