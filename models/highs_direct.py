@@ -67,6 +67,20 @@ PROBING_OFF = 1 << 15
 #: reads the clock rarely; :func:`run_highs` does not start a MIP whose estimate does not fit.
 PRESOLVE_S_PER_NONZERO = 1.2e-5
 
+#: From this many nonzeros on, a MIP with a deadline runs in a child process that is stopped
+#: :data:`GUARD_GRACE_S` after the deadline if HiGHS has not returned (:func:`run_highs`):
+#: parts of HiGHS's MIP presolve read no clock (japan-500's cluster model, 600 s limit: still in
+#: ``HPresolve::dominatedColumns`` after 25 minutes). Below it the solves are short and the
+#: child's start (about a second: a fresh interpreter imports numpy, scipy, highspy) would
+#: dominate.
+GUARD_NNZ = 100_000
+
+#: Seconds a guarded solve may run past its deadline before its process is stopped.
+GUARD_GRACE_S = 0.5
+
+#: Seconds between two looks of the parent at a guarded solve.
+_GUARD_POLL_S = 0.1
+
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
@@ -174,6 +188,41 @@ class ArrayModel:
     @property
     def n_rows(self) -> int:
         return int(self.matrix.shape[0])
+
+    @property
+    def n_items(self) -> int:
+        """Number of x columns (the first block)."""
+        return int(self.data.n_items)
+
+
+@dataclass
+class _Lp:
+    """What HiGHS needs of an :class:`ArrayModel`, without its model data: sent to the child
+    process of a guarded solve (:func:`run_highs`)."""
+
+    matrix: sp.csr_matrix
+    cost: np.ndarray
+    col_lower: np.ndarray
+    col_upper: np.ndarray
+    row_lower: np.ndarray
+    row_upper: np.ndarray
+    integer: np.ndarray
+    n_items: int
+
+    @property
+    def n_cols(self) -> int:
+        return int(self.matrix.shape[1])
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.matrix.shape[0])
+
+    @classmethod
+    def of(cls, am: ArrayModel) -> _Lp:
+        return cls(
+            am.matrix, am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper,
+            am.integer, am.n_items,
+        )  # fmt: skip
 
 
 class _Rows:
@@ -539,6 +588,7 @@ def run_highs(
     start: np.ndarray | None = None,
     lp_solver: str | None = None,
     probing: bool = True,
+    guard: bool | None = None,
 ) -> HighsOutcome:
     """Solve ``am`` with a fresh ``highspy.Highs`` (no option survives the call).
 
@@ -561,7 +611,42 @@ def run_highs(
     probing
         False: switch off probing in MIP presolve (it checks the clock rarely and can run far
         past ``time_limit``, see :func:`models.solve.solve_milp`).
+    guard
+        Run HiGHS in a child process, stopped :data:`GUARD_GRACE_S` after ``deadline`` if it
+        has not returned by then (the time limit then holds even where HiGHS reads no clock);
+        the incumbents and the dual bound it reported on the way are returned, as after a
+        time limit. None (default): for a MIP with a deadline and at least :data:`GUARD_NNZ`
+        nonzeros.
     """
+    mip = bool(am.integer.any())
+    if guard is None:
+        guard = mip and deadline is not None and am.matrix.nnz >= GUARD_NNZ
+    kwargs = {
+        "mip_gap": mip_gap, "threads": threads, "start": start, "lp_solver": lp_solver,
+        "probing": probing,
+    }  # fmt: skip
+    if guard and deadline is not None:
+        return _run_guarded(_Lp.of(am), deadline, kwargs)
+    return _run_here(am, time_limit=time_limit, deadline=deadline, **kwargs)
+
+
+def _run_here(
+    am: ArrayModel | _Lp,
+    *,
+    time_limit: float | None = None,
+    deadline: float | None = None,
+    mip_gap: float | None = None,
+    threads: int | None = None,
+    start: np.ndarray | None = None,
+    lp_solver: str | None = None,
+    probing: bool = True,
+    report: Any = None,
+    halt: Any = None,
+) -> HighsOutcome:
+    """:func:`run_highs` in this process. With ``report`` (a guarded solve's child), HiGHS's
+    incumbents and MIP progress are sent through ``report(kind, *values)`` and the solve is
+    interrupted once the event ``halt`` is set."""
+
     import highspy
 
     t0 = time.perf_counter()
@@ -623,9 +708,12 @@ def run_highs(
     use_threads(threads)
     # A stop request (sosp.stop: Ctrl-C / SIGTERM under the CLI) ends the solve at HiGHS's
     # next interrupt point with its incumbent, as a time limit would.
-    h.cbMipInterrupt += _mip_check
-    h.cbSimplexInterrupt += _stop_if_requested
-    h.cbIpmInterrupt += _stop_if_requested
+    if report is None:
+        h.cbMipInterrupt += _mip_check
+        h.cbSimplexInterrupt += _stop_if_requested
+        h.cbIpmInterrupt += _stop_if_requested
+    else:
+        _report_to(h, report, halt, am.n_items)
     t1 = time.perf_counter()
     h.run()
     solve_s = time.perf_counter() - t1
@@ -647,11 +735,137 @@ def run_highs(
         bound = raw if np.isfinite(raw) else None
     else:
         bound = objective if status == "optimal" else None
-    x = np.asarray(h.getSolution().col_value[: am.data.n_items]) if feasible else None
+    x = np.asarray(h.getSolution().col_value[: am.n_items]) if feasible else None
     out_info = {
         "mip_node_count": int(info.mip_node_count) if mip else 0,
         "simplex_iteration_count": int(info.simplex_iteration_count),
     }
     return HighsOutcome(
         status, str(h.modelStatusToString(ms)), objective, bound, x, load_s, solve_s, out_info
+    )
+
+
+def _report_to(h: Any, report: Any, halt: Any, n_items: int) -> None:
+    """Subscribe a guarded solve's callbacks: incumbents and (at most five times a second)
+    the node count and dual bound go to ``report``; ``halt`` interrupts."""
+    last = [0.0]
+
+    def interrupt(event: Any) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= 0.2:
+            last[0] = now
+            d = event.data_out
+            report("progress", int(d.mip_node_count), float(d.mip_dual_bound))
+        if halt.is_set():
+            event.interrupt()
+
+    def improving(event: Any) -> None:
+        d = event.data_out
+        x = np.asarray(d.mip_solution[:n_items], dtype=float)
+        report("incumbent", float(d.objective_function_value), x)
+
+    def lp_interrupt(event: Any) -> None:
+        if halt.is_set():
+            event.interrupt()
+
+    h.cbMipInterrupt += interrupt
+    h.cbMipImprovingSolution += improving
+    h.cbSimplexInterrupt += lp_interrupt
+    h.cbIpmInterrupt += lp_interrupt
+
+
+def _guarded_child(conn: Any, lp: _Lp, left: float, kwargs: dict[str, Any], halt: Any) -> None:
+    """A guarded solve's child process: solve ``lp`` within ``left`` seconds, reporting to the
+    parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
+    ``("error", text)``."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+
+    def report(kind: str, *values: Any) -> None:
+        conn.send((kind, *values))
+
+    try:
+        deadline = time.perf_counter() + left
+        out = _run_here(lp, deadline=deadline, report=report, halt=halt, **kwargs)
+        conn.send(("done", out))
+    except Exception as exc:  # pragma: no cover - HiGHS or pickling failures
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+    finally:
+        conn.close()
+
+
+def _run_guarded(
+    lp: _Lp, deadline: float, kwargs: dict[str, Any], child: Any = _guarded_child
+) -> HighsOutcome:
+    """:func:`run_highs` in a child process stopped :data:`GUARD_GRACE_S` after ``deadline``.
+
+    The child is started with ``spawn``: a forked child would inherit HiGHS's process-wide
+    task scheduler without its threads (:func:`use_threads`). A stop request here
+    (:mod:`sosp.stop`) interrupts the child as a time limit would. When the child has to be
+    stopped, the best incumbent it reported and its last dual bound (both valid) are the
+    outcome, with status ``"time_limit"``. ``child`` is the child's function (tests replace
+    it to hang).
+    """
+    import multiprocessing as mp
+
+    t0 = time.perf_counter()
+    ctx = mp.get_context("spawn")
+    halt = ctx.Event()
+    recv, send = ctx.Pipe(duplex=False)
+    left = max(deadline - time.perf_counter(), 0.01)
+    proc = ctx.Process(target=child, args=(send, lp, left, kwargs, halt), daemon=True)
+    proc.start()
+    send.close()
+    progress = current_progress()
+    best: tuple[float, np.ndarray] | None = None
+    dual: float | None = None
+    nodes = 0
+    out: HighsOutcome | None = None
+    try:
+        while out is None:
+            if stop_requested() and not halt.is_set():
+                halt.set()
+                deadline = min(deadline, time.perf_counter())
+            if time.perf_counter() > deadline + GUARD_GRACE_S:
+                log.info("HiGHS still running %.1f s after its deadline: stopped", GUARD_GRACE_S)
+                break
+            if not recv.poll(_GUARD_POLL_S):
+                continue
+            try:
+                msg = recv.recv()
+            except EOFError:
+                raise RuntimeError(f"HiGHS's process ended (exit code {proc.exitcode})") from None
+            kind = msg[0]
+            if kind == "incumbent":
+                if best is None or msg[1] > best[0]:
+                    best = (msg[1], msg[2])
+            elif kind == "progress":
+                nodes = msg[1]
+                dual = msg[2] if np.isfinite(msg[2]) else dual
+                progress.update(nodes, None)
+            elif kind == "done":
+                out = msg[1]
+            else:
+                raise RuntimeError(f"HiGHS's process failed: {msg[1]}")
+    finally:
+        if proc.is_alive():
+            proc.terminate()
+        proc.join(timeout=5.0)
+        if proc.is_alive():  # pragma: no cover - SIGTERM ignored
+            proc.kill()
+            proc.join()
+        recv.close()
+    if out is not None:
+        return out
+    objective, x = (None, None) if best is None else best
+    return HighsOutcome(
+        "time_limit",
+        "stopped at the deadline (HiGHS had not returned)",
+        objective,
+        dual,
+        x,
+        0.0,
+        time.perf_counter() - t0,
+        {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True},
     )

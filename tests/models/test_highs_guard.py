@@ -1,0 +1,46 @@
+"""Guarded HiGHS solves (:func:`models.highs_direct.run_highs` with ``guard``): a MIP whose
+HiGHS does not return by the deadline is stopped, keeping what it reported."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from models.highs_direct import GUARD_GRACE_S, _Lp, _run_guarded, build_arrays, run_highs
+from models.solve import model_data
+from tests.conftest import tiny_cluster
+
+
+def _model() -> Any:
+    return build_arrays(model_data(tiny_cluster(), "cluster"), relax=False)
+
+
+def hanging_child(conn: Any, lp: _Lp, left: float, kwargs: dict, halt: Any) -> None:
+    """Reports one incumbent and a dual bound, then never returns (as HiGHS in a presolve
+    that reads no clock)."""
+    x = np.zeros(lp.n_items)
+    x[0] = 1.0
+    conn.send(("incumbent", 5.0, x))
+    conn.send(("progress", 3, 9.0))
+    time.sleep(60)
+
+
+def test_guarded_solve_equals_the_solve_in_process() -> None:
+    am = _model()
+    here = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
+    there = run_highs(am, deadline=time.perf_counter() + 30, guard=True)
+    assert there.status == here.status == "optimal"
+    assert there.objective == here.objective and there.bound == here.bound
+    assert np.array_equal(there.x, here.x)
+
+
+def test_a_hanging_solve_is_stopped_with_what_it_reported() -> None:
+    lp = _Lp.of(_model())
+    t0 = time.perf_counter()
+    out = _run_guarded(lp, t0 + 0.5, {}, child=hanging_child)
+    took = time.perf_counter() - t0
+    assert took < 0.5 + GUARD_GRACE_S + 1.0  # stopped, not waited for
+    assert out.status == "time_limit" and out.info["guard_stopped"]
+    assert out.objective == 5.0 and out.bound == 9.0 and out.x[0] == 1.0
