@@ -22,9 +22,11 @@ master's, which damps the oscillation of plain column generation.
 
 from __future__ import annotations
 
+import heapq
 import logging
 import math
 import time
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -96,7 +98,7 @@ class _Master:
         )
         self.n_orb = n_orb
         self.keys: set[tuple[int, bytes, float, float]] = set()
-        self.columns: list[tuple[int, np.ndarray, float, float]] = []
+        self.columns: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
 
     def add(self, g: int, covered: np.ndarray, energy: float, memory: float) -> bool:
         """Add the plan of orbit ``g`` covering ``covered`` (targets with repeats); False when
@@ -106,7 +108,7 @@ class _Master:
         if key in self.keys:
             return False
         self.keys.add(key)
-        self.columns.append((g, tg, energy, memory))
+        self.columns.append((g, tg, cnt.astype(float), energy, memory))
         rows = np.concatenate(
             [
                 self.row_of[tg],
@@ -151,6 +153,8 @@ def colgen_bound(
     max_rounds: int = 10_000,
     smoothing: float = SMOOTHING,
     start: tuple[np.ndarray, np.ndarray] | None = None,
+    branch: bool = False,
+    root_time_limit: float | None = None,
 ) -> dict[str, Any]:
     """Upper bound on the optimum (cluster model) by column generation over orbit plans.
 
@@ -182,6 +186,13 @@ def colgen_bound(
         Multipliers ``(mu, lam)`` to start from (per target of the instance, and orbits x 2
         per whole capacity as ``lagrangian_bound`` uses them), e.g. a subgradient run's;
         None: ``mu = p / 2``, ``lam = 0``.
+    branch
+        After convergence, spend the time left on a best-first branch and price
+        (:func:`branch_and_price`), which lowers the bound below the master LP's optimum.
+        Without a ``time_limit`` it runs until the tree is explored, which can take very long.
+    root_time_limit
+        Seconds (from the start) for the column generation before any branching (None: all
+        of ``time_limit``); the branching gets the rest of ``time_limit``.
 
     Returns
     -------
@@ -190,7 +201,8 @@ def colgen_bound(
         ``columns``, ``master`` (the last restricted master's optimum, a lower bound on the
         limit; None before the first), ``converged`` (the rounded bound has reached the
         rounded master optimum: no Lagrangian bound of this relaxation, nor the LP over the
-        same candidates, is lower), ``candidates``, ``cap`` (the covered weight).
+        same candidates, is lower), ``candidates``, ``cap`` (the covered weight); with
+        ``branch``, ``nodes`` (subproblems solved) when the branching ran.
     """
     t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
@@ -198,8 +210,13 @@ def colgen_bound(
     if not 0.0 <= float(smoothing) < 1.0:
         raise InputError(f"smoothing: expected a number in [0, 1), got {smoothing!r}")
     deadline = None if time_limit is None else t0 + float(time_limit)
+    root_deadline = deadline
+    if root_time_limit is not None:
+        root_deadline = t0 + float(root_time_limit)
+        if deadline is not None:
+            root_deadline = min(root_deadline, deadline)
     if data is None:
-        data = orbit_data(instance, deadline, workers=workers)
+        data = orbit_data(instance, root_deadline, workers=workers)
     groups = data.orbits
     p = np.zeros(instance.n_targets)
     seen = np.zeros(instance.n_targets, dtype=bool)
@@ -249,14 +266,14 @@ def colgen_bound(
     converged = False
     try:
         while rounds < max_rounds:
-            if deadline is not None and time.perf_counter() > deadline:
+            if root_deadline is not None and time.perf_counter() > root_deadline:
                 break
             if mu_m is None:
                 mu_s, lam_s = mu_c, lam_c
             else:
                 mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
                 lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
-            plans = _price(groups, pool, mu_s, lam_s, deadline)
+            plans = _price(groups, pool, mu_s, lam_s, root_deadline)
             if plans is None:
                 break  # the deadline fell inside the round: its bound is incomplete
             rounds += 1
@@ -281,7 +298,7 @@ def colgen_bound(
                 continue
             if lower_bound is not None and math.floor(best + 1e-6) <= lower_bound + 1e-9:
                 break
-            left = None if deadline is None else deadline - time.perf_counter()
+            left = None if root_deadline is None else root_deadline - time.perf_counter()
             solved = master.solve(left)
             if solved is None:
                 break  # out of time inside the master: the best bound so far stands
@@ -296,7 +313,16 @@ def colgen_bound(
     finally:
         pool.close()
     bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
-    return out(bound, rounds, len(master.columns), master_value, converged)
+    result = out(bound, rounds, len(master.columns), master_value, converged)
+    proven = lower_bound is not None and bound <= lower_bound + 1e-9
+    if branch and converged and not proven:
+        answer, nodes = branch_and_price(
+            p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound
+        )
+        result["nodes"] = nodes
+        result["bound"] = min(bound, float(math.floor(answer + 1e-6)))
+        result["runtime_s"] = round(time.perf_counter() - t0, 6)
+    return result
 
 
 def _price(
@@ -321,3 +347,298 @@ def _price(
         else:
             plans.append((v, np.zeros(0, dtype=np.int32), None))
     return plans
+
+
+# ------------------------------------------------------------------------ branch and price
+@dataclass
+class _Node:
+    """A subproblem of the branch and price: the cluster model with, for some targets k and
+    orbits g, "orbit g's cover of k does not count" (``banned``) or "k is covered by orbit g"
+    (``forced``; then no other orbit's cover of k counts and k's weight is earned).
+
+    ``bound`` is the least Lagrangian bound of the subproblem found so far (valid whatever
+    the multipliers), ``mu``, ``beta``, ``lam`` the multipliers that gave it (the children's
+    start), ``cover`` the master's cover of each (target, orbit) pair at the end of its column
+    generation (None when it was cut short by the time limit).
+    """
+
+    bound: float
+    banned: frozenset[tuple[int, int]]
+    forced: dict[int, int]
+    mu: np.ndarray
+    beta: np.ndarray
+    lam: np.ndarray
+    cover: dict[tuple[int, int], float] | None
+
+
+class _Columns:
+    """Every plan generated so far (orbit, targets, how many times each, energy, memory)."""
+
+    def __init__(self) -> None:
+        self.keys: set[tuple[int, bytes]] = set()
+        self.items: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
+
+    def add(self, g: int, tg: np.ndarray, cnt: np.ndarray, energy: float, memory: float) -> bool:
+        key = (g, tg.tobytes() + cnt.tobytes())
+        if key in self.keys:
+            return False
+        self.keys.add(key)
+        self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
+        return True
+
+
+def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> np.ndarray:
+    """What covering each target is worth to orbit g in ``node``: ``mu`` for the targets whose
+    cover counts, ``beta`` for those forced to g, 0 for targets banned on g or forced
+    elsewhere."""
+    price = node_mu.copy()
+    for k, j in node.banned:
+        if j == g:
+            price[k] = 0.0
+    for k, j in node.forced.items():
+        price[k] = beta[k] if j == g else 0.0
+    return price
+
+
+def _solve_node(
+    node: _Node,
+    p: np.ndarray,
+    seen: np.ndarray,
+    groups: tuple[Any, ...],
+    cols: _Columns,
+    deadline: float | None,
+    smoothing: float,
+) -> _Node:
+    """Column generation on the master of ``node``; returns it with its bound and cover.
+
+    Master (minimising ``-sum p_k z_k`` over the free targets): per free target
+    ``z_k - sum n_kP y_P <= 0`` over the plans whose orbit's cover of k counts, per forced
+    (k, g) ``sum_{P of g} n_kP y_P + s_k >= 1`` (``s_k`` an artificial slack costing more
+    than all weights, so the master is always feasible), per orbit convexity and knapsacks.
+    For any ``mu, beta, lam >= 0``
+
+        L = sum_free max(0, p_k - mu_k) + sum_forced (p_k - beta_k)
+            + sum_j [max over plans of orbit j of (prices of the node) - penalties + lam_j]
+
+    bounds the node's optimum (the coverage and forcing rows relaxed).
+    """
+    import highspy
+
+    from models.highs_direct import new_highs
+
+    n_orb = len(groups)
+    forced = node.forced
+    free = np.flatnonzero(seen & ~np.isin(np.arange(len(p)), list(forced)))
+    fk = np.array(sorted(forced), dtype=np.int64)
+    row_free = np.full(len(p), -1, dtype=np.int64)
+    row_free[free] = np.arange(len(free))
+    row_forced = np.full(len(p), -1, dtype=np.int64)
+    row_forced[fk] = len(free) + np.arange(len(fk))
+    base = len(free) + len(fk)
+    banned_on: dict[int, np.ndarray] = {}
+    for k, j in node.banned:
+        banned_on[j] = np.append(banned_on.get(j, np.zeros(0, dtype=np.int64)), k)
+    e_cap = np.array([o.rules.energy_capacity for o in groups], dtype=float)
+    w_cap = np.array([o.rules.memory_capacity for o in groups], dtype=float)
+    h = new_highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("presolve", "off")
+    inf = highspy.kHighsInf
+    lower = np.concatenate([np.full(len(free), -inf), np.ones(len(fk)), np.full(3 * n_orb, -inf)])
+    upper = np.concatenate(
+        [np.zeros(len(free)), np.full(len(fk), inf), np.ones(n_orb), e_cap, w_cap]
+    )
+    h.addRows(len(lower), lower, upper, 0, [], [], [])
+    nf = len(free)
+    h.addCols(
+        nf, -p[free], np.zeros(nf), np.ones(nf), nf,
+        np.arange(nf, dtype=np.int32), np.arange(nf, dtype=np.int32), np.ones(nf),
+    )  # fmt: skip
+    if len(fk):
+        big = float(p.sum()) + 1.0
+        h.addCols(
+            len(fk), np.full(len(fk), big), np.zeros(len(fk)), np.full(len(fk), inf), len(fk),
+            np.arange(len(fk), dtype=np.int32), row_forced[fk].astype(np.int32), np.ones(len(fk)),
+        )  # fmt: skip
+    first_y = nf + len(fk)
+    in_lp: list[int] = []
+
+    def load(i: int) -> None:
+        g, tg, cnt, energy, memory = cols.items[i]
+        counts = row_free[tg] >= 0
+        if g in banned_on:
+            counts &= ~np.isin(tg, banned_on[g])
+        rows = [row_free[tg[counts]]]
+        vals = [-cnt[counts]]
+        mine = np.array([forced.get(int(k)) == g for k in tg], dtype=bool) & (row_forced[tg] >= 0)
+        rows.append(row_forced[tg[mine]])
+        vals.append(cnt[mine])
+        rows.append(np.array([base + g, base + n_orb + g, base + 2 * n_orb + g]))
+        vals.append(np.array([1.0, energy, memory]))
+        r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
+        h.addCol(0.0, 0.0, inf, len(r), r, v)
+        in_lp.append(i)
+
+    for i in range(len(cols.items)):
+        load(i)
+    pf = p[fk]
+    best, mu_c, beta_c, lam_c = node.bound, node.mu, node.beta, node.lam
+    mu_m: np.ndarray | None = None
+    beta_m = np.zeros(len(p))
+    lam_m = np.zeros((n_orb, 2))
+    alpha = 0.0
+    while deadline is None or time.perf_counter() < deadline:
+        at_master = mu_m is not None and alpha == 0.0
+        if mu_m is None:
+            mu_s, beta_s, lam_s = mu_c, beta_c, lam_c
+        else:
+            mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
+            beta_s = alpha * beta_c + (1.0 - alpha) * beta_m
+            lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
+        value = float(np.maximum(p[free] - mu_s[free], 0.0).sum())
+        value += float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
+        n_before = len(cols.items)
+        for g, o in enumerate(groups):
+            if deadline is not None and time.perf_counter() > deadline:
+                return replace(node, cover=None)
+            price = _node_prices(mu_s, beta_s, g, node)
+            v, path = best_path(o, price, float(lam_s[g, 0]), float(lam_s[g, 1]))
+            value += v
+            if len(path):
+                tg, cnt = np.unique(o.target_flat[flat_positions(o, path)], return_counts=True)
+                energy, memory = o.usage(path)
+                cols.add(g, tg, cnt, energy, memory)
+        if value < best:
+            best, mu_c, beta_c, lam_c = value, mu_s, beta_s, lam_s
+            node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c)
+        for i in range(n_before, len(cols.items)):
+            load(i)
+        left = None if deadline is None else deadline - time.perf_counter()
+        h.setOptionValue("time_limit", inf if left is None else max(left, 1e-3))
+        h.run()
+        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+            return replace(node, cover=None)
+        m_value = -float(h.getInfo().objective_function_value) + float(pf.sum())
+        dual = np.asarray(h.getSolution().row_dual, dtype=float)
+        mu_m = np.zeros(len(p))
+        mu_m[free] = np.clip(-dual[:nf], 0.0, p[free])
+        beta_m = np.zeros(len(p))
+        beta_m[fk] = np.maximum(dual[nf:base], 0.0)
+        lam_m = np.stack(
+            [
+                np.maximum(-dual[base + n_orb : base + 2 * n_orb], 0.0) * e_cap,
+                np.maximum(-dual[base + 2 * n_orb :], 0.0) * w_cap,
+            ],
+            axis=1,
+        )
+        done = best - m_value <= 1e-6 * max(1.0, abs(best))
+        if not done and len(cols.items) == n_before:
+            if not at_master:
+                alpha = 0.0  # no new plan at the smoothed point: price at the master's duals
+                continue
+            done = True  # no plan prices out at the master's duals: solved (to rounding)
+        if done:
+            y = np.asarray(h.getSolution().col_value, dtype=float)[first_y:]
+            cover: dict[tuple[int, int], float] = {}
+            for i, yi in zip(in_lp, y, strict=True):
+                if yi > 1e-9:
+                    g, tg = cols.items[i][0], cols.items[i][1]
+                    for k in tg:
+                        key = (int(k), g)
+                        cover[key] = cover.get(key, 0.0) + float(yi)
+            return replace(node, cover=cover)
+        alpha = smoothing
+    return replace(node, cover=None)
+
+
+def _branch_pair(node: _Node, p: np.ndarray) -> tuple[int, int] | None:
+    """The (target, orbit) pair to branch on: a counted cover strictly between 0 and 1,
+    heaviest ``p_k * min(x, 1 - x)``; None when every counted cover is 0 or 1."""
+    best, pick = 1e-6, None
+    for (k, g), x in (node.cover or {}).items():
+        if k in node.forced or (k, g) in node.banned:
+            continue
+        score = p[k] * min(x, 1.0 - x)
+        if score > best:
+            best, pick = score, (k, g)
+    return pick
+
+
+def branch_and_price(
+    p: np.ndarray,
+    seen: np.ndarray,
+    groups: tuple[Any, ...],
+    columns: list[tuple[int, np.ndarray, np.ndarray, float, float]],
+    start: tuple[float, np.ndarray, np.ndarray],
+    deadline: float | None,
+    lower_bound: float | None = None,
+    max_nodes: int | None = None,
+    smoothing: float = SMOOTHING,
+) -> tuple[float, int]:
+    """Best-first branch and price from a converged root; ``(bound, nodes)``.
+
+    Branching on a (target k, orbit g) pair whose cover is fractional: either g's cover of k
+    does not count, or g covers k (and no other orbit's cover of k counts). Every schedule
+    falls in one of the two (if g covers k, k is earned whatever the others do; if not,
+    dropping g's cover of k changes nothing), so the optimum is at most the largest bound of
+    the open nodes, which is what is returned (not rounded). Each node's bound is the least
+    Lagrangian bound of its column generation (:func:`_solve_node`), valid at any stage, so a
+    node cut short by the deadline keeps a valid bound. The search takes the node of largest
+    bound first (only that one can lower the answer) and stops at the deadline, at
+    ``max_nodes``, when it meets ``lower_bound`` (a known schedule's profit), or when that
+    node has no fractional pair left (its bound is then the answer).
+
+    Parameters
+    ----------
+    p, seen
+        Target weights (0 for unseen) and which targets some candidate covers.
+    groups
+        The orbits (:attr:`sosp.planner.OrbitData.orbits`).
+    columns
+        The root's plans (orbit, targets, counts, energy, memory).
+    start
+        The root's bound and its multipliers ``(bound, mu, lam)``.
+    deadline
+        :func:`time.perf_counter` value to stop at (None: none).
+    lower_bound, max_nodes, smoothing
+        See above and :func:`colgen_bound`.
+    """
+    cols = _Columns()
+    for g, tg, cnt, energy, memory in columns:
+        cols.add(g, tg, cnt, energy, memory)
+    bound0, mu0, lam0 = start
+    root = _Node(bound0, frozenset(), {}, mu0, np.zeros(len(p)), lam0, None)
+    root = _solve_node(root, p, seen, groups, cols, deadline, smoothing)
+    heap: list[tuple[float, int, _Node]] = [(-root.bound, 0, root)]
+    count, nodes = 1, 0
+    while heap:
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+        if max_nodes is not None and nodes >= max_nodes:
+            break
+        top = heap[0][2]
+        if lower_bound is not None and top.bound <= lower_bound + 1e-9:
+            break
+        if top.cover is None:
+            break  # cut short by the deadline: its bound stands
+        pair = _branch_pair(top, p)
+        if pair is None:
+            break  # nothing fractional to branch on: the largest bound is final
+        heapq.heappop(heap)
+        k, g = pair
+        beta = top.beta.copy()
+        beta[k] = top.mu[k]
+        children = (
+            replace(top, banned=top.banned | {(k, g)}, cover=None),
+            replace(top, forced={**top.forced, k: g}, beta=beta, cover=None),
+        )
+        for child in children:
+            # the parent's bound holds for the child (a subset of its schedules) until its
+            # own column generation finds a lower one
+            child = _solve_node(child, p, seen, groups, cols, deadline, smoothing)
+            nodes += 1
+            heapq.heappush(heap, (-child.bound, count, child))
+            count += 1
+    answer = max((-b for b, _, _ in heap), default=-math.inf)
+    log.info("branch and price: %d nodes, bound %.4f", nodes, answer)
+    return answer, nodes

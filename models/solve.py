@@ -1008,18 +1008,25 @@ def bound(
         from models.colgen import colgen_bound
         from sosp.planner import with_rolls
 
-        limit = None
+        limit = root = None
         if deadline is not None:
             share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
-            limit = max(min(share * time_limit, deadline - time.perf_counter()), 1e-3)
+            root = max(min(share * time_limit, deadline - time.perf_counter()), 1e-3)
+            # a converged root leaves the LP nothing to add (cluster model): the rest of the
+            # limit goes to branch and price instead
+            limit = max(deadline - time.perf_counter(), root) if model == "cluster" else root
         cg = colgen_bound(
             instance,
             time_limit=limit,
             lower_bound=lower_bound if lower_bound else None,
             data=with_rolls(data, data.roll),
+            branch=deadline is not None and model == "cluster",
+            root_time_limit=root,
         )
         parts["colgen"] = cg["bound"]
         stats["rounds"] = cg["rounds"]
+        if "nodes" in cg:
+            stats["nodes"] = cg["nodes"]
         stats["converged"] = bool(cg["converged"])
         # the argument that the LP cannot be tighter is made for the cluster model's rows
         converged = stats["converged"] and model == "cluster"
@@ -1103,10 +1110,14 @@ def _colgen_bound(
         return out
     left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
     cg = colgen_bound(
-        instance, time_limit=left, lower_bound=lower_bound if lower_bound else None, data=data
+        instance,
+        time_limit=left,
+        lower_bound=lower_bound if lower_bound else None,
+        data=data,
+        branch=deadline is not None,  # the time left after convergence: branch and price
     )
-    keys = ("candidates", "cap", "rounds", "converged")
-    out = _bound_out(cg["bound"], "colgen", "cluster", t0, {k: cg[k] for k in keys})
+    keys = ("candidates", "cap", "rounds", "converged", "nodes")
+    out = _bound_out(cg["bound"], "colgen", "cluster", t0, {k: cg[k] for k in keys if k in cg})
     out["source"] = "colgen" if cg["bound"] < cg["cap"] else "cap"
     return out
 
@@ -1122,7 +1133,7 @@ def _bound_out(
     }
     keys = ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination")
     more = ("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound")
-    more = (*more, "rounds", "converged")
+    more = (*more, "rounds", "converged", "nodes")
     for key in (*keys, *more, "lp_value", "lp_solver", "slew", "timed_out"):
         if key in stats:
             out[key] = stats[key]
@@ -1143,6 +1154,14 @@ def lp_bound(
     """``bound(method="lp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
     del lower_bound
     return bound(instance, method="lp", time_limit=time_limit)
+
+
+def colgen_bound(
+    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+) -> dict[str, Any]:
+    """``bound(method="colgen")`` of the cluster model (with a limit, branch and price after
+    the column generation): for :data:`sosp.solve.BOUNDS`."""
+    return bound(instance, method="colgen", time_limit=time_limit, lower_bound=lower_bound)
 
 
 def milp_bound(

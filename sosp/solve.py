@@ -75,7 +75,7 @@ BOUNDS: dict[str, str] = {
     "lp": "models.solve:lp_bound",
     "milp": "models.solve:milp_bound",
     "lagrangian": "models.lagrangian:lagrangian_bound",
-    "colgen": "models.colgen:colgen_bound",
+    "colgen": "models.solve:colgen_bound",
     "pba": "heuristics.pba:pba_bound",
 }
 

@@ -160,3 +160,38 @@ def test_certifies_a_schedule() -> None:
     res = solve(inst, "greedy", bound="colgen")
     assert res.profit <= optimum <= res.bound <= observable_weight(inst)
     assert res.stats["certified_by"] == "colgen"
+
+
+# ------------------------------------------------------------------------ branch and price
+@settings(max_examples=60, deadline=None)
+@given(inst=small_instances())
+def test_branch_and_price_never_below_the_optimum(inst: Instance) -> None:
+    optimum = brute_force(inst, "cluster").profit
+    root = colgen_bound(inst)["bound"]
+    out = colgen_bound(inst, branch=True)
+    assert optimum <= out["bound"] <= root
+
+
+@pytest.mark.parametrize(("seed", "optimum", "root"), [(19, 24, 27), (105, 23, 28), (226, 34, 39)])
+def test_branch_and_price_closes_the_root_gap(seed: int, optimum: float, root: float) -> None:
+    # instances whose master LP is above the optimum; branching on fractional
+    # (target, orbit) covers reaches the optimum
+    inst = random_tiny(seed)
+    assert brute_force(inst, "cluster").profit == optimum
+    assert colgen_bound(inst)["bound"] == root
+    out = colgen_bound(inst, branch=True)
+    assert out["bound"] == optimum and out["nodes"] >= 2
+
+
+@pytest.mark.slow
+def test_branch_and_price_keeps_its_time_limit() -> None:
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C2")
+    data = orbit_data(inst)
+    root = colgen_bound(inst, data=data)
+    limit = root["runtime_s"] + 3.0
+    t0 = time.perf_counter()
+    out = colgen_bound(inst, data=data, time_limit=limit, branch=True)
+    assert time.perf_counter() - t0 <= limit + 0.5
+    assert out["bound"] <= root["bound"] and out["nodes"] >= 1
