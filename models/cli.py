@@ -35,9 +35,9 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         "the clique-strengthened LP relaxation (--method lp), the bound of a time-limited MILP "
         "solve (--method milp), the Lagrangian relaxation across orbits solved by dynamic "
         "programming (--method lagrangian: no LP solver, seconds on the largest scenarios), "
-        "its Dantzig-Wolfe master solved by column generation (--method colgen), or (default, "
-        "auto) the column-generation bound then, unless it converged, the LP with the time "
-        "left. Every bound is "
+        "its Dantzig-Wolfe master solved by column generation then branch and price "
+        "(--method colgen), or (default, auto) the column-generation bound then, unless it "
+        "converged, the LP with the time left. Every bound is "
         "at most the total weight of the targets some schedule could observe.",
     )
     p.add_argument("instance", help="instance file (JSON)")
@@ -53,8 +53,8 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         choices=("auto", "lp", "milp", "lagrangian", "colgen", "pba"),
         help="auto (default: the column-generation bound, then the LP with the time left "
         "unless it converged; the least), lp, milp, lagrangian, colgen (Dantzig-Wolfe over "
-        "orbit plans, docs/exact.md) or pba (PBA-STC's partition-based bound of the static "
-        "model, docs/baselines.md)",
+        "orbit plans, then branch and price with the time left; docs/exact.md) or pba "
+        "(PBA-STC's partition-based bound of the static model, docs/baselines.md)",
     )
     p.add_argument(
         "--iterations",
@@ -118,6 +118,8 @@ def cmd_bound(args: argparse.Namespace) -> int:
         size += f", {out['iterations']} subgradient steps"
     if "rounds" in out:
         size += f", {out['rounds']} pricing rounds"
+    if "nodes" in out:
+        size += f", {out['nodes']} branch-and-price nodes"
     head = f"{out['model']} model, {out['method']} bound: {out['bound']:g}"
     text = f"{head} (from {out['source']}; {out['runtime_s']:.2f} s; {size})"
     if args.method == "milp":

@@ -912,15 +912,18 @@ def bound(
     model
         ``"cluster"`` (bounds the problem and so every heuristic), ``"task"`` or ``"static"``.
     method
-        ``"auto"`` (default): the column-generation bound (at most
+        ``"auto"`` (default): the column-generation bound (its root at most
         :data:`AUTO_LAGRANGIAN_SHARE` of the limit), then, unless it converged, the LP
         relaxation with what is left; the least of the two that finished (a converged
         column generation has the optimum of a master LP at least as tight as this LP, see
-        :mod:`models.colgen`). ``"lp"``: the clique-strengthened LP relaxation (cliques of
+        :mod:`models.colgen`; on the cluster model its branch and price then gets the rest
+        of the limit). ``"lp"``: the clique-strengthened LP relaxation (cliques of
         (3), slew term of (4) as ``slew``); ``"milp"``: the bound of a time-limited
         :func:`solve_milp` (its dual bound, the Lagrangian bound, the cap);
         ``"lagrangian"``: :func:`models.lagrangian.lagrangian_bound` over the model's items;
-        ``"colgen"``: :func:`models.colgen.colgen_bound` over the model's items.
+        ``"colgen"``: :func:`models.colgen.colgen_bound` over the planner's candidates
+        (cluster model; other models: over their items), with a ``time_limit`` followed by
+        branch and price until it ends.
     time_limit
         Seconds for everything, building included (None: no limit).
     threads
