@@ -380,6 +380,11 @@ def replan_stretch(
             if w > 0:
                 cands.append(state.make_cluster((x,)))
                 gains.append(w)
+        if len(cands) == len(stretch.freed) and set(cands) == set(stretch.freed):
+            # Nothing but the freed tasks is worth anything here, each of them is, and they
+            # keep (3)-(6) where they stand: they are the best chain, and the stretch is
+            # already it (see below).
+            return []
     else:
         cands = candidates(state, avail, state.lines[j].rules.max_duration)
         gains = [sum(value[x] for x in c[MEMBERS]) for c in cands]
