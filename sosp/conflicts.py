@@ -23,6 +23,10 @@ import numpy as np
 from sosp.instance import Instance
 from sosp.rules import EPS, left_end, right_end, slew_time
 
+#: Candidate pairs tested at once by :func:`setup_conflict_pairs` (bounds its working memory:
+#: about 100 bytes a candidate).
+CHUNK_PAIRS = 4_000_000
+
 if TYPE_CHECKING:
     import networkx as nx
 
@@ -35,6 +39,7 @@ def setup_conflict_pairs(
     start: np.ndarray,
     end: np.ndarray,
     roll: np.ndarray,
+    max_pairs: int | None = None,
 ) -> np.ndarray:
     """All pairs of items that cannot both be scheduled because of (3).
 
@@ -44,6 +49,10 @@ def setup_conflict_pairs(
         Supplies each orbit's setup time a_j and slew rate v_j.
     orbit, start, end, roll
         One entry per item (opportunities, cluster-tasks or candidate observations).
+    max_pairs
+        Raise :class:`TooManyConflicts` as soon as more pairs than this are found (None: no
+        cap). The pairs are tested in chunks of :data:`CHUNK_PAIRS` candidates, so the memory
+        held is the pairs found plus one chunk.
 
     Returns
     -------
@@ -69,19 +78,48 @@ def setup_conflict_pairs(
     span = float(max(np.max(np.abs(s)), np.max(np.abs(reach)))) * 2.0 + 1.0
     key = o * span + s
     hi = np.searchsorted(key, o * span + reach, side="left")
-    idx = np.arange(n)
-    counts = np.maximum(hi - idx - 1, 0)
-    total = int(counts.sum())
-    if total == 0:
+    counts = np.maximum(hi - np.arange(n) - 1, 0)
+    ends = np.cumsum(counts)
+    found: list[np.ndarray] = []
+    n_found = 0
+    lo_item = 0
+    while lo_item < n:
+        # The items whose candidates make the next chunk (at least one item).
+        base = int(ends[lo_item - 1]) if lo_item else 0
+        hi_item = max(int(np.searchsorted(ends, base + CHUNK_PAIRS, side="right")), lo_item + 1)
+        hi_item = min(hi_item, n)
+        c = counts[lo_item:hi_item]
+        total = int(c.sum())
+        if total:
+            idx = np.arange(lo_item, hi_item)
+            first = np.repeat(idx, c)
+            offsets = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
+            second = first + 1 + offsets
+            vf = v[first]
+            clash = right_end(e[first], r[first], a[first], vf) > (
+                left_end(s[second], r[second], vf) + EPS
+            )
+            i, h = order[first[clash]], order[second[clash]]
+            found.append(np.column_stack((np.minimum(i, h), np.maximum(i, h))))
+            n_found += len(i)
+            if max_pairs is not None and n_found > max_pairs:
+                raise TooManyConflicts(n_found, max_pairs, int(ends[-1]))
+        lo_item = hi_item
+    if not n_found:
         return np.empty((0, 2), dtype=np.int64)
-    first = np.repeat(idx, counts)
-    offsets = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-    second = first + 1 + offsets
-    vf = v[first]
-    clash = right_end(e[first], r[first], a[first], vf) > left_end(s[second], r[second], vf) + EPS
-    i, h = order[first[clash]], order[second[clash]]
-    pairs = np.column_stack((np.minimum(i, h), np.maximum(i, h)))
+    pairs = np.concatenate(found)
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+class TooManyConflicts(ValueError):
+    """More (3) conflict pairs than a caller's cap (:func:`setup_conflict_pairs`)."""
+
+    def __init__(self, found: int, cap: int, candidates: int) -> None:
+        super().__init__(
+            f"more than {cap:,} setup conflicts (3) between items ({found:,} found in part of "
+            f"{candidates:,} candidate pairs)"
+        )
+        self.found, self.cap, self.candidates = found, cap, candidates
 
 
 def target_sharing_pairs(targets: tuple[tuple[int, ...], ...]) -> np.ndarray:

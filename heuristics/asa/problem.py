@@ -20,9 +20,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
-from sosp.conflicts import setup_conflict_pairs
+from sosp.conflicts import TooManyConflicts, setup_conflict_pairs
+from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.rules import OrbitRules, all_orbit_rules
+
+#: Most (3) conflict pairs between options ASA-DTC keeps as lists (about 80 bytes a pair in
+#: Python: 2 GB). C10 has 185,131; G100k (100,000 targets, 48 satellites) would need tens of
+#: GB, and refusing with one line beats exhausting the machine's memory.
+MAX_CONFLICTS = 25_000_000
 
 
 @dataclass
@@ -128,7 +134,14 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
                 unit_options[unit_of[x]].append(x)
     tw = instance.target_weight.astype(float).tolist()
     unit_weight = [float(sum(tw[k] for k in ks)) for ks in unit_targets]
-    pairs = setup_conflict_pairs(instance, tasks.orbit, tasks.start, tasks.end, tasks.roll)
+    try:
+        pairs = setup_conflict_pairs(
+            instance, tasks.orbit, tasks.start, tasks.end, tasks.roll, max_pairs=MAX_CONFLICTS
+        )
+    except TooManyConflicts as exc:
+        raise InputError(
+            f"instance: {exc}: too large for ASA-DTC's conflict lists (use greedy or hpfs-stc)"
+        ) from None
     conflicts: list[list[int]] = [[] for _ in range(n)]
     for i, h in pairs.tolist():
         if usable[i] and usable[h]:

@@ -121,3 +121,20 @@ def test_tasks_to_schedule_claims_each_target_once() -> None:
     assert len(sched) == 1  # the orbit-1 task has nothing left to claim and is dropped
     rep = validate(inst, sched)
     assert rep.feasible and rep.profit == 9
+
+
+def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch) -> None:
+    import pytest
+
+    import sosp.conflicts as conflicts
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
+    whole = conflicts.setup_conflict_pairs(*args)
+    monkeypatch.setattr(conflicts, "CHUNK_PAIRS", 7)
+    assert np.array_equal(conflicts.setup_conflict_pairs(*args), whole)
+    assert len(whole) > 10
+    with pytest.raises(conflicts.TooManyConflicts, match="more than 10 setup conflicts"):
+        conflicts.setup_conflict_pairs(*args, max_pairs=10)
+    assert len(conflicts.setup_conflict_pairs(*args, max_pairs=len(whole))) == len(whole)
