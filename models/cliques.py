@@ -154,14 +154,3 @@ def cliques_from_events(first: np.ndarray, last: np.ndarray, m: int) -> list[np.
     order = np.argsort(event, kind="stable")
     cuts = np.searchsorted(event[order], np.arange(1, m))
     return [np.asarray(c) for c in np.split(items[order], cuts)] if m else []
-
-
-def clique_cover_pairs(cliques: list[np.ndarray]) -> set[tuple[int, int]]:
-    """All item pairs implied by ``cliques`` (for checks: equals the conflict pairs of (3))."""
-    pairs: set[tuple[int, int]] = set()
-    for c in cliques:
-        c = sorted(int(x) for x in c)
-        for a in range(len(c)):
-            for b in range(a + 1, len(c)):
-                pairs.add((c[a], c[b]))
-    return pairs

@@ -116,10 +116,6 @@ class ModelData:
             return 0.0
         return float(self.weight[np.fromiter(self.target_items, dtype=np.int64)].sum())
 
-    def item_weight(self) -> np.ndarray:
-        """Sum of the weights of the targets each item covers."""
-        return np.array([int(self.weight[list(t)].sum()) for t in self.targets], dtype=np.int64)
-
 
 class TimeUp(Exception):
     """The deadline passed, or would pass, while a model was being built (caught by

@@ -17,8 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
 from sosp.conflicts import TooManyConflicts, setup_conflict_pairs
 from sosp.errors import InputError
@@ -185,9 +183,3 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         orbit_options=orbit_options,
         replan_orbits=[j for j, opts in enumerate(orbit_options) if opts],
     )
-
-
-def weight_order(problem: Problem, rng: np.random.Generator | None = None) -> list[int]:
-    """Units by decreasing weight; ties in index order (5.4, step 1)."""
-    w = np.asarray(problem.unit_weight)
-    return np.lexsort((np.arange(w.size), -w)).tolist()

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from heuristics.greedy import solve_greedy
-from models.cliques import clique_cover_pairs, maximal_cliques, orbit_intervals
+from models.cliques import maximal_cliques, orbit_intervals
 from models.solve import solve_milp
 from sosp.candidates import cluster_candidates
 from sosp.conflicts import setup_conflict_pairs
@@ -327,3 +327,14 @@ def test_probing_must_be_auto_on_or_off() -> None:
 
     with pytest.raises(InputError, match="probing"):
         solve_milp(random_tiny(0), probing="yes")
+
+
+def clique_cover_pairs(cliques: list[np.ndarray]) -> set[tuple[int, int]]:
+    """All item pairs implied by ``cliques`` (for checks: equals the conflict pairs of (3))."""
+    pairs: set[tuple[int, int]] = set()
+    for c in cliques:
+        c = sorted(int(x) for x in c)
+        for a in range(len(c)):
+            for b in range(a + 1, len(c)):
+                pairs.add((c[a], c[b]))
+    return pairs
