@@ -589,7 +589,8 @@ def _recursion(
     g = gain
     if pe > 0.0 or pw > 0.0:
         slew_cost = es * slew_s
-        g = gain - (pe * r.observe_energy_rate + pw * r.memory_rate) * duration
+        g = gain - pe * r.observe_energy_rate * duration
+        g -= pw * r.memory_rate * duration
         g -= 2.0 * slew_cost
         first = slew_cost if left_slew is None else -es * left_slew
         last = slew_cost if right_slew is None else -es * right_slew
