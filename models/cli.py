@@ -50,10 +50,12 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--method",
         default="auto",
-        choices=("auto", "lp", "milp", "lagrangian", "colgen", "pba"),
+        choices=("auto", "lp", "milp", "lagrangian", "colgen", "windows", "pba"),
         help="auto (default: the column-generation bound, then the LP with the time left "
         "unless it converged; the least), lp, milp, lagrangian, colgen (Dantzig-Wolfe over "
-        "orbit plans, then branch and price with the time left; docs/exact.md) or pba "
+        "orbit plans, then branch and price with the time left; docs/exact.md), windows (the "
+        "Lagrangian bound over the window relaxation, no candidate list: what auto uses where "
+        "the candidates would not fit in memory) or pba "
         "(PBA-STC's partition-based bound of the static model, docs/baselines.md)",
     )
     p.add_argument(

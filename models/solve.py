@@ -880,7 +880,7 @@ def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel, res: Any) -> list[int]:
 
 
 #: Methods of :func:`bound`.
-BOUND_METHODS = ("auto", "lp", "milp", "lagrangian", "colgen")
+BOUND_METHODS = ("auto", "lp", "milp", "lagrangian", "colgen", "windows")
 
 #: Share of ``time_limit`` :func:`bound` with ``method="auto"`` gives the column-generation
 #: bound before the LP gets the rest.
@@ -923,7 +923,10 @@ def bound(
         ``"lagrangian"``: :func:`models.lagrangian.lagrangian_bound` over the model's items;
         ``"colgen"``: :func:`models.colgen.colgen_bound` over the planner's candidates
         (cluster model; other models: over their items), with a ``time_limit`` followed by
-        branch and price until it ends.
+        branch and price until it ends. ``"windows"``:
+        :func:`models.window_bound.window_lagrangian_bound` (cluster model, no candidate
+        list: what ``"auto"`` falls back to when the planner's candidates would not fit in
+        memory).
     time_limit
         Seconds for everything, building included (None: no limit).
     threads
@@ -980,6 +983,8 @@ def bound(
         raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
     if method == "colgen" and model == "cluster":
         return _colgen_bound(instance, t0, deadline, lower_bound)
+    if method == "windows":
+        return _window_bound(instance, model, t0, deadline, lower_bound, iterations)
     try:
         data = model_data(instance, model, deadline)
     except TimeUp:
@@ -995,7 +1000,16 @@ def bound(
         # more candidates than the MILPs take (D30): no LP, but the column generation's own
         # candidates have no such cap, so auto is its bound alone, with all the time left
         log.info("bound: the cluster model is too large for the LP; column generation alone")
-        out = _colgen_bound(instance, t0, deadline, lower_bound)
+        try:
+            out = _colgen_bound(instance, t0, deadline, lower_bound)
+        except InputError:
+            # the planner's candidates would not fit in memory either (10,000 targets in the
+            # C region): the window relaxation needs no candidate list
+            log.info("bound: too dense for the candidates; the window relaxation's bound")
+            out = _window_bound(instance, model, t0, deadline, lower_bound, iterations)
+            out["method"] = "auto"
+            out["parts"] = {"windows": out["bound"]}
+            return out
         out["method"] = "auto"
         out["parts"] = {"colgen": out["bound"]}
         return out
@@ -1089,6 +1103,33 @@ def bound(
     out["source"] = best if best is not None and parts[best] <= cap else "cap"
     if method == "auto":
         out["parts"] = parts
+    return out
+
+
+def _window_bound(
+    instance: Instance,
+    model: str,
+    t0: float,
+    deadline: float | None,
+    lower_bound: float | None,
+    iterations: int,
+) -> dict[str, Any]:
+    """``bound(method="windows")``: :func:`models.window_bound.window_lagrangian_bound`
+    with the time left (cluster model only: it bounds the problem itself)."""
+    from models.window_bound import window_lagrangian_bound
+
+    if model != "cluster":
+        raise InputError(f"method windows: bounds the cluster model only, got model {model!r}")
+    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+    wb = window_lagrangian_bound(
+        instance,
+        iterations=iterations,
+        time_limit=left,
+        lower_bound=lower_bound if lower_bound else None,
+    )
+    keys = ("iterations", "items", "lower_bound")
+    out = _bound_out(wb["bound"], "windows", "cluster", t0, {k: wb[k] for k in keys})
+    out["source"] = "windows"
     return out
 
 

@@ -51,8 +51,9 @@ def window_lagrangian_bound(
     towards ``lower_bound``, half the previous direction added, the step factor halved after
     20 steps without progress); the least value found, rounded down (the optimum is an
     integer) and capped by the total weight of the targets with an opportunity no longer
-    than Delta T, is returned. Every step's value is a valid bound, so stopping at the time
-    limit is safe.
+    than Delta T, is returned. Every complete step's value is a valid bound; a step that would
+    end after the time limit is not started (judged by the last step's time), one cut by it
+    is dropped, and with no complete step the cap is returned.
 
     Parameters
     ----------
@@ -61,7 +62,7 @@ def window_lagrangian_bound(
     iterations
         Subgradient steps at most.
     time_limit
-        Seconds for everything (None: no limit); at least one step is made.
+        Seconds for everything, the lower bound's ascent included (None: no limit).
     lower_bound
         A known feasible profit (Polyak's target); None: the profit of one orbit-by-orbit
         pass of real plans (:func:`heuristics.orbit_search.window_ascent_profit`).
@@ -93,13 +94,21 @@ def window_lagrangian_bound(
     best = math.inf
     factor, stale, done, items = 1.0, 0, 0, 0
     prev_dir: tuple[np.ndarray, np.ndarray] | None = None
+    stop = None if time_limit is None else t0 + float(time_limit)
+    last_step = 0.0
     while done < iterations:
-        done += 1
+        t_step = time.perf_counter()
+        if stop is not None and done and t_step + last_step > stop:
+            break  # the next step would end after the limit
         value = float(np.maximum(p - mu, 0.0).sum())
         count = np.zeros(len(p))
         grad_lam = np.ones((len(orbits), 2))
         items = 0
+        cut = False
         for g, oo in enumerate(orbits):
+            if stop is not None and time.perf_counter() > stop:
+                cut = True  # a partial sum over the orbits is no bound: drop this step
+                break
             v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]))
             items += ri.size
             value += v + lam[g, 0] + lam[g, 1]
@@ -108,6 +117,10 @@ def window_lagrangian_bound(
                 r = oo.rules
                 energy, memory = r.usage(ri.duration[path], ri.slew_s[path] * r.slew_rate)
                 grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
+        if cut:
+            break
+        done += 1
+        last_step = time.perf_counter() - t_step
         if value < best - 1e-9:
             best, stale = value, 0
         else:
@@ -126,8 +139,6 @@ def window_lagrangian_bound(
         step = factor * (value - lower_bound) / norm
         mu = np.clip(mu - step * grad_mu, 0.0, p)
         lam = np.maximum(lam - step * grad_lam, 0.0)
-        if time_limit is not None and time.perf_counter() - t0 > time_limit:
-            break
     bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
     log.info("window lagrangian bound %g after %d steps", bound, done)
     return {

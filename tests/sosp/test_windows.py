@@ -187,3 +187,25 @@ def test_window_bound_on_c1_is_above_the_best_schedule(c1: Instance) -> None:
     best = solve(c1, "orbit-dp", seed=0, iterations=20).profit
     assert out["bound"] >= best
     assert out["model"] == "windows" and out["bound"] == int(out["bound"])
+
+
+def test_bound_method_windows_and_auto_fallback(
+    c1: Instance, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import models.solve as ms
+    import sosp.planner as planner
+    from sosp.errors import InputError
+
+    best = solve(c1, "orbit-dp", seed=0, iterations=20).profit
+    out = ms.bound(c1, method="windows", iterations=20)
+    assert out["bound"] >= best and out["source"] == "windows"
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise InputError("too many candidates")
+
+    # too dense for the MILP's items and for the planner's candidates: auto uses the windows
+    monkeypatch.setattr(ms, "model_data", refuse)
+    monkeypatch.setattr(planner, "orbit_data", refuse)
+    out = ms.bound(c1, method="auto", iterations=20)
+    assert out["method"] == "auto" and out["parts"] == {"windows": out["bound"]}
+    assert out["bound"] >= best
