@@ -18,8 +18,9 @@ Each step runs in a fresh process (``spawn``) that reports its own wall time and
 resident memory (``resource.getrusage``), so the figures are those of one ``sosp`` command:
 
 * ``generate``: the scenario, written as ``.json.gz`` (peak bytes per opportunity);
-* ``orbit-dp``, ``asa-dtc``: one run of ``--time-limit`` seconds each (seed 0; candidate
-  generation included), the schedule checked by the validator;
+* ``orbit-dp``, ``asa-dtc``, ``hpfs-stc``: one run of ``--time-limit`` seconds each (seed 0;
+  candidate generation included), the schedule checked by the validator (on G100k ASA-DTC
+  refuses: its conflict lists would exceed ``heuristics.asa.problem.MAX_CONFLICTS``);
 * ``bound``: the Lagrangian bound (``sosp bound --method lagrangian``) with ``--time-limit``
   and at most ``--bound-iterations`` steps, its Polyak target the best profit found.
 
@@ -43,7 +44,11 @@ RUNS: dict[str, dict[str, Any]] = {
     "g100k": {"region": (-60.0, 70.0, -180.0, 180.0), "count": 100000, "walker": (48, 8, 1, 550)},
 }
 
-STEPS = ("generate", "orbit-dp", "asa-dtc", "bound")
+STEPS = ("generate", "orbit-dp", "asa-dtc", "hpfs-stc", "bound")
+
+
+#: The steps that solve (each checked by the validator).
+SOLVERS = ("orbit-dp", "asa-dtc", "hpfs-stc")
 
 
 def _peak_mb() -> float:
@@ -164,11 +169,11 @@ def main(argv: list[str] | None = None) -> None:
         if "generate" in args.steps or not Path(path).exists():
             row["generate"] = in_process("generate", name, path)
             print(name, "generate", row["generate"], flush=True)
-        for method in ("orbit-dp", "asa-dtc"):
+        for method in SOLVERS:
             if method in args.steps:
                 row[method] = in_process("solve", path, method, args.time_limit, args.workers)
                 print(name, method, row[method], flush=True)
-        profits = [row[m]["profit"] for m in ("orbit-dp", "asa-dtc") if "profit" in row.get(m, {})]
+        profits = [row[m]["profit"] for m in SOLVERS if "profit" in row.get(m, {})]
         best = max(profits) if profits else None
         if "bound" in args.steps:
             row["bound"] = in_process(
