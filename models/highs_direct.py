@@ -209,14 +209,6 @@ class _Lp:
     integer: np.ndarray
     n_items: int
 
-    @property
-    def n_cols(self) -> int:
-        return int(self.matrix.shape[1])
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.matrix.shape[0])
-
     @classmethod
     def of(cls, am: ArrayModel) -> _Lp:
         return cls(
@@ -665,8 +657,9 @@ def _run_here(
     if not probing and am.integer.any():
         h.setOptionValue("presolve_rule_off", PROBING_OFF)
     lp = highspy.HighsLp()
-    lp.num_col_ = am.n_cols
-    lp.num_row_ = am.n_rows
+    n_rows, n_cols = (int(n) for n in am.matrix.shape)
+    lp.num_col_ = n_cols
+    lp.num_row_ = n_rows
     lp.col_cost_ = am.cost
     lp.col_lower_ = am.col_lower
     lp.col_upper_ = am.col_upper
@@ -675,8 +668,8 @@ def _run_here(
     lp.sense_ = highspy.ObjSense.kMaximize
     a = am.matrix
     lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_ = am.n_cols
-    lp.a_matrix_.num_row_ = am.n_rows
+    lp.a_matrix_.num_col_ = n_cols
+    lp.a_matrix_.num_row_ = n_rows
     lp.a_matrix_.start_ = a.indptr.astype(np.int32)
     lp.a_matrix_.index_ = a.indices.astype(np.int32)
     lp.a_matrix_.value_ = a.data.astype(float)
