@@ -202,7 +202,9 @@ def colgen_bound(
         limit; None before the first), ``converged`` (the rounded bound has reached the
         rounded master optimum: no Lagrangian bound of this relaxation, nor the LP over the
         same candidates, is lower), ``candidates``, ``cap`` (the covered weight); with
-        ``branch``, ``nodes`` (subproblems solved) when the branching ran.
+        ``branch``, ``nodes`` (subproblems solved) when the branching ran, and ``schedule``
+        and its ``profit`` when it ended on a node with nothing fractional whose plans the
+        referee accepts as a schedule (a lower bound; the optimum when it meets ``bound``).
     """
     t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
@@ -316,11 +318,16 @@ def colgen_bound(
     result = out(bound, rounds, len(master.columns), master_value, converged)
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
     if branch and converged and not proven:
-        answer, nodes = branch_and_price(
+        answer, nodes, final = branch_and_price(
             p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound
         )
         result["nodes"] = nodes
         result["bound"] = min(bound, float(math.floor(answer + 1e-6)))
+        if final is not None:
+            # the node of largest bound is integral in its covers: its plans are a schedule
+            found = node_schedule(instance, data, p, final)
+            if found is not None:
+                result["schedule"], result["profit"] = found
         result["runtime_s"] = round(time.perf_counter() - t0, 6)
     return result
 
@@ -574,8 +581,9 @@ def branch_and_price(
     lower_bound: float | None = None,
     max_nodes: int | None = None,
     smoothing: float = SMOOTHING,
-) -> tuple[float, int]:
-    """Best-first branch and price from a converged root; ``(bound, nodes)``.
+) -> tuple[float, int, _Node | None]:
+    """Best-first branch and price from a converged root; ``(bound, nodes, final)``, where
+    ``final`` is the node of largest bound when it has nothing fractional left (else None).
 
     Branching on a (target k, orbit g) pair whose cover is fractional: either g's cover of k
     does not count, or g covers k (and no other orbit's cover of k counts). Every schedule
@@ -611,6 +619,7 @@ def branch_and_price(
     root = _solve_node(root, p, seen, groups, cols, deadline, smoothing)
     heap: list[tuple[float, int, _Node]] = [(-root.bound, 0, root)]
     count, nodes = 1, 0
+    final: _Node | None = None
     while heap:
         if deadline is not None and time.perf_counter() > deadline:
             break
@@ -623,6 +632,7 @@ def branch_and_price(
             break  # cut short by the deadline: its bound stands
         pair = _branch_pair(top, p)
         if pair is None:
+            final = top
             break  # nothing fractional to branch on: the largest bound is final
         heapq.heappop(heap)
         k, g = pair
@@ -641,4 +651,33 @@ def branch_and_price(
             count += 1
     answer = max((-b for b, _, _ in heap), default=-math.inf)
     log.info("branch and price: %d nodes, bound %.4f", nodes, answer)
-    return answer, nodes
+    return answer, nodes, final
+
+
+def node_schedule(
+    instance: Instance, data: OrbitData, p: np.ndarray, node: _Node
+) -> tuple[Any, float] | None:
+    """A schedule (and its profit) from a node whose counted covers are all 0 or 1, or None.
+
+    Per orbit, the targets the node counts it as covering get their weight and the rest 0;
+    :func:`sosp.planner.best_feasible_path` plans the orbit at those prices (the node's plans
+    cover them all within (3), (6), so the recursion finds such a plan; (4)-(5) are kept).
+    The schedule is returned only if the referee (:func:`sosp.validate.validate`) accepts it.
+    """
+    from sosp.planner import best_feasible_path
+    from sosp.schedule import items_to_schedule
+    from sosp.validate import validate
+
+    counted: dict[int, list[int]] = {}
+    for (k, g), x in (node.cover or {}).items():
+        if x > 0.5 and (k, g) not in node.banned and node.forced.get(k, g) == g:
+            counted.setdefault(g, []).append(k)
+    chosen: list[int] = []
+    for g, ks in counted.items():
+        o = data.orbits[g]
+        price = np.zeros(len(p))
+        price[ks] = p[ks]
+        chosen.extend(o.items[best_feasible_path(o, price)].tolist())
+    sched = items_to_schedule(instance, data, chosen)
+    report = validate(instance, sched)
+    return (sched, float(report.profit)) if report.feasible else None

@@ -1163,6 +1163,8 @@ def _colgen_bound(
     keys = ("candidates", "cap", "rounds", "converged", "nodes")
     out = _bound_out(cg["bound"], "colgen", "cluster", t0, {k: cg[k] for k in keys if k in cg})
     out["source"] = "colgen" if cg["bound"] < cg["cap"] else "cap"
+    if "profit" in cg:
+        out["profit"] = cg["profit"]  # a validated schedule the branch and price ended on
     return out
 
 

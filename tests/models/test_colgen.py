@@ -19,6 +19,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import orbit_data
 from sosp.solve import bound_function
+from sosp.validate import validate
 from tests.conftest import small_instances
 from tests.models.instances import random_tiny
 from tests.oracle import brute_force
@@ -170,6 +171,8 @@ def test_branch_and_price_never_below_the_optimum(inst: Instance) -> None:
     root = colgen_bound(inst)["bound"]
     out = colgen_bound(inst, branch=True)
     assert optimum <= out["bound"] <= root
+    if "profit" in out:
+        assert validate(inst, out["schedule"]).feasible and out["profit"] <= optimum
 
 
 @pytest.mark.parametrize(("seed", "optimum", "root"), [(19, 24, 27), (105, 23, 28), (226, 34, 39)])
@@ -181,6 +184,9 @@ def test_branch_and_price_closes_the_root_gap(seed: int, optimum: float, root: f
     assert colgen_bound(inst)["bound"] == root
     out = colgen_bound(inst, branch=True)
     assert out["bound"] == optimum and out["nodes"] >= 2
+    # the node it ends on is integral in its covers: its plans give a valid schedule (all of
+    # the node's value only when no plan of the mixture breaks (4)-(5), not so here)
+    assert validate(inst, out["schedule"]).profit == out["profit"] <= optimum
 
 
 @pytest.mark.slow
