@@ -21,6 +21,12 @@ orbits whose plan covers it; a step journals the plans it replaces, so undoing c
 step changed and nothing is copied per step. The best plans are copied only when they improve.
 The result is a heuristic schedule (status ``feasible``); no bound is claimed (``sosp bound
 --method lagrangian`` gives one from the same recursion).
+
+Where the candidates would not fit in memory (10,000 targets in the C region: tens of GB),
+``candidates="auto"`` switches to :class:`WindowSearch`: the same search, whose re-plan prices
+the orbit's windows at the re-plan's prices (:mod:`sosp.windows`) and plans over the real
+observations of the argmax rolls, a restricted candidate set made for those prices (feasible
+plans, not the optimum over every candidate).
 """
 
 from __future__ import annotations

@@ -168,6 +168,7 @@ def test_window_plans_are_feasible_and_bounded(inst: Instance, seed: int) -> Non
     optimum = brute_force(inst, "cluster").profit
     assert res.profit <= optimum + 1e-9
     assert window_lagrangian_bound(inst, iterations=40)["bound"] >= optimum
+    assert window_lagrangian_bound(inst, iterations=10, start=1.0)["bound"] >= optimum
 
 
 def test_windows_orbit_dp_on_c1(c1: Instance) -> None:
