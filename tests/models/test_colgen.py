@@ -119,14 +119,16 @@ def test_keeps_its_time_limit() -> None:
 def test_bound_dispatch_keeps_its_time_limit() -> None:
     from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C2")
     for limit in (0.3, 2.5):  # candidates unfinished (about 1.3 s); colgen cut short
+        inst = generate_scenario("C2")
         t0 = time.perf_counter()
         out = bound(inst, method="colgen", time_limit=limit)
         assert time.perf_counter() - t0 <= limit + 0.3, out
         assert out["bound"] <= observable_weight(inst)
         if limit < 1.0:
-            assert out["source"] == "cap" and out["timed_out"] == "candidates"
+            # candidates unfinished ("timed_out"), or no pricing round finished after them
+            # (candidates can be cached from an earlier test): only the cap holds
+            assert out["source"] == "cap" and out["bound"] == observable_weight(inst)
 
 
 def test_auto_falls_back_to_colgen_when_the_model_is_too_large(monkeypatch) -> None:
