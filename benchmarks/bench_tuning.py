@@ -3,9 +3,10 @@
 The defaults of ASA-DTC are chosen on this set, never on one or two named scenarios: dense
 instances of 300-1,000 targets in several regions (and so several orbit geometries and
 densities), with the four built-in satellites over 24 h. For each instance it computes the
-suite's best bound (``models.solve.bound``, method ``auto``: Lagrangian, then the LP), runs each
-configuration for each seed at an equal time limit, and prints a Markdown table of the mean
-profit and its share of the bound.
+suite's bound (``models.solve.bound``, method ``auto``: column generation, then the LP unless
+it converged), runs each configuration for each seed at an equal time limit, and prints a
+Markdown table of the mean profit and its share of the bound. The best proven bounds of the
+set (branch and price, MILP) are in ``docs/exact.md``.
 
 Example (the figures of ``docs/asa.md``, "Tuning set")::
 
