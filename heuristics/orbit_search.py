@@ -298,6 +298,19 @@ class WindowSearch(OrbitSearch):
     def _covered(self, g: int, path: Any) -> np.ndarray:
         return path.targets
 
+    def ascent(self, deadline: float | None = None) -> None:
+        """:meth:`OrbitSearch.ascent` with the deadline (and a requested stop) checked orbit
+        by orbit: a pass over hundreds of dense orbits (worldwide instances) takes minutes,
+        and any partial ascent is a feasible schedule."""
+        while self.dirty.any():
+            for g in self.rng.permutation(np.flatnonzero(self.dirty)):
+                if deadline is not None and time.perf_counter() > deadline:
+                    return
+                if stop_requested():
+                    return
+                if self.dirty[g]:
+                    self.replan(int(g))
+
     def schedule(self) -> Schedule:
         obs = []
         for g, plan in enumerate(self.paths):
@@ -329,14 +342,7 @@ def window_ascent_profit(instance: Instance, seed: int = 0, deadline: float | No
     """Profit of one ascent of :class:`WindowSearch` from the empty schedule (a quick lower
     bound without candidates; stopped at ``deadline``, a :func:`time.perf_counter` value)."""
     search = WindowSearch(WindowData.build(instance), np.random.default_rng(seed))
-    # the deadline is checked orbit by orbit: one pass over hundreds of dense orbits (worldwide
-    # instances) can take minutes, and any partial ascent is a feasible schedule
-    while search.dirty.any():
-        for g in search.rng.permutation(np.flatnonzero(search.dirty)):
-            if deadline is not None and time.perf_counter() > deadline:
-                return search.profit
-            if search.dirty[g]:
-                search.replan(int(g))
+    search.ascent(deadline)
     return search.profit
 
 
