@@ -67,6 +67,13 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--time-limit", type=_positive_float, default=None, help="seconds")
     p.add_argument("--threads", type=int, default=None, help="HiGHS threads")
     p.add_argument(
+        "--workers",
+        type=positive(int),
+        default=1,
+        help="processes planning the orbits of each pricing round of colgen, lagrangian and "
+        "auto (default 1)",
+    )
+    p.add_argument(
         "--backend",
         default="auto",
         help="pyomo (reference builder), highs (arrays passed to HiGHS directly) or auto "
@@ -108,12 +115,13 @@ def cmd_bound(args: argparse.Namespace) -> int:
         lp_solver=args.lp_solver,
         slew=args.slew,
         iterations=args.iterations,
+        workers=args.workers,
     )
     out["instance"] = inst.name or str(args.instance)
     if getattr(args, "json", False):
         sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
         return 0
-    size = f"{out.get('candidates', 0)} items"
+    size = f"{out.get('candidates', out.get('items', 0))} items"
     if "variables" in out:
         size += f", {out['variables']} variables, {out.get('constraints', 0)} constraints"
     if "iterations" in out:

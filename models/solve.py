@@ -899,6 +899,7 @@ def bound(
     slew: str = "auto",
     iterations: int = 300,
     lower_bound: float | None = None,
+    workers: int = 1,
 ) -> dict[str, Any]:
     """An upper bound on the optimum of ``model``, within ``time_limit``.
 
@@ -943,6 +944,10 @@ def bound(
         Subgradient steps of the Lagrangian bound.
     lower_bound
         A known schedule's profit: the Lagrangian bound's target (None: one quick ascent).
+    workers
+        Processes planning the orbits of each pricing round of ``colgen`` and
+        ``lagrangian`` (and of the column generation of ``auto``); 1 (default): in this
+        process. They pay where cores are idle and orbits many (``docs/scenarios.md``).
 
     Returns
     -------
@@ -960,6 +965,8 @@ def bound(
     time_limit = check_time_limit(time_limit)
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"workers: expected a positive integer, got {workers!r}")
     if method == "milp":
         res = solve_milp(
             instance,
@@ -982,7 +989,7 @@ def bound(
     if slew == "relaxed" and backend == "pyomo":
         raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
     if method == "colgen" and model == "cluster":
-        return _colgen_bound(instance, t0, deadline, lower_bound)
+        return _colgen_bound(instance, t0, deadline, lower_bound, workers)
     if method == "windows":
         return _window_bound(instance, model, t0, deadline, lower_bound, iterations)
     try:
@@ -1001,7 +1008,7 @@ def bound(
         # candidates have no such cap, so auto is its bound alone, with all the time left
         log.info("bound: the cluster model is too large for the LP; column generation alone")
         try:
-            out = _colgen_bound(instance, t0, deadline, lower_bound)
+            out = _colgen_bound(instance, t0, deadline, lower_bound, workers)
         except InputError:
             # the planner's candidates would not fit in memory either (10,000 targets in the
             # C region): the window relaxation needs no candidate list
@@ -1039,6 +1046,7 @@ def bound(
             data=with_rolls(data, data.roll),
             branch=deadline is not None and model == "cluster",
             root_time_limit=root,
+            workers=workers,
         )
         parts["colgen"] = cg["bound"]
         stats["rounds"] = cg["rounds"]
@@ -1064,6 +1072,7 @@ def bound(
             time_limit=limit,
             lower_bound=lower_bound if lower_bound else None,
             data=with_rolls(data, data.roll),
+            workers=workers,
         )
         parts["lagrangian"] = lag["bound"]
         stats["iterations"] = lag["iterations"]
@@ -1134,7 +1143,11 @@ def _window_bound(
 
 
 def _colgen_bound(
-    instance: Instance, t0: float, deadline: float | None, lower_bound: float | None
+    instance: Instance,
+    t0: float,
+    deadline: float | None,
+    lower_bound: float | None,
+    workers: int = 1,
 ) -> dict[str, Any]:
     """``bound(method="colgen")`` of the cluster model over the planner's candidates: the
     cluster model's, without the cap on their number that :func:`model_data` keeps for the
@@ -1144,7 +1157,7 @@ def _colgen_bound(
     from sosp.planner import orbit_data
 
     try:
-        data = orbit_data(instance, deadline)
+        data = orbit_data(instance, deadline, workers=workers)
     except InputError:
         if deadline is None or time.perf_counter() <= deadline:
             raise
@@ -1159,6 +1172,7 @@ def _colgen_bound(
         lower_bound=lower_bound if lower_bound else None,
         data=data,
         branch=deadline is not None,  # the time left after convergence: branch and price
+        workers=workers,
     )
     keys = ("candidates", "cap", "rounds", "converged", "nodes")
     out = _bound_out(cg["bound"], "colgen", "cluster", t0, {k: cg[k] for k in keys if k in cg})

@@ -294,6 +294,13 @@ def test_cli_bound_json(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bound", str(path), "--model", "nope"]) == 2
     assert main(["bound", str(path), "--time-limit", "-1"]) == 2
     assert "error:" in capsys.readouterr().err
+    # two processes plan the orbits: the same bound as one
+    assert main(["bound", str(path), "--method", "lagrangian", "--workers", "2", "--json"]) == 0
+    two = json.loads(capsys.readouterr().out)["bound"]
+    assert main(["bound", str(path), "--method", "lagrangian", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["bound"] == two
+    assert main(["bound", str(path), "--workers", "0"]) == 2
+    assert "--workers" in capsys.readouterr().err
 
 
 def test_cli_module_imports_nothing_heavy() -> None:
