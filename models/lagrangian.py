@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -96,15 +97,10 @@ def lagrangian_bound(
         from heuristics.orbit_search import ascent_profit
 
         lower_bound = ascent_profit(data)
-    mu = 0.5 * p
-    lam = np.zeros((len(groups), 2))
-    best = math.inf
-    factor, stale, done = 1.0, 0, 0
-    prev_dir: tuple[np.ndarray, np.ndarray] | None = None
     pool = PlanPool(groups, workers)
-    while done < iterations:
-        done += 1
-        value = float(np.maximum(p - mu, 0.0).sum())
+
+    def price(mu: np.ndarray, lam: np.ndarray) -> Priced:
+        value = 0.0
         count = np.zeros(len(p))
         grad_lam = np.ones((len(groups), 2))
         for g, (v, covered, used) in enumerate(pool.best_paths(mu, lam)):
@@ -114,29 +110,16 @@ def lagrangian_bound(
                 energy, memory = used
                 r = groups[g].rules
                 grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
-        if value < best - 1e-9:
-            best, stale = value, 0
-        else:
-            stale += 1
-            if stale >= 20:
-                factor, stale = factor / 2.0, 0
-        grad_mu = count - (mu < p)
-        if prev_dir is not None:  # deflection: half the last direction damps the zigzag
-            grad_mu = grad_mu + DEFLECTION * prev_dir[0]
-            grad_lam = grad_lam + DEFLECTION * prev_dir[1]
-        prev_dir = (grad_mu, grad_lam)
-        norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
-        if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
-            break  # the plans agree with the multipliers, or the bound meets the target
-        step = factor * (value - lower_bound) / norm
-        mu = np.clip(mu - step * grad_mu, 0.0, p)
-        lam = np.maximum(lam - step * grad_lam, 0.0)
-        if time_limit is not None and time.perf_counter() - t0 > time_limit:
-            break
+        return value, count, grad_lam
+
+    stop = None if time_limit is None else t0 + float(time_limit)
+    try:
+        best, done = subgradient(p, len(groups), price, 0.5 * p, iterations, lower_bound, stop)
+    finally:
+        pool.close()
     # never above the total weight of the targets some candidate covers (at most the total
     # observable weight): an unfinished subgradient run can end a unit or two above it
     bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
-    pool.close()
     log.info("lagrangian bound %g after %d steps", bound, done)
     return {
         "bound": bound,
@@ -147,3 +130,69 @@ def lagrangian_bound(
         "candidates": data.n_items,
         "lower_bound": float(lower_bound),
     }
+
+
+#: What a pricing step returns to :func:`subgradient`: the orbits' terms of ``L(mu, lam)``
+#: (each orbit's maximum with its ``lam_ej + lam_wj``), the number of times each target is
+#: counted by the orbits' plans, and the knapsacks' subgradient per orbit (orbits x 2).
+Priced = tuple[float, np.ndarray, np.ndarray]
+
+
+def subgradient(
+    p: np.ndarray,
+    n_orbits: int,
+    price: Callable[[np.ndarray, np.ndarray], Priced | None],
+    mu: np.ndarray,
+    iterations: int,
+    lower_bound: float,
+    stop: float | None,
+) -> tuple[float, int]:
+    """Subgradient steps on ``L(mu, lam)``; the least value found and the steps made.
+
+    ``L(mu, lam) = sum_k max(0, p_k - mu_k) + (the orbits' terms from price(mu, lam))`` is an
+    upper bound for every ``mu >= 0``, ``lam >= 0``, whatever relaxation ``price`` maximises
+    over (the explicit candidates of :func:`lagrangian_bound`, the windows of
+    :func:`models.window_bound.window_lagrangian_bound`). The subgradient in ``mu_k`` is the
+    number of plans counting k minus ``[mu_k < p_k]``; the step is Polyak's towards
+    ``lower_bound`` with a factor halved after 20 steps without progress, the direction
+    deflected by :data:`DEFLECTION` times the previous one. ``lam`` starts at 0.
+
+    Time (``stop``, a :func:`time.perf_counter` value or None): a step that would end after
+    ``stop`` (judged by the last step's time) is not started, and ``price`` returns None for
+    a step it had to cut (a partial sum over the orbits is no bound), which ends the run.
+    """
+    lam = np.zeros((n_orbits, 2))
+    best = math.inf
+    factor, stale, done = 1.0, 0, 0
+    prev_dir: tuple[np.ndarray, np.ndarray] | None = None
+    last_step = 0.0
+    while done < iterations:
+        t_step = time.perf_counter()
+        if stop is not None and done and t_step + last_step > stop:
+            break  # the next step would end after the limit
+        got = price(mu, lam)
+        if got is None:
+            break
+        orbits_value, count, grad_lam = got
+        value = float(np.maximum(p - mu, 0.0).sum()) + orbits_value
+        done += 1
+        last_step = time.perf_counter() - t_step
+        if value < best - 1e-9:
+            best, stale = value, 0
+        else:
+            stale += 1
+            if stale >= 20:
+                factor, stale = factor / 2.0, 0
+        log.debug("subgradient step %d: %.3f (best %.3f)", done, value, best)
+        grad_mu = count - (mu < p)
+        if prev_dir is not None:  # deflection: part of the last direction damps the zigzag
+            grad_mu = grad_mu + DEFLECTION * prev_dir[0]
+            grad_lam = grad_lam + DEFLECTION * prev_dir[1]
+        prev_dir = (grad_mu, grad_lam)
+        norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
+        if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
+            break  # the plans agree with the multipliers, or the bound meets the target
+        step = factor * (value - lower_bound) / norm
+        mu = np.clip(mu - step * grad_mu, 0.0, p)
+        lam = np.maximum(lam - step * grad_lam, 0.0)
+    return best, done

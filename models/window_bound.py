@@ -27,15 +27,12 @@ from typing import Any
 
 import numpy as np
 
+from models.lagrangian import Priced, subgradient
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 log = logging.getLogger(__name__)
-
-#: Share of the previous direction added to the subgradient (as in
-#: :data:`models.lagrangian.DEFLECTION`).
-DEFLECTION = 0.5
 
 
 def window_lagrangian_bound(
@@ -48,9 +45,8 @@ def window_lagrangian_bound(
 ) -> dict[str, Any]:
     """Upper bound on the optimum by Lagrangian relaxation over the window relaxation.
 
-    The same subgradient method as :func:`models.lagrangian.lagrangian_bound` (Polyak's rule
-    towards ``lower_bound``, half the previous direction added, the step factor halved after
-    20 steps without progress); the least value found, rounded down (the optimum is an
+    The same subgradient steps as :func:`models.lagrangian.lagrangian_bound`
+    (:func:`models.lagrangian.subgradient`); the least value found, rounded down (the optimum is an
     integer) and capped by the total weight of the targets with an opportunity no longer
     than Delta T, is returned. Every complete step's value is a valid bound; a step that would
     end after the time limit is not started (judged by the last step's time), one cut by it
@@ -98,56 +94,30 @@ def window_lagrangian_bound(
         lower_bound = window_ascent_profit(instance, deadline=_share(t0, time_limit, 0.2))
     if not 0.0 <= start <= 1.0:
         raise InputError(f"start: expected a number in [0, 1], got {start!r}")
-    mu = start * p
-    lam = np.zeros((len(orbits), 2))
-    best = math.inf
-    factor, stale, done, items = 1.0, 0, 0, 0
-    prev_dir: tuple[np.ndarray, np.ndarray] | None = None
     stop = None if time_limit is None else t0 + float(time_limit)
-    last_step = 0.0
-    while done < iterations:
-        t_step = time.perf_counter()
-        if stop is not None and done and t_step + last_step > stop:
-            break  # the next step would end after the limit
-        value = float(np.maximum(p - mu, 0.0).sum())
+    items = 0
+
+    def price(mu: np.ndarray, lam: np.ndarray) -> Priced | None:
+        nonlocal items
+        value = 0.0
         count = np.zeros(len(p))
         grad_lam = np.ones((len(orbits), 2))
-        items = 0
-        cut = False
+        n_items = 0
         for g, oo in enumerate(orbits):
             if stop is not None and time.perf_counter() > stop:
-                cut = True  # a partial sum over the orbits is no bound: drop this step
-                break
+                return None  # a partial sum over the orbits is no bound: drop this step
             v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]))
-            items += ri.size
+            n_items += ri.size
             value += v + lam[g, 0] + lam[g, 1]
             if len(path):
                 np.add.at(count, item_targets(oo, mu, ri, path), 1.0)
                 r = oo.rules
                 energy, memory = r.usage(ri.duration[path], ri.slew_s[path] * r.slew_rate)
                 grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
-        if cut:
-            break
-        done += 1
-        last_step = time.perf_counter() - t_step
-        if value < best - 1e-9:
-            best, stale = value, 0
-        else:
-            stale += 1
-            if stale >= 20:
-                factor, stale = factor / 2.0, 0
-        log.debug("window bound step %d: %.3f (best %.3f)", done, value, best)
-        grad_mu = count - (mu < p)
-        if prev_dir is not None:
-            grad_mu = grad_mu + DEFLECTION * prev_dir[0]
-            grad_lam = grad_lam + DEFLECTION * prev_dir[1]
-        prev_dir = (grad_mu, grad_lam)
-        norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
-        if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
-            break
-        step = factor * (value - lower_bound) / norm
-        mu = np.clip(mu - step * grad_mu, 0.0, p)
-        lam = np.maximum(lam - step * grad_lam, 0.0)
+        items = n_items
+        return value, count, grad_lam
+
+    best, done = subgradient(p, len(orbits), price, start * p, iterations, lower_bound, stop)
     bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
     log.info("window lagrangian bound %g after %d steps", bound, done)
     return {

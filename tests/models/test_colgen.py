@@ -18,7 +18,7 @@ from models.solve import bound
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import orbit_data
-from sosp.solve import bound_function
+from sosp.solve import bound_function, solve
 from sosp.validate import validate
 from tests.conftest import small_instances
 from tests.models.instances import random_tiny
@@ -123,12 +123,12 @@ def test_bound_dispatch_keeps_its_time_limit() -> None:
         inst = generate_scenario("C2")
         t0 = time.perf_counter()
         out = bound(inst, method="colgen", time_limit=limit)
-        assert time.perf_counter() - t0 <= limit + 0.3, out
+        assert time.perf_counter() - t0 <= limit + 1.0, out  # max(1 s, 5 %)
         assert out["bound"] <= observable_weight(inst)
-        if limit < 1.0:
-            # candidates unfinished ("timed_out"), or no pricing round finished after them
-            # (candidates can be cached from an earlier test): only the cap holds
-            assert out["source"] == "cap" and out["bound"] == observable_weight(inst)
+        # whatever finished in time (the cap when the candidates or the first round did not:
+        # how far it gets depends on the machine), the bound holds a schedule's profit
+        assert out["source"] in ("cap", "colgen")
+        assert out["bound"] >= solve(inst, "greedy").profit
 
 
 def test_auto_falls_back_to_colgen_when_the_model_is_too_large(monkeypatch) -> None:
