@@ -9,6 +9,9 @@ memory and energy are in the units of Table 1 of the paper.
 
 The file format (``format: "sosp-instance"``, ``version: 1``) is documented in
 ``docs/formats.md``. Each table may be a list of records or an object of equal-length columns.
+A path ending in ``.npz`` holds the same content as numpy arrays (``format:
+"sosp-instance-npz"``, ``version: 1``), which loads in seconds where the JSON of a
+million-opportunity instance takes minutes.
 """
 
 from __future__ import annotations
@@ -16,16 +19,25 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from datetime import datetime
 from functools import cached_property
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sosp.errors import InputError
-from sosp.io import atomic_write_json, atomic_write_text, is_finite_number, read_json
+from sosp.io import (
+    atomic_output,
+    atomic_write_json,
+    atomic_write_text,
+    is_finite_number,
+    read_json,
+)
 
 FORMAT_NAME = "sosp-instance"
 FORMAT_VERSION = 1
@@ -87,6 +99,43 @@ class Resources:
 
 #: The resource keys of an orbit record, in file order.
 RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
+
+#: The binary encoding written for a path ending in ``.npz``: its own format name and version
+#: (in the ``header`` entry), so the array layout can change without touching the JSON format.
+NPZ_FORMAT_NAME = "sosp-instance-npz"
+NPZ_FORMAT_VERSION = 1
+
+#: The .npz entry holding the scalar fields (format, version, name, epoch, meta) as JSON text.
+NPZ_HEADER = "header"
+
+#: The .npz arrays per table, in file order, with the kind of dtype each must have: "f"
+#: float64, "i" any integer, "U" numpy unicode. Opportunities' ``target`` and ``orbit`` are
+#: 0-based row indices into the targets and orbits tables (the JSON format uses the ids).
+NPZ_TABLES: dict[str, tuple[tuple[str, str], ...]] = {
+    "targets": (("id", "U"), ("lat", "f"), ("lon", "f"), ("weight", "i")),
+    "orbits": (
+        ("id", "U"),
+        ("satellite", "U"),
+        ("start", "f"),
+        ("end", "f"),
+        *((k, "i" if k == "max_openings" else "f") for k in RESOURCE_KEYS),
+    ),
+    "opportunities": (
+        ("id", "U"),
+        ("target", "i"),
+        ("orbit", "i"),
+        ("start", "f"),
+        ("end", "f"),
+        ("roll", "f"),
+        ("roll_min", "f"),
+        ("roll_max", "f"),
+    ),
+}
+
+_NPZ_KIND_NAMES = {"f": "float64", "i": "an integer dtype", "U": "a unicode string dtype"}
+
+#: The fixed time stamp of every .npz member, so one instance always gives the same bytes.
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 
 
 def _check_resource(key: str, value: Any, where: str) -> None:
@@ -394,10 +443,15 @@ class Instance:
                 "window must lie inside its orbit's [start, end]",
             )
 
-        order = np.lexsort((p_end, p_start, p_orbit))
+        order: np.ndarray | slice
+        if _is_sorted(p_orbit, p_start, p_end):
+            # what save() wrote is in this order already: no sort, no copies (millions of rows)
+            order = slice(None)
+        else:
+            order = np.lexsort((p_end, p_start, p_orbit))
         if pid is None:
             pid = tuple(f"o{i + 1}" for i in range(n_p))
-        else:
+        elif isinstance(order, np.ndarray):
             pid = tuple(pid[i] for i in order)
         inst = cls(
             epoch=epoch,
@@ -627,13 +681,66 @@ class Instance:
             source=source,
         )
 
+    def to_npz_arrays(self) -> dict[str, np.ndarray]:
+        """The instance as the named arrays of a ``.npz`` file (see :data:`NPZ_TABLES`).
+
+        Every column keeps its dtype (float64 times, rolls and coordinates; int64 weights and
+        openings; int32 opportunity indices); ids are numpy unicode arrays; ``name``,
+        ``epoch`` and ``meta`` go, with the format name and version, into the JSON text of
+        the :data:`NPZ_HEADER` entry.
+
+        Raises
+        ------
+        InputError
+            If an id ends with a NUL character, which a numpy unicode array cannot hold.
+        """
+        header = {
+            "format": NPZ_FORMAT_NAME,
+            "version": NPZ_FORMAT_VERSION,
+            "name": self.name,
+            "epoch": self.epoch,
+            "meta": dict(self.meta),
+        }
+        out: dict[str, np.ndarray] = {
+            # meta keys in their order: a .json saved from a loaded .npz is the same file
+            NPZ_HEADER: np.array(json.dumps(header, allow_nan=False))
+        }
+        columns: dict[str, Any] = {
+            "targets.id": self.target_ids,
+            "targets.lat": self.target_lat,
+            "targets.lon": self.target_lon,
+            "targets.weight": self.target_weight,
+            "orbits.id": self.orbit_ids,
+            "orbits.satellite": self.orbit_satellite,
+            "orbits.start": self.orbit_start,
+            "orbits.end": self.orbit_end,
+            **{f"orbits.{k}": getattr(self, k) for k in RESOURCE_KEYS},
+            "opportunities.id": self.opp_ids,
+            "opportunities.target": self.opp_target,
+            "opportunities.orbit": self.opp_orbit,
+            "opportunities.start": self.opp_start,
+            "opportunities.end": self.opp_end,
+            "opportunities.roll": self.opp_roll,
+            "opportunities.roll_min": self.opp_roll_min,
+            "opportunities.roll_max": self.opp_roll_max,
+        }
+        for key, value in columns.items():
+            out[key] = _str_array(value, key) if isinstance(value, tuple) else value
+        return out
+
     def save(self, path: str | os.PathLike[str], layout: str = "auto") -> None:
         """Write the instance file atomically.
 
         ``layout``: "records", "columns", or "auto" (columns from :data:`COLUMNS_FROM`
         opportunities on, else records). A path ending in ``.gz`` is written gzip-compressed
-        (:func:`load_instance` reads it back).
+        (:func:`load_instance` reads it back). A path ending in ``.npz`` is written as numpy
+        arrays (:meth:`to_npz_arrays`; ``layout`` does not apply), the fastest to load.
         """
+        if layout not in ("auto", "records", "columns"):
+            raise InputError(f"layout: expected 'records' or 'columns', got {layout!r}")
+        if _is_npz(path):
+            _write_npz(path, self.to_npz_arrays())
+            return
         big = self.n_opps >= COLUMNS_FROM
         if layout == "auto":
             layout = "columns" if big else "records"
@@ -647,9 +754,201 @@ class Instance:
 
 
 def load_instance(path: str | os.PathLike[str]) -> Instance:
-    """Read and validate an instance file (``.json`` or ``.json.gz``, either layout);
-    :class:`InputError` names the file and field."""
+    """Read and validate an instance file (``.json`` or ``.json.gz``, either layout, or
+    ``.npz``); :class:`InputError` names the file and field."""
+    if _is_npz(path):
+        return _read_npz(path)
     return Instance.from_dict(read_json(path), source=str(path))
+
+
+# --------------------------------------------------------------------------- .npz files
+def _is_npz(path: str | os.PathLike[str]) -> bool:
+    return os.fspath(path).lower().endswith(".npz")
+
+
+def _str_array(values: tuple[str, ...], key: str) -> np.ndarray:
+    """``values`` as a numpy unicode array, refusing what it would not give back."""
+    # numpy pads unicode arrays with NUL characters and strips them on reading
+    if "\0" in "".join(values):  # rare: look for the row only then
+        for r, v in enumerate(values):
+            if v.endswith("\0"):
+                table, field_ = key.split(".")
+                raise InputError(
+                    f"{table}[{r}].{field_}: ends with a NUL character, which .npz cannot "
+                    "store; save as .json"
+                )
+    return np.array(values, dtype=str) if values else np.zeros(0, dtype="<U1")
+
+
+def _write_npz(path: str | os.PathLike[str], arrays: Mapping[str, np.ndarray]) -> None:
+    """Write ``arrays`` as a ``.npz`` file atomically (what ``np.savez_compressed`` writes,
+    with fixed member time stamps so the same instance always gives the same bytes)."""
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(f"{path} is a folder, not a file")
+    compression = zipfile.ZIP_DEFLATED
+    # Write into the open temporary file: given a name, numpy would append ".npz" to it.
+    with atomic_output(target, suffix=".npz") as tmp, open(tmp, "wb") as fh:
+        with zipfile.ZipFile(fh, "w", compression=compression, allowZip64=True) as zf:
+            for key, arr in arrays.items():
+                info = zipfile.ZipInfo(key + ".npy", date_time=_ZIP_DATE)
+                info.compress_type = compression
+                info.external_attr = 0o644 << 16
+                with zf.open(info, "w", force_zip64=True) as member:
+                    np.lib.format.write_array(member, np.asanyarray(arr), allow_pickle=False)
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+#: What reading a damaged zip member or .npy header can raise (zipfile: NotImplementedError
+#: for an unknown compression method, RuntimeError for an encrypted member; numpy:
+#: MemoryError for a header claiming an absurd shape).
+_NPZ_READ_ERRORS = (
+    ValueError,
+    OSError,
+    EOFError,
+    KeyError,
+    zipfile.BadZipFile,
+    zlib.error,
+    NotImplementedError,
+    RuntimeError,
+    MemoryError,
+)
+
+
+def _read_npz(path: str | os.PathLike[str]) -> Instance:
+    """Read a ``.npz`` instance (never unpickling) and validate it as :meth:`from_arrays`
+    validates any instance; every problem is one :class:`InputError` line naming the array."""
+    src = str(path)
+    try:
+        fh = open(path, "rb")  # noqa: SIM115 (closed below, after the arrays are read)
+    except FileNotFoundError:
+        raise InputError("file not found", source=src) from None
+    except IsADirectoryError:
+        raise InputError("is a directory, not a file", source=src) from None
+    except OSError as exc:
+        raise InputError(f"cannot read: {exc}", source=src) from None
+    with fh:
+        try:
+            is_zip = zipfile.is_zipfile(fh)
+            fh.seek(0)
+            npz = np.load(fh, allow_pickle=False) if is_zip else None
+        except _NPZ_READ_ERRORS as exc:
+            raise InputError(f"not a .npz file: {exc}", source=src) from None
+        if not isinstance(npz, np.lib.npyio.NpzFile):
+            raise InputError("not a .npz file (not a zip archive of .npy arrays)", source=src)
+        with npz:
+            return _instance_from_npz(npz, src)
+
+
+def _instance_from_npz(npz: Any, src: str) -> Instance:
+    names = set(npz.files)
+
+    def get(key: str) -> np.ndarray:
+        if key not in names:
+            raise InputError(f"missing array {key!r}", source=src)
+        try:
+            arr = npz[key]
+        except _NPZ_READ_ERRORS as exc:
+            raise InputError(f"{key}: cannot read the array: {exc}", source=src) from None
+        if not isinstance(arr, np.ndarray):
+            raise InputError(f"{key}: expected a numpy array", source=src)
+        return arr
+
+    header = _npz_header(get(NPZ_HEADER), src)
+    expected = {NPZ_HEADER} | {f"{t}.{k}" for t, spec in NPZ_TABLES.items() for k, _ in spec}
+    extra = sorted(names - expected)
+    if extra:
+        raise InputError(f"unexpected array {extra[0]!r}", source=src)
+    cols: dict[str, np.ndarray] = {}
+    for table, spec in NPZ_TABLES.items():
+        n = None
+        for key, kind in spec:
+            full = f"{table}.{key}"
+            arr = get(full)
+            if arr.ndim != 1:
+                raise InputError(f"{full}: expected a 1-d array, got shape {arr.shape}", source=src)
+            dt = arr.dtype
+            ok = (
+                (dt.kind == "f" and dt.itemsize == 8)
+                if kind == "f"
+                else (dt.kind in "iu" if kind == "i" else dt.kind == "U")
+            )
+            if not ok:
+                raise InputError(
+                    f"{full}: expected {_NPZ_KIND_NAMES[kind]}, got dtype {dt}", source=src
+                )
+            if n is None:
+                n = len(arr)
+            elif len(arr) != n:
+                raise InputError(
+                    f"{full}: has {len(arr)} values, expected {n} (as {table}.id)", source=src
+                )
+            cols[full] = arr
+    return Instance.from_arrays(
+        epoch=header["epoch"],
+        target_ids=cols["targets.id"].tolist(),
+        target_lat=cols["targets.lat"],
+        target_lon=cols["targets.lon"],
+        target_weight=cols["targets.weight"],
+        orbit_ids=cols["orbits.id"].tolist(),
+        orbit_satellite=cols["orbits.satellite"].tolist(),
+        orbit_start=cols["orbits.start"],
+        orbit_end=cols["orbits.end"],
+        resources={k: cols[f"orbits.{k}"] for k in RESOURCE_KEYS},
+        opp_ids=cols["opportunities.id"].tolist(),
+        opp_target=cols["opportunities.target"],
+        opp_orbit=cols["opportunities.orbit"],
+        opp_start=cols["opportunities.start"],
+        opp_end=cols["opportunities.end"],
+        opp_roll=cols["opportunities.roll"],
+        opp_roll_min=cols["opportunities.roll_min"],
+        opp_roll_max=cols["opportunities.roll_max"],
+        name=header["name"],
+        meta=header["meta"],
+        source=src,
+    )
+
+
+def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
+    """Parse and check the JSON header entry (format, version, name, epoch, meta)."""
+    if arr.dtype.kind != "U" or arr.ndim != 0:
+        raise InputError(
+            f"{NPZ_HEADER}: expected a JSON string (0-d unicode array), got dtype {arr.dtype} "
+            f"shape {arr.shape}",
+            source=src,
+        )
+    try:
+        header = json.loads(str(arr), parse_constant=_reject_json_constant)
+    except ValueError as exc:
+        raise InputError(f"{NPZ_HEADER}: malformed JSON: {exc}", source=src) from None
+    if not isinstance(header, dict):
+        raise InputError(f"{NPZ_HEADER}: expected a JSON object", source=src)
+    fmt = header.get("format")
+    if fmt != NPZ_FORMAT_NAME:
+        raise InputError(
+            f"{NPZ_HEADER}.format: expected {NPZ_FORMAT_NAME!r}, got {fmt!r}", source=src
+        )
+    version = header.get("version")
+    if version != NPZ_FORMAT_VERSION or isinstance(version, bool):
+        raise InputError(
+            f"{NPZ_HEADER}.version: this sosp reads .npz version {NPZ_FORMAT_VERSION}, "
+            f"got {version!r}",
+            source=src,
+        )
+    if "epoch" not in header:
+        raise InputError(f"{NPZ_HEADER}: missing key 'epoch'", source=src)
+    header.setdefault("name", "")
+    header.setdefault("meta", {})
+    if not isinstance(header["name"], str):
+        raise InputError(f"{NPZ_HEADER}.name: expected a string", source=src)
+    if not isinstance(header["meta"], dict):
+        raise InputError(f"{NPZ_HEADER}.meta: expected an object", source=src)
+    return header
+
+
+def _reject_json_constant(name: str) -> float:
+    raise ValueError(f"{name} is not valid JSON")
 
 
 # --------------------------------------------------------------------------- helpers
@@ -664,10 +963,29 @@ def _check_epoch(epoch: Any, source: str | None) -> None:
         raise InputError(f"epoch: must be UTC (end with Z or +00:00): {epoch!r}", source=source)
 
 
+def _is_sorted(orbit: np.ndarray, start: np.ndarray, end: np.ndarray) -> bool:
+    """True if the rows are in (orbit, start, end) order, where a stable sort keeps them."""
+    if orbit.size < 2:
+        return True
+    o0, o1 = orbit[:-1], orbit[1:]
+    s0, s1 = start[:-1], start[1:]
+    same_os = (o0 == o1) & (s0 == s1)
+    ok = (o0 < o1) | ((o0 == o1) & (s0 < s1)) | (same_os & (end[:-1] <= end[1:]))
+    return bool(ok.all())
+
+
 def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ...]:
+    """The ids as strings, checked non-empty and unique (the first bad row is named)."""
+    vals = list(values)
+    # Fast path for what the files hold (millions of ids on large instances): all strings,
+    # none empty, no duplicate. Anything else goes through the loop that names the row.
+    if set(map(type, vals)) <= {str}:
+        unique = set(vals)
+        if len(unique) == len(vals) and "" not in unique:
+            return tuple(vals)
     out: list[str] = []
     seen: set[str] = set()
-    for r, v in enumerate(values):
+    for r, v in enumerate(vals):
         if isinstance(v, bool) or not isinstance(v, str | int | np.integer):
             raise InputError(f"{table}[{r}].id: expected a string or integer", source=source)
         s = str(v)
