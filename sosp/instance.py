@@ -763,6 +763,7 @@ def load_instance(path: str | os.PathLike[str]) -> Instance:
 
 # --------------------------------------------------------------------------- .npz files
 def _is_npz(path: str | os.PathLike[str]) -> bool:
+    """True for a path the .npz format is written to and read from (``.npz``, any case)."""
     return os.fspath(path).lower().endswith(".npz")
 
 
@@ -842,6 +843,8 @@ def _read_npz(path: str | os.PathLike[str]) -> Instance:
 
 
 def _instance_from_npz(npz: Any, src: str) -> Instance:
+    """Check the arrays of an open ``NpzFile`` (names, dimensions, dtype kinds, equal lengths
+    per table) and hand them to :meth:`Instance.from_arrays`, which checks the values."""
     names = set(npz.files)
 
     def get(key: str) -> np.ndarray:
