@@ -6,7 +6,17 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.pba import PBAParams, part_optimum, part_problem, pba_bound, pba_partition
+from heuristics.pba import (
+    PBAParams,
+    lp_prices,
+    orbit_cliques,
+    part_optimum,
+    part_problem,
+    partition_dp,
+    pba_bound,
+    pba_partition,
+    target_order,
+)
 from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
@@ -31,7 +41,38 @@ def test_bound_is_never_below_the_static_optimum(inst: Instance, max_part: int, 
     opt = brute_force(inst, "static").profit
     out = pba_bound(inst, max_part=max_part, order=order)
     assert out["bound"] >= opt - 1e-9
+    assert out["bound"] <= out["unpriced_bound"]
     assert out["bound"] <= sum(int(w) for w in inst.target_weight)
+    # R* is the lesser of two bounds: check the priced one on its own too, since on these
+    # tiny instances the bound without prices is often the optimum itself and would hide it.
+    pp = _pp(inst)
+    prices = lp_prices(inst, pp)
+    params = PBAParams(max_part=max_part, order=order)
+    priced = partition_dp(pp, target_order(pp, order), params, prices)
+    assert priced["value"] + prices.constant >= opt - 1e-9
+    if pp.targets:
+        # Single-target parts with the LP's prices give the LP bound (lp_prices), no more.
+        single = partition_dp(pp, pp.targets, PBAParams(max_part=1), prices)
+        assert single["value"] + prices.constant <= prices.lp_value + 1e-6
+        assert priced["value"] <= single["value"] + 1e-9  # the DP can take single targets
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances())
+def test_priced_cliques_are_cliques_of_setup_conflicts(inst: Instance) -> None:
+    pp = _pp(inst)
+    capped, cliques = orbit_cliques(inst, pp)
+    for members in cliques:
+        assert len({int(pp.tasks.orbit[t]) for t in members}) == 1
+        for a in members:
+            for b in members:
+                assert a == b or b in pp.conflicts[a]
+    # every (3) conflict lies in some clique, so the LP keeps all of (3)
+    for a, others in pp.conflicts.items():
+        for b in others:
+            assert any(a in m and b in m for m in cliques)
+    for j in capped:
+        assert sum(int(pp.tasks.orbit[t]) == j for t in pp.conflicts) > pp.openings[j]
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -58,20 +99,58 @@ def test_part_optimum_keeps_setup_conflicts_inside_a_part() -> None:
 
 def test_partition_by_dynamic_programming_takes_the_least_sum() -> None:
     inst = chain_no_cluster()
-    # Parts of one target relax every conflict: 5 + 4 + 3.
-    assert pba_bound(inst, max_part=1, order="index")["bound"] == 12
+    # Without prices, parts of one target relax every conflict: 5 + 4 + 3.
+    assert pba_bound(inst, max_part=1, order="index", prices="none")["bound"] == 12
     # With two, [a b] [c] = 5 + 3 beats [a] [b c] = 5 + 7: the DP finds it.
-    out = pba_partition(inst, PBAParams(max_part=2, order="index"))
+    out = pba_partition(inst, PBAParams(max_part=2, order="index", prices="none"))
     assert out["bound"] == 8
     assert out["parts"] == [_k(inst, "ab"), _k(inst, "c")]
     assert out["targets"] == 2 and out["inexact_parts"] == 0
 
 
-def test_openings_are_kept_inside_a_part_and_relaxed_between_parts() -> None:
+def test_prices_carry_setup_conflicts_across_parts() -> None:
+    inst = chain_no_cluster()  # a 5 and b 4 conflict by (3): their clique is priced
+    out = pba_bound(inst, max_part=1, order="index")
+    assert (out["bound"], out["unpriced_bound"], out["lp_bound"]) == (8, 12, 8.0)
+
+
+def test_openings_are_kept_inside_a_part_and_relaxed_between_parts_without_prices() -> None:
     inst = openings_no_cluster()  # c = 2 openings; weights a 1, b 2, c 3, d 4
-    assert pba_bound(inst, max_part=4, order="index")["bound"] == 3 + 4
-    assert pba_bound(inst, max_part=2, order="index")["bound"] == 1 + 2 + 3 + 4
+    assert pba_bound(inst, max_part=4, order="index", prices="none")["bound"] == 3 + 4
+    assert pba_bound(inst, max_part=2, order="index", prices="none")["bound"] == 1 + 2 + 3 + 4
     assert brute_force(inst, "static").profit == 7
+
+
+def test_prices_carry_the_openings_across_parts() -> None:
+    inst = openings_no_cluster()  # c = 2; the parts [a b] [c d] got two openings each
+    out = pba_bound(inst, max_part=2, order="index")
+    assert out["unpriced_bound"] == 1 + 2 + 3 + 4
+    assert out["bound"] == 3 + 4 == brute_force(inst, "static").profit
+
+
+def test_one_opening_two_parts_counts_the_better_part_only() -> None:
+    # One orbit with c = 1, two targets far apart in time (no (3) conflict): each part of
+    # one target had the opening to itself (3 + 5); the priced opening goes to one (5).
+    inst = Instance.build(
+        {"a": 3, "b": 5},
+        [("a", 0, 0.0, 2.0, 0.0, 0.0, 0.0), ("b", 0, 500.0, 502.0, 0.0, 0.0, 0.0)],
+        resources=Resources(max_openings=1),
+    )
+    out = pba_bound(inst, max_part=1)
+    assert out["unpriced_bound"] == 3 + 5
+    assert out["bound"] == 5 == brute_force(inst, "static").profit
+    assert solve(inst, "pba-stc").profit == 5
+
+
+def test_a_priced_part_skips_a_task_worth_less_than_its_share() -> None:
+    inst = openings_no_cluster()
+    pp = _pp(inst)
+    prices = lp_prices(inst, pp)
+    # The LP takes c 3 and d 4; the opening's price (3, from c) exceeds a's and b's weight.
+    for x in "ab":
+        assert part_optimum(pp, _k(inst, x), prices=prices)[:2] == (0.0, [])
+    value, tasks, exact = part_optimum(pp, _k(inst, "abcd"), prices=prices)
+    assert exact and value + prices.constant == pytest.approx(7.0)
 
 
 def test_memory_and_energy_are_relaxed() -> None:
@@ -100,7 +179,8 @@ def test_registered_as_a_bound_and_a_method() -> None:
 
 
 @pytest.mark.parametrize(
-    "kw", [{"max_part": 0}, {"node_limit": 1.5}, {"order": "lat"}, {"roll_rule": "x"}]
+    "kw",
+    [{"max_part": 0}, {"node_limit": 1.5}, {"order": "lat"}, {"roll_rule": "x"}, {"prices": "x"}],
 )
 def test_bad_parameters_raise_input_error(kw: dict) -> None:
     with pytest.raises(InputError):
@@ -116,7 +196,9 @@ def test_bound_is_at_least_the_static_milp_optimum(name: str) -> None:
     inst = generate_scenario(name, seed=0)
     exact = solve(inst, "milp", model="static", time_limit=300)
     assert exact.status == "optimal"
-    assert pba_bound(inst)["bound"] >= exact.profit - 1e-6
+    out = pba_bound(inst)
+    assert out["bound"] >= exact.profit - 1e-6
+    assert out["bound"] < out["unpriced_bound"] or out["bound"] == exact.profit
 
 
 def test_cli_bound_method_pba(tmp_path) -> None:
