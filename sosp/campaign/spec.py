@@ -275,7 +275,7 @@ def parse_scenarios(
         p = Path(s)
         if not p.is_absolute() and base is not None:
             p = base / p
-        if s.endswith(".json") or os.sep in s or "/" in s:
+        if s.endswith((".json", ".json.gz", ".npz")) or os.sep in s or "/" in s:
             if not p.is_file():
                 raise InputError(f"{where}: instance file not found: {s}")
             out.append(ScenarioSpec(s, str(p)))

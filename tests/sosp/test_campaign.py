@@ -84,6 +84,18 @@ def test_toml_campaign(tmp_path: Path, inst_files: list[str]) -> None:
     assert c.size() == 2 * 2 * 2
 
 
+@pytest.mark.parametrize("suffix", [".npz", ".json.gz"])
+def test_instance_files_of_every_format_are_scenarios(tmp_path: Path, suffix: str) -> None:
+    from tests.conftest import tiny_chain
+
+    tiny_chain().save(tmp_path / f"t{suffix}")
+    f = tmp_path / "c.toml"
+    f.write_text(
+        f"[campaign]\nscenarios = ['t{suffix}']\nseeds = 1\n[[methods]]\nname = 'greedy'\n"
+    )
+    assert load_campaign(f).scenarios[0].path == str(tmp_path / f"t{suffix}")
+
+
 @pytest.mark.parametrize(
     "text, words",
     [
@@ -94,6 +106,10 @@ def test_toml_campaign(tmp_path: Path, inst_files: list[str]) -> None:
         ("[campaign]\nscenarios=['B1']\nseeds=1\nfoo=2\n[[methods]]\nname='greedy'\n", "foo"),
         ("[campaign]\nscenarios=['B1']\nseeds=[-1]\n[[methods]]\nname='greedy'\n", "seeds"),
         ("[campaign]\nscenarios=['x.json']\nseeds=1\n[[methods]]\nname='greedy'\n", "x.json"),
+        (
+            "[campaign]\nscenarios=['x.npz']\nseeds=1\n[[methods]]\nname='greedy'\n",
+            "not found: x.npz",
+        ),
     ],
 )
 def test_malformed_campaign_files(tmp_path: Path, text: str, words: str) -> None:
