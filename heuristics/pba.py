@@ -553,9 +553,10 @@ def pba_partition(
 ) -> dict[str, Any]:
     """The partition-based bound: the best partition by dynamic programming, and its parts.
 
-    With ``params.prices == "lp"`` the partition is computed twice, without prices (the
-    paper's reading) and with the LP's (:func:`lp_prices`), and R* is the lesser of the two
-    bounds (both valid, module docstring); the parts returned are those of the lesser.
+    With ``params.prices == "lp"`` the partition is computed twice, with the LP's prices
+    (:func:`lp_prices`) and, if time is left, without prices (the paper's reading), and R* is
+    the lesser of the two bounds (both valid, module docstring); the parts returned are those
+    of the lesser. A stop request or a deadline already passed skips the LP.
 
     Returns
     -------
@@ -563,8 +564,9 @@ def pba_partition(
         ``bound`` (R*), ``targets`` (F*: the targets covered by the parts' optima), ``parts``
         (lists of target indices), ``part_tasks`` (the tasks of each part's optimum),
         ``inexact_parts`` (parts that fell back to their upper values), ``subproblems``,
-        ``unpriced_bound`` (the bound without prices), ``lp_bound`` (the LP bound the prices
-        come from, or None), ``lp_x`` (the LP's task values, empty without an LP), ``tasks``.
+        ``unpriced_bound`` (the bound without prices; None if not computed), ``lp_bound``
+        (the LP bound the prices come from, or None), ``lp_x`` (the LP's task values, empty
+        without an LP), ``tasks``.
     """
     if tasks is None:
         tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
@@ -572,22 +574,26 @@ def pba_partition(
     order = target_order(pp, params.order)
     coverable = sum(pp.weight[k] for k in pp.targets)
     prices = zero_prices(pp)
+    late = deadline is not None and time.perf_counter() > deadline
+    if params.prices == "lp" and not late and not Interrupted()():
+        # The LP first: if time runs out in the partition, the parts not reached count their
+        # upper values, and with the LP's prices these still add up to the LP bound.
+        prices = lp_prices(
+            instance, pp, None if deadline is None else deadline - time.perf_counter()
+        )
     out = partition_dp(pp, order, params, prices, deadline)
+    solved = out["subproblems"]
     # The optimum is an integer: round down, with a margin far above the float error of these
     # sums (about 1e-12 here), and never above the weight some task covers.
-    unpriced = min(int(math.floor(out["value"] + 1e-6)), coverable)
-    bound, solved = unpriced, out["subproblems"]
-    if params.prices == "lp" and not out["stopped"]:
-        left = None if deadline is None else deadline - time.perf_counter()
-        lp = lp_prices(instance, pp, left)
-        if lp.lp_value is not None:
-            prices = lp
-            priced = partition_dp(pp, order, params, prices, deadline)
-            solved += priced["subproblems"]
-            value = min(int(math.floor(priced["value"] + prices.constant + 1e-6)), coverable)
-            if value < bound:
-                bound, out = value, priced
-    log.info("pba: bound %d (without prices %d, LP %s)", bound, unpriced, prices.lp_value)
+    bound = min(int(math.floor(out["value"] + prices.constant + 1e-6)), coverable)
+    unpriced: int | None = bound if prices.lp_value is None else None
+    if prices.lp_value is not None and not out["stopped"]:
+        plain = partition_dp(pp, order, params, zero_prices(pp), deadline)
+        solved += plain["subproblems"]
+        unpriced = min(int(math.floor(plain["value"] + 1e-6)), coverable)
+        if unpriced < bound:
+            bound, out = unpriced, plain
+    log.info("pba: bound %d (without prices %s, LP %s)", bound, unpriced, prices.lp_value)
     return {
         "bound": bound,
         "targets": out["targets"],

@@ -219,6 +219,15 @@ def test_cli_bound_method_pba(tmp_path) -> None:
     assert bad.returncode == 2 and "--model" in bad.stderr and "Traceback" not in bad.stderr
 
 
+def test_parts_not_reached_in_time_keep_the_lp_bound() -> None:
+    inst = openings_no_cluster()  # LP bound 7 = the optimum
+    pp = _pp(inst)
+    prices = lp_prices(inst, pp)
+    late = partition_dp(pp, pp.targets, PBAParams(max_part=4), prices, deadline=0.0)
+    assert late["stopped"] and late["subproblems"] == 0 and late["inexact_parts"] >= 1
+    assert late["value"] + prices.constant == pytest.approx(prices.lp_value) == 7.0
+
+
 def test_a_stop_request_leaves_a_valid_bound() -> None:
     from sosp.stop import clear_stop, request_stop
 
