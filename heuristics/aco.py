@@ -14,19 +14,21 @@ Construction graph
     may follow it by (3) (:func:`sosp.rules.may_precede` on their interval ends). An ant walks
     the orbits in a random order; on each it starts at the source and repeatedly moves to a
     successor of its current node, i.e. schedules it; a successor is a candidate when it
-    still earns something (some target not covered yet) and fits the orbit's knapsacks,
-    energy (4), memory (5) and openings (6) (:class:`heuristics.timeline.OrbitTimeline`).
-    Only the first ``candidates`` such successors in start order are considered (a
-    candidate list); the walk ends when there is none.
+    still earns something (some target not covered yet); the drawn candidate must also fit
+    the orbit's knapsacks, energy (4), memory (5) and openings (6)
+    (:class:`heuristics.timeline.OrbitTimeline`). Only the first ``candidates`` earning
+    successors in start order are considered (a candidate list); the walk ends when none
+    is left.
 Choice
     pseudo-random proportional rule: with probability ``q0`` the candidate maximising
     ``tau(u, v)^alpha * eta(u, v)^beta``, else one drawn with probability proportional to it.
-    The heuristic information is profit per share of resources used,
-    ``eta(u, v) = g_v / (cost_v + gap_weight * gap(u, v) / H)``: g_v the weight of v's
-    uncovered targets, cost_v the task's share of the orbit's capacities
-    (:func:`heuristics.stc.resource_cost`), gap the idle time between u's and v's (3)
-    intervals (from the orbit start for the source) over the orbit length H: on a path the
-    time skipped is lost for good, so it is priced like a resource.
+    The heuristic information is what v earns over what taking it loses,
+    ``eta(u, v) = g_v / loss(u, v)`` (:func:`loss_eta`): g_v the weight of v's uncovered
+    targets, loss(u, v) the gain of every earning successor of u that can no longer follow
+    once v is taken, v's own included (the GWMIN2 ratio of greedy maximum-weight independent
+    set). On a path everything skipped or blocked is lost for good, and on the paper's
+    scenarios (3) is what binds (``docs/baselines.md``), so the lost gain prices a choice.
+    ``heuristic = "resource"`` keeps the former ``g_v / (cost_v + gap_weight * gap / H)``.
 Pheromone (MAX-MIN Ant System)
     one value per arc, initialised to tau_max. After each iteration every trail evaporates,
     ``tau <- (1 - rho) tau``, then the iteration-best ant (every ``gb_every``-th iteration the
@@ -51,7 +53,7 @@ import logging
 import sys
 import time
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -71,6 +73,10 @@ log = logging.getLogger(__name__)
 #: Colony iterations when neither ``iterations`` nor a time limit is given.
 DEFAULT_ITERATIONS = 200
 
+#: Orbits with at most this many usable tasks keep their successor matrix ((m + 1) x m
+#: booleans, 4 MB at the limit); larger ones compute the rows an ant asks for.
+DENSE_TASKS = 2048
+
 
 @dataclass(frozen=True)
 class ACOParams:
@@ -79,13 +85,16 @@ class ACOParams:
     Parameters
     ----------
     ants
-        Ants per iteration (MMAS uses one per city on the TSP; see ``docs/baselines.md``).
+        Ants per iteration (MMAS uses one per city on the TSP, 10 with local search; here 10
+        so that short runs do enough iterations for the trails to learn,
+        ``docs/baselines.md``).
     alpha
         Weight of the pheromone in the choice rule (MMAS: 1).
     beta
         Weight of the heuristic information in the choice rule (MMAS: 2).
     rho
-        Evaporation rate (MMAS without local search: 0.02).
+        Evaporation rate (MMAS: 0.02 for long runs without local search, 0.2 with it; 0.2
+        here, as the colony gets tens of iterations at the paper's time limits).
     p_best
         Probability that an ant at convergence builds the best schedule, which sets tau_min
         (MMAS: 0.05).
@@ -101,9 +110,13 @@ class ACOParams:
         Pseudo-random proportional rule (Dorigo and Gambardella's ACS, 0.9 there): with this
         probability an ant takes the best-rated candidate instead of drawing (0: MMAS's
         random proportional rule alone).
+    heuristic
+        Heuristic information: ``"loss"``, a candidate's gain over the gain of the earning
+        successors it makes unreachable (:func:`loss_eta`), or ``"resource"``, the former
+        gain over resource share plus weighted idle time (:func:`resource_eta`).
     gap_weight
-        Weight of the idle time skipped in the heuristic information (``docs/baselines.md``:
-        1, 3, 10, 30 measured).
+        Weight of the idle time skipped in the ``"resource"`` heuristic information
+        (``docs/baselines.md``: 1, 3, 10, 30 measured); unused by ``"loss"``.
     iterations
         Colony iterations (each: ``ants`` constructions, then the update); None: until the
         time limit, or :data:`DEFAULT_ITERATIONS` when there is none.
@@ -115,15 +128,16 @@ class ACOParams:
         Roll of multi-opportunity cluster-tasks: ``"midpoint"`` (9) or ``"nadir"``.
     """
 
-    ants: int = 20
+    ants: int = 10
     alpha: float = 1.0
     beta: float = 2.0
-    rho: float = 0.02
+    rho: float = 0.2
     p_best: float = 0.05
     gb_every: int = 10
     restart: int = 250
     candidates: int = 20
     q0: float = 0.9
+    heuristic: Literal["loss", "resource"] = "loss"
     gap_weight: float = 10.0
     iterations: int | None = None
     local_search: bool = False
@@ -142,6 +156,8 @@ class ACOParams:
         check_int("restart", self.restart, 0)
         check_int("candidates", self.candidates, 1)
         check_float("q0", self.q0, 0.0, 1.0)
+        if self.heuristic not in ("loss", "resource"):
+            raise InputError(f"heuristic: expected 'loss' or 'resource', got {self.heuristic!r}")
         check_float("gap_weight", self.gap_weight, 0.0, 1e6)
         check_int("iterations", self.iterations, 0, optional=True)
         check_int("ls_passes", self.ls_passes, 1)
@@ -226,6 +242,38 @@ class Graph:
             j: np.ones((len(data.orbit_tasks[j]) + 1, len(data.orbit_tasks[j])))
             for j in self.orbits
         }
+        # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
+        # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
+        self._succ: dict[int, np.ndarray | None] = {}
+        for j in self.orbits:
+            m = len(data.orbit_tasks[j])
+            self._succ[j] = self._rows(j, np.arange(m + 1)) if m <= DENSE_TASKS else None
+        #: per task, its weight (its gain while no target is covered), as floats
+        self.weight = np.asarray(data.tasks.weight, dtype=np.float64)
+        covering = data.target_tasks
+        #: per target, the tasks covering it (whose gain drops when it gets covered)
+        self.covering = [
+            np.asarray(covering.get(k, ()), dtype=np.int64) for k in range(data.instance.n_targets)
+        ]
+
+    def _rows(self, j: int, rows: np.ndarray) -> np.ndarray:
+        """Rows of orbit ``j``'s successor matrix, computed: v follows u when it comes later
+        in start order and (3) allows it (:func:`sosp.rules.may_precede` on ``R_u``, ``L_v``)."""
+        lft, rgt = self.left[j], self.right[j]
+        m = len(lft)
+        col = np.arange(m)
+        tail = rows[:, None] - 1  # task index of each row (-1: the source)
+        ends = np.where(rows > 0, rgt[np.maximum(rows - 1, 0)], -np.inf)
+        return (col[None, :] > tail) & rules.may_precede(ends[:, None], lft[None, :])
+
+    def successors(self, j: int, rows: int | np.ndarray) -> np.ndarray:
+        """Which tasks of orbit ``j`` may follow the node(s) ``rows`` (0: the source, every
+        task; v + 1: local task v), as a boolean row (or one row per entry of ``rows``)."""
+        mat = self._succ[j]
+        if mat is not None:
+            return mat[rows]
+        out = self._rows(j, np.atleast_1d(np.asarray(rows, dtype=np.int64)))
+        return out[0] if np.ndim(rows) == 0 else out
 
     def reset(self, value: float) -> None:
         """Set every trail to ``value``."""
@@ -281,67 +329,109 @@ def tau_bounds(rho: float, p_best: float, n_arcs: int, candidates: int) -> tuple
 
 
 # ---------------------------------------------------------------------------- construction
+def loss_eta(gains: np.ndarray, cand: np.ndarray, follows: np.ndarray) -> np.ndarray:
+    """Heuristic information ``eta(u, v) = g_v / loss(u, v)`` of the candidates v.
+
+    Taking v ends the path's chance at every earning successor of the current node u that
+    cannot follow v by (3): ``loss(u, v)`` is their gain, v's own included (v does not follow
+    itself), so ``eta`` lies in (0, 1] and is 1 when v blocks nothing that earns. This is
+    the ratio of the GWMIN2 greedy for the maximum-weight independent set (a vertex's weight
+    over that of its closed neighbourhood; Sakai, Togasaki and Yamazaki 2003), with the
+    neighbourhood taken as what the path loses: the time a task occupies, the idle time
+    skipped before it and the setup and slew (3) it needs are all priced by the earning tasks
+    they exclude.
+
+    Parameters
+    ----------
+    gains
+        Per local index of the orbit, the gain g (weight of the uncovered targets, (1)) of
+        u's successors, 0 for every task that is not one or earns nothing.
+    cand
+        Local indices of the candidates (each with a positive gain).
+    follows
+        Boolean, one row per candidate v: which local indices may follow v
+        (:meth:`Graph.successors`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``eta`` of ``cand``.
+    """
+    loss = float(gains.sum()) - follows @ gains
+    return gains[cand] / loss
+
+
+def resource_eta(
+    gains: np.ndarray, cost: np.ndarray, gap: np.ndarray, gap_weight: float
+) -> np.ndarray:
+    """The former heuristic information ``g_v / (cost_v + gap_weight * gap(u, v) / H)``.
+
+    ``cost`` the candidates' :func:`heuristics.stc.resource_cost`, ``gap`` the idle time
+    between u's and v's (3) intervals over the orbit length H (``heuristic = "resource"``).
+    """
+    return gains / (cost + gap_weight * gap)
+
+
 def construct(graph: Graph, p: ACOParams, rng: np.random.Generator) -> Selection:
     """One ant's schedule: a path per orbit (random orbit order), see the module docstring.
 
-    The candidates are the first ``candidates`` successors that earn something ((3) with the
-    current node is tested on the whole orbit at once with :func:`sosp.rules.may_precede`);
-    the drawn one is then checked against the knapsacks (4)-(6) by the orbit's timeline, and
-    a candidate that does not fit is removed and the choice made again among the others
-    (the same distribution as drawing among the fitting candidates only, with one timeline
-    check per step instead of one per candidate).
+    The successors of the current node that earn something are found on the whole orbit at
+    once ((3) by :func:`sosp.rules.may_precede`, gains kept per task and lowered as targets
+    get covered); the first ``candidates`` of them are rated (:func:`loss_eta`). The drawn
+    one is then checked against the knapsacks (4)-(6) by the orbit's timeline, and a
+    candidate that does not fit is removed and the choice made again among the others (the
+    same distribution as drawing among the fitting candidates only, with one timeline check
+    per step instead of one per candidate).
     """
     data = graph.data
     sol = Selection(data)
-    cost, weight, targets, cover = data.cost, data.weight, data.targets, sol.cover
+    weight, targets, cover, covering = data.weight, data.targets, sol.cover, graph.covering
+    gain = graph.weight.copy()  # per task: weight of its targets not covered yet
+    loss_rule = p.heuristic == "loss"
+    alpha, beta = p.alpha, p.beta
     for oi in rng.permutation(len(graph.orbits)):
         j = graph.orbits[int(oi)]
         idx, lft, rgt = data.orbit_tasks[j], graph.left[j], graph.right[j]
         mat = graph.tau[j]
-        h = graph.horizon[j]
         line = sol.lines[j]
         openings = line.rules.max_openings
         u = -1
         r_u = graph.origin[j]
         while len(line) < openings:
-            first = u + 1
-            if u < 0:  # from the source every task may come first
-                succ = np.arange(len(idx))
-            else:
-                succ = first + np.flatnonzero(rules.may_precede(r_u, lft[first:]))
-            cand: list[int] = []
-            eta: list[float] = []
-            for v in succ.tolist():
-                t = int(idx[v])
-                g = sum(weight[k] for k in targets[t] if cover[k] == 0)
-                if g <= 0:
-                    continue
-                gap = p.gap_weight * max(0.0, float(lft[v]) - r_u) / h
-                cand.append(v)
-                eta.append(g / (float(cost[t]) + gap))
-                if len(cand) >= p.candidates:
-                    break
-            if not cand:
+            # gains of u's successors (0 for the others): the earning ones are the choices
+            gs = gain[idx] * graph.successors(j, u + 1)
+            cand = gs.nonzero()[0][: p.candidates]
+            if not len(cand):
                 break
-            w = mat[u + 1, cand] ** p.alpha * np.asarray(eta) ** p.beta
+            if loss_rule:
+                eta = loss_eta(gs, cand, graph.successors(j, cand + 1))
+            else:
+                gap = np.maximum(0.0, lft[cand] - r_u) / graph.horizon[j]
+                eta = resource_eta(gs[cand], data.cost[idx[cand]], gap, p.gap_weight)
+            w = mat[u + 1, cand] ** alpha * eta**beta
+            cand_list = cand.tolist()
             chk = None
-            while cand:
+            while cand_list:
                 if p.q0 > 0 and rng.random() < p.q0:
-                    i = int(np.argmax(w))
+                    i = int(w.argmax())
                 else:
                     cum = np.cumsum(w)
                     i = int(np.searchsorted(cum, rng.random() * cum[-1], side="right"))
-                    i = min(i, len(cand) - 1)
-                chk = sol.check(int(idx[cand[i]]))
+                    i = min(i, len(cand_list) - 1)
+                chk = sol.check(int(idx[cand_list[i]]))
                 if chk.ok:
                     break
-                del cand[i]
+                del cand_list[i]
                 w = np.delete(w, i)
-            if not cand or chk is None or not chk.ok:
+            if not cand_list or chk is None or not chk.ok:
                 break
-            t = int(idx[cand[i]])
+            v = cand_list[i]
+            t = int(idx[v])
+            for k in targets[t]:
+                if cover[k] == 0:  # k becomes covered: no task earns its weight any more
+                    gain[covering[k]] -= weight[k]
             sol.add(t, chk)
-            u, r_u = cand[i], float(rgt[cand[i]])
+            u, r_u = v, float(rgt[v])
     sol.commit()
     return sol
 

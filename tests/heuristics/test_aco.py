@@ -12,8 +12,11 @@ from heuristics.aco import (
     ACOLSParams,
     ACOParams,
     Graph,
+    construct,
     exchange,
     local_search,
+    loss_eta,
+    resource_eta,
     tau_bounds,
     update_pheromone,
 )
@@ -144,6 +147,75 @@ def test_arcs_follow_each_orbit_path_from_the_source() -> None:
     assert graph.tau[0].shape == (4, 3)
 
 
+# ----------------------------------------------------------------- heuristic information
+def test_successors_follow_rule_3_in_start_order() -> None:
+    graph = Graph(stc_data(x_blocks_y_and_z()))  # local y 0, x 1, z 2; only y -> z by (3)
+    expect = [[1, 1, 1], [0, 0, 1], [0, 0, 0], [0, 0, 0]]  # source, y, x, z
+    np.testing.assert_array_equal(graph.successors(0, np.arange(4)), np.array(expect, bool))
+    np.testing.assert_array_equal(graph.successors(0, 1), [False, False, True])
+
+
+def test_loss_eta_by_hand() -> None:
+    # From the source, y (5), x (6), z (4) all earn: 15 in all. Taking y loses y and x
+    # (z may still follow): 11; taking x or z loses every task: 15.
+    graph = Graph(stc_data(x_blocks_y_and_z()))
+    gains = np.array([5.0, 6.0, 4.0])
+    cand = np.arange(3)
+    eta = loss_eta(gains, cand, graph.successors(0, cand + 1))
+    np.testing.assert_allclose(eta, [5 / 11, 6 / 15, 4 / 15])
+    # after y, z is the only successor: it loses nothing but itself
+    gains_after_y = gains * graph.successors(0, 1)
+    np.testing.assert_allclose(
+        loss_eta(gains_after_y, np.array([2]), graph.successors(0, np.array([3]))), [1.0]
+    )
+
+
+def test_one_greedy_ant_takes_the_pair_not_the_heaviest() -> None:
+    # HPFS takes x (6) first (tests/heuristics/test_hpfs); eta ranks y above x, then z
+    inst = x_blocks_y_and_z()
+    assert solve(inst, "aco-stc", seed=0, iterations=1, ants=1, q0=1.0).profit == 9
+
+
+def test_resource_eta_by_hand() -> None:
+    # the former rule: g / (cost + gap_weight * gap / H), gap already over H
+    eta = resource_eta(np.array([2.0, 3.0]), np.array([0.5, 1.0]), np.array([0.1, 0.0]), 10.0)
+    np.testing.assert_allclose(eta, [2.0 / 1.5, 3.0 / 1.0])
+    res = solve(x_blocks_y_and_z(), "aco-stc", seed=0, iterations=3, heuristic="resource")
+    assert validate(x_blocks_y_and_z(), res.schedule).feasible
+
+
+def test_a_covered_target_earns_nothing_on_another_orbit() -> None:
+    # target a on two orbits: once one ant's path covers it, the other orbit's task has gain
+    # 0 and is no candidate; b on orbit 1 only is still taken
+    inst = Instance.build(
+        {"a": 3, "b": 1},
+        [("a", 0, 0.0, 2.0, 0.0), ("a", 1, 0.0, 2.0, 0.0), ("b", 1, 500.0, 502.0, 0.0)],
+        name="shared_target",
+    )
+    graph = Graph(stc_data(inst))
+    for seed in range(4):
+        sol = construct(graph, ACOParams(q0=0.0), np.random.default_rng(seed))
+        assert len(sol.chosen) == 2 and sol.profit == 4
+
+
+def test_computed_successor_rows_equal_the_kept_matrix(monkeypatch) -> None:  # noqa: ANN001
+    import heuristics.aco as aco
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C1", 0)
+    dense = Graph(stc_data(inst))
+    monkeypatch.setattr(aco, "DENSE_TASKS", 0)
+    lazy = Graph(stc_data(inst))
+    for j in dense.orbits:
+        rows = np.arange(len(dense.data.orbit_tasks[j]) + 1)
+        np.testing.assert_array_equal(lazy.successors(j, rows), dense.successors(j, rows))
+        assert lazy._succ[j] is None and dense._succ[j] is not None
+    a = solve(inst, "aco-stc", seed=3, iterations=3)
+    monkeypatch.setattr(aco, "DENSE_TASKS", 2048)
+    b = solve(inst, "aco-stc", seed=3, iterations=3)
+    assert a.schedule.observations == b.schedule.observations
+
+
 def test_restart_resets_every_trail() -> None:
     graph = Graph(stc_data(x_blocks_y_and_z()))
     graph.tau[0][:] = 0.3
@@ -207,6 +279,7 @@ def test_params_from_command_line_strings() -> None:
         ({"rho": "x"}, "rho"),
         ({"p_best": 1.0}, "p_best"),
         ({"q0": 1.5}, "q0"),
+        ({"heuristic": "weight"}, "heuristic"),
         ({"roll_rule": "left"}, "roll_rule"),
         ({"local_search": "maybe"}, "local_search"),
         ({"iterations": -1}, "iterations"),
