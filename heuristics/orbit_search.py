@@ -57,6 +57,7 @@ from sosp.stop import (
     MaxRuntime,
     NoImprovement,
     SearchStatus,
+    StoppingCriterion,
     stop_requested,
 )
 
@@ -353,6 +354,57 @@ def ascent_profit(data: OrbitData, seed: int = 0) -> float:
     return search.profit
 
 
+@dataclass
+class IlsRun:
+    """What :func:`iterate` found: the best plans, their profit, and the run's counters."""
+
+    best_profit: float
+    best_paths: list[Any]
+    ascent_profit: float
+    steps: int
+    accepted: int
+    trace: list[tuple[int, float, float]]
+
+
+def iterate(
+    search: OrbitSearch,
+    p: OrbitSearchParams,
+    stop: StoppingCriterion,
+    deadline: float | None,
+    t0: float,
+) -> IlsRun:
+    """Steps 1-3 of the module docstring on ``search`` (ascent, then perturb / ascend /
+    accept until ``stop``, a stop request or the progress says so); the search is left at
+    its last accepted state, the best plans are returned. Shared by ``orbit-dp`` and
+    ASA-DTC's start (``init="orbit-dp"``)."""
+    search.ascent(deadline)
+    first = search.profit
+    best_profit, best_paths = search.profit, list(search.paths)
+    trace = [(0, round(time.perf_counter() - t0, 4), best_profit)]
+    steps = accepted = since = 0
+    stop = FirstOf(current_progress(), Interrupted(), stop)
+    now = SearchStatus()
+    while search.data.orbits:
+        now.iteration, now.since_best, now.best = steps, since, best_profit
+        if stop(now):
+            break
+        steps += 1
+        since += 1
+        mark, before = len(search.journal), search.profit
+        search.perturb(p)
+        search.ascent(deadline)
+        if search.profit + 1e-9 >= before:
+            accepted += 1
+            search.journal.clear()
+            if search.profit > best_profit + 1e-9:
+                best_profit, best_paths, since = search.profit, list(search.paths), 0
+                trace.append((steps, round(time.perf_counter() - t0, 4), best_profit))
+        else:
+            search.undo(mark)
+            search.journal.clear()
+    return IlsRun(best_profit, best_paths, first, steps, accepted, trace)
+
+
 def solve_orbit_dp(
     instance: Instance,
     *,
@@ -403,38 +455,15 @@ def solve_orbit_dp(
         data = orbit_data(instance, deadline, workers=p.workers)
         search = OrbitSearch(data, rng)
     t_data = time.perf_counter() - t0
-    search.ascent(deadline)
-    first = search.profit
-    best_profit, best_paths = search.profit, list(search.paths)
-    trace = [(0, round(time.perf_counter() - t0, 4), best_profit)]
-    steps = accepted = since = 0
-    crit: list[Any] = [current_progress(), Interrupted()]
+    crit: list[Any] = []
     if time_limit is not None:
         crit.append(MaxRuntime(float(time_limit), start=t0))
     if iterations is not None:
         crit.append(MaxIterations(iterations))
     if no_improve is not None:
         crit.append(NoImprovement(no_improve))
-    stop, now = FirstOf(*crit), SearchStatus()
-    while data.orbits:
-        now.iteration, now.since_best, now.best = steps, since, best_profit
-        if stop(now):
-            break
-        steps += 1
-        since += 1
-        mark, before = len(search.journal), search.profit
-        search.perturb(p)
-        search.ascent(deadline)
-        if search.profit + 1e-9 >= before:
-            accepted += 1
-            search.journal.clear()
-            if search.profit > best_profit + 1e-9:
-                best_profit, best_paths, since = search.profit, list(search.paths), 0
-                trace.append((steps, round(time.perf_counter() - t0, 4), best_profit))
-        else:
-            search.undo(mark)
-            search.journal.clear()
-    search.paths = best_paths
+    run = iterate(search, p, FirstOf(*crit), deadline, t0)
+    search.paths = run.best_paths
     schedule = search.schedule()
     profit, observed = schedule.coverage_profit(instance)
     status = Status.FEASIBLE if data.orbits else Status.NO_SOLUTION
@@ -445,14 +474,14 @@ def solve_orbit_dp(
         profit=profit,
         observed=observed,
         runtime_s=time.perf_counter() - t0,
-        iterations=steps,
+        iterations=run.steps,
         stats={
             "candidates": data.n_items,
             "candidate_mode": mode,
             "candidates_s": round(t_data, 4),
-            "ascent_profit": first,
+            "ascent_profit": run.ascent_profit,
             "replans": search.replans,
-            "accepted": accepted,
-            "trace": trace,
+            "accepted": run.accepted,
+            "trace": run.trace,
         },
     )
