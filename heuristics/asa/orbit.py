@@ -39,6 +39,10 @@ The move (:func:`orbit_move`):
    its ascent runs; ASA-DTC's state holds one option per task, so the sharing lives only
    within a move.
 
+:func:`orbit_search_start` is the search's start with ``init="orbit-dp"``: ``orbit-dp``'s
+iterated local search over the same candidates, its best plans loaded into the state through
+step 4 (each target placed by the first orbit whose plan covers it) and repaired.
+
 :func:`ascend` re-plans every orbit until none gains; the search calls it when it restarts
 from its best solution (``ASAParams.restart``).
 
@@ -53,7 +57,8 @@ re-planning neighbourhood, which takes this move with probability ``replan_orbit
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -62,12 +67,25 @@ from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
+from heuristics.orbit_search import (
+    OrbitSearch,
+    OrbitSearchParams,
+    WindowData,
+    WindowSearch,
+    iterate,
+)
 from sosp.candidates import flatten
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, OrbitItems, best_feasible_path, orbit_data
+from sosp.rules import RollRule
+from sosp.stop import MaxRuntime, NoImprovement
 
 log = logging.getLogger(__name__)
+
+#: Steps without a gain after which the ``"orbit-dp"`` start ends when the search has no time
+#: limit (iteration-limited runs: the seed alone fixes the start).
+INIT_NO_IMPROVE = 20
 
 
 def candidate_rolls(data: OrbitData, state: State) -> np.ndarray:
@@ -154,7 +172,7 @@ class OrbitPlanner:
         pb = state.pb
         sched, orbit, w = state.sched, pb.opt_orbit, self.weight
         price = np.zeros(len(w))
-        targets = self.orbit_items[j].targets
+        targets = self.targets_of(j)
         draws = rng.random(len(targets)) if steal > 0 else None
         for n, k in enumerate(targets.tolist()):
             x = sched[k]
@@ -174,15 +192,42 @@ class OrbitPlanner:
     ) -> tuple[list[tuple[int, ...]], float] | None:
         """Step 3: the best plan of orbit j (covered options per observation, time order) and
         its value at ``price``; None when it is worth no more than the current plan."""
-        o = self.orbit_items[j]
-        path = best_feasible_path(o, price)
-        value = float(price[o.covered(path)].sum()) if len(path) else 0.0
+        plan, covered = self._best(j, price)
+        value = float(price[covered].sum()) if len(covered) else 0.0
         unit = state.pb.opt_unit
         current = {unit[x] for c in state.lines[j].obs for x in c[MEMBERS]}
         if value <= float(price[list(current)].sum()) + 1e-9:
             return None
+        return plan, value
+
+    def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
+        """The best plan of orbit j at ``price`` (options per observation) and the targets
+        it covers."""
+        o = self.orbit_items[j]
+        path = best_feasible_path(o, price)
         opps = self.data.opps
-        return [opps[int(o.items[u])] for u in path], value
+        return [opps[int(o.items[u])] for u in path], o.covered(path)
+
+    def targets_of(self, j: int) -> np.ndarray:
+        """The targets orbit j can observe."""
+        return self.orbit_items[j].targets
+
+    def start_search(self, rng: np.random.Generator) -> OrbitSearch:
+        """``orbit-dp``'s search over this planner's candidates (for :func:`orbit_search_start`)."""
+        return OrbitSearch(self.data, rng)
+
+    def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
+        """(orbit, options per observation) of each non-empty plan of :meth:`start_search`'s
+        search."""
+        opps = self.data.opps
+        for o, path in zip(self.data.orbits, paths, strict=True):
+            if len(path):
+                yield o.orbit, [opps[int(o.items[u])] for u in path]
+
+    @property
+    def n_candidates(self) -> int:
+        """Candidates generated up front (statistics)."""
+        return int(self.data.n_items)
 
     def apply(
         self,
@@ -243,6 +288,58 @@ class OrbitPlanner:
                 state.assign(unit[x], x)
             line.insert(state.make_cluster(members))
         return losers
+
+
+class WindowPlanner(OrbitPlanner):
+    """:class:`OrbitPlanner` without candidates made up front, where they would not fit in
+    memory or time (thousands of opportunities per orbit): each plan prices the orbit's
+    windows at the move's prices and plans over the real observations of the argmax rolls
+    (:func:`sosp.windows.window_plan`, the planner ``orbit-dp`` uses there). Rolls follow the
+    search's rule for clusters; a restricted candidate set, so a plan is feasible and good,
+    not the optimum over every candidate. The start (``init="orbit-dp"``) runs
+    :class:`heuristics.orbit_search.WindowSearch`.
+    """
+
+    def __init__(self, instance: Instance, state: State) -> None:
+        if state.pb.mode != "dtc":
+            raise ValueError("whole-orbit re-planning needs dynamic clustering (asa-dtc)")
+        from sosp.windows import window_plan  # numba's import only where it is used
+
+        self.data = WindowData.build(instance)
+        self._window_plan = window_plan
+        self._rule: RollRule = "nadir" if state.nadir else "midpoint"
+        self.orbits = [o.orbit for o in self.data.orbits if o.size]
+        self.weight = np.asarray(state.pb.target_weight, dtype=float)
+        self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}
+
+    def seeing(self, targets: list[int]) -> list[int]:
+        if not targets:
+            return []
+        return self.data.orbits_seeing(np.asarray(targets, dtype=np.int64)).tolist()
+
+    def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
+        wp = self._window_plan(self.data.orbits[j], price, self._rule)
+        return _window_groups(wp), wp.targets
+
+    def targets_of(self, j: int) -> np.ndarray:
+        return self._targets[j]
+
+    def start_search(self, rng: np.random.Generator) -> OrbitSearch:
+        return WindowSearch(self.data, rng)
+
+    def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
+        for j, wp in enumerate(paths):
+            if wp.size:
+                yield j, _window_groups(wp)
+
+    @property
+    def n_candidates(self) -> int:
+        return 0
+
+
+def _window_groups(wp: Any) -> list[tuple[int, ...]]:
+    """The options (global opportunity indices) of each observation of a window plan."""
+    return [tuple(int(x) for x in group) for group in wp.opps]
 
 
 def orbit_move(
@@ -350,24 +447,67 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
     return kept
 
 
+def orbit_search_start(
+    state: State,
+    rng: np.random.Generator,
+    params: ASAParams,
+    planner: OrbitPlanner,
+    t0: float,
+    time_limit: float | None,
+) -> dict[str, float]:
+    """Start the search from ``orbit-dp``'s iterated local search (``init="orbit-dp"``).
+
+    The search runs on the planner's candidates (the rolls of the search's rule, so every
+    plan is a set of cluster-tasks the state can hold) with the whole-orbit move's noise and
+    steal probability, until ``init_share`` of ``time_limit`` has passed since ``t0`` (or
+    :data:`INIT_NO_IMPROVE` steps without a gain when there is no limit). Its best plans are
+    then applied orbit by orbit through step 4 (:meth:`OrbitPlanner.apply`), each target
+    placed by the first orbit whose plan covers it, and each orbit repaired. Returns the
+    start's figures for the statistics.
+    """
+    search = planner.start_search(rng)
+    p = OrbitSearchParams(noise=params.orbit_noise, steal=params.orbit_steal)
+    if time_limit is None:
+        stop, deadline = NoImprovement(INIT_NO_IMPROVE), None
+    else:
+        seconds = params.init_share * time_limit
+        stop, deadline = MaxRuntime(seconds, start=t0), t0 + seconds
+    run = iterate(search, p, stop, deadline, t0)
+    sched, w = state.sched, planner.weight
+    for j, plan in planner.plans(run.best_paths):
+        price = np.where(np.asarray(sched) < 0, w, 0.0)
+        state.begin()
+        planner.apply(state, j, plan, price)
+        repair(state, j)
+        state.commit()
+    return {"init_profit": run.best_profit, "init_steps": run.steps}
+
+
 def make_planner(
     instance: Instance, state: State, params: ASAParams, deadline: float | None
 ) -> OrbitPlanner | None:
     """The planner when the search uses whole-orbit re-planning, else None.
 
-    Used by ASA-DTC with ``replan`` and ``replan_orbit > 0``. When the candidates cannot be
-    generated in time (an instance with hundreds of windows per Delta T on an orbit) the search
-    runs without the move and says so in the log.
+    Used by ASA-DTC with ``replan`` and ``replan_orbit > 0``. When the candidates would not
+    fit in memory (``sosp.candidates.MAX_CANDIDATE_BYTES``) or cannot be generated by
+    ``deadline`` (thousands of opportunities on an orbit), the move plans over windows
+    instead (:class:`WindowPlanner`) and the log says so.
     """
     if not (params.replan and params.replan_orbit > 0 and state.pb.mode == "dtc"):
         return None
+    if params.candidates == "windows":
+        return WindowPlanner(instance, state)
     try:
         return OrbitPlanner(instance, state, deadline)
     except InputError as exc:
+        if params.candidates == "explicit":
+            cause = str(exc).split(";")[0]
+            log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
+            return None
         # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
         cause = str(exc).split(";")[0]
-        log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
-        return None
+        log.info("asa-dtc: whole-orbit re-planning over windows (%s)", cause)
+        return WindowPlanner(instance, state)
 
 
 def replan_or_orbit(

@@ -38,6 +38,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         "nadir_singles": False,
         "replan": False,
         "restart": None,
+        "init": "greedy",
     },
 }
 
@@ -162,6 +163,23 @@ class ASAParams:
         Stop after this many iterations without a new best (``None``: no limit).
     trace_every
         Record a trace row every this many iterations (and at each new best).
+    candidates
+        What the whole-orbit move plans over, as ``orbit-dp``'s parameter of that name:
+        ``"explicit"``, every candidate observation made once (the exact single-orbit
+        optimum); ``"windows"``, none made up front, each plan prices the orbit's windows
+        (``sosp.windows.window_plan``, a restricted set); ``"auto"`` (default): explicit
+        unless the candidates would not fit in memory or in half the time limit.
+    init
+        How the search starts. ``"greedy"``: section 5.4's insertion of every task by
+        decreasing weight (the paper's). ``"orbit-dp"`` (default; sosp's, not the paper's):
+        the iterated local search of ``orbit-dp`` (``heuristics.orbit_search.iterate``) over
+        the whole-orbit move's candidates, for ``init_share`` of the time limit, then section
+        5.4's insertion on what is left; the annealing continues from there. Needs the
+        whole-orbit move (``replan``, ``replan_orbit > 0``, ASA-DTC); otherwise ``"greedy"``.
+    init_share
+        Share of the time limit the ``"orbit-dp"`` start may take, candidate generation
+        included (in (0, 1]; default 0.3). Without a time limit the start stops after
+        :data:`heuristics.asa.orbit.INIT_NO_IMPROVE` steps without a gain.
     workers
         Chains run side by side, one process each (``heuristics.asa.parallel``; sosp's, not
         the paper's): 1 is Algorithm 1's single chain. ``iterations`` and ``no_improve``
@@ -201,6 +219,9 @@ class ASAParams:
     iterations: int | None = None
     no_improve: int | None = None
     trace_every: int = 100
+    candidates: Literal["auto", "explicit", "windows"] = "auto"
+    init: Literal["greedy", "orbit-dp"] = "orbit-dp"
+    init_share: float = 0.3
     workers: int = 1
 
     def __post_init__(self) -> None:
@@ -231,6 +252,9 @@ class ASAParams:
         positive("pro3", strict=False)
         for name in ("replan_pull", "replan_pair", "replan_orbit", "orbit_steal"):
             fraction(name)
+        positive("init_share")
+        if self.init_share > 1:
+            raise InputError(f"init_share: must lie in (0, 1], got {self.init_share!r}")
         positive("replan_floor", strict=False)
         if self.replan_floor >= 1 / 3:
             raise InputError(f"replan_floor: must be < 1/3, got {self.replan_floor!r}")

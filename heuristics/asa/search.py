@@ -20,7 +20,7 @@ from heuristics.asa.neighbourhoods import (
     insertion_move,
     migration_move,
 )
-from heuristics.asa.orbit import ascend, make_planner, replan_or_orbit
+from heuristics.asa.orbit import ascend, make_planner, orbit_search_start, replan_or_orbit
 from heuristics.asa.params import ASAParams
 from heuristics.asa.problem import Problem, build_problem
 from heuristics.asa.replan import REPLAN, polish, replan_move
@@ -155,6 +155,9 @@ class Search:
             self.moves[REPLAN] = partial(replan_or_orbit, planner=self.planner)
         self.t_planner = time.perf_counter() - t0
 
+        self.init_stats: dict[str, float] = {}
+        if params.init == "orbit-dp" and self.planner is not None:
+            self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
         initial_solution(state, params)
         self.t_init = time.perf_counter() - t0
         self.best = state.profit
@@ -265,7 +268,8 @@ class Search:
             "params": self.params.as_dict(),
             "initial_profit": self.trace[0][2],
             "initial_time_s": round(self.t_init, 6),
-            "orbit_candidates": 0 if planner is None else planner.data.n_items,
+            **self.init_stats,
+            "orbit_candidates": 0 if planner is None else planner.n_candidates,
             "orbit_candidates_s": round(self.t_planner, 6) if planner is not None else 0.0,
             "iterations_per_s": round(g / max(runtime - self.t_init, 1e-9), 1),
             "tabu_length": self.tabu.length,

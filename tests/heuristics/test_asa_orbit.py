@@ -14,10 +14,12 @@ from hypothesis import strategies as st
 from heuristics.asa import ASAParams
 from heuristics.asa.orbit import (
     OrbitPlanner,
+    WindowPlanner,
     ascend,
     candidate_rolls,
     make_planner,
     orbit_move,
+    orbit_search_start,
 )
 from heuristics.asa.problem import build_problem
 from heuristics.asa.search import build_schedule
@@ -244,6 +246,17 @@ def test_asa_dtc_with_whole_orbit_moves_is_valid_and_below_the_optimum(inst: Ins
     assert res.profit <= brute_force(inst, "cluster").profit + 1e-9
 
 
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=8), seed=st.integers(0, 2**16))
+def test_asa_dtc_over_windows_is_valid_and_below_the_optimum(inst: Instance, seed: int):
+    res = solve(inst, "asa-dtc", seed=seed, iterations=100, restart=20, candidates="windows")
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    assert res.profit <= brute_force(inst, "cluster").profit + 1e-9
+    assert res.stats["orbit_candidates"] == 0
+
+
 def test_ascend_leaves_every_orbit_optimal_for_the_others(tiny: Instance) -> None:
     state, _, planner = _planner(tiny)
     rng = np.random.default_rng(1)
@@ -252,17 +265,23 @@ def test_ascend_leaves_every_orbit_optimal_for_the_others(tiny: Instance) -> Non
         assert planner.plan(state, j, planner.prices(state, j, None, rng)) is None
 
 
-def test_no_candidates_in_time_runs_without_the_move(caplog: pytest.LogCaptureFixture) -> None:
+def test_no_candidates_in_time_plans_over_windows(caplog: pytest.LogCaptureFixture) -> None:
     inst = _abc()
     params = ASAParams()
     state = State(build_problem(inst, "dtc"), "midpoint")
-    with caplog.at_level(logging.WARNING):
-        assert make_planner(inst, state, params, time.perf_counter() - 1.0) is None
-    assert "whole-orbit re-planning off" in caplog.text
+    with caplog.at_level(logging.INFO):
+        planner = make_planner(inst, state, params, time.perf_counter() - 1.0)
+    assert isinstance(planner, WindowPlanner) and planner.n_candidates == 0
+    late = time.perf_counter() - 1.0  # explicit only: no move then
+    assert make_planner(inst, state, ASAParams(candidates="explicit"), late) is None
+    assert "re-planning over windows" in caplog.text
     assert make_planner(inst, state, ASAParams(replan_orbit=0.0), None) is None
     stc = State(build_problem(inst, "stc"), "midpoint")
     assert make_planner(inst, stc, params, None) is None
     assert make_planner(inst, state, params, None) is not None
+    assert isinstance(
+        make_planner(inst, state, ASAParams(candidates="windows"), None), WindowPlanner
+    )
 
 
 def test_whole_orbit_moves_are_counted_and_deterministic(tiny: Instance) -> None:
@@ -272,6 +291,42 @@ def test_whole_orbit_moves_are_counted_and_deterministic(tiny: Instance) -> None
     assert one.stats["orbit_candidates"] > 0
     off = solve(tiny, "asa-dtc", seed=5, iterations=200, replan_orbit=0.0)
     assert off.stats["orbit_candidates"] == 0
+
+
+@pytest.mark.parametrize("rule", ["nadir", "midpoint"])
+def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str) -> None:
+    # C1's orbits share targets, so loading must place each target once and lose nothing.
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C1", seed=0)
+    params = ASAParams(roll_rule=rule)
+    state = State(build_problem(inst, "dtc", rule), rule, params.nadir_singles)
+    planner = OrbitPlanner(inst, state, None)
+    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, 0.0, None)
+    assert figures["init_steps"] >= 1
+    assert state.profit == pytest.approx(figures["init_profit"])
+    covered = [w for w, c in zip(state.pb.target_weight, state.cover, strict=True) if c > 0]
+    assert state.profit == pytest.approx(sum(covered))
+    rep = validate(inst, build_schedule(inst, state.pb, state.snapshot()))
+    assert rep.feasible, rep.violations
+
+
+def test_orbit_dp_start_is_at_least_the_greedy_start_and_seeded(tiny: Instance) -> None:
+    dp = solve(tiny, "asa-dtc", seed=2, iterations=0)
+    again = solve(tiny, "asa-dtc", seed=2, iterations=0)
+    greedy = solve(tiny, "asa-dtc", seed=2, iterations=0, init="greedy")
+    assert dp.schedule == again.schedule
+    assert dp.stats["init_steps"] >= 1 and "init_steps" not in greedy.stats
+    # Section 5.4's insertion runs after the loaded plans, so it can only add.
+    assert dp.profit >= dp.stats["init_profit"] - 1e-9
+
+
+@pytest.mark.parametrize(
+    ("key", "value"), [("init_share", 0.0), ("init_share", 1.5), ("init", "x")]
+)
+def test_bad_start_parameters_name_the_field(key: str, value: object) -> None:
+    with pytest.raises(InputError, match=key):
+        ASAParams(**{key: value})
 
 
 @pytest.mark.parametrize(
