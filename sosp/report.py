@@ -157,6 +157,8 @@ class Summary:
     notes: list[str]
     #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*).
     method_bound: dict[tuple[str, str], float] = field(default_factory=dict)
+    #: Per (scenario, label): the count stored with that least bound (PBA-STC's F*), if any.
+    method_bound_count: dict[tuple[str, str], int] = field(default_factory=dict)
     #: Per (scenario, label): the profit and count of a run that proved optimality (RDS-STC).
     method_exact: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
 
@@ -198,6 +200,7 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
     exact: dict[str, tuple[float, int]] = {}
     best: dict[str, float] = {}
     method_bound: dict[tuple[str, str], float] = {}
+    method_bound_count: dict[tuple[str, str], int] = {}
     method_exact: dict[tuple[str, str], tuple[float, int]] = {}
     notes: list[str] = []
     for r in rows:
@@ -212,7 +215,12 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             continue
         if r["bound"] is not None:
             bound[s] = min(bound.get(s, math.inf), float(r["bound"]))
-            method_bound[key] = min(method_bound.get(key, math.inf), float(r["bound"]))
+            if float(r["bound"]) < method_bound.get(key, math.inf):
+                method_bound[key] = float(r["bound"])
+                if r.get("bound_count") is not None:  # databases of schema 1 have none
+                    method_bound_count[key] = int(r["bound_count"])
+                else:
+                    method_bound_count.pop(key, None)
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
             best[s] = max(best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
@@ -247,8 +255,9 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         exact,
         best,
         notes,
-        method_bound,
-        method_exact,
+        method_bound=method_bound,
+        method_bound_count=method_bound_count,
+        method_exact=method_exact,
     )
 
 
@@ -312,7 +321,8 @@ def build_paper_table(
 ) -> tuple[list[str], list[list[Any]], list[str]]:
     """Table 3 or 4 in the paper's column layout, then sosp's own columns.
 
-    SN, EN, TN; PBA-STC R* (its bound) and F (targets of its schedule); RDS-STC R, F (when
+    SN, EN, TN; PBA-STC R* and F* (its bound and the targets the bound covers; F, the targets
+    of its schedule, when the runs were stored without F*); RDS-STC R, F (when
     it proved optimality, else ``_`` as in the paper); ACO-LS-STC and ASA-DTC mean R, F, SD,
     T; IMP (relative improvement of ``target`` over ``baseline``), the one-tailed Welch
     t-test and its p-value; then the best proven bound (the optimum when proven, marked
@@ -332,8 +342,15 @@ def build_paper_table(
     target, baseline, cnotes = comparison(summary, target, baseline, present)
     notes += cnotes
     header = ["SN", "EN", "TN"]
+    star = "PBA-STC" in cols and all(
+        (s, cols["PBA-STC"]) in summary.method_bound_count
+        for s in scen
+        if (s, cols["PBA-STC"]) in summary.method_bound
+    )
     if "PBA-STC" in cols:
-        header += ["PBA-STC R*", "PBA-STC F"]
+        header += ["PBA-STC R*", "PBA-STC F*" if star else "PBA-STC F"]
+        if not star:
+            notes.append("PBA-STC F: targets of its schedule (runs stored without F*)")
     if "RDS-STC" in cols:
         header += ["RDS-STC R", "RDS-STC F"]
     for title in ("ACO-LS-STC", "ASA-DTC"):
@@ -354,11 +371,13 @@ def build_paper_table(
     for s in scen:
         row: list[Any] = [s, summary.en.get(s), summary.tn.get(s)]
         if "PBA-STC" in cols:
-            c = summary.cells.get((s, cols["PBA-STC"]))
-            row += [
-                summary.method_bound.get((s, cols["PBA-STC"])),
-                c.mean_observed if c and c.n else None,
-            ]
+            key = (s, cols["PBA-STC"])
+            c = summary.cells.get(key)
+            if star:
+                f: Any = summary.method_bound_count.get(key)
+            else:
+                f = c.mean_observed if c and c.n else None
+            row += [summary.method_bound.get(key), f]
         if "RDS-STC" in cols:
             ex = summary.method_exact.get((s, cols["RDS-STC"]))
             row += [ex[0], ex[1]] if ex else [None, None]
@@ -677,7 +696,8 @@ def write_report(
     md += [
         "R: mean profit, F: mean observed targets, SD: sample standard deviation of the "
         "profit, T: mean run time (s); PBA-STC R*: its upper bound on the static problem, "
-        "PBA-STC F: targets of its schedule (the bound's F* is not stored); RDS-STC R, F: "
+        "PBA-STC F*: the targets its bound covers (PBA-STC F, when shown: targets of its "
+        "schedule); RDS-STC R, F: "
         "its proven optimum ('_' when it did not finish, as in the paper); IMP: (R of "
         f"{ctarget} - R of {cbaseline}) / R of {cbaseline}; t-test: one-tailed Welch test "
         f"at {ALPHA} ('+': {ctarget} significantly better), p its p-value; sosp bound: the "

@@ -16,7 +16,7 @@ import threading
 import time
 import traceback
 from collections import OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
@@ -119,6 +119,7 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
             profit=float(report.profit),
             observed=int(report.observed),
             bound=None if result.bound is None else float(result.bound),
+            bound_count=_bound_count(result.stats),
             energy=float(report.energy),
             memory=float(report.memory),
             runtime=float(result.runtime_s),
@@ -135,6 +136,13 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         row.update(status="error", message=msg[:2000], runtime=time.perf_counter() - t0)
     row["finished_at"] = datetime.now(UTC).isoformat(timespec="seconds")
     return row
+
+
+def _bound_count(stats: Mapping[str, Any] | None) -> int | None:
+    """The count that goes with a run's bound, when the method reports one (PBA-STC's F*,
+    ``stats["bound_targets"]``)."""
+    value = (stats or {}).get("bound_targets")
+    return None if value is None else int(value)
 
 
 # --------------------------------------------------------------------------- planning

@@ -9,8 +9,10 @@ is simply absent and is run again on resume; the unique key
 A failed run (status ``error``) is replaced only when it is retried (``--retry-failed``) and a
 success is never overwritten.
 
-Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``; a database of another schema
-version is refused with an :class:`~sosp.errors.InputError` before anything is written.
+Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``. A database of version 1 (no
+``bound_count`` column) is read as it is and upgraded in place when a campaign writes to it
+(one ``ALTER TABLE``, nothing else changes); any other version is refused with an
+:class:`~sosp.errors.InputError` before anything is written.
 """
 
 from __future__ import annotations
@@ -25,8 +27,15 @@ from typing import Any
 
 from sosp.errors import InputError
 
-#: Bump when the tables change; older or newer databases are refused.
-SCHEMA_VERSION = 1
+#: Bump when the tables change; older or newer databases are refused, except the versions of
+#: :data:`_UPGRADES`.
+SCHEMA_VERSION = 2
+
+#: Older schema version -> the statements that bring it to the next one.
+_UPGRADES: dict[str, tuple[str, ...]] = {
+    # 2: the count that goes with a run's bound (PBA-STC's F*: targets its bound covers).
+    "1": ("ALTER TABLE runs ADD COLUMN bound_count INTEGER",),
+}
 
 #: Seconds to wait for another writer when opening (then: "database is locked").
 OPEN_TIMEOUT = 2.0
@@ -43,6 +52,7 @@ RUN_COLUMNS = (
     "profit",
     "observed",
     "bound",
+    "bound_count",
     "energy",
     "memory",
     "runtime",
@@ -79,6 +89,7 @@ CREATE TABLE IF NOT EXISTS runs (
     profit REAL,
     observed INTEGER,
     bound REAL,
+    bound_count INTEGER,
     energy REAL,
     memory REAL,
     runtime REAL,
@@ -213,11 +224,13 @@ class Store:
     def _check_or_init(self, readonly: bool) -> None:
         cur = self.conn.cursor()
         tables = {r[0] for r in cur.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        version = None
         if "meta" in tables:
             row = cur.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone()
             if row is None:
                 raise InputError("database has no schema version: not a sosp results database")
-            if str(row[0]) != str(SCHEMA_VERSION):
+            version = str(row[0])
+            if version != str(SCHEMA_VERSION) and version not in _UPGRADES:
                 raise InputError(
                     f"database schema version {row[0]} is not {SCHEMA_VERSION} (made by another "
                     "sosp version); use a new --db file",
@@ -238,6 +251,11 @@ class Store:
             cur.executescript(_SCHEMA)
         cur.execute("BEGIN IMMEDIATE")
         try:
+            while version is not None and version != str(SCHEMA_VERSION):
+                for statement in _UPGRADES[version]:
+                    cur.execute(statement)
+                version = str(int(version) + 1)
+                cur.execute("UPDATE meta SET value=? WHERE key='schema_version'", (version,))
             if "meta" not in tables:
                 from sosp import __version__
 

@@ -209,6 +209,30 @@ def test_unknown_method_or_scenario_touch_nothing(
     assert _rows(db) == rows
 
 
+def test_schema_1_databases_are_read_and_upgraded(tmp_path: Path) -> None:
+    # A database of schema 1 had no bound_count column: readable as it is, upgraded in place
+    # (nothing else touched) when a campaign writes to it again.
+    path = tmp_path / "old.db"
+    with Store(path) as st:
+        run_campaign(campaign_from_options("B1", "greedy", "1", "5"), st, workers=1)
+    con = sqlite3.connect(path)
+    con.execute("ALTER TABLE runs DROP COLUMN bound_count")
+    con.execute("UPDATE meta SET value='1' WHERE key='schema_version'")
+    con.commit()
+    con.close()
+    with Store(path, readonly=True) as st:
+        (row,) = st.rows()
+        assert "bound_count" not in row and row["profit"] > 0
+    with Store(path) as st:
+        run_campaign(campaign_from_options("B1", "pba-stc", "1", "5"), st, workers=1)
+        rows = {r["method"]: r for r in st.rows()}
+    assert rows["greedy"]["bound_count"] is None
+    assert rows["pba-stc"]["bound_count"] > 0  # F*, stored with R*
+    con = sqlite3.connect(path)
+    assert con.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone() == ("2",)
+    con.close()
+
+
 def test_other_schema_version_is_refused(
     stored: tuple[Path, list[str], list[tuple]], capsys: pytest.CaptureFixture[str]
 ) -> None:
