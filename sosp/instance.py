@@ -657,28 +657,8 @@ class Instance:
         o_index = {o: i for i, o in enumerate(oids)}
         p_target = _refs(opps["target"], t_index, "opportunities", "target", source)
         p_orbit = _refs(opps["orbit"], o_index, "opportunities", "orbit", source)
-        return cls.from_arrays(
-            epoch=data["epoch"],
-            target_ids=tids,
-            target_lat=targets["lat"],
-            target_lon=targets["lon"],
-            target_weight=targets["weight"],
-            orbit_ids=oids,
-            orbit_satellite=orbits["satellite"],
-            orbit_start=orbits["start"],
-            orbit_end=orbits["end"],
-            resources={k: orbits[k] for k in RESOURCE_KEYS},
-            opp_ids=opps["id"],
-            opp_target=p_target,
-            opp_orbit=p_orbit,
-            opp_start=opps["start"],
-            opp_end=opps["end"],
-            opp_roll=opps["roll"],
-            opp_roll_min=opps["roll_min"],
-            opp_roll_max=opps["roll_max"],
-            name=name,
-            meta=meta,
-            source=source,
+        return _from_tables(
+            data["epoch"], targets, orbits, opps, tids, oids, p_target, p_orbit, name, meta, source
         )
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
@@ -888,28 +868,68 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
                     f"{full}: has {len(arr)} values, expected {n} (as {table}.id)", source=src
                 )
             cols[full] = arr
+
+    def table(name: str) -> dict[str, np.ndarray]:
+        return {k: cols[f"{name}.{k}"] for k, _ in NPZ_TABLES[name]}
+
+    targets, orbits, opps = table("targets"), table("orbits"), table("opportunities")
+    return _from_tables(
+        header["epoch"],
+        targets,
+        orbits,
+        opps,
+        targets["id"].tolist(),
+        orbits["id"].tolist(),
+        opps["target"],
+        opps["orbit"],
+        header["name"],
+        header["meta"],
+        src,
+    )
+
+
+def _as_list(values: Any) -> Any:
+    """A numpy column (``.npz``) as a list of Python values; a JSON list as it is."""
+    return values.tolist() if isinstance(values, np.ndarray) else values
+
+
+def _from_tables(
+    epoch: Any,
+    targets: Mapping[str, Any],
+    orbits: Mapping[str, Any],
+    opps: Mapping[str, Any],
+    target_ids: Sequence[str],
+    orbit_ids: Sequence[str],
+    opp_target: Any,
+    opp_orbit: Any,
+    name: str | None,
+    meta: Any,
+    source: str | None,
+) -> Instance:
+    """:meth:`Instance.from_arrays` from the three tables as columns (JSON and ``.npz``
+    readers), with the ids and the opportunities' target/orbit rows resolved by the caller."""
     return Instance.from_arrays(
-        epoch=header["epoch"],
-        target_ids=cols["targets.id"].tolist(),
-        target_lat=cols["targets.lat"],
-        target_lon=cols["targets.lon"],
-        target_weight=cols["targets.weight"],
-        orbit_ids=cols["orbits.id"].tolist(),
-        orbit_satellite=cols["orbits.satellite"].tolist(),
-        orbit_start=cols["orbits.start"],
-        orbit_end=cols["orbits.end"],
-        resources={k: cols[f"orbits.{k}"] for k in RESOURCE_KEYS},
-        opp_ids=cols["opportunities.id"].tolist(),
-        opp_target=cols["opportunities.target"],
-        opp_orbit=cols["opportunities.orbit"],
-        opp_start=cols["opportunities.start"],
-        opp_end=cols["opportunities.end"],
-        opp_roll=cols["opportunities.roll"],
-        opp_roll_min=cols["opportunities.roll_min"],
-        opp_roll_max=cols["opportunities.roll_max"],
-        name=header["name"],
-        meta=header["meta"],
-        source=src,
+        epoch=epoch,
+        target_ids=target_ids,
+        target_lat=targets["lat"],
+        target_lon=targets["lon"],
+        target_weight=targets["weight"],
+        orbit_ids=orbit_ids,
+        orbit_satellite=_as_list(orbits["satellite"]),
+        orbit_start=orbits["start"],
+        orbit_end=orbits["end"],
+        resources={k: orbits[k] for k in RESOURCE_KEYS},
+        opp_ids=_as_list(opps["id"]),
+        opp_target=opp_target,
+        opp_orbit=opp_orbit,
+        opp_start=opps["start"],
+        opp_end=opps["end"],
+        opp_roll=opps["roll"],
+        opp_roll_min=opps["roll_min"],
+        opp_roll_max=opps["roll_max"],
+        name=name,
+        meta=meta,
+        source=source,
     )
 
 
