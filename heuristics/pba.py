@@ -159,11 +159,14 @@ class PartProblem:
     targets: list[int]
 
 
-def part_problem(instance: Instance, tasks: TaskSet) -> PartProblem:
-    """The relaxed problem: (3) and (6) kept, (4)-(5) dropped (paper section 6.2)."""
+def part_problem(instance: Instance, tasks: TaskSet, unit: bool = False) -> PartProblem:
+    """The relaxed problem: (3) and (6) kept, (4)-(5) dropped (paper section 6.2). With
+    ``unit``, every target weighs 1: its optimum counts targets (F* instead of R*)."""
     c = [int(x) for x in instance.max_openings]
-    w = [int(x) for x in instance.target_weight]
-    usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and c[int(tasks.orbit[t])] > 0]
+    w = [1] * instance.n_targets if unit else [int(x) for x in instance.target_weight]
+    usable = [
+        t for t in range(len(tasks)) if (unit or tasks.weight[t] > 0) and c[int(tasks.orbit[t])] > 0
+    ]
     idx = np.array(usable, dtype=np.int64)
     conf: dict[int, set[int]] = {t: set() for t in usable}
     if len(idx) > 1:
@@ -493,7 +496,8 @@ def partition_dp(
     -------
     dict
         ``value`` (the least sum, without the prices' constant), ``parts``, ``part_tasks``,
-        ``targets`` (F*), ``inexact_parts``, ``subproblems``, ``stopped``.
+        ``targets`` (the targets the parts' optima cover), ``inexact_parts``,
+        ``subproblems``, ``stopped``.
     """
     n = len(order)
     lmax = params.max_part
@@ -550,18 +554,21 @@ def pba_partition(
     params: PBAParams,
     deadline: float | None = None,
     tasks: TaskSet | None = None,
+    unit: bool = False,
 ) -> dict[str, Any]:
     """The partition-based bound: the best partition by dynamic programming, and its parts.
 
     With ``params.prices == "lp"`` the partition is computed twice, with the LP's prices
     (:func:`lp_prices`) and, if time is left, without prices (the paper's reading), and R* is
     the lesser of the two bounds (both valid, module docstring); the parts returned are those
-    of the lesser. A stop request or a deadline already passed skips the LP.
+    of the lesser. A stop request or a deadline already passed skips the LP. With ``unit``
+    every target weighs 1, so the bound is one on the number of targets a static schedule
+    observes (the paper's F*).
 
     Returns
     -------
     dict
-        ``bound`` (R*), ``targets`` (F*: the targets covered by the parts' optima), ``parts``
+        ``bound`` (R*), ``targets`` (the targets covered by the parts' optima), ``parts``
         (lists of target indices), ``part_tasks`` (the tasks of each part's optimum),
         ``inexact_parts`` (parts that fell back to their upper values), ``subproblems``,
         ``unpriced_bound`` (the bound without prices; None if not computed), ``lp_bound``
@@ -570,7 +577,7 @@ def pba_partition(
     """
     if tasks is None:
         tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
-    pp = part_problem(instance, tasks)
+    pp = part_problem(instance, tasks, unit)
     order = target_order(pp, params.order)
     coverable = sum(pp.weight[k] for k in pp.targets)
     prices = zero_prices(pp)
@@ -608,6 +615,16 @@ def pba_partition(
     }
 
 
+def count_bound(
+    instance: Instance, params: PBAParams, tasks: TaskSet, deadline: float | None = None
+) -> int:
+    """F*: PBA-STC's upper bound on the number of targets a static schedule observes, the
+    bound of :func:`pba_partition` with every weight 1 (the same argument as R*'s: it holds
+    for any non-negative weights). Parts not reached by ``deadline`` count all their
+    targets, so it stays a bound."""
+    return int(pba_partition(instance, params, deadline, tasks, unit=True)["bound"])
+
+
 def pba_bound(
     instance: Instance,
     *,
@@ -623,8 +640,9 @@ def pba_bound(
     Returns
     -------
     dict
-        ``bound``, ``model`` (``"static"``), ``method`` (``"pba"``), ``targets`` (F*),
-        ``parts``, ``inexact_parts``, ``subproblems`` and ``runtime_s``.
+        ``bound``, ``model`` (``"static"``), ``method`` (``"pba"``), ``targets`` (F*,
+        :func:`count_bound`), ``parts``, ``inexact_parts``, ``subproblems`` and
+        ``runtime_s``.
     """
     t0 = time.perf_counter()
     params = PBAParams(max_part, node_limit, order, roll_rule, prices)
@@ -634,7 +652,7 @@ def pba_bound(
         "bound": out["bound"],
         "model": "static",
         "method": "pba",
-        "targets": out["targets"],
+        "targets": count_bound(instance, params, out["tasks"], deadline),
         "parts": len(out["parts"]),
         "inexact_parts": out["inexact_parts"],
         "subproblems": out["subproblems"],
@@ -671,7 +689,8 @@ def solve_pba_stc(
     Returns
     -------
     Result
-        Status ``feasible``, ``bound`` = R*; ``stats`` holds F* (``bound_targets``), the
+        Status ``feasible``, ``bound`` = R*; ``stats`` holds F* (``bound_targets``,
+        :func:`count_bound`), the
         number of parts and of inexact parts, the LP bound and the bound without prices.
     """
     del rng
@@ -699,7 +718,7 @@ def solve_pba_stc(
     schedule = tasks_to_schedule(instance, tasks, chosen)
     observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
-        "bound_targets": out["targets"],
+        "bound_targets": count_bound(instance, params, tasks, deadline),
         "parts": len(out["parts"]),
         "inexact_parts": out["inexact_parts"],
         "subproblems": out["subproblems"],

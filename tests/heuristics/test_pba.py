@@ -59,6 +59,22 @@ def test_bound_is_never_below_the_static_optimum(inst: Instance, max_part: int, 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(inst=small_instances())
+def test_f_star_bounds_the_targets_of_every_static_schedule(inst: Instance) -> None:
+    # F* is R* of the same instance with every weight 1: at least the count of the static
+    # optimum of that unit-weight instance, which is the most targets a static schedule sees.
+    data = inst.to_dict(layout="columns")
+    data["targets"]["weight"] = [1] * inst.n_targets
+    unit = Instance.from_dict(data)
+    best_count = brute_force(unit, "static").profit
+    out = pba_bound(inst)
+    assert out["targets"] >= best_count - 1e-9
+    assert out["targets"] == pba_bound(unit)["bound"]
+    res = solve(inst, "pba-stc", seed=0)
+    assert res.observed <= res.stats["bound_targets"]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances())
 def test_priced_cliques_are_cliques_of_setup_conflicts(inst: Instance) -> None:
     pp = _pp(inst)
     capped, cliques = orbit_cliques(inst, pp)
