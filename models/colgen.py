@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from models.lagrangian import capped_bound
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
@@ -314,7 +315,7 @@ def colgen_bound(
                 break
     finally:
         pool.close()
-    bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
+    bound = capped_bound(best, cap)
     result = out(bound, rounds, len(master.columns), master_value, converged)
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
     if branch and converged and not proven:

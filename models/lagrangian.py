@@ -117,9 +117,7 @@ def lagrangian_bound(
         best, done = subgradient(p, len(groups), price, 0.5 * p, iterations, lower_bound, stop)
     finally:
         pool.close()
-    # never above the total weight of the targets some candidate covers (at most the total
-    # observable weight): an unfinished subgradient run can end a unit or two above it
-    bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
+    bound = capped_bound(best, cap)
     log.info("lagrangian bound %g after %d steps", bound, done)
     return {
         "bound": bound,
@@ -130,6 +128,14 @@ def lagrangian_bound(
         "candidates": data.n_items,
         "lower_bound": float(lower_bound),
     }
+
+
+def capped_bound(best: float, cap: float) -> float:
+    """A dual value as the reported bound: rounded down (the optimum is an integer; the 1e-6
+    margin is far above the float error of these sums) and never above ``cap``, the total
+    weight of the targets some plan can cover (an unfinished run can end a unit or two above
+    it); ``cap`` itself when no value was found."""
+    return min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
 
 
 #: What a pricing step returns to :func:`subgradient`: the orbits' terms of ``L(mu, lam)``

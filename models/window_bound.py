@@ -21,13 +21,12 @@ members at each item's argmax roll) and the relaxed plan's energy and memory.
 from __future__ import annotations
 
 import logging
-import math
 import time
 from typing import Any
 
 import numpy as np
 
-from models.lagrangian import Priced, subgradient
+from models.lagrangian import Priced, capped_bound, subgradient
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
@@ -118,7 +117,7 @@ def window_lagrangian_bound(
         return value, count, grad_lam
 
     best, done = subgradient(p, len(orbits), price, start * p, iterations, lower_bound, stop)
-    bound = min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
+    bound = capped_bound(best, cap)
     log.info("window lagrangian bound %g after %d steps", bound, done)
     return {
         "bound": bound,

@@ -500,12 +500,11 @@ def make_planner(
     try:
         return OrbitPlanner(instance, state, deadline)
     except InputError as exc:
-        if params.candidates == "explicit":
-            cause = str(exc).split(";")[0]
-            log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
-            return None
         # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
         cause = str(exc).split(";")[0]
+        if params.candidates == "explicit":
+            log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
+            return None
         log.info("asa-dtc: whole-orbit re-planning over windows (%s)", cause)
         return WindowPlanner(instance, state)
 
