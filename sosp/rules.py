@@ -26,14 +26,10 @@ Energy (4)
 ----------
 ``eo * sum (te - ts) + es * sum over consecutive pairs (|theta_u| + |theta_w|) / v``. Over a
 sequence the slew sum is ``(2 sum |theta| - |theta_first| - |theta_last|) / v``: every
-observation slews out of and back to nadir except before the first and after the last. The two
-relaxations the models use are derived here, once, with their validity argument:
-
-* :func:`slew_upper` (``2 sum |theta| / v``): never below the exact slew of any sequence of the
-  same observations, so a row with it is conservative (a schedule keeping it keeps (4));
-* :func:`slew_lower` (``2 sum |theta| / v - 2 max |theta| / v``): never above the exact slew,
-  since the first and last terms dropped sum to at most twice the largest; a row with it is a
-  relaxation (every feasible schedule keeps it), valid in a bound.
+observation slews out of and back to nadir except before the first and after the last. The
+conservative slew estimate the models use is derived here, once, with its validity argument:
+:func:`slew_upper` (``2 sum |theta| / v``) is never below the exact slew of any sequence of the
+same observations, so a row with it is conservative (a schedule keeping it keeps (4)).
 """
 
 from __future__ import annotations
@@ -57,12 +53,6 @@ RollRule = Literal["midpoint", "nadir"]
 def slew_time(roll: Any, slew_rate: Any) -> Any:
     """Seconds to slew between nadir and ``roll`` (deg) at ``slew_rate`` (deg/s)."""
     return abs(roll) / slew_rate
-
-
-def turn_time(roll_u: Any, roll_w: Any, slew_rate: Any) -> Any:
-    """Slew seconds between consecutive observations at rolls ``roll_u``, ``roll_w``: the
-    sensor returns through nadir, ``(|theta_u| + |theta_w|) / v`` ((3), (4))."""
-    return (abs(roll_u) + abs(roll_w)) / slew_rate
 
 
 def left_end(start: Any, roll: Any, slew_rate: Any) -> Any:
@@ -93,12 +83,6 @@ def slew_upper(abs_roll_sum: Any, slew_rate: Any) -> Any:
     """``2 sum |theta| / v``: at least the exact slew of (4) of any order of the observations
     (conservative; see the module docstring)."""
     return 2.0 * abs_roll_sum / slew_rate
-
-
-def slew_lower(abs_roll_sum: Any, abs_roll_max: Any, slew_rate: Any) -> Any:
-    """``(2 sum |theta| - 2 max |theta|) / v``: at most the exact slew of (4) (a relaxation,
-    valid in a bound; see the module docstring)."""
-    return 2.0 * (abs_roll_sum - abs_roll_max) / slew_rate
 
 
 def energy(observe_s: Any, slew_s: Any, observe_energy_rate: Any, slew_energy_rate: Any) -> Any:

@@ -115,16 +115,15 @@ def test_turn_and_interval_ends_by_hand() -> None:
     assert rules.may_precede(r.right(4.0, 10.0), r.left(30.0, -5.0))
     # exact slew of (4) over three observations: (10+5) + (5+20) = 40 = 2*35 - 10 - 20
     assert rules.sequence_slew_time(np.array([10.0, -5.0, 20.0]), 1.0) == 40.0
-    assert rules.slew_upper(35.0, 1.0) == 70.0 >= 40.0 >= rules.slew_lower(35.0, 20.0, 1.0)
+    assert rules.slew_upper(35.0, 1.0) == 70.0 >= 40.0
 
 
-def test_slew_relaxations_bracket_the_exact_slew() -> None:
+def test_slew_upper_is_at_least_the_exact_slew() -> None:
     rng = np.random.default_rng(0)
     for _ in range(200):
         rolls = rng.uniform(-33, 33, size=int(rng.integers(1, 8)))
         exact = rules.sequence_slew_time(rolls, 1.5)
-        s, m = np.abs(rolls).sum(), np.abs(rolls).max()
-        assert rules.slew_lower(s, m, 1.5) - 1e-9 <= exact <= rules.slew_upper(s, 1.5) + 1e-9
+        assert exact <= rules.slew_upper(np.abs(rolls).sum(), 1.5) + 1e-9
 
 
 def test_roll_rules() -> None:
