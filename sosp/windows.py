@@ -38,11 +38,11 @@ Two uses:
   penalties: the single-orbit recursion of :mod:`sosp.planner` (levels for (6), (4)-(5) as
   Lagrangian penalties) over the items is an upper bound on the best plan of the orbit at
   these prices, the explicit candidates' included (:func:`relaxed_best_path`).
-* :func:`window_candidates` (real candidates for the schedule planners). The argmax roll
+* :func:`window_plan` (real observations for the schedule planners). The argmax roll
   r*(i, k) of each kept item (ties: closest to nadir) gives an observation: the priced
   opportunities of the window whose range holds r*, window (10) over them, roll by the roll
-  rule in their common range (8). A restricted candidate set at those prices, which
-  :func:`window_data` arranges for the single-orbit planner (``orbit-dp``).
+  rule in their common range (8). A restricted candidate set at those prices, over which the
+  single-orbit recursion plans the orbit (``orbit-dp`` with ``candidates="windows"``).
 """
 
 from __future__ import annotations
@@ -491,119 +491,7 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
     return new_ptr, flat[keep]
 
 
-# --------------------------------------------------------------------- (b) real candidates
-def orbit_window_candidates(
-    oo: OrbitOpps,
-    price: np.ndarray,
-    roll_rule: RollRule = "nadir",
-    singles: bool = True,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, OppGroups]:
-    """Real candidate observations of one orbit from the argmax rolls at ``price``.
-
-    For each kept (i, k): the priced opportunities of the window [ts_i, te_k] whose range
-    holds r*(i, k) (i among them, and k when G grew at k), window (10) over them, roll by
-    ``roll_rule`` in their common range (8) (which holds r*). With ``singles`` each priced
-    opportunity no longer than Delta T is added alone too (its roll by the same rule over its
-    own range). Windows longer than Delta T cannot arise (every member lies in
-    [ts_i, ts_i + Delta T]).
-
-    Returns
-    -------
-    tuple
-        ``(start, end, roll, opps)``, opps global opportunity indices.
-    """
-    check_roll_rule(roll_rule)
-    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
-    wi = window_items(oo, price)
-    ptr, flat = _one_per_target(oo, *_member_lists(oo, w, wi.first, wi.last, wi.point))
-    if singles:
-        alone = np.flatnonzero((w > 0.0) & (oo.end - oo.start <= oo.rules.max_duration + EPS))
-        ptr = np.concatenate((ptr, ptr[-1] + np.arange(1, len(alone) + 1)))
-        flat = np.concatenate((flat, alone))
-    n = len(ptr) - 1
-    if n == 0:
-        z = np.zeros(0)
-        return z, z, z, OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
-    heads = ptr[:-1]
-    start = np.minimum.reduceat(oo.start[flat], heads)
-    end = np.maximum.reduceat(oo.end[flat], heads)
-    lo = np.maximum.reduceat(oo.roll_min[flat], heads)
-    hi = np.minimum.reduceat(oo.roll_max[flat], heads)
-    if roll_rule == "nadir":
-        roll = np.minimum(np.maximum(0.0, lo), hi)
-    else:
-        roll = 0.5 * (lo + hi)
-    # members sorted by opportunity index, as the explicit candidates hold them
-    seg = np.repeat(np.arange(n), np.diff(ptr))
-    order = np.lexsort((flat, seg))
-    groups = OppGroups(ptr, (flat[order] + oo.first).astype(np.int32))
-    return start, end, roll, groups
-
-
-def window_candidates(
-    instance: Instance,
-    price: np.ndarray | None = None,
-    roll_rule: RollRule = "nadir",
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
-    """:func:`orbit_window_candidates` of every orbit at ``price`` (None: the targets'
-    weights), as :func:`sosp.candidates.cluster_candidates` returns its columns:
-    ``(orbit, start, end, roll, opps)``. Duplicates (same window, roll and members) are
-    dropped."""
-    if price is None:
-        price = np.asarray(instance.target_weight, dtype=float)
-    parts = []
-    for j in range(instance.n_orbits):
-        oo = orbit_opps(instance, j)
-        s, e, r, g = orbit_window_candidates(oo, price, roll_rule)
-        if len(g):
-            parts.append((j, s, e, r, g))
-    if not parts:
-        z = np.zeros(0)
-        empty = OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
-        return np.zeros(0, dtype=np.int64), z, z, z, empty
-    orbit = np.concatenate([np.full(len(p[1]), p[0], dtype=np.int64) for p in parts])
-    start = np.concatenate([p[1] for p in parts])
-    end = np.concatenate([p[2] for p in parts])
-    roll = np.concatenate([p[3] for p in parts])
-    opps = OppGroups.concat([p[4] for p in parts])
-    keep = _distinct(orbit, start, end, roll, opps)
-    return orbit[keep], start[keep], end[keep], roll[keep], opps.take(keep)
-
-
-def _distinct(
-    orbit: np.ndarray, start: np.ndarray, end: np.ndarray, roll: np.ndarray, opps: OppGroups
-) -> np.ndarray:
-    """Indices of the first of each group of identical candidates, in their order."""
-    sizes = opps.sizes
-    # a cheap fingerprint of the members; equal keys are compared member by member
-    pos = np.repeat(np.arange(len(sizes)), sizes)
-    fp = np.bincount(pos, weights=(opps.flat.astype(float) + 1.0) ** 1.5, minlength=len(sizes))
-    order = np.lexsort((np.arange(len(sizes)), fp, sizes, roll, end, start, orbit))
-    keys = (orbit, start, end, roll, sizes, fp)
-    same = np.ones(len(order) - 1, dtype=bool) if len(order) > 1 else np.zeros(0, dtype=bool)
-    for col in keys:
-        c = col[order]
-        same &= c[1:] == c[:-1]
-    drop = np.zeros(len(order), dtype=bool)
-    for q in np.flatnonzero(same):
-        a, b = order[q], order[q + 1]
-        if opps[a] == opps[b]:
-            drop[b] = True
-    return np.flatnonzero(~drop)
-
-
-def window_data(
-    instance: Instance, price: np.ndarray | None = None, roll_rule: RollRule = "nadir"
-) -> Any:
-    """:class:`sosp.planner.OrbitData` over :func:`window_candidates` (a restricted candidate
-    set: the single-orbit planner over it gives real, feasible plans, not the optimum over
-    every candidate)."""
-    from sosp.planner import _arrange
-
-    orbit, start, end, roll, opps = window_candidates(instance, price, roll_rule)
-    return _arrange(instance, orbit, start, end, roll, opps)
-
-
+# --------------------------------------------------------------------- (b) real observations
 #: Penalty doublings and bisection steps of :func:`window_plan` (as
 #: :func:`sosp.planner.best_feasible_path`).
 _DOUBLINGS, _BISECTIONS = 60, 12
@@ -641,8 +529,8 @@ def empty_plan() -> WindowPlan:
 
 
 def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir") -> WindowPlan:
-    """A feasible plan of orbit ``oo`` at ``price`` over the real candidates of the argmax
-    rolls (:func:`orbit_window_candidates` without the singles, made at these prices).
+    """A feasible plan of orbit ``oo`` at ``price`` over the real observations of the argmax
+    rolls (see the module docstring), made at these prices.
 
     Each kept (i, k) becomes its real observation: members, window (10), roll by
     ``roll_rule`` in their common range, gain G(i, k) (the members' prices). The recursion of

@@ -1,5 +1,5 @@
 """The window pricing (sosp.windows): G(i, k) against brute force over rolls, the relaxation
-never below the exact single-orbit plan, the real candidates and plans feasible."""
+never below the exact single-orbit plan, the real plans feasible."""
 
 from __future__ import annotations
 
@@ -23,7 +23,6 @@ from sosp.windows import (
     OrbitOpps,
     orbit_opps,
     relaxed_best_path,
-    window_candidates,
     window_items,
     window_plan,
 )
@@ -121,29 +120,6 @@ def test_relaxation_equals_the_exact_plan_when_every_range_holds_nadir() -> None
     exact, _ = best_path(orbit_data(inst).orbits[0], price)
     relaxed, _, _ = relaxed_best_path(orbit_opps(inst, 0), price)
     assert relaxed == pytest.approx(exact)
-
-
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(inst=small_instances(max_opps=9))
-def test_window_candidates_are_valid_observations(inst: Instance) -> None:
-    orbit, start, end, roll, opps = window_candidates(inst)
-    for u in range(len(opps)):
-        sched = Schedule((Observation(int(orbit[u]), start[u], end[u], roll[u], opps[u]),))
-        rep = validate(inst, sched)
-        # alone, an observation can break only the orbit's knapsacks (4)-(5)
-        assert rep.feasible or all(v.constraint in ("4", "5") for v in rep.violations)
-
-
-def test_window_candidates_on_c1_are_valid_and_cover_every_opportunity(c1: Instance) -> None:
-    orbit, start, end, roll, opps = window_candidates(c1)
-    assert len(opps) > 0
-    assert np.all(end - start <= np.asarray(c1.max_duration)[orbit] + 1e-9)
-    covered = np.unique(opps.flat)
-    short = np.flatnonzero(c1.opp_end - c1.opp_start <= np.asarray(c1.max_duration)[c1.opp_orbit])
-    assert np.array_equal(covered, short)  # the singles at least
-    for u in range(0, len(opps), 97):
-        sched = Schedule((Observation(int(orbit[u]), start[u], end[u], roll[u], opps[u]),))
-        assert validate(c1, sched).feasible
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
