@@ -538,10 +538,11 @@ def _start_candidates(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
     """The candidates whose first opportunity is i (orbit positions), vectorised.
 
-    The same candidates, in the same order, as the reference loop
-    :func:`_generate_orbit_loop`: for each end l (in index order) the rolls of the common
-    range of i and l, those not dominated (:func:`_nondominated`) at l in their rank order.
-    Domination is decided without building each l's cover matrix:
+    The same candidates, in the same order, as the reference loop of the tests
+    (``tests/sosp/candidates_reference.py``): for each end l (in index order) the rolls of the
+    common range of i and l, those not dominated at l (no earlier one in the order (|theta|,
+    larger cover, index) covers a superset) in that order. Domination is decided without
+    building each l's cover matrix:
 
     * each opportunity k's roll range holds an interval ``[a_k, b_k]`` of the sorted rolls,
       so ``cover_l(t)`` is not inside ``cover_l(q)`` iff some k with ``te_k <= te_l`` has
@@ -686,74 +687,6 @@ def _range_max_rows(
     return out
 
 
-def _generate_orbit_loop(
-    instance: Instance, j: int, deadline: float | None, max_candidates: int | None
-) -> OrbitCandidates:
-    """The reference for :func:`_generate_orbit`: one end and one cover matrix at a time
-    (the tests check that both give the same candidates in the same order)."""
-    sl = instance.orbit_opps(j)
-    out_roll: list[np.ndarray] = []
-    out_sizes: list[np.ndarray] = []
-    out_members: list[np.ndarray] = []
-    count = 0
-    ts = np.asarray(instance.opp_start[sl], dtype=float)
-    te = np.asarray(instance.opp_end[sl], dtype=float)
-    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
-    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
-    limit = float(instance.max_duration[j])
-    # opportunities starting within Delta T of each start: a contiguous run (sorted by start)
-    stop = np.searchsorted(ts, ts + limit + EPS, side="right")
-    # Two starts can only give the same candidate when their ts are equal: the duplicate
-    # check keeps the keys of the current start value only.
-    seen: set[tuple[float, bytes]] = set()
-    seen_ts = None
-    for i in range(len(ts)):
-        if ts[i] != seen_ts:
-            seen.clear()
-            seen_ts = ts[i]
-        w = np.arange(i, stop[i])  # candidates for l and for covered opportunities
-        w = w[ts[w] >= ts[i] - EPS]
-        ends = w[(te[w] >= te[i] - EPS) & (te[w] - ts[i] <= limit + EPS)]
-        if ends.size == 0:
-            continue
-        lo_w, hi_w, te_w = lo[w], hi[w], te[w]
-        rolls = np.unique(np.concatenate(([0.0], lo_w[lo_w > 0], hi_w[hi_w < 0])))
-        # keep rolls inside i's own range (7)
-        rolls = rolls[(rolls >= lo[i] - EPS) & (rolls <= hi[i] + EPS)]
-        if rolls.size == 0:
-            continue
-        # inside[k, t]: opportunity w[k]'s range holds rolls[t]
-        inside = (lo_w[:, None] <= rolls[None, :] + EPS) & (rolls[None, :] <= hi_w[:, None] + EPS)
-        for l_ in ends:
-            lpos = int(np.searchsorted(w, l_))
-            ok_roll = inside[lpos]
-            if not ok_roll.any():
-                continue
-            within = te_w <= te[l_] + EPS
-            cover = inside[:, ok_roll] & within[:, None]  # (k, t)
-            r_ok = rolls[ok_roll]
-            kept = _nondominated(cover, np.abs(r_ok))
-            for t in kept:
-                members = (w[cover[:, t]] + sl.start).astype(np.int32)
-                key = (float(te[l_]), members.tobytes())
-                if key in seen:
-                    continue
-                seen.add(key)
-                out_roll.append(r_ok[t : t + 1])
-                out_sizes.append(np.array([len(members)], dtype=np.int64))
-                out_members.append(members)
-                count += 1
-        if max_candidates is not None and count > max_candidates:
-            raise _too_many(instance, j, max_candidates)
-        if deadline is not None and time.perf_counter() > deadline:
-            raise InputError(
-                f"orbit {instance.orbit_ids[j]!r}: time limit reached while generating "
-                f"candidate observations ({count} so far); give more time or use "
-                "asa-dtc"
-            )
-    return _pack(instance, j, out_roll, out_sizes, out_members)
-
-
 def flatten(groups: Sequence[Sequence[int]]) -> tuple[np.ndarray, np.ndarray]:
     """``(sizes, flat)``: the length of each group of indices and all of them concatenated."""
     if isinstance(groups, OppGroups):
@@ -761,25 +694,3 @@ def flatten(groups: Sequence[Sequence[int]]) -> tuple[np.ndarray, np.ndarray]:
     sizes = np.fromiter((len(g) for g in groups), dtype=np.int64, count=len(groups))
     flat = np.fromiter(chain.from_iterable(groups), dtype=np.int64, count=int(sizes.sum()))
     return sizes, flat
-
-
-def _nondominated(cover: np.ndarray, cost: np.ndarray) -> list[int]:
-    """Columns of ``cover`` not dominated by another with a superset cover and cost <= its own.
-
-    Columns are taken by increasing cost, then decreasing cover size, then index; a column is
-    dropped when an earlier one covers a superset. Domination is transitive, so "an earlier
-    one" may be kept or dropped itself: the kept columns are those with no earlier superset.
-    Ties (same cover, same cost) keep the first column. Returned in that order.
-    """
-    n = cover.shape[1]
-    if n == 1:
-        return [0]
-    size = cover.sum(axis=0)
-    order = np.lexsort((np.arange(n), -size, cost))
-    rank = np.empty(n, dtype=np.int64)
-    rank[order] = np.arange(n)
-    # subset[t, q]: every row covered by t is covered by q
-    subset = ~(cover[:, :, None] & ~cover[:, None, :]).any(axis=0)
-    earlier = rank[None, :] < rank[:, None]
-    dropped = (subset & earlier).any(axis=1)
-    return [int(t) for t in order if not dropped[t]]
