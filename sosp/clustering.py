@@ -26,9 +26,8 @@ from functools import cached_property
 
 import numpy as np
 
-from sosp import rules
 from sosp.instance import Instance
-from sosp.schedule import Observation, RollRule, Schedule, choose_roll, items_to_schedule
+from sosp.schedule import RollRule, Schedule, choose_roll, items_to_schedule
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,16 +70,6 @@ class TaskSet:
                 out.setdefault(k, []).append(t)
         return {k: tuple(v) for k, v in out.items()}
 
-    def observation(self, t: int) -> Observation:
-        """Task ``t`` as an :class:`~sosp.schedule.Observation` covering all its components."""
-        return Observation(
-            int(self.orbit[t]),
-            float(self.start[t]),
-            float(self.end[t]),
-            float(self.roll[t]),
-            self.opps[t],
-        )
-
 
 def single_tasks(instance: Instance) -> TaskSet:
     """One task per opportunity, at the opportunity's own roll (no clustering)."""
@@ -93,23 +82,6 @@ def single_tasks(instance: Instance) -> TaskSet:
         weight=instance.opp_weight.copy(),
         opps=tuple((i,) for i in range(n)),
         targets=tuple((int(k),) for k in instance.opp_target),
-    )
-
-
-def can_cluster(instance: Instance, opps: Iterable[int]) -> bool:
-    """True if the opportunities share one orbit, a common roll (7) and span <= Delta T (11)."""
-    idx = np.fromiter(opps, dtype=np.int64)
-    if idx.size == 0:
-        return False
-    orbits = instance.opp_orbit[idx]
-    if np.any(orbits != orbits[0]):
-        return False
-    return rules.can_share_strip(
-        instance.opp_start[idx],
-        instance.opp_end[idx],
-        instance.opp_roll_min[idx],
-        instance.opp_roll_max[idx],
-        float(instance.max_duration[orbits[0]]),
     )
 
 

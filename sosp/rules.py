@@ -126,16 +126,6 @@ def cluster_window(starts: np.ndarray, ends: np.ndarray) -> tuple[float, float]:
     return float(np.min(starts)), float(np.max(ends))
 
 
-def can_share_strip(
-    starts: np.ndarray, ends: np.ndarray, roll_min: np.ndarray, roll_max: np.ndarray, dt: float
-) -> bool:
-    """Whether opportunities of one orbit can form one observation: a common roll (7)-(8) and
-    the window (10) no longer than Delta T (11)."""
-    lo, hi = common_roll_range(roll_min, roll_max)
-    s, e = cluster_window(starts, ends)
-    return lo <= hi + EPS and e - s <= dt + EPS
-
-
 # ---------------------------------------------------------------------------- one orbit
 @dataclass(frozen=True, slots=True)
 class OrbitRules:

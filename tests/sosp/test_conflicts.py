@@ -8,10 +8,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sosp.clustering import can_cluster, single_tasks, static_cluster_tasks, tasks_to_schedule
+from sosp.clustering import single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import conflict_graph, setup_conflict_pairs
 from sosp.instance import Instance, Resources
-from sosp.schedule import Schedule
+from sosp.schedule import Observation, Schedule
 from sosp.validate import validate
 from tests.conftest import tiny_chain, tiny_cluster, tiny_two_orbits
 
@@ -106,8 +106,10 @@ def test_static_clusters_partition_and_are_valid(inst: Instance) -> None:
     tasks = static_cluster_tasks(inst)
     assert sorted(i for t in tasks.opps for i in t) == list(range(inst.n_opps))
     for t in range(len(tasks)):
-        assert can_cluster(inst, tasks.opps[t])
-        rep = validate(inst, Schedule((tasks.observation(t),)))
+        ob = Observation(
+            int(tasks.orbit[t]), tasks.start[t], tasks.end[t], tasks.roll[t], tasks.opps[t]
+        )
+        rep = validate(inst, Schedule((ob,)))
         assert not [v for v in rep.violations if v.constraint in ("7", "11", "structure")]
 
 

@@ -85,16 +85,13 @@ def test_kernel_and_validator_agree_on_random_sequences(case: tuple[Instance, li
 @settings(max_examples=200, deadline=None)
 @given(one_orbit())
 def test_cluster_rules_agree_with_the_validator(case: tuple[Instance, list[int]]) -> None:
-    """can_share_strip (7)-(8), (10)-(11) iff one observation covering them passes (7), (11)."""
+    """The kernel's common roll range (8) and window (10): non-empty and no longer than
+    Delta T iff one observation covering the opportunities passes (7), (11)."""
     inst, chosen = case
     idx = np.array(sorted(chosen))
-    ok = rules.can_share_strip(
-        inst.opp_start[idx],
-        inst.opp_end[idx],
-        inst.opp_roll_min[idx],
-        inst.opp_roll_max[idx],
-        float(inst.max_duration[0]),
-    )
+    lo, hi = rules.common_roll_range(inst.opp_roll_min[idx], inst.opp_roll_max[idx])
+    s, e = rules.cluster_window(inst.opp_start[idx], inst.opp_end[idx])
+    ok = lo <= hi + rules.EPS and e - s <= float(inst.max_duration[0]) + rules.EPS
     try:
         ob = make_observation(inst, idx.tolist(), "nadir")
     except ValueError:
