@@ -245,11 +245,6 @@ class Instance:
         return tuple(_readonly(p.astype(np.int64)) for p in parts)
 
     @cached_property
-    def opp_duration(self) -> np.ndarray:
-        """Window length te - ts of each opportunity, seconds."""
-        return _readonly(self.opp_end - self.opp_start)
-
-    @cached_property
     def opp_weight(self) -> np.ndarray:
         """The weight p_k of each opportunity's target."""
         return _readonly(self.target_weight[self.opp_target])

@@ -45,18 +45,6 @@ def choices(hint: Any) -> tuple[Any, ...] | None:
     return None
 
 
-def type_name(hint: Any) -> str:
-    """A short readable name of a field's type (``int``, ``float | None``, ``midpoint|nadir``)."""
-    members, optional = _parts(hint)
-    names = []
-    for m in members:
-        if get_origin(m) is Literal:
-            names.append("|".join(str(a) for a in get_args(m)))
-        else:
-            names.append(getattr(m, "__name__", str(m)))
-    return " | ".join(names) + (" | None" if optional else "")
-
-
 def coerce(key: str, value: Any, hint: Any) -> Any:
     """Convert a command-line string to the type of ``hint``; other values pass through
     unchanged (the dataclass validates them)."""

@@ -53,7 +53,7 @@ def test_paper_recipe(c2):
     assert c2.n_opps > c2.n_targets
     assert np.all(c2.opp_roll_min >= -33.0) and np.all(c2.opp_roll_max <= 33.0)
     assert np.all(c2.opp_roll_max - c2.opp_roll_min <= 6.0 + 1e-9)
-    assert np.all(c2.opp_duration < 17.0)
+    assert np.all(c2.opp_end - c2.opp_start < 17.0)
 
 
 def test_meta_records_provenance(c2):
