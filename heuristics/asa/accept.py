@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from enum import IntEnum
-from typing import Protocol
 
 import numpy as np
 
@@ -25,14 +24,6 @@ class Outcome(IntEnum):
     BETTER = 1
     ACCEPTED = 2
     REJECTED = 3
-
-
-class AcceptanceRule(Protocol):
-    temperature: float
-
-    def __call__(self, delta: float, rng: np.random.Generator) -> bool: ...
-
-    def update(self, delta: float, accepted: bool) -> None: ...
 
 
 class AdaptiveTemperature:

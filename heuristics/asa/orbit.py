@@ -77,7 +77,7 @@ from heuristics.orbit_search import (
 from sosp.candidates import flatten
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.planner import OrbitData, OrbitItems, best_feasible_path, orbit_data
+from sosp.planner import OrbitItems, best_feasible_path, orbit_data
 from sosp.rules import RollRule
 from sosp.stop import MaxRuntime, NoImprovement
 
@@ -88,15 +88,10 @@ log = logging.getLogger(__name__)
 INIT_NO_IMPROVE = 20
 
 
-def candidate_rolls(data: OrbitData, state: State) -> np.ndarray:
-    """Roll of every candidate of ``data`` by the search's rule (the rule of
-    :meth:`State.make_cluster` applied to the candidate's covered options)."""
-    return _rolls_of(data.opps, state)
-
-
 def _rolls_of(opps: Sequence[Sequence[int]], state: State) -> np.ndarray:
-    """:func:`candidate_rolls` from the candidates' covered options (the common range (8) by
-    blocks of candidates, so that millions of them need no gather of every member at once)."""
+    """Roll of every candidate by the search's rule (the rule of :meth:`State.make_cluster`
+    applied to the candidate's covered options ``opps``; the common range (8) by blocks of
+    candidates, so that millions of them need no gather of every member at once)."""
     pb = state.pb
     n = len(opps)
     if n == 0:

@@ -15,8 +15,8 @@ from heuristics.asa import ASAParams
 from heuristics.asa.orbit import (
     OrbitPlanner,
     WindowPlanner,
+    _rolls_of,
     ascend,
-    candidate_rolls,
     make_planner,
     orbit_move,
     orbit_search_start,
@@ -73,7 +73,7 @@ def test_candidates_take_the_searchs_roll_by_hand(kw: dict, pair_roll: float, c_
     rolls = dict(zip(planner.data.opps, planner.data.roll.tolist(), strict=True))
     assert rolls[(a, b)] == pair_roll
     assert rolls[(c,)] == c_roll
-    assert np.array_equal(candidate_rolls(planner.data, state), planner.data.roll)
+    assert np.array_equal(_rolls_of(planner.data.opps, state), planner.data.roll)
 
 
 @pytest.mark.parametrize("kw", [{}, {"roll_rule": "nadir", "nadir_singles": True}])
