@@ -147,17 +147,6 @@ class OppGroups(Sequence[tuple[int, ...]]):
         np.cumsum(sizes, out=ptr[1:])
         return OppGroups(ptr, self.flat[ragged_positions(self.ptr[rows], sizes)])
 
-    @staticmethod
-    def concat(parts: Sequence[OppGroups]) -> OppGroups:
-        """The groups of ``parts`` one after another."""
-        if not parts:
-            return OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
-        offsets = np.cumsum([0] + [int(p.ptr[-1]) for p in parts[:-1]])
-        ptr = np.concatenate(
-            [[0]] + [p.ptr[1:] + off for p, off in zip(parts, offsets, strict=True)]
-        )
-        return OppGroups(ptr, np.concatenate([p.flat for p in parts]))
-
 
 def ragged_positions(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     """``concatenate([arange(s, s + n) for s, n in zip(starts, sizes)])``, vectorised."""

@@ -395,7 +395,6 @@ def test_opp_groups_behave_as_a_tuple_of_tuples() -> None:
     assert len(g) == 4 and g[0] == (1, 2, 3) and g[-1] == (5, 6) and g[2] == ()
     assert list(g) == groups and g == groups and g == tuple(groups)
     assert g.take(np.array([3, 0])) == [(5, 6), (1, 2, 3)]
-    assert OppGroups.concat([g, g.take(np.array([1]))]) == [*groups, (4,)]
     sizes, flat = flatten(g)
     assert sizes.tolist() == [3, 1, 0, 2] and flat.tolist() == [1, 2, 3, 4, 5, 6]
     with pytest.raises(IndexError):
