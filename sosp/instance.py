@@ -37,6 +37,7 @@ from sosp.io import (
     atomic_write_text,
     is_finite_number,
     read_json,
+    reject_json_constant,
 )
 
 FORMAT_NAME = "sosp-instance"
@@ -937,7 +938,7 @@ def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
             source=src,
         )
     try:
-        header = json.loads(str(arr), parse_constant=_reject_json_constant)
+        header = json.loads(str(arr), parse_constant=reject_json_constant)
     except ValueError as exc:
         raise InputError(f"{NPZ_HEADER}: malformed JSON: {exc}", source=src) from None
     if not isinstance(header, dict):
@@ -963,10 +964,6 @@ def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
     if not isinstance(header["meta"], dict):
         raise InputError(f"{NPZ_HEADER}.meta: expected an object", source=src)
     return header
-
-
-def _reject_json_constant(name: str) -> float:
-    raise ValueError(f"{name} is not valid JSON")
 
 
 # --------------------------------------------------------------------------- helpers

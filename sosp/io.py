@@ -118,7 +118,8 @@ def atomic_write_json(path: str | os.PathLike[str], data: Any) -> None:
     atomic_write_text(path, dumps_json(data))
 
 
-def _reject_constant(name: str) -> float:
+def reject_json_constant(name: str) -> float:
+    """``parse_constant`` for :func:`json.loads`: NaN and Infinity are not JSON."""
     raise ValueError(f"{name} is not valid JSON")
 
 
@@ -140,7 +141,7 @@ def read_json(path: str | os.PathLike[str]) -> Any:
     except (OSError, UnicodeDecodeError, EOFError) as exc:
         raise InputError(f"cannot read: {exc}", source=str(p)) from None
     try:
-        return json.loads(text, parse_constant=_reject_constant)
+        return json.loads(text, parse_constant=reject_json_constant)
     except json.JSONDecodeError as exc:
         raise InputError(
             f"malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=str(p)
