@@ -85,9 +85,7 @@ def single_tasks(instance: Instance) -> TaskSet:
     )
 
 
-def static_cluster_tasks(
-    instance: Instance, roll_rule: RollRule = "midpoint", max_span: float | None = None
-) -> TaskSet:
+def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -> TaskSet:
     """Static cluster-tasks: a per-orbit partition of the opportunities satisfying (7), (11).
 
     Parameters
@@ -97,8 +95,6 @@ def static_cluster_tasks(
     roll_rule
         ``"midpoint"`` (9) or ``"nadir"`` for groups of two or more; a single opportunity
         keeps its own roll.
-    max_span
-        Largest window a group may reach (default, and capped at, each orbit's Delta T).
 
     Returns
     -------
@@ -109,8 +105,6 @@ def static_cluster_tasks(
     for j in range(instance.n_orbits):
         sl = instance.orbit_opps(j)
         limit = float(instance.max_duration[j])
-        if max_span is not None:
-            limit = min(limit, float(max_span))
         # open groups: [first start, max end, lo, hi, members]
         open_: list[list] = []
         for i in range(sl.start, sl.stop):

@@ -97,7 +97,13 @@ def test_static_clusters_respect_max_duration() -> None:
     )
     tasks = static_cluster_tasks(inst)
     assert tasks.opps == ((0, 1), (2,))  # c would stretch the window to 122 > 120
-    assert static_cluster_tasks(inst, max_span=50).opps == ((0,), (1, 2))
+    # with Delta T = 50, b and c (window 22) still cluster but a and b no longer do
+    short = Instance.build(
+        {"a": 1, "b": 1, "c": 1},
+        [("a", 0, 0, 4, 5.0), ("b", 0, 100, 104, 5.0), ("c", 0, 118, 122, 5.0)],
+        resources=Resources(max_duration=50.0),
+    )
+    assert static_cluster_tasks(short).opps == ((0,), (1, 2))
 
 
 @settings(max_examples=150, deadline=None)
