@@ -650,6 +650,8 @@ def branch_and_price(
             nodes += 1
             heapq.heappush(heap, (-child.bound, count, child))
             count += 1
+        if nodes % 100 < 2:  # a long run shows its progress (sosp -v)
+            log.info("branch and price: %d nodes, bound %.4f", nodes, -heap[0][0])
     answer = max((-b for b, _, _ in heap), default=-math.inf)
     log.info("branch and price: %d nodes, bound %.4f", nodes, answer)
     return answer, nodes, final

@@ -223,12 +223,12 @@ WARM_START_SHARE = 0.1
 #: Perturbation steps without a new best after which :func:`heuristic_start` stops.
 WARM_START_STEPS = 200
 
-#: Share of ``time_limit`` for the Lagrangian (or LP) bound :func:`solve_milp` computes before
-#: the MILP (it stops sooner when it meets the warm start: then no MILP is needed).
+#: Share of ``time_limit`` for the bound :func:`solve_milp` computes before the MILP (it
+#: stops sooner when it meets the warm start: then no MILP is needed).
 EXTRA_BOUND_SHARE = 0.1
 
 #: What :func:`solve_milp` computes besides HiGHS's dual bound.
-EXTRA_BOUNDS = ("lagrangian", "lp", "none")
+EXTRA_BOUNDS = ("colgen", "lagrangian", "lp", "none")
 
 
 def heuristic_start(
@@ -333,7 +333,7 @@ def solve_milp(
     mip_gap: float | None = None,
     threads: int | None = None,
     warm_start: Schedule | str | None = "auto",
-    extra_bound: str = "lagrangian",
+    extra_bound: str = "colgen",
     relax: bool = False,
     backend: str = "auto",
     conflicts: str = "network",
@@ -350,9 +350,9 @@ def solve_milp(
     1. the model's items (:func:`model_data`);
     2. a warm start (``warm_start="auto"``: :func:`heuristic_start`, at most
        :data:`WARM_START_SHARE` of the limit);
-    3. an upper bound besides HiGHS's own (``extra_bound``: the Lagrangian bound over the
-       model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit); when it meets the warm
-       start, the start is optimal and no MILP is built;
+    3. an upper bound besides HiGHS's own (``extra_bound``: column generation then branch
+       and price over the model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit);
+       when it meets the warm start, the start is optimal and no MILP is built;
     4. the MILP, started from the warm start.
 
     The schedule returned is never worse than the warm start, and the bound is the least of
@@ -381,9 +381,12 @@ def solve_milp(
         schedule, mapped to the model's variables (ignored with a warning when it does not fit
         the model or is infeasible).
     extra_bound
-        ``"lagrangian"`` (default: :func:`models.lagrangian.lagrangian_bound` over the model's
-        items), ``"lp"`` (the LP relaxation with the relaxed slew row, direct backend) or
-        ``"none"``. Either bounds the MILP's optimum when HiGHS stops before its root LP.
+        ``"colgen"`` (default: :func:`models.colgen.colgen_bound` over the model's items,
+        then its branch and price for the rest of the share; a schedule it ends on replaces
+        the warm start when better), ``"lagrangian"``
+        (:func:`models.lagrangian.lagrangian_bound`, subgradient steps), ``"lp"`` (the LP
+        relaxation with the relaxed slew row, direct backend) or ``"none"``. Each bounds the
+        MILP's optimum, also when HiGHS stops before its root LP.
     relax
         Solve the LP relaxation instead: the result has no schedule, only ``bound``.
     backend
@@ -498,7 +501,7 @@ def solve_milp(
     # ---- warm start (never worse than it) and a bound besides HiGHS's
     start: list[int] | None = None
     arranged = None  # the items arranged per orbit for the planner (warm start, Lagrangian)
-    if (warm_start == "auto" or extra_bound == "lagrangian") and fits(
+    if (warm_start == "auto" or extra_bound in ("colgen", "lagrangian")) and fits(
         "arrange", data.n_items, deadline
     ):
         from sosp.planner import with_rolls
@@ -518,12 +521,18 @@ def solve_milp(
         stats["start_s"] = round(time.perf_counter() - t0, 6)
     upper = cap
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
-        extra = _extra_bound(
+        extra, found = _extra_bound(
             data, extra_bound, start_profit, deadline, time_limit, threads, arranged
         )
         if extra is not None:
             stats["extra_bound"] = extra
             upper = min(upper, extra)
+        if found is not None and found[1] > start_profit:
+            better = start_items(data, found[0])
+            if better is not None:
+                start, start_profit = better, found[1]
+                stats["start_profit"] = float(start_profit)
+                stats["start_from"] = "branch_and_price"
         stats["extra_bound_s"] = round(time.perf_counter() - t0, 6)
 
     kind, incumbent, raw_bound, chosen = "not_run", None, None, None
@@ -593,13 +602,27 @@ def _extra_bound(
     time_limit: float | None,
     threads: int | None,
     arranged: OrbitData | None,
-) -> float | None:
-    """The Lagrangian or LP bound of ``data``'s model within its share of the limit."""
+) -> tuple[float | None, tuple[Schedule, float] | None]:
+    """The bound ``how`` of ``data``'s model within its share of the limit, and the schedule
+    (with its profit) the branch and price ended on, if any."""
     limit = None
     if deadline is not None and time_limit is not None:
         limit = min(EXTRA_BOUND_SHARE * time_limit, deadline - time.perf_counter())
         if limit <= 0:
-            return None
+            return None, None
+    if how == "colgen":
+        from models.colgen import colgen_bound
+
+        out = colgen_bound(
+            data.instance,
+            time_limit=limit,
+            lower_bound=lower if lower > 0 else None,
+            data=arranged,
+            # without a limit the branching could run for very long: the MILP decides then
+            branch=limit is not None,
+        )
+        found = (out["schedule"], float(out["profit"])) if "schedule" in out else None
+        return float(out["bound"]), found
     if how == "lagrangian":
         from models.lagrangian import lagrangian_bound
 
@@ -609,8 +632,9 @@ def _extra_bound(
             lower_bound=lower if lower > 0 else None,
             data=arranged,
         )
-        return float(out["bound"])
-    return _lp_bound(data, None if limit is None else time.perf_counter() + limit, threads)
+        return float(out["bound"]), None
+    until = None if limit is None else time.perf_counter() + limit
+    return _lp_bound(data, until, threads), None
 
 
 def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:

@@ -184,9 +184,11 @@ def test_empty_instance_direct() -> None:
 
 
 def test_through_sosp_solve_direct() -> None:
+    # no start and no extra bound, so the MILP itself is built and solved
     res = solve(
-        tiny_cluster(), "milp", model="cluster", backend="highs", time_limit=30, warm_start="none"
-    )
+        tiny_cluster(), "milp", model="cluster", backend="highs", time_limit=30,
+        warm_start="none", extra_bound="none",
+    )  # fmt: skip
     assert res.status is Status.OPTIMAL and res.profit == 11
     assert res.stats["backend"] == "highs" and res.stats["nonzeros"] > 0
 

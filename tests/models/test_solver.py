@@ -181,7 +181,14 @@ def test_through_sosp_solve_with_params() -> None:
     assert res.schedule.method == "milp"
     # the warm start observes every target: proven without building the MILP
     assert res.stats["proven_by"] == "cap" and "variables" not in res.stats
+    # without a start the branch and price ends on an integral node: proven, no MILP either
     res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=30, warm_start="none")
+    assert res.status is Status.OPTIMAL and res.profit == 11
+    assert res.stats["start_from"] == "branch_and_price" and "variables" not in res.stats
+    res = solve(
+        inst, "milp", mip_gap=0.0, threads=1, time_limit=30, warm_start="none",
+        extra_bound="none",
+    )  # fmt: skip
     assert res.status is Status.OPTIMAL and res.profit == 11
     for key in ("variables", "constraints", "nonzeros", "candidates"):
         assert res.stats[key] > 0
