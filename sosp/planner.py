@@ -45,6 +45,7 @@ and the MILP LNS (:mod:`heuristics.lns`).
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -581,9 +582,7 @@ def _recursion(
     if cap <= 0:
         return empty, np.zeros(0, dtype=np.int64)
     # What the first (last) observation gets back: |theta| of the missing turn from (to)
-    # nadir, or minus the fixed neighbour's half of the turn to it. Scalars where they are
-    # the same for every position (no slew penalty, or a fixed neighbour): the stretches of
-    # a local search have a few dozen positions, where every array operation counts.
+    # nadir, or minus the fixed neighbour's half of the turn to it.
     first: Any = 0.0
     last: Any = 0.0
     g = gain
@@ -594,56 +593,119 @@ def _recursion(
         g -= 2.0 * slew_cost
         first = slew_cost if left_slew is None else -es * left_slew
         last = slew_cost if right_slew is None else -es * right_slew
-    # The levels are held with a slot 0 before the positions: the value of starting a plan
-    # there. Where that is one number (``first`` a scalar) the slot carries it through the
-    # prefix maxima, so a level is three array operations: a few dozen positions in a local
-    # search's stretch, where each one counts. Otherwise the slot is -inf and ``first`` is
-    # taken position by position.
-    scalar = not isinstance(first, np.ndarray)
-    nbx = np.zeros(m + 1, dtype=np.int64)
-    nbx[1:] = n_before
-    gx = np.zeros(m + 1)
-    gx[1:] = g
-    firstx = None if scalar else np.concatenate(([-np.inf], first))
-    order = None if by_release is None else np.concatenate(([0], by_release + 1))
-    cur = np.empty(m + 1)
-    cur[0] = first if scalar else -np.inf
-    cur[1:] = g + first  # level 1: every position starts a plan
-    # bbs[n][k]: slot 0 and the best of level n - 1 over the first k positions by R (what
-    # level n offers a position with k possible predecessors), kept for the way back
-    bbs: list[Any] = [None, None]
-    for _ in range(cap - 1):
-        bb = np.maximum.accumulate(cur if order is None else cur[order])
-        nxt = bb[nbx]
-        if firstx is not None:
-            np.maximum(nxt, firstx, out=nxt)
-        nxt += gx
-        bbs.append(bb)
-        # One more opening adds nothing: neither will the next. Bytes, not np.array_equal:
-        # ten times faster on an orbit's few hundred items, and a false "differ" (-0.0 vs
-        # 0.0) only costs one more level.
-        if nxt.tobytes() == cur.tobytes():
-            break
-        cur = nxt
-    final = cur[1:] + last
-    u = int(final.argmax())
-    value = float(final[u])
+    firsts = np.full(m, first) if np.ndim(first) == 0 else first
+    lasts = np.full(m, last) if np.ndim(last) == 0 else last
+    order = np.arange(m) if by_release is None else by_release
+    value, path = _levels()(
+        np.ascontiguousarray(g, dtype=np.float64),
+        np.ascontiguousarray(firsts, dtype=np.float64),
+        np.ascontiguousarray(lasts, dtype=np.float64),
+        np.ascontiguousarray(order, dtype=np.int64),
+        np.ascontiguousarray(n_before, dtype=np.int64),
+        cap,
+    )
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)
-    path = [u]
-    n = len(bbs) - 1
+    return value, path
+
+
+def _levels_py(
+    g: np.ndarray,
+    first: np.ndarray,
+    last: np.ndarray,
+    order: np.ndarray,
+    n_before: np.ndarray,
+    cap: int,
+) -> tuple[float, np.ndarray]:
+    """The levels of :func:`_recursion` and the way back (compiled by numba, :func:`_levels`).
+
+    Level n holds, per position u, ``g[u] + max(first[u], best of level n - 1 over the first
+    n_before[u] positions of order)``; a level equal (bit for bit) to the one before ends the
+    recursion, itself kept as the top level. The best final value ``level + last`` is taken
+    at its first position, and each step back takes the first position by ``order``
+    reaching its predecessors' maximum, while that maximum beats starting at u. Loops, not
+    array operations: a local search's stretch has a few dozen positions, where numpy's
+    fixed cost per call was most of the time.
+    """
+    m = g.shape[0]
+    lv = np.empty((cap, m))
+    for u in range(m):
+        lv[0, u] = g[u] + first[u]
+    pm = np.empty(m + 1)
+    top = 1
+    while top < cap:
+        prev = lv[top - 1]
+        run = -np.inf
+        pm[0] = run
+        for k in range(m):
+            x = prev[order[k]]
+            if x > run:
+                run = x
+            pm[k + 1] = run
+        cur = lv[top]
+        same = True
+        for u in range(m):
+            b = pm[n_before[u]]
+            f = first[u]
+            v = (b if b > f else f) + g[u]
+            cur[u] = v
+            if same and (v != prev[u] or math.copysign(1.0, v) != math.copysign(1.0, prev[u])):
+                same = False
+        top += 1
+        if same:
+            break
+    best_u = 0
+    best_v = lv[top - 1, 0] + last[0]
+    for u in range(1, m):
+        v = lv[top - 1, u] + last[u]
+        if v > best_v:
+            best_u, best_v = u, v
+    path = np.empty(top, dtype=np.int64)
+    u = best_u
+    path[0] = u
+    count = 1
+    n = top
     while n > 1:
-        bb = bbs[n]
-        best = bb[n_before[u]]
-        if not best > (first if scalar else first[u]):
-            break  # u starts the plan (or has no predecessor: best is -inf)
-        # the first position by R reaching that prefix maximum (argmax's pick): prefix k
-        # ends with the k-th position by R
-        q = int(bb.searchsorted(best)) - 1
-        u = q if by_release is None else int(by_release[q])
-        path.append(u)
+        prev = lv[n - 2]
+        lim = n_before[u]
+        best = -np.inf
+        for k in range(lim):
+            x = prev[order[k]]
+            if x > best:
+                best = x
+        if not best > first[u]:
+            break  # u starts the plan (or has no predecessor)
+        for k in range(lim):
+            if prev[order[k]] == best:
+                u = order[k]
+                break
+        path[count] = u
+        count += 1
         n -= 1
-    return value, np.array(path[::-1], dtype=np.int64)
+    return best_v, path[:count][::-1].copy()
+
+
+_LEVELS: Callable[..., tuple[float, np.ndarray]] | None = None
+
+
+def _levels() -> Callable[..., tuple[float, np.ndarray]]:
+    """:func:`_levels_py` compiled by numba on first use (cached on disk: about 1.5 s the
+    first time, then about 0.5 s a process to import numba and load it)."""
+    global _LEVELS
+    if _LEVELS is None:
+        from numba import njit
+
+        sig = "Tuple((float64, int64[::1]))(float64[::1], float64[::1], float64[::1], "
+        sig += "int64[::1], int64[::1], int64)"
+        _LEVELS = njit(sig, cache=True)(_levels_py)
+    return _LEVELS
+
+
+def compile_kernels() -> None:
+    """Compile (or load) the planner's kernel now: :func:`sosp.solve.solve` and
+    :func:`models.solve.bound` call it before their clocks start, so a time limit is not
+    spent on it, as it is not on imports."""
+    _levels()
 
 
 #: Bisection steps of :func:`plan_sequence` on its multiplier of (4)-(5).
