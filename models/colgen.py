@@ -367,7 +367,8 @@ class _Node:
     ``bound`` is the least Lagrangian bound of the subproblem found so far (valid whatever
     the multipliers), ``mu``, ``beta``, ``lam`` the multipliers that gave it (the children's
     start), ``cover`` the master's cover of each (target, orbit) pair at the end of its column
-    generation (None when it was cut short by the time limit).
+    generation (None when it was cut short by the time limit), ``support`` the pool's
+    columns positive in its last master (the children's masters start with them).
     """
 
     bound: float
@@ -377,22 +378,49 @@ class _Node:
     beta: np.ndarray
     lam: np.ndarray
     cover: dict[tuple[int, int], float] | None
+    support: tuple[int, ...] = ()
 
 
 class _Columns:
-    """Every plan generated so far (orbit, targets, how many times each, energy, memory)."""
+    """Every plan generated so far (orbit, targets, how many times each, energy, memory),
+    with their entries also as flat arrays (grown on demand) to value them all at once."""
 
     def __init__(self) -> None:
-        self.keys: set[tuple[int, bytes]] = set()
+        self.keys: dict[tuple[int, bytes], int] = {}
         self.items: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
+        self._flat: tuple[np.ndarray, ...] = tuple(np.zeros(0) for _ in range(6))
 
-    def add(self, g: int, tg: np.ndarray, cnt: np.ndarray, energy: float, memory: float) -> bool:
+    def add(self, g: int, tg: np.ndarray, cnt: np.ndarray, energy: float, memory: float) -> int:
+        """The column's index in the pool (added when new)."""
         key = (g, tg.tobytes() + cnt.tobytes())
-        if key in self.keys:
-            return False
-        self.keys.add(key)
-        self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
-        return True
+        if key not in self.keys:
+            self.keys[key] = len(self.items)
+            self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
+        return self.keys[key]
+
+    def values(self, price: np.ndarray, lam_per_unit: np.ndarray) -> np.ndarray:
+        """Each column's value: ``sum_k price[g, k] * n_kP - lam_e E_P - lam_w M_P`` with
+        ``price`` orbits x targets and ``lam_per_unit`` orbits x 2 (per unit of energy and
+        memory)."""
+        col, orb, tgt, cnt, energy, memory = self._flat
+        n = len(energy)
+        if n < len(self.items):
+            new = self.items[n:]
+            sizes = [len(c[1]) for c in new]
+            col = np.concatenate([col, np.repeat(np.arange(n, len(self.items)), sizes)])
+            orb = np.concatenate([orb, np.array([c[0] for c in new], dtype=np.int64)])
+            tgt = np.concatenate([tgt, *[c[1] for c in new]])
+            cnt = np.concatenate([cnt, *[c[2] for c in new]])
+            energy = np.concatenate([energy, [c[3] for c in new]])
+            memory = np.concatenate([memory, [c[4] for c in new]])
+            col, orb, tgt = col.astype(np.int64), orb.astype(np.int64), tgt.astype(np.int64)
+            self._flat = (col, orb, tgt, cnt, energy, memory)
+        gained = np.bincount(col, weights=price[orb[col], tgt] * cnt, minlength=len(energy))
+        return gained - lam_per_unit[orb, 0] * energy - lam_per_unit[orb, 1] * memory
+
+    def orbits(self) -> np.ndarray:
+        """The orbit of each column (as of the last :meth:`values`)."""
+        return self._flat[1]
 
 
 def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> np.ndarray:
@@ -470,8 +498,12 @@ def _solve_node(
         )  # fmt: skip
     first_y = nf + len(fk)
     in_lp: list[int] = []
+    loaded: set[int] = set()
 
     def load(i: int) -> None:
+        if i in loaded:
+            return
+        loaded.add(i)
         g, tg, cnt, energy, memory = cols.items[i]
         counts = row_free[tg] >= 0
         if g in banned_on:
@@ -487,8 +519,8 @@ def _solve_node(
         h.addCol(0.0, 0.0, inf, len(r), r, v)
         in_lp.append(i)
 
-    for i in range(len(cols.items)):
-        load(i)
+    for i in _start_columns(node, cols, groups, len(p), e_cap, w_cap):
+        load(int(i))
     pf = p[fk]
     best, mu_c, beta_c, lam_c = node.bound, node.mu, node.beta, node.lam
     mu_m: np.ndarray | None = None
@@ -505,7 +537,7 @@ def _solve_node(
             lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
         value = float(np.maximum(p[free] - mu_s[free], 0.0).sum())
         value += float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
-        n_before = len(cols.items)
+        n_loaded = len(in_lp)
         for g, o in enumerate(groups):
             if deadline is not None and time.perf_counter() > deadline:
                 return replace(node, cover=None)
@@ -515,12 +547,10 @@ def _solve_node(
             if len(path):
                 tg, cnt = np.unique(o.target_flat[flat_positions(o, path)], return_counts=True)
                 energy, memory = o.usage(path)
-                cols.add(g, tg, cnt, energy, memory)
+                load(cols.add(g, tg, cnt, energy, memory))  # new to this master, or to all
         if value < best:
             best, mu_c, beta_c, lam_c = value, mu_s, beta_s, lam_s
             node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c)
-        for i in range(n_before, len(cols.items)):
-            load(i)
         left = None if deadline is None else deadline - time.perf_counter()
         h.setOptionValue("time_limit", inf if left is None else max(left, 1e-3))
         h.run()
@@ -540,7 +570,7 @@ def _solve_node(
             axis=1,
         )
         done = best - m_value <= 1e-6 * max(1.0, abs(best))
-        if not done and len(cols.items) == n_before:
+        if not done and len(in_lp) == n_loaded:
             if not at_master:
                 alpha = 0.0  # no new plan at the smoothed point: price at the master's duals
                 continue
@@ -548,15 +578,53 @@ def _solve_node(
         if done:
             y = np.asarray(h.getSolution().col_value, dtype=float)[first_y:]
             cover: dict[tuple[int, int], float] = {}
+            support = []
             for i, yi in zip(in_lp, y, strict=True):
                 if yi > 1e-9:
+                    support.append(i)
                     g, tg = cols.items[i][0], cols.items[i][1]
                     for k in tg:
                         key = (int(k), g)
                         cover[key] = cover.get(key, 0.0) + float(yi)
-            return replace(node, cover=cover)
+            return replace(node, cover=cover, support=tuple(support))
         alpha = smoothing
     return replace(node, cover=None)
+
+
+#: A node's master starts with every column of the pool while it has at most this many;
+#: beyond, with its parent's positive columns and each orbit's best :data:`PER_ORBIT` at the
+#: node's starting multipliers (its own pricing adds back any other it needs). Loading the
+#: whole pool made europe-400's nodes three times slower after 800 nodes than at the start.
+POOL_ALL = 1000
+
+#: Columns per orbit a node's master starts with once the pool is larger than
+#: :data:`POOL_ALL`.
+PER_ORBIT = 20
+
+
+def _start_columns(
+    node: _Node,
+    cols: _Columns,
+    groups: tuple[Any, ...],
+    n_targets: int,
+    e_cap: np.ndarray,
+    w_cap: np.ndarray,
+) -> np.ndarray:
+    """The pool's columns a node's master starts with (see :data:`POOL_ALL`). Which columns
+    the master holds changes its convergence, not the node's bound: that is the least
+    Lagrangian bound of its pricing rounds, valid whatever the master."""
+    n = len(cols.items)
+    if n <= POOL_ALL:
+        return np.arange(n)
+    price = np.stack([_node_prices(node.mu, node.beta, g, node) for g in range(len(groups))])
+    per_unit = node.lam / np.maximum(np.stack([e_cap, w_cap], axis=1), 1e-12)
+    value = cols.values(price, per_unit)
+    orbit = cols.orbits()
+    by = np.lexsort((-value, orbit))  # by orbit, best first
+    first = np.searchsorted(orbit[by], orbit[by], side="left")
+    rank = np.arange(n) - first
+    chosen = by[rank < PER_ORBIT]
+    return np.union1d(chosen, np.asarray(node.support, dtype=np.int64))
 
 
 def _branch_pair(node: _Node, p: np.ndarray) -> tuple[int, int] | None:

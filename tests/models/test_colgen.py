@@ -191,6 +191,33 @@ def test_branch_and_price_closes_the_root_gap(seed: int, optimum: float, root: f
     assert validate(inst, out["schedule"]).profit == out["profit"] <= optimum
 
 
+@pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (105, 23), (226, 34)])
+def test_branch_and_price_with_a_restricted_start_master(monkeypatch, seed, optimum) -> None:
+    # the nodes' masters start from a few pool columns (as on large pools): the answer is
+    # the same optimum, the pricing adding back the columns each master needs
+    import models.colgen as colgen
+
+    monkeypatch.setattr(colgen, "POOL_ALL", 0)
+    monkeypatch.setattr(colgen, "PER_ORBIT", 1)
+    out = colgen_bound(random_tiny(seed), branch=True)
+    assert out["bound"] == optimum
+
+
+@settings(max_examples=30, deadline=None)
+@given(inst=small_instances())
+def test_restricted_start_masters_never_below_the_optimum(inst: Instance) -> None:
+    import models.colgen as colgen
+
+    optimum = brute_force(inst, "cluster").profit
+    saved = colgen.POOL_ALL, colgen.PER_ORBIT
+    colgen.POOL_ALL, colgen.PER_ORBIT = 0, 1
+    try:
+        out = colgen_bound(inst, branch=True)
+    finally:
+        colgen.POOL_ALL, colgen.PER_ORBIT = saved
+    assert optimum <= out["bound"]
+
+
 @pytest.mark.slow
 def test_branch_and_price_keeps_its_time_limit() -> None:
     from sosp.scenarios import generate_scenario
