@@ -610,29 +610,18 @@ def _extra_bound(
         limit = min(EXTRA_BOUND_SHARE * time_limit, deadline - time.perf_counter())
         if limit <= 0:
             return None, None
+    common = {"time_limit": limit, "lower_bound": lower if lower > 0 else None, "data": arranged}
     if how == "colgen":
         from models.colgen import colgen_bound
 
-        out = colgen_bound(
-            data.instance,
-            time_limit=limit,
-            lower_bound=lower if lower > 0 else None,
-            data=arranged,
-            # without a limit the branching could run for very long: the MILP decides then
-            branch=limit is not None,
-        )
+        # without a limit the branching could run for very long: the MILP decides then
+        out = colgen_bound(data.instance, branch=limit is not None, **common)
         found = (out["schedule"], float(out["profit"])) if "schedule" in out else None
         return float(out["bound"]), found
     if how == "lagrangian":
         from models.lagrangian import lagrangian_bound
 
-        out = lagrangian_bound(
-            data.instance,
-            time_limit=limit,
-            lower_bound=lower if lower > 0 else None,
-            data=arranged,
-        )
-        return float(out["bound"]), None
+        return float(lagrangian_bound(data.instance, **common)["bound"]), None
     until = None if limit is None else time.perf_counter() + limit
     return _lp_bound(data, until, threads), None
 

@@ -430,6 +430,21 @@ def _too_many(instance: Instance, j: int, max_candidates: int) -> InputError:
     )
 
 
+def orbit_columns(
+    instance: Instance, j: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
+    """Orbit j's opportunities as the generators use them: ``ts, te``, the roll range
+    ``lo, hi``, Delta T and, per opportunity, one past the last one starting within Delta T
+    of it (a contiguous run: the opportunities are sorted by start)."""
+    sl = instance.orbit_opps(j)
+    ts = np.asarray(instance.opp_start[sl], dtype=float)
+    te = np.asarray(instance.opp_end[sl], dtype=float)
+    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
+    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
+    limit = float(instance.max_duration[j])
+    return ts, te, lo, hi, limit, np.searchsorted(ts, ts + limit + EPS, side="right")
+
+
 def _generate_orbit(
     instance: Instance, j: int, deadline: float | None, max_candidates: int | None
 ) -> OrbitCandidates:
@@ -437,12 +452,7 @@ def _generate_orbit(
     first opportunity, then duplicates dropped (two starts or two ends at the same time can
     give the same candidate; the first is kept)."""
     sl = instance.orbit_opps(j)
-    ts = np.asarray(instance.opp_start[sl], dtype=float)
-    te = np.asarray(instance.opp_end[sl], dtype=float)
-    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
-    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
-    limit = float(instance.max_duration[j])
-    stop = np.searchsorted(ts, ts + limit + EPS, side="right")
+    ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
     n = len(ts)
     tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
     if n > 1:

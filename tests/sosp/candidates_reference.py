@@ -6,24 +6,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from sosp.candidates import OrbitCandidates, _pack
+from sosp.candidates import OrbitCandidates, _pack, orbit_columns
 from sosp.instance import Instance
 from sosp.rules import EPS
 
 
 def generate_orbit_loop(instance: Instance, j: int) -> OrbitCandidates:
     """The non-dominated candidate observations of orbit ``j``, one end at a time."""
-    sl = instance.orbit_opps(j)
     out_roll: list[np.ndarray] = []
     out_sizes: list[np.ndarray] = []
     out_members: list[np.ndarray] = []
-    ts = np.asarray(instance.opp_start[sl], dtype=float)
-    te = np.asarray(instance.opp_end[sl], dtype=float)
-    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
-    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
-    limit = float(instance.max_duration[j])
-    # opportunities starting within Delta T of each start: a contiguous run (sorted by start)
-    stop = np.searchsorted(ts, ts + limit + EPS, side="right")
+    sl = instance.orbit_opps(j)
+    ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
     # Two starts can only give the same candidate when their ts are equal: the duplicate
     # check keeps the keys of the current start value only.
     seen: set[tuple[float, bytes]] = set()
