@@ -370,20 +370,27 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
         _WORKER_INSTANCE = None
 
 
-def _window_pairs(instance: Instance, j: int) -> tuple[np.ndarray, np.ndarray]:
-    """Orbit j's starts (sorted) and, per start, the end of its Delta T run of starts."""
+def orbit_columns(
+    instance: Instance, j: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
+    """Orbit j's opportunities as the generators use them: ``ts, te``, the roll range
+    ``lo, hi``, Delta T and, per opportunity, one past the last one starting within Delta T
+    of it (a contiguous run: the opportunities are sorted by start)."""
     sl = instance.orbit_opps(j)
     ts = np.asarray(instance.opp_start[sl], dtype=float)
-    stop = np.searchsorted(ts, ts + float(instance.max_duration[j]) + EPS, side="right")
-    return ts, stop
+    te = np.asarray(instance.opp_end[sl], dtype=float)
+    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
+    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
+    limit = float(instance.max_duration[j])
+    return ts, te, lo, hi, limit, np.searchsorted(ts, ts + limit + EPS, side="right")
 
 
 def _densest(instance: Instance) -> int:
     """The orbit with the most (first, covered) pairs inside one Delta T."""
     best, arg = -1, 0
     for j in range(instance.n_orbits):
-        ts, stop = _window_pairs(instance, j)
-        pairs = int((stop - np.arange(len(ts))).sum())
+        stop = orbit_columns(instance, j)[-1]
+        pairs = int((stop - np.arange(len(stop))).sum())
         if pairs > best:
             best, arg = pairs, j
     return arg
@@ -403,15 +410,10 @@ def estimate_bytes(instance: Instance) -> int:
         if j in store:
             total += store[j].nbytes
             continue
-        ts, stop = _window_pairs(instance, j)
+        ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
         n = len(ts)
         if n == 0 or int((stop - np.arange(n)).sum()) < _SAMPLE_FROM:
             continue
-        sl = instance.orbit_opps(j)
-        te = np.asarray(instance.opp_end[sl], dtype=float)
-        lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
-        hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
-        limit = float(instance.max_duration[j])
         picks = np.unique(np.linspace(0, n - 1, min(_SAMPLES, n)).astype(np.int64))
         size = 0.0
         for i in picks:
@@ -428,21 +430,6 @@ def _too_many(instance: Instance, j: int, max_candidates: int) -> InputError:
         "observations; the instance is too dense for the clustering-exact MILP "
         "(use orbit-dp, asa-dtc or sosp bound --method lagrangian)"
     )
-
-
-def orbit_columns(
-    instance: Instance, j: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
-    """Orbit j's opportunities as the generators use them: ``ts, te``, the roll range
-    ``lo, hi``, Delta T and, per opportunity, one past the last one starting within Delta T
-    of it (a contiguous run: the opportunities are sorted by start)."""
-    sl = instance.orbit_opps(j)
-    ts = np.asarray(instance.opp_start[sl], dtype=float)
-    te = np.asarray(instance.opp_end[sl], dtype=float)
-    lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
-    hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
-    limit = float(instance.max_duration[j])
-    return ts, te, lo, hi, limit, np.searchsorted(ts, ts + limit + EPS, side="right")
 
 
 def _generate_orbit(
