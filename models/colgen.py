@@ -388,7 +388,8 @@ class _Columns:
     def __init__(self) -> None:
         self.keys: dict[tuple[int, bytes], int] = {}
         self.items: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
-        self._flat: tuple[np.ndarray, ...] = tuple(np.zeros(0) for _ in range(6))
+        ints, floats = np.zeros(0, dtype=np.int64), np.zeros(0)
+        self._flat: tuple[np.ndarray, ...] = (ints, ints, ints, floats, floats, floats)
 
     def add(self, g: int, tg: np.ndarray, cnt: np.ndarray, energy: float, memory: float) -> int:
         """The column's index in the pool (added when new)."""
@@ -398,10 +399,10 @@ class _Columns:
             self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
         return self.keys[key]
 
-    def values(self, price: np.ndarray, lam_per_unit: np.ndarray) -> np.ndarray:
-        """Each column's value: ``sum_k price[g, k] * n_kP - lam_e E_P - lam_w M_P`` with
+    def values(self, price: np.ndarray, lam_per_unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each column's value, ``sum_k price[g, k] * n_kP - lam_e E_P - lam_w M_P`` with
         ``price`` orbits x targets and ``lam_per_unit`` orbits x 2 (per unit of energy and
-        memory)."""
+        memory), and its orbit g."""
         col, orb, tgt, cnt, energy, memory = self._flat
         n = len(energy)
         if n < len(self.items):
@@ -413,14 +414,9 @@ class _Columns:
             cnt = np.concatenate([cnt, *[c[2] for c in new]])
             energy = np.concatenate([energy, [c[3] for c in new]])
             memory = np.concatenate([memory, [c[4] for c in new]])
-            col, orb, tgt = col.astype(np.int64), orb.astype(np.int64), tgt.astype(np.int64)
             self._flat = (col, orb, tgt, cnt, energy, memory)
         gained = np.bincount(col, weights=price[orb[col], tgt] * cnt, minlength=len(energy))
-        return gained - lam_per_unit[orb, 0] * energy - lam_per_unit[orb, 1] * memory
-
-    def orbits(self) -> np.ndarray:
-        """The orbit of each column (as of the last :meth:`values`)."""
-        return self._flat[1]
+        return gained - lam_per_unit[orb, 0] * energy - lam_per_unit[orb, 1] * memory, orb
 
 
 def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> np.ndarray:
@@ -519,7 +515,7 @@ def _solve_node(
         h.addCol(0.0, 0.0, inf, len(r), r, v)
         in_lp.append(i)
 
-    for i in _start_columns(node, cols, groups, len(p), e_cap, w_cap):
+    for i in _start_columns(node, cols, len(groups), e_cap, w_cap):
         load(int(i))
     pf = p[fk]
     best, mu_c, beta_c, lam_c = node.bound, node.mu, node.beta, node.lam
@@ -605,8 +601,7 @@ PER_ORBIT = 20
 def _start_columns(
     node: _Node,
     cols: _Columns,
-    groups: tuple[Any, ...],
-    n_targets: int,
+    n_orbits: int,
     e_cap: np.ndarray,
     w_cap: np.ndarray,
 ) -> np.ndarray:
@@ -616,10 +611,9 @@ def _start_columns(
     n = len(cols.items)
     if n <= POOL_ALL:
         return np.arange(n)
-    price = np.stack([_node_prices(node.mu, node.beta, g, node) for g in range(len(groups))])
+    price = np.stack([_node_prices(node.mu, node.beta, g, node) for g in range(n_orbits)])
     per_unit = node.lam / np.maximum(np.stack([e_cap, w_cap], axis=1), 1e-12)
-    value = cols.values(price, per_unit)
-    orbit = cols.orbits()
+    value, orbit = cols.values(price, per_unit)
     by = np.lexsort((-value, orbit))  # by orbit, best first
     first = np.searchsorted(orbit[by], orbit[by], side="left")
     rank = np.arange(n) - first

@@ -667,18 +667,15 @@ def _levels_py(
     n = top
     while n > 1:
         prev = lv[n - 2]
-        lim = n_before[u]
         best = -np.inf
-        for k in range(lim):
+        pick = -1
+        for k in range(n_before[u]):
             x = prev[order[k]]
-            if x > best:
-                best = x
+            if x > best:  # strict: the first position reaching the maximum
+                best, pick = x, order[k]
         if not best > first[u]:
             break  # u starts the plan (or has no predecessor)
-        for k in range(lim):
-            if prev[order[k]] == best:
-                u = order[k]
-                break
+        u = pick
         path[count] = u
         count += 1
         n -= 1
