@@ -47,6 +47,27 @@ SMOOTHING = 0.5
 _RC_TOL = 1e-7
 
 
+def _master_highs() -> Any:
+    """A HiGHS object for a restricted master, which is solved again after every round of
+    new columns.
+
+    Primal simplex, presolve off: new columns leave the last basis primal feasible, so the
+    re-solve starts from it (presolve would discard it). HiGHS's default dual simplex spends
+    about three times the iterations per re-solve here (B10's branch and price: 0.10 s a
+    re-solve against 0.03 s; *Column generation* in ``docs/exact.md``). No ``threads``
+    option: HiGHS keeps one scheduler per process, and a solve asking for another count than
+    it started with fails (:func:`models.highs_direct.use_threads`).
+    """
+    from models.highs_direct import new_highs
+
+    h = new_highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("presolve", "off")
+    h.setOptionValue("solver", "simplex")
+    h.setOptionValue("simplex_strategy", 4)  # primal
+    return h
+
+
 class _Master:
     """The restricted master LP (minimising ``-sum p_k z_k``, so HiGHS's duals of the ``<=``
     rows are <= 0 and the multipliers are their negatives).
@@ -60,17 +81,7 @@ class _Master:
     def __init__(self, p: np.ndarray, targets: np.ndarray, data: OrbitData) -> None:
         import highspy
 
-        from models.highs_direct import new_highs
-
-        self.h = new_highs()
-        h = self.h
-        h.setOptionValue("output_flag", False)
-        h.setOptionValue("solver", "simplex")
-        # (no "threads" option: HiGHS keeps one scheduler per process, and a solve asking
-        # for another count than it started with fails, see models.highs_direct.use_threads)
-        # re-solves start from the last basis: presolve would discard it (C2: 20 ms a solve
-        # with it)
-        h.setOptionValue("presolve", "off")
+        self.h = h = _master_highs()
         self.n_targets = len(targets)
         self.row_of = np.full(len(p), -1, dtype=np.int64)
         self.row_of[targets] = np.arange(len(targets))
@@ -456,8 +467,6 @@ def _solve_node(
     """
     import highspy
 
-    from models.highs_direct import new_highs
-
     n_orb = len(groups)
     forced = node.forced
     free = np.flatnonzero(seen & ~np.isin(np.arange(len(p)), list(forced)))
@@ -472,9 +481,7 @@ def _solve_node(
         banned_on[j] = np.append(banned_on.get(j, np.zeros(0, dtype=np.int64)), k)
     e_cap = np.array([o.rules.energy_capacity for o in groups], dtype=float)
     w_cap = np.array([o.rules.memory_capacity for o in groups], dtype=float)
-    h = new_highs()
-    h.setOptionValue("output_flag", False)
-    h.setOptionValue("presolve", "off")
+    h = _master_highs()
     inf = highspy.kHighsInf
     lower = np.concatenate([np.full(len(free), -inf), np.ones(len(fk)), np.full(3 * n_orb, -inf)])
     upper = np.concatenate(
