@@ -572,7 +572,12 @@ def _solve_node(
             ],
             axis=1,
         )
+        # the weights are integers, so only the node's bound rounded down matters (the answer
+        # is the largest, rounded down): once it equals the master's value rounded down, the
+        # node's LP optimum (between the two) rounds to it too and the rounds that would close
+        # the rest of the gap (column generation's slow tail) change nothing
         done = best - m_value <= 1e-6 * max(1.0, abs(best))
+        done = done or math.floor(best + 1e-6) <= math.floor(m_value + 1e-6)
         if not done and len(in_lp) == n_loaded:
             if not at_master:
                 alpha = 0.0  # no new plan at the smoothed point: price at the master's duals
@@ -696,7 +701,7 @@ def branch_and_price(
         if max_nodes is not None and nodes >= max_nodes:
             break
         top = heap[0][2]
-        if lower_bound is not None and top.bound <= lower_bound + 1e-9:
+        if lower_bound is not None and math.floor(top.bound + 1e-6) <= lower_bound + 1e-9:
             break
         if top.cover is None:
             break  # cut short by the deadline: its bound stands
