@@ -25,7 +25,9 @@ from __future__ import annotations
 import heapq
 import logging
 import math
+import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -167,6 +169,7 @@ def colgen_bound(
     start: tuple[np.ndarray, np.ndarray] | None = None,
     branch: bool = False,
     root_time_limit: float | None = None,
+    report: Callable[[float], None] | None = None,
 ) -> dict[str, Any]:
     """Upper bound on the optimum (cluster model) by column generation over orbit plans.
 
@@ -205,6 +208,9 @@ def colgen_bound(
     root_time_limit
         Seconds (from the start) for the column generation before any branching (None: all
         of ``time_limit``); the branching gets the rest of ``time_limit``.
+    report
+        Called with the branching's bound (not rounded) after every node it branches on, so
+        that a caller in another process (:class:`SideBound`) always holds a valid bound.
 
     Returns
     -------
@@ -327,12 +333,15 @@ def colgen_bound(
     finally:
         pool.close()
     bound = capped_bound(best, cap)
+    if report is not None:
+        report(bound)
     result = out(bound, rounds, len(master.columns), master_value, converged)
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
     if branch and converged and not proven:
         answer, nodes, final = branch_and_price(
-            p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound
-        )
+            p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound,
+            report=report,
+        )  # fmt: skip
         result["nodes"] = nodes
         result["bound"] = min(bound, float(math.floor(answer + 1e-6)))
         if final is not None:
@@ -656,6 +665,7 @@ def branch_and_price(
     lower_bound: float | None = None,
     max_nodes: int | None = None,
     smoothing: float = SMOOTHING,
+    report: Callable[[float], None] | None = None,
 ) -> tuple[float, int, _Node | None]:
     """Best-first branch and price from a converged root; ``(bound, nodes, final)``, where
     ``final`` is the node of largest bound when it has nothing fractional left (else None).
@@ -683,7 +693,7 @@ def branch_and_price(
         The root's bound and its multipliers ``(bound, mu, lam)``.
     deadline
         :func:`time.perf_counter` value to stop at (None: none).
-    lower_bound, max_nodes, smoothing
+    lower_bound, max_nodes, smoothing, report
         See above and :func:`colgen_bound`.
     """
     cols = _Columns()
@@ -724,6 +734,8 @@ def branch_and_price(
             nodes += 1
             heapq.heappush(heap, (-child.bound, count, child))
             count += 1
+        if report is not None:
+            report(-heap[0][0])
         if nodes % 100 < 2:  # a long run shows its progress (sosp -v)
             log.info("branch and price: %d nodes, bound %.4f", nodes, -heap[0][0])
     answer = max((-b for b, _, _ in heap), default=-math.inf)
@@ -758,3 +770,130 @@ def node_schedule(
     sched = items_to_schedule(instance, data, chosen)
     report = validate(instance, sched)
     return (sched, float(report.profit)) if report.feasible else None
+
+
+# ------------------------------------------------------------ beside the MILP, one process
+#: :func:`models.solve.solve_milp` starts a :class:`SideBound` only when at least this many
+#: seconds are left for the MILP (a child process takes a few seconds to start).
+SIDE_MIN_S = 20.0
+
+
+def side_cores() -> int:
+    """The cores this process may run on (a side process needs a second one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return os.cpu_count() or 1
+
+
+def _side_child(
+    conn: Any, instance: Instance, data: OrbitData, seconds: float, lower_bound: float | None
+) -> None:
+    """A :class:`SideBound`'s process: :func:`colgen_bound` with branching for ``seconds``,
+    sending ``("bound", value)`` whenever its bound rounded down falls, then ``("done",
+    bound, schedule, profit)`` (``schedule`` None when the search ended on none), or
+    ``("error", text)``."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    sent = [math.inf]
+
+    def report(value: float) -> None:
+        # integers only matter (weights are integers); one message per unit also keeps the
+        # pipe from filling while the parent is busy with its MILP
+        if math.floor(value + 1e-6) < sent[0]:
+            sent[0] = math.floor(value + 1e-6)
+            conn.send(("bound", float(value)))
+
+    try:
+        out = colgen_bound(
+            instance, time_limit=seconds, lower_bound=lower_bound, data=data, branch=True,
+            report=report,
+        )  # fmt: skip
+        conn.send(("done", float(out["bound"]), out.get("schedule"), out.get("profit")))
+    except Exception as exc:  # pragma: no cover - HiGHS or pickling failures
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+    finally:
+        conn.close()
+
+
+class SideBound:
+    """Column generation and branch and price in a child process, beside a MILP.
+
+    HiGHS's MILP runs on one core, and on dense instances its dual bound moves little once
+    its root is solved (C5: 540 s of MILP left the branch and price's 60 s bound as it was),
+    while on others (B10, the openings cap binding) the MILP's cuts give the better bound.
+    Run side by side on two cores, the least of the two bounds is valid and needs no choice
+    between them. The child is started with ``spawn`` (as HiGHS's guarded solves,
+    :func:`models.highs_direct._run_guarded`) and sends its bound whenever it falls by a
+    unit, so stopping it at any time leaves a valid bound with the parent.
+
+    Parameters
+    ----------
+    instance, data
+        The problem and the items to price (the model's, as :func:`colgen_bound` takes them).
+    seconds
+        The child's time limit (it stops by itself then).
+    lower_bound
+        A known profit: the child stops once its bound meets it.
+    """
+
+    def __init__(
+        self, instance: Instance, data: OrbitData, seconds: float, lower_bound: float | None
+    ) -> None:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("spawn")
+        self._recv, send = ctx.Pipe(duplex=False)
+        self._proc = ctx.Process(
+            target=_side_child, args=(send, instance, data, seconds, lower_bound), daemon=True
+        )
+        self._proc.start()
+        send.close()
+        self.bound: float | None = None
+        self.found: tuple[Any, float] | None = None
+        self._done = False
+
+    def _take(self, msg: tuple[Any, ...]) -> None:
+        if msg[0] == "bound":
+            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
+        elif msg[0] == "done":
+            self._done = True
+            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
+            if msg[2] is not None:
+                self.found = (msg[2], float(msg[3]))
+        else:  # pragma: no cover - see _side_child
+            self._done = True
+            log.warning("side branch and price failed: %s", msg[1])
+
+    def poll(self) -> float | None:
+        """Read what the child has sent so far; its bound (not rounded), None before any."""
+        try:
+            while not self._done and self._recv.poll(0):
+                self._take(self._recv.recv())
+        except (EOFError, OSError):
+            self._done = True
+        return self.bound
+
+    def finish(self, wait: float = 0.5) -> tuple[float | None, tuple[Any, float] | None]:
+        """Stop the child (after ``wait`` seconds for its last message) and return its
+        bound (not rounded; None if it sent none) and the schedule it ended on with its
+        profit (or None)."""
+        end = time.perf_counter() + wait
+        try:
+            while not self._done:
+                left = end - time.perf_counter()
+                if left <= 0 or not self._recv.poll(left):
+                    break
+                self._take(self._recv.recv())
+        except (EOFError, OSError):
+            pass
+        finally:
+            if self._proc.is_alive():
+                self._proc.terminate()
+            self._proc.join(timeout=5.0)
+            if self._proc.is_alive():  # pragma: no cover - SIGTERM ignored
+                self._proc.kill()
+                self._proc.join()
+            self._recv.close()
+        return self.bound, self.found

@@ -544,10 +544,24 @@ def solve_milp(
         # HiGHS overruns its limit a little and the solution is read back after it: keep a
         # reserve (5 % of the limit, at most 0.5 s)
         solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
-        kind, incumbent, raw_bound, chosen = _solve(
-            data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver, slew,
-            use_probing, backend, stats,
-        )  # fmt: skip
+        side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
+        try:
+            kind, incumbent, raw_bound, chosen = _solve(
+                data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
+                slew, use_probing, backend, stats,
+            )  # fmt: skip
+        finally:
+            if side is not None:
+                side_bound, found = side.finish()
+                stats["side_bound"] = _int_bound(side_bound)
+                if stats["side_bound"] is not None:
+                    upper = min(upper, stats["side_bound"])
+                if found is not None and found[1] > start_profit:
+                    better = start_items(data, found[0])
+                    if better is not None:
+                        start, start_profit = better, found[1]
+                        stats["start_profit"] = float(start_profit)
+                        stats["start_from"] = "branch_and_price"
         if start is not None and chosen is not None and incumbent is not None:
             value = items_to_schedule(instance, data, chosen).coverage_profit(instance)[0]
             if value < float(incumbent) - 1e-4 and (
@@ -624,6 +638,26 @@ def _extra_bound(
         return float(lagrangian_bound(data.instance, **common)["bound"]), None
     until = None if limit is None else time.perf_counter() + limit
     return _lp_bound(data, until, threads), None
+
+
+def _side_bound(
+    data: ModelData,
+    how: str,
+    arranged: OrbitData | None,
+    lower: float,
+    deadline: float | None,
+) -> Any:
+    """A :class:`models.colgen.SideBound` running until ``deadline`` beside the MILP, or None:
+    only with ``extra_bound="colgen"``, a deadline at least
+    :data:`models.colgen.SIDE_MIN_S` away and a second core."""
+    from models.colgen import SIDE_MIN_S, SideBound, side_cores
+
+    if how != "colgen" or arranged is None or deadline is None or side_cores() < 2:
+        return None
+    left = deadline - time.perf_counter()
+    if left < SIDE_MIN_S:
+        return None
+    return SideBound(data.instance, arranged, left, lower if lower > 0 else None)
 
 
 def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:

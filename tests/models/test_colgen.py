@@ -230,3 +230,46 @@ def test_branch_and_price_keeps_its_time_limit() -> None:
     out = colgen_bound(inst, data=data, time_limit=limit, branch=True)
     assert time.perf_counter() - t0 <= limit + 0.5
     assert out["bound"] <= root["bound"] and out["nodes"] >= 1
+
+
+@pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (226, 34)])
+def test_side_bound_in_its_own_process(seed: int, optimum: float) -> None:
+    # the child runs the same branch and price and sends its bound: the optimum on these
+    # instances (their master is above it), and the schedule the search ends on
+    from models.colgen import SideBound
+
+    inst = random_tiny(seed)
+    side = SideBound(inst, orbit_data(inst), 30.0, None)
+    deadline = time.perf_counter() + 30.0
+    while side.poll() != optimum and time.perf_counter() < deadline:
+        time.sleep(0.05)
+    got, found = side.finish(wait=5.0)
+    assert got == optimum
+    if found is not None:
+        assert validate(inst, found[0]).profit == found[1] <= optimum
+
+
+def test_side_bound_stopped_early_keeps_a_valid_bound() -> None:
+    from models.colgen import SideBound
+
+    inst = random_tiny(105)
+    side = SideBound(inst, orbit_data(inst), 30.0, None)
+    got, _ = side.finish(wait=0.0)  # stopped at once: no bound, or a valid one
+    assert got is None or got >= brute_force(inst, "cluster").profit
+
+
+def test_milp_with_the_side_bound(monkeypatch) -> None:
+    # the bound before the MILP gets no time, so the MILP runs with the side process beside
+    # it; the answer is the oracle's optimum whichever of the two proves it
+    import models.colgen as colgen
+    import models.solve as msolve
+
+    monkeypatch.setattr(colgen, "SIDE_MIN_S", 0.0)
+    monkeypatch.setattr(colgen, "side_cores", lambda: 2)
+    monkeypatch.setattr(msolve, "EXTRA_BOUND_SHARE", 1e-9)
+    inst = random_tiny(226)
+    res = msolve.solve_milp(inst, time_limit=20.0, backend="highs")
+    assert "side_bound" in res.stats
+    assert res.stats["side_bound"] is None or res.stats["side_bound"] >= 34
+    assert res.status == "optimal" and res.profit == res.bound == 34
+    assert validate(inst, res.schedule).profit == 34

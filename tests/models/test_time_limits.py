@@ -6,6 +6,7 @@ instance where building alone takes seconds; C5 is a mid-size one. Slow: seconds
 
 from __future__ import annotations
 
+import math
 import time
 
 import pytest
@@ -40,6 +41,20 @@ def test_methods_keep_their_time_limit(c5: Instance, method: str, limit: float) 
     res = solve(c5, method, time_limit=limit)  # validated by solve
     assert time.perf_counter() - t0 <= limit + _slack(limit), res.stats
     assert res.profit > 0
+
+
+@pytest.mark.slow
+def test_milp_with_the_side_bound_keeps_its_limit(c5: Instance) -> None:
+    # long enough for the branch and price beside the MILP (models.colgen.SideBound) on a
+    # machine with two cores: it is stopped with the MILP
+    from models.colgen import side_cores
+
+    limit = 40.0
+    t0 = time.perf_counter()
+    res = solve(c5, "milp", time_limit=limit)
+    assert time.perf_counter() - t0 <= limit + _slack(limit), res.stats
+    assert ("side_bound" in res.stats) == (side_cores() >= 2)
+    assert res.profit <= res.bound <= (res.stats.get("side_bound") or math.inf)
 
 
 @pytest.mark.slow
