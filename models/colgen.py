@@ -793,9 +793,9 @@ def _side_child(
     sending ``("bound", value)`` whenever its bound rounded down falls, then ``("done",
     bound, schedule, profit)`` (``schedule`` None when the search ended on none), or
     ``("error", text)``."""
-    import signal
+    from models.highs_direct import child_setup
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    child_setup()
     sent = [math.inf]
 
     def report(value: float) -> None:

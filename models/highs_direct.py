@@ -767,13 +767,32 @@ def _report_to(h: Any, report: Any, halt: Any, n_items: int) -> None:
     h.cbIpmInterrupt += lp_interrupt
 
 
+def child_setup() -> None:
+    """Set up a solver's child process (a guarded solve's, a side branch and price's): Ctrl-C
+    is the parent's to handle, and the child ends when its parent does. A parent killed
+    outright (SIGKILL, SIGTERM) cannot stop its children, which would otherwise run on until
+    their own time limits as orphans."""
+    import os
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
 def _guarded_child(conn: Any, lp: _Lp, left: float, kwargs: dict[str, Any], halt: Any) -> None:
     """A guarded solve's child process: solve ``lp`` within ``left`` seconds, reporting to the
     parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
     ``("error", text)``."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    child_setup()
 
     def report(kind: str, *values: Any) -> None:
         conn.send((kind, *values))

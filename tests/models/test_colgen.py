@@ -273,3 +273,42 @@ def test_milp_with_the_side_bound(monkeypatch) -> None:
     assert res.stats["side_bound"] is None or res.stats["side_bound"] >= 34
     assert res.status == "optimal" and res.profit == res.bound == 34
     assert validate(inst, res.schedule).profit == 34
+
+
+def test_solver_children_end_with_their_parent(tmp_path) -> None:
+    # a parent killed outright cannot stop its children (a guarded HiGHS solve, a side
+    # branch and price): models.highs_direct.child_setup makes them end by themselves
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import multiprocessing as mp, os, signal, time\n"
+        "def child():\n"
+        "    from models.highs_direct import child_setup\n"
+        "    child_setup()\n"
+        "    time.sleep(60.0)\n"
+        "if __name__ == '__main__':\n"
+        "    p = mp.get_context('spawn').Process(target=child, daemon=True)\n"
+        "    p.start()\n"
+        "    print(p.pid, flush=True)\n"
+        "    time.sleep(2.0)\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n"
+    )
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = {**os.environ, "PYTHONPATH": root}
+    # (not subprocess.run: it would wait for the child too, which holds the pipe)
+    parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, env=env)
+    child = int(parent.stdout.readline())
+    parent.wait(timeout=60)
+    parent.stdout.close()
+    deadline = time.perf_counter() + 10.0
+    while time.perf_counter() < deadline:
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.2)
+    os.kill(child, 9)
+    raise AssertionError("the child outlived its parent")
