@@ -527,12 +527,7 @@ def solve_milp(
         if extra is not None:
             stats["extra_bound"] = extra
             upper = min(upper, extra)
-        if found is not None and found[1] > start_profit:
-            better = start_items(data, found[0])
-            if better is not None:
-                start, start_profit = better, found[1]
-                stats["start_profit"] = float(start_profit)
-                stats["start_from"] = "branch_and_price"
+        start, start_profit = _adopt(data, found, start, start_profit, stats)
         stats["extra_bound_s"] = round(time.perf_counter() - t0, 6)
 
     kind, incumbent, raw_bound, chosen = "not_run", None, None, None
@@ -556,12 +551,7 @@ def solve_milp(
                 stats["side_bound"] = _int_bound(side_bound)
                 if stats["side_bound"] is not None:
                     upper = min(upper, stats["side_bound"])
-                if found is not None and found[1] > start_profit:
-                    better = start_items(data, found[0])
-                    if better is not None:
-                        start, start_profit = better, found[1]
-                        stats["start_profit"] = float(start_profit)
-                        stats["start_from"] = "branch_and_price"
+                start, start_profit = _adopt(data, found, start, start_profit, stats)
         if start is not None and chosen is not None and incumbent is not None:
             value = items_to_schedule(instance, data, chosen).coverage_profit(instance)[0]
             if value < float(incumbent) - 1e-4 and (
@@ -638,6 +628,24 @@ def _extra_bound(
         return float(lagrangian_bound(data.instance, **common)["bound"]), None
     until = None if limit is None else time.perf_counter() + limit
     return _lp_bound(data, until, threads), None
+
+
+def _adopt(
+    data: ModelData,
+    found: tuple[Schedule, float] | None,
+    start: list[int] | None,
+    start_profit: float,
+    stats: dict[str, Any],
+) -> tuple[list[int] | None, float]:
+    """The start and its profit: the branch and price's schedule ``found`` (with its profit)
+    when it is better and maps onto the model's items, else ``start`` as it was."""
+    if found is not None and found[1] > start_profit:
+        better = start_items(data, found[0])
+        if better is not None:
+            stats["start_profit"] = float(found[1])
+            stats["start_from"] = "branch_and_price"
+            return better, found[1]
+    return start, start_profit
 
 
 def _side_bound(
