@@ -889,11 +889,8 @@ class SideBound:
         except (EOFError, OSError):
             pass
         finally:
-            if self._proc.is_alive():
-                self._proc.terminate()
-            self._proc.join(timeout=5.0)
-            if self._proc.is_alive():  # pragma: no cover - SIGTERM ignored
-                self._proc.kill()
-                self._proc.join()
+            from models.highs_direct import stop_child
+
+            stop_child(self._proc)
             self._recv.close()
         return self.bound, self.found

@@ -788,6 +788,17 @@ def child_setup() -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
+def stop_child(proc: Any) -> None:
+    """End a solver's child process (a no-op when it has ended): SIGTERM, then SIGKILL if it
+    is still there after 5 s."""
+    if proc.is_alive():
+        proc.terminate()
+    proc.join(timeout=5.0)
+    if proc.is_alive():  # pragma: no cover - SIGTERM ignored
+        proc.kill()
+        proc.join()
+
+
 def _guarded_child(conn: Any, lp: _Lp, left: float, kwargs: dict[str, Any], halt: Any) -> None:
     """A guarded solve's child process: solve ``lp`` within ``left`` seconds, reporting to the
     parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
@@ -861,12 +872,7 @@ def _run_guarded(
             else:
                 raise RuntimeError(f"HiGHS's process failed: {msg[1]}")
     finally:
-        if proc.is_alive():
-            proc.terminate()
-        proc.join(timeout=5.0)
-        if proc.is_alive():  # pragma: no cover - SIGTERM ignored
-            proc.kill()
-            proc.join()
+        stop_child(proc)
         recv.close()
     if out is not None:
         return out
