@@ -248,6 +248,18 @@ def orbit_candidates(
     return out
 
 
+def cached_orbit_candidates(instance: Instance, j: int) -> OrbitCandidates | None:
+    """Orbit ``j``'s candidates when they have been generated already, else None."""
+    return _cache_of(instance).get(j)
+
+
+def orbit_pairs(instance: Instance, j: int) -> int:
+    """Orbit ``j``'s (first, covered) pairs of opportunities within one Delta T: what its
+    candidates' number and generation time grow with."""
+    stop = orbit_columns(instance, j)[-1]
+    return int((stop - np.arange(len(stop))).sum())
+
+
 def cluster_candidates(
     instance: Instance,
     max_candidates: int | None = MAX_CANDIDATES,
@@ -389,8 +401,7 @@ def _densest(instance: Instance) -> int:
     """The orbit with the most (first, covered) pairs inside one Delta T."""
     best, arg = -1, 0
     for j in range(instance.n_orbits):
-        stop = orbit_columns(instance, j)[-1]
-        pairs = int((stop - np.arange(len(stop))).sum())
+        pairs = orbit_pairs(instance, j)
         if pairs > best:
             best, arg = pairs, j
     return arg
@@ -435,47 +446,20 @@ def _too_many(instance: Instance, j: int, max_candidates: int) -> InputError:
 def _generate_orbit(
     instance: Instance, j: int, deadline: float | None, max_candidates: int | None
 ) -> OrbitCandidates:
-    """The work of :func:`orbit_candidates` (uncached): :func:`_start_candidates` for each
-    first opportunity, then duplicates dropped (two starts or two ends at the same time can
-    give the same candidate; the first is kept)."""
+    """The work of :func:`orbit_candidates` (uncached): :func:`generate` over the orbit's
+    opportunities, stopped with an error naming the orbit at ``deadline`` or beyond
+    ``max_candidates``."""
     sl = instance.orbit_opps(j)
     ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
-    n = len(ts)
-    tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
-    if n > 1:
-        same = ts[1:] == ts[:-1]
-        tied[1:] |= same
-        tied[:-1] |= same
     out_roll: list[np.ndarray] = []
     out_sizes: list[np.ndarray] = []
     out_members: list[np.ndarray] = []
     count = 0
-    seen: set[tuple[float, bytes]] = set()
-    seen_ts = None
-    for i in range(n):
-        if ts[i] != seen_ts:
-            seen.clear()
-            seen_ts = ts[i]
-        got = _start_candidates(i, ts, te, lo, hi, int(stop[i]), limit)
-        if got is not None:
-            end_pos, roll, ptr, members = got
-            members = (members + sl.start).astype(np.int32)
-            sizes = np.diff(ptr)
-            if tied[i] or len(np.unique(te[end_pos])) < len(np.unique(end_pos)):
-                keep = []
-                for u in range(len(roll)):
-                    key = (float(te[end_pos[u]]), members[ptr[u] : ptr[u + 1]].tobytes())
-                    if key not in seen:
-                        seen.add(key)
-                        keep.append(u)
-                if len(keep) < len(roll):
-                    keep_a = np.asarray(keep, dtype=np.int64)
-                    members = members[ragged_positions(ptr[keep_a], sizes[keep_a])]
-                    roll, sizes = roll[keep_a], sizes[keep_a]
-            out_roll.append(roll)
-            out_sizes.append(sizes)
-            out_members.append(members)
-            count += len(roll)
+    for roll, sizes, members in generate(ts, te, lo, hi, limit, stop):
+        out_roll.append(roll)
+        out_sizes.append(sizes)
+        out_members.append((members + sl.start).astype(np.int32))
+        count += len(roll)
         if max_candidates is not None and count > max_candidates:
             raise _too_many(instance, j, max_candidates)
         if deadline is not None and time.perf_counter() > deadline:
@@ -485,6 +469,71 @@ def _generate_orbit(
                 "asa-dtc"
             )
     return _pack(instance, j, out_roll, out_sizes, out_members)
+
+
+def generate(
+    ts: np.ndarray,
+    te: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    limit: float,
+    stop: np.ndarray | None = None,
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The non-dominated candidate observations over one orbit's opportunities, by first one.
+
+    The one generator of the clustering-exact candidates (module docstring): whole orbits
+    (:func:`orbit_candidates`) and any subset of an orbit's opportunities (ASA-DTC's stretch
+    re-planning, which plans over the options still free) go through it.
+
+    Parameters
+    ----------
+    ts, te, lo, hi
+        Window and roll range of each opportunity, sorted by start ``ts``.
+    limit
+        Delta T of (11).
+    stop
+        Per opportunity, one past the last one starting within ``limit`` of it (computed when
+        None).
+
+    Yields
+    ------
+    tuple
+        Per first opportunity with candidates: ``(roll, sizes, members)``, the candidates'
+        rolls, their numbers of covered opportunities and those opportunities' positions
+        (concatenated, each group sorted). Two starts or two ends at the same time can give
+        the same candidate twice; the first is kept.
+    """
+    n = len(ts)
+    if stop is None:
+        stop = np.searchsorted(ts, ts + limit + EPS, side="right")
+    tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
+    if n > 1:
+        same = ts[1:] == ts[:-1]
+        tied[1:] |= same
+        tied[:-1] |= same
+    seen: set[tuple[float, bytes]] = set()
+    seen_ts = None
+    for i in range(n):
+        if ts[i] != seen_ts:
+            seen.clear()
+            seen_ts = ts[i]
+        got = _start_candidates(i, ts, te, lo, hi, int(stop[i]), limit)
+        if got is None:
+            continue
+        end_pos, roll, ptr, members = got
+        sizes = np.diff(ptr)
+        if tied[i] or len(np.unique(te[end_pos])) < len(np.unique(end_pos)):
+            keep = []
+            for u in range(len(roll)):
+                key = (float(te[end_pos[u]]), members[ptr[u] : ptr[u + 1]].tobytes())
+                if key not in seen:
+                    seen.add(key)
+                    keep.append(u)
+            if len(keep) < len(roll):
+                keep_a = np.asarray(keep, dtype=np.int64)
+                members = members[ragged_positions(ptr[keep_a], sizes[keep_a])]
+                roll, sizes = roll[keep_a], sizes[keep_a]
+        yield roll, sizes, members
 
 
 def _pack(

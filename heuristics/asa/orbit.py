@@ -1,11 +1,10 @@
 """Whole-orbit re-planning by the exact single-orbit recursion (ASA-DTC; sosp's, not the paper's).
 
 The stretch re-planning of :mod:`heuristics.asa.replan` rebuilds at most ``replan_opps``
-options of one orbit with a pure-Python dynamic program over candidates it enumerates per
-move. This move re-plans a *whole* orbit with :func:`sosp.planner.best_feasible_path`: a
-vectorised recursion over the clustering-exact model's candidate observations, generated once
-per search (:func:`sosp.planner.orbit_data`), in milliseconds even on an orbit with tens
-of thousands of candidates.
+options of one orbit between fixed neighbours. This move re-plans a *whole* orbit with
+:func:`sosp.planner.best_feasible_path`: the same recursion over the same clustering-exact
+candidate observations, generated once per search (:func:`sosp.planner.orbit_data`), in
+milliseconds even on an orbit with tens of thousands of candidates.
 
 Candidates are re-rolled by the search's rule: a candidate covering the options S gets the
 roll that :meth:`heuristics.asa.state.State.make_cluster` gives S (midpoint (9) of the common

@@ -65,6 +65,9 @@ class Problem:
         Per orbit, its usable options sorted by (start, index) (orbit re-planning).
     replan_orbits
         The orbits with at least one usable option.
+    instance
+        The instance (DTC: its options are its opportunities, and the stretch re-planning
+        takes its candidate observations from :mod:`sosp.candidates`).
     """
 
     mode: str
@@ -87,6 +90,7 @@ class Problem:
     migration_score: list[int]
     orbit_options: list[list[int]]
     replan_orbits: list[int]
+    instance: Instance | None = None
 
     @property
     def n_units(self) -> int:
@@ -182,4 +186,5 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         migration_score=[len(conflicts[x]) if alternatives[x] else -1 for x in range(n)],
         orbit_options=orbit_options,
         replan_orbits=[j for j, opts in enumerate(orbit_options) if opts],
+        instance=instance,
     )

@@ -10,11 +10,10 @@ programming:
    ``replan_opps`` consecutive options (the whole orbit when it has fewer);
 2. free every cluster-task whose window meets the stretch (the stretch grows to hold them);
 3. build candidate cluster-tasks over the options of the stretch whose tasks are now
-   unscheduled (and not tabu, unless this move freed them): every run of options that starts
-   at some option, shares a roll r (0 or an end of a roll range, (7)) and ends within Delta T
-   (11); members are the options whose window lies inside and whose range holds r, and the
-   cluster-task is made by (8)-(10) with the search's roll rule. STC and NONTC use their units
-   alone (no clustering);
+   unscheduled (and not tabu, unless this move freed them): the clustering-exact model's
+   candidate observations (:mod:`sosp.candidates`) cut to these options (:func:`candidates`),
+   each made a cluster-task by (8)-(10) with the search's roll rule. STC and NONTC use their
+   units alone (no clustering);
 4. choose a chain of candidates by the single-orbit planner's recursion
    (:func:`sosp.planner.plan_sequence`, the one :func:`sosp.planner.best_path` runs on whole
    orbits): consecutive cluster-tasks, and the fixed neighbours on both sides, meet (3); at
@@ -42,8 +41,17 @@ import numpy as np
 
 from heuristics.asa.neighbourhoods import remove_member, repair
 from heuristics.asa.params import ASAParams
+from heuristics.asa.problem import Problem
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
+from sosp.candidates import (
+    OrbitCandidates,
+    cached_orbit_candidates,
+    generate,
+    orbit_candidates,
+    orbit_pairs,
+    ragged_positions,
+)
 from sosp.planner import plan_sequence
 from sosp.rules import EPS
 
@@ -59,75 +67,146 @@ EJECTION_DEPTH = 2
 PAIR_ROUNDS = 6
 
 
-def candidates(state: State, opts: list[int], dT: float) -> list[Cluster]:
-    """Candidate cluster-tasks over ``opts`` (options of one orbit, sorted by start).
+#: Orbits with fewer (first, covered) pairs of options within Delta T than this
+#: (:func:`sosp.candidates.orbit_pairs`) have their candidate observations generated on a
+#: stretch's first visit (tens of milliseconds at most: C10's densest orbit has about 30,000
+#: pairs). A denser orbit's are used when the whole-orbit move has generated them; otherwise
+#: each stretch generates its own over the options it may use.
+LAZY_PAIRS = 100_000
 
-    DTC: for each first option i and each roll r in {0, ends of the ranges} inside i's range,
-    every prefix (by end) of the options starting at or after i, ending by ``start_i + dT``
-    (11) and holding r in their range (7). Duplicates (same members) are dropped. STC and
-    NONTC: each option alone.
+
+class Cands:
+    """Candidate cluster-tasks of a stretch as columns: windows (10), rolls and members.
+
+    Attributes
+    ----------
+    start, end, roll
+        Per candidate, as the cluster-task :meth:`State.make_cluster` makes of its members.
+    ptr, flat
+        Members (option indices, each group sorted by start) in CSR form.
+    """
+
+    __slots__ = ("start", "end", "roll", "ptr", "flat")
+
+    def __init__(self, state: State, ptr: np.ndarray, flat: np.ndarray) -> None:
+        pb = state.pb
+        self.ptr, self.flat = ptr, flat
+        if len(ptr) == 1:
+            self.start = self.end = self.roll = np.zeros(0)
+            return
+        first = ptr[:-1]
+        cols = state.arrays
+        self.start = np.minimum.reduceat(cols.start[flat], first)
+        self.end = np.maximum.reduceat(cols.end[flat], first)
+        if not pb.clustering:
+            self.roll = cols.single_roll[flat]
+            return
+        lo = np.maximum.reduceat(cols.lo[flat], first)
+        hi = np.minimum.reduceat(cols.hi[flat], first)
+        roll = np.clip(0.0, lo, hi) if state.nadir else 0.5 * (lo + hi)
+        single = np.diff(ptr) == 1
+        roll[single] = cols.single_roll[flat[first[single]]]
+        self.roll = roll
+
+    def __len__(self) -> int:
+        return len(self.ptr) - 1
+
+    def members(self, v: int) -> tuple[int, ...]:
+        return tuple(self.flat[self.ptr[v] : self.ptr[v + 1]].tolist())
+
+    def sums(self, per_member: np.ndarray) -> np.ndarray:
+        """Per candidate, the sum of ``per_member`` (one value per entry of ``flat``)."""
+        if len(self) == 0:
+            return np.zeros(0)
+        return np.add.reduceat(per_member, self.ptr[:-1])
+
+
+def candidates(state: State, j: int, opts: list[int]) -> Cands:
+    """Candidate cluster-tasks over ``opts`` (options of orbit j, sorted by start).
+
+    DTC: the clustering-exact model's candidate observations (:mod:`sosp.candidates`) over
+    these options alone, each made a cluster-task by (8)-(10) and the search's roll rule.
+    They are the orbit's candidates (generated once, :data:`LAZY_PAIRS`) that start and end
+    within the options' span, each cut to the members among ``opts``: the candidate that
+    dominates a cluster-task S of the orbit (the same window, a superset of S, a roll no
+    farther from nadir) still does after the cut, since the members left include S and
+    their common range (8) only widens. Cut to the same members, two are one. When the
+    orbit's candidates are not at hand (a dense orbit), the generator runs over ``opts``
+    (:func:`sosp.candidates.generate`). With the midpoint rule (9) the roll moves inside the
+    same common range, so each candidate is still a feasible cluster-task (7). STC and NONTC:
+    each option alone.
     """
     pb = state.pb
-    if not pb.clustering:
-        return [state.make_cluster((x,)) for x in opts]
-    nadir = state.nadir
-    # per position in ``opts``
-    st = [pb.opt_start[x] for x in opts]
-    en = [pb.opt_end[x] for x in opts]
-    lo = [pb.opt_lo[x] for x in opts]
-    hi = [pb.opt_hi[x] for x in opts]
-    seen: set[int] = set()  # member sets as bit masks over positions in ``opts``
-    out: list[Cluster] = []
-    n = len(opts)
-    for a, i in enumerate(opts):
-        out.append(state.make_cluster((i,)))
-        limit = st[a] + dT + EPS
-        lo_i, hi_i = lo[a], hi[a]
-        win = []  # positions b > a (same or later start: ``opts`` is sorted by start)
-        for b in range(a + 1, n):
-            if st[b] > limit:
-                break
-            if en[b] <= limit and lo[b] <= hi_i and hi[b] >= lo_i:
-                win.append(b)
-        if not win:
-            continue
-        rolls = {min(max(0.0, lo_i), hi_i), lo_i, hi_i}
-        for b in win:
-            if lo_i <= lo[b] <= hi_i:
-                rolls.add(lo[b])
-            if lo_i <= hi[b] <= hi_i:
-                rolls.add(hi[b])
-        win.sort(key=lambda b: (en[b], b))  # prefixes by end
-        s0, e0 = st[a], en[a]
-        for r in rolls:
-            key = 1 << a
-            cur = [a]
-            e, lo_c, hi_c = e0, lo_i, hi_i
-            for b in win:
-                if not lo[b] <= r <= hi[b]:
-                    continue
-                key |= 1 << b
-                cur.append(b)
-                if en[b] > e:
-                    e = en[b]
-                if lo[b] > lo_c:
-                    lo_c = lo[b]
-                if hi[b] < hi_c:
-                    hi_c = hi[b]
-                if key in seen:
-                    continue
+    flat = np.asarray(opts, dtype=np.int64)
+    if not pb.clustering or len(opts) < 2:
+        return Cands(state, np.arange(len(opts) + 1, dtype=np.int64), flat)
+    source = _orbit_source(pb, j)
+    if source is None:
+        cols = state.arrays
+        sizes, members = [], []
+        for _, size, pos in generate(
+            cols.start[flat],
+            cols.end[flat],
+            cols.lo[flat],
+            cols.hi[flat],
+            pb.orbits[j].max_duration,
+        ):
+            sizes.append(size)
+            members.append(flat[pos])
+        if not sizes:
+            return Cands(state, np.zeros(1, dtype=np.int64), flat[:0])
+        ptr = np.zeros(sum(len(x) for x in sizes) + 1, dtype=np.int64)
+        np.cumsum(np.concatenate(sizes), out=ptr[1:])
+        return Cands(state, ptr, np.concatenate(members))
+    t0, t1 = pb.opt_start[opts[0]], max(pb.opt_end[x] for x in opts)
+    a = int(np.searchsorted(source.start, t0 - EPS, side="left"))
+    b = int(np.searchsorted(source.start, t1 + EPS, side="right"))
+    ends = source.end[a:b] <= t1 + EPS
+    ptr = source.opps.ptr[a : b + 1]
+    if not ends.any():
+        return Cands(state, np.zeros(1, dtype=np.int64), flat[:0])
+    src = source.opps.flat[ptr[0] : ptr[-1]]
+    inside = np.zeros(len(pb.opt_start), dtype=bool)
+    inside[flat] = True
+    keep = inside[src]
+    keep &= np.repeat(ends, np.diff(ptr))
+    count = np.add.reduceat(keep, ptr[:-1] - ptr[0])
+    cut = src[keep].astype(np.int64)
+    # one candidate per member set (many collapse to the same few options)
+    seen: set[bytes] = set()
+    rows = []
+    at = 0
+    for v, c in enumerate(count.tolist()):
+        if c:
+            key = cut[at : at + c].tobytes()
+            if key not in seen:
                 seen.add(key)
-                roll = min(max(0.0, lo_c), hi_c) if nadir else 0.5 * (lo_c + hi_c)
-                members = tuple(opts[c] for c in sorted(cur))
-                out.append((s0, e, roll, lo_c, hi_c, members))
-    return out
+                rows.append(v)
+        at += c
+    starts = np.cumsum(count) - count
+    rows_a = np.asarray(rows, dtype=np.int64)
+    sizes = count[rows_a]
+    out = np.zeros(len(rows) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=out[1:])
+    return Cands(state, out, cut[ragged_positions(starts[rows_a], sizes)])
+
+
+def _orbit_source(pb: Problem, j: int) -> OrbitCandidates | None:
+    """Orbit j's candidate observations when at hand or cheap to make (:data:`LAZY_PAIRS`)."""
+    inst = pb.instance
+    if inst is None:
+        return None
+    got = cached_orbit_candidates(inst, j)
+    if got is None and orbit_pairs(inst, j) < LAZY_PAIRS:
+        got = orbit_candidates(inst, j)
+    return got
 
 
 def best_chain(
     state: State,
     j: int,
-    cands: list[Cluster],
-    gains: list[float],
+    cands: Cands,
+    gains: np.ndarray,
     left: Cluster | None,
     right: Cluster | None,
     energy: float,
@@ -146,16 +225,15 @@ def best_chain(
     tuple
         ``(gain, chain)``: the summed gain and the candidates' indices in time order.
     """
-    # candidates worth nothing never help (plan_sequence drops them): not even converted
-    use = [v for v, g in enumerate(gains) if g > 0.0]
-    if not use:
+    # candidates worth nothing never help (plan_sequence drops them): not even passed
+    use = np.flatnonzero(gains > 0.0)
+    if not len(use):
         return 0.0, []
-    cols = np.array([(*cands[v][:3], gains[v]) for v in use], dtype=float).T
     gain, chain = plan_sequence(
-        cols[0],
-        cols[1],
-        cols[2],
-        cols[3],
+        cands.start[use],
+        cands.end[use],
+        cands.roll[use],
+        gains[use],
         state.lines[j].rules,
         left=None if left is None else (left[END], left[ROLL]),
         right=None if right is None else (right[START], right[ROLL]),
@@ -163,7 +241,7 @@ def best_chain(
         memory=memory,
         openings=openings,
     )
-    return gain, [use[v] for v in chain.tolist()]
+    return gain, use[chain].tolist()
 
 
 def _around(opts: list[int], at: int, m: int) -> list[int]:
@@ -275,7 +353,7 @@ class _Stretch:
                 out.append(x)
         return out
 
-    def best(self, state: State, cands: list[Cluster], gains: list[float]):
+    def best(self, state: State, cands: Cands, gains: np.ndarray) -> tuple[float, list[int]]:
         return best_chain(
             state,
             self.j,
@@ -374,25 +452,27 @@ def replan_stretch(
         get = back.get
         # the candidates are the options alone (:func:`candidates`); only those worth
         # something can be in a best chain, so only they are made
-        cands, gains = [], []
+        worth, gains_l = [], []
         for x in avail:
             w = sum([get(k, 0.0) if cover[k] else tw[k] for k in targets[unit[x]]])
             if w > 0:
-                cands.append(state.make_cluster((x,)))
-                gains.append(w)
-        if len(cands) == len(stretch.freed) and set(cands) == set(stretch.freed):
+                worth.append(x)
+                gains_l.append(w)
+        if sorted(worth) == sorted(c[MEMBERS][0] for c in stretch.freed):
             # Nothing but the freed tasks is worth anything here, each of them is, and they
             # keep (3)-(6) where they stand: they are the best chain, and the stretch is
             # already it (see below).
             return []
+        cands = candidates(state, j, worth)
+        gains = np.asarray(gains_l, dtype=float)
     else:
-        cands = candidates(state, avail, state.lines[j].rules.max_duration)
-        gains = [sum(value[x] for x in c[MEMBERS]) for c in cands]
+        cands = candidates(state, j, avail)
+        gains = cands.sums(np.array([value[x] for x in cands.flat.tolist()], dtype=float))
         freed_profit = sum(pb.unit_weight[u] for u in freed_units)
     gain, chain = stretch.best(state, cands, gains)
     if gain < freed_profit - 1e-9:
         return None
-    chosen = [cands[v] for v in chain]
+    chosen = [state.make_cluster(cands.members(v)) for v in chain]
     if chosen == stretch.freed:
         # The best chain is the stretch as it stands (the same cluster-tasks, tasks all of
         # this orbit): freeing and rebuilding it would give back the same state. A move that
@@ -458,49 +538,49 @@ def replan_pair(
                 out.append(x)
         return out
 
-    ca = candidates(state, usable(sa, window), state.lines[j].rules.max_duration)
-    cb = candidates(state, usable(sb, window_i), state.lines[i].rules.max_duration)
-    units_a = [{unit[x] for x in c[MEMBERS]} for c in ca]
-    units_b = [{unit[x] for x in c[MEMBERS]} for c in cb]
-    both = set().union(*units_a) & set().union(*units_b) if ca and cb else set()
-    mu = dict.fromkeys(both, 0.0)
+    ca = candidates(state, j, usable(sa, window))
+    cb = candidates(state, i, usable(sb, window_i))
+    unit_of = np.asarray(unit, dtype=np.int64)
+    w_unit = np.asarray(weight, dtype=float)
+    ua, ub = unit_of[ca.flat], unit_of[cb.flat]
+    both = set(ua.tolist()) & set(ub.tolist())
+    mu = np.zeros(len(weight))
 
-    def gains(units: list[set[int]], skip: set[int] | None = None) -> list[float]:
-        if skip is not None:
-            return [sum(weight[u] for u in us if u not in skip) for us in units]
-        return [sum(weight[u] - mu.get(u, 0.0) for u in us) for us in units]
+    def gains(c: Cands, units: np.ndarray, skip: set[int] | None = None) -> np.ndarray:
+        if skip is None:
+            return c.sums(w_unit[units] - mu[units])
+        values = w_unit.copy()
+        values[list(skip)] = 0.0
+        return c.sums(values[units])
 
-    def taken(units: list[set[int]], chain: list[int]) -> set[int]:
-        return set().union(*(units[v] for v in chain)) if chain else set()
+    def taken(c: Cands, units: np.ndarray, chain: list[int]) -> set[int]:
+        return {u for v in chain for u in units[c.ptr[v] : c.ptr[v + 1]].tolist()}
 
-    best = (-1.0, [], [])
+    best: tuple[float, list[int], list[int]] = (-1.0, [], [])
     for r in range(PAIR_ROUNDS if both else 1):
-        _, ch_a = sa.best(state, ca, gains(units_a))
-        _, ch_b = sb.best(state, cb, gains(units_b))
-        ta, tb = taken(units_a, ch_a), taken(units_b, ch_b)
+        _, ch_a = sa.best(state, ca, gains(ca, ua))
+        _, ch_b = sb.best(state, cb, gains(cb, ub))
+        ta, tb = taken(ca, ua, ch_a), taken(cb, ub, ch_b)
         for first_a in (True, False):
             if first_a:
-                g2, ch2 = sb.best(state, cb, gains(units_b, ta))
-                value = sum(weight[u] for u in ta) + g2
-                item = (value, [ca[v] for v in ch_a], [cb[v] for v in ch2])
+                g2, ch2 = sb.best(state, cb, gains(cb, ub, ta))
+                item = (sum(weight[u] for u in ta) + g2, ch_a, ch2)
             else:
-                g2, ch2 = sa.best(state, ca, gains(units_a, tb))
-                value = sum(weight[u] for u in tb) + g2
-                item = (value, [ca[v] for v in ch2], [cb[v] for v in ch_b])
+                g2, ch2 = sa.best(state, ca, gains(ca, ua, tb))
+                item = (sum(weight[u] for u in tb) + g2, ch2, ch_b)
             if item[0] > best[0] + 1e-9:
                 best = item
         step = 0.5 / (1 + r)
-        for u in both:
-            if u in ta and u in tb:
-                mu[u] = min(weight[u], mu[u] + step * weight[u])
-            elif u not in ta and u not in tb:
-                mu[u] = max(0.0, mu[u] - step * weight[u])
+        up = [u for u in both if u in ta and u in tb]
+        down = [u for u in both if u not in ta and u not in tb]
+        mu[up] = np.minimum(w_unit[up], mu[up] + step * w_unit[up])
+        mu[down] = np.maximum(0.0, mu[down] - step * w_unit[down])
     if best[0] < sum(weight[u] for u in freed) - 1e-9:
         return False
     sa.free(state)
     sb.free(state)
-    sa.build(state, best[1])
-    sb.build(state, best[2])
+    sa.build(state, [state.make_cluster(ca.members(v)) for v in best[1]])
+    sb.build(state, [state.make_cluster(cb.members(v)) for v in best[2]])
     return True
 
 

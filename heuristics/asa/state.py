@@ -18,6 +18,10 @@ schedule.
 from __future__ import annotations
 
 from bisect import insort
+from functools import cached_property
+from types import SimpleNamespace
+
+import numpy as np
 
 from heuristics.asa.problem import Problem
 from heuristics.timeline import OrbitTimeline
@@ -183,6 +187,19 @@ class State:
         return sum(tw[k] for k in self.pb.unit_targets[u] if cover[k] == 1)
 
     # ------------------------------------------------------ cluster-tasks
+    @cached_property
+    def arrays(self) -> SimpleNamespace:
+        """The options' ``start``, ``end``, ``lo``, ``hi`` and ``single_roll`` as numpy
+        columns (made on first use), for moves that build many cluster-tasks at once."""
+        pb = self.pb
+        return SimpleNamespace(
+            start=np.asarray(pb.opt_start, dtype=float),
+            end=np.asarray(pb.opt_end, dtype=float),
+            lo=np.asarray(pb.opt_lo, dtype=float),
+            hi=np.asarray(pb.opt_hi, dtype=float),
+            single_roll=np.asarray(self.single_roll, dtype=float),
+        )
+
     def make_cluster(self, members: tuple[int, ...]) -> Cluster:
         """The cluster-task of ``members`` (sorted by start) by (8)-(10) and (9) or nadir."""
         pb = self.pb

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -82,17 +84,54 @@ def test_replan_keeps_the_memory_budget_by_hand() -> None:
     state, _ = _state(inst)
     c = inst.target_opps[inst.target_index["c"]][0]
     opts = state.pb.orbit_options[0]
-    cands = candidates(state, opts, 120.0)
-    assert sorted(tuple(sorted(k[MEMBERS])) for k in cands) == sorted(
+    cands = candidates(state, 0, opts)
+    assert sorted(cands.members(v) for v in range(len(cands))) == sorted(
         [(opts[0],), (opts[1],), (opts[2],), (opts[0], opts[1])]
     )
-    gains = [sum(state.pb.unit_weight[state.pb.opt_unit[x]] for x in k[MEMBERS]) for k in cands]
+    gains = cands.sums(np.array([state.pb.unit_weight[state.pb.opt_unit[x]] for x in cands.flat]))
     gain, chain = best_chain(state, 0, cands, gains, None, None, 1500.0, 10.0, 10)
-    assert gain == 5 and [cands[v][MEMBERS] for v in chain] == [(c,)]
+    assert gain == 5 and [cands.members(v) for v in chain] == [(c,)]
     gain, chain = best_chain(state, 0, cands, gains, None, None, 1500.0, 1000.0, 10)
     assert gain == 6
     gain, chain = best_chain(state, 0, cands, gains, None, None, 1500.0, 1000.0, 0)
     assert (gain, chain) == (0.0, [])
+
+
+@pytest.mark.parametrize("orbit_source", [True, False], ids=["orbit-candidates", "generated"])
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=8), drop=st.integers(0, 255))
+def test_candidates_dominate_every_cluster_task_of_the_options(
+    orbit_source: bool, inst: Instance, drop: int
+) -> None:
+    """The stretch's candidates dominate every cluster-task of the options left, found by
+    brute force, both ways they are made (cut from the orbit's candidates, and generated
+    over the options when those are not at hand): some candidate covers a superset of its
+    options in a window inside its window, at a roll no farther from nadir; and each
+    candidate is a feasible cluster-task (7), (11)."""
+    state, _ = _state(inst, roll_rule="nadir")
+    pb = state.pb
+    if not orbit_source:
+        pb.instance = None
+    opts = [x for a, x in enumerate(pb.orbit_options[0]) if not drop >> a & 1]
+    dT = inst.max_duration[0]
+    got = candidates(state, 0, opts)
+    cands = [state.make_cluster(got.members(v)) for v in range(len(got))]
+    for v, c in enumerate(cands):  # feasible (7), within Delta T (11), columns as made
+        assert all(pb.opt_lo[x] - 1e-9 <= c[2] <= pb.opt_hi[x] + 1e-9 for x in c[MEMBERS])
+        assert c[1] - c[0] <= dT + 1e-9
+        assert (got.start[v], got.end[v], got.roll[v]) == c[:3]
+    for size in range(1, len(opts) + 1):
+        for sub in itertools.combinations(opts, size):
+            k = state.make_cluster(sub)
+            if k[3] > k[4] or k[1] - k[0] > dT:
+                continue  # no common range (7) or longer than Delta T (11)
+            assert any(
+                set(sub) <= set(c[MEMBERS])
+                and c[0] >= k[0] - 1e-9
+                and c[1] <= k[1] + 1e-9
+                and abs(c[2]) <= abs(k[2]) + 1e-9
+                for c in cands
+            ), sub
 
 
 def test_replan_respects_fixed_neighbours() -> None:
