@@ -16,6 +16,12 @@ from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, Sta
 from heuristics.asa.tabu import TabuList
 from heuristics.timeline import OrbitTimeline
 
+#: Step 1 of the migration neighbourhood draws among this many scheduled tasks with the most
+#: (3) conflicts (``docs/asa.md``, decision 7; 1 is the paper's deterministic rule). A
+#: parameter before; on the tuning set no pool size was better on every instance
+#: (``docs/asa.md``, "Readings measured").
+MIGRATION_POOL = 8
+
 #: Which neighbourhood: index into the selector's probabilities.
 INSERTION, MIGRATION = 0, 1
 
@@ -37,10 +43,10 @@ def clustering_gain(
     with :math:`\alpha = ConE/E`, :math:`\beta = ConW/W` of the orbit. As section 4.2 says,
     (16) only judges tasks that could also be observed one after the other: when ``x`` and
     ``c`` are exclusive by (3), clustering is always worth it and (16) is not applied.
-    When both are 0 the
-    test is degenerate (``0 < 0``); ``params.rule16_empty`` picks the reading (see
-    ``docs/asa.md``). The saving is the right side minus the left side (capacity-normalised,
-    ``alpha = 1/E, beta = 1/W``, when (16) is switched off); larger is better. With
+    When both are 0 the test is degenerate (``0 < 0``) and sosp reads it with
+    ``alpha = 1/E, beta = 1/W`` (``docs/asa.md``, decision 2). The saving is the right side
+    minus the left side (capacity-normalised, ``alpha = 1/E, beta = 1/W``, when (16) is
+    switched off); larger is better. With
     ``params.rule16_openings`` the openings (6) count as a third resource and every term is a
     share of its capacity: ``alpha (en - ec)/E + beta (wn - wc)/W + gamma (2 - 1)/c``, with
     ``gamma = openings used / c`` (``1/c`` on an orbit with none).
@@ -98,13 +104,11 @@ def clustering_gain(
     degenerate = alpha == 0.0 and beta == 0.0
     if not separable:
         return saving_of(capacity=degenerate), new
-    if not params.rule16 or degenerate:
-        mode = "capacity" if not params.rule16 else params.rule16_empty
-        if mode == "never":
-            return None
+    if not params.rule16:
+        return saving_of(capacity=True), new
+    if degenerate:
+        # an orbit that has consumed nothing: the capacity reading (decision 2)
         saving = saving_of(capacity=True)
-        if mode == "always" or not params.rule16:
-            return saving, new
         return (saving, new) if saving > 0 else None
     saving = saving_of(capacity=False)
     return (saving, new) if saving > 0 else None
@@ -381,7 +385,7 @@ def migration_move(
     4. repair the freed orbit (step 4).
     """
     pb = state.pb
-    u = choose_migrating(state, rng, params.migration_pool)
+    u = choose_migrating(state, rng, MIGRATION_POOL)
     if u < 0:
         return False
     x_old = state.sched[u]

@@ -115,9 +115,6 @@ class ASAParams:
     pool
         Step 1 of the insertion neighbourhood: roulette by weight among the ``pool`` heaviest
         unscheduled non-tabu tasks. ``1`` is the paper's literal deterministic rule.
-    migration_pool
-        Step 1 of the migration neighbourhood: roulette by number of setup-time conflicts among
-        the ``migration_pool`` scheduled tasks with most of them. ``1`` is deterministic.
     roll_rule
         Roll of a cluster-task inside its common range: ``"nadir"`` (default: the point
         closest to nadir, never more slew or energy) or the paper's ``"midpoint"`` (9).
@@ -136,10 +133,6 @@ class ASAParams:
         schedule needs (``docs/asa.md``, decision 3). Default True: sosp's reading, which the
         paper's own motivation for clustering supports (section 1: "finish more tasks at the
         cost of fewer sensor opening times"); False is the literal rule.
-    rule16_empty
-        Reading of (16) when the orbit has consumed nothing (alpha = beta = 0, degenerate):
-        ``"capacity"`` uses alpha = 1/E, beta = 1/W; ``"always"`` lets clustering pass;
-        ``"never"`` keeps the literal ``0 < 0`` (clustering refused).
     r_update
         When the bad-move counter r of (20) is updated: ``"accepted"`` on accepted moves only
         (Algorithm 1, lines 13 and 23), ``"generated"`` on every generated move.
@@ -206,12 +199,10 @@ class ASAParams:
     orbit_share: bool = True
     tabu_length: int | None = None
     pool: int = 32
-    migration_pool: int = 8
     roll_rule: RollRule = "nadir"
     nadir_singles: bool = True
     rule16: bool = True
     rule16_openings: bool = True
-    rule16_empty: Literal["capacity", "always", "never"] = "capacity"
     r_update: Literal["accepted", "generated"] = "generated"
     option_rule: Literal["resources", "feasible-first"] = "feasible-first"
     restart: int | None = 2000
@@ -267,7 +258,6 @@ class ASAParams:
         integer("itr")
         integer("tabu_length", optional=True, minimum=0)
         integer("pool")
-        integer("migration_pool")
         integer("replan_opps")
         integer("orbit_ascent", minimum=0)
         integer("iterations", optional=True, minimum=0)
