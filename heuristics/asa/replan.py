@@ -540,8 +540,7 @@ def replan_pair(
 
     ca = candidates(state, j, usable(sa, window))
     cb = candidates(state, i, usable(sb, window_i))
-    unit_of = np.asarray(unit, dtype=np.int64)
-    w_unit = np.asarray(weight, dtype=float)
+    unit_of, w_unit = state.arrays.unit, state.arrays.unit_weight
     ua, ub = unit_of[ca.flat], unit_of[cb.flat]
     both = set(ua.tolist()) & set(ub.tolist())
     mu = np.zeros(len(weight))

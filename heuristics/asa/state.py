@@ -189,8 +189,9 @@ class State:
     # ------------------------------------------------------ cluster-tasks
     @cached_property
     def arrays(self) -> SimpleNamespace:
-        """The options' ``start``, ``end``, ``lo``, ``hi`` and ``single_roll`` as numpy
-        columns (made on first use), for moves that build many cluster-tasks at once."""
+        """The options' ``start``, ``end``, ``lo``, ``hi``, ``single_roll`` and ``unit``, and
+        the units' ``unit_weight``, as numpy columns (made on first use), for moves that
+        build many cluster-tasks at once."""
         pb = self.pb
         return SimpleNamespace(
             start=np.asarray(pb.opt_start, dtype=float),
@@ -198,6 +199,8 @@ class State:
             lo=np.asarray(pb.opt_lo, dtype=float),
             hi=np.asarray(pb.opt_hi, dtype=float),
             single_roll=np.asarray(self.single_roll, dtype=float),
+            unit=np.asarray(pb.opt_unit, dtype=np.int64),
+            unit_weight=np.asarray(pb.unit_weight, dtype=float),
         )
 
     def make_cluster(self, members: tuple[int, ...]) -> Cluster:
