@@ -69,9 +69,9 @@ PAIR_ROUNDS = 6
 
 #: Orbits with fewer (first, covered) pairs of options within Delta T than this
 #: (:func:`sosp.candidates.orbit_pairs`) have their candidate observations generated on a
-#: stretch's first visit (tens of milliseconds at most: C10's densest orbit has about 30,000
-#: pairs). A denser orbit's are used when the whole-orbit move has generated them; otherwise
-#: each stretch generates its own over the options it may use.
+#: stretch's first visit (C10's densest orbit: 65,112 pairs, 33,081 candidates in 0.2 s). A
+#: denser orbit's are used when the whole-orbit move has generated them; otherwise each
+#: stretch generates its own over the options it may use.
 LAZY_PAIRS = 100_000
 
 
