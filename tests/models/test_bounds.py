@@ -83,6 +83,21 @@ def test_heuristic_start_is_a_valid_schedule_of_each_model() -> None:
         assert rep.profit <= brute_force(inst, model).profit
 
 
+def test_warm_start_takes_more_steps_on_large_models(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The default warm start stops after WARM_START_STEPS steps without gain, and after
+    WARM_START_STEPS_LARGE on models of LARGE_MODEL_ITEMS items or more (here every model)."""
+    import models.solve as ms
+
+    inst = random_tiny(11)
+    res = solve_milp(inst)
+    assert res.stats["warm_start_steps"] == ms.WARM_START_STEPS
+    monkeypatch.setattr(ms, "LARGE_MODEL_ITEMS", 0)
+    res = solve_milp(inst)
+    assert res.stats["warm_start_steps"] == ms.WARM_START_STEPS_LARGE > ms.WARM_START_STEPS
+    assert res.profit >= res.stats["start_profit"]
+    assert validate(inst, res.schedule).feasible
+
+
 def test_warm_start_none_and_bad_values() -> None:
     inst = tiny_cluster()
     res = solve_milp(inst, warm_start="none")
