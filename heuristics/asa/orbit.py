@@ -88,28 +88,14 @@ INIT_NO_IMPROVE = 20
 
 
 def _rolls_of(opps: Sequence[Sequence[int]], state: State) -> np.ndarray:
-    """Roll of every candidate by the search's rule (the rule of :meth:`State.make_cluster`
-    applied to the candidate's covered options ``opps``; the common range (8) by blocks of
-    candidates, so that millions of them need no gather of every member at once)."""
-    pb = state.pb
-    n = len(opps)
-    if n == 0:
+    """Roll of every candidate by the search's rule (:meth:`State.group_rolls` of the
+    candidate's covered options ``opps``)."""
+    if len(opps) == 0:
         return np.zeros(0)
     sizes, flat = flatten(opps)
-    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-    opt_lo, opt_hi = np.asarray(pb.opt_lo), np.asarray(pb.opt_hi)
-    lo, hi = np.empty(n), np.empty(n)
-    block = 1 << 18
-    for a in range(0, n, block):
-        b = min(n, a + block)
-        f0, f1 = int(starts[a]), int(starts[b - 1] + sizes[b - 1])
-        part = flat[f0:f1]
-        lo[a:b] = np.maximum.reduceat(opt_lo[part], starts[a:b] - f0)
-        hi[a:b] = np.minimum.reduceat(opt_hi[part], starts[a:b] - f0)
-    roll = np.clip(0.0, lo, hi) if state.nadir else 0.5 * (lo + hi)
-    single = sizes == 1
-    roll[single] = np.asarray(state.single_roll)[flat[starts[single]]]
-    return roll
+    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=ptr[1:])
+    return state.group_rolls(ptr, flat)
 
 
 class OrbitPlanner:

@@ -89,24 +89,14 @@ class Cands:
     __slots__ = ("start", "end", "roll", "ptr", "flat")
 
     def __init__(self, state: State, ptr: np.ndarray, flat: np.ndarray) -> None:
-        pb = state.pb
         self.ptr, self.flat = ptr, flat
         if len(ptr) == 1:
             self.start = self.end = self.roll = np.zeros(0)
             return
-        first = ptr[:-1]
         cols = state.arrays
-        self.start = np.minimum.reduceat(cols.start[flat], first)
-        self.end = np.maximum.reduceat(cols.end[flat], first)
-        if not pb.clustering:
-            self.roll = cols.single_roll[flat]
-            return
-        lo = np.maximum.reduceat(cols.lo[flat], first)
-        hi = np.minimum.reduceat(cols.hi[flat], first)
-        roll = np.clip(0.0, lo, hi) if state.nadir else 0.5 * (lo + hi)
-        single = np.diff(ptr) == 1
-        roll[single] = cols.single_roll[flat[first[single]]]
-        self.roll = roll
+        self.start = np.minimum.reduceat(cols.start[flat], ptr[:-1])
+        self.end = np.maximum.reduceat(cols.end[flat], ptr[:-1])
+        self.roll = state.group_rolls(ptr, flat)
 
     def __len__(self) -> int:
         return len(self.ptr) - 1

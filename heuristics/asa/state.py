@@ -203,6 +203,26 @@ class State:
             unit_weight=np.asarray(pb.unit_weight, dtype=float),
         )
 
+    def group_rolls(self, ptr: np.ndarray, flat: np.ndarray) -> np.ndarray:
+        """The roll :meth:`make_cluster` gives each group of options ``flat[ptr[g]:ptr[g + 1]]``
+        (non-empty), for many groups at once: (9) or the nadir rule over the common range (8),
+        a single option its own roll (:attr:`single_roll`). The ranges are reduced by blocks
+        of groups, so that millions of them need no gather of every member at once."""
+        cols = self.arrays
+        n = len(ptr) - 1
+        lo, hi = np.empty(n), np.empty(n)
+        block = 1 << 18
+        for a in range(0, n, block):
+            b = min(n, a + block)
+            f0, f1 = int(ptr[a]), int(ptr[b])
+            part = flat[f0:f1]
+            lo[a:b] = np.maximum.reduceat(cols.lo[part], ptr[a:b] - f0)
+            hi[a:b] = np.minimum.reduceat(cols.hi[part], ptr[a:b] - f0)
+        roll = np.clip(0.0, lo, hi) if self.nadir else 0.5 * (lo + hi)
+        single = np.diff(ptr) == 1
+        roll[single] = cols.single_roll[flat[ptr[:-1][single]]]
+        return roll
+
     def make_cluster(self, members: tuple[int, ...]) -> Cluster:
         """The cluster-task of ``members`` (sorted by start) by (8)-(10) and (9) or nadir."""
         pb = self.pb
