@@ -113,6 +113,7 @@ class _Master:
         self.n_orb = n_orb
         self.keys: set[tuple[int, bytes, float, float]] = set()
         self.columns: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
+        self.y = np.zeros(0)  # the plans' values at the last optimum (the first len(y) columns)
 
     def add(self, g: int, covered: np.ndarray, energy: float, memory: float) -> bool:
         """Add the plan of orbit ``g`` covering ``covered`` (targets with repeats); False when
@@ -148,6 +149,7 @@ class _Master:
         if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             return None
         value = -float(h.getInfo().objective_function_value)
+        self.y = np.asarray(h.getSolution().col_value, dtype=float)[self.n_targets :]
         dual = -np.asarray(h.getSolution().row_dual, dtype=float)
         dual = np.maximum(dual, 0.0)
         n, m = self.n_targets, self.n_orb
@@ -155,6 +157,16 @@ class _Master:
         sigma = dual[n : n + m]
         pi = np.stack([dual[n + m : n + 2 * m], dual[n + 2 * m : n + 3 * m]], axis=1)
         return value, mu, sigma, pi
+
+    def plans(self) -> list[tuple[int, np.ndarray, float, float, float]]:
+        """The plans positive at the last optimum: ``(orbit, covered targets, value, energy,
+        memory)`` (a plan alone may exceed its orbit's (4)-(5): the knapsack rows hold for
+        the mix)."""
+        return [
+            (g, tg, float(v), energy, memory)
+            for (g, tg, _, energy, memory), v in zip(self.columns, self.y, strict=False)
+            if v > 1e-9
+        ]
 
 
 def colgen_bound(
@@ -219,7 +231,11 @@ def colgen_bound(
         ``columns``, ``master`` (the last restricted master's optimum, a lower bound on the
         limit; None before the first), ``converged`` (the rounded bound has reached the
         rounded master optimum: no Lagrangian bound of this relaxation, nor the LP over the
-        same candidates, is lower), ``candidates``, ``cap`` (the covered weight); with
+        same candidates, is lower), ``candidates``, ``cap`` (the covered weight), ``plans``
+        (the last restricted master's positive plans, ``(orbit, covered targets, value,
+        energy, memory)``:
+        the fractional schedule a primal heuristic can start from, see
+        :func:`heuristics.orbit_search.lp_start`; empty before the first master); with
         ``branch``, ``nodes`` (subproblems solved) when the branching ran, and ``schedule``
         and its ``profit`` when it ended on a node with nothing fractional whose plans the
         referee accepts as a schedule (a lower bound; the optimum when it meets ``bound``).
@@ -336,6 +352,7 @@ def colgen_bound(
     if report is not None:
         report(bound)
     result = out(bound, rounds, len(master.columns), master_value, converged)
+    result["plans"] = master.plans()
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
     if branch and converged and not proven:
         answer, nodes, final = branch_and_price(

@@ -72,6 +72,7 @@ from heuristics.orbit_search import (
     WindowData,
     WindowSearch,
     iterate,
+    lp_start,
 )
 from sosp.candidates import flatten
 from sosp.errors import InputError
@@ -452,6 +453,10 @@ def orbit_search_start(
     else:
         seconds = params.init_share * time_limit
         stop, deadline = MaxRuntime(seconds, start=t0), t0 + seconds
+    started: dict[str, float] = {}
+    if params.init == "lp" and not isinstance(search, WindowSearch):
+        # the root may take the start's whole share: what it leaves goes to the search
+        started = lp_start(search, deadline)
     run = iterate(search, p, stop, deadline, t0)
     sched, w = state.sched, planner.weight
     for j, plan in planner.plans(run.best_paths):
@@ -460,7 +465,7 @@ def orbit_search_start(
         planner.apply(state, j, plan, price)
         repair(state, j)
         state.commit()
-    return {"init_profit": run.best_profit, "init_steps": run.steps}
+    return {"init_profit": run.best_profit, "init_steps": run.steps, **started}
 
 
 def make_planner(

@@ -167,10 +167,13 @@ class ASAParams:
         decreasing weight (the paper's). ``"orbit-dp"`` (default; sosp's, not the paper's):
         the iterated local search of ``orbit-dp`` (``heuristics.orbit_search.iterate``) over
         the whole-orbit move's candidates, for ``init_share`` of the time limit, then section
-        5.4's insertion on what is left; the annealing continues from there. Needs the
-        whole-orbit move (``replan``, ``replan_orbit > 0``, ASA-DTC); otherwise ``"greedy"``.
+        5.4's insertion on what is left; the annealing continues from there. ``"lp"``: the
+        same, the search started from the plans of the column-generation root
+        (``heuristics.orbit_search.lp_start``; explicit candidates only, else as
+        ``"orbit-dp"``). Both need the whole-orbit move (``replan``, ``replan_orbit > 0``,
+        ASA-DTC); otherwise ``"greedy"``.
     init_share
-        Share of the time limit the ``"orbit-dp"`` start may take, candidate generation
+        Share of the time limit the ``"orbit-dp"`` or ``"lp"`` start may take, candidate generation
         included (in (0, 1]; default 0.3). Without a time limit the start stops after
         :data:`heuristics.asa.orbit.INIT_NO_IMPROVE` steps without a gain.
     workers
@@ -211,7 +214,7 @@ class ASAParams:
     no_improve: int | None = None
     trace_every: int = 100
     candidates: Literal["auto", "explicit", "windows"] = "auto"
-    init: Literal["greedy", "orbit-dp"] = "orbit-dp"
+    init: Literal["greedy", "orbit-dp", "lp"] = "orbit-dp"
     init_share: float = 0.3
     workers: int = 1
 

@@ -156,7 +156,7 @@ class Search:
         self.t_planner = time.perf_counter() - t0
 
         self.init_stats: dict[str, float] = {}
-        if params.init == "orbit-dp" and self.planner is not None:
+        if params.init in ("orbit-dp", "lp") and self.planner is not None:
             self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
         initial_solution(state, params)
         self.t_init = time.perf_counter() - t0

@@ -293,17 +293,21 @@ def test_whole_orbit_moves_are_counted_and_deterministic(tiny: Instance) -> None
     assert off.stats["orbit_candidates"] == 0
 
 
-@pytest.mark.parametrize("rule", ["nadir", "midpoint"])
-def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str) -> None:
+@pytest.mark.parametrize(
+    ("rule", "init"), [("nadir", "orbit-dp"), ("midpoint", "orbit-dp"), ("nadir", "lp")]
+)
+def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str, init: str) -> None:
     # C1's orbits share targets, so loading must place each target once and lose nothing.
     from sosp.scenarios import generate_scenario
 
     inst = generate_scenario("C1", seed=0)
-    params = ASAParams(roll_rule=rule)
+    params = ASAParams(roll_rule=rule, init=init)
     state = State(build_problem(inst, "dtc", rule), rule, params.nadir_singles)
     planner = OrbitPlanner(inst, state, None)
     figures = orbit_search_start(state, np.random.default_rng(3), params, planner, 0.0, None)
     assert figures["init_steps"] >= 1
+    # the LP start runs the column generation first, and only with init="lp"
+    assert ("lp_rounds" in figures) == (init == "lp")
     assert state.profit == pytest.approx(figures["init_profit"])
     covered = [w for w, c in zip(state.pb.target_weight, state.cover, strict=True) if c > 0]
     assert state.profit == pytest.approx(sum(covered))
@@ -319,6 +323,9 @@ def test_orbit_dp_start_is_at_least_the_greedy_start_and_seeded(tiny: Instance) 
     assert dp.stats["init_steps"] >= 1 and "init_steps" not in greedy.stats
     # Section 5.4's insertion runs after the loaded plans, so it can only add.
     assert dp.profit >= dp.stats["init_profit"] - 1e-9
+    lp = solve(tiny, "asa-dtc", seed=2, iterations=0, init="lp")
+    assert lp.schedule == solve(tiny, "asa-dtc", seed=2, iterations=0, init="lp").schedule
+    assert lp.stats["lp_rounds"] >= 1 and lp.profit >= lp.stats["init_profit"] - 1e-9
 
 
 @pytest.mark.parametrize(

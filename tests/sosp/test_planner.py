@@ -12,7 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.orbit_search import OrbitSearchParams
+from heuristics.orbit_search import START_MODES, OrbitSearch, OrbitSearchParams, lp_start
+from models.colgen import colgen_bound
 from models.lagrangian import lagrangian_bound
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
@@ -185,15 +186,60 @@ def test_two_orbits_share_a_target_counted_once() -> None:
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(inst=small_instances(max_opps=8), seed=st.integers(0, 2**16), steps=st.integers(1, 40))
-def test_property_valid_and_bounded(inst: Instance, seed: int, steps: int) -> None:
-    res = solve(inst, "orbit-dp", seed=seed, iterations=steps, check=False)
+@given(
+    inst=small_instances(max_opps=8),
+    seed=st.integers(0, 2**16),
+    steps=st.integers(1, 40),
+    start=st.sampled_from(START_MODES),
+)
+def test_property_valid_and_bounded(inst: Instance, seed: int, steps: int, start: str) -> None:
+    res = solve(inst, "orbit-dp", seed=seed, iterations=steps, check=False, start=start)
     rep = validate(inst, res.schedule)
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(res.profit)
     optimum = brute_force(inst, "cluster").profit
     assert res.profit <= optimum + 1e-9
     assert lagrangian_bound(inst, iterations=40)["bound"] >= optimum
+
+
+@pytest.mark.parametrize("name", sorted(TINY))
+def test_lp_start_alone_reaches_an_integral_masters_optimum(name: str) -> None:
+    # on the named tiny instances the master's optimum is integral (one plan per orbit at
+    # value 1): the start sets those plans, and their profit is the oracle's optimum
+    inst = TINY[name]()
+    search = OrbitSearch(orbit_data(inst), np.random.default_rng(0))
+    figures = lp_start(search, None)
+    optimum = brute_force(inst, "cluster").profit
+    assert figures["lp_master"] == pytest.approx(optimum)
+    assert figures["lp_profit"] == search.profit == optimum
+    assert validate(inst, search.schedule()).feasible
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_lp_start_sets_a_plan_where_the_master_has_one(seed: int) -> None:
+    inst = random_tiny(seed)
+    data = orbit_data(inst)
+    search = OrbitSearch(data, np.random.default_rng(0))
+    figures = lp_start(search, None)
+    root = colgen_bound(inst, data=data)
+    assert figures["lp_master"] == root["master"]
+    assert all(value > 0 for _, _, value, _, _ in root["plans"])
+    with_plan = {g for g, targets, _, _, _ in root["plans"] if len(targets)}
+    for g in range(len(data.orbits)):
+        assert (len(search.paths[g]) > 0) == (g in with_plan)
+    rep = validate(inst, search.schedule())
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(search.profit) == pytest.approx(figures["lp_profit"])
+    weight = np.asarray(inst.target_weight, dtype=float)
+    covered = np.unique(np.concatenate([np.zeros(0, dtype=np.int64), *search.covered]))
+    assert search.profit == pytest.approx(weight[covered].sum())
+
+
+def test_lp_start_is_the_default_and_can_be_turned_off() -> None:
+    inst = random_tiny(3)
+    on = solve(inst, "orbit-dp", seed=0, iterations=5)
+    off = solve(inst, "orbit-dp", seed=0, iterations=5, start="empty")
+    assert on.stats["lp_rounds"] >= 1 and "lp_rounds" not in off.stats
 
 
 def test_same_seed_same_schedule() -> None:
@@ -223,6 +269,7 @@ def test_no_opportunities_gives_an_empty_schedule() -> None:
         ({"iterations": 2.5}, "iterations"),
         ({"no_improve": 0}, "no_improve"),
         ({"bogus": 1}, "bogus"),
+        ({"start": "greedy"}, "start"),
     ],
 )
 def test_bad_parameters(params: dict, field: str) -> None:
