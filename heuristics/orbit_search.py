@@ -354,14 +354,6 @@ class _Columns:
     opps: list[tuple[int, ...]]
 
 
-def window_ascent_profit(instance: Instance, seed: int = 0, deadline: float | None = None) -> float:
-    """Profit of one ascent of :class:`WindowSearch` from the empty schedule (a quick lower
-    bound without candidates; stopped at ``deadline``, a :func:`time.perf_counter` value)."""
-    search = WindowSearch(WindowData.build(instance), np.random.default_rng(seed))
-    search.ascent(deadline)
-    return search.profit
-
-
 def ascent_profit(data: OrbitData, seed: int = 0) -> float:
     """Profit of one ascent from the empty schedule (a quick lower bound)."""
     search = OrbitSearch(data, np.random.default_rng(seed))

@@ -27,7 +27,7 @@ import logging
 import math
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -37,6 +37,7 @@ from models.lagrangian import capped_bound
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
+from sosp.rules import OrbitRules
 
 log = logging.getLogger(__name__)
 
@@ -80,21 +81,21 @@ class _Master:
     ``sum_P M_P y_P <= W_j``. Columns: ``z_k`` in [0, 1], then ``y_P >= 0``.
     """
 
-    def __init__(self, p: np.ndarray, targets: np.ndarray, data: OrbitData) -> None:
+    def __init__(self, p: np.ndarray, targets: np.ndarray, rules: Sequence[OrbitRules]) -> None:
         import highspy
 
         self.h = h = _master_highs()
         self.n_targets = len(targets)
         self.row_of = np.full(len(p), -1, dtype=np.int64)
         self.row_of[targets] = np.arange(len(targets))
-        n_orb = len(data.orbits)
+        n_orb = len(rules)
         self.conv0 = len(targets)
         upper = np.concatenate(
             [
                 np.zeros(len(targets)),
                 np.ones(n_orb),
-                [o.rules.energy_capacity for o in data.orbits],
-                [o.rules.memory_capacity for o in data.orbits],
+                [r.energy_capacity for r in rules],
+                [r.memory_capacity for r in rules],
             ]
         )
         inf = highspy.kHighsInf
@@ -167,6 +168,114 @@ class _Master:
             for (g, tg, _, energy, memory), v in zip(self.columns, self.y, strict=False)
             if v > 1e-9
         ]
+
+
+Pricer = Callable[
+    [np.ndarray, np.ndarray, float | None],
+    list[tuple[float, np.ndarray, tuple[float, float] | None]] | None,
+]
+"""Every orbit's best plan at multipliers ``(mu, lam)``: per orbit ``(value, covered targets
+with repeats, (energy, memory) or None for the empty plan)``, the value as in the module
+docstring's bound; None when the deadline passes before all orbits are priced."""
+
+
+@dataclass
+class Root:
+    """What :func:`column_generation` ends with: the least Lagrangian value ``best`` and its
+    multipliers, the last master and its optimum (None before the first), the rounds, and
+    whether the rounded bound has reached the rounded master optimum."""
+
+    best: float
+    mu: np.ndarray
+    lam: np.ndarray
+    master: _Master
+    value: float | None
+    rounds: int
+    converged: bool
+
+
+def column_generation(
+    p: np.ndarray,
+    seen: np.ndarray,
+    rules: Sequence[OrbitRules],
+    price: Pricer,
+    start: tuple[np.ndarray, np.ndarray],
+    deadline: float | None,
+    lower_bound: float | None = None,
+    max_rounds: int = 10_000,
+    smoothing: float = SMOOTHING,
+) -> Root:
+    """Column generation on the master of the module docstring with any pricing that gives,
+    per orbit, a plan of largest value at least the exact one (the exact planner, or the
+    window relaxation's :func:`sosp.windows.relaxed_best_path`): every round's value is then
+    a valid upper bound, whatever the master. Stops when no plan prices out at the master's
+    duals, when the rounded bound meets the rounded master optimum or ``lower_bound``, at
+    ``max_rounds`` or at ``deadline``.
+
+    ``p`` holds the target weights (0 where not ``seen``), ``seen`` the targets some plan can
+    cover (the master's coverage rows), ``rules`` the orbits' :class:`sosp.rules.OrbitRules`
+    (the knapsack rows), ``start`` the first multipliers ``(mu, lam)`` (``lam`` per whole
+    capacity, orbits x 2).
+    """
+    targets = np.flatnonzero(seen)
+    e_cap = np.array([r.energy_capacity for r in rules], dtype=float)
+    w_cap = np.array([r.memory_capacity for r in rules], dtype=float)
+    master = _Master(p, targets, rules)
+    mu_c, lam_c = start
+    best = math.inf
+    master_value: float | None = None
+    rounds = 0
+    mu_m: np.ndarray | None = None
+    lam_m = np.zeros((len(rules), 2))
+    sigma = np.zeros(len(rules))
+    alpha = 0.0  # the first round prices at the start point itself
+    converged = False
+    while rounds < max_rounds:
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+        if mu_m is None:
+            mu_s, lam_s = mu_c, lam_c
+        else:
+            mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
+            lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
+        plans = price(mu_s, lam_s, deadline)
+        if plans is None:
+            break  # the deadline fell inside the round: its bound is incomplete
+        rounds += 1
+        value = float(np.maximum(p - mu_s, 0.0).sum())
+        value += sum(v for v, _, _ in plans) + float(lam_s.sum())
+        if value < best - 1e-9:
+            best, mu_c, lam_c = value, mu_s, lam_s
+        improving = 0
+        for g, (_, covered, used) in enumerate(plans):
+            if used is None:
+                continue
+            if mu_m is not None:
+                rc = float(mu_m[covered].sum()) - lam_m[g, 0] * used[0] / max(e_cap[g], 1e-12)
+                rc -= lam_m[g, 1] * used[1] / max(w_cap[g], 1e-12) + sigma[g]
+                improving += rc > _RC_TOL
+            master.add(g, covered, used[0], used[1])
+        if mu_m is not None and improving == 0:
+            if alpha == 0.0:
+                converged = True  # no plan prices out at the master's duals: solved
+                break
+            alpha = 0.0  # mis-pricing: the next round prices at the master's duals
+            continue
+        if lower_bound is not None and math.floor(best + 1e-6) <= lower_bound + 1e-9:
+            break
+        left = None if deadline is None else deadline - time.perf_counter()
+        solved = master.solve(left)
+        if solved is None:
+            break  # out of time inside the master: the best bound so far stands
+        master_value, mu_t, sigma, pi = solved
+        mu_m = np.zeros(len(p))
+        mu_m[targets] = np.minimum(mu_t, p[targets])
+        lam_m = pi * np.stack([e_cap, w_cap], axis=1)
+        alpha = smoothing
+        if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
+            converged = True  # the rounded bound cannot fall below the master's optimum
+            break
+    return Root(best, mu_c, lam_c, master, master_value, rounds, converged)
 
 
 def colgen_bound(
@@ -260,9 +369,6 @@ def colgen_bound(
         seen[o.targets] = True
     p[seen] = np.asarray(instance.target_weight, dtype=float)[seen]
     cap = float(p.sum())
-    targets = np.flatnonzero(seen)
-    e_cap = np.array([o.rules.energy_capacity for o in groups], dtype=float)
-    w_cap = np.array([o.rules.memory_capacity for o in groups], dtype=float)
 
     def out(
         bound: float, rounds: int, columns: int, master: float | None, converged: bool
@@ -291,63 +397,22 @@ def colgen_bound(
         if lam_c.shape != (len(groups), 2):
             raise InputError(f"start: expected lam of shape {(len(groups), 2)}")
     pool = PlanPool(groups, workers)
-    master = _Master(p, targets, data)
-    best = math.inf
-    master_value: float | None = None
-    rounds = 0
-    mu_m: np.ndarray | None = None
-    lam_m = np.zeros((len(groups), 2))
-    sigma = np.zeros(len(groups))
-    alpha = 0.0  # the first round prices at the start point itself
-    converged = False
     try:
-        while rounds < max_rounds:
-            if root_deadline is not None and time.perf_counter() > root_deadline:
-                break
-            if mu_m is None:
-                mu_s, lam_s = mu_c, lam_c
-            else:
-                mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
-                lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
-            plans = _price(groups, pool, mu_s, lam_s, root_deadline)
-            if plans is None:
-                break  # the deadline fell inside the round: its bound is incomplete
-            rounds += 1
-            value = float(np.maximum(p - mu_s, 0.0).sum())
-            value += sum(v for v, _, _ in plans) + float(lam_s.sum())
-            if value < best - 1e-9:
-                best, mu_c, lam_c = value, mu_s, lam_s
-            improving = 0
-            for g, (_, covered, used) in enumerate(plans):
-                if used is None:
-                    continue
-                if mu_m is not None:
-                    rc = float(mu_m[covered].sum()) - lam_m[g, 0] * used[0] / max(e_cap[g], 1e-12)
-                    rc -= lam_m[g, 1] * used[1] / max(w_cap[g], 1e-12) + sigma[g]
-                    improving += rc > _RC_TOL
-                master.add(g, covered, used[0], used[1])
-            if mu_m is not None and improving == 0:
-                if alpha == 0.0:
-                    converged = True  # no plan prices out at the master's duals: solved
-                    break
-                alpha = 0.0  # mis-pricing: the next round prices at the master's duals
-                continue
-            if lower_bound is not None and math.floor(best + 1e-6) <= lower_bound + 1e-9:
-                break
-            left = None if root_deadline is None else root_deadline - time.perf_counter()
-            solved = master.solve(left)
-            if solved is None:
-                break  # out of time inside the master: the best bound so far stands
-            master_value, mu_t, sigma, pi = solved
-            mu_m = np.zeros(len(p))
-            mu_m[targets] = np.minimum(mu_t, p[targets])
-            lam_m = pi * np.stack([e_cap, w_cap], axis=1)
-            alpha = smoothing
-            if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
-                converged = True  # the rounded bound cannot fall below the master's optimum
-                break
+        root = column_generation(
+            p,
+            seen,
+            [o.rules for o in groups],
+            lambda mu, lam, until: _price(groups, pool, mu, lam, until),
+            (mu_c, lam_c),
+            root_deadline,
+            lower_bound,
+            max_rounds,
+            smoothing,
+        )
     finally:
         pool.close()
+    best, mu_c, lam_c = root.best, root.mu, root.lam
+    master, master_value, rounds, converged = root.master, root.value, root.rounds, root.converged
     bound = capped_bound(best, cap)
     if report is not None:
         report(bound)

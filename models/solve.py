@@ -994,7 +994,7 @@ def bound(
         ``"colgen"``: :func:`models.colgen.colgen_bound` over the planner's candidates
         (cluster model; other models: over their items), with a ``time_limit`` followed by
         branch and price until it ends. ``"windows"``:
-        :func:`models.window_bound.window_lagrangian_bound` (cluster model, no candidate
+        :func:`models.window_bound.window_colgen_bound` (cluster model, no candidate
         list: what ``"auto"`` falls back to when the planner's candidates would not fit in
         memory).
     time_limit
@@ -1010,7 +1010,7 @@ def bound(
         ``"auto"`` (default), ``"exact"`` or ``"relaxed"`` (LP; the MILP bound always uses
         the exact term): see :func:`solve_milp`.
     iterations
-        Subgradient steps of the Lagrangian bound.
+        Subgradient steps of the Lagrangian bound; pricing rounds of ``"windows"``.
     lower_bound
         A known schedule's profit: the Lagrangian bound's target (None: one quick ascent).
     workers
@@ -1195,20 +1195,21 @@ def _window_bound(
     lower_bound: float | None,
     iterations: int,
 ) -> dict[str, Any]:
-    """``bound(method="windows")``: :func:`models.window_bound.window_lagrangian_bound`
-    with the time left (cluster model only: it bounds the problem itself)."""
-    from models.window_bound import window_lagrangian_bound
+    """``bound(method="windows")``: :func:`models.window_bound.window_colgen_bound` with
+    the time left and at most ``iterations`` pricing rounds (cluster model only: it bounds
+    the problem itself)."""
+    from models.window_bound import window_colgen_bound
 
     if model != "cluster":
         raise InputError(f"method windows: bounds the cluster model only, got model {model!r}")
     left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
-    wb = window_lagrangian_bound(
+    wb = window_colgen_bound(
         instance,
-        iterations=iterations,
         time_limit=left,
         lower_bound=lower_bound if lower_bound else None,
+        max_rounds=iterations,
     )
-    keys = ("iterations", "items", "lower_bound")
+    keys = ("rounds", "converged", "cap")
     out = _bound_out(wb["bound"], "windows", "cluster", t0, {k: wb[k] for k in keys})
     out["source"] = "windows"
     return out

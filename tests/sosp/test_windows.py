@@ -4,6 +4,7 @@ never below the exact single-orbit plan, the real plans feasible."""
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 import pytest
@@ -11,7 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from heuristics.orbit_search import WindowData, WindowSearch, ascent_profit
-from models.window_bound import window_lagrangian_bound
+from models.colgen import colgen_bound
+from models.window_bound import window_colgen_bound
 from sosp.instance import Instance, Resources
 from sosp.planner import best_path, orbit_data
 from sosp.rules import EPS, orbit_rules
@@ -143,8 +145,8 @@ def test_window_plans_are_feasible_and_bounded(inst: Instance, seed: int) -> Non
     assert rep.profit == pytest.approx(res.profit)
     optimum = brute_force(inst, "cluster").profit
     assert res.profit <= optimum + 1e-9
-    assert window_lagrangian_bound(inst, iterations=40)["bound"] >= optimum
-    assert window_lagrangian_bound(inst, iterations=10, start=1.0)["bound"] >= optimum
+    assert window_colgen_bound(inst)["bound"] >= optimum
+    assert window_colgen_bound(inst, max_rounds=2)["bound"] >= optimum
 
 
 def test_windows_orbit_dp_on_c1(c1: Instance) -> None:
@@ -159,11 +161,30 @@ def test_windows_orbit_dp_on_c1(c1: Instance) -> None:
     assert validate(c1, ws.schedule()).profit == pytest.approx(ws.profit)
 
 
-def test_window_bound_on_c1_is_above_the_best_schedule(c1: Instance) -> None:
-    out = window_lagrangian_bound(c1, iterations=30)
-    best = solve(c1, "orbit-dp", seed=0, iterations=20).profit
-    assert out["bound"] >= best
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances())
+def test_window_colgen_bound_between_the_optimum_and_the_cap(inst: Instance) -> None:
+    out = window_colgen_bound(inst)
+    optimum = brute_force(inst, "cluster").profit
+    assert optimum <= out["bound"] <= out["cap"] and out["bound"] == int(out["bound"])
+    explicit = colgen_bound(inst)
+    if explicit["converged"]:
+        # the relaxation's value at any multipliers is at least the exact one, so never
+        # below the exact master's optimum (rounded)
+        assert out["bound"] >= explicit["bound"]
+
+
+def test_window_colgen_bound_on_c1(c1: Instance) -> None:
+    out = window_colgen_bound(c1)
+    assert out["converged"] and out["rounds"] >= 2
+    assert out["bound"] >= solve(c1, "orbit-dp", seed=0, iterations=20).profit
     assert out["model"] == "windows" and out["bound"] == int(out["bound"])
+    # the bound is the least over the rounds: one round alone is never tighter
+    assert out["bound"] <= window_colgen_bound(c1, max_rounds=1)["bound"]
+    start = time.perf_counter()
+    cut = window_colgen_bound(c1, time_limit=0.05)
+    assert time.perf_counter() - start < 1.0
+    assert cut["bound"] >= out["bound"]
 
 
 def test_bound_method_windows_and_auto_fallback(
