@@ -97,9 +97,8 @@ class OrbitSearchParams:
         re-plans depend on one another and run in one process; the result is the same).
     start
         ``"lp"`` (default): the search starts from the plans of the column-generation root
-        (:func:`lp_start`, at most :data:`LP_START_SHARE` of the time limit); ``"empty"``:
-        from the empty schedule. With window candidates the start is always empty (the
-        column generation prices explicit candidates).
+        (:func:`lp_start`, at most :data:`LP_START_SHARE` of the time limit; with window
+        candidates, the window relaxation's root); ``"empty"``: from the empty schedule.
     candidates
         ``"explicit"``: every candidate observation, made once (:mod:`sosp.candidates`);
         ``"windows"``: none made up front, each re-plan prices the orbit's windows at its
@@ -365,13 +364,13 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: int = 1) -> d
     """Set each orbit's plan from the fractional schedule of the column-generation root.
 
     The root of :func:`models.colgen.colgen_bound` (the Dantzig-Wolfe master of the cluster
-    model over orbit plans, priced by the same planner) is solved over the search's
-    candidates until it converges or ``deadline`` passes. Each orbit then takes the plan of
-    largest value in the last master's solution, re-planned by :func:`best_feasible_path`
-    at the weights of that plan's targets (the master keeps a plan's targets, not its
-    observations; the plan itself is feasible at those prices, so the re-plan is worth as
-    much when (4)-(5) do not bind). A target two orbits' plans cover counts once, and the
-    ascent that follows re-plans the orbits against one another.
+    model over orbit plans, priced by the same planner; for a :class:`WindowSearch`, the
+    window relaxation's, :func:`models.window_bound.window_colgen_bound`) is solved until
+    it converges or ``deadline`` passes. Each orbit then takes the plan of largest value in
+    the last master's solution, re-planned by the search's own planner at the weights of
+    that plan's targets (the master keeps a plan's targets, not its observations, and a
+    relaxed or knapsack-breaking plan is no schedule). A target two orbits' plans cover
+    counts once, and the ascent that follows re-plans the orbits against one another.
 
     Why: from the empty schedule the ascent settles in a local optimum where no one orbit
     can gain alone; on dense instances the master's plans are coordinated across orbits and
@@ -380,12 +379,17 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: int = 1) -> d
 
     Returns the start's figures (rounds, seconds, the master's value, the profit set).
     """
-    from models.colgen import colgen_bound
-
     t0 = time.perf_counter()
-    data = search.data
+    instance = search.data.instance
     left = None if deadline is None else max(deadline - t0, 1e-3)
-    root = colgen_bound(data.instance, time_limit=left, data=data, workers=workers)
+    if isinstance(search, WindowSearch):
+        from models.window_bound import window_colgen_bound
+
+        root = window_colgen_bound(instance, time_limit=left)
+    else:
+        from models.colgen import colgen_bound
+
+        root = colgen_bound(instance, time_limit=left, data=search.data, workers=workers)
     best: dict[int, tuple[float, np.ndarray]] = {}
     for g, targets, value, _, _ in root.get("plans", []):
         if g not in best or value > best[g][0]:
@@ -393,7 +397,7 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: int = 1) -> d
     for g, (_, targets) in sorted(best.items()):
         price = np.zeros(len(search.weight))
         price[targets] = search.weight[targets]
-        search._set(g, best_feasible_path(data.orbits[g], price))
+        search._set(g, search._plan(g, price))
     search.journal.clear()
     return {
         "lp_rounds": root["rounds"],
@@ -505,7 +509,7 @@ def solve_orbit_dp(
         search = OrbitSearch(data, rng)
     t_data = time.perf_counter() - t0
     started: dict[str, Any] = {}
-    if p.start == "lp" and mode == "explicit" and data.orbits:
+    if p.start == "lp" and data.orbits:
         until = None if time_limit is None else t0 + LP_START_SHARE * float(time_limit)
         started = lp_start(search, until, p.workers)
     crit: list[Any] = []

@@ -70,7 +70,8 @@ def window_colgen_bound(
     dict
         ``bound`` (rounded down, capped by the weight of the targets with an opportunity no
         longer than Delta T), ``method`` ("colgen"), ``model`` ("windows"), ``runtime_s``,
-        ``rounds``, ``columns``, ``master``, ``converged``, ``cap``.
+        ``rounds``, ``columns``, ``master``, ``converged``, ``cap``, ``plans`` (as
+        :func:`models.colgen.colgen_bound`'s, the relaxed plans' priced targets).
     """
     from models.colgen import column_generation
 
@@ -97,6 +98,7 @@ def window_colgen_bound(
         return plans
 
     rounds, columns, master, converged, best = 0, 0, None, cap == 0.0, cap
+    plans: list[Any] = []
     if orbits and cap > 0.0:
         root = column_generation(
             p,
@@ -110,6 +112,7 @@ def window_colgen_bound(
         )
         best, rounds, master, converged = root.best, root.rounds, root.value, root.converged
         columns = len(root.master.columns)
+        plans = root.master.plans()
     bound = capped_bound(best, cap)
     log.info("window colgen bound %g after %d rounds", bound, rounds)
     return {
@@ -122,6 +125,7 @@ def window_colgen_bound(
         "master": master,
         "converged": converged,
         "cap": cap,
+        "plans": plans,
     }
 
 

@@ -454,7 +454,7 @@ def orbit_search_start(
         seconds = params.init_share * time_limit
         stop, deadline = MaxRuntime(seconds, start=t0), t0 + seconds
     started: dict[str, float] = {}
-    if params.init == "lp" and not isinstance(search, WindowSearch):
+    if params.init == "lp":
         # the root may take the start's whole share: what it leaves goes to the search
         started = lp_start(search, deadline)
     run = iterate(search, p, stop, deadline, t0)

@@ -169,9 +169,8 @@ class ASAParams:
         the whole-orbit move's candidates, for ``init_share`` of the time limit, then section
         5.4's insertion on what is left; the annealing continues from there. ``"lp"``: the
         same, the search started from the plans of the column-generation root
-        (``heuristics.orbit_search.lp_start``; explicit candidates only, else as
-        ``"orbit-dp"``). Both need the whole-orbit move (``replan``, ``replan_orbit > 0``,
-        ASA-DTC); otherwise ``"greedy"``.
+        (``heuristics.orbit_search.lp_start``). Both need the whole-orbit move
+        (``replan``, ``replan_orbit > 0``, ASA-DTC); otherwise ``"greedy"``.
     init_share
         Share of the time limit the ``"orbit-dp"`` or ``"lp"`` start may take, candidate generation
         included (in (0, 1]; default 0.3). Without a time limit the start stops after

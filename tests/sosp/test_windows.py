@@ -11,7 +11,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.orbit_search import WindowData, WindowSearch, ascent_profit
+from heuristics.orbit_search import (
+    START_MODES,
+    WindowData,
+    WindowSearch,
+    ascent_profit,
+    lp_start,
+)
 from models.colgen import colgen_bound
 from models.window_bound import window_colgen_bound
 from sosp.instance import Instance, Resources
@@ -125,8 +131,12 @@ def test_relaxation_equals_the_exact_plan_when_every_range_holds_nadir() -> None
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(inst=small_instances(max_opps=9), seed=st.integers(0, 2**16))
-def test_window_plans_are_feasible_and_bounded(inst: Instance, seed: int) -> None:
+@given(
+    inst=small_instances(max_opps=9),
+    seed=st.integers(0, 2**16),
+    start=st.sampled_from(START_MODES),
+)
+def test_window_plans_are_feasible_and_bounded(inst: Instance, seed: int, start: str) -> None:
     price = np.asarray(inst.target_weight, dtype=float)
     for j in range(inst.n_orbits):
         plan = window_plan(orbit_opps(inst, j), price)
@@ -139,7 +149,9 @@ def test_window_plans_are_feasible_and_bounded(inst: Instance, seed: int) -> Non
                 obs.append(Observation(j, plan.start[u], plan.end[u], plan.roll[u], mine))
         rep = validate(inst, Schedule(tuple(obs)))
         assert rep.feasible, rep.violations
-    res = solve(inst, "orbit-dp", seed=seed, iterations=10, candidates="windows", check=False)
+    res = solve(
+        inst, "orbit-dp", seed=seed, iterations=10, candidates="windows", start=start, check=False
+    )
     rep = validate(inst, res.schedule)
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(res.profit)
@@ -172,6 +184,19 @@ def test_window_colgen_bound_between_the_optimum_and_the_cap(inst: Instance) -> 
         # the relaxation's value at any multipliers is at least the exact one, so never
         # below the exact master's optimum (rounded)
         assert out["bound"] >= explicit["bound"]
+
+
+def test_window_lp_start_on_c1(c1: Instance) -> None:
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    figures = lp_start(search, None)
+    root = window_colgen_bound(c1)
+    assert figures["lp_master"] == root["master"] and figures["lp_rounds"] == root["rounds"]
+    planned = {g for g, targets, _, _, _ in root["plans"] if len(targets)}
+    assert {g for g, path in enumerate(search.paths) if path.size} == planned
+    rep = validate(c1, search.schedule())
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(search.profit) == pytest.approx(figures["lp_profit"])
+    assert search.profit > 0.9 * root["master"]
 
 
 def test_window_colgen_bound_on_c1(c1: Instance) -> None:
