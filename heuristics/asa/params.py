@@ -164,16 +164,17 @@ class ASAParams:
         unless the candidates would not fit in memory or in half the time limit.
     init
         How the search starts. ``"greedy"``: section 5.4's insertion of every task by
-        decreasing weight (the paper's). ``"orbit-dp"`` (default; sosp's, not the paper's):
-        the iterated local search of ``orbit-dp`` (``heuristics.orbit_search.iterate``) over
-        the whole-orbit move's candidates, for ``init_share`` of the time limit, then section
-        5.4's insertion on what is left; the annealing continues from there. ``"lp"``: the
-        same, the search started from the plans of the column-generation root
-        (``heuristics.orbit_search.lp_start``). Both need the whole-orbit move
-        (``replan``, ``replan_orbit > 0``, ASA-DTC); otherwise ``"greedy"``.
+        decreasing weight (the paper's). ``"orbit-dp"`` (sosp's, not the paper's): the
+        iterated local search of ``orbit-dp`` (``heuristics.orbit_search.iterate``) over the
+        whole-orbit move's candidates, for ``init_share`` of the time limit, then section
+        5.4's insertion on what is left; the annealing continues from there. ``"lp"``
+        (default): the same, the search started from the plans of the column-generation root
+        (``heuristics.orbit_search.lp_start``; ``docs/asa.md``, "Start from the root").
+        Both need the whole-orbit move (``replan``, ``replan_orbit > 0``, ASA-DTC);
+        otherwise ``"greedy"``.
     init_share
-        Share of the time limit the ``"orbit-dp"`` or ``"lp"`` start may take, candidate generation
-        included (in (0, 1]; default 0.3). Without a time limit the start stops after
+        Share of the time limit the ``"orbit-dp"`` or ``"lp"`` start may take, candidate
+        generation included (in (0, 1]; default 0.3). Without a time limit the start stops after
         :data:`heuristics.asa.orbit.INIT_NO_IMPROVE` steps without a gain.
     workers
         Chains run side by side, one process each (``heuristics.asa.parallel``; sosp's, not
@@ -213,7 +214,7 @@ class ASAParams:
     no_improve: int | None = None
     trace_every: int = 100
     candidates: Literal["auto", "explicit", "windows"] = "auto"
-    init: Literal["greedy", "orbit-dp", "lp"] = "orbit-dp"
+    init: Literal["greedy", "orbit-dp", "lp"] = "lp"
     init_share: float = 0.3
     workers: int = 1
 
