@@ -204,13 +204,17 @@ def column_generation(
     lower_bound: float | None = None,
     max_rounds: int = 10_000,
     smoothing: float = SMOOTHING,
+    expect_rounds: int | None = None,
 ) -> Root:
     """Column generation on the master of the module docstring with any pricing that gives,
     per orbit, a plan of largest value at least the exact one (the exact planner, or the
     window relaxation's :func:`sosp.windows.relaxed_best_path`): every round's value is then
     a valid upper bound, whatever the master. Stops when no plan prices out at the master's
     duals, when the rounded bound meets the rounded master optimum or ``lower_bound``, at
-    ``max_rounds`` or at ``deadline``.
+    ``max_rounds`` or at ``deadline``; with ``expect_rounds``, also after the first round
+    when that many rounds of its length would not fit before ``deadline`` (before any master
+    is solved: a caller that wants the master's plans gets none rather than an early,
+    uncoordinated master's).
 
     ``p`` holds the target weights (0 where not ``seen``), ``seen`` the targets some plan can
     cover (the master's coverage rows), ``rules`` the orbits' :class:`sosp.rules.OrbitRules`
@@ -230,6 +234,7 @@ def column_generation(
     sigma = np.zeros(len(rules))
     alpha = 0.0  # the first round prices at the start point itself
     converged = False
+    t_start = time.perf_counter()
     while rounds < max_rounds:
         if deadline is not None and time.perf_counter() > deadline:
             break
@@ -242,10 +247,12 @@ def column_generation(
         if plans is None:
             break  # the deadline fell inside the round: its bound is incomplete
         rounds += 1
-        value = float(np.maximum(p - mu_s, 0.0).sum())
-        value += sum(v for v, _, _ in plans) + float(lam_s.sum())
+        value = _round_value(p, mu_s, lam_s, plans)
         if value < best - 1e-9:
             best, mu_c, lam_c = value, mu_s, lam_s
+        if rounds == 1 and expect_rounds is not None and deadline is not None:
+            if t_start + expect_rounds * (time.perf_counter() - t_start) > deadline:
+                break  # too slow a round for this deadline: no master (see above)
         improving = 0
         for g, (_, covered, used) in enumerate(plans):
             if used is None:
@@ -278,6 +285,12 @@ def column_generation(
     return Root(best, mu_c, lam_c, master, master_value, rounds, converged)
 
 
+def _round_value(p: np.ndarray, mu: np.ndarray, lam: np.ndarray, plans: list[Any]) -> float:
+    """The Lagrangian bound ``L(mu, lam)`` of a round's plans (module docstring)."""
+    value = float(np.maximum(p - mu, 0.0).sum())
+    return value + sum(v for v, _, _ in plans) + float(lam.sum())
+
+
 def colgen_bound(
     instance: Instance,
     *,
@@ -291,6 +304,7 @@ def colgen_bound(
     branch: bool = False,
     root_time_limit: float | None = None,
     report: Callable[[float], None] | None = None,
+    expect_rounds: int | None = None,
 ) -> dict[str, Any]:
     """Upper bound on the optimum (cluster model) by column generation over orbit plans.
 
@@ -332,6 +346,8 @@ def colgen_bound(
     report
         Called with the branching's bound (not rounded) after every node it branches on, so
         that a caller in another process (:class:`SideBound`) always holds a valid bound.
+    expect_rounds
+        See :func:`column_generation` (None: no such stop).
 
     Returns
     -------
@@ -408,6 +424,7 @@ def colgen_bound(
             lower_bound,
             max_rounds,
             smoothing,
+            expect_rounds,
         )
     finally:
         pool.close()

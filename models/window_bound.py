@@ -45,6 +45,7 @@ def window_colgen_bound(
     time_limit: float | None = None,
     lower_bound: float | None = None,
     max_rounds: int = 10_000,
+    expect_rounds: int | None = None,
 ) -> dict[str, Any]:
     """Upper bound by column generation over the window relaxation (no candidate list).
 
@@ -64,6 +65,8 @@ def window_colgen_bound(
         A known feasible profit: stop once the bound meets it.
     max_rounds
         Pricing rounds at most.
+    expect_rounds
+        See :func:`models.colgen.column_generation` (None: no such stop).
 
     Returns
     -------
@@ -109,6 +112,7 @@ def window_colgen_bound(
             deadline,
             lower_bound,
             max_rounds,
+            expect_rounds=expect_rounds,
         )
         best, rounds, master, converged = root.best, root.rounds, root.value, root.converged
         columns = len(root.master.columns)

@@ -312,3 +312,21 @@ def test_solver_children_end_with_their_parent(tmp_path) -> None:
         time.sleep(0.2)
     os.kill(child, 9)
     raise AssertionError("the child outlived its parent")
+
+
+def test_a_root_too_slow_for_its_deadline_stops_after_one_round(monkeypatch) -> None:
+    import heuristics.orbit_search as orbit_search
+
+    inst = random_tiny(4)
+    optimum = brute_force(inst, "cluster").profit
+    # no deadline: expect_rounds changes nothing
+    assert colgen_bound(inst, expect_rounds=10**9)["rounds"] == colgen_bound(inst)["rounds"]
+    out = colgen_bound(inst, time_limit=60.0, expect_rounds=10**9)
+    assert out["rounds"] == 1 and out["master"] is None and out["plans"] == []
+    assert optimum <= out["bound"] <= observable_weight(inst)
+    # the orbit search then starts from nothing
+    monkeypatch.setattr(orbit_search, "LP_START_ROUNDS", 10**9)
+    search = orbit_search.OrbitSearch(orbit_data(inst), np.random.default_rng(0))
+    figures = orbit_search.lp_start(search, time.perf_counter() + 60.0)
+    assert figures["lp_rounds"] == 1 and figures["lp_profit"] == 0.0
+    assert all(len(path) == 0 for path in search.paths)
