@@ -147,7 +147,7 @@ Priced = tuple[float, np.ndarray, np.ndarray]
 def subgradient(
     p: np.ndarray,
     n_orbits: int,
-    price: Callable[[np.ndarray, np.ndarray], Priced | None],
+    price: Callable[[np.ndarray, np.ndarray], Priced],
     mu: np.ndarray,
     iterations: int,
     lower_bound: float,
@@ -157,15 +157,14 @@ def subgradient(
 
     ``L(mu, lam) = sum_k max(0, p_k - mu_k) + (the orbits' terms from price(mu, lam))`` is an
     upper bound for every ``mu >= 0``, ``lam >= 0``, whatever relaxation ``price`` maximises
-    over (the explicit candidates of :func:`lagrangian_bound`, the windows of
-    :func:`models.window_bound.window_lagrangian_bound`). The subgradient in ``mu_k`` is the
-    number of plans counting k minus ``[mu_k < p_k]``; the step is Polyak's towards
+    over (the explicit candidates of :func:`lagrangian_bound`; the window relaxation takes its
+    multipliers from column generation, :mod:`models.window_bound`). The subgradient in
+    ``mu_k`` is the number of plans counting k minus ``[mu_k < p_k]``; the step is Polyak's towards
     ``lower_bound`` with a factor halved after 20 steps without progress, the direction
     deflected by :data:`DEFLECTION` times the previous one. ``lam`` starts at 0.
 
     Time (``stop``, a :func:`time.perf_counter` value or None): a step that would end after
-    ``stop`` (judged by the last step's time) is not started, and ``price`` returns None for
-    a step it had to cut (a partial sum over the orbits is no bound), which ends the run.
+    ``stop`` (judged by the last step's time) is not started.
     """
     lam = np.zeros((n_orbits, 2))
     best = math.inf
@@ -176,10 +175,7 @@ def subgradient(
         t_step = time.perf_counter()
         if stop is not None and done and t_step + last_step > stop:
             break  # the next step would end after the limit
-        got = price(mu, lam)
-        if got is None:
-            break
-        orbits_value, count, grad_lam = got
+        orbits_value, count, grad_lam = price(mu, lam)
         value = float(np.maximum(p - mu, 0.0).sum()) + orbits_value
         done += 1
         last_step = time.perf_counter() - t_step
