@@ -394,7 +394,12 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: int = 1) -> d
     if isinstance(search, WindowSearch):
         from models.window_bound import window_colgen_bound
 
-        root = window_colgen_bound(instance, time_limit=left, expect_rounds=LP_START_ROUNDS)
+        root = window_colgen_bound(
+            instance,
+            time_limit=left,
+            expect_rounds=LP_START_ROUNDS,
+            orbits=search.data.orbits,
+        )
     else:
         from models.colgen import colgen_bound
 

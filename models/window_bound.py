@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,7 @@ def window_colgen_bound(
     lower_bound: float | None = None,
     max_rounds: int = 10_000,
     expect_rounds: int | None = None,
+    orbits: Sequence[OrbitOpps] | None = None,
 ) -> dict[str, Any]:
     """Upper bound by column generation over the window relaxation (no candidate list).
 
@@ -67,6 +69,10 @@ def window_colgen_bound(
         Pricing rounds at most.
     expect_rounds
         See :func:`models.colgen.column_generation` (None: no such stop).
+    orbits
+        Every orbit's :class:`sosp.windows.OrbitOpps` in orbit order, when the caller has
+        them (a window search's :attr:`heuristics.orbit_search.WindowData.orbits`); None:
+        made here.
 
     Returns
     -------
@@ -82,7 +88,8 @@ def window_colgen_bound(
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
         raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
     deadline = None if time_limit is None else t0 + float(time_limit)
-    orbits: list[OrbitOpps] = [orbit_opps(instance, j) for j in range(instance.n_orbits)]
+    if orbits is None:
+        orbits = [orbit_opps(instance, j) for j in range(instance.n_orbits)]
     seen, p = _observable(instance)
     cap = float(p.sum())
 
