@@ -251,8 +251,18 @@ def column_generation(
         if value < best - 1e-9:
             best, mu_c, lam_c = value, mu_s, lam_s
         if rounds == 1 and expect_rounds is not None and deadline is not None:
-            if t_start + expect_rounds * (time.perf_counter() - t_start) > deadline:
-                break  # too slow a round for this deadline: no master (see above)
+            took = time.perf_counter() - t_start
+            if t_start + expect_rounds * took > deadline:
+                # too slow a round for this deadline: no master (see above)
+                log.info(
+                    "root given up: its first round took %.1f s, %d such rounds need %.0f s, "
+                    "%.0f s were given",
+                    took,
+                    expect_rounds,
+                    expect_rounds * took,
+                    deadline - t_start,
+                )
+                break
         improving = 0
         for g, (_, covered, used) in enumerate(plans):
             if used is None:
@@ -461,9 +471,11 @@ def _price(
 ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]] | None:
     """Every orbit's best plan at ``mu``, ``lam`` (as :meth:`PlanPool.best_paths`); None when
     the deadline passes before all are planned (in this process the deadline is checked
-    between orbits, a dense instance's round taking seconds)."""
+    between orbits, a dense instance's round taking seconds; the workers are waited for
+    until the deadline)."""
     if pool.pool is not None:
-        return pool.best_paths(mu, lam)
+        wait = None if deadline is None else max(0.0, deadline - time.perf_counter())
+        return pool.best_paths(mu, lam, wait)
     plans = []
     for g, o in enumerate(groups):
         if deadline is not None and time.perf_counter() > deadline:

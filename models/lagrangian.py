@@ -103,7 +103,9 @@ def lagrangian_bound(
         value = 0.0
         count = np.zeros(len(p))
         grad_lam = np.ones((len(groups), 2))
-        for g, (v, covered, used) in enumerate(pool.best_paths(mu, lam)):
+        plans = pool.best_paths(mu, lam)
+        assert plans is not None  # no timeout given
+        for g, (v, covered, used) in enumerate(plans):
             value += v + lam[g, 0] + lam[g, 1]
             if used is not None:
                 np.add.at(count, covered, 1.0)

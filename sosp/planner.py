@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import logging
 import math
+import multiprocessing as mp
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -884,8 +885,10 @@ def flat_positions(o: OrbitItems, path: np.ndarray) -> np.ndarray:
     return np.concatenate([np.arange(ptr[u], ptr[u + 1]) for u in path])
 
 
-#: The orbits of the :class:`PlanPool` being forked (read by its worker processes).
-_POOL_ORBITS: tuple[OrbitItems, ...] = ()
+#: The orbits and the pricing function of the :class:`PlanPool` being forked (read by its
+#: worker processes).
+_POOL_ORBITS: tuple[Any, ...] = ()
+_POOL_PLANS: Callable[..., list[Any]] | None = None
 
 
 def _plans_of(
@@ -909,7 +912,8 @@ def _pool_task(
     task: tuple[list[int], np.ndarray, np.ndarray],
 ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
     idx, price, lam = task
-    return _plans_of(_POOL_ORBITS, idx, price, lam)
+    assert _POOL_PLANS is not None
+    return _POOL_PLANS(_POOL_ORBITS, idx, price, lam)
 
 
 class PlanPool:
@@ -924,23 +928,30 @@ class PlanPool:
     Parameters
     ----------
     orbits
-        The orbits (:attr:`OrbitData.orbits`).
+        The orbits (:attr:`OrbitData.orbits`, or any sized items ``plans_of`` takes).
     workers
         Processes.
+    plans_of
+        ``plans_of(orbits, idx, price, lam)``: the plans of the orbits ``idx`` as
+        :meth:`best_paths` returns them (default: :func:`best_path` over the candidates).
     """
 
-    def __init__(self, orbits: tuple[OrbitItems, ...], workers: int = 1) -> None:
-        import multiprocessing as mp
-
-        self.orbits = orbits
+    def __init__(
+        self,
+        orbits: Sequence[Any],
+        workers: int = 1,
+        plans_of: Callable[..., list[Any]] | None = None,
+    ) -> None:
+        self.orbits = tuple(orbits)
+        self.plans_of = _plans_of if plans_of is None else plans_of
         self.pool: Any = None
         if workers > 1 and len(orbits) > 1 and "fork" in mp.get_all_start_methods():
-            global _POOL_ORBITS
-            _POOL_ORBITS = orbits
+            global _POOL_ORBITS, _POOL_PLANS
+            _POOL_ORBITS, _POOL_PLANS = self.orbits, self.plans_of
             try:
                 self.pool = mp.get_context("fork").Pool(min(workers, len(orbits)))
             finally:
-                _POOL_ORBITS = ()
+                _POOL_ORBITS, _POOL_PLANS = (), None
             loads = np.zeros(min(workers, len(orbits)))
             groups: list[list[int]] = [[] for _ in loads]
             for g in sorted(range(len(orbits)), key=lambda g: -orbits[g].size):
@@ -950,14 +961,20 @@ class PlanPool:
             self.groups = [sorted(x) for x in groups if x]
 
     def best_paths(
-        self, price: np.ndarray, lam: np.ndarray
-    ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
+        self, price: np.ndarray, lam: np.ndarray, timeout: float | None = None
+    ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]] | None:
         """Per orbit (in order): :func:`best_path` value at ``price`` and penalties
         ``lam[g]`` (energy, memory), the targets its plan covers (with repeats) and the plan's
-        (energy, memory), None for the empty plan."""
+        (energy, memory), None for the empty plan. None when the workers did not answer
+        within ``timeout`` seconds (the pool is then closed)."""
         if self.pool is None:
-            return _plans_of(self.orbits, list(range(len(self.orbits))), price, lam)
-        parts = self.pool.map(_pool_task, [(idx, price, lam) for idx in self.groups])
+            return self.plans_of(self.orbits, list(range(len(self.orbits))), price, lam)
+        job = self.pool.map_async(_pool_task, [(idx, price, lam) for idx in self.groups])
+        try:
+            parts = job.get(timeout)
+        except mp.TimeoutError:
+            self.close()
+            return None
         out: list[Any] = [None] * len(self.orbits)
         for idx, part in zip(self.groups, parts, strict=True):
             for g, res in zip(idx, part, strict=True):
