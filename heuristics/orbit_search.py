@@ -399,6 +399,11 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: int = 1) -> d
             time_limit=left,
             expect_rounds=LP_START_ROUNDS,
             orbits=search.data.orbits,
+            workers=workers,
+            # unbanded: a banded round is 3-4 times longer (D100: 16 s against 5 s), and
+            # LP_START_ROUNDS of them do not fit in the start's share; the start's plans are
+            # re-planned by the search anyway, only their coordination counts
+            band=None,
         )
     else:
         from models.colgen import colgen_bound

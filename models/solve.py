@@ -1063,7 +1063,7 @@ def bound(
     if method == "colgen" and model == "cluster":
         return _colgen_bound(instance, t0, deadline, lower_bound, workers)
     if method == "windows":
-        return _window_bound(instance, model, t0, deadline, lower_bound, iterations)
+        return _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
     try:
         data = model_data(instance, model, deadline)
     except TimeUp:
@@ -1085,7 +1085,7 @@ def bound(
             # the planner's candidates would not fit in memory either (10,000 targets in the
             # C region): the window relaxation needs no candidate list
             log.info("bound: too dense for the candidates; the window relaxation's bound")
-            out = _window_bound(instance, model, t0, deadline, lower_bound, iterations)
+            out = _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
             out["method"] = "auto"
             out["parts"] = {"windows": out["bound"]}
             return out
@@ -1194,10 +1194,11 @@ def _window_bound(
     deadline: float | None,
     lower_bound: float | None,
     iterations: int,
+    workers: int = 1,
 ) -> dict[str, Any]:
     """``bound(method="windows")``: :func:`models.window_bound.window_colgen_bound` with
-    the time left and at most ``iterations`` pricing rounds (cluster model only: it bounds
-    the problem itself)."""
+    the time left, at most ``iterations`` pricing rounds and ``workers`` pricing processes
+    (cluster model only: it bounds the problem itself)."""
     from models.window_bound import window_colgen_bound
 
     if model != "cluster":
@@ -1208,6 +1209,7 @@ def _window_bound(
         time_limit=left,
         lower_bound=lower_bound if lower_bound else None,
         max_rounds=iterations,
+        workers=workers,
     )
     keys = ("rounds", "converged", "cap")
     out = _bound_out(wb["bound"], "windows", "cluster", t0, {k: wb[k] for k in keys})

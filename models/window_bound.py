@@ -18,16 +18,19 @@ the C region). The multipliers come from column generation
 (:func:`models.colgen.column_generation`): a relaxed plan's column is the targets its items
 count (priced members at each item's argmax roll) and the relaxed plan's energy and memory.
 
-Column generation replaced subgradient steps here (the same relaxation; ``docs/scenarios.md``):
-on D30 it converges to 9,552 in 29 s where 397 subgradient steps took 240 s to reach 9,557,
-and on D100 to 27,887 in 321 s where 90 steps in 596 s gave 28,265.
+Each orbit is priced per roll band of :data:`BAND` degrees (:func:`sosp.windows.window_items`):
+the relaxation's slews are then at most one band short of the real ones, and the bound comes
+close to the explicit candidates' at a few times the pricing's cost; the rounds can be priced
+in ``workers`` processes. Column generation replaced subgradient steps here (the same
+relaxation). Figures of both in ``docs/scenarios.md``, "The window bound".
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -35,9 +38,14 @@ import numpy as np
 from models.lagrangian import capped_bound
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.planner import PlanPool
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 log = logging.getLogger(__name__)
+
+#: Degrees of the relaxation's roll bands by default (``docs/scenarios.md``, "The window
+#: bound"): the slew terms are under-estimated by at most one band over the slew rate.
+BAND = 1.0
 
 
 def window_colgen_bound(
@@ -48,6 +56,8 @@ def window_colgen_bound(
     max_rounds: int = 10_000,
     expect_rounds: int | None = None,
     orbits: Sequence[OrbitOpps] | None = None,
+    band: float | None = BAND,
+    workers: int = 1,
 ) -> dict[str, Any]:
     """Upper bound by column generation over the window relaxation (no candidate list).
 
@@ -73,6 +83,11 @@ def window_colgen_bound(
         Every orbit's :class:`sosp.windows.OrbitOpps` in orbit order, when the caller has
         them (a window search's :attr:`heuristics.orbit_search.WindowData.orbits`); None:
         made here.
+    band
+        Degrees of the roll bands the relaxation prices per (:func:`sosp.windows.window_items`;
+        None: each first opportunity's whole range, the loosest and fastest).
+    workers
+        Processes for the orbits' pricing of each round (:class:`sosp.planner.PlanPool`).
 
     Returns
     -------
@@ -93,34 +108,40 @@ def window_colgen_bound(
     seen, p = _observable(instance)
     cap = float(p.sum())
 
+    plans_of = partial(_relaxed_plans, band=band)
+    if orbits and cap > 0.0:
+        # compile the numba kernels (or load them from their cache) on the smallest orbit
+        # before the first round, whose length decides ``expect_rounds``: a fresh install's
+        # compilation (seconds) is not a round, and the workers then load the cache
+        busy = [g for g in range(len(orbits)) if len(orbits[g].start)]
+        if busy:
+            small = min(busy, key=lambda g: len(orbits[g].start))
+            plans_of(orbits, [small], p, np.zeros((len(orbits), 2)))
+    pool = PlanPool(orbits, workers, plans_of)
+
     def price(mu: np.ndarray, lam: np.ndarray, until: float | None) -> list[Any] | None:
-        plans: list[Any] = []
-        for g, oo in enumerate(orbits):
-            if until is not None and time.perf_counter() > until:
-                return None  # a partial round is no bound
-            v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]))
-            if len(path) == 0:
-                plans.append((v, np.zeros(0, dtype=np.int64), None))
-                continue
-            r = oo.rules
-            used = r.usage(ri.duration[path], ri.slew_s[path] * r.slew_rate)
-            plans.append((v, item_targets(oo, mu, ri, path), used))
-        return plans
+        if pool.pool is not None:
+            wait = None if until is None else max(0.0, until - time.perf_counter())
+            return pool.best_paths(mu, lam, wait)
+        return plans_of(orbits, range(len(orbits)), mu, lam, until=until)
 
     rounds, columns, master, converged, best = 0, 0, None, cap == 0.0, cap
     plans: list[Any] = []
     if orbits and cap > 0.0:
-        root = column_generation(
-            p,
-            seen,
-            [oo.rules for oo in orbits],
-            price,
-            (p.copy(), np.zeros((len(orbits), 2))),  # mu = p: the orbits' own optima first
-            deadline,
-            lower_bound,
-            max_rounds,
-            expect_rounds=expect_rounds,
-        )
+        try:
+            root = column_generation(
+                p,
+                seen,
+                [oo.rules for oo in orbits],
+                price,
+                (p.copy(), np.zeros((len(orbits), 2))),  # mu = p: the orbits' own optima first
+                deadline,
+                lower_bound,
+                max_rounds,
+                expect_rounds=expect_rounds,
+            )
+        finally:
+            pool.close()
         best, rounds, master, converged = root.best, root.rounds, root.value, root.converged
         columns = len(root.master.columns)
         plans = root.master.plans()
@@ -138,6 +159,33 @@ def window_colgen_bound(
         "cap": cap,
         "plans": plans,
     }
+
+
+def _relaxed_plans(
+    orbits: Sequence[OrbitOpps],
+    idx: Iterable[int],
+    mu: np.ndarray,
+    lam: np.ndarray,
+    band: float | None = None,
+    until: float | None = None,
+) -> list[Any] | None:
+    """The relaxed plans of the orbits ``idx`` at ``mu`` and their rows of ``lam``, as
+    :meth:`sosp.planner.PlanPool.best_paths` gives them: per orbit the value, the targets the
+    items count (with repeats) and the plan's (energy, memory), None for the empty plan. None
+    when ``until`` passes first (a partial round is no bound)."""
+    plans: list[Any] = []
+    for g in idx:
+        if until is not None and time.perf_counter() > until:
+            return None
+        oo = orbits[g]
+        v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]), band=band)
+        if len(path) == 0:
+            plans.append((v, np.zeros(0, dtype=np.int64), None))
+            continue
+        r = oo.rules
+        used = r.usage(ri.duration[path], ri.slew_s[path] * r.slew_rate)
+        plans.append((v, item_targets(oo, mu, ri, path), used))
+    return plans
 
 
 def _observable(instance: Instance) -> tuple[np.ndarray, np.ndarray]:

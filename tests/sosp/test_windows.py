@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -79,6 +80,15 @@ def test_gains_against_brute_force_over_rolls(seed: int) -> None:
         inside = (oo.start >= oo.start[i]) & (oo.end <= oo.end[k]) & (w > 0)
         hold = inside & (oo.roll_min - EPS <= r) & (r <= oo.roll_max + EPS)
         assert float(w[hold].sum()) == pytest.approx(g)
+    # the real observation of each row: its members' latest end and common range
+    for u in range(wi.size):
+        i, k, r = wi.first[u], wi.last[u], wi.point[u]
+        inside = (oo.start >= oo.start[i]) & (oo.end <= oo.end[k]) & (w > 0)
+        hold = inside & (oo.roll_min - EPS <= r) & (r <= oo.roll_max + EPS)
+        assert hold[i]
+        assert wi.end[u] == oo.end[hold].max()
+        assert wi.roll_lo[u] == oo.roll_min[hold].max()
+        assert wi.roll_hi[u] == oo.roll_max[hold].min()
     # every (i, k) is covered: the kept row of i with the latest end <= te_k is worth G(i, k)
     for i in np.flatnonzero(w > 0):
         for k in range(oo.size):
@@ -93,6 +103,42 @@ def test_gains_against_brute_force_over_rolls(seed: int) -> None:
             assert wi.gain[rows].max() == pytest.approx(_brute_gain(oo, w, i, k)[0])
 
 
+@pytest.mark.parametrize("band", [0.5, 2.0, 7.0])
+@pytest.mark.parametrize("seed", range(15))
+def test_banded_rows_against_brute_force(seed: int, band: float) -> None:
+    oo, w = _random_orbit(seed)
+    whole = window_items(oo, w)
+    wi = window_items(oo, w, band)
+    limit = oo.rules.max_duration
+    for i, k, g, r, a in zip(wi.first, wi.last, wi.gain, wi.point, wi.least_roll, strict=True):
+        # a row's gain is reached at its roll, inside i's range, at most one band further
+        # from nadir than its least roll
+        assert oo.roll_min[i] - EPS <= r <= oo.roll_max[i] + EPS
+        assert abs(r) >= a - EPS
+        assert abs(r) - a <= band + EPS
+        inside = (oo.start >= oo.start[i]) & (oo.end <= oo.end[k]) & (w > 0)
+        hold = inside & (oo.roll_min - EPS <= r) & (r <= oo.roll_max + EPS)
+        assert float(w[hold].sum()) == pytest.approx(g)
+        assert g <= _brute_gain(oo, w, i, k)[0] + 1e-9
+        assert oo.end[k] <= oo.start[i] + limit + EPS
+    for u in range(wi.size):
+        # the real observation of r*: every member's range holds its common range
+        i, k, r = wi.first[u], wi.last[u], wi.point[u]
+        inside = (oo.start >= oo.start[i]) & (oo.end <= oo.end[k]) & (w > 0)
+        hold = inside & (oo.roll_min - EPS <= r) & (r <= oo.roll_max + EPS)
+        assert wi.end[u] == oo.end[hold].max()
+        assert oo.roll_min[hold].max() <= wi.roll_lo[u] + EPS
+        assert wi.roll_hi[u] <= oo.roll_max[hold].min() + EPS
+        assert wi.roll_lo[u] - EPS <= r <= wi.roll_hi[u] + EPS
+    # the bands' rows together reach every (i, k)'s G, at no larger least roll
+    for i in np.flatnonzero(w > 0):
+        for k in np.flatnonzero(whole.first == i):
+            end = oo.end[whole.last[k]]
+            rows = np.flatnonzero((wi.first == i) & (oo.end[wi.last] <= end + EPS))
+            assert wi.gain[rows].max() == pytest.approx(whole.gain[k])
+            assert wi.least_roll[rows].min() >= whole.least_roll[k] - EPS
+
+
 def _relaxation_holds(inst: Instance, rng: np.random.Generator) -> None:
     data = orbit_data(inst)
     for o in data.orbits:
@@ -102,6 +148,10 @@ def _relaxation_holds(inst: Instance, rng: np.random.Generator) -> None:
             exact, _ = best_path(o, price, lam_e, lam_w)
             relaxed, _, _ = relaxed_best_path(oo, price, lam_e, lam_w)
             assert relaxed >= exact - 1e-9
+            # per roll band: tighter than the whole range, still above the exact plan
+            for band in (0.5, 2.0):
+                banded, _, _ = relaxed_best_path(oo, price, lam_e, lam_w, band=band)
+                assert exact - 1e-9 <= banded <= relaxed + 1e-9
 
 
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -176,20 +226,26 @@ def test_windows_orbit_dp_on_c1(c1: Instance) -> None:
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(inst=small_instances())
 def test_window_colgen_bound_between_the_optimum_and_the_cap(inst: Instance) -> None:
-    out = window_colgen_bound(inst)
+    out = window_colgen_bound(inst, band=None)
+    banded = window_colgen_bound(inst, band=1.0)
     optimum = brute_force(inst, "cluster").profit
-    assert optimum <= out["bound"] <= out["cap"] and out["bound"] == int(out["bound"])
+    for b in (out, banded):
+        assert optimum <= b["bound"] <= b["cap"] and b["bound"] == int(b["bound"])
     explicit = colgen_bound(inst)
     if explicit["converged"]:
         # the relaxation's value at any multipliers is at least the exact one, so never
         # below the exact master's optimum (rounded)
         assert out["bound"] >= explicit["bound"]
+        assert banded["bound"] >= explicit["bound"]
+    if out["converged"] and banded["converged"]:
+        # the banded relaxation is dominated by the whole-range one at every multipliers
+        assert banded["bound"] <= out["bound"]
 
 
 def test_window_lp_start_on_c1(c1: Instance) -> None:
     search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     figures = lp_start(search, None)
-    root = window_colgen_bound(c1)
+    root = window_colgen_bound(c1, band=None)  # the start's root is unbanded
     assert figures["lp_master"] == root["master"] and figures["lp_rounds"] == root["rounds"]
     planned = {g for g, targets, _, _, _ in root["plans"] if len(targets)}
     assert {g for g, path in enumerate(search.paths) if path.size} == planned
@@ -232,3 +288,33 @@ def test_bound_method_windows_and_auto_fallback(
     out = ms.bound(c1, method="auto", iterations=20)
     assert out["method"] == "auto" and out["parts"] == {"windows": out["bound"]}
     assert out["bound"] >= best
+
+
+def test_window_colgen_bound_in_processes_is_the_same(c1: Instance) -> None:
+    # the rounds priced in two processes: the same columns, so the same bound and rounds
+    one = window_colgen_bound(c1, workers=1)
+    two = window_colgen_bound(c1, workers=2)
+    for key in ("bound", "rounds", "columns", "master", "converged"):
+        assert one[key] == two[key], key
+
+
+def test_plan_pool_gives_up_at_its_timeout() -> None:
+    from sosp.planner import PlanPool
+
+    pool = PlanPool([_Slow(), _Slow()], workers=2, plans_of=_slow_plans)
+    try:
+        if pool.pool is None:
+            pytest.skip("no fork here")
+        assert pool.best_paths(np.zeros(1), np.zeros((2, 2)), timeout=0.05) is None
+        assert pool.pool is None  # closed
+    finally:
+        pool.close()
+
+
+class _Slow:
+    size = 1
+
+
+def _slow_plans(orbits: Any, idx: Any, price: Any, lam: Any) -> list[Any]:
+    time.sleep(5.0)
+    return [(0.0, np.zeros(0, dtype=np.int64), None) for _ in idx]
