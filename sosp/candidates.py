@@ -291,15 +291,7 @@ def cluster_candidates(
     if hit is not None and (max_candidates is None or len(hit[4]) <= max_candidates):
         return hit
     if max_candidates is None:
-        need = estimate_bytes(instance)
-        if need > MAX_CANDIDATE_BYTES:
-            raise InputError(
-                f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
-                f"orbit {instance.orbit_ids[_densest(instance)]!r}); more than the "
-                f"{MAX_CANDIDATE_BYTES / 2**30:.1f} GB allowed "
-                "(sosp.candidates.MAX_CANDIDATE_BYTES): too dense for the clustering-exact "
-                "candidates (use asa-dtc without whole-orbit moves)"
-            )
+        check_memory(instance)
     parts: list[OrbitCandidates] = []
     total = 0
     for j in range(instance.n_orbits):
@@ -354,6 +346,24 @@ def _worker_orbit(args: tuple[int, float | None]) -> OrbitCandidates:
     return _generate_orbit(_WORKER_INSTANCE, j, deadline, None)
 
 
+def check_memory(instance: Instance) -> None:
+    """Refuse with a one-line :class:`~sosp.errors.InputError` when every orbit's candidates
+    would take more than :data:`MAX_CANDIDATE_BYTES` (:func:`estimate_bytes`, computed once
+    per instance object: it takes seconds on dense instances)."""
+    store = _cache_of(instance)
+    if "need" not in store:
+        store["need"] = estimate_bytes(instance)
+    need = store["need"]
+    if need > MAX_CANDIDATE_BYTES:
+        raise InputError(
+            f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
+            f"orbit {instance.orbit_ids[_densest(instance)]!r}); more than the "
+            f"{MAX_CANDIDATE_BYTES / 2**30:.1f} GB allowed "
+            "(sosp.candidates.MAX_CANDIDATE_BYTES): too dense for the clustering-exact "
+            "candidates (use asa-dtc without whole-orbit moves)"
+        )
+
+
 def generate_in_processes(instance: Instance, workers: int, deadline: float | None = None) -> None:
     """Generate the candidates of every orbit in ``workers`` forked processes, largest orbits
     first, and cache them as :func:`orbit_candidates` would (no cap).
@@ -366,6 +376,10 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
 
     store = _cache_of(instance)
     todo = [j for j in range(instance.n_orbits) if j not in store]
+    if todo:
+        # before any process generates: each would fill its memory with a dense orbit's
+        # candidates (D100 with two workers was killed at 24 GB before this check)
+        check_memory(instance)
     sizes = np.diff(instance.orbit_offsets)
     todo.sort(key=lambda j: -int(sizes[j]))
     if workers <= 1 or len(todo) <= 1 or "fork" not in mp.get_all_start_methods():

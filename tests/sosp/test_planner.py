@@ -597,9 +597,10 @@ def test_candidates_beyond_the_memory_budget_are_a_one_line_error(
     exact = sc._generate_orbit(inst, 0, None, None)
     assert need > 0 and 0.2 * exact.nbytes < need < 5 * exact.nbytes
     monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need // 2)
-    with pytest.raises(InputError, match=r"^about .* GB of candidate observations estimated"):
-        orbit_data(inst)
-    assert sc._cache_of(inst) == {}
+    for workers in (1, 2):  # in processes too: checked before any process generates
+        with pytest.raises(InputError, match=r"^about .* GB of candidate observations"):
+            orbit_data(inst, workers=workers)
+        assert set(sc._cache_of(inst)) <= {"need"}  # no orbit's candidates
     monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need * 2)
     assert orbit_data(inst).n_items == exact.size
 
