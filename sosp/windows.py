@@ -97,6 +97,76 @@ def _combine(t: np.ndarray, at: np.ndarray, absp: np.ndarray, node: int, add: fl
 
 
 @njit(cache=True)
+def _range_add(
+    t: np.ndarray,
+    d: np.ndarray,
+    at: np.ndarray,
+    absp: np.ndarray,
+    lft: int,
+    rgt: int,
+    size: int,
+    val: float,
+) -> None:
+    """Add ``val`` to the leaves [lft, rgt) of the max tree (bottom-up, no push-down: a
+    node's ``d`` is the addition pending on its whole subtree), then recombine the two
+    paths to the root."""
+    l0 = lft + size
+    r0 = rgt + size
+    lq, rq = l0, r0
+    while lq < rq:
+        if lq & 1:
+            t[lq] += val
+            if lq < size:
+                d[lq] += val
+            lq += 1
+        if rq & 1:
+            rq -= 1
+            t[rq] += val
+            if rq < size:
+                d[rq] += val
+        lq >>= 1
+        rq >>= 1
+    p = l0 >> 1
+    while p >= 1:
+        _combine(t, at, absp, p, d[p])
+        p >>= 1
+    p = (r0 - 1) >> 1
+    while p >= 1:
+        _combine(t, at, absp, p, d[p])
+        p >>= 1
+
+
+@njit(cache=True)
+def _range_tag(
+    tag_end: np.ndarray,
+    tag_lo: np.ndarray,
+    tag_hi: np.ndarray,
+    lft: int,
+    rgt: int,
+    size: int,
+    e_q: float,
+    a_q: float,
+    b_q: float,
+) -> None:
+    """Tag the O(log m) nodes covering the leaves [lft, rgt) with an insertion's end and
+    range ends (max, max, min)."""
+    lq, rq = lft + size, rgt + size
+    while lq < rq:
+        if lq & 1:
+            tag_end[lq] = max(tag_end[lq], e_q)
+            tag_lo[lq] = max(tag_lo[lq], a_q)
+            tag_hi[lq] = min(tag_hi[lq], b_q)
+            lq += 1
+        if rq & 1:
+            rq -= 1
+            tag_end[rq] = max(tag_end[rq], e_q)
+            tag_lo[rq] = max(tag_lo[rq], a_q)
+            tag_hi[rq] = min(tag_hi[rq], b_q)
+        lq >>= 1
+        rq >>= 1
+
+
+@njit(cache=True)
 def _sweep(
     ts: np.ndarray,
     te: np.ndarray,
@@ -105,6 +175,7 @@ def _sweep(
     w: np.ndarray,
     limit: float,
     eps: float,
+    want_span: bool,
     out_first: np.ndarray,
     out_last: np.ndarray,
     out_gain: np.ndarray,
@@ -115,9 +186,10 @@ def _sweep(
 
     ``ts`` sorted; ``w`` the prices per opportunity. Writes one row per kept (i, k): first i,
     last k (the last opportunity inserted before G was read), G, the argmax roll r* and, in
-    ``out_span``, the members' (the inserted opportunities whose range holds r*) latest end
-    and common range (8) (max of the lower ends, min of the upper ends, both clipped to i's
-    range, which i itself, a member, bounds anyway); it returns the number of rows. The
+    ``out_span`` (when ``want_span``: the relaxation does not need it), the members' (the
+    inserted opportunities whose range holds r*) latest end and common range (8) (max of
+    the lower ends, min of the upper ends, both clipped to i's range, which i itself, a
+    member, bounds anyway); it returns the number of rows. The
     outputs must hold the sum over priced i of the opportunities starting in
     [ts_i, ts_i + limit].
 
@@ -164,21 +236,29 @@ def _sweep(
                     b_of[m] = b if b >= a else a
                     m += 1
             j += 1
-        # the maximum of a sum of intervals is reached at some interval's left end
-        points = np.sort(a_of[:m])
+        # the maximum of a sum of intervals is reached at some interval's left end; equal
+        # ends are one leaf (many ranges start at i's own lower end, or at the band's)
+        srt = np.sort(a_of[:m])
+        nl = 1
+        for u in range(1, m):
+            if srt[u] != srt[nl - 1]:
+                srt[nl] = srt[u]
+                nl += 1
+        points = srt[:nl]
         absp = np.abs(points)
         size = 1
-        while size < m:
+        while size < nl:
             size *= 2
         t = np.full(2 * size, -np.inf)
         d = np.zeros(2 * size)
         at = np.zeros(2 * size, dtype=np.int64)
-        tag_end = np.full(2 * size, -np.inf)
-        tag_lo = np.full(2 * size, -np.inf)
-        tag_hi = np.full(2 * size, np.inf)
+        n_tags = 2 * size if want_span else 1
+        tag_end = np.full(n_tags, -np.inf)
+        tag_lo = np.full(n_tags, -np.inf)
+        tag_hi = np.full(n_tags, np.inf)
         for q in range(size):
-            at[size + q] = min(q, m - 1)
-            if q < m:
+            at[size + q] = min(q, nl - 1)
+            if q < nl:
                 t[size + q] = 0.0
         for node in range(size - 1, 0, -1):
             _combine(t, at, absp, node, 0.0)
@@ -188,39 +268,22 @@ def _sweep(
             q = idx[order[s]]
             lft = np.searchsorted(points, a_of[order[s]] - eps, side="left")
             rgt = np.searchsorted(points, b_of[order[s]] + eps, side="right")
-            # range add of w[q] on leaves [lft, rgt) (bottom-up, no push-down)
+            # range add of w[q] on leaves [lft, rgt)
             val = w[q]
             e_q, a_q, b_q = te[q], a_of[order[s]], min(hi[q], hi_i)
-            l0 = lft + size
-            r0 = rgt + size
-            lq, rq = l0, r0
-            while lq < rq:
-                if lq & 1:
-                    t[lq] += val
-                    if lq < size:
-                        d[lq] += val
-                    tag_end[lq] = max(tag_end[lq], e_q)
-                    tag_lo[lq] = max(tag_lo[lq], a_q)
-                    tag_hi[lq] = min(tag_hi[lq], b_q)
-                    lq += 1
-                if rq & 1:
-                    rq -= 1
-                    t[rq] += val
-                    if rq < size:
-                        d[rq] += val
-                    tag_end[rq] = max(tag_end[rq], e_q)
-                    tag_lo[rq] = max(tag_lo[rq], a_q)
-                    tag_hi[rq] = min(tag_hi[rq], b_q)
-                lq >>= 1
-                rq >>= 1
-            p = l0 >> 1
-            while p >= 1:
-                _combine(t, at, absp, p, d[p])
-                p >>= 1
-            p = (r0 - 1) >> 1
-            while p >= 1:
-                _combine(t, at, absp, p, d[p])
-                p >>= 1
+            if lft == 0 and rgt == nl:
+                # every leaf: the root's pending addition alone (the padding leaves are
+                # -inf and stay below every real leaf)
+                t[1] += val
+                d[1] += val
+                if want_span:
+                    tag_end[1] = max(tag_end[1], e_q)
+                    tag_lo[1] = max(tag_lo[1], a_q)
+                    tag_hi[1] = min(tag_hi[1], b_q)
+            else:
+                _range_add(t, d, at, absp, lft, rgt, size, val)
+                if want_span:
+                    _range_tag(tag_end, tag_lo, tag_hi, lft, rgt, size, e_q, a_q, b_q)
             if s + 1 < m and te[idx[order[s + 1]]] == te[q]:
                 continue  # read G once all opportunities ending at te[q] are in
             if te[q] < te[i]:
@@ -231,6 +294,9 @@ def _sweep(
                 out_last[n_out] = q
                 out_gain[n_out] = best
                 out_point[n_out] = points[at[1]]
+                n_out += 1
+                if not want_span:
+                    continue
                 leaf = at[1] + size
                 e, lo_m, hi_m = -np.inf, -np.inf, np.inf
                 while leaf >= 1:
@@ -238,10 +304,9 @@ def _sweep(
                     lo_m = max(lo_m, tag_lo[leaf])
                     hi_m = min(hi_m, tag_hi[leaf])
                     leaf >>= 1
-                out_span[n_out, 0] = e
-                out_span[n_out, 1] = lo_m
-                out_span[n_out, 2] = hi_m
-                n_out += 1
+                out_span[n_out - 1, 0] = e
+                out_span[n_out - 1, 1] = lo_m
+                out_span[n_out - 1, 2] = hi_m
     return n_out
 
 
@@ -343,7 +408,8 @@ class WindowItems:
     end, roll_lo, roll_hi
         The real observation of r*: its members' (the priced opportunities from i to k whose
         range holds r*) latest end and common range (8) (clipped to the row's band when the
-        sweep ran per roll band). It starts at ts_i (i is a member).
+        sweep ran per roll band). It starts at ts_i (i is a member). Empty when not asked
+        for (``window_items(..., span=False)``).
     least_roll
         The least |r| over the rolls the row's maximum was taken over: i's range [lo_i, hi_i],
         clipped to the row's band when the sweep ran per roll band.
@@ -363,8 +429,11 @@ class WindowItems:
         return len(self.first)
 
 
-def window_items(oo: OrbitOpps, price: np.ndarray, band: float | None = None) -> WindowItems:
-    """G(i, k) and r*(i, k) of every kept (i, k) of the orbit at ``price`` (per target).
+def window_items(
+    oo: OrbitOpps, price: np.ndarray, band: float | None = None, span: bool = True
+) -> WindowItems:
+    """G(i, k) and r*(i, k) of every kept (i, k) of the orbit at ``price`` (per target),
+    with the observation's span (``end``, ``roll_lo``, ``roll_hi``) when ``span``.
 
     With ``band`` (degrees), the roll axis is cut into bands ``[b * band, (b + 1) * band]``
     and the sweep runs once per band over the opportunities meeting it, their ranges clipped
@@ -376,10 +445,11 @@ def window_items(oo: OrbitOpps, price: np.ndarray, band: float | None = None) ->
     w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
     lo, hi = oo.roll_min, oo.roll_max
     if band is None:
-        first, last, gain, point, span = _window_rows(
-            oo.start, oo.end, lo, hi, w, float(oo.rules.max_duration)
+        first, last, gain, point, spans = _window_rows(
+            oo.start, oo.end, lo, hi, w, float(oo.rules.max_duration), span
         )
-        return WindowItems(first, last, gain, point, *span.T, least_abs_roll(lo[first], hi[first]))
+        least = least_abs_roll(lo[first], hi[first])
+        return WindowItems(first, last, gain, point, *spans.T, least)
     if not band > 0.0:
         raise InputError(f"band: expected a positive number of degrees, got {band!r}")
     priced = w > 0.0
@@ -395,11 +465,11 @@ def window_items(oo: OrbitOpps, price: np.ndarray, band: float | None = None) ->
             continue
         clo = np.maximum(lo[sel], e0)
         chi = np.maximum(np.minimum(hi[sel], e1), clo)
-        first, last, gain, point, span = _window_rows(
-            oo.start[sel], oo.end[sel], clo, chi, w[sel], float(oo.rules.max_duration)
+        first, last, gain, point, spans = _window_rows(
+            oo.start[sel], oo.end[sel], clo, chi, w[sel], float(oo.rules.max_duration), span
         )
         least = least_abs_roll(clo[first], chi[first])
-        parts.append((sel[first], sel[last], gain, point, *span.T, least))
+        parts.append((sel[first], sel[last], gain, point, *spans.T, least))
     if not parts:
         return _no_items()
     return WindowItems(*(np.concatenate(c) for c in zip(*parts, strict=True)))
@@ -411,10 +481,16 @@ def _no_items() -> WindowItems:
 
 
 def _window_rows(
-    ts: np.ndarray, te: np.ndarray, lo: np.ndarray, hi: np.ndarray, w: np.ndarray, limit: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The sweep's rows (first, last, G, r*, span (latest end, common range)) over
-    opportunities sorted by start."""
+    ts: np.ndarray,
+    te: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    w: np.ndarray,
+    limit: float,
+    span: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The sweep's rows (first, last, G, r*, span (latest end, common range); no span
+    rows when not ``span``) over opportunities sorted by start."""
     priced = np.flatnonzero(w > 0.0)
     if len(priced) == 0:
         z = np.zeros(0, dtype=np.int64)
@@ -425,11 +501,12 @@ def _window_rows(
     room = int((hi_at - lo_at).sum())
     first = np.empty(room, dtype=np.int64)
     last = np.empty(room, dtype=np.int64)
-    gain, point, span = np.empty(room), np.empty(room), np.empty((room, 3))
+    gain, point = np.empty(room), np.empty(room)
+    spans = np.empty((room if span else 0, 3))
     ts, te = np.ascontiguousarray(ts), np.ascontiguousarray(te)
     lo, hi = np.ascontiguousarray(lo), np.ascontiguousarray(hi)
-    n = _sweep(ts, te, lo, hi, w, limit, EPS, first, last, gain, point, span)
-    return first[:n].copy(), last[:n].copy(), gain[:n].copy(), point[:n].copy(), span[:n].copy()
+    n = _sweep(ts, te, lo, hi, w, limit, EPS, span, first, last, gain, point, spans)
+    return first[:n].copy(), last[:n].copy(), gain[:n].copy(), point[:n].copy(), spans[:n].copy()
 
 
 # ----------------------------------------------------------------------- (a) the relaxation
@@ -469,8 +546,8 @@ def least_abs_roll(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 def relaxed_items(oo: OrbitOpps, price: np.ndarray, band: float | None = None) -> RelaxedItems:
     """The items of the relaxation of orbit ``oo`` at ``price`` (per target), per roll band
-    of ``band`` degrees when given (:func:`window_items`)."""
-    wi = window_items(oo, price, band)
+    of ``band`` degrees when given (:func:`window_items`; the span is not needed)."""
+    wi = window_items(oo, price, band, span=False)
     r = oo.rules
     start = oo.start[wi.first]
     end = oo.end[wi.last]
