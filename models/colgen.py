@@ -205,6 +205,7 @@ def column_generation(
     max_rounds: int = 10_000,
     smoothing: float = SMOOTHING,
     expect_rounds: int | None = None,
+    columns: Sequence[tuple[int, np.ndarray, float, float]] = (),
 ) -> Root:
     """Column generation on the master of the module docstring with any pricing that gives,
     per orbit, a plan of largest value at least the exact one (the exact planner, or the
@@ -219,12 +220,16 @@ def column_generation(
     ``p`` holds the target weights (0 where not ``seen``), ``seen`` the targets some plan can
     cover (the master's coverage rows), ``rules`` the orbits' :class:`sosp.rules.OrbitRules`
     (the knapsack rows), ``start`` the first multipliers ``(mu, lam)`` (``lam`` per whole
-    capacity, orbits x 2).
+    capacity, orbits x 2), ``columns`` plans ``(orbit, covered targets, energy, memory)`` the
+    master starts with (plans of the pricing's own relaxation, so that the master's optimum
+    stays that relaxation's: the bounds come from the pricing alone).
     """
     targets = np.flatnonzero(seen)
     e_cap = np.array([r.energy_capacity for r in rules], dtype=float)
     w_cap = np.array([r.memory_capacity for r in rules], dtype=float)
     master = _Master(p, targets, rules)
+    for g, covered, energy, memory in columns:
+        master.add(g, covered, energy, memory)
     mu_c, lam_c = start
     best = math.inf
     master_value: float | None = None

@@ -22,12 +22,13 @@ Each orbit is priced per roll band of :data:`BAND` degrees (:func:`sosp.windows.
 the relaxation's slews are then at most one band short of the real ones, and the bound comes
 close to the explicit candidates' at a few times the pricing's cost; the rounds can be priced
 in ``workers`` processes. Column generation replaced subgradient steps here (the same
-relaxation). Figures of both in ``docs/scenarios.md``, "The window bound".
+relaxation). Figures in ``docs/scenarios.md``, "The window bound's roll bands".
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Iterable, Sequence
 from functools import partial
@@ -44,8 +45,20 @@ from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 log = logging.getLogger(__name__)
 
 #: Degrees of the relaxation's roll bands by default (``docs/scenarios.md``, "The window
-#: bound"): the slew terms are under-estimated by at most one band over the slew rate.
-BAND = 1.0
+#: bound's roll bands"): the slew terms are under-estimated by at most one band over the slew
+#: rate. The tightest width measured that still converges within D100's 600 s.
+BAND = 0.5
+
+#: The finest band :func:`window_colgen_bound` refines to (a round's cost grows about as the
+#: inverse of the band).
+MIN_BAND = 0.1
+
+#: Rounds a window root is expected to take, and a round's cost when the band is halved,
+#: for :func:`_first_band` (measured: D100 56-58 rounds, the generated set of
+#: ``benchmarks/bench_window_bound.py`` 15-48; D100's round 1 degree 6.0 s, 0.5 degree 9.3 s
+#: in one process, 0.25 degree about 2.2 times 0.5 degree's in two).
+ROOT_ROUNDS = 60
+HALVING_COST = 2.0
 
 
 def window_colgen_bound(
@@ -58,6 +71,7 @@ def window_colgen_bound(
     orbits: Sequence[OrbitOpps] | None = None,
     band: float | None = BAND,
     workers: int = 1,
+    refine: bool = True,
 ) -> dict[str, Any]:
     """Upper bound by column generation over the window relaxation (no candidate list).
 
@@ -88,6 +102,13 @@ def window_colgen_bound(
         None: each first opportunity's whole range, the loosest and fastest).
     workers
         Processes for the orbits' pricing of each round (:class:`sosp.planner.PlanPool`).
+    refine
+        With a time limit and roll bands: start from the finest band expected to converge
+        in time (:func:`_first_band`), and once a band's column generation has converged,
+        halve the band (down to :data:`MIN_BAND`) and go on from its best multipliers until
+        the limit. Every round's value bounds the optimum whatever the band, so the time
+        left only lowers the bound; the figures returned (``master``, ``converged``,
+        ``plans``) are the last band's.
 
     Returns
     -------
@@ -95,10 +116,9 @@ def window_colgen_bound(
         ``bound`` (rounded down, capped by the weight of the targets with an opportunity no
         longer than Delta T), ``method`` ("colgen"), ``model`` ("windows"), ``runtime_s``,
         ``rounds``, ``columns``, ``master``, ``converged``, ``cap``, ``plans`` (as
-        :func:`models.colgen.colgen_bound`'s, the relaxed plans' priced targets).
+        :func:`models.colgen.colgen_bound`'s, the relaxed plans' priced targets),
+        ``bands`` (the band of each column generation run, in order).
     """
-    from models.colgen import column_generation
-
     t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
         raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
@@ -108,7 +128,9 @@ def window_colgen_bound(
     seen, p = _observable(instance)
     cap = float(p.sum())
 
-    plans_of = partial(_relaxed_plans, band=band)
+    rounds, columns, master, converged, best = 0, 0, None, cap == 0.0, cap
+    plans: list[Any] = []
+    bands: list[float | None] = []
     if orbits and cap > 0.0:
         # compile the numba kernels (or load them from their cache) on the smallest orbit
         # before the first round, whose length decides ``expect_rounds``: a fresh install's
@@ -116,37 +138,50 @@ def window_colgen_bound(
         busy = [g for g in range(len(orbits)) if len(orbits[g].start)]
         if busy:
             small = min(busy, key=lambda g: len(orbits[g].start))
-            plans_of(orbits, [small], p, np.zeros((len(orbits), 2)))
-    pool = PlanPool(orbits, workers, plans_of)
-
-    def price(mu: np.ndarray, lam: np.ndarray, until: float | None) -> list[Any] | None:
-        if pool.pool is not None:
-            wait = None if until is None else max(0.0, until - time.perf_counter())
-            return pool.best_paths(mu, lam, wait)
-        return plans_of(orbits, range(len(orbits)), mu, lam, until=until)
-
-    rounds, columns, master, converged, best = 0, 0, None, cap == 0.0, cap
-    plans: list[Any] = []
-    if orbits and cap > 0.0:
-        try:
-            root = column_generation(
+            _relaxed_plans(orbits, [small], p, np.zeros((len(orbits), 2)), band=band)
+        start = (p.copy(), np.zeros((len(orbits), 2)))  # mu = p: the orbits' own optima first
+        b = band
+        if refine and band is not None and deadline is not None:
+            b = _first_band(orbits, p, band, deadline, workers)
+        seed: list[tuple[int, np.ndarray, float, float]] = []
+        while True:
+            root = _root(
+                orbits,
                 p,
                 seen,
-                [oo.rules for oo in orbits],
-                price,
-                (p.copy(), np.zeros((len(orbits), 2))),  # mu = p: the orbits' own optima first
+                b,
+                start,
                 deadline,
                 lower_bound,
-                max_rounds,
-                expect_rounds=expect_rounds,
+                max_rounds - rounds,
+                None if bands else expect_rounds,
+                workers,
+                seed,
             )
-        finally:
-            pool.close()
-        best, rounds, master, converged = root.best, root.rounds, root.value, root.converged
-        columns = len(root.master.columns)
-        plans = root.master.plans()
+            bands.append(b)
+            best, rounds = min(best, root.best), rounds + root.rounds
+            if root.rounds or len(bands) == 1:  # a refinement cut before its first round
+                master, converged = root.value, root.converged  # leaves the last band's
+                columns, plans = len(root.master.columns), root.master.plans()
+            if not (
+                refine
+                and converged
+                and b is not None
+                and b / 2 >= MIN_BAND
+                and deadline is not None
+                and time.perf_counter() < deadline
+                and rounds < max_rounds
+                and (lower_bound is None or math.floor(best + 1e-6) > lower_bound)
+            ):
+                break
+            # the time left can only lower the bound: every round's value is one, whatever
+            # the band; the next band starts from this one's best multipliers, its master
+            # from this one's columns re-planned in the finer band (a master built from
+            # nothing again took as many rounds as the first band: D100, no gain in 300 s)
+            b, start = b / 2, (root.mu, root.lam)
+            seed = _replanned(orbits, p, root.master.columns, b, deadline)
     bound = capped_bound(best, cap)
-    log.info("window colgen bound %g after %d rounds", bound, rounds)
+    log.info("window colgen bound %g after %d rounds (bands %s)", bound, rounds, bands)
     return {
         "bound": bound,
         "method": "colgen",
@@ -158,7 +193,98 @@ def window_colgen_bound(
         "converged": converged,
         "cap": cap,
         "plans": plans,
+        "bands": bands,
     }
+
+
+def _first_band(
+    orbits: Sequence[OrbitOpps], p: np.ndarray, band: float, deadline: float, workers: int
+) -> float:
+    """The finest of ``band``, ``band / 2``, ... (not below :data:`MIN_BAND`) whose column
+    generation is expected to converge before ``deadline``: :data:`ROOT_ROUNDS` rounds, each
+    :data:`HALVING_COST` times longer per halving than one round at ``band`` (timed here, in
+    this process, and divided among the ``workers``).
+
+    Why: refining a converged band (:func:`window_colgen_bound`) needs many rounds again, so
+    when the time allows a finer band from the start, that is the tighter bound (D100, 600 s,
+    two workers: 0.25 degrees from the start 27,004, 0.5 refined to 0.25 27,038).
+    """
+    t = time.perf_counter()
+    _relaxed_plans(orbits, range(len(orbits)), p, np.zeros((len(orbits), 2)), band=band)
+    cost = (time.perf_counter() - t) / max(1, min(workers, len(orbits)))
+    left = deadline - time.perf_counter()
+    while band / 2 >= MIN_BAND and ROOT_ROUNDS * cost * HALVING_COST <= left:
+        band, cost = band / 2, cost * HALVING_COST
+    return band
+
+
+def _root(
+    orbits: Sequence[OrbitOpps],
+    p: np.ndarray,
+    seen: np.ndarray,
+    band: float | None,
+    start: tuple[np.ndarray, np.ndarray],
+    deadline: float | None,
+    lower_bound: float | None,
+    max_rounds: int,
+    expect_rounds: int | None,
+    workers: int,
+    columns: Sequence[tuple[int, np.ndarray, float, float]] = (),
+) -> Any:
+    """:func:`models.colgen.column_generation` over the relaxation with roll bands of
+    ``band`` degrees, priced in ``workers`` processes."""
+    from models.colgen import column_generation
+
+    plans_of = partial(_relaxed_plans, band=band)
+    pool = PlanPool(orbits, workers, plans_of)
+
+    def price(mu: np.ndarray, lam: np.ndarray, until: float | None) -> list[Any] | None:
+        if pool.pool is not None:
+            wait = None if until is None else max(0.0, until - time.perf_counter())
+            return pool.best_paths(mu, lam, wait)
+        return plans_of(orbits, range(len(orbits)), mu, lam, until=until)
+
+    try:
+        return column_generation(
+            p,
+            seen,
+            [oo.rules for oo in orbits],
+            price,
+            start,
+            deadline,
+            lower_bound,
+            max_rounds,
+            expect_rounds=expect_rounds,
+            columns=columns,
+        )
+    finally:
+        pool.close()
+
+
+def _replanned(
+    orbits: Sequence[OrbitOpps],
+    p: np.ndarray,
+    columns: Sequence[tuple[Any, ...]],
+    band: float | None,
+    deadline: float | None,
+) -> list[tuple[int, np.ndarray, float, float]]:
+    """Each master column ``(orbit, targets, counts, energy, memory)`` re-planned in the
+    relaxation of ``band``: the orbit's best relaxed plan at the weights of the column's
+    targets alone (a plan of that relaxation, covering those targets as far as it can);
+    as many as ``deadline`` allows."""
+    out: list[tuple[int, np.ndarray, float, float]] = []
+    lam = np.zeros((len(orbits), 2))
+    for g, targets, *_ in columns:
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+        price = np.zeros_like(p)
+        price[targets] = p[targets]
+        plans = _relaxed_plans(orbits, [g], price, lam, band=band)
+        assert plans is not None  # no deadline given
+        _, covered, used = plans[0]
+        if used is not None:
+            out.append((g, covered, used[0], used[1]))
+    return out
 
 
 def _relaxed_plans(

@@ -246,6 +246,25 @@ def test_window_colgen_bound_between_the_optimum_and_the_cap(inst: Instance) -> 
         assert banded["bound"] <= out["bound"]
 
 
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances())
+def test_refined_bands_only_lower_the_bound(inst: Instance) -> None:
+    from models.window_bound import BAND, MIN_BAND
+
+    plain = window_colgen_bound(inst, time_limit=60.0, refine=False)
+    fine = window_colgen_bound(inst, time_limit=60.0)
+    assert plain["bands"] == [BAND] or plain["cap"] == 0.0
+    optimum = brute_force(inst, "cluster").profit
+    assert optimum <= fine["bound"] <= plain["bound"]
+    # each converged band is halved, down to the finest; the last one is not refined
+    bands = fine["bands"]
+    assert not bands or bands[0] <= BAND  # a finer first band when the time allows
+    assert all(b1 == b0 / 2 for b0, b1 in zip(bands, bands[1:], strict=False))
+    assert all(b >= MIN_BAND for b in bands)
+    if fine["converged"] and bands:
+        assert bands[-1] / 2 < MIN_BAND
+
+
 def test_window_lp_start_on_c1(c1: Instance) -> None:
     search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     figures = lp_start(search, None)
