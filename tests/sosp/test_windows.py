@@ -249,20 +249,27 @@ def test_window_colgen_bound_between_the_optimum_and_the_cap(inst: Instance) -> 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(inst=small_instances())
 def test_refined_bands_only_lower_the_bound(inst: Instance) -> None:
-    from models.window_bound import BAND, MIN_BAND
+    from unittest.mock import patch
+
+    import models.window_bound as wb
 
     plain = window_colgen_bound(inst, time_limit=60.0, refine=False)
-    fine = window_colgen_bound(inst, time_limit=60.0)
-    assert plain["bands"] == [BAND] or plain["cap"] == 0.0
+    fine = window_colgen_bound(inst, time_limit=60.0)  # tiny: the finest first band at once
+    with patch.object(wb, "_first_band", lambda orbits, p, band, deadline, workers: band):
+        refined = window_colgen_bound(inst, time_limit=60.0)  # from BAND, halved when converged
+    assert plain["bands"] == [wb.BAND] or plain["cap"] == 0.0
     optimum = brute_force(inst, "cluster").profit
-    assert optimum <= fine["bound"] <= plain["bound"]
-    # each converged band is halved, down to the finest; the last one is not refined
-    bands = fine["bands"]
-    assert not bands or bands[0] <= BAND  # a finer first band when the time allows
-    assert all(b1 == b0 / 2 for b0, b1 in zip(bands, bands[1:], strict=False))
-    assert all(b >= MIN_BAND for b in bands)
-    if fine["converged"] and bands:
-        assert bands[-1] / 2 < MIN_BAND
+    for out in (fine, refined):
+        assert optimum <= out["bound"] <= plain["bound"]
+        # each converged band is halved, down to the finest; the last one is not refined
+        bands = out["bands"]
+        assert not bands or bands[0] <= wb.BAND
+        assert all(b1 == b0 / 2 for b0, b1 in zip(bands, bands[1:], strict=False))
+        assert all(b >= wb.MIN_BAND for b in bands)
+        if out["converged"] and bands:
+            assert bands[-1] / 2 < wb.MIN_BAND
+    if refined["bands"] and refined["converged"]:
+        assert refined["bands"][0] == wb.BAND and len(refined["bands"]) == 3
 
 
 def test_window_lp_start_on_c1(c1: Instance) -> None:
