@@ -28,6 +28,7 @@ import numpy as np
 
 from sosp.clustering import static_cluster_tasks, tasks_to_schedule
 from sosp.instance import Instance
+from sosp.rules import RollRule
 from sosp.schedule import Observation, Schedule
 from sosp.validate import validate
 
@@ -42,14 +43,15 @@ class OracleResult:
     schedule: Schedule
 
 
-def brute_force(instance: Instance, model: str) -> OracleResult:
-    """The exhaustive optimum of ``model`` (``"task"``, ``"cluster"`` or ``"static"``)."""
+def brute_force(instance: Instance, model: str, roll_rule: RollRule = "midpoint") -> OracleResult:
+    """The exhaustive optimum of ``model`` (``"task"``, ``"cluster"`` or ``"static"``; the
+    static cluster-tasks' rolls by ``roll_rule``, as :func:`static_cluster_tasks`)."""
     if instance.n_opps > MAX_OPPS:
         raise ValueError(f"brute force needs at most {MAX_OPPS} opportunities")
     if model == "task":
         return _task(instance)
     if model == "static":
-        return _static(instance)
+        return _static(instance, roll_rule)
     if model == "cluster":
         return _cluster(instance)
     raise ValueError(model)
@@ -85,8 +87,8 @@ def _task(instance: Instance) -> OracleResult:
     )
 
 
-def _static(instance: Instance) -> OracleResult:
-    tasks = static_cluster_tasks(instance)
+def _static(instance: Instance, roll_rule: RollRule) -> OracleResult:
+    tasks = static_cluster_tasks(instance, roll_rule)
     n = len(tasks)
     return _best(
         instance,
