@@ -83,6 +83,35 @@ def test_profit_never_exceeds_the_exact_optimum(inst: Instance, seed: int, metho
     assert res.profit <= brute_force(inst, ORACLE[method], rule).profit + 1e-9
 
 
+def test_stc_oracle_follows_the_roll_rule() -> None:
+    """Hypothesis's case: the static task {o4, o5} (common range [19, 20]) and o6 (roll 0)
+    fit (3) only at the nadir-closest roll 19 (27 + 2 + 19 = 48), not at the midpoint 19.5;
+    asa-stc, nadir by default, takes both targets."""
+    from sosp.instance import Resources
+
+    res = Resources(
+        memory_capacity=15.0, energy_capacity=40.0, setup_time=2.0, max_openings=2,
+        max_duration=10.0,
+    )  # fmt: skip
+    inst = Instance.build(
+        [2, 2],
+        [
+            (0, 0, 0, 1, 0.0, -3.0, 3.0),
+            (0, 0, 0, 1, 0.0, -3.0, 3.0),
+            (0, 0, 0, 8, 0.0, -3.0, 3.0),
+            (0, 0, 20, 21, 22.0, 19.0, 25.0),
+            (0, 0, 20, 27, 17.0, 14.0, 20.0),
+            (1, 0, 48, 56, 0.0, -3.0, 3.0),
+        ],
+        resources=res,
+        orbit_length=57.0,
+    )
+    assert brute_force(inst, "static", "midpoint").profit == 2
+    assert brute_force(inst, "static", "nadir").profit == 4
+    out = solve(inst, "asa-stc", seed=0, iterations=200)
+    assert validate(inst, out.schedule).feasible and out.profit == 4
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(inst=small_instances(), seed=st.integers(0, 2**16), mode=st.sampled_from(["dtc", "stc"]))
 def test_journal_keeps_totals_exact_under_commit_and_rollback(
