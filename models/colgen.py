@@ -433,7 +433,7 @@ def colgen_bound(
             p,
             seen,
             [o.rules for o in groups],
-            lambda mu, lam, until: _price(groups, pool, mu, lam, until),
+            pool.best_paths,
             (mu_c, lam_c),
             root_deadline,
             lower_bound,
@@ -465,32 +465,6 @@ def colgen_bound(
                 result["schedule"], result["profit"] = found
         result["runtime_s"] = round(time.perf_counter() - t0, 6)
     return result
-
-
-def _price(
-    groups: tuple[Any, ...],
-    pool: PlanPool,
-    mu: np.ndarray,
-    lam: np.ndarray,
-    deadline: float | None,
-) -> list[tuple[float, np.ndarray, tuple[float, float] | None]] | None:
-    """Every orbit's best plan at ``mu``, ``lam`` (as :meth:`PlanPool.best_paths`); None when
-    the deadline passes before all are planned (in this process the deadline is checked
-    between orbits, a dense instance's round taking seconds; the workers are waited for
-    until the deadline)."""
-    if pool.pool is not None:
-        wait = None if deadline is None else max(0.0, deadline - time.perf_counter())
-        return pool.best_paths(mu, lam, wait)
-    plans = []
-    for g, o in enumerate(groups):
-        if deadline is not None and time.perf_counter() > deadline:
-            return None
-        v, path = best_path(o, mu, float(lam[g, 0]), float(lam[g, 1]))
-        if len(path):
-            plans.append((v, o.target_flat[flat_positions(o, path)], o.usage(path)))
-        else:
-            plans.append((v, np.zeros(0, dtype=np.int32), None))
-    return plans
 
 
 # ------------------------------------------------------------------------ branch and price

@@ -235,21 +235,13 @@ def _root(
     ``band`` degrees, priced in ``workers`` processes."""
     from models.colgen import column_generation
 
-    plans_of = partial(_relaxed_plans, band=band)
-    pool = PlanPool(orbits, workers, plans_of)
-
-    def price(mu: np.ndarray, lam: np.ndarray, until: float | None) -> list[Any] | None:
-        if pool.pool is not None:
-            wait = None if until is None else max(0.0, until - time.perf_counter())
-            return pool.best_paths(mu, lam, wait)
-        return plans_of(orbits, range(len(orbits)), mu, lam, until=until)
-
+    pool = PlanPool(orbits, workers, partial(_relaxed_plans, band=band))
     try:
         return column_generation(
             p,
             seen,
             [oo.rules for oo in orbits],
-            price,
+            pool.best_paths,
             start,
             deadline,
             lower_bound,

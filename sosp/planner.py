@@ -47,6 +47,7 @@ from __future__ import annotations
 import logging
 import math
 import multiprocessing as mp
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -892,13 +893,20 @@ _POOL_PLANS: Callable[..., list[Any]] | None = None
 
 
 def _plans_of(
-    orbits: tuple[OrbitItems, ...], idx: list[int], price: np.ndarray, lam: np.ndarray
-) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
+    orbits: tuple[OrbitItems, ...],
+    idx: list[int],
+    price: np.ndarray,
+    lam: np.ndarray,
+    until: float | None = None,
+) -> list[tuple[float, np.ndarray, tuple[float, float] | None]] | None:
     """:func:`best_path` of the orbits ``idx`` at ``price`` and their rows of ``lam``: per orbit
     the value, the covered targets (with repeats) and the plan's (energy, memory) (None for the
-    empty plan)."""
+    empty plan). None when ``until`` (a :func:`time.perf_counter` value, checked between
+    orbits) passes first: a partial round is no bound."""
     out = []
     for g in idx:
+        if until is not None and time.perf_counter() > until:
+            return None
         o = orbits[g]
         v, path = best_path(o, price, float(lam[g, 0]), float(lam[g, 1]))
         if len(path):
@@ -932,8 +940,9 @@ class PlanPool:
     workers
         Processes.
     plans_of
-        ``plans_of(orbits, idx, price, lam)``: the plans of the orbits ``idx`` as
-        :meth:`best_paths` returns them (default: :func:`best_path` over the candidates).
+        ``plans_of(orbits, idx, price, lam, until=None)``: the plans of the orbits ``idx`` as
+        :meth:`best_paths` returns them, None when ``until`` passes first (default:
+        :func:`best_path` over the candidates).
     """
 
     def __init__(
@@ -961,17 +970,20 @@ class PlanPool:
             self.groups = [sorted(x) for x in groups if x]
 
     def best_paths(
-        self, price: np.ndarray, lam: np.ndarray, timeout: float | None = None
+        self, price: np.ndarray, lam: np.ndarray, until: float | None = None
     ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]] | None:
         """Per orbit (in order): :func:`best_path` value at ``price`` and penalties
         ``lam[g]`` (energy, memory), the targets its plan covers (with repeats) and the plan's
-        (energy, memory), None for the empty plan. None when the workers did not answer
-        within ``timeout`` seconds (the pool is then closed)."""
+        (energy, memory), None for the empty plan. None when ``until`` (a
+        :func:`time.perf_counter` value) passes before every orbit is planned: in this
+        process it is checked between orbits; the workers are waited for until then (the
+        pool is then closed)."""
         if self.pool is None:
-            return self.plans_of(self.orbits, list(range(len(self.orbits))), price, lam)
+            idx = list(range(len(self.orbits)))
+            return self.plans_of(self.orbits, idx, price, lam, until=until)
         job = self.pool.map_async(_pool_task, [(idx, price, lam) for idx in self.groups])
         try:
-            parts = job.get(timeout)
+            parts = job.get(None if until is None else max(0.0, until - time.perf_counter()))
         except mp.TimeoutError:
             self.close()
             return None

@@ -335,7 +335,7 @@ def test_plan_pool_gives_up_at_its_timeout() -> None:
     try:
         if pool.pool is None:
             pytest.skip("no fork here")
-        assert pool.best_paths(np.zeros(1), np.zeros((2, 2)), timeout=0.05) is None
+        assert pool.best_paths(np.zeros(1), np.zeros((2, 2)), time.perf_counter() + 0.05) is None
         assert pool.pool is None  # closed
     finally:
         pool.close()
@@ -345,6 +345,6 @@ class _Slow:
     size = 1
 
 
-def _slow_plans(orbits: Any, idx: Any, price: Any, lam: Any) -> list[Any]:
+def _slow_plans(orbits: Any, idx: Any, price: Any, lam: Any, until: Any = None) -> list[Any]:
     time.sleep(5.0)
     return [(0.0, np.zeros(0, dtype=np.int64), None) for _ in idx]
