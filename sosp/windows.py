@@ -59,6 +59,7 @@ Two uses:
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -149,21 +150,33 @@ def _range_tag(
     b_q: float,
 ) -> None:
     """Tag the O(log m) nodes covering the leaves [lft, rgt) with an insertion's end and
-    range ends (max, max, min)."""
+    range ends (:func:`_tag`)."""
     lq, rq = lft + size, rgt + size
     while lq < rq:
         if lq & 1:
-            tag_end[lq] = max(tag_end[lq], e_q)
-            tag_lo[lq] = max(tag_lo[lq], a_q)
-            tag_hi[lq] = min(tag_hi[lq], b_q)
+            _tag(tag_end, tag_lo, tag_hi, lq, e_q, a_q, b_q)
             lq += 1
         if rq & 1:
             rq -= 1
-            tag_end[rq] = max(tag_end[rq], e_q)
-            tag_lo[rq] = max(tag_lo[rq], a_q)
-            tag_hi[rq] = min(tag_hi[rq], b_q)
+            _tag(tag_end, tag_lo, tag_hi, rq, e_q, a_q, b_q)
         lq >>= 1
         rq >>= 1
+
+
+@njit(cache=True)
+def _tag(
+    tag_end: np.ndarray,
+    tag_lo: np.ndarray,
+    tag_hi: np.ndarray,
+    node: int,
+    e_q: float,
+    a_q: float,
+    b_q: float,
+) -> None:
+    """Combine an insertion's end and range ends into ``node``'s tags (max, max, min)."""
+    tag_end[node] = max(tag_end[node], e_q)
+    tag_lo[node] = max(tag_lo[node], a_q)
+    tag_hi[node] = min(tag_hi[node], b_q)
 
 
 @njit(cache=True)
@@ -277,9 +290,7 @@ def _sweep(
                 t[1] += val
                 d[1] += val
                 if want_span:
-                    tag_end[1] = max(tag_end[1], e_q)
-                    tag_lo[1] = max(tag_lo[1], a_q)
-                    tag_hi[1] = min(tag_hi[1], b_q)
+                    _tag(tag_end, tag_lo, tag_hi, 1, e_q, a_q, b_q)
             else:
                 _range_add(t, d, at, absp, lft, rgt, size, val)
                 if want_span:
@@ -442,29 +453,11 @@ def window_items(
     the information that a gain is reachable closer to nadir (``least_roll``), which the
     relaxation's slew terms use (:func:`relaxed_items`).
     """
-    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
-    lo, hi = oo.roll_min, oo.roll_max
-    if band is None:
-        first, last, gain, point, spans = _window_rows(
-            oo.start, oo.end, lo, hi, w, float(oo.rules.max_duration), span
-        )
-        least = least_abs_roll(lo[first], hi[first])
-        return WindowItems(first, last, gain, point, *spans.T, least)
-    if not band > 0.0:
+    if band is not None and not band > 0.0:
         raise InputError(f"band: expected a positive number of degrees, got {band!r}")
-    priced = w > 0.0
-    if not priced.any():
-        return _no_items()
-    b_lo = int(np.floor(lo[priced].min() / band))
-    b_hi = int(np.ceil(hi[priced].max() / band))
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
     parts: list[tuple[np.ndarray, ...]] = []
-    for b in range(b_lo, max(b_hi, b_lo + 1)):
-        e0, e1 = b * band, (b + 1) * band
-        sel = np.flatnonzero(priced & (lo <= e1 + EPS) & (hi >= e0 - EPS))
-        if len(sel) == 0:
-            continue
-        clo = np.maximum(lo[sel], e0)
-        chi = np.maximum(np.minimum(hi[sel], e1), clo)
+    for sel, clo, chi in _roll_cuts(oo.roll_min, oo.roll_max, w > 0.0, band):
         first, last, gain, point, spans = _window_rows(
             oo.start[sel], oo.end[sel], clo, chi, w[sel], float(oo.rules.max_duration), span
         )
@@ -473,6 +466,27 @@ def window_items(
     if not parts:
         return _no_items()
     return WindowItems(*(np.concatenate(c) for c in zip(*parts, strict=True)))
+
+
+def _roll_cuts(
+    lo: np.ndarray, hi: np.ndarray, priced: np.ndarray, band: float | None
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The sweeps :func:`window_items` runs: per roll band ``[b * band, (b + 1) * band]``
+    the priced opportunities meeting it and their ranges clipped to it; without ``band``
+    every opportunity with its whole range."""
+    if band is None:
+        yield np.arange(len(lo)), lo, hi
+        return
+    if not priced.any():
+        return
+    b_lo = int(np.floor(lo[priced].min() / band))
+    b_hi = int(np.ceil(hi[priced].max() / band))
+    for b in range(b_lo, max(b_hi, b_lo + 1)):
+        e0, e1 = b * band, (b + 1) * band
+        sel = np.flatnonzero(priced & (lo <= e1 + EPS) & (hi >= e0 - EPS))
+        if len(sel):
+            clo = np.maximum(lo[sel], e0)
+            yield sel, clo, np.maximum(np.minimum(hi[sel], e1), clo)
 
 
 def _no_items() -> WindowItems:
