@@ -686,9 +686,7 @@ def empty_plan() -> WindowPlan:
     return WindowPlan(z, z, z, groups, np.zeros(0, dtype=np.int64))
 
 
-def window_plan(
-    oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir", band: float | None = None
-) -> WindowPlan:
+def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir") -> WindowPlan:
     """A feasible plan of orbit ``oo`` at ``price`` over the real observations of the argmax
     rolls (see the module docstring), made at these prices.
 
@@ -703,7 +701,7 @@ def window_plan(
 
     check_roll_rule(roll_rule)
     w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
-    wi = window_items(oo, price, band)
+    wi = window_items(oo, price)
     if wi.size == 0:
         return empty_plan()
     r = oo.rules
