@@ -7,8 +7,9 @@ over the cluster model's candidate observations (exactly while (4)-(5) do not bi
 milliseconds even on an orbit with 30 000 candidates. The search is
 
 1. **ascent**: re-plan orbits, in random order, until no re-plan gains (a plan is replaced only
-   when it is worth strictly more, so this ends). Only orbits whose prices changed since their
-   last plan, i.e. that see a target whose coverage changed, are re-planned again;
+   when it is worth strictly more, so this ends). Only orbits whose prices changed against
+   their plans since their last re-plan (a target they see became free, or a target of their
+   plan was taken by another orbit: :meth:`OrbitSearch._set`) are re-planned again;
 2. **perturbation**: re-plan one to ``perturb_orbits`` random orbits with noisy prices
    (``p_k * U(1 - noise, 1 + noise)``) under which each target observed elsewhere keeps its
    weight with probability ``steal`` (so the orbit may take it over and free the other orbit),
@@ -173,6 +174,9 @@ class OrbitSearch:
         self.paths: list[np.ndarray] = [np.zeros(0, dtype=np.int64) for _ in data.orbits]
         self.covered: list[np.ndarray] = [np.zeros(0, dtype=np.int64) for _ in data.orbits]
         self.count = np.zeros(len(self.weight), dtype=np.int64)
+        #: per target, the XOR of (index + 1) of the orbits whose plans cover it: with one
+        #: coverer, that coverer's index + 1 (:meth:`_set`)
+        self.owners = np.zeros(len(self.weight), dtype=np.int64)
         self.profit = 0.0
         self.dirty = np.ones(len(data.orbits), dtype=bool)
         self.journal: list[tuple[int, np.ndarray]] = []
@@ -180,19 +184,37 @@ class OrbitSearch:
 
     # ------------------------------------------------------------------ state changes
     def _set(self, g: int, path: np.ndarray) -> None:
-        """Replace orbit g's plan (journalled), update coverage, profit and dirty flags."""
+        """Replace orbit g's plan (journalled), update coverage, profit and dirty flags.
+
+        An orbit h is marked dirty only where its re-plan may now gain: where the price of a
+        target changed against h's plan. A target g drops that nobody else covers rises to
+        p_k for every orbit seeing it (a plan without it may now take it); a target g takes
+        from its sole other coverer h falls to 0 for h (h's plan lost value). The other
+        changes cannot make a re-plan gain: a target that g newly covers falls to 0 only for
+        orbits whose plans do not hold it (their plans keep their value, no other plan gains),
+        and a target g drops that one orbit h still covers rises for h on a target its plan
+        holds (its plan gains as much as any other could). Marking instead every orbit that
+        sees a changed target re-plans many orbits that cannot gain (``docs/scenarios.md``,
+        "orbit-dp's ascent").
+        """
         old = self.covered[g]
         new = self._covered(g, path)
         self.journal.append((g, self.paths[g]))
-        self.count[old] -= 1
-        lost = old[self.count[old] == 0]
-        gained = new[self.count[new] == 0]
-        self.count[new] += 1
+        dropped = np.setdiff1d(old, new, assume_unique=True)
+        added = np.setdiff1d(new, old, assume_unique=True)
+        self.count[dropped] -= 1
+        self.owners[dropped] ^= g + 1
+        lost = dropped[self.count[dropped] == 0]
+        gained = added[self.count[added] == 0]
+        # with one coverer, owners holds its index + 1
+        taken_from = np.unique(self.owners[added[self.count[added] == 1]]) - 1
+        self.count[added] += 1
+        self.owners[added] ^= g + 1
         self.profit += float(self.weight[gained].sum()) - float(self.weight[lost].sum())
         self.paths[g], self.covered[g] = path, new
-        changed = np.setxor1d(old, new, assume_unique=True)
-        touched = self.data.orbits_seeing(changed)
-        self.dirty[touched] = True
+        if len(lost):
+            self.dirty[self.data.orbits_seeing(lost)] = True
+        self.dirty[taken_from] = True
         self.dirty[g] = False
 
     def undo(self, mark: int) -> None:

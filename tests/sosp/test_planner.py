@@ -202,6 +202,78 @@ def test_property_valid_and_bounded(inst: Instance, seed: int, steps: int, start
     assert lagrangian_bound(inst, iterations=40)["bound"] >= optimum
 
 
+def _slack_instance(seed: int) -> Instance:
+    """Several orbits seeing the same few targets (each at most once per orbit), knapsacks
+    that never bind: the single-orbit planner is exact there."""
+    rng = np.random.default_rng(seed)
+    n_orbits, n_targets = int(rng.integers(2, 5)), int(rng.integers(3, 9))
+    rows = []
+    for j in range(n_orbits):
+        for k in rng.choice(
+            n_targets, size=int(rng.integers(1, min(n_targets, 6) + 1)), replace=False
+        ):
+            s = float(np.round(rng.uniform(0, 150), 1))
+            roll = float(np.round(rng.uniform(-30, 30), 1))
+            rows.append(
+                (int(k), j, s, s + float(np.round(rng.uniform(1, 12), 1)), roll, roll - 3, roll + 3)
+            )
+    rows.sort(key=lambda r: (r[1], r[2], r[3]))
+    res = Resources(
+        memory_capacity=1e6,
+        energy_capacity=1e6,
+        slew_rate=float(rng.choice([1.0, 4.0])),
+        setup_time=float(rng.choice([10.0, 2.0])),
+        max_openings=int(rng.choice([10, 2])),
+        max_duration=float(rng.choice([120.0, 15.0])),
+    )
+    weights = [int(w) for w in rng.integers(2, 11, size=n_targets)]
+    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"slack{seed}")
+
+
+def _check_coverage(search: OrbitSearch) -> None:
+    count = np.zeros_like(search.count)
+    owners = np.zeros_like(search.owners)
+    for g, covered in enumerate(search.covered):
+        count[covered] += 1
+        owners[covered] ^= g + 1
+    assert np.array_equal(search.count, count)
+    assert np.array_equal(search.owners, owners)
+    assert search.profit == pytest.approx(float(search.weight[count > 0].sum()))
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_ascent_ends_where_no_orbit_gains(seed: int) -> None:
+    """The ascent re-plans only the orbits whose prices changed against their plans
+    (:meth:`OrbitSearch._set`); with an exact planner it still ends where no orbit's re-plan
+    gains, after any sequence of plan changes."""
+    inst = _slack_instance(seed)
+    data = orbit_data(inst)
+    search = OrbitSearch(data, np.random.default_rng(seed))
+    rng = np.random.default_rng(seed + 1)
+    search.ascent()  # every orbit starts dirty
+    for _ in range(4):
+        changed = rng.choice(inst.n_orbits, size=int(rng.integers(1, 3)), replace=False)
+        for g in changed:
+            # any prices: the plan may take targets from other orbits or drop its own
+            price = np.where(
+                rng.random(inst.n_targets) < 0.6, rng.uniform(0, 10, inst.n_targets), 0
+            )
+            search._set(int(g), best_feasible_path(data.orbits[int(g)], price))
+            _check_coverage(search)
+        # a changed orbit is left as it is (as in :meth:`OrbitSearch.perturb`) unless the
+        # others' changes call for its re-plan; here it is to be settled too
+        search.dirty[changed] = True
+        search.ascent()
+        _check_coverage(search)
+        assert not search.dirty.any()
+        assert not any(search.replan(g) for g in range(inst.n_orbits))
+        mark = len(search.journal)
+        search._set(0, np.zeros(0, dtype=np.int64))
+        search.undo(mark)
+        _check_coverage(search)
+
+
 @pytest.mark.parametrize("name", sorted(TINY))
 def test_lp_start_alone_reaches_an_integral_masters_optimum(name: str) -> None:
     # on the named tiny instances the master's optimum is integral (one plan per orbit at
