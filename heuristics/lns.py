@@ -318,7 +318,7 @@ def solve_milp_lns(
     from models.data import prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import warm_start_values
-    from sosp.candidates import cluster_candidates, flatten
+    from sosp.candidates import check_memory, cluster_candidates, flatten
     from sosp.solve import method_function
     from sosp.validate import validate
 
@@ -332,6 +332,9 @@ def solve_milp_lns(
     # ---- start
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
+    # the steps need every orbit's candidates: refuse before the start spends half the time
+    # (D100 ran its orbit-dp start for half the limit, then stopped at this check)
+    check_memory(instance)
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)

@@ -360,7 +360,8 @@ def check_memory(instance: Instance) -> None:
             f"orbit {instance.orbit_ids[_densest(instance)]!r}); more than the "
             f"{MAX_CANDIDATE_BYTES / 2**30:.1f} GB allowed "
             "(sosp.candidates.MAX_CANDIDATE_BYTES): too dense for the clustering-exact "
-            "candidates (use asa-dtc without whole-orbit moves)"
+            "candidates (orbit-dp and asa-dtc plan over time windows instead: "
+            "--param candidates=auto or windows)"
         )
 
 

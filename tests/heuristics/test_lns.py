@@ -165,6 +165,24 @@ def test_a_tiny_time_limit_returns_the_start() -> None:
     assert res.profit == solve(inst, "hpfs-stc").profit and res.runtime_s < 1.0
 
 
+def test_too_dense_is_refused_before_the_start_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sosp.candidates as sc
+
+    ss = sys.modules["sosp.solve"]  # the module (the package exports the function solve)
+
+    inst = random_tiny(2)
+    monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", -1)  # tiny instances estimate 0 bytes
+    lookup = ss.method_function
+
+    def no_start(method: str):
+        assert method == "milp-lns", f"the start {method} ran"
+        return lookup(method)
+
+    monkeypatch.setattr(ss, "method_function", no_start)
+    with pytest.raises(InputError, match="candidate observations estimated"):
+        solve(inst, "milp-lns", start="hpfs-stc", seed=0, time_limit=10)
+
+
 def test_same_seed_same_schedule() -> None:
     inst = random_tiny(5)
     a = solve(inst, "milp-lns", start="hpfs-stc", seed=4, orbits=1, iterations=5)

@@ -670,8 +670,9 @@ def test_candidates_beyond_the_memory_budget_are_a_one_line_error(
     assert need > 0 and 0.2 * exact.nbytes < need < 5 * exact.nbytes
     monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need // 2)
     for workers in (1, 2):  # in processes too: checked before any process generates
-        with pytest.raises(InputError, match=r"^about .* GB of candidate observations"):
+        with pytest.raises(InputError, match=r"^about .* GB of candidate observations") as err:
             orbit_data(inst, workers=workers)
+        assert "candidates=auto or windows" in str(err.value)  # names what still works
         assert set(sc._cache_of(inst)) <= {"need"}  # no orbit's candidates
     monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", need * 2)
     assert orbit_data(inst).n_items == exact.size
