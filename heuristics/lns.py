@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from sosp.candidates import OppGroups
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
@@ -99,6 +100,13 @@ class LNSParams:
         (``2 * orbits with candidates / orbits``).
     threads
         HiGHS threads per sub-MILP.
+    candidates
+        ``"explicit"``: every candidate observation, made once (:mod:`sosp.candidates`);
+        ``"windows"``: none made up front; each step makes the freed orbits' candidates at
+        the step's prices, the real observations of the argmax rolls of
+        :func:`sosp.windows.window_candidates` (a restricted set), plus the freed
+        observations themselves (so a step never loses); ``"auto"`` (default): explicit
+        unless they would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES``.
     """
 
     orbits: int = 4
@@ -112,6 +120,7 @@ class LNSParams:
     iterations: int | None = None
     no_improve: int | None = None
     threads: int = 1
+    candidates: str = "auto"
 
     def __post_init__(self) -> None:
         def positive_int(name: str, value: Any, allow_none: bool = False) -> None:
@@ -143,6 +152,10 @@ class LNSParams:
             raise InputError(
                 f"neighbourhood: expected one of {', '.join(NEIGHBOURHOODS)}, "
                 f"got {self.neighbourhood!r}"
+            )
+        if self.candidates not in ("auto", "explicit", "windows"):
+            raise InputError(
+                f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
             )
         if self.start_params is not None and not isinstance(self.start_params, dict):
             raise InputError(f"start_params: expected an object, got {self.start_params!r}")
@@ -270,6 +283,44 @@ def _window_plan(
     return fixed, freed, items[ok], sub
 
 
+def _window_columns(
+    instance: Instance,
+    opps_of: dict[int, Any],
+    orbits: list[int],
+    price: np.ndarray,
+    freed: list[Observation],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
+    """Candidate columns (orbit, start, end, roll, opportunities) of ``orbits`` at ``price``
+    from :func:`sosp.windows.window_candidates`, then the ``freed`` observations of those
+    orbits (the warm start maps onto them, so the sub-MILP never returns less than it
+    freed). The opportunities stay in CSR (:class:`sosp.candidates.OppGroups`): a dense
+    orbit has tens of thousands of candidates."""
+    from sosp.windows import orbit_opps, window_candidates
+
+    mine = [ob for ob in freed if ob.orbit in orbits]
+    orbit, start, end, roll, groups = [], [], [], [], []
+    for j in orbits:
+        if j not in opps_of:
+            opps_of[j] = orbit_opps(instance, j)
+        st, en, ro, g = window_candidates(opps_of[j], price)
+        orbit.append(np.full(len(st), j, dtype=np.int64))
+        start.append(st)
+        end.append(en)
+        roll.append(ro)
+        groups.append(g)
+    orbit.append(np.array([ob.orbit for ob in mine], dtype=np.int64))
+    start.append(np.array([ob.start for ob in mine], dtype=float))
+    end.append(np.array([ob.end for ob in mine], dtype=float))
+    roll.append(np.array([ob.roll for ob in mine], dtype=float))
+    groups.append(OppGroups.from_groups([ob.opps for ob in mine]))
+    sizes = np.concatenate([np.diff(g.ptr) for g in groups])
+    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=ptr[1:])
+    opps = OppGroups(ptr, np.concatenate([g.flat for g in groups]))
+    cols = (np.concatenate(c) for c in (orbit, start, end, roll))
+    return (*cols, opps)  # type: ignore[return-value]
+
+
 def _any_per_row(flags: np.ndarray, ptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """For each row r in ``rows``: is any of ``flags[ptr[r]:ptr[r + 1]]`` true? (rows non-empty)"""
     counts = np.add.reduceat(flags.astype(np.int64), ptr[:-1])
@@ -318,7 +369,13 @@ def solve_milp_lns(
     from models.data import prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import warm_start_values
-    from sosp.candidates import check_memory, cluster_candidates, flatten
+    from sosp.candidates import (
+        MAX_CANDIDATE_BYTES,
+        check_memory,
+        cluster_candidates,
+        estimate_bytes,
+        flatten,
+    )
     from sosp.solve import method_function
     from sosp.validate import validate
 
@@ -332,9 +389,14 @@ def solve_milp_lns(
     # ---- start
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
-    # the steps need every orbit's candidates: refuse before the start spends half the time
-    # (D100 ran its orbit-dp start for half the limit, then stopped at this check)
-    check_memory(instance)
+    # explicit candidates for every orbit, or window candidates made per step; decided (and
+    # an explicit request refused) before the start spends half the time (D100 ran its
+    # orbit-dp start for half the limit, then stopped at the memory check)
+    windowed = p.candidates == "windows"
+    if p.candidates == "auto":
+        windowed = estimate_bytes(instance) > MAX_CANDIDATE_BYTES
+    elif p.candidates == "explicit":
+        check_memory(instance)
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)
@@ -359,7 +421,7 @@ def solve_milp_lns(
     # ---- candidates once, shared with an orbit-dp start (cached per instance by
     # sosp.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
     candidates: Any = (np.zeros(0),) * 4 + ((),)  # none when the start used the whole limit
-    if left() > 0.05:
+    if left() > 0.05 and not windowed:
         try:  # the limit holds while generating them too (they stop at the deadline)
             candidates = cluster_candidates(instance, max_candidates=None, deadline=deadline)
         except InputError:
@@ -373,6 +435,9 @@ def solve_milp_lns(
         for block in np.split(order, cuts):
             by_orbit[int(c_orbit[block[0]])] = block
     active = np.array(sorted(by_orbit), dtype=np.int64)
+    opps_of: dict[int, Any] = {}  # windows: each orbit's opportunity arrays, made once
+    if windowed:
+        active = np.flatnonzero(np.diff(instance.orbit_offsets) > 0).astype(np.int64)
     # candidates' opportunities and targets as flat arrays (CSR), to filter them per step
     n_opps, flat_opps = flatten(c_opps)
     ptr = np.concatenate([[0], np.cumsum(n_opps)])
@@ -393,10 +458,14 @@ def solve_milp_lns(
     if no_improve is not None:
         crit.append(NoImprovement(no_improve))
     stop, now = FirstOf(*crit), SearchStatus()
+    prep_s = 0.0  # the last step's time to its model (candidates, data, arrays)
     while len(active):
         now.iteration, now.since_best, now.best = steps, stale, float(profit)
         if stop(now):
             break
+        if left() < prep_s:
+            break  # not even this step's model would be built in time (windows: seconds)
+        step_t0 = time.perf_counter()
         steps += 1
         seed = int(active[rng.integers(len(active))])
         score = shared[seed, active] + 0.5 * rng.random(len(active))
@@ -405,24 +474,52 @@ def solve_milp_lns(
 
         fixed = [ob for ob in current if ob.orbit not in chosen]
         freed = [ob for ob in current if ob.orbit in chosen]
-        sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
         sub_instance, slew = instance, "exact"
         use_window = p.neighbourhood == "window"
-        if not use_window:
+        if windowed:
             covered, w_sub = _weights_left(instance, fixed, weight)
-            useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
-            use_window = p.neighbourhood == "auto" and int(useful.sum()) > p.max_items
-        if use_window:
-            plan = _window_plan(
-                instance, current, seed, by_orbit[seed], (c_start, c_end, c_roll), rng, p.window
-            )
-            if plan is None:
-                stale += 1
-                continue
-            fixed, freed, sel, sub_instance = plan
-            slew = "conservative"
-            covered, w_sub = _weights_left(instance, fixed, weight)
-            useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
+            # the seed orbit's candidates first: where they alone pass max_items, the step
+            # is a window of the seed orbit and the other orbits' are not made
+            cols = _window_columns(instance, opps_of, [seed], w_sub, freed)
+            if not use_window and p.neighbourhood == "auto" and len(cols[4]) > p.max_items:
+                use_window = True
+            if not use_window and len(chosen) > 1:
+                cols = _window_columns(instance, opps_of, sorted(chosen), w_sub, freed)
+                use_window = p.neighbourhood == "auto" and len(cols[4]) > p.max_items
+                if use_window:
+                    cols = _window_columns(instance, opps_of, [seed], w_sub, freed)
+            c_orbit, c_start, c_end, c_roll, c_opps = cols
+            sel = np.arange(len(c_opps))
+            useful = np.ones(len(sel), dtype=bool)
+            if use_window:
+                items = sel[c_orbit == seed]
+                plan = None
+                if len(items):
+                    cand = (c_start, c_end, c_roll)
+                    plan = _window_plan(instance, current, seed, items, cand, rng, p.window)
+                if plan is None:
+                    stale += 1
+                    continue
+                fixed, freed, sel, sub_instance = plan
+                slew = "conservative"
+                covered, w_sub = _weights_left(instance, fixed, weight)
+                useful = np.ones(len(sel), dtype=bool)
+        else:
+            sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
+            if not use_window:
+                covered, w_sub = _weights_left(instance, fixed, weight)
+                useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
+                use_window = p.neighbourhood == "auto" and int(useful.sum()) > p.max_items
+            if use_window:
+                cand = (c_start, c_end, c_roll)
+                plan = _window_plan(instance, current, seed, by_orbit[seed], cand, rng, p.window)
+                if plan is None:
+                    stale += 1
+                    continue
+                fixed, freed, sel, sub_instance = plan
+                slew = "conservative"
+                covered, w_sub = _weights_left(instance, fixed, weight)
+                useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
         old_value = _claims_value(instance, freed, w_sub)
         sel = sel[useful]
         if not len(sel):
@@ -441,6 +538,7 @@ def solve_milp_lns(
         data = replace(data, weight=w_sub)
         sizes.append(data.n_items)
         am = build_arrays(data, slew=slew)
+        prep_s = time.perf_counter() - step_t0
         x0 = None
         if freed:
             vals = warm_start_values(data, Schedule(tuple(freed)))
@@ -483,7 +581,8 @@ def solve_milp_lns(
         "orbits_per_step": k,
         "mean_items": round(float(np.mean(sizes)), 1) if sizes else 0.0,
         "max_items": int(max(sizes)) if sizes else 0,
-        "candidates": len(c_opps),
+        "candidates": 0 if windowed else len(c_opps),
+        "candidate_mode": "windows" if windowed else "explicit",
         "trace": trace,
     }
     return Result(

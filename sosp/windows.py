@@ -705,14 +705,8 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     if wi.size == 0:
         return empty_plan()
     r = oo.rules
-    start, end, lo, hi = oo.start[wi.first], wi.end, wi.roll_lo, wi.roll_hi
-    if roll_rule == "nadir":
-        roll = np.minimum(np.maximum(0.0, lo), hi)
-    else:
-        roll = 0.5 * (lo + hi)
-    ok = (end - start <= r.max_duration + EPS) & r.fits(0.0, 0.0)
-    keep = np.flatnonzero(ok)
-    start, end, roll, gain = start[keep], end[keep], roll[keep], wi.gain[keep]
+    keep, start, end, roll = _observations(oo, wi, roll_rule)
+    gain = wi.gain[keep]
     duration = end - start
     slew_s = np.abs(roll) / r.slew_rate
     right = end + r.setup_time + slew_s
@@ -758,3 +752,39 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
         opps=OppGroups(ptr, (flat + oo.first).astype(np.int32)),
         targets=np.unique(oo.target[flat]),
     )
+
+
+def _observations(
+    oo: OrbitOpps, wi: WindowItems, roll_rule: RollRule
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of ``wi`` within Delta T (11) (on an orbit where (4)-(5) leave room at all),
+    with their window (10) and roll (by ``roll_rule`` in the members' common range (8)):
+    (rows kept, start, end, roll)."""
+    r = oo.rules
+    start, end, lo, hi = oo.start[wi.first], wi.end, wi.roll_lo, wi.roll_hi
+    if roll_rule == "nadir":
+        roll = np.minimum(np.maximum(0.0, lo), hi)
+    else:
+        roll = 0.5 * (lo + hi)
+    ok = (end - start <= r.max_duration + EPS) & r.fits(0.0, 0.0)
+    keep = np.flatnonzero(ok)
+    return keep, start[keep], end[keep], roll[keep]
+
+
+def window_candidates(
+    oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, OppGroups]:
+    """The real observations of the argmax rolls of orbit ``oo`` at ``price`` (those
+    :func:`window_plan` plans over): start, end, roll and covered opportunities (global
+    indices, each target once). A candidate set made for these prices, for a model that
+    re-plans the orbit (``milp-lns`` where the explicit candidates do not fit)."""
+    check_roll_rule(roll_rule)
+    wi = window_items(oo, price)
+    if wi.size == 0:
+        z = np.zeros(0)
+        return z, z, z, OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+    keep, start, end, roll = _observations(oo, wi, roll_rule)
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
+    ptr, flat = _member_lists(oo, w, wi.first[keep], wi.last[keep], wi.point[keep])
+    ptr, flat = _one_per_target(oo, ptr, flat)
+    return start, end, roll, OppGroups(ptr, (flat + oo.first).astype(np.int32))

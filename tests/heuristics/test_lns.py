@@ -180,7 +180,65 @@ def test_too_dense_is_refused_before_the_start_runs(monkeypatch: pytest.MonkeyPa
 
     monkeypatch.setattr(ss, "method_function", no_start)
     with pytest.raises(InputError, match="candidate observations estimated"):
-        solve(inst, "milp-lns", start="hpfs-stc", seed=0, time_limit=10)
+        solve(inst, "milp-lns", start="hpfs-stc", seed=0, time_limit=10, candidates="explicit")
+
+
+def test_auto_plans_over_windows_where_the_candidates_do_not_fit(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import sosp.candidates as sc
+
+    inst = random_tiny(4)
+    monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", -1)
+    res = solve(inst, "milp-lns", start="hpfs-stc", seed=0, iterations=6)
+    assert res.stats["candidate_mode"] == "windows"
+    assert validate(inst, res.schedule).feasible
+    assert res.profit >= res.stats["start_profit"]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_windows_mode_valid_never_below_its_start_nor_above_the_optimum(seed: int) -> None:
+    inst = random_tiny(200 + seed)
+    hood = ("auto", "window")[seed % 2]
+    res = solve(
+        inst,
+        "milp-lns",
+        start="hpfs-stc",
+        seed=seed,
+        iterations=8,
+        candidates="windows",
+        neighbourhood=hood,
+    )
+    rep = validate(inst, res.schedule)
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(res.profit)
+    assert res.stats["start_profit"] <= res.profit <= brute_force(inst, "cluster").profit + 1e-9
+    same = solve(
+        inst,
+        "milp-lns",
+        start="hpfs-stc",
+        seed=seed,
+        iterations=8,
+        candidates="windows",
+        neighbourhood=hood,
+    )
+    assert same.schedule.to_dict(inst) == res.schedule.to_dict(inst)
+
+
+@pytest.mark.parametrize("neighbourhood", ["orbits", "window"])
+def test_windows_mode_gains_where_the_start_is_poor(neighbourhood: str) -> None:
+    inst = TINY["tiny_cluster"]()  # greedy: 7, optimum: 11
+    res = solve(
+        inst,
+        "milp-lns",
+        start="greedy",
+        seed=0,
+        iterations=5,
+        candidates="windows",
+        neighbourhood=neighbourhood,
+    )
+    assert validate(inst, res.schedule).feasible
+    assert res.stats["start_profit"] == 7 and res.profit == brute_force(inst, "cluster").profit
 
 
 def test_same_seed_same_schedule() -> None:
