@@ -1074,6 +1074,10 @@ def bound(
         out["source"] = "cap"
         return out
     except InputError:
+        if method == "lagrangian" and model == "cluster":
+            # more candidates than the MILPs take (D30): the Lagrangian bound prices the
+            # planner's candidates, which have no such cap
+            return _lagrangian_alone(instance, t0, deadline, lower_bound, iterations, workers)
         if method != "auto" or model != "cluster":
             raise
         # more candidates than the MILPs take (D30): no LP, but the column generation's own
@@ -1254,6 +1258,49 @@ def _colgen_bound(
     out["source"] = "colgen" if cg["bound"] < cg["cap"] else "cap"
     if "profit" in cg:
         out["profit"] = cg["profit"]  # a validated schedule the branch and price ended on
+    return out
+
+
+def _lagrangian_alone(
+    instance: Instance,
+    t0: float,
+    deadline: float | None,
+    lower_bound: float | None,
+    iterations: int,
+    workers: int = 1,
+) -> dict[str, Any]:
+    """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
+    without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
+    either (10,000 targets in the C region), the window relaxation's bound, which is a
+    Lagrangian bound too (:mod:`models.window_bound`)."""
+    from models.data import observable_weight
+    from models.lagrangian import lagrangian_bound
+    from sosp.planner import orbit_data
+
+    try:
+        data = orbit_data(instance, deadline, workers=workers)
+    except InputError:
+        if deadline is not None and time.perf_counter() > deadline:
+            out = _bound_out(observable_weight(instance), "lagrangian", "cluster", t0, {})
+            out.update({"source": "cap", "timed_out": "candidates"})
+            return out
+        log.info("bound: too dense for the candidates; the window relaxation's bound")
+        out = _window_bound(instance, "cluster", t0, deadline, lower_bound, iterations, workers)
+        out["method"] = "lagrangian"
+        return out
+    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+    lag = lagrangian_bound(
+        instance,
+        iterations=iterations,
+        time_limit=left,
+        lower_bound=lower_bound if lower_bound else None,
+        data=data,
+        workers=workers,
+    )
+    stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
+    stats["lower_bound"] = lag["lower_bound"]
+    out = _bound_out(lag["bound"], "lagrangian", "cluster", t0, stats)
+    out["source"] = "lagrangian"
     return out
 
 

@@ -161,3 +161,31 @@ def test_lazy_slew_adds_the_exact_term_where_the_relaxed_row_lets_4_break() -> N
     assert res.profit == brute_force(inst, "cluster").profit
     with pytest.raises(InputError, match="slew"):
         solve_milp(inst, slew="lazy", relax=True)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lagrangian_past_the_milp_cap_prices_the_planners_candidates(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--method lagrangian`` refused D30 ("more than 464650 candidate observations", the
+    MILPs' cap) although its own pricing has no such cap; past the memory budget too, it
+    gives the window relaxation's bound."""
+    import models.solve as ms
+    import sosp.candidates as sc
+
+    inst = random_tiny(300 + seed)
+    optimum = brute_force(inst, "cluster").profit
+
+    def too_many(*args, **kwargs):
+        raise InputError("orbit 'o': more than 1 candidate observations")
+
+    monkeypatch.setattr(ms, "model_data", too_many)
+    out = bound(inst, method="lagrangian", iterations=40)
+    assert out["source"] == "lagrangian"
+    assert out["bound"] == lagrangian_bound(inst, iterations=40)["bound"]
+    assert optimum - 1e-9 <= out["bound"] <= observable_weight(inst)
+    monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", -1)
+    inst = random_tiny(300 + seed)  # a new object: the candidates are cached per instance
+    out = bound(inst, method="lagrangian", iterations=40)
+    assert out["source"] == "windows" and out["method"] == "lagrangian"
+    assert optimum - 1e-9 <= out["bound"] <= observable_weight(inst)
