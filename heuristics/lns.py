@@ -491,34 +491,28 @@ def solve_milp_lns(
             c_orbit, c_start, c_end, c_roll, c_opps = cols
             sel = np.arange(len(c_opps))
             useful = np.ones(len(sel), dtype=bool)
-            if use_window:
-                items = sel[c_orbit == seed]
-                plan = None
-                if len(items):
-                    cand = (c_start, c_end, c_roll)
-                    plan = _window_plan(instance, current, seed, items, cand, rng, p.window)
-                if plan is None:
-                    stale += 1
-                    continue
-                fixed, freed, sel, sub_instance = plan
-                slew = "conservative"
-                covered, w_sub = _weights_left(instance, fixed, weight)
-                useful = np.ones(len(sel), dtype=bool)
+            seed_items = sel[c_orbit == seed]
         else:
             sel = np.concatenate([by_orbit[j] for j in sorted(chosen)])
+            seed_items = by_orbit[seed]
             if not use_window:
                 covered, w_sub = _weights_left(instance, fixed, weight)
                 useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
                 use_window = p.neighbourhood == "auto" and int(useful.sum()) > p.max_items
-            if use_window:
+        if use_window:
+            plan = None
+            if len(seed_items):
                 cand = (c_start, c_end, c_roll)
-                plan = _window_plan(instance, current, seed, by_orbit[seed], cand, rng, p.window)
-                if plan is None:
-                    stale += 1
-                    continue
-                fixed, freed, sel, sub_instance = plan
-                slew = "conservative"
-                covered, w_sub = _weights_left(instance, fixed, weight)
+                plan = _window_plan(instance, current, seed, seed_items, cand, rng, p.window)
+            if plan is None:
+                stale += 1
+                continue
+            fixed, freed, sel, sub_instance = plan
+            slew = "conservative"
+            covered, w_sub = _weights_left(instance, fixed, weight)
+            if windowed:
+                useful = np.ones(len(sel), dtype=bool)
+            else:
                 useful = _useful(instance, w_sub, freed, sel, ptr, flat_opps, flat_targets)
         old_value = _claims_value(instance, freed, w_sub)
         sel = sel[useful]

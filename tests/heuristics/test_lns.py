@@ -200,28 +200,13 @@ def test_auto_plans_over_windows_where_the_candidates_do_not_fit(
 def test_windows_mode_valid_never_below_its_start_nor_above_the_optimum(seed: int) -> None:
     inst = random_tiny(200 + seed)
     hood = ("auto", "window")[seed % 2]
-    res = solve(
-        inst,
-        "milp-lns",
-        start="hpfs-stc",
-        seed=seed,
-        iterations=8,
-        candidates="windows",
-        neighbourhood=hood,
-    )
+    params = {"start": "hpfs-stc", "iterations": 8, "candidates": "windows", "neighbourhood": hood}
+    res = solve(inst, "milp-lns", seed=seed, **params)
     rep = validate(inst, res.schedule)
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(res.profit)
     assert res.stats["start_profit"] <= res.profit <= brute_force(inst, "cluster").profit + 1e-9
-    same = solve(
-        inst,
-        "milp-lns",
-        start="hpfs-stc",
-        seed=seed,
-        iterations=8,
-        candidates="windows",
-        neighbourhood=hood,
-    )
+    same = solve(inst, "milp-lns", seed=seed, **params)
     assert same.schedule.to_dict(inst) == res.schedule.to_dict(inst)
 
 
