@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sosp.candidates import MAX_CANDIDATE_BYTES, estimate_bytes
+from sosp.candidates import candidates_fit
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
@@ -546,7 +546,7 @@ def solve_orbit_dp(
         no_improve = DEFAULT_NO_IMPROVE
     mode = p.candidates
     if mode == "auto":
-        mode = "explicit" if estimate_bytes(instance) <= MAX_CANDIDATE_BYTES else "windows"
+        mode = "explicit" if candidates_fit(instance) else "windows"
     search: OrbitSearch
     if mode == "windows":
         data: Any = WindowData.build(instance)

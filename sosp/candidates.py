@@ -346,14 +346,24 @@ def _worker_orbit(args: tuple[int, float | None]) -> OrbitCandidates:
     return _generate_orbit(_WORKER_INSTANCE, j, deadline, None)
 
 
-def check_memory(instance: Instance) -> None:
-    """Refuse with a one-line :class:`~sosp.errors.InputError` when every orbit's candidates
-    would take more than :data:`MAX_CANDIDATE_BYTES` (:func:`estimate_bytes`, computed once
-    per instance object: it takes seconds on dense instances)."""
+def _need(instance: Instance) -> int:
+    """:func:`estimate_bytes`, computed once per instance object (seconds on dense ones)."""
     store = _cache_of(instance)
     if "need" not in store:
         store["need"] = estimate_bytes(instance)
-    need = store["need"]
+    return int(store["need"])
+
+
+def candidates_fit(instance: Instance) -> bool:
+    """Whether every orbit's candidates fit in :data:`MAX_CANDIDATE_BYTES` (the choice of the
+    searches' ``candidates="auto"``; the estimate is shared with :func:`check_memory`)."""
+    return _need(instance) <= MAX_CANDIDATE_BYTES
+
+
+def check_memory(instance: Instance) -> None:
+    """Refuse with a one-line :class:`~sosp.errors.InputError` when every orbit's candidates
+    would take more than :data:`MAX_CANDIDATE_BYTES` (:func:`candidates_fit`)."""
+    need = _need(instance)
     if need > MAX_CANDIDATE_BYTES:
         raise InputError(
             f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
