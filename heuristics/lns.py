@@ -284,40 +284,38 @@ def _window_plan(
 
 
 def _window_columns(
-    instance: Instance,
-    opps_of: dict[int, Any],
-    orbits: list[int],
-    price: np.ndarray,
-    freed: list[Observation],
+    instance: Instance, opps_of: dict[int, Any], j: int, price: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
-    """Candidate columns (orbit, start, end, roll, opportunities) of ``orbits`` at ``price``
-    from :func:`sosp.windows.window_candidates`, then the ``freed`` observations of those
-    orbits (the warm start maps onto them, so the sub-MILP never returns less than it
-    freed). The opportunities stay in CSR (:class:`sosp.candidates.OppGroups`): a dense
-    orbit has tens of thousands of candidates."""
+    """Candidate columns (orbit, start, end, roll, opportunities) of orbit ``j`` at ``price``
+    from :func:`sosp.windows.window_candidates` (``opps_of`` caches the orbits' arrays)."""
     from sosp.windows import orbit_opps, window_candidates
 
-    mine = [ob for ob in freed if ob.orbit in orbits]
-    orbit, start, end, roll, groups = [], [], [], [], []
-    for j in orbits:
-        if j not in opps_of:
-            opps_of[j] = orbit_opps(instance, j)
-        st, en, ro, g = window_candidates(opps_of[j], price)
-        orbit.append(np.full(len(st), j, dtype=np.int64))
-        start.append(st)
-        end.append(en)
-        roll.append(ro)
-        groups.append(g)
-    orbit.append(np.array([ob.orbit for ob in mine], dtype=np.int64))
-    start.append(np.array([ob.start for ob in mine], dtype=float))
-    end.append(np.array([ob.end for ob in mine], dtype=float))
-    roll.append(np.array([ob.roll for ob in mine], dtype=float))
-    groups.append(OppGroups.from_groups([ob.opps for ob in mine]))
-    sizes = np.concatenate([np.diff(g.ptr) for g in groups])
+    if j not in opps_of:
+        opps_of[j] = orbit_opps(instance, j)
+    st, en, ro, groups = window_candidates(opps_of[j], price)
+    return np.full(len(st), j, dtype=np.int64), st, en, ro, groups
+
+
+def _stack_columns(
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]],
+    freed: list[Observation],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
+    """``parts`` one after another, then the ``freed`` observations (the warm start maps onto
+    them, so the sub-MILP never returns less than it freed). The opportunities stay in CSR
+    (:class:`sosp.candidates.OppGroups`): a dense orbit has tens of thousands of candidates."""
+    mine = (
+        np.array([ob.orbit for ob in freed], dtype=np.int64),
+        np.array([ob.start for ob in freed], dtype=float),
+        np.array([ob.end for ob in freed], dtype=float),
+        np.array([ob.roll for ob in freed], dtype=float),
+        OppGroups.from_groups([ob.opps for ob in freed]),
+    )
+    parts = [*parts, mine]
+    sizes = np.concatenate([np.diff(g.ptr) for *_, g in parts])
     ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
     np.cumsum(sizes, out=ptr[1:])
-    opps = OppGroups(ptr, np.concatenate([g.flat for g in groups]))
-    cols = (np.concatenate(c) for c in (orbit, start, end, roll))
+    opps = OppGroups(ptr, np.concatenate([g.flat for *_, g in parts]))
+    cols = (np.concatenate([part[c] for part in parts]) for c in range(4))
     return (*cols, opps)  # type: ignore[return-value]
 
 
@@ -369,13 +367,7 @@ def solve_milp_lns(
     from models.data import prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import warm_start_values
-    from sosp.candidates import (
-        MAX_CANDIDATE_BYTES,
-        check_memory,
-        cluster_candidates,
-        estimate_bytes,
-        flatten,
-    )
+    from sosp.candidates import candidates_fit, check_memory, cluster_candidates, flatten
     from sosp.solve import method_function
     from sosp.validate import validate
 
@@ -394,7 +386,7 @@ def solve_milp_lns(
     # orbit-dp start for half the limit, then stopped at the memory check)
     windowed = p.candidates == "windows"
     if p.candidates == "auto":
-        windowed = estimate_bytes(instance) > MAX_CANDIDATE_BYTES
+        windowed = not candidates_fit(instance)
     elif p.candidates == "explicit":
         check_memory(instance)
     if warm_start is not None and not validate(instance, warm_start).feasible:
@@ -480,14 +472,17 @@ def solve_milp_lns(
             covered, w_sub = _weights_left(instance, fixed, weight)
             # the seed orbit's candidates first: where they alone pass max_items, the step
             # is a window of the seed orbit and the other orbits' are not made
-            cols = _window_columns(instance, opps_of, [seed], w_sub, freed)
+            made = {seed: _window_columns(instance, opps_of, seed, w_sub)}
+            cols = _stack_columns([made[seed]], [ob for ob in freed if ob.orbit == seed])
             if not use_window and p.neighbourhood == "auto" and len(cols[4]) > p.max_items:
                 use_window = True
             if not use_window and len(chosen) > 1:
-                cols = _window_columns(instance, opps_of, sorted(chosen), w_sub, freed)
-                use_window = p.neighbourhood == "auto" and len(cols[4]) > p.max_items
-                if use_window:
-                    cols = _window_columns(instance, opps_of, [seed], w_sub, freed)
+                for j in chosen - {seed}:
+                    made[j] = _window_columns(instance, opps_of, j, w_sub)
+                everything = _stack_columns([made[j] for j in sorted(chosen)], freed)
+                use_window = p.neighbourhood == "auto" and len(everything[4]) > p.max_items
+                if not use_window:
+                    cols = everything
             c_orbit, c_start, c_end, c_roll, c_opps = cols
             sel = np.arange(len(c_opps))
             useful = np.ones(len(sel), dtype=bool)
