@@ -258,6 +258,7 @@ def test_infeasible_warm_start_is_ignored(caplog: pytest.LogCaptureFixture) -> N
         ({"neighbourhood": "ring"}, "neighbourhood"),
         ({"window": 0}, "window"),
         ({"max_items": -3}, "max_items"),
+        ({"candidates": "bogus"}, "candidates"),
     ],
 )
 def test_bad_parameters_name_the_field(params: dict, field: str) -> None:
