@@ -270,23 +270,11 @@ def _process_pool(specs: list[RunSpec], workers: int) -> Iterator[dict[str, Any]
 
 
 def _dask(specs: list[RunSpec], address: Any, workers: int) -> Iterator[dict[str, Any]]:
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise InputError("--dask: Dask is not installed (pip install -e '.[dist]')") from None
-    cluster = None
-    own_client = True
-    if hasattr(address, "submit"):  # an existing Client
-        client, own_client = address, False
-    elif address == "local":
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(address, timeout=10)
-        except OSError as exc:
-            raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
-    try:
+    from sosp.dist import dask_client
+
+    with dask_client(address, workers) as client:
+        from distributed import as_completed
+
         futures = [client.submit(execute_run, s, pure=False) for s in specs]
         for fut in as_completed(futures):
             try:
@@ -294,11 +282,6 @@ def _dask(specs: list[RunSpec], address: Any, workers: int) -> Iterator[dict[str
             except Exception as exc:  # noqa: BLE001 - a lost run is rerun on resume
                 log.error("a run was lost on the cluster (%s); it will run again on resume", exc)
             fut.release()
-    finally:
-        if own_client:
-            client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 # --------------------------------------------------------------------------- campaign

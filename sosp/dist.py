@@ -1,0 +1,132 @@
+"""Dask clusters for work that one machine does too slowly (optional: ``pip install -e '.[dist]'``).
+
+Two kinds of work use a cluster:
+
+* a campaign's runs (``sosp bench --dask``, :func:`sosp.campaign.runner.run_campaign`), one
+  task per run;
+* the pricing rounds of the bounds and of ``orbit-dp``'s start (``sosp bound --dask``,
+  ``--param dask=`` of ``orbit-dp``): :class:`sosp.planner.PlanPool` sends each orbit's
+  arrays to the workers once and then only the prices of each round.
+
+Where it pays and where it does not is measured in ``docs/scenarios.md`` ("Several
+processes, several machines"). Dask is imported here only when a cluster is asked for.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any, TypeAlias
+
+from sosp.errors import InputError
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+#: Where per-orbit work runs: processes on this machine, or a Dask cluster's client.
+Workers: TypeAlias = "int | Client"
+
+log = logging.getLogger(__name__)
+
+
+def is_client(obj: Any) -> bool:
+    """Whether ``obj`` is a Dask ``distributed.Client`` (duck-typed: Dask is optional)."""
+    return hasattr(obj, "submit") and hasattr(obj, "scatter") and hasattr(obj, "gather")
+
+
+@contextmanager
+def dask_client(address: Any, workers: int | None = None) -> Iterator[Any]:
+    """A ``distributed.Client`` for the duration of the block.
+
+    Parameters
+    ----------
+    address
+        An existing client (used as is, left open), ``"local"`` (a ``LocalCluster`` of
+        ``workers`` single-threaded processes on this machine, closed on exit) or a
+        scheduler's address (``tcp://host:8786``).
+    workers
+        Processes of a local cluster (None: Dask's default, one per core).
+
+    Raises
+    ------
+    InputError
+        Dask is not installed, or the scheduler cannot be reached (one line naming
+        ``--dask``).
+    """
+    if is_client(address):
+        yield address
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError("--dask: Dask is not installed (pip install -e '.[dist]')") from None
+    if not isinstance(address, str) or not address:
+        raise InputError(f"--dask: expected 'local' or a scheduler address, got {address!r}")
+    quiet = _quiet(logging.WARNING)
+    try:
+        with _connect(address, workers, Client, LocalCluster) as client:
+            log.info("dask cluster %s: %d worker thread(s)", address, cluster_size(client))
+            yield client
+    finally:
+        for name, level in quiet.items():
+            logging.getLogger(name).setLevel(level)
+
+
+@contextmanager
+def _connect(address: str, workers: int | None, client_cls: Any, cluster_cls: Any) -> Iterator[Any]:
+    """The client of a new local cluster or of the scheduler at ``address``, closed on exit."""
+    cluster = None
+    if address == "local":
+        cluster = cluster_cls(n_workers=workers, threads_per_worker=1, dashboard_address=None)
+        client = client_cls(cluster)
+    else:
+        try:
+            client = client_cls(address, timeout=10)
+        except OSError as exc:
+            raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _quiet(level: int) -> dict[str, int]:
+    """Raise Dask's own loggers to ``level`` (Dask configures them at INFO: a local cluster
+    logs some forty lines and a harmless traceback on closing); returns the levels to
+    restore. sosp's own messages keep theirs."""
+    old = {}
+    for name in list(logging.root.manager.loggerDict):
+        if name == "distributed" or name.startswith("distributed."):
+            logger = logging.getLogger(name)
+            if logger.level < level:
+                old[name] = logger.level
+                logger.setLevel(level)
+    return old
+
+
+def cluster_size(client: Any) -> int:
+    """Worker threads of the cluster behind ``client`` (at least 1)."""
+    info = client.scheduler_info().get("workers", {})
+    return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
+
+
+def parallelism(workers: Any) -> int:
+    """How many orbits are planned at once: ``workers`` processes, or a client's threads."""
+    return cluster_size(workers) if is_client(workers) else max(1, int(workers))
+
+
+def local_processes(workers: Any) -> int:
+    """Processes of this machine for work that stays here (candidate generation): ``workers``,
+    or 1 beside a cluster."""
+    return 1 if is_client(workers) else max(1, int(workers))
+
+
+def check_workers(workers: Any, name: str = "workers") -> None:
+    """Raise :class:`InputError` unless ``workers`` is a positive integer or a client."""
+    if is_client(workers):
+        return
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"{name}: expected a positive integer, got {workers!r}")
