@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sosp.candidates import candidates_fit
+from sosp.dist import dask_client
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
@@ -49,6 +50,7 @@ from sosp.result import Result, Status
 from sosp.schedule import Schedule, items_to_schedule
 
 if TYPE_CHECKING:
+    from sosp.dist import Workers
     from sosp.windows import OrbitOpps
 
 from sosp.stop import (
@@ -113,6 +115,11 @@ class OrbitSearchParams:
         prices and plans over the real observations of the argmax rolls
         (:func:`sosp.windows.window_plan`, a restricted set); ``"auto"`` (default):
         explicit unless they would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES``.
+    dask
+        Plan the orbits of the start's pricing rounds (:func:`lp_start`) on a Dask cluster:
+        a scheduler's address, or ``"local"`` (``workers`` processes on this machine, one
+        per core when ``workers`` is 1); None (default): ``workers`` processes here. The
+        search's own re-plans stay in this process. Where it pays: ``docs/scenarios.md``.
     """
 
     perturb_orbits: int = 2
@@ -123,8 +130,11 @@ class OrbitSearchParams:
     workers: int = 1
     start: str = "lp"
     candidates: str = "auto"
+    dask: str | None = None
 
     def __post_init__(self) -> None:
+        if self.dask is not None and (not isinstance(self.dask, str) or not self.dask):
+            raise InputError(f"dask: expected 'local' or a scheduler address, got {self.dask!r}")
         if self.start not in START_MODES:
             raise InputError(f"start: expected lp or empty, got {self.start!r}")
         if self.candidates not in ("auto", "explicit", "windows"):
@@ -389,7 +399,7 @@ def ascent_profit(data: OrbitData, seed: int = 0) -> float:
     return search.profit
 
 
-def lp_start(search: OrbitSearch, deadline: float | None, workers: int = 1) -> dict[str, Any]:
+def lp_start(search: OrbitSearch, deadline: float | None, workers: Workers = 1) -> dict[str, Any]:
     """Set each orbit's plan from the fractional schedule of the column-generation root.
 
     The root of :func:`models.colgen.colgen_bound` (the Dantzig-Wolfe master of the cluster
@@ -558,7 +568,11 @@ def solve_orbit_dp(
     started: dict[str, Any] = {}
     if p.start == "lp" and data.orbits:
         until = None if time_limit is None else t0 + LP_START_SHARE * float(time_limit)
-        started = lp_start(search, until, p.workers)
+        if p.dask is None:
+            started = lp_start(search, until, p.workers)
+        else:
+            with dask_client(p.dask, p.workers if p.workers > 1 else None) as client:
+                started = lp_start(search, until, client)
     crit: list[Any] = []
     if time_limit is not None:
         crit.append(MaxRuntime(float(time_limit), start=t0))

@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 
@@ -69,9 +71,17 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--workers",
         type=positive(int),
-        default=1,
+        default=None,
         help="processes planning the orbits of each pricing round of colgen, lagrangian and "
-        "auto (default 1)",
+        "auto (default 1); with --dask local, the local cluster's processes (default: one per "
+        "core)",
+    )
+    p.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        default=None,
+        help="plan the orbits of each pricing round on a Dask cluster: a scheduler's address "
+        "or 'local' (needs pip install -e '.[dist]'; where it pays: docs/scenarios.md)",
     )
     p.add_argument(
         "--backend",
@@ -105,18 +115,19 @@ def cmd_bound(args: argparse.Namespace) -> int:
     if args.method == "pba":
         return _pba(inst, args)
     args.model = args.model or "cluster"
-    out = bound(
-        inst,
-        model=args.model,
-        method=args.method,
-        time_limit=args.time_limit,
-        threads=args.threads,
-        backend=args.backend,
-        lp_solver=args.lp_solver,
-        slew=args.slew,
-        iterations=args.iterations,
-        workers=args.workers,
-    )
+    with _workers(args) as workers:
+        out = bound(
+            inst,
+            model=args.model,
+            method=args.method,
+            time_limit=args.time_limit,
+            threads=args.threads,
+            backend=args.backend,
+            lp_solver=args.lp_solver,
+            slew=args.slew,
+            iterations=args.iterations,
+            workers=workers,
+        )
     out["instance"] = inst.name or str(args.instance)
     if getattr(args, "json", False):
         sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
@@ -136,6 +147,18 @@ def cmd_bound(args: argparse.Namespace) -> int:
         text += f"\nincumbent {out['profit']:g}, status {out['status']}"
     sys.stdout.write(text + "\n")
     return 0
+
+
+@contextmanager
+def _workers(args: argparse.Namespace) -> Iterator[Any]:
+    """``--workers``, or with ``--dask`` a client of that cluster for the run."""
+    if args.dask is None:
+        yield args.workers or 1
+        return
+    from sosp.dist import dask_client
+
+    with dask_client(args.dask, args.workers) as client:
+        yield client
 
 
 def _pba(inst: Any, args: argparse.Namespace) -> int:

@@ -29,7 +29,7 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,9 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
 from sosp.rules import OrbitRules
+
+if TYPE_CHECKING:
+    from sosp.dist import Workers
 
 log = logging.getLogger(__name__)
 
@@ -312,7 +315,7 @@ def colgen_bound(
     time_limit: float | None = None,
     lower_bound: float | None = None,
     data: OrbitData | None = None,
-    workers: int = 1,
+    workers: Workers = 1,
     max_rounds: int = 10_000,
     smoothing: float = SMOOTHING,
     start: tuple[np.ndarray, np.ndarray] | None = None,

@@ -14,13 +14,16 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, orbit_data
+
+if TYPE_CHECKING:
+    from sosp.dist import Workers
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +40,7 @@ def lagrangian_bound(
     time_limit: float | None = None,
     lower_bound: float | None = None,
     data: OrbitData | None = None,
-    workers: int = 1,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """Upper bound on the optimum (cluster model) by Lagrangian relaxation across orbits.
 

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from models.data import ModelData, TimeUp, fits
+from sosp.dist import check_workers
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
@@ -39,6 +40,7 @@ from sosp.solve import check_time_limit
 if TYPE_CHECKING:
     import pyomo.environ as pyo
 
+    from sosp.dist import Workers
     from sosp.planner import OrbitData
 
 log = logging.getLogger(__name__)
@@ -968,7 +970,7 @@ def bound(
     slew: str = "auto",
     iterations: int = 300,
     lower_bound: float | None = None,
-    workers: int = 1,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """An upper bound on the optimum of ``model``, within ``time_limit``.
 
@@ -1037,8 +1039,7 @@ def bound(
     time_limit = check_time_limit(time_limit)
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"workers: expected a positive integer, got {workers!r}")
+    check_workers(workers)
     if method == "milp":
         res = solve_milp(
             instance,
@@ -1198,7 +1199,7 @@ def _window_bound(
     deadline: float | None,
     lower_bound: float | None,
     iterations: int,
-    workers: int = 1,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="windows")``: :func:`models.window_bound.window_colgen_bound` with
     the time left, at most ``iterations`` pricing rounds and ``workers`` pricing processes
@@ -1226,7 +1227,7 @@ def _colgen_bound(
     t0: float,
     deadline: float | None,
     lower_bound: float | None,
-    workers: int = 1,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="colgen")`` of the cluster model over the planner's candidates: the
     cluster model's, without the cap on their number that :func:`model_data` keeps for the
@@ -1267,7 +1268,7 @@ def _lagrangian_alone(
     deadline: float | None,
     lower_bound: float | None,
     iterations: int,
-    workers: int = 1,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
     without :func:`model_data`'s cap for the MILPs; where those would not fit in memory

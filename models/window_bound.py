@@ -32,15 +32,19 @@ import math
 import time
 from collections.abc import Iterable, Sequence
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from models.lagrangian import capped_bound
+from sosp.dist import parallelism
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import PlanPool
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
+
+if TYPE_CHECKING:
+    from sosp.dist import Workers
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +74,7 @@ def window_colgen_bound(
     expect_rounds: int | None = None,
     orbits: Sequence[OrbitOpps] | None = None,
     band: float | None = BAND,
-    workers: int = 1,
+    workers: Workers = 1,
     refine: bool = True,
 ) -> dict[str, Any]:
     """Upper bound by column generation over the window relaxation (no candidate list).
@@ -198,7 +202,7 @@ def window_colgen_bound(
 
 
 def _first_band(
-    orbits: Sequence[OrbitOpps], p: np.ndarray, band: float, deadline: float, workers: int
+    orbits: Sequence[OrbitOpps], p: np.ndarray, band: float, deadline: float, workers: Workers
 ) -> float:
     """The finest of ``band``, ``band / 2``, ... (not below :data:`MIN_BAND`) whose column
     generation is expected to converge before ``deadline``: :data:`ROOT_ROUNDS` rounds, each
@@ -211,7 +215,7 @@ def _first_band(
     """
     t = time.perf_counter()
     _relaxed_plans(orbits, range(len(orbits)), p, np.zeros((len(orbits), 2)), band=band)
-    cost = (time.perf_counter() - t) / max(1, min(workers, len(orbits)))
+    cost = (time.perf_counter() - t) / min(parallelism(workers), max(1, len(orbits)))
     left = deadline - time.perf_counter()
     while band / 2 >= MIN_BAND and ROOT_ROUNDS * cost * HALVING_COST <= left:
         band, cost = band / 2, cost * HALVING_COST
@@ -228,7 +232,7 @@ def _root(
     lower_bound: float | None,
     max_rounds: int,
     expect_rounds: int | None,
-    workers: int,
+    workers: Workers,
     columns: Sequence[tuple[int, np.ndarray, float, float]] = (),
 ) -> Any:
     """:func:`models.colgen.column_generation` over the relaxation with roll bands of

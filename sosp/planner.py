@@ -56,6 +56,8 @@ from typing import Any
 import numpy as np
 
 from sosp.candidates import OppGroups, cluster_candidates, flatten
+from sosp.dist import Workers, cluster_size, is_client, local_processes
+from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
 
@@ -234,7 +236,7 @@ class OrbitData:
 def orbit_data(
     instance: Instance,
     deadline: float | None = None,
-    workers: int = 1,
+    workers: Workers = 1,
     roll: Callable[[OppGroups], np.ndarray] | None = None,
 ) -> OrbitData:
     """Build :class:`OrbitData` from the cluster model's candidates.
@@ -257,10 +259,10 @@ def orbit_data(
         :func:`with_rolls`, without arranging the candidates twice); None: the nadir-closest
         point of their common range.
     """
-    if workers > 1:
+    if local_processes(workers) > 1:
         from sosp.candidates import generate_in_processes
 
-        generate_in_processes(instance, workers, deadline)
+        generate_in_processes(instance, local_processes(workers), deadline)
     orbit, start, end, nadir, opps = cluster_candidates(
         instance, max_candidates=None, deadline=deadline
     )
@@ -916,6 +918,29 @@ def _plans_of(
     return out
 
 
+def _cluster_task(
+    plans_of: Callable[..., list[Any]], part: tuple[Any, ...], price: np.ndarray, lam: np.ndarray
+) -> list[Any]:
+    """One group's plans on a Dask worker (``lam``: the group's rows)."""
+    return plans_of(part, list(range(len(part))), price, lam)
+
+
+#: Groups of orbits per worker thread of a Dask cluster (:class:`PlanPool`).
+DASK_GROUPS_PER_THREAD = 4
+
+
+def _balanced(orbits: Sequence[Any], k: int) -> list[list[int]]:
+    """The orbits' indices in at most ``k`` groups of about equal size (positions; largest
+    first, each to the lightest group), each sorted, none empty."""
+    loads = np.zeros(max(1, min(k, len(orbits))))
+    groups: list[list[int]] = [[] for _ in loads]
+    for g in sorted(range(len(orbits)), key=lambda g: -orbits[g].size):
+        i = int(np.argmin(loads))
+        groups[i].append(g)
+        loads[i] += orbits[g].size + 1
+    return [sorted(x) for x in groups if x]
+
+
 def _pool_task(
     task: tuple[list[int], np.ndarray, np.ndarray],
 ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
@@ -925,7 +950,8 @@ def _pool_task(
 
 
 class PlanPool:
-    """The best plans of every orbit at one price vector, in ``workers`` processes.
+    """The best plans of every orbit at one price vector, in ``workers`` processes or on a
+    Dask cluster.
 
     The orbits are shared with forked workers once (copy-on-write, nothing is pickled but
     the prices and the penalties of each call), split into ``workers`` groups of about equal
@@ -933,41 +959,57 @@ class PlanPool:
     whatever ``workers`` is. With ``workers`` 1, or where processes cannot be forked, the
     plans are made here.
 
+    With a Dask client as ``workers`` (:func:`sosp.dist.dask_client`), the orbits are split
+    into :data:`DASK_GROUPS_PER_THREAD` groups per worker thread (so that the scheduler
+    balances uneven orbits and workers) and sent to the cluster once; each call then sends
+    the prices once and one small task per group. The workers need sosp installed (the
+    numba kernels compile once per machine, then load from their cache).
+
     Parameters
     ----------
     orbits
         The orbits (:attr:`OrbitData.orbits`, or any sized items ``plans_of`` takes).
     workers
-        Processes.
+        Processes, or a ``distributed.Client``.
     plans_of
         ``plans_of(orbits, idx, price, lam, until=None)``: the plans of the orbits ``idx`` as
         :meth:`best_paths` returns them, None when ``until`` passes first (default:
-        :func:`best_path` over the candidates).
+        :func:`best_path` over the candidates). Sent to a cluster by pickling: a module-level
+        function or a :func:`functools.partial` of one.
     """
 
     def __init__(
         self,
         orbits: Sequence[Any],
-        workers: int = 1,
+        workers: Workers = 1,
         plans_of: Callable[..., list[Any]] | None = None,
     ) -> None:
         self.orbits = tuple(orbits)
         self.plans_of = _plans_of if plans_of is None else plans_of
         self.pool: Any = None
-        if workers > 1 and len(orbits) > 1 and "fork" in mp.get_all_start_methods():
+        self.client: Any = None
+        self.groups: list[list[int]] = []
+        if is_client(workers) and len(orbits) > 0:
+            self.client = workers
+            self.groups = _balanced(self.orbits, DASK_GROUPS_PER_THREAD * cluster_size(workers))
+            # one future per group, so that a task finds its orbits on its worker
+            self.parts = [
+                self.client.scatter([tuple(self.orbits[g] for g in idx)], hash=False)[0]
+                for idx in self.groups
+            ]
+        elif (
+            not is_client(workers)
+            and workers > 1
+            and len(orbits) > 1
+            and "fork" in mp.get_all_start_methods()
+        ):
             global _POOL_ORBITS, _POOL_PLANS
             _POOL_ORBITS, _POOL_PLANS = self.orbits, self.plans_of
             try:
                 self.pool = mp.get_context("fork").Pool(min(workers, len(orbits)))
             finally:
                 _POOL_ORBITS, _POOL_PLANS = (), None
-            loads = np.zeros(min(workers, len(orbits)))
-            groups: list[list[int]] = [[] for _ in loads]
-            for g in sorted(range(len(orbits)), key=lambda g: -orbits[g].size):
-                k = int(np.argmin(loads))
-                groups[k].append(g)
-                loads[k] += orbits[g].size + 1
-            self.groups = [sorted(x) for x in groups if x]
+            self.groups = _balanced(self.orbits, min(workers, len(orbits)))
 
     def best_paths(
         self, price: np.ndarray, lam: np.ndarray, until: float | None = None
@@ -978,13 +1020,18 @@ class PlanPool:
         :func:`time.perf_counter` value) passes before every orbit is planned: in this
         process it is checked between orbits; the workers are waited for until then (the
         pool is then closed)."""
-        if self.pool is None:
+        if self.client is not None:
+            parts = self._on_cluster(price, lam, until)
+        elif self.pool is None:
             idx = list(range(len(self.orbits)))
             return self.plans_of(self.orbits, idx, price, lam, until=until)
-        job = self.pool.map_async(_pool_task, [(idx, price, lam) for idx in self.groups])
-        try:
-            parts = job.get(None if until is None else max(0.0, until - time.perf_counter()))
-        except mp.TimeoutError:
+        else:
+            job = self.pool.map_async(_pool_task, [(idx, price, lam) for idx in self.groups])
+            try:
+                parts = job.get(None if until is None else max(0.0, until - time.perf_counter()))
+            except mp.TimeoutError:
+                parts = None
+        if parts is None:
             self.close()
             return None
         out: list[Any] = [None] * len(self.orbits)
@@ -993,10 +1040,37 @@ class PlanPool:
                 out[g] = res
         return out
 
+    def _on_cluster(
+        self, price: np.ndarray, lam: np.ndarray, until: float | None
+    ) -> list[Any] | None:
+        """The groups' plans from the cluster, None when ``until`` passes first (a worker's
+        clock is not this one's: the deadline is kept here)."""
+        from distributed import wait
+
+        mu = self.client.scatter(price, broadcast=True, hash=False)
+        jobs = [
+            self.client.submit(_cluster_task, self.plans_of, part, mu, lam[idx], pure=False)
+            for part, idx in zip(self.parts, self.groups, strict=True)
+        ]
+        timeout = None if until is None else max(0.0, until - time.perf_counter())
+        try:
+            wait(jobs, timeout=timeout)
+        except TimeoutError:
+            self.client.cancel(jobs)
+            return None
+        try:
+            return self.client.gather(jobs)
+        except Exception as exc:  # a worker without sosp, a lost worker: one line, no trace
+            self.close()
+            raise InputError(f"--dask: the cluster failed a pricing round: {exc!r}") from None
+
     def close(self) -> None:
         if self.pool is not None:
             self.pool.terminate()
             self.pool = None
+        if self.client is not None:
+            self.client.cancel(self.parts)  # the client is the caller's: only our data goes
+            self.parts, self.client = [], None
 
     def __enter__(self) -> PlanPool:
         return self
