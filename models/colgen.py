@@ -53,6 +53,21 @@ SMOOTHING = 0.5
 _RC_TOL = 1e-7
 
 
+def allow_seconds(h: Any, seconds: float | None) -> None:
+    """Let the next ``h.run()`` take ``seconds`` (None: no limit).
+
+    HiGHS compares its ``time_limit`` with the solver object's run clock, which adds up over
+    every ``run()`` of that object: a master solved again after more than the time left
+    worth of earlier solves stopped at once ("time limit reached", no iteration), and the
+    column generation ended there as if out of time (G100k: the third master, after 169 s
+    of solves, with 142 s left). So the limit is the clock so far plus ``seconds``.
+    """
+    if seconds is None:
+        h.setOptionValue("time_limit", math.inf)
+    else:
+        h.setOptionValue("time_limit", float(h.getRunTime()) + max(float(seconds), 1e-3))
+
+
 def _master_highs() -> Any:
     """A HiGHS object for a restricted master, which is solved again after every round of
     new columns.
@@ -148,7 +163,7 @@ class _Master:
         import highspy
 
         h = self.h
-        h.setOptionValue("time_limit", float("inf") if seconds is None else max(seconds, 1e-3))
+        allow_seconds(h, seconds)
         h.run()
         if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             return None
@@ -657,7 +672,7 @@ def _solve_node(
             best, mu_c, beta_c, lam_c = value, mu_s, beta_s, lam_s
             node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c)
         left = None if deadline is None else deadline - time.perf_counter()
-        h.setOptionValue("time_limit", inf if left is None else max(left, 1e-3))
+        allow_seconds(h, left)
         h.run()
         if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             return replace(node, cover=None)

@@ -333,3 +333,43 @@ def test_a_root_too_slow_for_its_deadline_stops_after_one_round(monkeypatch) -> 
     figures = orbit_search.lp_start(search, time.perf_counter() + 60.0)
     assert figures["lp_rounds"] == 1 and figures["lp_profit"] == 0.0
     assert all(len(path) == 0 for path in search.paths)
+
+
+def _random_lp(h: object, n: int, seed: int) -> None:
+    """max c x over [0, 1]^n with n random sparse rows <= 1: a cold solve of some
+    milliseconds."""
+    import highspy
+    import scipy.sparse as sp
+
+    rng = np.random.default_rng(seed)
+    a = sp.csr_matrix(sp.random(n, n, density=0.02, random_state=seed))
+    h.addVars(n, np.zeros(n), np.ones(n))
+    h.changeColsCost(n, np.arange(n, dtype=np.int32), -rng.random(n))
+    idx = a.indptr[:-1].astype(np.int32)
+    h.addRows(n, np.full(n, -highspy.kHighsInf), np.ones(n), a.nnz, idx, a.indices, a.data)
+
+
+def test_a_master_solved_again_gets_its_own_seconds() -> None:
+    """HiGHS's time limit counts the object's run clock over every run: a re-solve allowed
+    less than the earlier solves took together must still run (it stopped at once before,
+    ending G100k's column generation after three rounds)."""
+    import highspy
+
+    from models.colgen import _master_highs, allow_seconds
+
+    h = _master_highs()
+    _random_lp(h, 300, 0)
+    once = []
+    for _ in range(20):  # the clock adds up: about 20 cold solves' worth
+        h.clearSolver()
+        t = time.perf_counter()
+        allow_seconds(h, None)
+        h.run()
+        once.append(time.perf_counter() - t)
+        assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    h.clearSolver()
+    allow_seconds(h, 5 * max(once))  # room for a cold solve, far below the clock's sum
+    assert 5 * max(once) < h.getRunTime()
+    h.run()
+    assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    assert h.getInfo().simplex_iteration_count > 0
