@@ -78,7 +78,9 @@ def _connect(address: str, workers: int | None, client_cls: Any, cluster_cls: An
     """The client of a new local cluster or of the scheduler at ``address``, closed on exit."""
     cluster = None
     if address == "local":
-        cluster = cluster_cls(n_workers=workers, threads_per_worker=1, dashboard_address=None)
+        # ":0": any free port. None still binds Dask's HTTP server to 8787 and warns
+        # ("Port 8787 is already in use") beside another cluster on the same machine
+        cluster = cluster_cls(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
         client = client_cls(cluster)
     else:
         try:

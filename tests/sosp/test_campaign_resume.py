@@ -154,7 +154,7 @@ def test_dask_local_cluster_gives_the_process_pool_rows(tmp_path: Path) -> None:
         assert out.ran == 12 and out.failed == 0
     with (
         LocalCluster(
-            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=":0"
         ) as cluster,
         Client(cluster) as client,
         Store(tmp_path / "dask.db") as st,
