@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -115,12 +116,16 @@ def cmd_bound(args: argparse.Namespace) -> int:
     if args.method == "pba":
         return _pba(inst, args)
     args.model = args.model or "cluster"
+    t0 = time.perf_counter()
     with _workers(args) as workers:
+        limit = args.time_limit
+        if limit is not None:  # a cluster's start-up (about 1 s for a local one) counts
+            limit = max(limit - (time.perf_counter() - t0), 1e-3)
         out = bound(
             inst,
             model=args.model,
             method=args.method,
-            time_limit=args.time_limit,
+            time_limit=limit,
             threads=args.threads,
             backend=args.backend,
             lp_solver=args.lp_solver,

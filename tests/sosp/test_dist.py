@@ -149,3 +149,34 @@ def test_a_failing_worker_is_a_one_line_error(client: Any) -> None:
     with pytest.raises(InputError, match=r"^--dask: the cluster failed a pricing round: .*sosp"):
         pool.best_paths(np.ones(inst.n_targets), np.zeros((len(data.orbits), 2)))
     assert pool.client is None
+
+
+def test_bound_cli_counts_the_cluster_start_in_the_time_limit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``sosp bound --time-limit T --dask ...``: the bound gets what the cluster's start-up
+    left of T."""
+    from contextlib import contextmanager
+
+    import models.cli as mcli
+    import models.solve as msolve
+
+    @contextmanager
+    def slow_start(args: Any) -> Iterator[int]:
+        time.sleep(0.3)
+        yield 1
+
+    given: list[float] = []
+
+    def fake_bound(inst: Any, **kw: Any) -> dict[str, Any]:
+        given.append(kw["time_limit"])
+        return {"bound": 1.0, "model": "cluster", "method": "auto", "source": "cap",
+                "runtime_s": 0.0}  # fmt: skip
+
+    monkeypatch.setattr(mcli, "_workers", slow_start)
+    monkeypatch.setattr(msolve, "bound", fake_bound)
+    path = tmp_path / "i.json"
+    random_tiny(1).save(path)
+    assert main(["bound", str(path), "--time-limit", "2", "--json"]) == 0
+    capsys.readouterr()
+    assert len(given) == 1 and 1.0 < given[0] <= 1.7
