@@ -145,10 +145,19 @@ def window_colgen_bound(
             _relaxed_plans(orbits, [small], p, np.zeros((len(orbits), 2)), band=band)
         start = (p.copy(), np.zeros((len(orbits), 2)))  # mu = p: the orbits' own optima first
         b = band
+        fits = True
         if refine and band is not None and deadline is not None:
-            b = _first_band(orbits, p, band, deadline, workers)
+            b, round_s, first = _first_band(orbits, p, band, deadline, workers)
+            best = min(best, first)  # the timed round is a round too (mu = p, lam = 0)
+            # no round that cannot end before the deadline (a partial round is no bound):
+            # the rest of the limit would be spent for the cap (G100k: 170 s a round in
+            # one process, 100 s left after the timed one)
+            fits = time.perf_counter() + round_s <= deadline
+            if not fits:
+                left = deadline - time.perf_counter()
+                log.info("window bound: a round takes about %.0f s, %.0f s left", round_s, left)
         seed: list[tuple[int, np.ndarray, float, float]] = []
-        while True:
+        while fits:
             root = _root(
                 orbits,
                 p,
@@ -203,23 +212,25 @@ def window_colgen_bound(
 
 def _first_band(
     orbits: Sequence[OrbitOpps], p: np.ndarray, band: float, deadline: float, workers: Workers
-) -> float:
+) -> tuple[float, float, float]:
     """The finest of ``band``, ``band / 2``, ... (not below :data:`MIN_BAND`) whose column
     generation is expected to converge before ``deadline``: :data:`ROOT_ROUNDS` rounds, each
     :data:`HALVING_COST` times longer per halving than one round at ``band`` (timed here, in
-    this process, and divided among the ``workers``).
+    this process, and divided among the ``workers``); with it, the expected seconds of one
+    of its rounds and the timed round's value (``L(p, 0)``, a bound like any round's).
 
     Why: refining a converged band (:func:`window_colgen_bound`) needs many rounds again, so
     when the time allows a finer band from the start, that is the tighter bound (D100, 600 s,
     two workers: 0.25 degrees from the start 27,004, 0.5 refined to 0.25 27,038).
     """
     t = time.perf_counter()
-    _relaxed_plans(orbits, range(len(orbits)), p, np.zeros((len(orbits), 2)), band=band)
+    plans = _relaxed_plans(orbits, range(len(orbits)), p, np.zeros((len(orbits), 2)), band=band)
+    assert plans is not None  # no deadline given: every orbit is planned
     cost = (time.perf_counter() - t) / min(parallelism(workers), max(1, len(orbits)))
     left = deadline - time.perf_counter()
     while band / 2 >= MIN_BAND and ROOT_ROUNDS * cost * HALVING_COST <= left:
         band, cost = band / 2, cost * HALVING_COST
-    return band
+    return band, cost, float(sum(v for v, _, _ in plans))
 
 
 def _root(

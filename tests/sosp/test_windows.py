@@ -255,7 +255,11 @@ def test_refined_bands_only_lower_the_bound(inst: Instance) -> None:
 
     plain = window_colgen_bound(inst, time_limit=60.0, refine=False)
     fine = window_colgen_bound(inst, time_limit=60.0)  # tiny: the finest first band at once
-    with patch.object(wb, "_first_band", lambda orbits, p, band, deadline, workers: band):
+
+    def from_band(*args: Any) -> tuple[float, float, float]:
+        return args[2], 0.0, float("inf")  # BAND, no time taken, no bound of its own
+
+    with patch.object(wb, "_first_band", from_band):
         refined = window_colgen_bound(inst, time_limit=60.0)  # from BAND, halved when converged
     assert plain["bands"] == [wb.BAND] or plain["cap"] == 0.0
     optimum = brute_force(inst, "cluster").profit
@@ -348,3 +352,37 @@ class _Slow:
 def _slow_plans(orbits: Any, idx: Any, price: Any, lam: Any, until: Any = None) -> list[Any]:
     time.sleep(5.0)
     return [(0.0, np.zeros(0, dtype=np.int64), None) for _ in idx]
+
+
+@settings(max_examples=20, deadline=None)
+@given(inst=small_instances())
+def test_the_timed_first_round_is_a_bound(inst: Instance) -> None:
+    """The round ``_first_band`` times (every orbit at mu = p, lam = 0) bounds the optimum."""
+    import models.window_bound as wb
+
+    orbits = [orbit_opps(inst, j) for j in range(inst.n_orbits)]
+    _, p = wb._observable(inst)
+    band, round_s, value = wb._first_band(orbits, p, wb.BAND, time.perf_counter() + 60.0, 1)
+    assert wb.MIN_BAND <= band <= wb.BAND and round_s >= 0.0
+    assert value + 1e-6 >= brute_force(inst, "cluster").profit
+
+
+def test_no_round_is_started_that_cannot_end_in_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """When the timed round shows that no round fits in the time left, the bound returns at
+    once: the timed round's value or the cap, the least (G100k spent its whole limit on a
+    round that could not end)."""
+    import models.window_bound as wb
+
+    inst = generate_scenario("C1", seed=0)
+
+    def never(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("a round was started")
+
+    for first, source in ((1e9, "cap"), (123.4, "round")):
+        monkeypatch.setattr(wb, "_first_band", lambda *a, v=first: (a[2], 1e6, v))
+        monkeypatch.setattr(wb, "_root", never)
+        t = time.perf_counter()
+        out = window_colgen_bound(inst, time_limit=30.0)
+        assert time.perf_counter() - t < 10.0
+        assert out["rounds"] == 0 and out["bands"] == []
+        assert out["bound"] == (out["cap"] if source == "cap" else 123)
