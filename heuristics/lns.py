@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import OppGroups
+from sosp.candidates import CANDIDATE_MODES, OppGroups
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
@@ -153,7 +153,7 @@ class LNSParams:
                 f"neighbourhood: expected one of {', '.join(NEIGHBOURHOODS)}, "
                 f"got {self.neighbourhood!r}"
             )
-        if self.candidates not in ("auto", "explicit", "windows"):
+        if self.candidates not in CANDIDATE_MODES:
             raise InputError(
                 f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
             )
@@ -367,7 +367,7 @@ def solve_milp_lns(
     from models.data import prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import warm_start_values
-    from sosp.candidates import candidates_fit, check_memory, cluster_candidates, flatten
+    from sosp.candidates import candidate_mode, cluster_candidates, flatten
     from sosp.solve import method_function
     from sosp.validate import validate
 
@@ -384,11 +384,7 @@ def solve_milp_lns(
     # explicit candidates for every orbit, or window candidates made per step; decided (and
     # an explicit request refused) before the start spends half the time (D100 ran its
     # orbit-dp start for half the limit, then stopped at the memory check)
-    windowed = p.candidates == "windows"
-    if p.candidates == "auto":
-        windowed = not candidates_fit(instance)
-    elif p.candidates == "explicit":
-        check_memory(instance)
+    windowed = candidate_mode(instance, p.candidates) == "windows"
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sosp.candidates import candidates_fit
+from sosp.candidates import CANDIDATE_MODES, candidate_mode
 from sosp.dist import dask_client
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -137,7 +137,7 @@ class OrbitSearchParams:
             raise InputError(f"dask: expected 'local' or a scheduler address, got {self.dask!r}")
         if self.start not in START_MODES:
             raise InputError(f"start: expected lp or empty, got {self.start!r}")
-        if self.candidates not in ("auto", "explicit", "windows"):
+        if self.candidates not in CANDIDATE_MODES:
             raise InputError(
                 f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
             )
@@ -554,9 +554,7 @@ def solve_orbit_dp(
     iterations, no_improve = p.iterations, p.no_improve
     if iterations is None and no_improve is None and time_limit is None:
         no_improve = DEFAULT_NO_IMPROVE
-    mode = p.candidates
-    if mode == "auto":
-        mode = "explicit" if candidates_fit(instance) else "windows"
+    mode = candidate_mode(instance, p.candidates)
     search: OrbitSearch
     if mode == "windows":
         data: Any = WindowData.build(instance)

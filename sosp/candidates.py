@@ -360,6 +360,22 @@ def candidates_fit(instance: Instance) -> bool:
     return _need(instance) <= MAX_CANDIDATE_BYTES
 
 
+#: What a search's ``candidates`` parameter takes (``orbit-dp``, ``milp-lns``).
+CANDIDATE_MODES = ("auto", "explicit", "windows")
+
+
+def candidate_mode(instance: Instance, requested: str) -> str:
+    """``"explicit"`` or ``"windows"``: the candidates a search uses when ``candidates`` is
+    ``requested`` (one of :data:`CANDIDATE_MODES`). ``"auto"`` is explicit where they fit
+    (:func:`candidates_fit`); ``"explicit"`` where they do not is refused here, before the
+    search spends any time (:func:`check_memory`)."""
+    if requested == "auto":
+        return "explicit" if candidates_fit(instance) else "windows"
+    if requested == "explicit":
+        check_memory(instance)
+    return requested
+
+
 def check_memory(instance: Instance) -> None:
     """Refuse with a one-line :class:`~sosp.errors.InputError` when every orbit's candidates
     would take more than :data:`MAX_CANDIDATE_BYTES` (:func:`candidates_fit`)."""
