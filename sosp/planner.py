@@ -988,21 +988,19 @@ class PlanPool:
         self.plans_of = _plans_of if plans_of is None else plans_of
         self.pool: Any = None
         self.client: Any = None
+        self.parts: list[Any] = []  # on a cluster: each group's orbits, sent once
         self.groups: list[list[int]] = []
-        if is_client(workers) and len(orbits) > 0:
-            self.client = workers
-            self.groups = _balanced(self.orbits, DASK_GROUPS_PER_THREAD * cluster_size(workers))
-            # one future per group, so that a task finds its orbits on its worker
-            self.parts = [
-                self.client.scatter([tuple(self.orbits[g] for g in idx)], hash=False)[0]
-                for idx in self.groups
-            ]
-        elif (
-            not is_client(workers)
-            and workers > 1
-            and len(orbits) > 1
-            and "fork" in mp.get_all_start_methods()
-        ):
+        if is_client(workers):
+            if self.orbits:
+                self.client = workers
+                k = DASK_GROUPS_PER_THREAD * cluster_size(workers)
+                self.groups = _balanced(self.orbits, k)
+                # one future per group, so that a task finds its orbits on its worker
+                self.parts = [
+                    self.client.scatter([tuple(self.orbits[g] for g in idx)], hash=False)[0]
+                    for idx in self.groups
+                ]
+        elif workers > 1 and len(orbits) > 1 and "fork" in mp.get_all_start_methods():
             global _POOL_ORBITS, _POOL_PLANS
             _POOL_ORBITS, _POOL_PLANS = self.orbits, self.plans_of
             try:
