@@ -194,6 +194,140 @@ class OrbitCandidates:
         """Bytes held by the columns."""
         return int(self.start.nbytes + self.end.nbytes + self.roll.nbytes + self.opps.nbytes)
 
+    def within(
+        self, opts: np.ndarray, n_options: int, t0: float, t1: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The candidates inside ``[t0, t1]``, each cut to its members among ``opts``.
+
+        A candidate is kept when its window (10) lies in ``[t0, t1]`` (within :data:`EPS`)
+        and one of its members is in ``opts``; cut to the same members, two are one (the
+        first kept). Returns ``(ptr, flat)``: the kept groups in CSR form (int64), in
+        generation order, members sorted as stored. A
+        local search's stretch re-plan calls this thousands of times a second on small
+        stretches, where a dozen numpy calls cost more than the work, so it is one compiled
+        loop (:func:`_within_py`).
+
+        Parameters
+        ----------
+        opts
+            Option (global opportunity) indices allowed as members, int64.
+        n_options
+            Number of options of the instance (indices are below it).
+        t0, t1
+            The span, seconds.
+        """
+        a = int(np.searchsorted(self.start, t0 - EPS, side="left"))
+        b = int(np.searchsorted(self.start, t1 + EPS, side="right"))
+        return _within()(
+            _readonly(self.end, np.float64),
+            _readonly(self.opps.ptr, np.int64),
+            _readonly(self.opps.flat, np.int32),
+            np.ascontiguousarray(opts, dtype=np.int64),
+            n_options,
+            a,
+            b,
+            t1 + EPS,
+        )
+
+
+def _readonly(column: np.ndarray, dtype: Any) -> np.ndarray:
+    """``column`` as a read-only contiguous array of ``dtype`` (itself when it is one)."""
+    if column.dtype != dtype or not column.flags.c_contiguous:
+        column = np.ascontiguousarray(column, dtype=dtype)
+    if column.flags.writeable:
+        column = column.view()
+        column.flags.writeable = False
+    return column
+
+
+def _within_py(
+    end: np.ndarray,
+    ptr: np.ndarray,
+    flat: np.ndarray,
+    opts: np.ndarray,
+    n_options: int,
+    a: int,
+    b: int,
+    t1: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`OrbitCandidates.within`'s loop over candidates ``a..b-1`` (by start).
+
+    Duplicates are found by open addressing on a hash of the cut members, each hit compared
+    member by member, so two different member sets are never taken for one.
+    """
+    inside = np.zeros(n_options, dtype=np.bool_)
+    for x in opts:
+        inside[x] = True
+    out_flat = np.empty(ptr[b] - ptr[a], dtype=np.int64)
+    out_ptr = np.zeros(b - a + 1, dtype=np.int64)
+    size = 1
+    while size < 2 * (b - a) + 2:
+        size *= 2
+    table = np.full(size, -1, dtype=np.int64)
+    rows = 0
+    pos = 0
+    for v in range(a, b):
+        if end[v] > t1:
+            continue
+        first = pos
+        h = np.int64(-3750763034362895579)  # FNV-1a offset basis
+        for q in range(ptr[v], ptr[v + 1]):
+            x = flat[q]
+            if inside[x]:
+                out_flat[pos] = x
+                pos += 1
+                h = (h ^ np.int64(x)) * np.int64(1099511628211)
+        n = pos - first
+        if n == 0:
+            continue
+        slot = h & (size - 1)
+        while True:
+            r = table[slot]
+            if r < 0:
+                table[slot] = rows
+                rows += 1
+                out_ptr[rows] = pos
+                break
+            r0 = out_ptr[r]
+            if out_ptr[r + 1] - r0 == n:
+                same = True
+                for i in range(n):
+                    if out_flat[r0 + i] != out_flat[first + i]:
+                        same = False
+                        break
+                if same:
+                    pos = first  # one already kept
+                    break
+            slot = (slot + 1) & (size - 1)
+    return out_ptr[: rows + 1].copy(), out_flat[:pos].copy()
+
+
+_WITHIN: Any = None
+
+
+def compile_within() -> None:
+    """Compile (or load from numba's cache) :meth:`OrbitCandidates.within`'s loop now."""
+    _within()
+
+
+def _within() -> Any:
+    """:func:`_within_py` compiled by numba on first use (cached on disk)."""
+    global _WITHIN
+    if _WITHIN is None:
+        from numba import njit
+        from numba import types as nt
+
+        def arr(dtype: Any, readonly: bool = True) -> Any:
+            return nt.Array(dtype, 1, "C", readonly=readonly)
+
+        # the stored columns are read-only (:meth:`OrbitCandidates.within` passes them so)
+        sig = nt.Tuple((arr(nt.int64, False), arr(nt.int64, False)))(
+            arr(nt.float64), arr(nt.int64), arr(nt.int32), arr(nt.int64, False),
+            nt.int64, nt.int64, nt.int64, nt.float64,
+        )  # fmt: skip
+        _WITHIN = njit(sig, cache=True)(_within_py)
+    return _WITHIN
+
 
 #: Per live instance (by ``id``): its orbits' candidates, generated once each
 #: (:func:`orbit_candidates`), and the whole-instance columns (:func:`cluster_candidates`).
@@ -687,7 +821,7 @@ def _start_candidates(
     a_l, b_l = a[ends], b[ends]
     per = b_l - a_l + 1
     pair_l = np.repeat(np.arange(len(ends)), per)
-    pair_t = _ragged(a_l, per)
+    pair_t = ragged_positions(a_l, per)
     nl = n_l[pair_l]
     size = cnt[pair_t, nl]
     cost = np.abs(rolls)
@@ -726,17 +860,6 @@ def _start_candidates(
     ptr = np.zeros(len(kt) + 1, dtype=np.int64)
     np.cumsum(np.bincount(rows, minlength=len(kt)), out=ptr[1:])
     return w[ends[kl]], rolls[kt], ptr, w[cols]
-
-
-def _ragged(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """``concatenate([arange(s, s + n) ...])`` (sizes >= 1)."""
-    total = int(sizes.sum())
-    out = np.ones(total, dtype=np.int64)
-    first = np.cumsum(sizes) - sizes
-    out[first[0]] = starts[0]
-    if len(starts) > 1:
-        out[first[1:]] = starts[1:] - (starts[:-1] + sizes[:-1] - 1)
-    return np.cumsum(out)
 
 
 def _range_max_rows(

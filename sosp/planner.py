@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import OppGroups, cluster_candidates, flatten
+from sosp.candidates import OppGroups, cluster_candidates, compile_within, flatten
 from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -703,10 +703,12 @@ def _levels() -> Callable[..., tuple[float, np.ndarray]]:
 
 
 def compile_kernels() -> None:
-    """Compile (or load) the planner's kernel now: :func:`sosp.solve.solve` and
-    :func:`models.solve.bound` call it before their clocks start, so a time limit is not
-    spent on it, as it is not on imports."""
+    """Compile (or load) the planner's kernels now (its recursion, and the candidates' cut
+    to a stretch, :meth:`sosp.candidates.OrbitCandidates.within`): :func:`sosp.solve.solve`
+    and :func:`models.solve.bound` call it before their clocks start, so a time limit is not
+    spent on them, as it is not on imports."""
     _levels()
+    compile_within()
 
 
 #: Bisection steps of :func:`plan_sequence` on its multiplier of (4)-(5).

@@ -50,10 +50,8 @@ from sosp.candidates import (
     generate,
     orbit_candidates,
     orbit_pairs,
-    ragged_positions,
 )
 from sosp.planner import plan_sequence
-from sosp.rules import EPS
 
 #: Index of this neighbourhood in the selector's probabilities (after insertion, migration).
 REPLAN = 2
@@ -149,36 +147,8 @@ def candidates(state: State, j: int, opts: list[int]) -> Cands:
         np.cumsum(np.concatenate(sizes), out=ptr[1:])
         return Cands(state, ptr, np.concatenate(members))
     t0, t1 = pb.opt_start[opts[0]], max(pb.opt_end[x] for x in opts)
-    a = int(np.searchsorted(source.start, t0 - EPS, side="left"))
-    b = int(np.searchsorted(source.start, t1 + EPS, side="right"))
-    ends = source.end[a:b] <= t1 + EPS
-    ptr = source.opps.ptr[a : b + 1]
-    if not ends.any():
-        return Cands(state, np.zeros(1, dtype=np.int64), flat[:0])
-    src = source.opps.flat[ptr[0] : ptr[-1]]
-    inside = np.zeros(len(pb.opt_start), dtype=bool)
-    inside[flat] = True
-    keep = inside[src]
-    keep &= np.repeat(ends, np.diff(ptr))
-    count = np.add.reduceat(keep, ptr[:-1] - ptr[0])
-    cut = src[keep].astype(np.int64)
-    # one candidate per member set (many collapse to the same few options)
-    seen: set[bytes] = set()
-    rows = []
-    at = 0
-    for v, c in enumerate(count.tolist()):
-        if c:
-            key = cut[at : at + c].tobytes()
-            if key not in seen:
-                seen.add(key)
-                rows.append(v)
-        at += c
-    starts = np.cumsum(count) - count
-    rows_a = np.asarray(rows, dtype=np.int64)
-    sizes = count[rows_a]
-    out = np.zeros(len(rows) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=out[1:])
-    return Cands(state, out, cut[ragged_positions(starts[rows_a], sizes)])
+    ptr, cut = source.within(flat, len(pb.opt_start), t0, t1)
+    return Cands(state, ptr, cut)
 
 
 def _orbit_source(pb: Problem, j: int) -> OrbitCandidates | None:

@@ -1,0 +1,78 @@
+"""Candidate observations (sosp.candidates): an orbit's candidates cut to a stretch."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sosp.candidates import OppGroups, OrbitCandidates, orbit_candidates
+from sosp.rules import EPS
+from tests.conftest import tiny_cluster
+
+
+def _within_reference(
+    cands: OrbitCandidates, opts: list[int], t0: float, t1: float
+) -> list[tuple[int, ...]]:
+    """:meth:`OrbitCandidates.within` read literally: in order, inside the span, cut, once."""
+    allowed = set(opts)
+    out: list[tuple[int, ...]] = []
+    for v in range(cands.size):
+        if not (t0 - EPS <= cands.start[v] <= t1 + EPS and cands.end[v] <= t1 + EPS):
+            continue
+        cut = tuple(x for x in cands.opps[v] if x in allowed)
+        if cut and cut not in out:
+            out.append(cut)
+    return out
+
+
+def _groups(ptr: np.ndarray, flat: np.ndarray) -> list[tuple[int, ...]]:
+    return [tuple(flat[ptr[v] : ptr[v + 1]].tolist()) for v in range(len(ptr) - 1)]
+
+
+@st.composite
+def _orbit_candidates(draw: st.DrawFn) -> tuple[OrbitCandidates, int]:
+    """Random candidates (sorted by start) over few options, so that many cut alike."""
+    n_options = draw(st.integers(1, 8))
+    n = draw(st.integers(0, 30))
+    start = np.sort(np.asarray(draw(st.lists(st.integers(0, 20), min_size=n, max_size=n)), float))
+    length = draw(st.lists(st.integers(0, 6), min_size=n, max_size=n))
+    members = [
+        tuple(sorted(draw(st.sets(st.integers(0, n_options - 1), min_size=1, max_size=4))))
+        for _ in range(n)
+    ]
+    cands = OrbitCandidates(
+        orbit=0,
+        start=start,
+        end=start + np.asarray(length, float),
+        roll=np.zeros(n),
+        opps=OppGroups.from_groups(members) if n else OppGroups(np.zeros(1), np.zeros(0)),
+    )
+    return cands, n_options
+
+
+@settings(max_examples=300, deadline=None)
+@given(_orbit_candidates(), st.data())
+def test_within_equals_its_definition(drawn: tuple[OrbitCandidates, int], data: st.DataObject):
+    cands, n_options = drawn
+    opts = data.draw(st.lists(st.integers(0, n_options - 1), unique=True, max_size=n_options))
+    t0 = data.draw(st.integers(-2, 22))
+    t1 = data.draw(st.integers(t0, 30))
+    ptr, flat = cands.within(np.asarray(opts, dtype=np.int64), n_options, t0, t1)
+    assert ptr.dtype == flat.dtype == np.int64
+    assert _groups(ptr, flat) == _within_reference(cands, opts, t0, t1)
+
+
+def test_within_on_a_real_orbit():
+    """The tiny cluster fixture's orbit: every option allowed gives back the candidates."""
+    inst = tiny_cluster()
+    cands = orbit_candidates(inst, 0)
+    n = inst.n_opps
+    opts = np.arange(n, dtype=np.int64)
+    t0, t1 = float(cands.start.min()), float(cands.end.max())
+    ptr, flat = cands.within(opts, n, t0, t1)
+    assert _groups(ptr, flat) == [tuple(g) for g in cands.opps]
+    # without the first option, no group holds it and none is empty
+    ptr, flat = cands.within(opts[1:], n, t0, t1)
+    assert 0 not in flat.tolist() and np.all(np.diff(ptr) > 0)
+    assert _groups(ptr, flat) == _within_reference(cands, list(range(1, n)), t0, t1)
