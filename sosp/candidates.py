@@ -42,6 +42,7 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.rules import EPS
+from sosp.stop import worker_signals
 
 log = logging.getLogger(__name__)
 
@@ -550,7 +551,8 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
     global _WORKER_INSTANCE
     _WORKER_INSTANCE = instance
     try:
-        with mp.get_context("fork").Pool(min(workers, len(todo))) as pool:
+        ctx = mp.get_context("fork")
+        with ctx.Pool(min(workers, len(todo)), initializer=worker_signals) as pool:
             for out in pool.imap_unordered(_worker_orbit, [(j, deadline) for j in todo]):
                 store[out.orbit] = out
     finally:

@@ -60,6 +60,7 @@ from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
+from sosp.stop import worker_signals
 
 log = logging.getLogger(__name__)
 
@@ -1006,7 +1007,9 @@ class PlanPool:
             global _POOL_ORBITS, _POOL_PLANS
             _POOL_ORBITS, _POOL_PLANS = self.orbits, self.plans_of
             try:
-                self.pool = mp.get_context("fork").Pool(min(workers, len(orbits)))
+                self.pool = mp.get_context("fork").Pool(
+                    min(workers, len(orbits)), initializer=worker_signals
+                )
             finally:
                 _POOL_ORBITS, _POOL_PLANS = (), None
             self.groups = _balanced(self.orbits, min(workers, len(orbits)))

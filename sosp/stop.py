@@ -174,3 +174,16 @@ def handle_signals(
         for s, h in previous.items():
             signal.signal(s, h)
         clear_stop()
+
+
+def worker_signals() -> None:
+    """Initialiser of a forked pool's workers: SIGTERM ends the worker, SIGINT is ignored.
+
+    A forked worker inherits :func:`handle_signals`'s handler, under which SIGTERM only
+    requests a stop. ``multiprocessing.Pool.terminate`` ends its workers with one SIGTERM and
+    then waits for them, so a worker blocked on the pool's task queue lived on and the
+    parent waited for ever (a pricing pool closed inside ``sosp solve``: one close in a few
+    hung). Ctrl-C reaches the whole process group; the parent decides what stops.
+    """
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
