@@ -1324,32 +1324,52 @@ def _bound_out(
 
 
 def auto_bound(
-    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+    instance: Instance,
+    *,
+    time_limit: float | None = None,
+    lower_bound: float | None = None,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="auto")`` of the cluster model (the problem's optimum): for
     :data:`sosp.solve.BOUNDS`."""
-    return bound(instance, method="auto", time_limit=time_limit, lower_bound=lower_bound)
+    return bound(
+        instance, method="auto", time_limit=time_limit, lower_bound=lower_bound, workers=workers
+    )
 
 
 def lp_bound(
-    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+    instance: Instance,
+    *,
+    time_limit: float | None = None,
+    lower_bound: float | None = None,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="lp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
-    del lower_bound
+    del lower_bound, workers  # neither helps this method
     return bound(instance, method="lp", time_limit=time_limit)
 
 
 def colgen_bound(
-    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+    instance: Instance,
+    *,
+    time_limit: float | None = None,
+    lower_bound: float | None = None,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="colgen")`` of the cluster model (with a limit, branch and price after
     the column generation): for :data:`sosp.solve.BOUNDS`."""
-    return bound(instance, method="colgen", time_limit=time_limit, lower_bound=lower_bound)
+    return bound(
+        instance, method="colgen", time_limit=time_limit, lower_bound=lower_bound, workers=workers
+    )
 
 
 def milp_bound(
-    instance: Instance, *, time_limit: float | None = None, lower_bound: float | None = None
+    instance: Instance,
+    *,
+    time_limit: float | None = None,
+    lower_bound: float | None = None,
+    workers: Workers = 1,
 ) -> dict[str, Any]:
     """``bound(method="milp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
-    del lower_bound
+    del lower_bound, workers  # neither helps this method
     return bound(instance, method="milp", time_limit=time_limit)

@@ -246,6 +246,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         params["warm_start"] = load_schedule(args.warm_start, inst)
     if args.bound is not None:
         params["bound"] = args.bound  # solve()'s own keyword: certify the schedule
+    if args.bound_workers is not None:
+        if args.bound is None:
+            raise InputError("--bound-workers: give it with --bound")
+        params["bound_workers"] = args.bound_workers
     result, interrupted = _solve_interruptibly(inst, args, params)
     data = result.summary()
     if args.output:
@@ -579,6 +583,13 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("auto", "lp", "lagrangian", "colgen", "milp"),
         help="certify the schedule: compute an upper bound of the problem after the solve "
         "(auto if no value; its own time limit = --time-limit) and report the gap",
+    )
+    p.add_argument(
+        "--bound-workers",
+        type=positive(int),
+        default=None,
+        help="--bound: processes for its pricing rounds (auto, colgen, lagrangian; default 1); "
+        "they pay on instances with many busy orbits (see docs/scenarios.md)",
     )
     p.add_argument(
         "--param",

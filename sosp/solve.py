@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from sosp.dist import Workers, check_workers
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance
 from sosp.progress import Progress, reporting
@@ -141,6 +142,7 @@ def solve(
     check: bool = True,
     progress: Progress | None = None,
     bound: str | None = None,
+    bound_workers: Workers = 1,
     **params: Any,
 ) -> Result:
     """Solve ``instance`` with ``method``.
@@ -170,6 +172,10 @@ def solve(
         ``time_limit``; the result's ``bound`` is then the least of the method's and this one,
         ``gap`` how far the schedule may be from optimal, and the status ``optimal`` when the
         bound meets the profit. None (default): the method's own bound only.
+    bound_workers
+        Processes (or a ``distributed.Client``) for the pricing rounds of that bound
+        (``auto``, ``colgen``, ``lagrangian``; :func:`models.solve.bound`'s ``workers``): the
+        method has finished, so the machine's cores are free. 1 (default): this process.
     **params
         Method parameters (``sosp methods`` lists them; :func:`sosp.methods.check_params`
         refuses an unknown key with the list of valid ones).
@@ -189,6 +195,7 @@ def solve(
             f"bound: expected one of {', '.join(CERTIFYING_BOUNDS)} (bounds of the problem), "
             f"got {bound!r}"
         )
+    check_workers(bound_workers, "bound_workers")
     from sosp.methods import check_params
 
     check_params(method, params)
@@ -222,7 +229,7 @@ def solve(
                 f"violations; first: ({first.constraint}) {first.message})"
             )
     if bound is not None:
-        result = certify(instance, result, bound, time_limit)
+        result = certify(instance, result, bound, time_limit, bound_workers)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
     return result
 
@@ -233,13 +240,20 @@ CERTIFYING_BOUNDS = ("auto", "lp", "lagrangian", "colgen", "milp")
 
 
 def certify(
-    instance: Instance, result: Result, bound: str = "auto", time_limit: float | None = None
+    instance: Instance,
+    result: Result,
+    bound: str = "auto",
+    time_limit: float | None = None,
+    workers: Workers = 1,
 ) -> Result:
-    """``result`` with the least of its own bound and bound ``bound`` (within ``time_limit``).
+    """``result`` with the least of its own bound and bound ``bound`` (within ``time_limit``,
+    its pricing rounds on ``workers``).
 
     The status becomes ``optimal`` when the bound meets the profit (nothing better exists).
     """
-    out = bound_function(bound)(instance, time_limit=time_limit, lower_bound=result.profit)
+    out = bound_function(bound)(
+        instance, time_limit=time_limit, lower_bound=result.profit, workers=workers
+    )
     value = out.get("bound")
     if value is None:
         return result

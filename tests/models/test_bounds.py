@@ -125,6 +125,33 @@ def test_solve_bound_certifies_a_heuristic(seed: int) -> None:
         solve(inst, "greedy", bound="pba")  # bounds the static problem, not the problem
 
 
+@pytest.mark.parametrize("how", ["auto", "colgen", "lagrangian", "lp"])
+def test_certifying_on_two_workers_gives_the_same_bound(how: str) -> None:
+    """``bound_workers`` only spreads the pricing rounds: the bound is one process's."""
+    inst = next(random_tiny(s) for s in range(100) if random_tiny(s).n_orbits >= 2)
+    one = solve(inst, "greedy", bound=how)
+    two = solve(inst, "greedy", bound=how, bound_workers=2)
+    assert two.bound == one.bound and two.stats["certified_by"] == how
+    with pytest.raises(InputError, match="bound_workers"):
+        solve(inst, "greedy", bound=how, bound_workers=0)
+
+
+def test_cli_bound_workers(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from sosp.cli import main
+
+    path = tmp_path / "inst.json"
+    tiny_cluster().save(path)
+    args = ["solve", str(path), "--method", "greedy", "--json", "-q"]
+    assert main([*args, "--bound", "colgen", "--bound-workers", "2"]) == 0
+    assert json.loads(capsys.readouterr().out)["bound"] >= 11
+    written = tmp_path / "out.json"
+    for bad in (["--bound-workers", "2"], ["--bound", "--bound-workers", "0"]):
+        assert main([*args, *bad, "-o", str(written)]) == 2
+        err = capsys.readouterr().err
+        assert "--bound-workers" in err and len(err.strip().splitlines()) == 1
+        assert not written.exists()
+
+
 def test_cli_solve_bound_and_optimal_wording(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     from sosp.cli import main
 
