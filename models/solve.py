@@ -33,7 +33,7 @@ from sosp.dist import check_workers
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.result import Result, Status
-from sosp.rules import EPS, orbit_rules
+from sosp.rules import orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
 from sosp.solve import check_time_limit
 
@@ -741,7 +741,7 @@ def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
         u = u[np.argsort(data.start[u], kind="stable")]
         rj = orbit_rules(inst, j)
         energy, _ = rj.usage(data.duration[u], data.roll[u])  # (4), exact slew
-        if not energy <= rj.energy_capacity + EPS:
+        if not rj.usage_ok(energy, 0.0):  # (5) is exact in every form of the model
             bad.add(int(j))
     return bad
 

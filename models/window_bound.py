@@ -41,6 +41,7 @@ from sosp.dist import parallelism
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import PlanPool
+from sosp.rules import within_duration
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 if TYPE_CHECKING:
@@ -324,8 +325,10 @@ def _relaxed_plans(
 def _observable(instance: Instance) -> tuple[np.ndarray, np.ndarray]:
     """The targets with an opportunity no longer than Delta T (no other can be observed) and
     the weights, 0 for the others."""
-    fit = np.asarray(instance.opp_end) - np.asarray(instance.opp_start) <= (
-        np.asarray(instance.max_duration)[np.asarray(instance.opp_orbit)] + 1e-9
+    fit = within_duration(
+        np.asarray(instance.opp_start),
+        np.asarray(instance.opp_end),
+        np.asarray(instance.max_duration)[np.asarray(instance.opp_orbit)],
     )
     seen = np.zeros(instance.n_targets, dtype=bool)
     seen[np.asarray(instance.opp_target)[fit]] = True

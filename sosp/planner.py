@@ -191,9 +191,7 @@ class OrbitItems:
 
     def fits(self, path: np.ndarray) -> bool:
         """Whether a plan keeps (4) and (5) ((3), (6) hold by construction)."""
-        energy, memory = self.usage(path)
-        r = self.rules
-        return energy <= r.energy_capacity + EPS and memory <= r.memory_capacity + EPS
+        return self.rules.usage_ok(*self.usage(path))
 
     def covered(self, path: np.ndarray) -> np.ndarray:
         """The distinct targets a plan covers."""
@@ -863,13 +861,28 @@ def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
     penalty that fits: a Lagrangian heuristic, feasible but not proven optimal.
     """
     sub = priced(o, price)
-    _, path = best_path(o, price, prepared=sub)
-    if o.fits(path):
+    return least_penalty_plan(lambda t: best_path(o, price, t, t, sub)[1], o.fits)
+
+
+def least_penalty_plan(
+    plan: Callable[[float], np.ndarray], fits: Callable[[np.ndarray], bool]
+) -> np.ndarray:
+    """The plan at about the least common penalty on (4)-(5) whose plan fits them.
+
+    ``plan(t)`` is the recursion's plan with penalty ``t`` per unit of energy and memory
+    capacity. ``plan(0)`` when it fits (then optimal under (3), (6)); otherwise ``t`` is
+    doubled from 1 (at most :data:`_MAX_DOUBLINGS` times; the empty plan when none fits) and
+    bisected :data:`_BISECTIONS` times towards the least fitting penalty. Larger penalties
+    give plans using no more of the budgets, so the plan found is feasible: a Lagrangian
+    heuristic, not proven optimal when the knapsacks bind.
+    """
+    path = plan(0.0)
+    if fits(path):
         return path
     lo, hi = 0.0, 1.0
     for _ in range(_MAX_DOUBLINGS):
-        _, path = best_path(o, price, hi, hi, sub)
-        if o.fits(path):
+        path = plan(hi)
+        if fits(path):
             break
         lo, hi = hi, 2.0 * hi
     else:
@@ -877,9 +890,9 @@ def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
     best = path
     for _ in range(_BISECTIONS):
         mid = 0.5 * (lo + hi)
-        _, path = best_path(o, price, mid, mid, sub)
-        if o.fits(path):
-            hi, best = mid, path
+        trial = plan(mid)
+        if fits(trial):
+            hi, best = mid, trial
         else:
             lo = mid
     return best

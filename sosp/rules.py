@@ -71,6 +71,11 @@ def may_precede(right_u: Any, left_w: Any) -> Any:
 
 
 # --------------------------------------------------------------------------- (4)-(6) usage
+def within_duration(start: Any, end: Any, max_duration: Any) -> Any:
+    """(11): a window [start, end] lasts at most Delta T (elementwise on arrays)."""
+    return end - start <= max_duration + EPS
+
+
 def sequence_slew_time(rolls: np.ndarray, slew_rate: float) -> float:
     """Exact slew seconds of (4) over a sequence (consecutive pairs only)."""
     if len(rolls) < 2:
@@ -187,9 +192,13 @@ class OrbitRules:
         """(4) and (5) for an orbit's totals."""
         return self.memory_ok(observe_s) and self.energy_ok(observe_s, slew_s)
 
-    def duration_ok(self, start: float, end: float) -> bool:
-        """(11): the window is at most Delta T."""
-        return end - start <= self.max_duration + EPS
+    def usage_ok(self, energy: float, memory: float) -> bool:
+        """(4) and (5) for a plan's energy and memory (:meth:`usage`), with the margin."""
+        return energy <= self.energy_capacity + EPS and memory <= self.memory_capacity + EPS
+
+    def duration_ok(self, start: Any, end: Any) -> Any:
+        """(11): the window is at most Delta T (elementwise on arrays)."""
+        return within_duration(start, end, self.max_duration)
 
     def usage(self, durations: np.ndarray, rolls: np.ndarray) -> tuple[float, float]:
         """``(energy, memory)`` of a sequence in time order, slew over consecutive pairs."""

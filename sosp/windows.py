@@ -650,9 +650,6 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
 
 
 # --------------------------------------------------------------------- (b) real observations
-#: Penalty doublings and bisection steps of :func:`window_plan` (as
-#: :func:`sosp.planner.best_feasible_path`).
-_DOUBLINGS, _BISECTIONS = 60, 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -697,7 +694,7 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     (as :func:`sosp.planner.best_feasible_path`): the plan is always feasible, optimal over
     this restricted set when the knapsacks do not bind.
     """
-    from sosp.planner import _recursion
+    from sosp.planner import _recursion, least_penalty_plan
 
     check_roll_rule(roll_rule)
     w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
@@ -720,26 +717,9 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
         return path
 
     def fits(path: np.ndarray) -> bool:
-        energy, memory = r.usage(duration[path], roll[path])
-        return energy <= r.energy_capacity + EPS and memory <= r.memory_capacity + EPS
+        return r.usage_ok(*r.usage(duration[path], roll[path]))
 
-    path = plan(0.0)
-    if not fits(path):
-        lo_p, hi_p = 0.0, 1.0
-        for _ in range(_DOUBLINGS):
-            path = plan(hi_p)
-            if fits(path):
-                break
-            lo_p, hi_p = hi_p, 2.0 * hi_p
-        else:
-            return empty_plan()
-        for _ in range(_BISECTIONS):
-            mid = 0.5 * (lo_p + hi_p)
-            trial = plan(mid)
-            if fits(trial):
-                hi_p, path = mid, trial
-            else:
-                lo_p = mid
+    path = least_penalty_plan(plan, fits)
     if len(path) == 0:
         return empty_plan()
     rows = keep[path]
@@ -766,7 +746,7 @@ def _observations(
         roll = np.minimum(np.maximum(0.0, lo), hi)
     else:
         roll = 0.5 * (lo + hi)
-    ok = (end - start <= r.max_duration + EPS) & r.fits(0.0, 0.0)
+    ok = r.duration_ok(start, end) & r.fits(0.0, 0.0)
     keep = np.flatnonzero(ok)
     return keep, start[keep], end[keep], roll[keep]
 
