@@ -305,10 +305,9 @@ def _arrange(
             j = int(orbit[block[0]])
             rj = orbit_rules(instance, j)
             slew_s = rj.slew(roll[block])
-            left = rj.left(start[block], roll[block])
-            right = rj.right(end[block], roll[block])
-            by_release = np.argsort(right, kind="stable")
-            n_before = np.searchsorted(right[by_release], left + EPS, side="right")
+            by_release, n_before = release_order(
+                rj.left(start[block], roll[block]), rj.right(end[block], roll[block])
+            )
             members = opps.take(block)
             flat, seg = _covered_targets(tgt, members)
             first_t, last_t = _end_targets(instance, members, start[block], end[block])
@@ -381,6 +380,14 @@ def _end_targets(
         t[found] = tgt[flat[where[found]]]
         out.append(t)
     return out[0], out[1]
+
+
+def release_order(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The recursion's view of (3) on one orbit from the items' interval ends (``L``, ``R``
+    of :mod:`sosp.rules`): the items by ``R`` (``by_release``), and per item how many of
+    them have ``R <= L + EPS``, i.e. may precede it (``n_before``, a prefix of that order)."""
+    by_release = np.argsort(right, kind="stable")
+    return by_release, np.searchsorted(right[by_release], left + EPS, side="right")
 
 
 def _covered_targets(opp_target: np.ndarray, opps: OppGroups) -> tuple[np.ndarray, np.ndarray]:

@@ -68,6 +68,7 @@ import numpy as np
 from sosp.candidates import OppGroups
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.planner import _recursion, least_penalty_plan, release_order
 from sosp.rules import EPS, OrbitRules, RollRule, check_roll_rule, orbit_rules
 
 log = logging.getLogger(__name__)
@@ -565,11 +566,9 @@ def relaxed_items(oo: OrbitOpps, price: np.ndarray, band: float | None = None) -
     r = oo.rules
     start = oo.start[wi.first]
     end = oo.end[wi.last]
-    slew_s = wi.least_roll / r.slew_rate
-    left = start - slew_s
-    right = end + r.setup_time + slew_s
-    by_release = np.argsort(right, kind="stable")
-    n_before = np.searchsorted(right[by_release], left + EPS, side="right")
+    # the least |roll| of each window's range: the (3) interval no observation of it beats
+    by_release, n_before = release_order(r.left(start, wi.least_roll), r.right(end, wi.least_roll))
+    slew_s = r.slew(wi.least_roll)
     return RelaxedItems(wi, start, end, end - start, slew_s, by_release, n_before)
 
 
@@ -591,8 +590,6 @@ def relaxed_best_path(
         over the explicit candidates, 0 for the empty plan), its items in time order
         (positions into ``items``) and the items.
     """
-    from sosp.planner import _recursion
-
     ri = relaxed_items(oo, price, band) if prepared is None else prepared
     if ri.size == 0:
         return 0.0, np.zeros(0, dtype=np.int64), ri
@@ -694,8 +691,6 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     (as :func:`sosp.planner.best_feasible_path`): the plan is always feasible, optimal over
     this restricted set when the knapsacks do not bind.
     """
-    from sosp.planner import _recursion, least_penalty_plan
-
     check_roll_rule(roll_rule)
     w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
     wi = window_items(oo, price)
@@ -705,10 +700,8 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     keep, start, end, roll = _observations(oo, wi, roll_rule)
     gain = wi.gain[keep]
     duration = end - start
-    slew_s = np.abs(roll) / r.slew_rate
-    right = end + r.setup_time + slew_s
-    by_release = np.argsort(right, kind="stable")
-    n_before = np.searchsorted(right[by_release], start - slew_s + EPS, side="right")
+    slew_s = r.slew(roll)
+    by_release, n_before = release_order(r.left(start, roll), r.right(end, roll))
 
     def plan(pen: float) -> np.ndarray:
         pe = pen / r.energy_capacity if r.energy_capacity > 0 else 0.0
