@@ -152,7 +152,7 @@ class OrbitRules:
 
     def slew(self, roll: Any) -> Any:
         """Seconds between nadir and ``roll``."""
-        return abs(roll) / self.slew_rate
+        return slew_time(roll, self.slew_rate)
 
     def turn(self, roll_u: Any, roll_w: Any) -> Any:
         """Slew seconds between consecutive observations ((3), (4))."""
@@ -160,11 +160,11 @@ class OrbitRules:
 
     def left(self, start: Any, roll: Any) -> Any:
         """Left end of the (3) interval."""
-        return start - abs(roll) / self.slew_rate
+        return left_end(start, roll, self.slew_rate)
 
     def right(self, end: Any, roll: Any) -> Any:
         """Right end of the (3) interval."""
-        return end + self.setup_time + abs(roll) / self.slew_rate
+        return right_end(end, roll, self.setup_time, self.slew_rate)
 
     def clash(self, end_u: float, roll_u: float, start_w: float, roll_w: float) -> bool:
         """Whether u (ending at ``end_u``) may NOT precede w (starting at ``start_w``) by (3)."""
