@@ -240,11 +240,10 @@ def orbit_resources_can_bind(instance: Instance, tasks: TaskSet, idx: np.ndarray
         card[k + 1] = max(card[k], card[p] + 1)
         obs[k + 1] = max(obs[k], obs[p] + float(dur[k]))
         eng[k + 1] = max(eng[k], eng[p] + float(energy[k]))
-    if card[-1] > int(instance.max_openings[j]):
+    if card[-1] > r.max_openings:
         return True
-    if float(instance.memory_rate[j]) * obs[-1] > float(instance.memory_capacity[j]) - EPS:
-        return True
-    return eng[-1] > float(instance.energy_capacity[j]) - EPS
+    # conservative: a total within EPS below a capacity counts as binding
+    return r.memory(obs[-1]) > r.memory_capacity - EPS or eng[-1] > r.energy_capacity - EPS
 
 
 def interaction_components(
