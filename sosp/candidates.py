@@ -203,10 +203,9 @@ class OrbitCandidates:
         A candidate is kept when its window (10) lies in ``[t0, t1]`` (within :data:`EPS`)
         and one of its members is in ``opts``; cut to the same members, two are one (the
         first kept). Returns ``(ptr, flat)``: the kept groups in CSR form (int64), in
-        generation order, members sorted as stored. A
-        local search's stretch re-plan calls this thousands of times a second on small
-        stretches, where a dozen numpy calls cost more than the work, so it is one compiled
-        loop (:func:`_within_py`).
+        generation order, members sorted as stored. A local search's stretch re-plan calls
+        this thousands of times a second on small stretches, where a dozen numpy calls cost
+        more than the work, so it is one compiled loop (:func:`_within_py`).
 
         Parameters
         ----------

@@ -879,9 +879,10 @@ def least_penalty_plan(
     ``plan(t)`` is the recursion's plan with penalty ``t`` per unit of energy and memory
     capacity. ``plan(0)`` when it fits (then optimal under (3), (6)); otherwise ``t`` is
     doubled from 1 (at most :data:`_MAX_DOUBLINGS` times; the empty plan when none fits) and
-    bisected :data:`_BISECTIONS` times towards the least fitting penalty. Larger penalties
-    give plans using no more of the budgets, so the plan found is feasible: a Lagrangian
-    heuristic, not proven optimal when the knapsacks bind.
+    bisected :data:`_BISECTIONS` times towards the least fitting penalty (a larger penalty
+    makes the plan's penalised use of the two budgets no larger). Only a plan that passed
+    ``fits`` is returned, so it is feasible: a Lagrangian heuristic, not proven optimal when
+    the knapsacks bind.
     """
     path = plan(0.0)
     if fits(path):
