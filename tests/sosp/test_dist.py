@@ -155,7 +155,7 @@ def test_bound_cli_counts_the_cluster_start_in_the_time_limit(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``sosp bound --time-limit T --dask ...``: the bound gets what the cluster's start-up
-    left of T."""
+    left of T (and, for a local cluster, what its close will take)."""
     from contextlib import contextmanager
 
     import models.cli as mcli
@@ -180,3 +180,7 @@ def test_bound_cli_counts_the_cluster_start_in_the_time_limit(
     assert main(["bound", str(path), "--time-limit", "2", "--json"]) == 0
     capsys.readouterr()
     assert len(given) == 1 and 1.0 < given[0] <= 1.7
+    # a local cluster's close is reserved too (it takes about as long as its start)
+    assert main(["bound", str(path), "--time-limit", "2", "--dask", "local", "--json"]) == 0
+    capsys.readouterr()
+    assert len(given) == 2 and 0.5 < given[1] <= 1.4
