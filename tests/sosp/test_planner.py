@@ -6,6 +6,7 @@ import itertools
 import json
 import subprocess
 import sys
+import types
 
 import numpy as np
 import pytest
@@ -268,10 +269,29 @@ def test_ascent_ends_where_no_orbit_gains(seed: int) -> None:
         _check_coverage(search)
         assert not search.dirty.any()
         assert not any(search.replan(g) for g in range(inst.n_orbits))
+
         mark = len(search.journal)
         search._set(0, np.zeros(0, dtype=np.int64))
         search.undo(mark)
         _check_coverage(search)
+
+
+def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
+    """A pass over a dense instance's orbits takes seconds: the deadline is read before each
+    orbit's re-plan, so an ascent whose deadline passes after the second re-plan stops
+    there (and leaves a feasible, partly ascended schedule), not at the end of the pass."""
+    import heuristics.orbit_search as orbit_search
+
+    inst = _slack_instance(0)
+    assert inst.n_orbits >= 3
+    data = orbit_data(inst)
+    search = OrbitSearch(data, np.random.default_rng(0))
+    clock = itertools.count()  # one tick per reading: the deadline 1.5 passes at the third
+    fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
+    monkeypatch.setattr(orbit_search, "time", fake)
+    search.ascent(deadline=1.5)
+    assert search.replans == 2
+    assert validate(inst, search.schedule()).feasible
 
 
 @pytest.mark.parametrize("name", sorted(TINY))
