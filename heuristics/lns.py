@@ -396,11 +396,25 @@ def solve_milp_lns(
         limit = p.start_time_limit
         if deadline is not None:
             limit = min(limit, 0.5 * left()) if limit is not None else 0.5 * left()
-        first = method_function(p.start)(
-            instance, rng=rng, time_limit=limit, **(p.start_params or {})
-        )
-        current = list(first.schedule.observations)
+        start_by = None if limit is None else time.perf_counter() + limit
         start_name = p.start
+        try:
+            first = method_function(p.start)(
+                instance, rng=rng, time_limit=limit, **(p.start_params or {})
+            )
+        except InputError as exc:
+            # orbit-dp refuses to answer when its candidates are not ready by its limit
+            # (D30 at 30 s: their arranging takes 11 s); that limit is the start's share, not
+            # the run's, so the run goes on from the greedy schedule (milliseconds)
+            if start_by is None or time.perf_counter() < start_by:
+                raise  # not the start's time limit: its parameters or the instance
+            log.warning(
+                "milp-lns: no %s start in %.1f s (%s); starting from greedy",
+                p.start, limit, str(exc).split(";")[0],
+            )  # fmt: skip
+            first = method_function("greedy")(instance, rng=rng, time_limit=None)
+            start_name = "greedy"
+        current = list(first.schedule.observations)
     weight = np.asarray(instance.target_weight, dtype=np.int64)
     profit = _claims_value(instance, current, weight)
     start_profit = profit

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -163,6 +164,31 @@ def test_a_tiny_time_limit_returns_the_start() -> None:
     res = solve(inst, "milp-lns", start="hpfs-stc", seed=0, time_limit=0.01)
     assert res.iterations == 0 and res.stats["candidates"] == 0
     assert res.profit == solve(inst, "hpfs-stc").profit and res.runtime_s < 1.0
+
+
+def test_a_start_out_of_its_time_falls_back_to_greedy(monkeypatch: pytest.MonkeyPatch) -> None:
+    # orbit-dp refuses to answer when its candidates are not arranged by its limit (D30 at
+    # 30 s): that limit is the start's share, so the run goes on from the greedy schedule
+    ss = sys.modules["sosp.solve"]
+    lookup = ss.method_function
+
+    def out_of_time(instance, *, rng, time_limit=None, **params):
+        time.sleep(time_limit)
+        raise InputError("orbit 'A': time limit reached while arranging ...; give more time")
+
+    monkeypatch.setattr(
+        ss, "method_function", lambda m: out_of_time if m == "orbit-dp" else lookup(m)
+    )
+    inst = random_tiny(3)
+    res = solve(inst, "milp-lns", seed=0, iterations=4, start_time_limit=0.05)
+    assert res.stats["start"] == "greedy"
+    assert res.stats["start_profit"] == solve(inst, "greedy").profit
+    assert res.profit >= res.stats["start_profit"] and res.iterations == 4
+
+
+def test_a_start_refused_within_its_time_is_an_error() -> None:
+    with pytest.raises(InputError, match="bogus"):
+        solve(random_tiny(3), "milp-lns", seed=0, iterations=2, start_params={"bogus": 1})
 
 
 def test_too_dense_is_refused_before_the_start_runs(monkeypatch: pytest.MonkeyPatch) -> None:
