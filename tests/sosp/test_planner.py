@@ -32,7 +32,7 @@ from sosp.rules import orbit_rules
 from sosp.schedule import Observation, Schedule
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import TINY, small_instances, tiny_cluster, tiny_openings
+from tests.conftest import TINY, small_instances, tiny_cluster, tiny_openings, tiny_two_orbits
 from tests.models.instances import EDGE_CASES, random_tiny
 from tests.oracle import brute_force
 
@@ -448,6 +448,40 @@ def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
         orbit_data(inst, deadline=time.perf_counter() - 1.0)
     later = orbit_data(inst, deadline=time.perf_counter() + 60.0)
     assert [o.orbit for o in later.orbits] == [o.orbit for o in whole.orbits]
+
+
+@pytest.mark.parametrize("spare", [-0.5, 0.5])
+def test_arranging_does_not_start_an_orbit_foreseen_to_end_past_the_deadline(
+    monkeypatch, spare: float
+) -> None:
+    """One dense orbit takes more than a second to arrange (D30: 1.5 s), so each orbit's
+    time is foreseen at the rate of those before it. On a clock that moves one unit per
+    candidate arranged, with the deadline half a unit before (after) the two orbits' end,
+    the second orbit is not started (is arranged)."""
+    import sosp.planner as planner
+
+    inst = tiny_two_orbits()
+    whole = orbit_data(inst)
+    sizes = [len(o.items) for o in whole.orbits]
+    assert len(sizes) == 2
+    clock = [0.0]
+    covered = planner._covered_targets
+
+    def work(opp_target, members):  # the heavy part of an orbit: the clock moves with it
+        clock[0] += len(members)
+        return covered(opp_target, members)
+
+    monkeypatch.setattr(planner, "_covered_targets", work)
+    monkeypatch.setattr(planner, "time", types.SimpleNamespace(perf_counter=lambda: clock[0]))
+    args = (inst, whole.orbit, whole.start, whole.end, whole.roll, whole.opps)
+    deadline = sum(sizes) + spare
+    if spare < 0:
+        with pytest.raises(InputError, match="time limit reached while arranging"):
+            planner._arrange(*args, deadline=deadline)
+        assert clock[0] == sizes[0]  # the second orbit was not started
+    else:
+        arranged = planner._arrange(*args, deadline=deadline)
+        assert [len(o.items) for o in arranged.orbits] == sizes
 
 
 def test_with_rolls_rebuilds_the_slew_terms_and_checks_the_shape() -> None:
