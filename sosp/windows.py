@@ -495,6 +495,17 @@ def _no_items() -> WindowItems:
     return WindowItems(z, z, f, f, f, f, f, f)
 
 
+def _frozen(a: np.ndarray, dtype: Any) -> np.ndarray:
+    """``a`` as a contiguous, read-only array of ``dtype`` (a view when it is one already).
+
+    The kernels' inputs are passed in this one form: numba compiles a kernel once per
+    combination of argument types, read-only and writeable arrays differ, and the callers
+    hold both (an instance's arrays are read-only, their slices and copies not)."""
+    v = np.ascontiguousarray(a, dtype=dtype).view()
+    v.flags.writeable = False
+    return v
+
+
 def _window_rows(
     ts: np.ndarray,
     te: np.ndarray,
@@ -518,8 +529,7 @@ def _window_rows(
     last = np.empty(room, dtype=np.int64)
     gain, point = np.empty(room), np.empty(room)
     spans = np.empty((room if span else 0, 3))
-    ts, te = np.ascontiguousarray(ts), np.ascontiguousarray(te)
-    lo, hi = np.ascontiguousarray(lo), np.ascontiguousarray(hi)
+    ts, te, lo, hi, w = (_frozen(c, float) for c in (ts, te, lo, hi, w))
     n = _sweep(ts, te, lo, hi, w, limit, EPS, span, first, last, gain, point, spans)
     return first[:n].copy(), last[:n].copy(), gain[:n].copy(), point[:n].copy(), spans[:n].copy()
 
@@ -617,12 +627,12 @@ def _member_lists(
     oo: OrbitOpps, w: np.ndarray, first: np.ndarray, last: np.ndarray, point: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """CSR (ptr, flat local indices) of :func:`_members`."""
-    first = np.ascontiguousarray(first, dtype=np.int64)
-    last = np.ascontiguousarray(last, dtype=np.int64)
-    point = np.ascontiguousarray(point, dtype=float)
+    cols = (_frozen(c, float) for c in (oo.start, oo.end, oo.roll_min, oo.roll_max, w))
+    first, last = _frozen(first, np.int64), _frozen(last, np.int64)
+    point = _frozen(point, float)
     ptr = np.zeros(len(first) + 1, dtype=np.int64)
     guess = np.zeros(max(8 * len(first), 1), dtype=np.int64)
-    args = (oo.start, oo.end, oo.roll_min, oo.roll_max, w, first, last, point, EPS)
+    args = (*cols, first, last, point, EPS)
     total = _members(*args, ptr, guess)
     if total > len(guess):
         guess = np.zeros(total, dtype=np.int64)
@@ -644,6 +654,19 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
     new_ptr = np.zeros_like(ptr)
     np.cumsum(np.bincount(seg[keep], minlength=len(ptr) - 1), out=new_ptr[1:])
     return new_ptr, flat[keep]
+
+
+def compile_window_kernels() -> None:
+    """Compile (or load from numba's cache) the sweep's kernels (:func:`_sweep`,
+    :func:`_members`) now, through the functions that call them, on a two-opportunity
+    orbit: :func:`sosp.planner.compile_kernels` calls it before the clocks start. Compiling
+    them the first time on a machine takes about 6 s, which a first window bound spent
+    inside its time limit (D30 at 0.05 s: 7 s)."""
+    cols = [np.array(c) for c in ([0.0, 1.0], [2.0, 3.0], [-5.0, -4.0], [5.0, 6.0])]
+    w = np.ones(2)
+    first, last, _, point, _ = _window_rows(*cols, w, 10.0)
+    oo = OrbitOpps(0, 0, *cols, np.arange(2), None)  # type: ignore[arg-type]
+    _member_lists(oo, w, first, last, point)
 
 
 # --------------------------------------------------------------------- (b) real observations

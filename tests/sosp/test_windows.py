@@ -386,3 +386,39 @@ def test_no_round_is_started_that_cannot_end_in_time(monkeypatch: pytest.MonkeyP
         assert time.perf_counter() - t < 10.0
         assert out["rounds"] == 0 and out["bands"] == []
         assert out["bound"] == (out["cap"] if source == "cap" else 123)
+
+
+def test_compile_kernels_compiles_the_window_sweep_for_every_call() -> None:
+    """The sweep's kernels compiled inside a first window bound's time limit (D30 at 0.05 s
+    ran 7 s): :func:`sosp.planner.compile_kernels`, called before the clocks, compiles them
+    with the argument types of every call, so the window bound, the window search and
+    ASA-DTC's window planner compile nothing more. In a fresh process (this one may have
+    compiled them in other tests)."""
+    import subprocess
+    import sys
+
+    code = """
+import sosp.windows as w
+from sosp.planner import compile_kernels
+from models.solve import bound
+from sosp.solve import solve
+from tests.models.instances import random_tiny
+
+def count():
+    return len(w._sweep.signatures), len(w._members.signatures)
+
+compile_kernels()
+ready = count()
+for seed in range(3):
+    inst = random_tiny(seed)
+    bound(inst, method="windows", time_limit=5)
+    solve(inst, "asa-dtc", seed=0, iterations=200, candidates="windows")
+    solve(inst, "orbit-dp", seed=0, iterations=20, candidates="windows")
+print(*ready, *count())
+"""
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True
+    )
+    counts = [int(n) for n in out.stdout.split()[-4:]]
+    assert min(counts[:2]) >= 1  # both compiled before any call
+    assert counts[2:] == counts[:2]
