@@ -57,6 +57,11 @@ NEIGHBOURHOODS = ("auto", "orbits", "window")
 _MARGIN = EPS
 
 
+#: The start taken when ``start`` runs out of its share of the limit without an answer
+#: (:func:`solve_milp_lns`); it answers at any limit.
+FALLBACK_START = "asa-dtc"
+
+
 @dataclass(frozen=True)
 class LNSParams:
     """Parameters of :func:`solve_milp_lns`.
@@ -77,7 +82,9 @@ class LNSParams:
         about 6 100 against ASA-DTC's 5 549; C10: 3 840 against 2 819).
     start_time_limit
         Seconds for the start method (None: its own stopping rule); capped at half of the
-        overall limit.
+        overall limit. A start that ends at this limit without a schedule (``orbit-dp``
+        when its candidates are not ready: D30 at 30 s) gives way to :data:`FALLBACK_START`
+        with the same share of the time left, and the log says so.
     neighbourhood
         ``"orbits"``: free whole orbits (above). ``"window"``: free the observations of the
         seed orbit inside a time window of ``window`` seconds (the rest of that orbit stays:
@@ -405,15 +412,20 @@ def solve_milp_lns(
         except InputError as exc:
             # orbit-dp refuses to answer when its candidates are not ready by its limit
             # (D30 at 30 s: their arranging takes 11 s); that limit is the start's share, not
-            # the run's, so the run goes on from the greedy schedule (milliseconds)
-            if start_by is None or time.perf_counter() < start_by:
+            # the run's, so the run goes on from ASA-DTC's schedule in the same share of what
+            # is left (it plans over windows where the candidates do not fit: D30 at 10 s
+            # 8790, where the greedy schedule, the first fallback tried, was 2387)
+            if start_by is None or time.perf_counter() < start_by or p.start == FALLBACK_START:
                 raise  # not the start's time limit: its parameters or the instance
             log.warning(
-                "milp-lns: no %s start in %.1f s (%s); starting from greedy",
-                p.start, limit, str(exc).split(";")[0],
+                "milp-lns: no %s start in %.1f s (%s); starting from %s",
+                p.start, limit, str(exc).split(";")[0], FALLBACK_START,
             )  # fmt: skip
-            first = method_function("greedy")(instance, rng=rng, time_limit=None)
-            start_name = "greedy"
+            limit = p.start_time_limit
+            if deadline is not None:
+                limit = min(limit, 0.5 * left()) if limit is not None else 0.5 * left()
+            first = method_function(FALLBACK_START)(instance, rng=rng, time_limit=limit)
+            start_name = FALLBACK_START
         current = list(first.schedule.observations)
     weight = np.asarray(instance.target_weight, dtype=np.int64)
     profit = _claims_value(instance, current, weight)

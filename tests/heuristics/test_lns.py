@@ -166,9 +166,9 @@ def test_a_tiny_time_limit_returns_the_start() -> None:
     assert res.profit == solve(inst, "hpfs-stc").profit and res.runtime_s < 1.0
 
 
-def test_a_start_out_of_its_time_falls_back_to_greedy(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_start_out_of_its_time_falls_back_to_asa_dtc(monkeypatch: pytest.MonkeyPatch) -> None:
     # orbit-dp refuses to answer when its candidates are not arranged by its limit (D30 at
-    # 30 s): that limit is the start's share, so the run goes on from the greedy schedule
+    # 30 s): that limit is the start's share, so the run goes on from ASA-DTC's schedule
     ss = sys.modules["sosp.solve"]
     lookup = ss.method_function
 
@@ -180,10 +180,10 @@ def test_a_start_out_of_its_time_falls_back_to_greedy(monkeypatch: pytest.Monkey
         ss, "method_function", lambda m: out_of_time if m == "orbit-dp" else lookup(m)
     )
     inst = random_tiny(3)
-    res = solve(inst, "milp-lns", seed=0, iterations=4, start_time_limit=0.05)
-    assert res.stats["start"] == "greedy"
-    assert res.stats["start_profit"] == solve(inst, "greedy").profit
-    assert res.profit >= res.stats["start_profit"] and res.iterations == 4
+    res = solve(inst, "milp-lns", seed=0, time_limit=2.0, start_time_limit=0.05)
+    assert res.stats["start"] == "asa-dtc" and res.stats["start_profit"] > 0
+    assert res.profit >= res.stats["start_profit"]
+    assert validate(inst, res.schedule).feasible
 
 
 def test_a_start_refused_within_its_time_is_an_error() -> None:
