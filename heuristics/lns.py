@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from sosp.candidates import CANDIDATE_MODES, OppGroups
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
@@ -403,20 +403,19 @@ def solve_milp_lns(
         limit = p.start_time_limit
         if deadline is not None:
             limit = min(limit, 0.5 * left()) if limit is not None else 0.5 * left()
-        start_by = None if limit is None else time.perf_counter() + limit
         start_name = p.start
         try:
             first = method_function(p.start)(
                 instance, rng=rng, time_limit=limit, **(p.start_params or {})
             )
-        except InputError as exc:
+        except TimeLimitReached as exc:
             # orbit-dp refuses to answer when its candidates are not ready by its limit
             # (D30 at 30 s: their arranging takes 11 s); that limit is the start's share, not
             # the run's, so the run goes on from ASA-DTC's schedule in the same share of what
             # is left (it plans over windows where the candidates do not fit: D30 at 10 s
             # 8790, where the greedy schedule, the first fallback tried, was 2387)
-            if start_by is None or time.perf_counter() < start_by or p.start == FALLBACK_START:
-                raise  # not the start's time limit: its parameters or the instance
+            if p.start == FALLBACK_START:  # pragma: no cover - ASA-DTC answers at any limit
+                raise
             log.warning(
                 "milp-lns: no %s start in %.1f s (%s); starting from %s",
                 p.start, limit, str(exc).split(";")[0], FALLBACK_START,
@@ -438,9 +437,8 @@ def solve_milp_lns(
     if left() > 0.05 and not windowed:
         try:  # the limit holds while generating them too (they stop at the deadline)
             candidates = cluster_candidates(instance, max_candidates=None, deadline=deadline)
-        except InputError:
-            if left() > 0:
-                raise  # not the deadline
+        except TimeLimitReached:
+            pass  # no candidates: the start is the answer
     c_orbit, c_start, c_end, c_roll, c_opps = candidates
     by_orbit: dict[int, np.ndarray] = {}
     if len(c_opps):

@@ -30,7 +30,7 @@ import numpy as np
 
 from models.data import ModelData, TimeUp, fits
 from sosp.dist import check_workers
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.result import Result, Status
 from sosp.rules import orbit_rules
@@ -74,10 +74,8 @@ def model_data(
         return prep(instance)
     try:
         return prep(instance, deadline=deadline)
-    except InputError:
-        if time.perf_counter() > deadline:  # the candidates' own "time limit reached"
-            raise TimeUp("candidate generation") from None
-        raise
+    except TimeLimitReached:
+        raise TimeUp("candidate generation") from None
 
 
 def _check_params(mip_gap: Any, threads: Any) -> None:
@@ -1238,9 +1236,7 @@ def _colgen_bound(
 
     try:
         data = orbit_data(instance, deadline, workers=workers)
-    except InputError:
-        if deadline is None or time.perf_counter() <= deadline:
-            raise
+    except TimeLimitReached:
         # the candidates' own "time limit reached": nothing but the observable weight holds
         out = _bound_out(observable_weight(instance), "colgen", "cluster", t0, {})
         out.update({"source": "cap", "timed_out": "candidates"})
@@ -1280,11 +1276,11 @@ def _lagrangian_alone(
 
     try:
         data = orbit_data(instance, deadline, workers=workers)
+    except TimeLimitReached:
+        out = _bound_out(observable_weight(instance), "lagrangian", "cluster", t0, {})
+        out.update({"source": "cap", "timed_out": "candidates"})
+        return out
     except InputError:
-        if deadline is not None and time.perf_counter() > deadline:
-            out = _bound_out(observable_weight(instance), "lagrangian", "cluster", t0, {})
-            out.update({"source": "cap", "timed_out": "candidates"})
-            return out
         log.info("bound: too dense for the candidates; the window relaxation's bound")
         out = _window_bound(instance, "cluster", t0, deadline, lower_bound, iterations, workers)
         out["method"] = "lagrangian"

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.rules import EPS
 from sosp.stop import worker_signals
@@ -639,7 +639,7 @@ def _generate_orbit(
         if max_candidates is not None and count > max_candidates:
             raise _too_many(instance, j, max_candidates)
         if deadline is not None and time.perf_counter() > deadline:
-            raise InputError(
+            raise TimeLimitReached(
                 f"orbit {instance.orbit_ids[j]!r}: time limit reached while generating "
                 f"candidate observations ({count} so far); give more time or use "
                 "asa-dtc"

@@ -21,3 +21,11 @@ class InputError(SospError, ValueError):
         self.source = source
         text = " ".join(str(message).split())  # always one line
         super().__init__(f"{source}: {text}" if source else text)
+
+
+class TimeLimitReached(InputError):
+    """A stage that cannot answer in part (candidate generation, their arranging) ran out of
+    its time limit, or would have: :mod:`sosp.planner` does not start an orbit foreseen to
+    end past it, so the error can come before the limit. Callers with something to fall
+    back on catch this class, not the clock; elsewhere it is a one-line error as any other
+    :class:`InputError` (exit code 2)."""

@@ -57,7 +57,7 @@ import numpy as np
 
 from sosp.candidates import OppGroups, cluster_candidates, compile_within, flatten
 from sosp.dist import Workers, cluster_size, is_client, local_processes
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
 from sosp.stop import worker_signals
@@ -370,8 +370,8 @@ def _arrange(
     )
 
 
-def _arrange_time_up(instance: Instance, j: int, n_items: int) -> InputError:
-    return InputError(
+def _arrange_time_up(instance: Instance, j: int, n_items: int) -> TimeLimitReached:
+    return TimeLimitReached(
         f"orbit {instance.orbit_ids[j]!r}: time limit reached while arranging the candidate "
         f"observations ({n_items}); give more time or use asa-dtc"
     )

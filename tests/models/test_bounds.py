@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from models.data import observable_weight
 from models.lagrangian import lagrangian_bound
 from models.solve import bound, heuristic_start, model_data, solve_milp
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.result import Status
 from sosp.schedule import items_to_schedule
@@ -216,3 +216,29 @@ def test_lagrangian_past_the_milp_cap_prices_the_planners_candidates(
     out = bound(inst, method="lagrangian", iterations=40)
     assert out["source"] == "windows" and out["method"] == "lagrangian"
     assert optimum - 1e-9 <= out["bound"] <= observable_weight(inst)
+
+
+@pytest.mark.parametrize("method", ["colgen", "lagrangian", "auto"])
+def test_candidates_out_of_time_before_the_limit_give_the_cap(
+    method: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The arranging does not start an orbit foreseen to end past the deadline, so the
+    candidates' "time limit reached" can come before the limit. It is a
+    :class:`TimeLimitReached`: the bounds answer with the cap (the observable weight), as
+    at the limit; before, ``colgen`` checked the clock and passed the error on (exit 2)."""
+    import models.solve as ms
+    import sosp.planner as sp
+
+    inst = random_tiny(7)
+
+    def out_of_time(*args, **kwargs):
+        raise TimeLimitReached("orbit 'o': time limit reached while arranging (9)")
+
+    def too_many(*args, **kwargs):  # as on D30, where lagrangian and auto price orbit_data
+        raise InputError("orbit 'o': more than 1 candidate observations")
+
+    monkeypatch.setattr(sp, "orbit_data", out_of_time)
+    monkeypatch.setattr(ms, "model_data", too_many)
+    out = bound(inst, method=method, time_limit=60)
+    assert out["source"] == "cap" and out["bound"] == observable_weight(inst)
+    assert out["runtime_s"] < 5

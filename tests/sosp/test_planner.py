@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from heuristics.orbit_search import START_MODES, OrbitSearch, OrbitSearchParams, lp_start
 from models.colgen import colgen_bound
 from models.lagrangian import lagrangian_bound
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance, Resources
 from sosp.planner import (
     OrbitItems,
@@ -429,10 +429,10 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
 
     from sosp.candidates import cluster_candidates
 
-    with pytest.raises(InputError, match="^orbit 'orbit0': time limit reached"):
+    with pytest.raises(TimeLimitReached, match="^orbit 'orbit0': time limit reached"):
         cluster_candidates(tiny_cluster(), deadline=time.perf_counter() - 1.0)
     # orbit-dp passes its limit on: a limit too short for the candidates is that error
-    with pytest.raises(InputError, match="time limit reached while generating"):
+    with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
         solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)
 
 
@@ -444,7 +444,7 @@ def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
     inst = random_tiny(5)
     whole = orbit_data(inst)  # the candidates are generated (and kept) here
     assert len(whole.orbits) >= 1
-    with pytest.raises(InputError, match="^orbit '.*': time limit reached while arranging"):
+    with pytest.raises(TimeLimitReached, match="^orbit '.*': time limit reached while arranging"):
         orbit_data(inst, deadline=time.perf_counter() - 1.0)
     later = orbit_data(inst, deadline=time.perf_counter() + 60.0)
     assert [o.orbit for o in later.orbits] == [o.orbit for o in whole.orbits]
@@ -476,7 +476,7 @@ def test_arranging_does_not_start_an_orbit_foreseen_to_end_past_the_deadline(
     args = (inst, whole.orbit, whole.start, whole.end, whole.roll, whole.opps)
     deadline = sum(sizes) + spare
     if spare < 0:
-        with pytest.raises(InputError, match="time limit reached while arranging"):
+        with pytest.raises(TimeLimitReached, match="time limit reached while arranging"):
             planner._arrange(*args, deadline=deadline)
         assert clock[0] == sizes[0]  # the second orbit was not started
     else:
