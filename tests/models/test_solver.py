@@ -97,6 +97,35 @@ def test_time_limit_applies_and_does_not_raise() -> None:
     assert res2.status is Status.OPTIMAL
 
 
+@pytest.mark.parametrize("start", ["auto", "schedule", "none"])
+def test_no_model_in_time_still_gives_a_schedule(
+    start: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """When the model's items are not ready by the deadline (C10 at 5 s: the empty schedule
+    after 0.7 s before), ``milp`` returns the given warm start, or with ``auto`` ASA-DTC's
+    schedule in the time left, and the observable weight as its bound."""
+    import models.solve as ms
+    from models.data import TimeUp, observable_weight
+
+    def out_of_time(*args, **kwargs):
+        raise TimeUp("candidate generation")
+
+    monkeypatch.setattr(ms, "model_data", out_of_time)
+    inst = random_tiny(4)
+    greedy = solve_greedy(inst, rng=np.random.default_rng(0)).schedule
+    warm = {"auto": "auto", "schedule": greedy, "none": "none"}[start]
+    res = solve_milp(inst, time_limit=2.0, warm_start=warm)
+    assert res.stats["timed_out"] == "candidates" and res.bound == observable_weight(inst)
+    assert validate(inst, res.schedule).feasible
+    if start == "none":
+        assert res.profit == 0
+    elif start == "schedule":
+        assert res.schedule == greedy and res.stats["returned"] == "warm_start"
+    else:
+        assert res.stats["returned"] == "asa-dtc" and res.profit > 0
+        assert res.runtime_s <= 2.0 + 1.0
+
+
 def test_no_stale_gap_between_solves() -> None:
     inst = random_tiny(7)
     solve_milp(inst, model="cluster", mip_gap=0.9)

@@ -66,6 +66,7 @@ def test_milp_keeps_its_limit_while_building(c10: Instance, limit: float) -> Non
     res = solve(c10, "milp", time_limit=limit)
     assert time.perf_counter() - t0 <= limit + _slack(limit), res.stats
     assert res.bound is not None and res.profit <= res.bound <= observable_weight(c10)
+    assert res.profit > 0  # without its model in time, ASA-DTC's schedule (was: empty)
 
 
 @pytest.mark.slow
