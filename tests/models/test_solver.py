@@ -126,6 +126,37 @@ def test_no_model_in_time_still_gives_a_schedule(
         assert res.runtime_s <= 2.0 + 1.0
 
 
+def test_time_the_milp_cannot_use_goes_to_the_search(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where HiGHS is not run (its model not foreseen to be built in the time left; C10 at
+    10 s returned its 1-s warm start after 3.4 s), the orbit search goes on from the warm
+    start until the deadline: never below it, valid, and the limit kept."""
+    import models.solve as ms
+
+    fits = ms.fits
+    monkeypatch.setattr(ms, "fits", lambda stage, n, d: stage != "build" and fits(stage, n, d))
+    inst = random_tiny(6)  # its warm start is below the cap: the MILP would be run
+    res = solve_milp(inst, time_limit=2.0, extra_bound="none", backend="highs")
+    assert res.stats["timed_out"] == "building" and "search_on_s" in res.stats
+    assert res.profit >= res.stats["search_on_profit"] >= 0
+    assert res.profit >= res.stats["start_profit"] - 1e-9
+    assert validate(inst, res.schedule).feasible and res.runtime_s <= 3.0
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_heuristic_start_goes_on_from_its_initial_items(seed: int) -> None:
+    from models.solve import heuristic_start, model_data
+    from sosp.schedule import items_to_schedule
+
+    inst = random_tiny(20 + seed)
+    data = model_data(inst)
+    first = heuristic_start(data, np.random.default_rng(seed), no_improve=5)
+    value = items_to_schedule(inst, data, first).coverage_profit(inst)[0]
+    more = heuristic_start(data, np.random.default_rng(seed + 1), no_improve=5, initial=first)
+    schedule = items_to_schedule(inst, data, more)
+    assert schedule.coverage_profit(inst)[0] >= value
+    assert validate(inst, schedule).feasible
+
+
 def test_no_stale_gap_between_solves() -> None:
     inst = random_tiny(7)
     solve_milp(inst, model="cluster", mip_gap=0.9)
