@@ -14,6 +14,7 @@ from heuristics.rds import orbit_resources_can_bind, pairwise_conflicts, russian
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.instance import Instance, Resources
 from sosp.result import Status
+from sosp.scenarios import generate_scenario
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
@@ -360,3 +361,22 @@ def test_rds_proves_the_milp_optimum(name: str, method: str, model: str) -> None
     milp = models_solve.solve_milp(inst, rng=np.random.default_rng(0), time_limit=300, model=model)
     assert milp.status is Status.OPTIMAL
     assert milp.profit == pytest.approx(rds.profit), (name, method)
+
+
+def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a 5,000-target instance the preparation before the search took 60 s under a 10 s
+    limit: the loops over conflict pairs read the clock (every ``PAIRS_PER_CHECK`` pairs),
+    fixing stops with nothing fixed, a component's search is not started, and the answer is
+    the fall-back decode, valid, within the limit."""
+    monkeypatch.setattr(rds_module, "PAIRS_PER_CHECK", 1)
+    inst = generate_scenario("B3", 0)
+    tasks = single_tasks(inst)
+    usable = list(range(len(tasks)))
+    late = iter([0.0] + [10.0] * 10**6).__next__  # the deadline (1.0) passes after a pair
+    fixed, rest = rds_module.fix_free_tasks(inst, tasks, usable, deadline=1.0, clock=late)
+    assert fixed == [] and rest == usable
+    with pytest.raises(rds_module._OutOfTime):
+        pairwise_conflicts(inst, tasks, usable, deadline=1.0, clock=lambda: 10.0)
+    out = russian_doll(inst, tasks, time_limit=1e-9)
+    assert not out.proven and out.value > 0 and out.bound >= out.value
+    assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
