@@ -18,15 +18,22 @@ if TYPE_CHECKING:
     import pyomo.environ as pyo
 
 
-def cluster_data(instance: Instance, deadline: float | None = None) -> ModelData:
+def cluster_data(
+    instance: Instance, deadline: float | None = None, generate_by: float | None = None
+) -> ModelData:
     """Items of the cluster model: the non-dominated candidate observations.
 
-    ``deadline`` (a :func:`time.perf_counter` value) stops the candidate generation with an
-    :class:`~sosp.errors.InputError` when it passes (see
-    :func:`sosp.candidates.cluster_candidates`), and raises :class:`models.data.TimeUp` when
-    arranging them would not end before it.
+    ``deadline`` (a :func:`time.perf_counter` value) stops the candidate generation with a
+    :class:`~sosp.errors.TimeLimitReached` when it passes (see
+    :func:`sosp.candidates.cluster_candidates`), or ``generate_by`` when it is given and
+    earlier, and raises :class:`models.data.TimeUp` when arranging them would not end before
+    ``deadline``.
     """
-    orbit, start, end, roll, opps = cluster_candidates(instance, deadline=deadline)
+    if generate_by is not None and deadline is not None:
+        generate_by = min(generate_by, deadline)
+    orbit, start, end, roll, opps = cluster_candidates(
+        instance, deadline=deadline if generate_by is None else generate_by
+    )
     if not fits("prepare", len(opps), deadline):
         raise TimeUp("no time left to arrange the candidates")
     return prepare("cluster", instance, orbit, start, end, roll, opps, coverage=True)

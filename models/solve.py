@@ -58,12 +58,16 @@ INT_TOL = 1e-6
 
 
 def model_data(
-    instance: Instance, model: str = "cluster", deadline: float | None = None
+    instance: Instance,
+    model: str = "cluster",
+    deadline: float | None = None,
+    generate_by: float | None = None,
 ) -> ModelData:
     """Prepare the data of ``model`` (``"task"``, ``"cluster"`` or ``"static"``).
 
     With a ``deadline`` (a :func:`time.perf_counter` value) the cluster model's candidate
-    generation stops when it passes, raising :class:`TimeUp`.
+    generation stops when it passes (or ``generate_by``, when given and earlier), raising
+    :class:`TimeUp`.
     """
     import importlib
 
@@ -74,7 +78,7 @@ def model_data(
     if model != "cluster" or deadline is None:
         return prep(instance)
     try:
-        return prep(instance, deadline=deadline)
+        return prep(instance, deadline=deadline, generate_by=generate_by)
     except TimeLimitReached:
         raise TimeUp("candidate generation") from None
 
@@ -481,8 +485,12 @@ def solve_milp(
     method = "milp"
     empty = Schedule(())
     stats: dict[str, Any] = {"model": model, "relax": bool(relax)}
+    # candidates not ready by half the limit leave the other half to a heuristic's schedule
+    # (a 20,000-target worldwide instance spent the whole limit generating them: the empty
+    # schedule); ready by then, the model goes on with the whole limit
+    generate_by = None if deadline is None else t0 + MODEL_SHARE * time_limit
     try:
-        data = model_data(instance, model, deadline)
+        data = model_data(instance, model, deadline, generate_by=generate_by)
     except TimeUp:
         # no model in time, so no MILP and no warm start over its items: the free bound, and
         # a schedule all the same (never worse than a heuristic)
@@ -676,6 +684,10 @@ def _search_on(
         return more, profit
     return start, start_profit
 
+
+#: Share of ``milp``'s time limit within which the cluster model's candidates must be
+#: generated; past it, :func:`_schedule_without_model` has the rest.
+MODEL_SHARE = 0.5
 
 #: The method that gives ``milp`` its schedule when the model cannot be built in time
 #: (:func:`_schedule_without_model`): it answers at any limit and on any instance.

@@ -97,6 +97,28 @@ def test_time_limit_applies_and_does_not_raise() -> None:
     assert res2.status is Status.OPTIMAL
 
 
+def test_candidates_get_half_the_limit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 20,000-target worldwide instance spent ``milp``'s whole limit generating the
+    model's candidates and returned the empty schedule: they get half of it, and past that
+    the other half goes to ASA-DTC's schedule."""
+    import models.solve as ms
+    from models.data import TimeUp
+
+    seen = {}
+
+    def out_of_time(instance, model, deadline, generate_by=None):
+        seen["rest"] = deadline - generate_by  # the other half of the limit
+        time.sleep(max(0.0, generate_by - time.perf_counter()))  # generating until then
+        raise TimeUp("candidate generation")
+
+    monkeypatch.setattr(ms, "model_data", out_of_time)
+    inst = random_tiny(4)
+    res = solve_milp(inst, time_limit=2.0)
+    assert seen["rest"] == pytest.approx((1 - ms.MODEL_SHARE) * 2.0)
+    assert res.stats["returned"] == "asa-dtc" and res.profit > 0
+    assert validate(inst, res.schedule).feasible and res.runtime_s <= 2.0 + 1.0
+
+
 @pytest.mark.parametrize("start", ["auto", "schedule", "none"])
 def test_no_model_in_time_still_gives_a_schedule(
     start: str, monkeypatch: pytest.MonkeyPatch
