@@ -400,9 +400,12 @@ def solve_milp_lns(
         current = list(warm_start.observations)
         start_name = "warm_start"
     else:
-        limit = p.start_time_limit
-        if deadline is not None:
-            limit = min(limit, 0.5 * left()) if limit is not None else 0.5 * left()
+
+        def share() -> float | None:  # the start's limit: capped at half of what is left
+            half = None if deadline is None else 0.5 * left()
+            return min((x for x in (p.start_time_limit, half) if x is not None), default=None)
+
+        limit = share()
         start_name = p.start
         try:
             first = method_function(p.start)(
@@ -420,10 +423,7 @@ def solve_milp_lns(
                 "milp-lns: no %s start in %.1f s (%s); starting from %s",
                 p.start, limit, str(exc).split(";")[0], FALLBACK_START,
             )  # fmt: skip
-            limit = p.start_time_limit
-            if deadline is not None:
-                limit = min(limit, 0.5 * left()) if limit is not None else 0.5 * left()
-            first = method_function(FALLBACK_START)(instance, rng=rng, time_limit=limit)
+            first = method_function(FALLBACK_START)(instance, rng=rng, time_limit=share())
             start_name = FALLBACK_START
         current = list(first.schedule.observations)
     weight = np.asarray(instance.target_weight, dtype=np.int64)

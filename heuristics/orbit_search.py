@@ -35,6 +35,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
@@ -300,6 +301,23 @@ class OrbitSearch:
             for o, path in zip(self.data.orbits, self.paths, strict=True)
             for u in path
         ]
+
+    def set_chosen(self, items: Sequence[int]) -> None:
+        """Make ``items`` (global candidate indices, as :meth:`chosen` gives them) the plans
+        of their orbits, to go on from (not journalled: nothing to undo to)."""
+        if not len(items):
+            return
+        orbits = self.data.orbits
+        flat = np.concatenate([o.items for o in orbits])
+        orbit_of = np.repeat(np.arange(len(orbits)), [len(o.items) for o in orbits])
+        position = np.concatenate([np.arange(len(o.items)) for o in orbits])
+        order = np.argsort(flat, kind="stable")
+        at = order[np.searchsorted(flat[order], np.asarray(items, dtype=np.int64))]
+        mark = len(self.journal)
+        for g in np.unique(orbit_of[at]):
+            # positions in time order: an orbit's items are sorted by start and end
+            self._set(int(g), np.sort(position[at[orbit_of[at] == g]]))
+        del self.journal[mark:]
 
     def schedule(self) -> Schedule:
         """The schedule of the current plans."""

@@ -109,7 +109,7 @@ from __future__ import annotations
 import logging
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -319,6 +319,17 @@ class _OutOfTime(Exception):
 PAIRS_PER_CHECK = 1 << 18
 
 
+def _pairs_in_time(
+    pairs: np.ndarray, deadline: float | None, clock: Callable[[], float]
+) -> Iterator[tuple[int, int]]:
+    """The rows of ``pairs`` as Python pairs, the clock read every :data:`PAIRS_PER_CHECK`
+    of them: past ``deadline`` it raises :class:`_OutOfTime`."""
+    for lo in range(0, len(pairs), PAIRS_PER_CHECK):
+        if deadline is not None and clock() > deadline:
+            raise _OutOfTime
+        yield from pairs[lo : lo + PAIRS_PER_CHECK].tolist()
+
+
 def pairwise_conflicts(
     instance: Instance,
     tasks: TaskSet,
@@ -350,14 +361,11 @@ def pairwise_conflicts(
     thin = set(int(j) for j in np.unique(orbit[foot < 4 * EPS]))
     pairs = setup_conflict_pairs(instance, orbit, tasks.start[idx], tasks.end[idx], tasks.roll[idx])
     conf: list[list[int]] = [[] for _ in items]
-    for lo in range(0, len(pairs), PAIRS_PER_CHECK):
-        if deadline is not None and clock() > deadline:
-            raise _OutOfTime
-        for u, v in pairs[lo : lo + PAIRS_PER_CHECK].tolist():
-            if int(orbit[u]) in thin:
-                continue
-            conf[u].append(v)
-            conf[v].append(u)
+    for u, v in _pairs_in_time(pairs, deadline, clock):
+        if int(orbit[u]) in thin:
+            continue
+        conf[u].append(v)
+        conf[v].append(u)
     return conf
 
 
@@ -403,12 +411,12 @@ def fix_free_tasks(
         instance, tasks.orbit[idx], tasks.start[idx], tasks.end[idx], tasks.roll[idx]
     )
     nbrs: dict[int, set[int]] = {int(t): set() for t in idx}
-    for lo in range(0, len(pairs), PAIRS_PER_CHECK):
-        if late():
-            return [], sorted(nbrs)
-        for u, v in pairs[lo : lo + PAIRS_PER_CHECK].tolist():
+    try:
+        for u, v in _pairs_in_time(pairs, deadline, clock):
             nbrs[int(idx[u])].add(int(idx[v]))
             nbrs[int(idx[v])].add(int(idx[u]))
+    except _OutOfTime:
+        return [], sorted(nbrs)
     alive = set(nbrs)
     covered: set[int] = set()
     fixed: list[int] = []

@@ -276,16 +276,7 @@ def heuristic_start(
     od = arranged if arranged is not None else with_rolls(data, data.roll)
     search = OrbitSearch(od, rng)
     if initial:
-        # each orbit's plan: the positions of its initial items (in time order, as the
-        # orbit's items are sorted by start and end)
-        items = np.concatenate([o.items for o in od.orbits])
-        orbit_of = np.repeat(np.arange(len(od.orbits)), [len(o.items) for o in od.orbits])
-        position = np.concatenate([np.arange(len(o.items)) for o in od.orbits])
-        order = np.argsort(items, kind="stable")
-        at = order[np.searchsorted(items[order], np.asarray(initial, dtype=np.int64))]
-        for g in np.unique(orbit_of[at]):
-            search._set(int(g), np.sort(position[at[orbit_of[at] == g]]))
-        search.journal.clear()
+        search.set_chosen(initial)
     search.ascent(deadline)
     best_profit, best_paths = search.profit, list(search.paths)
     params = OrbitSearchParams()
@@ -581,9 +572,7 @@ def solve_milp(
     elif deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "before the MILP"
     else:
-        # HiGHS overruns its limit a little and the solution is read back after it: keep a
-        # reserve (5 % of the limit, at most 0.5 s)
-        solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
+        solve_by = _solve_by(deadline, time_limit)
         side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
         try:
             kind, incumbent, raw_bound, chosen = _solve(
@@ -647,6 +636,15 @@ def solve_milp(
     else:
         status = Status.TIME_LIMIT
     return Result(method, status, schedule, profit, observed, runtime, bound, None, stats)
+
+
+def _solve_by(deadline: float | None, time_limit: float | None) -> float | None:
+    """When the last stage of :func:`solve_milp` must end: HiGHS overruns its limit a little
+    and the solution is read back after it, so a reserve is kept (5 % of the limit, at most
+    0.5 s)."""
+    if deadline is None or time_limit is None:
+        return None
+    return deadline - min(0.5, 0.05 * time_limit)
 
 
 #: Least time (seconds) :func:`_search_on` needs to be worth starting.
@@ -718,7 +716,7 @@ def _schedule_without_model(
         return Schedule(())
     if warm_start != "auto" or deadline is None or time_limit is None:
         return Schedule(())
-    left = deadline - min(0.5, 0.05 * time_limit) - time.perf_counter()
+    left = _solve_by(deadline, time_limit) - time.perf_counter()
     if left <= 0:
         return Schedule(())
     from sosp.solve import method_function
