@@ -20,7 +20,7 @@ from bisect import bisect_right
 from typing import Any, NamedTuple
 
 from sosp.instance import Instance
-from sosp.rules import EPS, OrbitRules, all_orbit_rules, orbit_rules
+from sosp.rules import EPS, OrbitRules, alone_ok_mask, orbit_rules
 
 __all__ = ["EPS", "Entry", "InsertCheck", "OrbitTimeline", "fits_alone"]
 
@@ -310,11 +310,5 @@ class OrbitTimeline:
 def fits_alone(instance: Instance, tasks: Any) -> list[bool]:
     """Per task of ``tasks`` (a :class:`sosp.clustering.TaskSet`), whether it fits its empty
     orbit: what :meth:`OrbitTimeline.check_insert` answers there, (6) c >= 1, (11), (4), (5)
-    (:meth:`sosp.rules.OrbitRules.alone_ok`)."""
-    rules = all_orbit_rules(instance)
-    return [
-        rules[j].alone_ok(s, e)
-        for j, s, e in zip(
-            tasks.orbit.tolist(), tasks.start.tolist(), tasks.end.tolist(), strict=True
-        )
-    ]
+    (:meth:`sosp.rules.OrbitRules.alone_ok`, by :func:`sosp.rules.alone_ok_mask`)."""
+    return alone_ok_mask(instance, tasks.orbit, tasks.start, tasks.end).tolist()

@@ -733,15 +733,18 @@ def _levels() -> Callable[..., tuple[float, np.ndarray]]:
 
 def compile_kernels() -> None:
     """Compile (or load) the suite's numba kernels now (the planner's recursion, the
-    candidates' cut to a stretch, :meth:`sosp.candidates.OrbitCandidates.within`, and the
-    window sweep, :func:`sosp.windows.compile_window_kernels`): :func:`sosp.solve.solve`
+    candidates' cut to a stretch, :meth:`sosp.candidates.OrbitCandidates.within`, the
+    window sweep, :func:`sosp.windows.compile_window_kernels`, and the (3) adjacency,
+    :func:`sosp.conflicts.setup_conflict_rows`): :func:`sosp.solve.solve`
     and :func:`models.solve.bound` call it before their clocks start, so a time limit is not
     spent on them, as it is not on imports."""
+    from sosp.conflicts import compile_conflict_kernel
     from sosp.windows import compile_window_kernels  # sosp.windows imports this module
 
     _levels()
     compile_within()
     compile_window_kernels()
+    compile_conflict_kernel()
 
 
 #: Bisection steps of :func:`plan_sequence` on its multiplier of (4)-(5).

@@ -220,6 +220,29 @@ class OrbitRules:
         return self.max_openings >= 1 and self.duration_ok(start, end) and self.fits(d, 0.0)
 
 
+def alone_ok_mask(instance: Any, orbit: Any, start: Any, end: Any) -> np.ndarray:
+    """:meth:`OrbitRules.alone_ok` of many observations at once: whether each window
+    ``[start, end]`` fits its empty orbit ``orbit`` (c >= 1, (11), (4), (5)), elementwise in
+    the same float arithmetic as the method (so the same answers)."""
+    o = np.asarray(orbit, dtype=np.int64)
+    start = np.asarray(start, dtype=float)
+    end = np.asarray(end, dtype=float)
+    d = end - start
+    energy = (
+        np.asarray(instance.observe_energy_rate, dtype=float)[o] * d
+        + np.asarray(instance.slew_energy_rate, dtype=float)[o] * 0.0
+    )
+    return (
+        (np.asarray(instance.max_openings)[o] >= 1)
+        & within_duration(start, end, np.asarray(instance.max_duration, dtype=float)[o])
+        & (
+            np.asarray(instance.memory_rate, dtype=float)[o] * d
+            <= np.asarray(instance.memory_capacity, dtype=float)[o] + EPS
+        )
+        & (energy <= np.asarray(instance.energy_capacity, dtype=float)[o] + EPS)
+    )
+
+
 _RULE_FIELDS = tuple(f.name for f in fields(OrbitRules))
 
 

@@ -15,15 +15,16 @@ energy than the orbit holds, or an orbit with c = 0) are dropped up front.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
-from sosp.conflicts import TooManyConflicts, setup_conflict_pairs
+from sosp.conflicts import TooManyConflicts, setup_conflict_rows
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.rules import OrbitRules, all_orbit_rules
+from sosp.rules import OrbitRules, all_orbit_rules, alone_ok_mask
 
 #: Most (3) conflict pairs between options ASA-DTC keeps as lists (about 80 bytes a pair in
 #: Python: 2 GB). C10 has 185,131; G100k (100,000 targets, 48 satellites) would need tens of
@@ -86,8 +87,8 @@ class Problem:
     unit_targets: list[tuple[int, ...]]
     unit_weight: list[float]
     target_weight: list[float]
-    conflicts: list[list[int]]
-    alternatives: list[list[int]]
+    conflicts: Sequence[list[int]]
+    alternatives: Sequence[list[int]]
     tasks: TaskSet
     migration_score: list[int]
     orbit_options: list[list[int]]
@@ -104,19 +105,55 @@ class Problem:
         return sum(1 for o in self.unit_options if o)
 
 
-def _conflict_lists(pairs: np.ndarray, usable: np.ndarray, n: int) -> list[list[int]]:
-    """Per option, the usable options it conflicts with, in the order of ``pairs`` (as
-    appending each pair's two ends in turn would give them).
+class ConflictLists(Sequence[list[int]]):
+    """Per option, the usable options it conflicts with by (3), ascending: a compressed
+    sparse row adjacency whose rows are made lists only when asked for.
 
-    One stable sort of the pairs' ends instead of a Python loop over the pairs: a
-    5,000-target instance of 24 satellites has 12.6 million, which the loop took about 10 s
-    to list (under the search's time limit)."""
-    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-    pairs = pairs[usable[pairs[:, 0]] & usable[pairs[:, 1]]]
-    src, dst = pairs.ravel(), pairs[:, ::-1].ravel()  # i0, h0, i1, h1 ... and h0, i0 ...
-    order = np.argsort(src, kind="stable")
-    counts = np.bincount(src, minlength=n)
-    return [part.tolist() for part in np.split(dst[order], np.cumsum(counts)[:-1])]
+    A 5,000-target instance of 24 satellites has 12.6 million conflict pairs; as Python lists
+    they took seconds to make (longer than short time limits) and gigabytes to hold, while
+    a search asks for a few thousand rows (the migration neighbourhood's step 3).
+
+    Parameters
+    ----------
+    indptr, indices
+        Row ``x`` is ``indices[indptr[x]:indptr[x + 1]]``.
+    """
+
+    __slots__ = ("indices", "indptr")
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray) -> None:
+        self.indptr = indptr
+        self.indices = indices
+
+    def __len__(self) -> int:
+        return len(self.indptr) - 1
+
+    def __getitem__(self, x: int) -> list[int]:  # type: ignore[override]
+        return self.indices[self.indptr[x] : self.indptr[x + 1]].tolist()
+
+    def degrees(self) -> np.ndarray:
+        """Per option, its number of conflicting options."""
+        return np.diff(self.indptr)
+
+
+class Alternatives(Sequence[list[int]]):
+    """Per option, its unit's other usable options (DTC and NONTC), made when asked for;
+    listing them for every option took seconds on instances of 200,000 opportunities."""
+
+    __slots__ = ("opt_unit", "unit_options")
+
+    def __init__(self, unit_options: list[list[int]], opt_unit: list[int]) -> None:
+        self.unit_options = unit_options
+        self.opt_unit = opt_unit
+
+    def __len__(self) -> int:
+        return len(self.opt_unit)
+
+    def __getitem__(self, x: int) -> list[int]:  # type: ignore[override]
+        opts = self.unit_options[self.opt_unit[x]]
+        if x not in opts:  # an unusable option has no alternatives
+            return []
+        return [y for y in opts if y != x]
 
 
 def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") -> Problem:
@@ -137,47 +174,57 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
     else:
         lo = instance.opp_roll_min.tolist()
         hi = instance.opp_roll_max.tolist()
-    usable = []
-    for x in range(n):
-        usable.append(orbits[orbit[x]].alone_ok(start[x], end[x]))
+    usable_mask = alone_ok_mask(instance, tasks.orbit, tasks.start, tasks.end)
+    usable_ids = np.flatnonzero(usable_mask)
     if mode == "stc":
         unit_of = list(range(n))
         unit_targets = [tuple(t) for t in tasks.targets]
-        unit_options = [[x] if usable[x] else [] for x in range(n)]
+        unit_options = [[x] if ok else [] for x, ok in enumerate(usable_mask.tolist())]
     else:
         unit_of = instance.opp_target.tolist()
         unit_targets = [(k,) for k in range(instance.n_targets)]
-        unit_options = [[] for _ in range(instance.n_targets)]
-        for x in range(n):
-            if usable[x]:
-                unit_options[unit_of[x]].append(x)
+        # each target's usable opportunities in index order: a stable sort by target
+        by_unit = usable_ids[np.argsort(instance.opp_target[usable_ids], kind="stable")]
+        counts = np.bincount(instance.opp_target[usable_ids], minlength=instance.n_targets)
+        unit_options = [part.tolist() for part in np.split(by_unit, np.cumsum(counts)[:-1])]
     tw = instance.target_weight.astype(float).tolist()
     unit_weight = [float(sum(tw[k] for k in ks)) for ks in unit_targets]
     try:
-        pairs = setup_conflict_pairs(
-            instance, tasks.orbit, tasks.start, tasks.end, tasks.roll, max_pairs=MAX_CONFLICTS
+        conflicts = ConflictLists(
+            *setup_conflict_rows(
+                instance,
+                tasks.orbit,
+                tasks.start,
+                tasks.end,
+                tasks.roll,
+                keep=usable_mask,
+                max_pairs=MAX_CONFLICTS,
+            )
         )
     except TooManyConflicts as exc:
         raise InputError(
             f"instance: {exc}: too large for ASA-DTC's conflict lists (use greedy or hpfs-stc)"
         ) from None
-    conflicts = _conflict_lists(pairs, np.asarray(usable, dtype=bool), n)
-    alternatives: list[list[int]] = [[] for _ in range(n)]
+    alternatives: Sequence[list[int]]
     if mode == "stc":
-        for x in range(n):
-            if not usable[x]:
-                continue
+        stc_alternatives: list[list[int]] = [[] for _ in range(n)]
+        usable = usable_mask.tolist()
+        for x in usable_ids.tolist():
             alt = set()
             for k in unit_targets[x]:
                 alt.update(t for t in tasks.target_tasks[k] if t != x and usable[t])
-            alternatives[x] = sorted(alt, key=lambda t: (-unit_weight[t], t))
+            stc_alternatives[x] = sorted(alt, key=lambda t: (-unit_weight[t], t))
+        alternatives = stc_alternatives
+        migrates = np.array([bool(a) for a in stc_alternatives], dtype=bool)
     else:
-        for opts in unit_options:
-            for x in opts:
-                alternatives[x] = [y for y in opts if y != x]
-    orbit_options: list[list[int]] = [[] for _ in orbits]
-    for x in sorted((x for x in range(n) if usable[x]), key=lambda y: (start[y], y)):
-        orbit_options[orbit[x]].append(x)
+        alternatives = Alternatives(unit_options, unit_of)
+        n_alone = np.array([len(o) for o in unit_options], dtype=np.int64)
+        migrates = usable_mask & (n_alone[np.asarray(unit_of, dtype=np.int64)] > 1)
+    # each orbit's usable options by (start, index)
+    by_start = usable_ids[np.lexsort((usable_ids, tasks.start[usable_ids]))]
+    by_start = by_start[np.argsort(tasks.orbit[by_start], kind="stable")]
+    per_orbit = np.bincount(tasks.orbit[by_start], minlength=len(orbits))
+    orbit_options = [part.tolist() for part in np.split(by_start, np.cumsum(per_orbit)[:-1])]
     return Problem(
         mode=mode,
         clustering=mode == "dtc",
@@ -196,7 +243,7 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         conflicts=conflicts,
         alternatives=alternatives,
         tasks=tasks,
-        migration_score=[len(conflicts[x]) if alternatives[x] else -1 for x in range(n)],
+        migration_score=np.where(migrates, conflicts.degrees(), -1).tolist(),
         orbit_options=orbit_options,
         replan_orbits=[j for j, opts in enumerate(orbit_options) if opts],
         instance=instance,

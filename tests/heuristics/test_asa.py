@@ -304,6 +304,34 @@ def test_initial_solution_keeps_only_improvements() -> None:
     assert _scheduled(state, inst) == {"a", "c"}
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=12), mode=st.sampled_from(["dtc", "stc", "nontc"]))
+def test_problem_rows_are_the_definitions(inst: Instance, mode: str) -> None:
+    """The problem's conflict rows, alternatives, migration scores and orbit options, made
+    from arrays, against their definitions written out over the tasks."""
+    from sosp.conflicts import setup_conflict_pairs
+    from sosp.rules import all_orbit_rules
+
+    pb = build_problem(inst, mode)
+    t = pb.tasks
+    rules = all_orbit_rules(inst)
+    n = len(t)
+    usable = [rules[t.orbit[x]].alone_ok(t.start[x], t.end[x]) for x in range(n)]
+    pairs = setup_conflict_pairs(inst, t.orbit, t.start, t.end, t.roll).tolist()
+    for x in range(n):
+        want = sorted({h for i, h in pairs if i == x} | {i for i, h in pairs if h == x})
+        assert pb.conflicts[x] == ([h for h in want if usable[h]] if usable[x] else [])
+        if mode != "stc":
+            same = [y for y in range(n) if usable[y] and pb.opt_unit[y] == pb.opt_unit[x]]
+            assert pb.alternatives[x] == ([y for y in same if y != x] if usable[x] else [])
+        expected = len(pb.conflicts[x]) if pb.alternatives[x] else -1
+        assert pb.migration_score[x] == expected
+    for j, opts in enumerate(pb.orbit_options):
+        on_j = [x for x in range(n) if usable[x] and t.orbit[x] == j]
+        assert opts == sorted(on_j, key=lambda y: (t.start[y], y))
+    assert len(pb.conflicts) == len(pb.alternatives) == n
+
+
 # ---------------------------------------------------------------------------- adaptive rules
 def test_neighbourhood_probabilities_17_18() -> None:
     """Sel = (6, 4), Suc = (3, 0): pro' = (0.8*0.5 + 0.2*3/6, 0.8*0.5 + 0) = (0.5, 0.4),

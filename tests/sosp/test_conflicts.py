@@ -146,3 +146,51 @@ def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch) -> None:
     with pytest.raises(conflicts.TooManyConflicts, match="more than 10 setup conflicts"):
         conflicts.setup_conflict_pairs(*args, max_pairs=10)
     assert len(conflicts.setup_conflict_pairs(*args, max_pairs=len(whole))) == len(whole)
+
+
+def rows_as_pairs(indptr: np.ndarray, indices: np.ndarray) -> set[tuple[int, int]]:
+    src = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+    return {(int(a), int(b)) for a, b in zip(src, indices, strict=True) if a < b}
+
+
+@settings(max_examples=200, deadline=None)
+@given(inst=instances(), seed=st.integers(0, 2**16))
+def test_conflict_rows_are_the_pairs_as_sorted_symmetric_rows(inst: Instance, seed: int) -> None:
+    from sosp.conflicts import setup_conflict_rows
+
+    t = single_tasks(inst)
+    rng = np.random.default_rng(seed)
+    keep = rng.random(len(t)) < 0.7
+    # items in any order (the sweep sorts them), each in the rows under its own index
+    perm = rng.permutation(len(t))
+    pos = np.argsort(perm)
+    cols = (t.orbit[perm], t.start[perm], t.end[perm], t.roll[perm])
+    indptr, indices = setup_conflict_rows(inst, *cols, keep=keep[perm])
+    assert len(indptr) == len(t) + 1
+    want = set()
+    for i, h in brute_pairs(inst):
+        if keep[i] and keep[h]:
+            a, b = int(pos[i]), int(pos[h])
+            want.add((min(a, b), max(a, b)))
+    assert rows_as_pairs(indptr, indices) == want
+    for x in range(len(t)):
+        row = indices[indptr[x] : indptr[x + 1]].tolist()
+        assert row == sorted({h for i, h in want if i == x} | {i for i, h in want if h == x})
+
+
+def test_conflict_rows_cap_raises_before_the_rows() -> None:
+    import pytest
+
+    from sosp.conflicts import TooManyConflicts, setup_conflict_rows
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
+    n_pairs = len(setup_conflict_pairs(*args))
+    assert n_pairs > 10
+    with pytest.raises(TooManyConflicts, match="more than 10 setup conflicts"):
+        setup_conflict_rows(*args, max_pairs=10)
+    indptr, indices = setup_conflict_rows(*args, max_pairs=n_pairs)
+    assert len(indices) == 2 * n_pairs and rows_as_pairs(indptr, indices) == set(
+        map(tuple, setup_conflict_pairs(*args).tolist())
+    )
