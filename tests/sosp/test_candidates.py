@@ -76,3 +76,29 @@ def test_within_on_a_real_orbit():
     ptr, flat = cands.within(opts[1:], n, t0, t1)
     assert 0 not in flat.tolist() and np.all(np.diff(ptr) > 0)
     assert _groups(ptr, flat) == _within_reference(cands, list(range(1, n)), t0, t1)
+
+
+def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline(
+    monkeypatch,
+) -> None:
+    """After the first orbit, the rest foreseen (at its rate) past the deadline: the error
+    comes at once, with the other orbits not generated; with room to spare, all are."""
+    import time
+
+    import pytest
+
+    import sosp.candidates as cands
+    from sosp.errors import TimeLimitReached
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    monkeypatch.setattr(cands, "FORESIGHT_AFTER_S", 0.0)
+    # a deadline far off, but a margin that foresees any rate as too slow for it
+    monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1e-12)
+    with pytest.raises(TimeLimitReached, match="foreseen"):
+        cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 3600.0)
+    made = [j for j in range(inst.n_orbits) if cands.cached_orbit_candidates(inst, j)]
+    assert made == [0]
+    monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1.25)
+    got = cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 3600.0)
+    assert len(got[0]) > 0 and inst.n_orbits > 2
