@@ -158,7 +158,7 @@ class Search:
         self.init_stats: dict[str, float] = {}
         if params.init in ("orbit-dp", "lp") and self.planner is not None:
             self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
-        initial_solution(state, params)
+        initial_solution(state, params, None if time_limit is None else t0 + time_limit)
         self.t_init = time.perf_counter() - t0
         self.best = state.profit
         self.best_snap = state.snapshot()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -301,6 +302,16 @@ def test_initial_solution_keeps_only_improvements() -> None:
     inst = tiny_chain()
     state, params = _state(inst)
     initial_solution(state, params)
+    assert _scheduled(state, inst) == {"a", "c"}
+
+
+def test_initial_solution_stops_at_its_deadline() -> None:
+    """Past its deadline the pass tries no task: the (empty) solution so far is kept."""
+    inst = tiny_chain()
+    state, params = _state(inst)
+    initial_solution(state, params, deadline=time.perf_counter() - 1.0)
+    assert _scheduled(state, inst) == set() and state.profit == 0
+    initial_solution(state, params, deadline=time.perf_counter() + 60.0)
     assert _scheduled(state, inst) == {"a", "c"}
 
 
