@@ -43,7 +43,7 @@ import numpy as np
 
 from sosp.candidates import CANDIDATE_MODES, candidate_mode
 from sosp.dist import dask_client
-from sosp.errors import InputError
+from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.progress import current as current_progress
@@ -542,11 +542,12 @@ def solve_orbit_dp(
         The one generator.
     time_limit
         Wall-time limit in seconds, candidate generation included (None: stop by
-        ``iterations`` / ``no_improve``). When the candidates are not complete by then, the
-        instance is too dense for this method in that time: :class:`InputError` (C10, the
-        densest reference scenario, needs about 5 s); so is an instance whose candidates
-        would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES`` (estimated before any is
-        generated; 3,000 targets in the C region take 0.4 GB).
+        ``iterations`` / ``no_improve``). With ``candidates="auto"`` (default), the search
+        plans over windows where the candidates would take more than
+        ``sosp.candidates.MAX_CANDIDATE_BYTES`` (estimated before any is generated; 3,000
+        targets in the C region take 0.4 GB) or are foreseen not to be complete by then
+        (:func:`sosp.candidates.cluster_candidates`); with ``candidates="explicit"`` both
+        are :class:`InputError` (C10, the densest reference scenario, needs about 5 s).
     **params
         Fields of :class:`OrbitSearchParams`.
 
@@ -566,12 +567,21 @@ def solve_orbit_dp(
         no_improve = DEFAULT_NO_IMPROVE
     mode = candidate_mode(instance, p.candidates)
     search: OrbitSearch
+    data: Any = None
+    if mode == "explicit":
+        try:
+            data = orbit_data(instance, deadline, workers=p.workers)
+            search = OrbitSearch(data, rng)
+        except TimeLimitReached as exc:
+            if p.candidates != "auto":
+                raise
+            # not ready in time (foreseen early: sosp.candidates): plan over windows, as
+            # where the candidates do not fit in memory
+            log.info("orbit-dp: planning over windows (%s)", str(exc).split(";")[0])
+            mode = "windows"
     if mode == "windows":
-        data: Any = WindowData.build(instance)
+        data = WindowData.build(instance)
         search = WindowSearch(data, rng)
-    else:
-        data = orbit_data(instance, deadline, workers=p.workers)
-        search = OrbitSearch(data, rng)
     t_data = time.perf_counter() - t0
     started: dict[str, Any] = {}
     if p.start == "lp" and data.orbits:

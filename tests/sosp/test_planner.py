@@ -431,9 +431,12 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
 
     with pytest.raises(TimeLimitReached, match="^orbit 'orbit0': time limit reached"):
         cluster_candidates(tiny_cluster(), deadline=time.perf_counter() - 1.0)
-    # orbit-dp passes its limit on: a limit too short for the candidates is that error
+    # orbit-dp asked for explicit candidates passes its limit on: a limit too short for
+    # them is that error; by default (auto) it plans over windows instead, and answers
     with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
-        solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)
+        solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9, candidates="explicit")
+    res = solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)  # validated by solve
+    assert res.stats["candidate_mode"] == "windows"
 
 
 def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
