@@ -438,7 +438,9 @@ def solve_milp_lns(
         try:  # the limit holds while generating them too (they stop at the deadline)
             candidates = cluster_candidates(instance, max_candidates=None, deadline=deadline)
         except TimeLimitReached:
-            pass  # no candidates: the start is the answer
+            # not ready by the deadline (foreseen: at once): the steps make window candidates
+            # for the orbits they free, as where the candidates do not fit in memory
+            windowed = True
     c_orbit, c_start, c_end, c_roll, c_opps = candidates
     by_orbit: dict[int, np.ndarray] = {}
     if len(c_opps):

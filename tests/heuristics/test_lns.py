@@ -221,6 +221,24 @@ def test_auto_plans_over_windows_where_the_candidates_do_not_fit(
     assert res.profit >= res.stats["start_profit"]
 
 
+def test_candidates_out_of_time_after_the_start_go_on_over_windows(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the candidates foreseen not ready by the deadline (20,000 targets at 10 s): the steps
+    # plan over windows instead of returning the start with the rest of the limit unused
+    import sosp.candidates as sc
+
+    def out_of_time(*args, **kwargs):
+        raise TimeLimitReached("time limit foreseen to be reached while generating ...")
+
+    monkeypatch.setattr(sc, "cluster_candidates", out_of_time)
+    inst = random_tiny(4)
+    res = solve(inst, "milp-lns", start="hpfs-stc", seed=0, iterations=6, time_limit=30)
+    assert res.stats["candidate_mode"] == "windows" and res.iterations == 6
+    assert validate(inst, res.schedule).feasible
+    assert res.profit >= res.stats["start_profit"]
+
+
 @pytest.mark.parametrize("seed", range(12))
 def test_windows_mode_valid_never_below_its_start_nor_above_the_optimum(seed: int) -> None:
     inst = random_tiny(200 + seed)
