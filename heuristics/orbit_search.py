@@ -525,6 +525,12 @@ def iterate(
     return IlsRun(best_profit, best_paths, first, steps, accepted, trace)
 
 
+#: ``candidates="auto"`` plans over windows when the candidates are not ready in time and at
+#: least this share of the limit is left (else the one-line error: D30 at 10 s ran out while
+#: arranging at the limit, and the windows then gave the empty schedule).
+WINDOWS_AFTER_SHARE = 0.25
+
+
 def solve_orbit_dp(
     instance: Instance,
     *,
@@ -573,8 +579,9 @@ def solve_orbit_dp(
             data = orbit_data(instance, deadline, workers=p.workers)
             search = OrbitSearch(data, rng)
         except TimeLimitReached as exc:
-            if p.candidates != "auto":
-                raise
+            left = 0.0 if deadline is None else deadline - time.perf_counter()
+            if p.candidates != "auto" or left < WINDOWS_AFTER_SHARE * float(time_limit or 0):
+                raise  # asked for, or too little time left for the windows either
             # not ready in time (foreseen early: sosp.candidates): plan over windows, as
             # where the candidates do not fit in memory
             log.info("orbit-dp: planning over windows (%s)", str(exc).split(";")[0])

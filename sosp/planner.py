@@ -55,7 +55,14 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import OppGroups, cluster_candidates, compile_within, flatten
+from sosp.candidates import (
+    FORESIGHT_AFTER_S,
+    FORESIGHT_MARGIN,
+    OppGroups,
+    cluster_candidates,
+    compile_within,
+    flatten,
+)
 from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
@@ -300,7 +307,8 @@ def _arrange(
     arrange (2.4 million about 3 s), and one dense orbit alone more than a second (D30's
     densest: 1.5 s), so the clock is read after each orbit and, before each orbit but the
     first, its time is foreseen at the rate of the orbits arranged so far; an orbit
-    foreseen to end past the deadline is not started."""
+    foreseen to end past the deadline is not started, and neither is the rest when it is
+    foreseen to need more than ``sosp.candidates.FORESIGHT_MARGIN`` times the time left."""
     opps = OppGroups.from_groups(opps)
     tgt = instance.opp_target
     groups: list[OrbitItems] = []
@@ -314,7 +322,15 @@ def _arrange(
             j = int(orbit[block[0]])
             if deadline is not None and done:
                 now = time.perf_counter()
-                if now + (now - t_first) / done * len(block) > deadline:
+                rate = (now - t_first) / done
+                if now + rate * len(block) > deadline:
+                    raise _arrange_time_up(instance, j, len(orbit))
+                # the whole rest, as candidate generation foresees it: given up at once
+                # (D30 at 10 s gave up at the deadline, 5 s after the foresight could)
+                left = len(orbit) - done
+                if now - t_first >= FORESIGHT_AFTER_S and rate * left > FORESIGHT_MARGIN * (
+                    deadline - now
+                ):
                     raise _arrange_time_up(instance, j, len(orbit))
             rj = orbit_rules(instance, j)
             slew_s = rj.slew(roll[block])

@@ -431,12 +431,26 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
 
     with pytest.raises(TimeLimitReached, match="^orbit 'orbit0': time limit reached"):
         cluster_candidates(tiny_cluster(), deadline=time.perf_counter() - 1.0)
-    # orbit-dp asked for explicit candidates passes its limit on: a limit too short for
-    # them is that error; by default (auto) it plans over windows instead, and answers
-    with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
-        solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9, candidates="explicit")
-    res = solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)  # validated by solve
-    assert res.stats["candidate_mode"] == "windows"
+    # orbit-dp passes its limit on: a limit too short for the candidates is that error
+    # (by default too: no time is left for the windows either)
+    for mode in ("explicit", "auto"):
+        with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
+            solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9, candidates=mode)
+
+
+def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monkeypatch) -> None:
+    """Candidates foreseen not ready with most of the limit left: by default orbit-dp plans
+    over windows (and answers); asked for explicit candidates, it is the one-line error."""
+    import sosp.candidates as cands
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    monkeypatch.setattr(cands, "FORESIGHT_AFTER_S", 0.0)
+    monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1e-12)  # any rate is too slow
+    res = solve(inst, "orbit-dp", seed=0, time_limit=60, iterations=2)  # validated by solve
+    assert res.stats["candidate_mode"] == "windows" and res.profit > 0
+    with pytest.raises(TimeLimitReached, match="foreseen"):
+        solve(inst, "orbit-dp", seed=0, time_limit=60, iterations=2, candidates="explicit")
 
 
 def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
@@ -451,6 +465,33 @@ def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
         orbit_data(inst, deadline=time.perf_counter() - 1.0)
     later = orbit_data(inst, deadline=time.perf_counter() + 60.0)
     assert [o.orbit for o in later.orbits] == [o.orbit for o in whole.orbits]
+
+
+def test_arranging_gives_up_at_once_when_the_rest_is_foreseen_past_the_deadline(
+    monkeypatch,
+) -> None:
+    """The second orbit would end before the deadline, but all the orbits left would not
+    (at the rate of the first): nothing more is started."""
+    import sosp.planner as planner
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    whole = orbit_data(inst)
+    sizes = [len(o.items) for o in whole.orbits]
+    assert len(sizes) > 3 and sum(sizes[2:]) > 2 * sizes[1]
+    clock = [0.0]
+    covered = planner._covered_targets
+
+    def work(opp_target, members):
+        clock[0] += len(members)
+        return covered(opp_target, members)
+
+    monkeypatch.setattr(planner, "_covered_targets", work)
+    monkeypatch.setattr(planner, "time", types.SimpleNamespace(perf_counter=lambda: clock[0]))
+    args = (inst, whole.orbit, whole.start, whole.end, whole.roll, whole.opps)
+    with pytest.raises(TimeLimitReached, match="time limit reached while arranging"):
+        planner._arrange(*args, deadline=sizes[0] + sizes[1] + 0.5)
+    assert clock[0] == sizes[0]
 
 
 @pytest.mark.parametrize("spare", [-0.5, 0.5])
