@@ -218,18 +218,23 @@ def test_lagrangian_past_the_milp_cap_prices_the_planners_candidates(
     assert optimum - 1e-9 <= out["bound"] <= observable_weight(inst)
 
 
+@pytest.mark.parametrize("windows_share", [0.25, 1.01])
 @pytest.mark.parametrize("method", ["colgen", "lagrangian", "auto"])
-def test_candidates_out_of_time_before_the_limit_give_the_cap(
-    method: str, monkeypatch: pytest.MonkeyPatch
+def test_candidates_out_of_time_before_the_limit_give_the_cap_or_windows(
+    method: str, windows_share: float, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The arranging does not start an orbit foreseen to end past the deadline, so the
     candidates' "time limit reached" can come before the limit. It is a
     :class:`TimeLimitReached`: the bounds answer with the cap (the observable weight), as
-    at the limit; before, ``colgen`` checked the clock and passed the error on (exit 2)."""
+    at the limit; before, ``colgen`` checked the clock and passed the error on (exit 2).
+    ``lagrangian`` and ``auto`` with a quarter of the limit left (``WINDOWS_AFTER_SHARE``)
+    answer with the window relaxation's bound instead, never above the cap nor below the
+    optimum."""
     import models.solve as ms
     import sosp.planner as sp
 
     inst = random_tiny(7)
+    monkeypatch.setattr(ms, "WINDOWS_AFTER_SHARE", windows_share)
 
     def out_of_time(*args, **kwargs):
         raise TimeLimitReached("orbit 'o': time limit reached while arranging (9)")
@@ -240,5 +245,11 @@ def test_candidates_out_of_time_before_the_limit_give_the_cap(
     monkeypatch.setattr(sp, "orbit_data", out_of_time)
     monkeypatch.setattr(ms, "model_data", too_many)
     out = bound(inst, method=method, time_limit=60)
-    assert out["source"] == "cap" and out["bound"] == observable_weight(inst)
-    assert out["runtime_s"] < 5
+    assert out["runtime_s"] < 5 and out["timed_out"] == "candidates"
+    if method == "colgen" or windows_share > 1:
+        assert out["source"] == "cap" and out["bound"] == observable_weight(inst)
+    else:
+        assert out["parts"]["windows"] >= out["bound"]
+        assert brute_force(inst, "cluster").profit - 1e-6 <= out["bound"]
+        assert out["bound"] <= observable_weight(inst)
+        assert out["source"] == ("cap" if out["bound"] == observable_weight(inst) else "windows")
