@@ -138,35 +138,34 @@ def _conflict_rows_py(
     ``(indptr, indices, pairs)``; with more than ``cap`` pairs, empty rows and the count."""
     n = len(order)
     deg = np.zeros(n + 1, dtype=np.int64)
+    indptr = deg
+    fill = deg[:-1]
+    indices = np.empty(0, dtype=np.int32)
     pairs = 0
-    for p in range(n):
-        i = order[p]
-        if not keep[i]:
-            continue
-        right = e[p] + a[p] + r[p] / v[p]
-        for q in range(p + 1, hi[p]):
-            h = order[q]
-            if keep[h] and right > (s[q] - r[q] / v[p]) + EPS:
-                deg[i + 1] += 1
-                deg[h + 1] += 1
-                pairs += 1
-    if pairs > cap:
-        return np.zeros(n + 1, dtype=np.int64), np.empty(0, dtype=np.int32), pairs
-    indptr = np.cumsum(deg)
-    fill = indptr[:-1].copy()
-    indices = np.empty(indptr[n], dtype=np.int32)
-    for p in range(n):
-        i = order[p]
-        if not keep[i]:
-            continue
-        right = e[p] + a[p] + r[p] / v[p]
-        for q in range(p + 1, hi[p]):
-            h = order[q]
-            if keep[h] and right > (s[q] - r[q] / v[p]) + EPS:
-                indices[fill[i]] = h
-                fill[i] += 1
-                indices[fill[h]] = i
-                fill[h] += 1
+    for counting in (True, False):  # the same sweep twice: count the rows, then fill them
+        for p in range(n):
+            i = order[p]
+            if not keep[i]:
+                continue
+            right = e[p] + a[p] + r[p] / v[p]
+            for q in range(p + 1, hi[p]):
+                h = order[q]
+                if keep[h] and right > (s[q] - r[q] / v[p]) + EPS:
+                    if counting:
+                        deg[i + 1] += 1
+                        deg[h + 1] += 1
+                        pairs += 1
+                    else:
+                        indices[fill[i]] = h
+                        fill[i] += 1
+                        indices[fill[h]] = i
+                        fill[h] += 1
+        if counting:
+            if pairs > cap:
+                return np.zeros(n + 1, dtype=np.int64), indices, pairs
+            indptr = np.cumsum(deg)
+            fill = indptr[:-1].copy()
+            indices = np.empty(indptr[n], dtype=np.int32)
     for x in range(n):
         indices[indptr[x] : indptr[x + 1]].sort()
     return indptr, indices, pairs
