@@ -154,7 +154,9 @@ def window_colgen_bound(
             # the rest of the limit would be spent for the cap (G100k: 170 s a round in
             # one process, 100 s left after the timed one)
             fits = time.perf_counter() + round_s <= deadline
-            if not fits:
+            if not fits and math.isinf(round_s):
+                log.info("window bound: the timed round did not end by the deadline")
+            elif not fits:
                 left = deadline - time.perf_counter()
                 log.info("window bound: a round takes about %.0f s, %.0f s left", round_s, left)
         seed: list[tuple[int, np.ndarray, float, float]] = []
@@ -218,15 +220,20 @@ def _first_band(
     generation is expected to converge before ``deadline``: :data:`ROOT_ROUNDS` rounds, each
     :data:`HALVING_COST` times longer per halving than one round at ``band`` (timed here, in
     this process, and divided among the ``workers``); with it, the expected seconds of one
-    of its rounds and the timed round's value (``L(p, 0)``, a bound like any round's).
+    of its rounds and the timed round's value (``L(p, 0)``, a bound like any round's). When
+    the timed round does not end by ``deadline``, both are infinite (no round fits).
 
     Why: refining a converged band (:func:`window_colgen_bound`) needs many rounds again, so
     when the time allows a finer band from the start, that is the tighter bound (D100, 600 s,
     two workers: 0.25 degrees from the start 27,004, 0.5 refined to 0.25 27,038).
     """
     t = time.perf_counter()
-    plans = _relaxed_plans(orbits, range(len(orbits)), p, np.zeros((len(orbits), 2)), band=band)
-    assert plans is not None  # no deadline given: every orbit is planned
+    zero = np.zeros((len(orbits), 2))
+    plans = _relaxed_plans(orbits, range(len(orbits)), p, zero, band=band, until=deadline)
+    if plans is None:
+        # the timed round alone passes the deadline (5,000 targets on 24 satellites: 5 s
+        # a round, and a 5 s limit ran to 6.2 s): no round, and no bound from it
+        return band, math.inf, math.inf
     cost = (time.perf_counter() - t) / min(parallelism(workers), max(1, len(orbits)))
     left = deadline - time.perf_counter()
     while band / 2 >= MIN_BAND and ROOT_ROUNDS * cost * HALVING_COST <= left:
