@@ -525,10 +525,18 @@ def iterate(
     return IlsRun(best_profit, best_paths, first, steps, accepted, trace)
 
 
-#: ``candidates="auto"`` plans over windows when the candidates are not ready in time and at
-#: least this share of the limit is left (else the one-line error: D30 at 10 s ran out while
-#: arranging at the limit, and the windows then gave the empty schedule).
-WINDOWS_AFTER_SHARE = 0.25
+#: With ``candidates="auto"`` and a time limit, the explicit candidates must be generated and
+#: arranged within this share of it, else the search plans over windows in the rest. Where
+#: they take longer, the windows win or the run failed: at 5, 10, 20 s, D30 (3,000 targets)
+#: windows 8842, 8886, 8894 against explicit 8810, exit 2, 8836; walker12-1500 at 5 s
+#: windows 8061 against exit 2 (at 10 and 20 s, where its candidates take 8.7 s, windows
+#: 8144 and 8322 against 8199 and 8363). Where they are quick (B10, C10) explicit is better.
+EXPLICIT_SHARE = 0.75
+
+#: ... and generated within this share of it (arranging them takes about as long again:
+#: D30 7.6 s and 8.2 s), so that the generation's foresight gives up early, with most of the
+#: limit left for the windows.
+GENERATE_SHARE = 0.4
 
 
 def solve_orbit_dp(
@@ -551,8 +559,10 @@ def solve_orbit_dp(
         ``iterations`` / ``no_improve``). With ``candidates="auto"`` (default), the search
         plans over windows where the candidates would take more than
         ``sosp.candidates.MAX_CANDIDATE_BYTES`` (estimated before any is generated; 3,000
-        targets in the C region take 0.4 GB) or are foreseen not to be complete by then
-        (:func:`sosp.candidates.cluster_candidates`); with ``candidates="explicit"`` both
+        targets in the C region take 0.4 GB) or are not generated within
+        :data:`GENERATE_SHARE` and arranged within :data:`EXPLICIT_SHARE` of the limit
+        (foreseen early:
+        :func:`sosp.candidates.cluster_candidates`); with ``candidates="explicit"`` both
         are :class:`InputError` (C10, the densest reference scenario, needs about 5 s).
     **params
         Fields of :class:`OrbitSearchParams`.
@@ -575,15 +585,18 @@ def solve_orbit_dp(
     search: OrbitSearch
     data: Any = None
     if mode == "explicit":
+        until = generate_by = deadline
+        if p.candidates == "auto" and time_limit is not None:
+            until = t0 + EXPLICIT_SHARE * float(time_limit)
+            generate_by = t0 + GENERATE_SHARE * float(time_limit)
         try:
-            data = orbit_data(instance, deadline, workers=p.workers)
+            data = orbit_data(instance, until, workers=p.workers, generate_by=generate_by)
             search = OrbitSearch(data, rng)
         except TimeLimitReached as exc:
-            left = 0.0 if deadline is None else deadline - time.perf_counter()
-            if p.candidates != "auto" or left < WINDOWS_AFTER_SHARE * float(time_limit or 0):
-                raise  # asked for, or too little time left for the windows either
-            # not ready in time (foreseen early: sosp.candidates): plan over windows, as
-            # where the candidates do not fit in memory
+            if p.candidates != "auto":
+                raise
+            # not ready within their share (foreseen early: sosp.candidates): plan over
+            # windows in the rest, as where the candidates do not fit in memory
             log.info("orbit-dp: planning over windows (%s)", str(exc).split(";")[0])
             mode = "windows"
     if mode == "windows":

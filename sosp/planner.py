@@ -244,6 +244,7 @@ def orbit_data(
     deadline: float | None = None,
     workers: Workers = 1,
     roll: Callable[[OppGroups], np.ndarray] | None = None,
+    generate_by: float | None = None,
 ) -> OrbitData:
     """Build :class:`OrbitData` from the cluster model's candidates.
 
@@ -264,14 +265,16 @@ def orbit_data(
         A rule giving each candidate another roll from its covered opportunities (as
         :func:`with_rolls`, without arranging the candidates twice); None: the nadir-closest
         point of their common range.
+    generate_by
+        An earlier deadline for the candidates' generation alone (the arranging keeps
+        ``deadline``); None: ``deadline``.
     """
+    by = deadline if generate_by is None else generate_by
     if local_processes(workers) > 1:
         from sosp.candidates import generate_in_processes
 
-        generate_in_processes(instance, local_processes(workers), deadline)
-    orbit, start, end, nadir, opps = cluster_candidates(
-        instance, max_candidates=None, deadline=deadline
-    )
+        generate_in_processes(instance, local_processes(workers), by)
+    orbit, start, end, nadir, opps = cluster_candidates(instance, max_candidates=None, deadline=by)
     rolls = nadir if roll is None else np.asarray(roll(opps), dtype=float)
     if rolls.shape != nadir.shape:
         raise ValueError(f"roll: expected {nadir.shape[0]} values, got {rolls.shape}")

@@ -431,16 +431,18 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
 
     with pytest.raises(TimeLimitReached, match="^orbit 'orbit0': time limit reached"):
         cluster_candidates(tiny_cluster(), deadline=time.perf_counter() - 1.0)
-    # orbit-dp passes its limit on: a limit too short for the candidates is that error
-    # (by default too: no time is left for the windows either)
-    for mode in ("explicit", "auto"):
-        with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
-            solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9, candidates=mode)
+    # orbit-dp asked for explicit candidates passes its limit on: a limit too short for them
+    # is that error; by default it plans over windows instead (and answers: validated)
+    with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
+        solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9, candidates="explicit")
+    res = solve(random_tiny(5), "orbit-dp", seed=0, time_limit=1e-9)
+    assert res.stats["candidate_mode"] == "windows"
 
 
 def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monkeypatch) -> None:
-    """Candidates foreseen not ready with most of the limit left: by default orbit-dp plans
-    over windows (and answers); asked for explicit candidates, it is the one-line error."""
+    """Candidates foreseen not ready within ``EXPLICIT_SHARE`` of the limit: by default
+    orbit-dp plans over windows (and answers); asked for explicit candidates, it is the
+    one-line error."""
     import sosp.candidates as cands
     from sosp.scenarios import generate_scenario
 
@@ -451,6 +453,17 @@ def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monke
     assert res.stats["candidate_mode"] == "windows" and res.profit > 0
     with pytest.raises(TimeLimitReached, match="foreseen"):
         solve(inst, "orbit-dp", seed=0, time_limit=60, iterations=2, candidates="explicit")
+
+
+def test_generation_has_its_own_earlier_deadline() -> None:
+    """``generate_by`` bounds the generation alone: past it, the generation's error, however
+    far the deadline (orbit-dp's ``auto`` gives the generation 40 % of its limit)."""
+    import time
+
+    now = time.perf_counter()
+    with pytest.raises(TimeLimitReached, match="time limit reached while generating"):
+        orbit_data(random_tiny(6), now + 60.0, generate_by=now - 1.0)
+    assert len(orbit_data(random_tiny(6), now + 60.0, generate_by=now + 60.0).orbits) >= 1
 
 
 def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
