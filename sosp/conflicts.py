@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sosp.instance import Instance
+from sosp.kernels import compiled
 from sosp.rules import EPS, left_end, right_end, slew_time
 
 #: Candidate pairs tested at once by :func:`setup_conflict_pairs` (bounds its working memory:
@@ -171,19 +172,16 @@ def _conflict_rows_py(
     return indptr, indices, pairs
 
 
-_CONFLICT_ROWS: Any = None
+#: :func:`_conflict_rows_py`'s numba signature.
+CONFLICT_ROWS_SIGNATURE = (
+    "Tuple((int64[::1], int32[::1], int64))(int64[::1], float64[::1], float64[::1], "
+    "float64[::1], float64[::1], float64[::1], int64[::1], boolean[::1], int64)"
+)
 
 
 def _conflict_rows() -> Any:
     """:func:`_conflict_rows_py` compiled by numba (one signature, cached on disk)."""
-    global _CONFLICT_ROWS
-    if _CONFLICT_ROWS is None:
-        from numba import njit
-
-        sig = "Tuple((int64[::1], int32[::1], int64))(int64[::1], float64[::1], float64[::1], "
-        sig += "float64[::1], float64[::1], float64[::1], int64[::1], boolean[::1], int64)"
-        _CONFLICT_ROWS = njit(sig, cache=True)(_conflict_rows_py)
-    return _CONFLICT_ROWS
+    return compiled(_conflict_rows_py, CONFLICT_ROWS_SIGNATURE)
 
 
 def setup_conflict_rows(

@@ -66,6 +66,7 @@ from sosp.candidates import (
 from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.kernels import compiled
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
 from sosp.stop import worker_signals
 
@@ -734,20 +735,17 @@ def _levels_py(
     return best_v, path[:count][::-1].copy()
 
 
-_LEVELS: Callable[..., tuple[float, np.ndarray]] | None = None
+#: :func:`_levels_py`'s numba signature.
+LEVELS_SIGNATURE = (
+    "Tuple((float64, int64[::1]))(float64[::1], float64[::1], float64[::1], "
+    "int64[::1], int64[::1], int64)"
+)
 
 
 def _levels() -> Callable[..., tuple[float, np.ndarray]]:
     """:func:`_levels_py` compiled by numba on first use (cached on disk: about 1.5 s the
     first time, then about 0.5 s a process to import numba and load it)."""
-    global _LEVELS
-    if _LEVELS is None:
-        from numba import njit
-
-        sig = "Tuple((float64, int64[::1]))(float64[::1], float64[::1], float64[::1], "
-        sig += "int64[::1], int64[::1], int64)"
-        _LEVELS = njit(sig, cache=True)(_levels_py)
-    return _LEVELS
+    return compiled(_levels_py, LEVELS_SIGNATURE)
 
 
 def compile_kernels() -> None:
