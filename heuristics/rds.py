@@ -983,6 +983,11 @@ def _coverage_value(instance: Instance, tasks: TaskSet, chosen: list[int]) -> in
     return int(sum(int(instance.target_weight[k]) for k in ks))
 
 
+#: Seconds per usable task kept back from the time limit for the work after the search
+#: (measured: about 1 s for 209,103 tasks on the 2-core machine), at most half the limit.
+FALLBACK_S_PER_TASK = 5e-6
+
+
 def russian_doll(
     instance: Instance,
     tasks: TaskSet,
@@ -1028,6 +1033,11 @@ def russian_doll(
     # Tasks that can never be scheduled: no weight, or infeasible alone ((4)-(6), (11)).
     alone = fits_alone(instance, tasks)
     usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
+    if deadline is not None:
+        # what follows the search when it is not proven (the fall-back decode of every
+        # task, the restriction to the tasks left) reads no clock: its time is kept back
+        # (20,000 targets, 209,103 tasks: about 1 s, and a 3 s limit ran to 4.04 s)
+        deadline -= min(0.5 * float(time_limit), FALLBACK_S_PER_TASK * len(usable))
     fixed: list[int] = []
     if reduce:
         fixed, back = fix_free_tasks(instance, tasks, usable, deadline, clock)

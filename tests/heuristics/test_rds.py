@@ -380,3 +380,28 @@ def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch) -> Non
     out = russian_doll(inst, tasks, time_limit=1e-9)
     assert not out.proven and out.value > 0 and out.bound >= out.value
     assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
+
+
+def test_the_work_after_the_search_has_its_time_kept_back(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The fall-back decode after an unproven search reads no clock (20,000 targets: about
+    1 s, and a 3 s limit ran to 4.04 s): the fixing and the search stop that much earlier,
+    ``FALLBACK_S_PER_TASK`` a usable task, at most half the limit."""
+    import time
+
+    inst = generate_scenario("B1", 0)
+    tasks = single_tasks(inst)
+    seen: list[float] = []
+    real = rds_module.fix_free_tasks
+
+    def spy(instance, tasks, usable, deadline, clock):
+        seen.append(deadline)
+        return real(instance, tasks, usable, deadline, clock)
+
+    monkeypatch.setattr(rds_module, "fix_free_tasks", spy)
+    for per_task, kept in ((0.0, 0.0), (1.0, 2.0)):  # none; half of the 4 s limit
+        monkeypatch.setattr(rds_module, "FALLBACK_S_PER_TASK", per_task)
+        t = time.perf_counter()
+        russian_doll(inst, tasks, time_limit=4.0)
+        assert t + 4.0 - kept - 0.05 <= seen[-1] <= time.perf_counter() + 4.0 - kept
