@@ -213,34 +213,17 @@ class OrbitRules:
         m = (m_cap - memory_used) / m_cap if m_cap > 0 else 0.0
         return e + m
 
-    def alone_ok(self, start: float, end: float) -> bool:
+    def alone_ok(self, start: Any, end: Any) -> Any:
         """Whether one observation [start, end] fits an empty orbit: c >= 1, (11), (4), (5)
-        (no slew: a lone observation has no consecutive pair)."""
+        (no slew: a lone observation has no consecutive pair). Elementwise on arrays, the
+        rules' fields included (:func:`alone_ok_mask`)."""
         d = end - start
-        return self.max_openings >= 1 and self.duration_ok(start, end) and self.fits(d, 0.0)
-
-
-def alone_ok_mask(instance: Any, orbit: Any, start: Any, end: Any) -> np.ndarray:
-    """:meth:`OrbitRules.alone_ok` of many observations at once: whether each window
-    ``[start, end]`` fits its empty orbit ``orbit`` (c >= 1, (11), (4), (5)), elementwise in
-    the same float arithmetic as the method (so the same answers)."""
-    o = np.asarray(orbit, dtype=np.int64)
-    start = np.asarray(start, dtype=float)
-    end = np.asarray(end, dtype=float)
-    d = end - start
-    energy = (
-        np.asarray(instance.observe_energy_rate, dtype=float)[o] * d
-        + np.asarray(instance.slew_energy_rate, dtype=float)[o] * 0.0
-    )
-    return (
-        (np.asarray(instance.max_openings)[o] >= 1)
-        & within_duration(start, end, np.asarray(instance.max_duration, dtype=float)[o])
-        & (
-            np.asarray(instance.memory_rate, dtype=float)[o] * d
-            <= np.asarray(instance.memory_capacity, dtype=float)[o] + EPS
+        return (
+            (self.max_openings >= 1)
+            & self.duration_ok(start, end)
+            & self.memory_ok(d)
+            & self.energy_ok(d, 0.0)
         )
-        & (energy <= np.asarray(instance.energy_capacity, dtype=float)[o] + EPS)
-    )
 
 
 _RULE_FIELDS = tuple(f.name for f in fields(OrbitRules))
@@ -251,6 +234,17 @@ def orbit_rules(instance: Any, orbit: int) -> OrbitRules:
     values = {name: float(getattr(instance, name)[orbit]) for name in _RULE_FIELDS}
     values["max_openings"] = int(values["max_openings"])
     return OrbitRules(**values)
+
+
+def alone_ok_mask(instance: Any, orbit: Any, start: Any, end: Any) -> np.ndarray:
+    """:meth:`OrbitRules.alone_ok` of many observations at once: whether each window
+    ``[start, end]`` fits its empty orbit ``orbit``, by the method itself over rules whose
+    fields are the observations' orbits' columns (so the same float arithmetic)."""
+    o = np.asarray(orbit, dtype=np.int64)
+    rules = OrbitRules(**{name: np.asarray(getattr(instance, name))[o] for name in _RULE_FIELDS})
+    return np.asarray(
+        rules.alone_ok(np.asarray(start, dtype=float), np.asarray(end, dtype=float)), dtype=bool
+    )
 
 
 def all_orbit_rules(instance: Any) -> tuple[OrbitRules, ...]:
