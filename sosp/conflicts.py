@@ -22,7 +22,7 @@ import numpy as np
 
 from sosp.instance import Instance
 from sosp.kernels import compiled
-from sosp.rules import EPS, left_end, right_end, slew_time
+from sosp.rules import EPS, left_end, may_precede, right_end, slew_time
 
 #: Candidate pairs tested at once by :func:`setup_conflict_pairs` (bounds its working memory:
 #: about 100 bytes a candidate).
@@ -63,7 +63,7 @@ def setup_conflict_pairs(
     n = np.asarray(orbit).size
     if n < 2:
         return np.empty((0, 2), dtype=np.int64)
-    order, s, e, r, a, v, hi = _sweep_order(instance, orbit, start, end, roll)
+    order, right, left, hi = _sweep_order(instance, orbit, start, end, roll)
     counts = np.maximum(hi - np.arange(n) - 1, 0)
     ends = np.cumsum(counts)
     found: list[np.ndarray] = []
@@ -81,10 +81,7 @@ def setup_conflict_pairs(
             first = np.repeat(idx, c)
             offsets = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
             second = first + 1 + offsets
-            vf = v[first]
-            clash = right_end(e[first], r[first], a[first], vf) > (
-                left_end(s[second], r[second], vf) + EPS
-            )
+            clash = ~may_precede(right[first], left[second])
             i, h = order[first[clash]], order[second[clash]]
             found.append(np.column_stack((np.minimum(i, h), np.maximum(i, h))))
             n_found += len(i)
@@ -100,8 +97,10 @@ def setup_conflict_pairs(
 def _sweep_order(
     instance: Instance, orbit: np.ndarray, start: np.ndarray, end: np.ndarray, roll: np.ndarray
 ) -> tuple[np.ndarray, ...]:
-    """The items sorted for the sweep (by orbit, start, end) and, per sorted item, its
-    columns and one past the last later item it may conflict with (binary search)."""
+    """The items sorted for the sweep (by orbit, start, end) and, per sorted item, the ends of
+    its (3) interval (``R`` by :func:`~sosp.rules.right_end`, ``L`` by
+    :func:`~sosp.rules.left_end`: u before w clashes unless ``may_precede(R_u, L_w)``) and
+    one past the last later item it may conflict with (binary search)."""
     orbit = np.asarray(orbit, dtype=np.int64)
     start = np.asarray(start, dtype=float)
     end = np.asarray(end, dtype=float)
@@ -113,21 +112,19 @@ def _sweep_order(
     # Per-orbit maximum |roll| bounds the partner's slew for the binary search.
     rmax = np.zeros(instance.n_orbits)
     np.maximum.at(rmax, o, r)
-    reach = right_end(e, r, a, v) + slew_time(rmax[o], v) + EPS
+    right = right_end(e, r, a, v)
+    reach = right + slew_time(rmax[o], v) + EPS
     # Search within each orbit's block: offset keys by orbit so blocks never mix.
     span = float(max(np.max(np.abs(s)), np.max(np.abs(reach)))) * 2.0 + 1.0
     key = o * span + s
     hi = np.searchsorted(key, o * span + reach, side="left")
-    return order, s, e, r, np.asarray(a, dtype=float), np.asarray(v, dtype=float), hi
+    return order, right, left_end(s, r, v), hi
 
 
 def _conflict_rows_py(
     order: np.ndarray,
-    s: np.ndarray,
-    e: np.ndarray,
-    r: np.ndarray,
-    a: np.ndarray,
-    v: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
     hi: np.ndarray,
     keep: np.ndarray,
     cap: int,
@@ -135,7 +132,8 @@ def _conflict_rows_py(
     """The (3) adjacency of the kept items as compressed sparse rows, each row ascending,
     from the sweep's columns (:func:`_sweep_order`): a counting pass, then a filling pass,
     so the memory is the rows' and nothing more. The test is :func:`setup_conflict_pairs`'s
-    in the same float arithmetic (``R_u > L_w + EPS``, u the earlier). Returns
+    on the same ends, ``not may_precede(R_u, L_w)`` (u the earlier), written out for numba.
+    Returns
     ``(indptr, indices, pairs)``; with more than ``cap`` pairs, empty rows and the count."""
     n = len(order)
     deg = np.zeros(n + 1, dtype=np.int64)
@@ -148,10 +146,9 @@ def _conflict_rows_py(
             i = order[p]
             if not keep[i]:
                 continue
-            right = e[p] + a[p] + r[p] / v[p]
             for q in range(p + 1, hi[p]):
                 h = order[q]
-                if keep[h] and right > (s[q] - r[q] / v[p]) + EPS:
+                if keep[h] and not right[p] <= left[q] + EPS:
                     if counting:
                         deg[i + 1] += 1
                         deg[h + 1] += 1
@@ -175,7 +172,7 @@ def _conflict_rows_py(
 #: :func:`_conflict_rows_py`'s numba signature.
 CONFLICT_ROWS_SIGNATURE = (
     "Tuple((int64[::1], int32[::1], int64))(int64[::1], float64[::1], float64[::1], "
-    "float64[::1], float64[::1], float64[::1], int64[::1], boolean[::1], int64)"
+    "int64[::1], boolean[::1], int64)"
 )
 
 
