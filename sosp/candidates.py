@@ -32,7 +32,7 @@ import itertools
 import logging
 import time
 import weakref
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import chain
 from typing import Any
@@ -403,42 +403,48 @@ FORESIGHT_MARGIN = 1.25
 FORESIGHT_AFTER_S = 0.1
 
 
-class _Pace:
-    """The foresight of :func:`cluster_candidates`: the orbits left to generate, foreseen at
-    the rate per opportunity of those generated so far (an orbit's generation time grows
-    with its opportunities, about one start each), against the deadline. Saves the time of
-    a generation that would end in :class:`~sosp.errors.TimeLimitReached` anyway: on a
-    20,000-target instance the whole deadline, half of ASA-DTC's time limit."""
+class Pace:
+    """The foresight of a stage that cannot answer in part (candidate generation, their
+    arranging, :mod:`sosp.planner`): the work left, foreseen at the rate of the work done
+    so far, against the deadline. Saves the time of a stage that would end in
+    :class:`~sosp.errors.TimeLimitReached` anyway: on a 20,000-target instance the whole
+    deadline, half of ASA-DTC's time limit.
 
-    def __init__(self, instance: Instance, deadline: float | None, todo: list[int]) -> None:
-        self.instance = instance
+    Time a unit of work with :meth:`begin` and :meth:`end`; :meth:`need` is the foreseen
+    seconds of more units, and :meth:`late` says whether they are foreseen to need more
+    than :data:`FORESIGHT_MARGIN` times the time left (only after
+    :data:`FORESIGHT_AFTER_S` of work: the first units are not yet a rate).
+    """
+
+    def __init__(
+        self, deadline: float | None, clock: Callable[[], float] = time.perf_counter
+    ) -> None:
         self.deadline = deadline
-        self.size = np.diff(instance.orbit_offsets)
-        self.left = int(self.size[todo].sum()) if todo else 0
-        self.todo = set(todo)
-        self.done_opps = 0
+        self.clock = clock
         self.spent = 0.0
-        self.t = 0.0
+        self.done = 0
+        self._t = 0.0
 
-    def check(self, j: int) -> None:
-        """Before orbit ``j``: raise when the orbits left cannot be done by the deadline."""
-        self.t = time.perf_counter()
-        if self.deadline is None or j not in self.todo or self.spent < FORESIGHT_AFTER_S:
-            return
-        need = self.spent / max(self.done_opps, 1) * self.left
-        if need > FORESIGHT_MARGIN * (self.deadline - self.t):
-            raise TimeLimitReached(
-                f"time limit foreseen to be reached while generating candidate observations "
-                f"(about {need:.1f} s left to generate, {self.deadline - self.t:.1f} s to "
-                "the deadline); give more time or use asa-dtc"
-            )
+    def begin(self) -> float:
+        """Start timing a unit; returns the time now."""
+        self._t = self.clock()
+        return self._t
 
-    def done(self, j: int) -> None:
-        """After orbit ``j``."""
-        if j in self.todo:
-            self.spent += time.perf_counter() - self.t
-            self.done_opps += int(self.size[j])
-            self.left -= int(self.size[j])
+    def end(self, units: int) -> None:
+        """The unit started by :meth:`begin` is done, ``units`` of work."""
+        self.spent += self.clock() - self._t
+        self.done += units
+
+    def need(self, units: int) -> float:
+        """Seconds foreseen for ``units`` more at the rate so far."""
+        return self.spent / max(self.done, 1) * units
+
+    def late(self, units: int, now: float) -> bool:
+        """Whether ``units`` more are foreseen to need more than :data:`FORESIGHT_MARGIN`
+        times the time from ``now`` to the deadline."""
+        if self.deadline is None or self.spent < FORESIGHT_AFTER_S:
+            return False
+        return self.need(units) > FORESIGHT_MARGIN * (self.deadline - now)
 
 
 def cluster_candidates(
@@ -475,12 +481,26 @@ def cluster_candidates(
         check_memory(instance)
     parts: list[OrbitCandidates] = []
     total = 0
-    pace = _Pace(instance, deadline, [j for j in range(instance.n_orbits) if j not in store])
+    # the foresight counts the orbits to generate (not those cached) by their opportunities
+    # (an orbit's generation time grows with them, about one start each)
+    size = np.diff(instance.orbit_offsets)
+    todo = [j for j in range(instance.n_orbits) if j not in store]
+    pace, opps_left = Pace(deadline), int(size[todo].sum())
     for j in range(instance.n_orbits):
         left = None if max_candidates is None else max_candidates - total
-        pace.check(j)
+        generated = j not in store
+        if generated:
+            now = pace.begin()
+            if pace.late(opps_left, now):
+                raise TimeLimitReached(
+                    "time limit foreseen to be reached while generating candidate observations "
+                    f"(about {pace.need(opps_left):.1f} s left to generate, "
+                    f"{deadline - now:.1f} s to the deadline); give more time or use asa-dtc"
+                )
         part = orbit_candidates(instance, j, deadline, left)
-        pace.done(j)
+        if generated:
+            pace.end(int(size[j]))
+            opps_left -= int(size[j])
         total += part.size
         parts.append(part)
     del part

@@ -55,14 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import (
-    FORESIGHT_AFTER_S,
-    FORESIGHT_MARGIN,
-    OppGroups,
-    cluster_candidates,
-    compile_within,
-    flatten,
-)
+from sosp.candidates import OppGroups, Pace, cluster_candidates, compile_within, flatten
 from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
@@ -321,20 +314,17 @@ def _arrange(
     if len(opps):
         order = np.lexsort((end, start, orbit))
         cuts = np.flatnonzero(np.diff(orbit[order])) + 1
-        t_first, done = time.perf_counter(), 0
+        pace = Pace(deadline, time.perf_counter)  # this module's clock (tests replace it)
         for block in np.split(order, cuts):
             j = int(orbit[block[0]])
-            if deadline is not None and done:
-                now = time.perf_counter()
-                rate = (now - t_first) / done
-                if now + rate * len(block) > deadline:
+            now = pace.begin()
+            if deadline is not None and pace.done:
+                # this orbit foreseen to end past the deadline, or (as candidate generation
+                # foresees it) the whole rest: given up at once (D30 at 10 s gave up at the
+                # deadline, 5 s after the foresight could)
+                if now + pace.need(len(block)) > deadline:
                     raise _arrange_time_up(instance, j, len(orbit))
-                # the whole rest, as candidate generation foresees it: given up at once
-                # (D30 at 10 s gave up at the deadline, 5 s after the foresight could)
-                left = len(orbit) - done
-                if now - t_first >= FORESIGHT_AFTER_S and rate * left > FORESIGHT_MARGIN * (
-                    deadline - now
-                ):
+                if pace.late(len(orbit) - pace.done, now):
                     raise _arrange_time_up(instance, j, len(orbit))
             rj = orbit_rules(instance, j)
             slew_s = rj.slew(roll[block])
@@ -369,7 +359,7 @@ def _arrange(
                     last_target=last_t,
                 )
             )
-            done += len(block)
+            pace.end(len(block))
             if deadline is not None and time.perf_counter() > deadline:
                 raise _arrange_time_up(instance, j, len(orbit))
     # per target, the orbits (positions in ``groups``, increasing) with a candidate seeing it
