@@ -74,7 +74,7 @@ def run(
     seed: int,
     time_limit: float,
     models: list[str],
-    threads: int,
+    threads: int | None,
     backend: str = "auto",
     heuristics: tuple[str, ...] = (),
 ) -> dict[str, Any]:
@@ -147,7 +147,9 @@ def run(
     return rec
 
 
-def run_proof(name: str, seed: int, time_limit: float, slew: str, threads: int) -> dict[str, Any]:
+def run_proof(
+    name: str, seed: int, time_limit: float, slew: str, threads: int | None
+) -> dict[str, Any]:
     """One proof attempt on the cluster model (direct backend) with the ``slew`` form."""
     inst = scenario(name, seed)
     res = solve_milp(
@@ -174,6 +176,7 @@ def run_proof(name: str, seed: int, time_limit: float, slew: str, threads: int) 
                 "start_profit",
                 "extra_bound",
                 "side_bound",
+                "side_yielded_s",
                 "raw_bound",
                 "start_from",
                 "start_s",
@@ -235,7 +238,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--time-limit", type=float, default=300.0, help="per MILP solve, seconds")
     p.add_argument("--models", nargs="*", default=["task", "cluster"])
-    p.add_argument("--threads", type=int, default=1)
+    p.add_argument(
+        "--threads", type=int, default=None, help="HiGHS threads (default: HiGHS's, as the CLI)"
+    )
     p.add_argument("--backend", default="auto", choices=("auto", "pyomo", "highs"))
     p.add_argument(
         "--heuristics", nargs="*", default=[], help="methods run first for the best known profit"

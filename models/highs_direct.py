@@ -45,7 +45,8 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Collection
+from collections.abc import Callable, Collection, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -562,11 +563,72 @@ def _stop_if_requested(event: Any) -> None:
         event.interrupt()
 
 
+#: Seconds between two calls of a :func:`watching_bound` listener.
+BOUND_WATCH_S = 0.5
+
+
+#: A :func:`watching_bound` listener: called with the MIP's dual bound (inf before one) and
+#: its incumbent's objective (-inf before one), it returns True to stop the solve.
+BoundListener = Callable[[float, float], bool]
+
+
+class _BoundWatch:
+    """A :func:`watching_bound` listener and when it may be called next."""
+
+    def __init__(self, listener: BoundListener) -> None:
+        self.listener = listener
+        self.next = 0.0
+        self.stop = False
+
+    def offer(self, dual_bound: float, primal: float) -> bool:
+        now = time.perf_counter()
+        if not self.stop and now >= self.next:
+            self.next = now + BOUND_WATCH_S
+            dual_bound = float(dual_bound) if np.isfinite(dual_bound) else np.inf
+            primal = float(primal) if np.isfinite(primal) else -np.inf
+            self.stop = bool(self.listener(dual_bound, primal))
+        return self.stop
+
+
+#: The listeners of :func:`watching_bound` blocks in hand, innermost last.
+_bound_watches: list[_BoundWatch] = []
+
+
+@contextmanager
+def watching_bound(listener: BoundListener | None) -> Iterator[None]:
+    """Within the block, the MIP solves of :func:`run_highs` (in this process or guarded)
+    hand their dual bound (HiGHS's ``mip_dual_bound``) and their incumbent's objective to
+    ``listener``, at most every :data:`BOUND_WATCH_S` seconds (a guarded solve's also while
+    HiGHS reports nothing, with the last values it reported); when it returns
+    True the solve is interrupted as at a time limit (with its incumbent and bound). Ambient,
+    as :mod:`sosp.progress`: only the MILP of :func:`models.solve.solve_milp` is watched, by
+    its side branch and price (:meth:`models.colgen.SideBound.watch`), not every solve the
+    call chain makes. None: nothing is watched."""
+    if listener is None:
+        yield
+        return
+    _bound_watches.append(_BoundWatch(listener))
+    try:
+        yield
+    finally:
+        _bound_watches.pop()
+
+
+def _offer_bound(dual_bound: float, primal: float) -> bool:
+    """Hand a MIP's bounds to the :func:`watching_bound` listener in hand; True: stop it."""
+    return bool(_bound_watches) and _bound_watches[-1].offer(dual_bound, primal)
+
+
 def _mip_check(event: Any) -> None:
     """HiGHS's MIP interrupt callback: report the node count to the solve's progress (its
-    time and rate; a sub-MILP's bounds are not the problem's, so none are reported), then
-    :func:`_stop_if_requested`."""
-    current_progress().update(int(event.data_out.mip_node_count), None)
+    time and rate; a sub-MILP's bounds are not the problem's, so none are reported) and the
+    dual bound to a :func:`watching_bound` listener, then :func:`_stop_if_requested`."""
+    d = event.data_out
+    current_progress().update(int(d.mip_node_count), None)
+    dual = float(d.mip_dual_bound)
+    # before its first dual bound HiGHS calls back within moments (models this small)
+    if np.isfinite(dual) and _offer_bound(dual, float(d.mip_primal_bound)):
+        event.interrupt()
     _stop_if_requested(event)
 
 
@@ -847,9 +909,13 @@ def _run_guarded(
     out: HighsOutcome | None = None
     try:
         while out is None:
-            if stop_requested() and not halt.is_set():
-                halt.set()
-                deadline = min(deadline, time.perf_counter())
+            # a watcher is asked also while HiGHS reports nothing (parts of its presolve):
+            # a side bound that proves the start must be able to stop it then too
+            primal = -np.inf if best is None else best[0]
+            watched = _offer_bound(np.inf if dual is None else dual, primal)
+            if (watched or stop_requested()) and not halt.is_set():
+                halt.set()  # the child stops as at its time limit, with what it has ...
+                deadline = min(deadline, time.perf_counter())  # ... or is stopped
             if time.perf_counter() > deadline + GUARD_GRACE_S:
                 log.info("HiGHS still running %.1f s after its deadline: stopped", GUARD_GRACE_S)
                 break

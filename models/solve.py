@@ -374,7 +374,12 @@ def solve_milp(
     3. an upper bound besides HiGHS's own (``extra_bound``: column generation then branch
        and price over the model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit);
        when it meets the warm start, the start is optimal and no MILP is built;
-    4. the MILP, started from the warm start.
+    4. the MILP, started from the warm start; with ``extra_bound="colgen"`` and a second
+       core, the branch and price goes on beside it in a child process
+       (:class:`models.colgen.SideBound`); it stops the MILP when its bound proves the MILP's
+       incumbent, and leaves its core to HiGHS's threads once the MILP's dual bound is below
+       its own. The bound before the MILP is then the column generation's root alone: the
+       branching is the side's.
 
     The schedule returned is never worse than the warm start, and the bound is the least of
     HiGHS's dual bound, the extra bound and the total weight of the targets the model's items
@@ -398,7 +403,7 @@ def solve_milp(
         Relative gap at which HiGHS stops (None: HiGHS default, 1e-4, which with integer weights
         below 10^4 total proves optimality).
     threads
-        HiGHS threads.
+        HiGHS threads (None: HiGHS's default, one search worker per core on this machine).
     warm_start
         ``"auto"`` (default): :func:`heuristic_start`; ``"none"`` (or None): no start; or a
         schedule, mapped to the model's variables (ignored with a warning when it does not fit
@@ -557,9 +562,14 @@ def solve_milp(
         stats["start_s"] = round(time.perf_counter() - t0, 6)
     upper = cap
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
+        # the branching is left to the side process when one will run: it starts its own
+        # column generation anyway, and on B10 the 10 % share spent branching first (60 s,
+        # 6188 -> 6184) was worth more to the MILP (600 s: 6142 / 6155 with it)
+        side_next = _side_possible(extra_bound, arranged, deadline, time_limit)
         extra, found = _extra_bound(
-            data, extra_bound, start_profit, deadline, time_limit, threads, arranged
-        )
+            data, extra_bound, start_profit, deadline, time_limit, threads, arranged,
+            branch=not side_next,
+        )  # fmt: skip
         if extra is not None:
             stats["extra_bound"] = extra
             upper = min(upper, extra)
@@ -573,12 +583,15 @@ def solve_milp(
         stats["timed_out"] = "before the MILP"
     else:
         solve_by = _solve_by(deadline, time_limit)
+        from models.highs_direct import watching_bound
+
         side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
         try:
-            kind, incumbent, raw_bound, chosen = _solve(
-                data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
-                slew, use_probing, backend, stats,
-            )  # fmt: skip
+            with watching_bound(None if side is None else side.watch):
+                kind, incumbent, raw_bound, chosen = _solve(
+                    data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
+                    slew, use_probing, backend, stats,
+                )  # fmt: skip
             # HiGHS did not run: its model would not be built, or presolved, in time
             idle = stats.get("timed_out") == "building" or stats.get("termination") == "not started"
             if idle and raw_bound is None and warm_start == "auto" and arranged is not None:
@@ -589,6 +602,10 @@ def solve_milp(
             if side is not None:
                 side_bound, found = side.finish()
                 stats["side_bound"] = _int_bound(side_bound)
+                if side.yielded_at is not None:
+                    stats["side_yielded_s"] = round(side.yielded_at - t0, 3)
+                if side.proved_at is not None:
+                    stats["side_proved_s"] = round(side.proved_at - t0, 3)
                 if stats["side_bound"] is not None:
                     upper = min(upper, stats["side_bound"])
                 start, start_profit = _adopt(data, found, start, start_profit, stats)
@@ -734,9 +751,11 @@ def _extra_bound(
     time_limit: float | None,
     threads: int | None,
     arranged: OrbitData | None,
+    branch: bool = True,
 ) -> tuple[float | None, tuple[Schedule, float] | None]:
     """The bound ``how`` of ``data``'s model within its share of the limit, and the schedule
-    (with its profit) the branch and price ended on, if any."""
+    (with its profit) the branch and price ended on, if any (``colgen``: the branching only
+    with ``branch``)."""
     limit = None
     if deadline is not None and time_limit is not None:
         limit = min(EXTRA_BOUND_SHARE * time_limit, deadline - time.perf_counter())
@@ -747,7 +766,7 @@ def _extra_bound(
         from models.colgen import colgen_bound
 
         # without a limit the branching could run for very long: the MILP decides then
-        out = colgen_bound(data.instance, branch=limit is not None, **common)
+        out = colgen_bound(data.instance, branch=branch and limit is not None, **common)
         found = (out["schedule"], float(out["profit"])) if "schedule" in out else None
         return float(out["bound"]), found
     if how == "lagrangian":
@@ -776,6 +795,19 @@ def _adopt(
     return start, start_profit
 
 
+def _side_possible(
+    how: str, arranged: OrbitData | None, deadline: float | None, time_limit: float | None
+) -> bool:
+    """Whether :func:`_side_bound` will start a side process after the bound before the MILP
+    (asked before it, which then leaves the branching to the side)."""
+    from models.colgen import SIDE_MIN_S, side_cores
+
+    if how != "colgen" or arranged is None or deadline is None or time_limit is None:
+        return False
+    left = deadline - time.perf_counter() - EXTRA_BOUND_SHARE * time_limit
+    return left >= SIDE_MIN_S and side_cores() >= 2
+
+
 def _side_bound(
     data: ModelData,
     how: str,
@@ -785,7 +817,8 @@ def _side_bound(
 ) -> Any:
     """A :class:`models.colgen.SideBound` running until ``deadline`` beside the MILP, or None:
     only with ``extra_bound="colgen"``, a deadline at least
-    :data:`models.colgen.SIDE_MIN_S` away and a second core."""
+    :data:`models.colgen.SIDE_MIN_S` away and a second core. The side yields its core to the
+    MILP once the MILP's bound is below its own (:meth:`~models.colgen.SideBound.yield_to`)."""
     from models.colgen import SIDE_MIN_S, SideBound, side_cores
 
     if how != "colgen" or arranged is None or deadline is None or side_cores() < 2:

@@ -261,6 +261,126 @@ def test_side_bound_stopped_early_keeps_a_valid_bound() -> None:
     assert got is None or got >= brute_force(inst, "cluster").profit
 
 
+def test_side_bound_yields_to_a_lower_milp_bound() -> None:
+    # the child stops once a MILP's bound is below its own (both rounded down); not before,
+    # and only once
+    from models.colgen import SideBound
+
+    inst = random_tiny(226)
+    side = SideBound(inst, orbit_data(inst), 30.0, None)
+    side.bound = 40.7
+    side._done = True  # what the child sent so far: 40.7
+    assert not side.yield_to(1e9)  # above: goes on
+    assert not side.yield_to(40.9)  # 40 after rounding down, as its own: goes on
+    assert side._proc.is_alive() and side.yielded_at is None
+    assert side.yield_to(39.99)
+    assert side.yielded_at is not None and not side._proc.is_alive()
+    first = side.yielded_at
+    assert side.yield_to(0.0) and side.yielded_at == first
+    got, _ = side.finish(wait=5.0)  # already stopped: its last bound
+    assert got == 40.7
+
+
+def test_side_bound_without_a_bound_does_not_yield() -> None:
+    from models.colgen import SideBound
+
+    inst = random_tiny(226)
+    side = SideBound(inst, orbit_data(inst), 30.0, None)
+    side.bound = None
+    side._done = True  # nothing read from the child: no bound shown
+    assert not side.yield_to(0.0)
+    side.finish(wait=0.0)
+
+
+def test_side_bound_watch_stops_the_milp_at_a_proven_incumbent() -> None:
+    from models.colgen import SideBound
+
+    inst = random_tiny(226)
+    side = SideBound(inst, orbit_data(inst), 30.0, None)
+    side.bound = 40.5
+    side._done = True  # what the child sent so far: 40.5
+    assert not side.watch(1e9, 39.0) and side.proved_at is None  # 39 < 40: not proven
+    assert not side.watch(1e9, -np.inf)  # no incumbent yet
+    assert side.watch(1e9, 40.0) and side.proved_at is not None  # stop the MILP
+    assert side.yielded_at is None  # ... and the child, proven right, is not stopped here
+    assert not side.watch(40.2, 39.0) and side.yielded_at is None  # not below its 40
+    assert not side.watch(39.2, 39.0) and side.yielded_at is not None  # the yield rule
+    side.finish(wait=0.0)
+
+
+def test_side_bound_watch_proves_the_start_before_highs_reports() -> None:
+    # the start the MILP was given (the child's lower bound) is proven as its incumbent
+    # would be, also before HiGHS has a bound or an incumbent (inf, -inf)
+    from models.colgen import SideBound
+
+    inst = random_tiny(226)
+    side = SideBound(inst, orbit_data(inst), 30.0, 40.0)
+    side.bound = 41.5
+    side._done = True
+    assert not side.watch(np.inf, -np.inf) and side.yielded_at is None  # 41 > 40
+    side.bound = 40.9
+    assert side.watch(np.inf, -np.inf) and side.proved_at is not None
+    assert not side.yield_to(np.inf)  # no MILP bound: nothing to yield to
+    side.finish(wait=0.0)
+
+
+def test_side_bound_watch_proves_the_schedule_the_child_ended_on() -> None:
+    # the child's branch and price ended on a schedule better than the MILP's start and
+    # incumbent, with its bound at that schedule's profit: the MILP is stopped
+    from models.colgen import SideBound
+
+    inst = random_tiny(226)
+    side = SideBound(inst, orbit_data(inst), 30.0, 30.0)
+    side.bound, side.found = 34.0, (None, 34.0)
+    side._done = True
+    assert side.watch(np.inf, 32.0) and side.proved_at is not None
+    side.finish(wait=0.0)
+
+
+def test_milp_stopped_when_its_side_bound_proves_the_incumbent(monkeypatch) -> None:
+    # the side's bound (here made to meet the optimum at once) reaches the MILP through
+    # models.highs_direct.watching_bound, which interrupts HiGHS: the answer is optimal
+    import models.colgen as colgen
+    import models.solve as msolve
+    from tests.models.test_highs_direct import _dense
+
+    def poll(self):  # the child has proven 124, the optimum
+        self.bound = 124.0
+        return self.bound
+
+    monkeypatch.setattr(colgen, "SIDE_MIN_S", 0.0)
+    monkeypatch.setattr(colgen, "side_cores", lambda: 2)
+    monkeypatch.setattr(colgen.SideBound, "poll", poll)
+    monkeypatch.setattr(msolve, "_extra_bound", lambda *a, **k: (1e6, None))
+    inst = _dense(2, n=80)
+    best = msolve.solve_milp(inst, extra_bound="none", backend="highs").schedule  # 124
+    res = msolve.solve_milp(inst, time_limit=20.0, backend="highs", warm_start=best)
+    assert res.stats["side_proved_s"] <= res.runtime_s
+    assert res.stats["termination"] == "Interrupted by user" and "side_yielded_s" not in res.stats
+    assert res.status == "optimal" and res.bound == validate(inst, res.schedule).profit == 124
+
+
+def test_milp_stops_its_side_bound_once_its_own_is_lower(monkeypatch) -> None:
+    # HiGHS's dual bound reaches the side process through models.highs_direct.watching_bound;
+    # below the branch and price's (here a loose one) the side stops
+    import models.colgen as colgen
+    import models.solve as msolve
+    from tests.models.test_highs_direct import _dense
+
+    def poll(self):  # the child's bound so far: a loose one
+        self.bound = 1e6 if self.bound is None else self.bound
+        return self.bound
+
+    monkeypatch.setattr(colgen, "SIDE_MIN_S", 0.0)
+    monkeypatch.setattr(colgen, "side_cores", lambda: 2)
+    monkeypatch.setattr(colgen.SideBound, "poll", poll)
+    monkeypatch.setattr(msolve, "_extra_bound", lambda *a, **k: (1e6, None))
+    inst = _dense(2, n=80)
+    res = msolve.solve_milp(inst, time_limit=20.0, backend="highs", warm_start="none")
+    assert res.stats["side_yielded_s"] <= res.runtime_s and "side_proved_s" not in res.stats
+    assert res.status == "optimal" and validate(inst, res.schedule).profit == res.profit == 124
+
+
 def test_milp_with_the_side_bound(monkeypatch) -> None:
     # the bound before the MILP gets no time, so the MILP runs with the side process beside
     # it; the answer is the oracle's optimum whichever of the two proves it

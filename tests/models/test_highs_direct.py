@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import time
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from hypothesis import strategies as st
 
 from heuristics.greedy import solve_greedy
 from models.cliques import clique_events, cliques_from_events, maximal_cliques
-from models.highs_direct import build_arrays
+from models.highs_direct import build_arrays, run_highs
 from models.solve import bound, choose_backend, model_data, solve_milp
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
@@ -236,3 +237,31 @@ def test_no_finite_bound_is_not_a_zero_gap() -> None:
         assert res.bound > res.profit and res.gap > 0
     else:
         assert res.bound >= res.profit
+
+
+def test_a_watcher_gets_the_mip_dual_bound() -> None:
+    # the dual bound of a MIP solved in this process, no lower than its optimum
+    from models.highs_direct import watching_bound
+
+    am = build_arrays(model_data(_dense(2, n=80), "cluster"), relax=False)
+    got: list[tuple[float, float]] = []
+    with watching_bound(lambda dual, primal: got.append((dual, primal)) or False):
+        out = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
+    assert out.status == "optimal" and got
+    assert all(primal <= out.objective <= dual + 1e-6 for dual, primal in got)
+    seen = len(got)
+    run_highs(am, deadline=time.perf_counter() + 30, guard=False)
+    assert len(got) == seen  # ... and only within the block
+
+
+def test_a_watcher_stops_the_mip() -> None:
+    # True from the listener interrupts HiGHS as a time limit would (its first call comes
+    # before this MIP is solved), with a valid incumbent and bound
+    from models.highs_direct import watching_bound
+
+    am = build_arrays(model_data(_dense(2, n=80), "cluster"), relax=False)
+    calls: list[float] = []
+    with watching_bound(lambda dual, primal: calls.append(dual) or True):
+        out = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
+    assert out.status == "time_limit" and len(calls) == 1
+    assert out.objective <= 124 <= out.bound  # the optimum, 124, in between

@@ -8,7 +8,16 @@ from typing import Any
 
 import numpy as np
 
-from models.highs_direct import GUARD_GRACE_S, _Lp, _run_guarded, build_arrays, run_highs
+from models.highs_direct import (
+    BOUND_WATCH_S,
+    GUARD_GRACE_S,
+    HighsOutcome,
+    _Lp,
+    _run_guarded,
+    build_arrays,
+    run_highs,
+    watching_bound,
+)
 from models.solve import model_data
 from tests.conftest import tiny_cluster
 
@@ -45,3 +54,47 @@ def test_a_hanging_solve_is_stopped_with_what_it_reported() -> None:
     assert 4.0 < took < 4.0 + GUARD_GRACE_S + 1.0  # stopped at the deadline, not waited for
     assert out.status == "time_limit" and out.info["guard_stopped"]
     assert out.objective == 5.0 and out.bound == 9.0 and out.x[0] == 1.0
+
+
+def test_a_guarded_solve_hands_its_dual_bound_to_the_watcher() -> None:
+    lp = _Lp.of(_model())
+    got: list[tuple[float, float]] = []
+    with watching_bound(lambda dual, primal: got.append((dual, primal)) or False):
+        _run_guarded(lp, time.perf_counter() + 4.0, {}, child=hanging_child)
+    # asked every BOUND_WATCH_S: nothing known before the child reports, then what it did
+    assert got[-1] == (9.0, 5.0) and set(got) <= {(np.inf, -np.inf), (9.0, 5.0)}
+    assert len(got) <= 4.0 / BOUND_WATCH_S + 2
+    seen = len(got)
+    _run_guarded(lp, time.perf_counter() + 4.0, {}, child=hanging_child)
+    assert len(got) == seen  # outside the block, nobody is told
+
+
+def halting_child(conn: Any, lp: _Lp, left: float, kwargs: dict, halt: Any) -> None:
+    """Reports a dual bound, then answers only when halted."""
+    conn.send(("progress", 3, 9.0))
+    halt.wait(60)
+    conn.send(("done", HighsOutcome("time_limit", "halted", None, 9.0, None, 0.0, 0.0, {})))
+
+
+def test_a_watcher_halts_a_guarded_solve() -> None:
+    lp = _Lp.of(_model())
+    t0 = time.perf_counter()
+    with watching_bound(lambda dual, primal: True):
+        out = _run_guarded(lp, t0 + 30.0, {}, child=halting_child)
+    assert out.model_status == "halted" and time.perf_counter() - t0 < 20.0
+
+
+def silent_child(conn: Any, lp: _Lp, left: float, kwargs: dict, halt: Any) -> None:
+    """Reports nothing and never returns (HiGHS in a presolve that reads no clock)."""
+    time.sleep(60)
+
+
+def test_a_watcher_stops_a_silent_guarded_solve() -> None:
+    # asked while the child reports nothing, a watcher's True stops it within the grace
+    lp = _Lp.of(_model())
+    got: list[tuple[float, float]] = []
+    t0 = time.perf_counter()
+    with watching_bound(lambda dual, primal: got.append((dual, primal)) or True):
+        out = _run_guarded(lp, t0 + 30.0, {}, child=silent_child)
+    assert time.perf_counter() - t0 < 2.0 + GUARD_GRACE_S
+    assert got == [(np.inf, -np.inf)] and out.info["guard_stopped"] and out.objective is None
