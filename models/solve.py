@@ -564,7 +564,8 @@ def solve_milp(
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
         # column generation anyway, and on B10 the 10 % share spent branching first (60 s,
-        # 6188 -> 6184) was worth more to the MILP (600 s: 6142 / 6155 with it)
+        # 6188 -> 6184) was worth more to the MILP (600 s: 6142 / 6155 with it, 6146 / 6155
+        # without)
         side_next = _side_possible(extra_bound, arranged, deadline, time_limit)
         extra, found = _extra_bound(
             data, extra_bound, start_profit, deadline, time_limit, threads, arranged,

@@ -337,24 +337,31 @@ def test_side_bound_watch_proves_the_schedule_the_child_ended_on() -> None:
     side.finish(wait=0.0)
 
 
-def test_milp_stopped_when_its_side_bound_proves_the_incumbent(monkeypatch) -> None:
-    # the side's bound (here made to meet the optimum at once) reaches the MILP through
-    # models.highs_direct.watching_bound, which interrupts HiGHS: the answer is optimal
+def _side_says(monkeypatch, bound: float) -> None:
+    """The MILP runs with a side process (no bound first spares it) whose bound is ``bound``."""
     import models.colgen as colgen
     import models.solve as msolve
-    from tests.models.test_highs_direct import _dense
 
-    def poll(self):  # the child has proven 124, the optimum
-        self.bound = 124.0
-        return self.bound
+    def poll(self):
+        self.bound = bound
+        return bound
 
     monkeypatch.setattr(colgen, "SIDE_MIN_S", 0.0)
     monkeypatch.setattr(colgen, "side_cores", lambda: 2)
     monkeypatch.setattr(colgen.SideBound, "poll", poll)
     monkeypatch.setattr(msolve, "_extra_bound", lambda *a, **k: (1e6, None))
+
+
+def test_milp_stopped_when_its_side_bound_proves_the_incumbent(monkeypatch) -> None:
+    # the side's bound (the optimum, 124) reaches the MILP through
+    # models.highs_direct.watching_bound, which interrupts HiGHS: the answer is optimal
+    from models.solve import solve_milp
+    from tests.models.test_highs_direct import _dense
+
     inst = _dense(2, n=80)
-    best = msolve.solve_milp(inst, extra_bound="none", backend="highs").schedule  # 124
-    res = msolve.solve_milp(inst, time_limit=20.0, backend="highs", warm_start=best)
+    best = solve_milp(inst, extra_bound="none", backend="highs").schedule  # 124
+    _side_says(monkeypatch, 124.0)
+    res = solve_milp(inst, time_limit=20.0, backend="highs", warm_start=best)
     assert res.stats["side_proved_s"] <= res.runtime_s
     assert res.stats["termination"] == "Interrupted by user" and "side_yielded_s" not in res.stats
     assert res.status == "optimal" and res.bound == validate(inst, res.schedule).profit == 124
@@ -363,20 +370,12 @@ def test_milp_stopped_when_its_side_bound_proves_the_incumbent(monkeypatch) -> N
 def test_milp_stops_its_side_bound_once_its_own_is_lower(monkeypatch) -> None:
     # HiGHS's dual bound reaches the side process through models.highs_direct.watching_bound;
     # below the branch and price's (here a loose one) the side stops
-    import models.colgen as colgen
-    import models.solve as msolve
+    from models.solve import solve_milp
     from tests.models.test_highs_direct import _dense
 
-    def poll(self):  # the child's bound so far: a loose one
-        self.bound = 1e6 if self.bound is None else self.bound
-        return self.bound
-
-    monkeypatch.setattr(colgen, "SIDE_MIN_S", 0.0)
-    monkeypatch.setattr(colgen, "side_cores", lambda: 2)
-    monkeypatch.setattr(colgen.SideBound, "poll", poll)
-    monkeypatch.setattr(msolve, "_extra_bound", lambda *a, **k: (1e6, None))
+    _side_says(monkeypatch, 1e6)
     inst = _dense(2, n=80)
-    res = msolve.solve_milp(inst, time_limit=20.0, backend="highs", warm_start="none")
+    res = solve_milp(inst, time_limit=20.0, backend="highs", warm_start="none")
     assert res.stats["side_yielded_s"] <= res.runtime_s and "side_proved_s" not in res.stats
     assert res.status == "optimal" and validate(inst, res.schedule).profit == res.profit == 124
 
