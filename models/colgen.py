@@ -928,11 +928,13 @@ def _side_child(
 class SideBound:
     """Column generation and branch and price in a child process, beside a MILP.
 
-    HiGHS's MILP runs on one core, and on dense instances its dual bound moves little once
-    its root is solved (C5: 540 s of MILP left the branch and price's 60 s bound as it was),
-    while on others (B10, the openings cap binding) the MILP's cuts give the better bound.
-    Run side by side on two cores, the least of the two bounds is valid and needs no choice
-    between them. The child is started with ``spawn`` (as HiGHS's guarded solves,
+    On dense instances the MILP's dual bound moves little once its root is solved (C5: 540 s
+    of MILP left the branch and price's 60 s bound as it was), while on others (B10, the
+    openings cap binding) the MILP's cuts give the better bound. Run side by side, the least
+    of the two bounds is valid and needs no choice between them beforehand; while the MILP
+    runs, :meth:`watch` stops it when the child's bound proves a schedule optimal, and stops
+    the child when the MILP's bound is the better one (:meth:`yield_to`). The child is
+    started with ``spawn`` (as HiGHS's guarded solves,
     :func:`models.highs_direct._run_guarded`) and sends its bound whenever it falls by a
     unit, so stopping it at any time leaves a valid bound with the parent.
 
@@ -947,11 +949,7 @@ class SideBound:
     """
 
     def __init__(
-        self,
-        instance: Instance,
-        data: OrbitData,
-        seconds: float,
-        lower_bound: float | None,
+        self, instance: Instance, data: OrbitData, seconds: float, lower_bound: float | None
     ) -> None:
         import multiprocessing as mp
 
@@ -967,8 +965,8 @@ class SideBound:
         self.lower_bound = lower_bound
         #: :func:`time.perf_counter` when :meth:`yield_to` stopped the child (else None).
         self.yielded_at: float | None = None
-        #: :func:`time.perf_counter` when :meth:`watch` first found the MILP's incumbent
-        #: proven by the child's bound (else None).
+        #: :func:`time.perf_counter` when :meth:`watch` first found the child's bound to
+        #: prove a schedule optimal (the MILP's incumbent, its start or its own; else None).
         self.proved_at: float | None = None
         self._done = False
         self._stopped = False
