@@ -256,17 +256,25 @@ def test_no_opportunities_is_optimal_and_empty() -> None:
         assert res.status is Status.OPTIMAL and res.profit == 0 and len(res.schedule) == 0
 
 
-def test_through_sosp_solve_with_params() -> None:
+def test_through_sosp_solve_with_params(monkeypatch) -> None:
+    import models.colgen as colgen
+
+    monkeypatch.setattr(colgen, "side_cores", lambda: 2)  # as on the 2-core machine
     inst = tiny_cluster()
     res = solve(inst, "milp", model="cluster", mip_gap=0.0, threads=1, time_limit=30)
     assert res.status is Status.OPTIMAL and res.profit == 11
     assert res.schedule.method == "milp"
     # the warm start observes every target: proven without building the MILP
     assert res.stats["proven_by"] == "cap" and "variables" not in res.stats
-    # without a start the branch and price ends on an integral node: proven, no MILP either
-    res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=30, warm_start="none")
+    # without a start and no side process to come (less than SIDE_MIN_S left) the branch and
+    # price before the MILP ends on an integral node: proven, no MILP either
+    res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=10, warm_start="none")
     assert res.status is Status.OPTIMAL and res.profit == 11
     assert res.stats["start_from"] == "branch_and_price" and "variables" not in res.stats
+    # with one to come, the branching is the side's and the MILP is built
+    res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=30, warm_start="none")
+    assert res.status is Status.OPTIMAL and res.profit == 11
+    assert res.stats["variables"] > 0
     res = solve(
         inst, "milp", mip_gap=0.0, threads=1, time_limit=30, warm_start="none",
         extra_bound="none",
