@@ -566,7 +566,9 @@ def solve_milp(
         # column generation anyway, and on B10 the 10 % share spent branching first (60 s,
         # 6188 -> 6184) was worth more to the MILP (600 s: 6142 / 6155 with it, 6146 / 6155
         # without)
-        side_next = _side_possible(extra_bound, arranged, deadline, time_limit)
+        side_next = time_limit is not None and _side_possible(
+            extra_bound, arranged, deadline, EXTRA_BOUND_SHARE * time_limit
+        )
         extra, found = _extra_bound(
             data, extra_bound, start_profit, deadline, time_limit, threads, arranged,
             branch=not side_next,
@@ -797,16 +799,17 @@ def _adopt(
 
 
 def _side_possible(
-    how: str, arranged: OrbitData | None, deadline: float | None, time_limit: float | None
+    how: str, arranged: OrbitData | None, deadline: float | None, reserve_s: float = 0.0
 ) -> bool:
-    """Whether :func:`_side_bound` will start a side process after the bound before the MILP
-    (asked before it, which then leaves the branching to the side)."""
+    """Whether a side process runs beside the MILP (:func:`_side_bound`): only with
+    ``extra_bound="colgen"``, a deadline at least :data:`models.colgen.SIDE_MIN_S` away
+    after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
+    leaves the branching to the side) and a second core."""
     from models.colgen import SIDE_MIN_S, side_cores
 
-    if how != "colgen" or arranged is None or deadline is None or time_limit is None:
+    if how != "colgen" or arranged is None or deadline is None:
         return False
-    left = deadline - time.perf_counter() - EXTRA_BOUND_SHARE * time_limit
-    return left >= SIDE_MIN_S and side_cores() >= 2
+    return deadline - time.perf_counter() - reserve_s >= SIDE_MIN_S and side_cores() >= 2
 
 
 def _side_bound(
@@ -816,17 +819,15 @@ def _side_bound(
     lower: float,
     deadline: float | None,
 ) -> Any:
-    """A :class:`models.colgen.SideBound` running until ``deadline`` beside the MILP, or None:
-    only with ``extra_bound="colgen"``, a deadline at least
-    :data:`models.colgen.SIDE_MIN_S` away and a second core. The side yields its core to the
-    MILP once the MILP's bound is below its own (:meth:`~models.colgen.SideBound.yield_to`)."""
-    from models.colgen import SIDE_MIN_S, SideBound, side_cores
+    """A :class:`models.colgen.SideBound` running until ``deadline`` beside the MILP, or None
+    (:func:`_side_possible`). The side yields its core to the MILP once the MILP's bound is
+    below its own (:meth:`~models.colgen.SideBound.yield_to`)."""
+    from models.colgen import SideBound
 
-    if how != "colgen" or arranged is None or deadline is None or side_cores() < 2:
+    if not _side_possible(how, arranged, deadline):
         return None
+    assert arranged is not None and deadline is not None
     left = deadline - time.perf_counter()
-    if left < SIDE_MIN_S:
-        return None
     return SideBound(data.instance, arranged, left, lower if lower > 0 else None)
 
 
