@@ -403,7 +403,8 @@ def solve_milp(
         Relative gap at which HiGHS stops (None: HiGHS default, 1e-4, which with integer weights
         below 10^4 total proves optimality).
     threads
-        HiGHS threads (None: HiGHS's default, one search worker per core on this machine).
+        HiGHS threads (None: HiGHS's default; HiGHS 1.16 then runs one MIP search worker per
+        core).
     warm_start
         ``"auto"`` (default): :func:`heuristic_start`; ``"none"`` (or None): no start; or a
         schedule, mapped to the model's variables (ignored with a warning when it does not fit
