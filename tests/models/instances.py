@@ -127,3 +127,23 @@ def scenario_tiny(count: int, hours: float, seed: int) -> Instance:
     return custom_scenario(
         region=(30.0, 32.0, 110.0, 112.0), count=count, hours=hours, seed=seed, name="tiny"
     )
+
+
+def random_dense(seed: int, n: int = 40, n_orbits: int = 2) -> Instance:
+    """A random instance too large for the oracle (dense windows: many overlapping cliques)."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for k in range(n):
+        s = float(np.round(rng.uniform(0, 300), 1))
+        d = float(np.round(rng.uniform(1, 15), 1))
+        roll = float(np.round(rng.uniform(-30, 30), 1))
+        rows.append((int(rng.integers(n // 2)), k % n_orbits, s, s + d, roll, roll - 4, roll + 4))
+    res = Resources(
+        energy_capacity=float(rng.choice([1500.0, 150.0])),
+        memory_capacity=float(rng.choice([1000.0, 60.0])),
+        max_openings=int(rng.choice([10, 4])),
+        setup_time=float(rng.choice([10.0, 2.0])),
+        max_duration=30.0,
+    )
+    weights = [int(w) for w in rng.integers(1, 11, size=n // 2)]
+    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"dense{seed}")

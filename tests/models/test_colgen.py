@@ -21,7 +21,7 @@ from sosp.planner import orbit_data
 from sosp.solve import bound_function, solve
 from sosp.validate import validate
 from tests.conftest import small_instances
-from tests.models.instances import random_tiny
+from tests.models.instances import random_dense, random_tiny
 from tests.oracle import brute_force
 
 
@@ -356,9 +356,8 @@ def test_milp_stopped_when_its_side_bound_proves_the_incumbent(monkeypatch) -> N
     # the side's bound (the optimum, 124) reaches the MILP through
     # models.highs_direct.watching_bound, which interrupts HiGHS: the answer is optimal
     from models.solve import solve_milp
-    from tests.models.test_highs_direct import _dense
 
-    inst = _dense(2, n=80)
+    inst = random_dense(2, n=80)
     best = solve_milp(inst, extra_bound="none", backend="highs").schedule  # 124
     _side_says(monkeypatch, 124.0)
     res = solve_milp(inst, time_limit=20.0, backend="highs", warm_start=best)
@@ -371,10 +370,9 @@ def test_milp_stops_its_side_bound_once_its_own_is_lower(monkeypatch) -> None:
     # HiGHS's dual bound reaches the side process through models.highs_direct.watching_bound;
     # below the branch and price's (here a loose one) the side stops
     from models.solve import solve_milp
-    from tests.models.test_highs_direct import _dense
 
     _side_says(monkeypatch, 1e6)
-    inst = _dense(2, n=80)
+    inst = random_dense(2, n=80)
     res = solve_milp(inst, time_limit=20.0, backend="highs", warm_start="none")
     assert res.stats["side_yielded_s"] <= res.runtime_s and "side_proved_s" not in res.stats
     assert res.status == "optimal" and validate(inst, res.schedule).profit == res.profit == 124

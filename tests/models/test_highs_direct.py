@@ -16,32 +16,12 @@ from models.cliques import clique_events, cliques_from_events, maximal_cliques
 from models.highs_direct import build_arrays, run_highs
 from models.solve import bound, choose_backend, model_data, solve_milp
 from sosp.errors import InputError
-from sosp.instance import Instance, Resources
+from sosp.instance import Instance
 from sosp.result import Status
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import tiny_chain, tiny_cluster
-from tests.models.instances import random_tiny
-
-
-def _dense(seed: int, n: int = 40, n_orbits: int = 2) -> Instance:
-    """A random instance too large for the oracle (dense windows: many overlapping cliques)."""
-    rng = np.random.default_rng(seed)
-    rows = []
-    for k in range(n):
-        s = float(np.round(rng.uniform(0, 300), 1))
-        d = float(np.round(rng.uniform(1, 15), 1))
-        roll = float(np.round(rng.uniform(-30, 30), 1))
-        rows.append((int(rng.integers(n // 2)), k % n_orbits, s, s + d, roll, roll - 4, roll + 4))
-    res = Resources(
-        energy_capacity=float(rng.choice([1500.0, 150.0])),
-        memory_capacity=float(rng.choice([1000.0, 60.0])),
-        max_openings=int(rng.choice([10, 4])),
-        setup_time=float(rng.choice([10.0, 2.0])),
-        max_duration=30.0,
-    )
-    weights = [int(w) for w in rng.integers(1, 11, size=n // 2)]
-    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"dense{seed}")
+from tests.models.instances import random_dense, random_tiny
 
 
 @given(
@@ -71,7 +51,7 @@ def test_clique_form_has_the_pyomo_size() -> None:
 
 def test_network_form_has_two_nonzeros_per_item() -> None:
     """(3) in network form: each x at most twice, each slack at most twice."""
-    data = model_data(_dense(0, n=60, n_orbits=1), "cluster")
+    data = model_data(random_dense(0, n=60, n_orbits=1), "cluster")
     clique = build_arrays(data, conflicts="clique")
     net = build_arrays(data, conflicts="network")
     t0 = net.offsets["t"]
@@ -88,7 +68,7 @@ def test_network_form_has_two_nonzeros_per_item() -> None:
 @pytest.mark.parametrize("seed", range(12))
 def test_network_equals_clique_and_pyomo_on_dense(seed: int) -> None:
     """Same LP value and same optimum in both forms of (3) and in Pyomo (no oracle: too big)."""
-    inst = _dense(seed)
+    inst = random_dense(seed)
     for model in ("task", "cluster"):
         lps = [
             solve_milp(inst, model=model, relax=True, backend=b, conflicts=c).stats["lp_bound"]
@@ -107,7 +87,7 @@ def test_network_equals_clique_and_pyomo_on_dense(seed: int) -> None:
 
 
 def test_warm_start_direct() -> None:
-    inst = _dense(3)
+    inst = random_dense(3)
     start = solve_greedy(inst, rng=np.random.default_rng(0)).schedule
     for model in ("task", "cluster"):
         for conflicts in ("network", "clique"):
@@ -127,7 +107,7 @@ def test_start_vector_is_feasible() -> None:
     from models.highs_direct import start_vector
     from models.solve import warm_start_values
 
-    inst = _dense(5)
+    inst = random_dense(5)
     sched = solve_greedy(inst, rng=np.random.default_rng(0)).schedule
     for model in ("task", "cluster"):
         data = model_data(inst, model)
@@ -155,7 +135,7 @@ def test_direct_log_at_debug(caplog: pytest.LogCaptureFixture) -> None:
 
 
 def test_no_stale_gap_direct() -> None:
-    inst = _dense(2)
+    inst = random_dense(2)
     solve_milp(inst, model="cluster", mip_gap=0.9, backend="highs")
     res = solve_milp(inst, model="cluster", backend="highs")
     assert res.status is Status.OPTIMAL and res.bound == res.profit
@@ -243,7 +223,7 @@ def test_a_watcher_gets_the_mip_dual_bound() -> None:
     # the dual bound of a MIP solved in this process, no lower than its optimum
     from models.highs_direct import watching_bound
 
-    am = build_arrays(model_data(_dense(2, n=80), "cluster"), relax=False)
+    am = build_arrays(model_data(random_dense(2, n=80), "cluster"), relax=False)
     got: list[tuple[float, float]] = []
     with watching_bound(lambda dual, primal: got.append((dual, primal)) or False):
         out = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
@@ -259,7 +239,7 @@ def test_a_watcher_stops_the_mip() -> None:
     # before this MIP is solved), with a valid incumbent and bound
     from models.highs_direct import watching_bound
 
-    am = build_arrays(model_data(_dense(2, n=80), "cluster"), relax=False)
+    am = build_arrays(model_data(random_dense(2, n=80), "cluster"), relax=False)
     calls: list[float] = []
     with watching_bound(lambda dual, primal: calls.append(dual) or True):
         out = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
