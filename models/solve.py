@@ -239,6 +239,14 @@ WARM_START_STEPS_LARGE = 1000
 #: is the warm start or a few units above.
 LARGE_MODEL_ITEMS = 20_000
 
+#: On models of :data:`LARGE_MODEL_ITEMS` or more, HiGHS gives way when, after this share of
+#: the MILP's time, its incumbent is still its start and its bound has not passed below the
+#: side branch and price's (which then has not yielded): the search goes on from the start
+#: for the rest of the time, beside the side process (:func:`_search_on`). On C6-C8, 600 s,
+#: HiGHS's incumbent stayed at its start (2568, 2854, 3156), while 300 s of the search on one
+#: core raised C6's start to 2583 and C8's to 3160.
+GIVE_WAY_SHARE = 0.2
+
 #: Share of ``time_limit`` for the bound :func:`solve_milp` computes before the MILP (it
 #: stops sooner when it meets the warm start: then no MILP is needed).
 EXTRA_BOUND_SHARE = 0.1
@@ -590,15 +598,23 @@ def solve_milp(
         from models.highs_direct import watching_bound
 
         side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
+        watch = None if side is None else side.watch
+        gave_way: list[float] = []
+        if side is not None and warm_start == "auto" and data.n_items >= LARGE_MODEL_ITEMS:
+            watch = _give_way(side, start_profit, solve_by, gave_way)
         try:
-            with watching_bound(None if side is None else side.watch):
+            with watching_bound(watch):
                 kind, incumbent, raw_bound, chosen = _solve(
                     data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
                     slew, use_probing, backend, stats,
                 )  # fmt: skip
-            # HiGHS did not run: its model would not be built, or presolved, in time
+            if gave_way:
+                stats["gave_way_s"] = round(gave_way[0] - t0, 3)
+            # HiGHS did not run: its model would not be built, or presolved, in time; or it
+            # gave way to the search
             idle = stats.get("timed_out") == "building" or stats.get("termination") == "not started"
-            if idle and raw_bound is None and warm_start == "auto" and arranged is not None:
+            idle = (idle and raw_bound is None) or bool(gave_way)
+            if idle and warm_start == "auto" and arranged is not None:
                 start, start_profit = _search_on(
                     data, rng, arranged, start, start_profit, solve_by, stats
                 )
@@ -659,6 +675,33 @@ def solve_milp(
     return Result(method, status, schedule, profit, observed, runtime, bound, None, stats)
 
 
+def _give_way(
+    side: Any, start_profit: float, solve_by: float | None, gave_way: list[float]
+) -> Callable[[float, float], bool]:
+    """A :func:`models.highs_direct.watching_bound` listener: ``side.watch``, and also True
+    (stop HiGHS) once :data:`GIVE_WAY_SHARE` of the time to ``solve_by`` has passed with
+    HiGHS's incumbent at most ``start_profit`` and the side not yielded to HiGHS's bound;
+    the time it gave way is appended to ``gave_way``."""
+    at = None
+    if solve_by is not None:
+        now = time.perf_counter()
+        at = now + GIVE_WAY_SHARE * (solve_by - now)
+
+    def watch(dual_bound: float, incumbent: float) -> bool:
+        if side.watch(dual_bound, incumbent):
+            return True
+        if at is None or time.perf_counter() < at or side.yielded_at is not None:
+            return False
+        if incumbent > start_profit + INT_TOL:
+            return False  # HiGHS finds better schedules: it keeps its time
+        if not gave_way:
+            log.info("HiGHS gives way to the search: no better schedule than its start")
+            gave_way.append(time.perf_counter())
+        return True
+
+    return watch
+
+
 def _solve_by(deadline: float | None, time_limit: float | None) -> float | None:
     """When the last stage of :func:`solve_milp` must end: HiGHS overruns its limit a little
     and the solution is read back after it, so a reserve is kept (5 % of the limit, at most
@@ -682,9 +725,9 @@ def _search_on(
     stats: dict[str, Any],
 ) -> tuple[list[int] | None, float]:
     """The start and its profit after the time the MILP did not use: when HiGHS was not run
-    (its model would not be built, or presolved, in the time left) :func:`heuristic_start`
-    goes on from the start until ``deadline`` and its schedule replaces the start when
-    better.
+    (its model would not be built, or presolved, in the time left) or gave way
+    (:data:`GIVE_WAY_SHARE`), :func:`heuristic_start` goes on from the start until
+    ``deadline`` and its schedule replaces the start when better.
 
     ``milp --time-limit 10`` on C10 returned its 1-s warm start after 3.4 s: the build of
     176,610 items was not foreseen to fit in the 6.6 s left."""

@@ -490,3 +490,62 @@ def test_a_master_solved_again_gets_its_own_seconds() -> None:
     h.run()
     assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
     assert h.getInfo().simplex_iteration_count > 0
+
+
+def test_highs_gives_way_to_the_search_on_large_models(monkeypatch) -> None:
+    # on a model counted as large, HiGHS whose incumbent is still its start after its share
+    # of the time is stopped, and the search goes on from the start until the deadline
+    import models.solve as msolve
+
+    import models.highs_direct as hd
+
+    _side_says(monkeypatch, 1e6)  # a side that never proves and never yields
+    monkeypatch.setattr(msolve, "LARGE_MODEL_ITEMS", 0)
+    monkeypatch.setattr(msolve, "GIVE_WAY_SHARE", 0.0)
+    # guarded, as the large models are (their nonzeros): the parent watches HiGHS also while
+    # its root is unfinished
+    monkeypatch.setattr(hd, "GUARD_NNZ", 0)
+    inst = random_dense(2, n=400)  # HiGHS does not finish its root in 6 s
+    res = msolve.solve_milp(inst, time_limit=6.0, backend="highs")
+    s = res.stats
+    assert s["gave_way_s"] <= res.runtime_s <= 6.0 + 1.0
+    assert s["search_on_s"] > 0 and s["search_on_profit"] >= s["start_profit"] - 1e-9
+    assert validate(inst, res.schedule).profit == res.profit >= s["start_profit"]
+    assert res.profit <= res.bound
+
+
+def test_highs_keeps_its_time_below_the_large_models(monkeypatch) -> None:
+    import models.solve as msolve
+
+    _side_says(monkeypatch, 1e6)
+    monkeypatch.setattr(msolve, "GIVE_WAY_SHARE", 0.0)
+    inst = random_dense(2, n=80)
+    res = msolve.solve_milp(inst, time_limit=6.0, backend="highs")
+    assert "gave_way_s" not in res.stats and "search_on_s" not in res.stats
+    assert res.status == "optimal" and validate(inst, res.schedule).profit == res.profit == 124
+
+
+def test_give_way_rule() -> None:
+    # proof first; then only after the share, while the side has not yielded and HiGHS has
+    # nothing above its start
+    from models.solve import GIVE_WAY_SHARE, _give_way
+
+    class Side:
+        yielded_at = None
+        proves = False
+
+        def watch(self, dual, incumbent):
+            return self.proves
+
+    side, gave = Side(), []
+    now = time.perf_counter()
+    late = _give_way(side, 100.0, now + 0.2 / max(GIVE_WAY_SHARE, 1e-9), gave)
+    assert not late(np.inf, 100.0) and not gave  # before its share
+    soon = _give_way(side, 100.0, time.perf_counter(), gave)
+    assert not soon(200.0, 101.0) and not gave  # HiGHS found better than its start
+    side.yielded_at = 1.0
+    assert not soon(150.0, 100.0) and not gave  # HiGHS holds the better bound
+    side.yielded_at = None
+    assert soon(200.0, 100.0) and soon(200.0, -np.inf) and len(gave) == 1
+    side.proves = True
+    assert late(np.inf, 100.0) and len(gave) == 1  # a proof stops HiGHS, no giving way
