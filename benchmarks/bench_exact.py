@@ -177,6 +177,8 @@ def run_proof(
                 "extra_bound",
                 "side_bound",
                 "side_yielded_s",
+                "gave_way_s",
+                "search_on_profit",
                 "raw_bound",
                 "start_from",
                 "start_s",

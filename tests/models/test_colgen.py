@@ -495,9 +495,8 @@ def test_a_master_solved_again_gets_its_own_seconds() -> None:
 def test_highs_gives_way_to_the_search_on_large_models(monkeypatch) -> None:
     # on a model counted as large, HiGHS whose incumbent is still its start after its share
     # of the time is stopped, and the search goes on from the start until the deadline
-    import models.solve as msolve
-
     import models.highs_direct as hd
+    import models.solve as msolve
 
     _side_says(monkeypatch, 1e6)  # a side that never proves and never yields
     monkeypatch.setattr(msolve, "LARGE_MODEL_ITEMS", 0)
