@@ -599,21 +599,22 @@ def solve_milp(
 
         side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
         watch = None if side is None else side.watch
-        gave_way: list[float] = []
+        give: _GiveWay | None = None
         if side is not None and warm_start == "auto" and data.n_items >= LARGE_MODEL_ITEMS:
-            watch = _give_way(side, start_profit, solve_by, gave_way)
+            watch = give = _GiveWay(side, start_profit, solve_by)
         try:
             with watching_bound(watch):
                 kind, incumbent, raw_bound, chosen = _solve(
                     data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
                     slew, use_probing, backend, stats,
                 )  # fmt: skip
+            gave_way = give is not None and give.gave_at is not None
             if gave_way:
-                stats["gave_way_s"] = round(gave_way[0] - t0, 3)
-            # HiGHS did not run: its model would not be built, or presolved, in time; or it
+                stats["gave_way_s"] = round(give.gave_at - t0, 3)
+            # HiGHS did not run (its model would not be built, or presolved, in time), or it
             # gave way to the search
             idle = stats.get("timed_out") == "building" or stats.get("termination") == "not started"
-            idle = (idle and raw_bound is None) or bool(gave_way)
+            idle = (idle and raw_bound is None) or gave_way
             if idle and warm_start == "auto" and arranged is not None:
                 start, start_profit = _search_on(
                     data, rng, arranged, start, start_profit, solve_by, stats
@@ -675,31 +676,31 @@ def solve_milp(
     return Result(method, status, schedule, profit, observed, runtime, bound, None, stats)
 
 
-def _give_way(
-    side: Any, start_profit: float, solve_by: float | None, gave_way: list[float]
-) -> Callable[[float, float], bool]:
+class _GiveWay:
     """A :func:`models.highs_direct.watching_bound` listener: ``side.watch``, and also True
     (stop HiGHS) once :data:`GIVE_WAY_SHARE` of the time to ``solve_by`` has passed with
-    HiGHS's incumbent at most ``start_profit`` and the side not yielded to HiGHS's bound;
-    the time it gave way is appended to ``gave_way``."""
-    at = None
-    if solve_by is not None:
-        now = time.perf_counter()
-        at = now + GIVE_WAY_SHARE * (solve_by - now)
+    HiGHS's incumbent at most ``start_profit`` and the side not yielded to HiGHS's bound.
+    ``gave_at``: :func:`time.perf_counter` when it first did (else None)."""
 
-    def watch(dual_bound: float, incumbent: float) -> bool:
-        if side.watch(dual_bound, incumbent):
+    def __init__(self, side: Any, start_profit: float, solve_by: float | None) -> None:
+        self.side, self.start_profit = side, start_profit
+        self.at: float | None = None
+        if solve_by is not None:
+            now = time.perf_counter()
+            self.at = now + GIVE_WAY_SHARE * (solve_by - now)
+        self.gave_at: float | None = None
+
+    def __call__(self, dual_bound: float, incumbent: float) -> bool:
+        if self.side.watch(dual_bound, incumbent):
             return True
-        if at is None or time.perf_counter() < at or side.yielded_at is not None:
+        if self.at is None or time.perf_counter() < self.at or self.side.yielded_at is not None:
             return False
-        if incumbent > start_profit + INT_TOL:
+        if incumbent > self.start_profit + INT_TOL:
             return False  # HiGHS finds better schedules: it keeps its time
-        if not gave_way:
+        if self.gave_at is None:
             log.info("HiGHS gives way to the search: no better schedule than its start")
-            gave_way.append(time.perf_counter())
+            self.gave_at = time.perf_counter()
         return True
-
-    return watch
 
 
 def _solve_by(deadline: float | None, time_limit: float | None) -> float | None:

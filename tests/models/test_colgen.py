@@ -527,7 +527,7 @@ def test_highs_keeps_its_time_below_the_large_models(monkeypatch) -> None:
 def test_give_way_rule() -> None:
     # proof first; then only after the share, while the side has not yielded and HiGHS has
     # nothing above its start
-    from models.solve import GIVE_WAY_SHARE, _give_way
+    from models.solve import GIVE_WAY_SHARE, _GiveWay
 
     class Side:
         yielded_at = None
@@ -536,15 +536,17 @@ def test_give_way_rule() -> None:
         def watch(self, dual, incumbent):
             return self.proves
 
-    side, gave = Side(), []
+    side = Side()
     now = time.perf_counter()
-    late = _give_way(side, 100.0, now + 0.2 / max(GIVE_WAY_SHARE, 1e-9), gave)
-    assert not late(np.inf, 100.0) and not gave  # before its share
-    soon = _give_way(side, 100.0, time.perf_counter(), gave)
-    assert not soon(200.0, 101.0) and not gave  # HiGHS found better than its start
+    late = _GiveWay(side, 100.0, now + 0.2 / max(GIVE_WAY_SHARE, 1e-9))
+    assert not late(np.inf, 100.0) and late.gave_at is None  # before its share
+    soon = _GiveWay(side, 100.0, time.perf_counter())
+    assert not soon(200.0, 101.0) and soon.gave_at is None  # HiGHS found better than its start
     side.yielded_at = 1.0
-    assert not soon(150.0, 100.0) and not gave  # HiGHS holds the better bound
+    assert not soon(150.0, 100.0) and soon.gave_at is None  # HiGHS holds the better bound
     side.yielded_at = None
-    assert soon(200.0, 100.0) and soon(200.0, -np.inf) and len(gave) == 1
+    assert soon(200.0, 100.0) and soon.gave_at is not None
+    first = soon.gave_at
+    assert soon(200.0, -np.inf) and soon.gave_at == first  # the first time is kept
     side.proves = True
-    assert late(np.inf, 100.0) and len(gave) == 1  # a proof stops HiGHS, no giving way
+    assert late(np.inf, 100.0) and late.gave_at is None  # a proof stops HiGHS, no giving way
