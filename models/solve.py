@@ -41,6 +41,7 @@ from sosp.solve import check_time_limit
 if TYPE_CHECKING:
     import pyomo.environ as pyo
 
+    from models.colgen import SideBound
     from sosp.dist import Workers
     from sosp.planner import OrbitData
 
@@ -262,6 +263,7 @@ def heuristic_start(
     no_improve: int = WARM_START_STEPS,
     arranged: OrbitData | None = None,
     initial: list[int] | None = None,
+    stop: Callable[[float], bool] | None = None,
 ) -> list[int]:
     """A fast schedule over the model's items: orbit-dp's search (:mod:`heuristics.orbit_search`).
 
@@ -272,6 +274,8 @@ def heuristic_start(
 
     ``arranged`` is ``sosp.planner.with_rolls(data, data.roll)`` when the caller has it;
     ``initial`` items (a schedule of this search) to go on from instead of the empty plans.
+    ``stop`` is asked after every step with the best profit so far; True ends the search
+    (:func:`_search_on`: a bound has proven that profit optimal).
 
     Returns
     -------
@@ -291,6 +295,8 @@ def heuristic_start(
     since = 0
     while od.orbits and since < no_improve:
         if deadline is not None and time.perf_counter() >= deadline:
+            break
+        if stop is not None and stop(best_profit):
             break
         since += 1
         mark, before = len(search.journal), search.profit
@@ -617,7 +623,7 @@ def solve_milp(
             idle = (idle and raw_bound is None) or gave_way
             if idle and warm_start == "auto" and arranged is not None:
                 start, start_profit = _search_on(
-                    data, rng, arranged, start, start_profit, solve_by, stats
+                    data, rng, arranged, start, start_profit, solve_by, stats, side
                 )
         finally:
             if side is not None:
@@ -724,20 +730,31 @@ def _search_on(
     start_profit: float,
     deadline: float | None,
     stats: dict[str, Any],
+    side: SideBound | None = None,
 ) -> tuple[list[int] | None, float]:
     """The start and its profit after the time the MILP did not use: when HiGHS was not run
     (its model would not be built, or presolved, in the time left) or gave way
     (:data:`GIVE_WAY_SHARE`), :func:`heuristic_start` goes on from the start until
-    ``deadline`` and its schedule replaces the start when better.
+    ``deadline``, or until the ``side`` branch and price's bound proves its best schedule
+    optimal (:meth:`models.colgen.SideBound.watch`), and its schedule replaces the start when
+    better.
 
     ``milp --time-limit 10`` on C10 returned its 1-s warm start after 3.4 s: the build of
     176,610 items was not foreseen to fit in the 6.6 s left."""
     if deadline is None or deadline - time.perf_counter() < SEARCH_ON_MIN_S:
         return start, start_profit
     t1 = time.perf_counter()
+
+    def proven(best: float) -> bool:
+        # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
+        return side is not None and side.watch(math.inf, max(best, start_profit))
+
     more = heuristic_start(
-        data, rng, deadline, no_improve=sys.maxsize, arranged=arranged, initial=start
-    )
+        data, rng, deadline, no_improve=sys.maxsize, arranged=arranged, initial=start,
+        stop=proven,
+    )  # fmt: skip
+    if side is not None and side.proved_at is not None:
+        stats["search_on_stopped"] = "proven"
     profit = items_to_schedule(data.instance, data, more).coverage_profit(data.instance)[0]
     stats["search_on_s"] = round(time.perf_counter() - t1, 6)
     stats["search_on_profit"] = float(profit)

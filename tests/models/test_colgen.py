@@ -513,6 +513,40 @@ def test_highs_gives_way_to_the_search_on_large_models(monkeypatch) -> None:
     assert res.profit <= res.bound
 
 
+def test_search_after_giving_way_stops_when_the_side_proves(monkeypatch) -> None:
+    # once HiGHS has given way, the search asks the side after each step: a side bound that
+    # meets the best schedule ends the run before its deadline, proven
+    import models.colgen as colgen
+    import models.highs_direct as hd
+    import models.solve as msolve
+
+    _side_says(monkeypatch, 1e6)
+    searching = []
+    heuristic_start = msolve.heuristic_start
+
+    def search(*args, **kwargs):
+        if kwargs.get("stop") is not None:  # the search after giving way
+            searching.append(True)
+        return heuristic_start(*args, **kwargs)
+
+    def poll(self):
+        # no proof while HiGHS runs; the start's profit (the side's lower bound) after
+        self.bound = self.lower_bound if searching else 1e6
+        return self.bound
+
+    monkeypatch.setattr(msolve, "heuristic_start", search)
+    monkeypatch.setattr(colgen.SideBound, "poll", poll)
+    monkeypatch.setattr(msolve, "LARGE_MODEL_ITEMS", 0)
+    monkeypatch.setattr(msolve, "GIVE_WAY_SHARE", 0.0)
+    monkeypatch.setattr(hd, "GUARD_NNZ", 0)
+    inst = random_dense(2, n=400)
+    res = msolve.solve_milp(inst, time_limit=20.0, backend="highs")
+    s = res.stats
+    assert s["gave_way_s"] <= s["side_proved_s"] and s["search_on_stopped"] == "proven"
+    assert res.runtime_s < 15.0  # not the 20 s limit
+    assert res.status == "optimal" and validate(inst, res.schedule).profit == res.profit
+
+
 def test_highs_keeps_its_time_below_the_large_models(monkeypatch) -> None:
     import models.solve as msolve
 
