@@ -109,7 +109,7 @@ from __future__ import annotations
 import logging
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -270,22 +270,31 @@ def interaction_components(
     The graph's edges are those of :func:`sosp.conflicts.conflict_graph` (setup conflicts,
     shared targets) plus a path over each orbit whose resources can bind; only its
     connectivity is used, so the tasks sharing a target are linked by a path instead of all
-    their pairs, and the components are found by ``scipy.sparse.csgraph`` over the edge
-    arrays. The networkx graph of all pairs took 27 s on a 5,000-target instance of
-    24 satellites (12.6 million setup pairs), under the time limit's clock.
+    their pairs, and the components are found by ``scipy.sparse.csgraph``: those of the
+    setup conflicts over their compiled rows (:func:`sosp.conflicts.setup_conflict_rows`),
+    then those that the other edges join. The networkx graph of all pairs took 27 s on a
+    5,000-target instance of 24 satellites (12.6 million setup pairs), under the time limit's
+    clock; the sorted pairs and one scipy graph of all edges, 4.8 s; this, about 1 s.
     """
-    from scipy.sparse import coo_array
+    from scipy.sparse import coo_array, csr_array
     from scipy.sparse.csgraph import connected_components
 
-    from sosp.conflicts import setup_conflict_pairs
+    from sosp.conflicts import setup_conflict_rows
 
     idx = np.asarray(usable, dtype=np.int64)
     if len(idx) == 0:
         return []
     orbit = tasks.orbit[idx]
-    edges = [
-        setup_conflict_pairs(instance, orbit, tasks.start[idx], tasks.end[idx], tasks.roll[idx])
-    ]
+    # the setup conflicts as the compiled sweep's rows (12.6 million pairs: 0.3 s, where the
+    # sorted pairs took 3.6 s)
+    indptr, indices = setup_conflict_rows(
+        instance, orbit, tasks.start[idx], tasks.end[idx], tasks.roll[idx]
+    )
+    setup = csr_array((np.ones(len(indices)), indices, indptr), shape=(len(idx), len(idx)))
+    # the rows are symmetric, so the strong components are the components; scipy finds them
+    # without the transpose that ``directed=False`` makes (1.8 s against 0.16 s)
+    n_setup, setup_label = connected_components(setup, directed=True, connection="strong")
+    edges = [np.empty((0, 2), dtype=np.int64)]
     # tasks sharing a target: one path per target, over the tasks covering it
     n_of = np.fromiter((len(tasks.targets[t]) for t in idx), dtype=np.int64, count=len(idx))
     if n_of.sum():
@@ -301,9 +310,11 @@ def interaction_components(
         on = np.flatnonzero(orbit == j)
         if orbit_resources_can_bind(instance, tasks, idx[on]):
             edges.append(np.stack([on[:-1], on[1:]], axis=1))
-    e = np.concatenate([a.reshape(-1, 2) for a in edges]).astype(np.int64)
-    adjacency = coo_array((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(len(idx), len(idx)))
-    _, label = connected_components(adjacency, directed=False)
+    # the other edges join the setup components: components of the graph over them
+    e = setup_label[np.concatenate([a.reshape(-1, 2) for a in edges]).astype(np.int64)]
+    joined = coo_array((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n_setup, n_setup))
+    _, label = connected_components(joined, directed=False)
+    label = label[setup_label]
     members = np.argsort(label, kind="stable")
     cuts = np.flatnonzero(np.diff(label[members])) + 1
     comps = [sorted(idx[part].tolist()) for part in np.split(members, cuts)]
@@ -319,17 +330,6 @@ class _OutOfTime(Exception):
 PAIRS_PER_CHECK = 1 << 18
 
 
-def _pairs_in_time(
-    pairs: np.ndarray, deadline: float | None, clock: Callable[[], float]
-) -> Iterator[tuple[int, int]]:
-    """The rows of ``pairs`` as Python pairs, the clock read every :data:`PAIRS_PER_CHECK`
-    of them: past ``deadline`` it raises :class:`_OutOfTime`."""
-    for lo in range(0, len(pairs), PAIRS_PER_CHECK):
-        if deadline is not None and clock() > deadline:
-            raise _OutOfTime
-        yield from pairs[lo : lo + PAIRS_PER_CHECK].tolist()
-
-
 def pairwise_conflicts(
     instance: Instance,
     tasks: TaskSet,
@@ -339,8 +339,8 @@ def pairwise_conflicts(
 ) -> list[list[int]]:
     """For each item (by position in ``items``), the positions of the items it excludes by (3).
 
-    Past ``deadline`` (read every :data:`PAIRS_PER_CHECK` pairs: a dense instance has
-    millions) it raises :class:`_OutOfTime`.
+    Past ``deadline`` (read before the adjacency and every :data:`PAIRS_PER_CHECK` of its
+    entries: a dense instance has millions) it raises :class:`_OutOfTime`.
 
     Two tasks u, v of one orbit with ``ts_u <= ts_v`` and ``te_u + a + (|theta_u| +
     |theta_v|)/v > ts_v + EPS`` (:func:`sosp.conflicts.setup_conflict_pairs`) are never both
@@ -353,19 +353,34 @@ def pairwise_conflicts(
     """
     if len(items) < 2:
         return [[] for _ in items]
-    from sosp.conflicts import setup_conflict_pairs
+    from sosp.conflicts import setup_conflict_rows
 
+    def late() -> bool:
+        return deadline is not None and clock() > deadline
+
+    if late():
+        raise _OutOfTime
     idx = np.asarray(items, dtype=np.int64)
     orbit = tasks.orbit[idx]
     foot = tasks.end[idx] - tasks.start[idx] + instance.setup_time[orbit]
-    thin = set(int(j) for j in np.unique(orbit[foot < 4 * EPS]))
-    pairs = setup_conflict_pairs(instance, orbit, tasks.start[idx], tasks.end[idx], tasks.roll[idx])
-    conf: list[list[int]] = [[] for _ in items]
-    for u, v in _pairs_in_time(pairs, deadline, clock):
-        if int(orbit[u]) in thin:
-            continue
-        conf[u].append(v)
-        conf[v].append(u)
+    thin = np.unique(orbit[foot < 4 * EPS])
+    # one compiled sweep (12.6 million pairs: 0.4 s, where the sorted pairs took 3.9 s
+    # before the first clock reading); the lists are made a block of rows at a time
+    indptr, indices = setup_conflict_rows(
+        instance, orbit, tasks.start[idx], tasks.end[idx], tasks.roll[idx],
+        keep=~np.isin(orbit, thin),
+    )  # fmt: skip
+    conf: list[list[int]] = []
+    row = 0
+    while row < len(idx):
+        if late():
+            raise _OutOfTime
+        # rows up to about PAIRS_PER_CHECK entries (at least one row)
+        last = int(np.searchsorted(indptr, indptr[row] + PAIRS_PER_CHECK, side="right")) - 1
+        last = min(max(last, row + 1), len(idx))
+        block = indices[indptr[row] : indptr[last]]
+        conf.extend(part.tolist() for part in np.split(block, indptr[row + 1 : last] - indptr[row]))
+        row = last
     return conf
 
 
@@ -395,7 +410,7 @@ def fix_free_tasks(
     tuple of (list of int, list of int)
         The fixed tasks and the remaining ones (task indices), both sorted.
     """
-    from sosp.conflicts import setup_conflict_pairs
+    from sosp.conflicts import setup_conflict_rows
 
     def late() -> bool:
         return deadline is not None and clock() > deadline
@@ -407,34 +422,40 @@ def fix_free_tasks(
         int(j): not orbit_resources_can_bind(instance, tasks, idx[tasks.orbit[idx] == j])
         for j in np.unique(tasks.orbit[idx])
     }
-    pairs = setup_conflict_pairs(
+    if late():
+        return [], sorted(int(t) for t in idx)
+    # the (3) adjacency by one compiled sweep (positions in ``idx``): a 5,000-target instance
+    # of 24 satellites has 12.6 million pairs, which as sorted pairs and Python sets took
+    # 4 s before the first clock reading (a 3 s limit ran to 5.8 s)
+    indptr, indices = setup_conflict_rows(
         instance, tasks.orbit[idx], tasks.start[idx], tasks.end[idx], tasks.roll[idx]
     )
-    nbrs: dict[int, set[int]] = {int(t): set() for t in idx}
-    try:
-        for u, v in _pairs_in_time(pairs, deadline, clock):
-            nbrs[int(idx[u])].add(int(idx[v]))
-            nbrs[int(idx[v])].add(int(idx[u]))
-    except _OutOfTime:
-        return [], sorted(nbrs)
-    alive = set(nbrs)
+    degree = np.diff(indptr)  # alive neighbours of each position
+    alive = np.ones(len(idx), dtype=bool)
+    is_loose = np.array([loose[int(tasks.orbit[t])] for t in idx], dtype=bool)
     covered: set[int] = set()
     fixed: list[int] = []
+
+    def discard(x: int) -> None:
+        alive[x] = False
+        degree[indices[indptr[x] : indptr[x + 1]]] -= 1
+
     changed = True
     while changed and not late():
         changed = False
-        for seen, t in enumerate(sorted(alive)):
+        for seen, x in enumerate(np.flatnonzero(alive).tolist()):
             if seen % 4096 == 4095 and late():
                 break  # the fixes so far stand
+            t = int(idx[x])
             if all(int(k) in covered for k in tasks.targets[t]):
-                alive.discard(t)  # adds nothing any more (and may free a neighbour)
+                discard(x)  # adds nothing any more (and may free a neighbour)
                 changed = True
-            elif loose[int(tasks.orbit[t])] and not (nbrs[t] & alive):
-                alive.discard(t)
+            elif is_loose[x] and degree[x] == 0:
+                alive[x] = False  # no alive neighbour: no degree to lower
                 fixed.append(t)
                 covered.update(int(k) for k in tasks.targets[t])
                 changed = True
-    return sorted(fixed), sorted(alive)
+    return sorted(fixed), sorted(int(t) for t in idx[alive])
 
 
 def _restrict(instance: Instance, tasks: TaskSet, keep: list[int], fixed: list[int]) -> TaskSet:
@@ -984,8 +1005,30 @@ def _coverage_value(instance: Instance, tasks: TaskSet, chosen: list[int]) -> in
 
 
 #: Seconds per usable task kept back from the time limit for the work after the search
-#: (measured: about 1 s for 209,103 tasks on the 2-core machine), at most half the limit.
-FALLBACK_S_PER_TASK = 5e-6
+#: (measured on the 2-core machine, 209,103 tasks: the search's last step 0.4 s past its
+#: deadline, then two decodes of 0.6-0.7 s each; 5e-6 kept back too little, 10.8 s for a
+#: 10 s limit), at most half the limit.
+FALLBACK_S_PER_TASK = 1e-5
+
+
+#: Foreseen seconds of :func:`fix_free_tasks` and of :func:`interaction_components`, each,
+#: per usable task and per pair the (3) sweep tests
+#: (:func:`sosp.conflicts.setup_pair_candidates`). Measured on the 2-core machine, a
+#: 5,000-target instance of 24 satellites (106,331 tasks, 15.3 million such pairs): 0.9-1.9 s
+#: and 1.8-2.7 s (foreseen: 2.4 s), where a 3 s limit had run to 5.8 s.
+PREP_S_PER_TASK = 5e-6
+PREP_S_PER_PAIR = 1.2e-7
+
+
+def _prep_seconds(instance: Instance, tasks: TaskSet, usable: list[int]) -> float:
+    """The foreseen seconds of the reduction, or of the decomposition (:data:`PREP_S_PER_PAIR`)."""
+    from sosp.conflicts import setup_pair_candidates
+
+    idx = np.asarray(usable, dtype=np.int64)
+    pairs = setup_pair_candidates(
+        instance, tasks.orbit[idx], tasks.start[idx], tasks.end[idx], tasks.roll[idx]
+    )
+    return PREP_S_PER_TASK * len(idx) + PREP_S_PER_PAIR * pairs
 
 
 def russian_doll(
@@ -1039,6 +1082,12 @@ def russian_doll(
         # (20,000 targets, 209,103 tasks: about 1 s, and a 3 s limit ran to 4.04 s)
         deadline -= min(0.5 * float(time_limit), FALLBACK_S_PER_TASK * len(usable))
     fixed: list[int] = []
+    # the reduction and the decomposition are optional and read no clock in their compiled
+    # and scipy parts: each is skipped when foreseen to end past the deadline
+    prep_s = _prep_seconds(instance, tasks, usable)
+    if reduce and deadline is not None and clock() + prep_s > deadline:
+        log.debug("no reduction: foreseen %.2f s, %.2f s left", prep_s, deadline - clock())
+        reduce = False
     if reduce:
         fixed, back = fix_free_tasks(instance, tasks, usable, deadline, clock)
         usable = list(range(len(back)))
@@ -1049,7 +1098,7 @@ def russian_doll(
     # From here on ``tasks`` are the remaining ones (``back`` maps them to the originals).
     tasks = _restrict(instance, tasks, back, fixed)
     usable_arr = np.asarray(usable, dtype=np.int64)
-    if decompose and (deadline is None or clock() < deadline):
+    if decompose and (deadline is None or clock() + prep_s < deadline):
         comps = interaction_components(instance, tasks, usable_arr)
     else:
         comps = [usable] if usable else []

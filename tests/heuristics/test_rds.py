@@ -365,14 +365,15 @@ def test_rds_proves_the_milp_optimum(name: str, method: str, model: str) -> None
 
 def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch) -> None:
     """On a 5,000-target instance the preparation before the search took 60 s under a 10 s
-    limit: the loops over conflict pairs read the clock (every ``PAIRS_PER_CHECK`` pairs),
-    fixing stops with nothing fixed, a component's search is not started, and the answer is
-    the fall-back decode, valid, within the limit."""
+    limit: the fixing reads the clock before and after its (compiled) adjacency and stops
+    with nothing fixed, the loops over conflict pairs read it every ``PAIRS_PER_CHECK``
+    pairs, a component's search is not started, and the answer is the fall-back decode,
+    valid, within the limit."""
     monkeypatch.setattr(rds_module, "PAIRS_PER_CHECK", 1)
     inst = generate_scenario("B3", 0)
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
-    late = iter([0.0] + [10.0] * 10**6).__next__  # the deadline (1.0) passes after a pair
+    late = iter([0.0] + [10.0] * 10**6).__next__  # the deadline (1.0) passes after one reading
     fixed, rest = rds_module.fix_free_tasks(inst, tasks, usable, deadline=1.0, clock=late)
     assert fixed == [] and rest == usable
     with pytest.raises(rds_module._OutOfTime):
@@ -405,3 +406,26 @@ def test_the_work_after_the_search_has_its_time_kept_back(
         t = time.perf_counter()
         russian_doll(inst, tasks, time_limit=4.0)
         assert t + 4.0 - kept - 0.05 <= seen[-1] <= time.perf_counter() + 4.0 - kept
+
+
+def test_preparation_foreseen_too_long_is_skipped(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a reduction and a decomposition foreseen to end past the deadline are not started (a
+    # 5,000-target instance: 3 s limits ran to 5.8 s); the answer is still valid
+    calls: list[str] = []
+    monkeypatch.setattr(rds_module, "fix_free_tasks", lambda *a: calls.append("fix"))
+    monkeypatch.setattr(rds_module, "interaction_components", lambda *a: calls.append("comps"))
+    monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", 1e6)
+    inst = generate_scenario("B1", 0)
+    tasks = single_tasks(inst)
+    out = russian_doll(inst, tasks, time_limit=2.0)
+    assert calls == []
+    assert out.bound >= out.value > 0
+    assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
+    # without a limit both run as before
+    monkeypatch.undo()
+    seen = []
+    real = rds_module.interaction_components
+    monkeypatch.setattr(rds_module, "interaction_components", lambda *a: seen.append(1) or real(*a))
+    monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", 1e6)
+    russian_doll(inst, tasks, time_limit=None)
+    assert seen == [1]

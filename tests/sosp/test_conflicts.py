@@ -194,3 +194,15 @@ def test_conflict_rows_cap_raises_before_the_rows() -> None:
     assert len(indices) == 2 * n_pairs and rows_as_pairs(indptr, indices) == set(
         map(tuple, setup_conflict_pairs(*args).tolist())
     )
+
+
+@settings(max_examples=100, deadline=None)
+@given(inst=instances())
+def test_pair_candidates_bound_the_pairs(inst: Instance) -> None:
+    # what the sweep tests: at least the conflicts, at most all pairs within an orbit
+    from sosp.conflicts import setup_pair_candidates
+
+    t = single_tasks(inst)
+    n = setup_pair_candidates(inst, t.orbit, t.start, t.end, t.roll)
+    within = sum(c * (c - 1) // 2 for c in np.bincount(t.orbit, minlength=1))
+    assert len(brute_pairs(inst)) <= n <= within
