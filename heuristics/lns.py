@@ -394,7 +394,7 @@ def solve_milp_lns(
     # explicit candidates for every orbit, or window candidates made per step; decided (and
     # an explicit request refused) before the start spends half the time (D100 ran its
     # orbit-dp start for half the limit, then stopped at the memory check)
-    windowed = candidate_mode(instance, p.candidates) == "windows"
+    windowed = candidate_mode(instance, p.candidates, deadline) == "windows"
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)

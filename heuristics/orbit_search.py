@@ -581,7 +581,7 @@ def solve_orbit_dp(
     iterations, no_improve = p.iterations, p.no_improve
     if iterations is None and no_improve is None and time_limit is None:
         no_improve = DEFAULT_NO_IMPROVE
-    mode = candidate_mode(instance, p.candidates)
+    mode = candidate_mode(instance, p.candidates, deadline)
     search: OrbitSearch
     data: Any = None
     if mode == "explicit":

@@ -60,6 +60,17 @@ _SAMPLE_FROM = 100_000
 #: First opportunities sampled per dense orbit by :func:`estimate_bytes`.
 _SAMPLES = 24
 
+#: Foreseen seconds of one of :func:`estimate_bytes`'s samples (a 5,000-target instance of
+#: 24 satellites: 2,496 samples in 2.4 s on the 2-core machine).
+ESTIMATE_S_PER_SAMPLE = 1e-3
+
+#: :func:`candidate_mode` with ``"auto"`` plans over windows when the estimate alone is
+#: foreseen to take more than this share of the time left: generating the candidates takes
+#: one such sample per opportunity of the dense orbits, far more than the estimate's
+#: :data:`_SAMPLES` per orbit, so they could not be ready in time either (``milp-lns`` on
+#: that instance at 3 s spent 2.4 s estimating, then planned over windows anyway).
+ESTIMATE_SHARE = 0.25
+
 #: Most candidates the MILP models take (a Pyomo variable each: about 0.5 GB per million).
 #: C10, the densest reference scenario, has 176 610; orbits with hundreds of windows inside
 #: one Delta T (thousands of targets in a small region) have millions. The single-orbit
@@ -568,12 +579,19 @@ def candidates_fit(instance: Instance) -> bool:
 CANDIDATE_MODES = ("auto", "explicit", "windows")
 
 
-def candidate_mode(instance: Instance, requested: str) -> str:
+def candidate_mode(instance: Instance, requested: str, deadline: float | None = None) -> str:
     """``"explicit"`` or ``"windows"``: the candidates a search uses when ``candidates`` is
     ``requested`` (one of :data:`CANDIDATE_MODES`). ``"auto"`` is explicit where they fit
-    (:func:`candidates_fit`); ``"explicit"`` where they do not is refused here, before the
-    search spends any time (:func:`check_memory`)."""
+    (:func:`candidates_fit`) and, with a ``deadline`` (:func:`time.perf_counter`), where
+    their estimate is not foreseen to take more than :data:`ESTIMATE_SHARE` of the time
+    left; ``"explicit"`` where they do not fit is refused here, before the search spends
+    any time (:func:`check_memory`)."""
     if requested == "auto":
+        if deadline is not None and "need" not in _cache_of(instance):
+            foreseen = ESTIMATE_S_PER_SAMPLE * sum(len(picks) for _, picks in _samples(instance))
+            if foreseen > ESTIMATE_SHARE * (deadline - time.perf_counter()):
+                log.info("windows: the candidates' estimate alone foreseen at %.1f s", foreseen)
+                return "windows"
         return "explicit" if candidates_fit(instance) else "windows"
     if requested == "explicit":
         check_memory(instance)
@@ -653,6 +671,22 @@ def _densest(instance: Instance) -> int:
     return arg
 
 
+def _samples(instance: Instance) -> list[tuple[int, np.ndarray]]:
+    """The orbits :func:`estimate_bytes` samples (dense ones not generated yet) and, for
+    each, the first opportunities sampled (orbit positions)."""
+    store = _cache_of(instance)
+    out = []
+    for j in range(instance.n_orbits):
+        if j in store:
+            continue
+        stop = orbit_columns(instance, j)[-1]
+        n = len(stop)
+        if n == 0 or int((stop - np.arange(n)).sum()) < _SAMPLE_FROM:
+            continue
+        out.append((j, np.unique(np.linspace(0, n - 1, min(_SAMPLES, n)).astype(np.int64))))
+    return out
+
+
 def estimate_bytes(instance: Instance) -> int:
     """Estimated bytes of every orbit's candidates (what :func:`cluster_candidates` would hold).
 
@@ -662,16 +696,10 @@ def estimate_bytes(instance: Instance) -> int:
     thousands of opportunities). Deterministic.
     """
     store = _cache_of(instance)
-    total = 0.0
-    for j in range(instance.n_orbits):
-        if j in store:
-            total += store[j].nbytes
-            continue
+    total = float(sum(store[j].nbytes for j in range(instance.n_orbits) if j in store))
+    for j, picks in _samples(instance):
         ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
         n = len(ts)
-        if n == 0 or int((stop - np.arange(n)).sum()) < _SAMPLE_FROM:
-            continue
-        picks = np.unique(np.linspace(0, n - 1, min(_SAMPLES, n)).astype(np.int64))
         size = 0.0
         for i in picks:
             got = _start_candidates(int(i), ts, te, lo, hi, int(stop[i]), limit)

@@ -102,3 +102,24 @@ def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline
     monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1.25)
     got = cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 3600.0)
     assert len(got[0]) > 0 and inst.n_orbits > 2
+
+
+def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypatch) -> None:
+    """``auto`` with a deadline: an estimate foreseen to take more than its share of the time
+    left means windows, at once and with nothing estimated; without a deadline, or with
+    room, the estimate decides as before (C3's candidates fit: explicit)."""
+    import time
+
+    import sosp.candidates as cands
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
+    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
+    soon = time.perf_counter() + 60.0
+    assert cands.candidate_mode(inst, "auto", soon) == "windows"
+    assert "need" not in cands._cache_of(inst)
+    assert cands.candidate_mode(inst, "auto") == "explicit"
+    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 1e-9)
+    assert cands.candidate_mode(inst, "auto", soon) == "explicit"
+    assert cands.candidate_mode(inst, "explicit", soon) == "explicit"
