@@ -429,3 +429,33 @@ def test_preparation_foreseen_too_long_is_skipped(monkeypatch: pytest.MonkeyPatc
     monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", 1e6)
     russian_doll(inst, tasks, time_limit=None)
     assert seen == [1]
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**16))
+def test_interaction_components_are_those_of_the_whole_graph(seed: int) -> None:
+    # the components from the compiled rows and the joining edges equal those of networkx
+    # over every edge: setup conflicts, every pair sharing a target, binding orbits' paths
+    import networkx as nx
+
+    from sosp.conflicts import setup_conflict_pairs
+
+    inst = crowded(seed)
+    for tasks in (single_tasks(inst), static_cluster_tasks(inst)):
+        usable = np.arange(len(tasks))[::2] if seed % 2 else np.arange(len(tasks))
+        g = nx.Graph()
+        g.add_nodes_from(usable.tolist())
+        cols = (tasks.orbit[usable], tasks.start[usable], tasks.end[usable], tasks.roll[usable])
+        for a, b in setup_conflict_pairs(inst, *cols).tolist():
+            g.add_edge(int(usable[a]), int(usable[b]))
+        for a, b in itertools.combinations(usable.tolist(), 2):
+            if set(tasks.targets[a]) & set(tasks.targets[b]):
+                g.add_edge(a, b)
+        for j in np.unique(tasks.orbit[usable]):
+            on = usable[tasks.orbit[usable] == j]
+            if orbit_resources_can_bind(inst, tasks, on):
+                nx.add_path(g, on.tolist())
+        want = {frozenset(c) for c in nx.connected_components(g)}
+        got = rds_module.interaction_components(inst, tasks, usable)
+        assert {frozenset(c) for c in got} == want
+        assert [len(c) for c in got] == sorted(len(c) for c in got)
