@@ -65,7 +65,9 @@ def draw(seed: int, i: int) -> tuple[str, list[str]]:
     if rng.random() < 0.5:
         sats = int(rng.choice([4, 6, 8, 12]))
         planes = int(rng.choice([p for p in (1, 2, 3, 4) if sats % p == 0]))
-        args += ["--walker", f"{sats}/{planes}/1", "--altitude", f"{rng.uniform(450, 800):.0f}"]
+        phasing = 1 if planes > 1 else 0  # Walker phasing is in 0..planes-1
+        args += ["--walker", f"{sats}/{planes}/{phasing}"]
+        args += ["--altitude", f"{rng.uniform(450, 800):.0f}"]
     if rng.random() < 0.5:  # tight per-orbit rules
         args += ["--memory-capacity", f"{rng.uniform(60, 400):.0f}"]
         args += ["--energy-capacity", f"{rng.uniform(150, 800):.0f}"]
