@@ -254,3 +254,49 @@ def test_a_stop_request_leaves_a_valid_bound() -> None:
     finally:
         clear_stop()
     assert out["bound"] == 5 + 4 + 3 and out["subproblems"] == 0  # every part at its weight
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=8))
+def test_f_star_past_the_deadline_is_the_partition_with_every_part_stopped(
+    inst: Instance,
+) -> None:
+    # past its deadline count_bound skips the partition's set-up; the count is the one
+    # the partition gives when no part is reached (each counts all its targets)
+    from heuristics.pba import count_bound
+
+    params = PBAParams()
+    tasks = static_cluster_tasks(inst)
+    fast = count_bound(inst, params, tasks, deadline=0.0)
+    stopped = pba_partition(inst, params, 0.0, tasks, unit=True)["bound"]
+    assert fast == stopped == len(part_problem(inst, tasks, unit=True).targets)
+    assert pba_partition(inst, params, None, tasks, unit=True)["bound"] <= fast
+
+
+def _order_reference(pp) -> list[int]:
+    """target_order's graph read literally: each target of a usable task joined to every
+    other target of it and of the tasks in conflict with it; then reverse Cuthill-McKee."""
+    import numpy as np
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    pos = {k: i for i, k in enumerate(pp.targets)}
+    rows, cols = [], []
+    for t, others in pp.conflicts.items():
+        mine = [pos[k] for k in pp.tasks.targets[t] if k in pos]
+        near = {pos[k] for h in others for k in pp.tasks.targets[h] if k in pos} | set(mine)
+        for a in mine:
+            rows += [a] * len(near - {a})
+            cols += sorted(near - {a})
+    n = len(pp.targets)
+    m = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)).tocsr()
+    m = m + m.T
+    return [pp.targets[int(i)] for i in reverse_cuthill_mckee(m, symmetric_mode=True)]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(inst=small_instances(max_opps=10), unit=st.booleans())
+def test_target_order_is_rcm_over_its_graph(inst: Instance, unit: bool) -> None:
+    pp = part_problem(inst, static_cluster_tasks(inst), unit)
+    if len(pp.targets) >= 3:
+        assert target_order(pp) == _order_reference(pp)
