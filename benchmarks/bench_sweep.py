@@ -197,7 +197,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.output:
             with open(args.output, "a") as f:
                 f.writelines(json.dumps(r) + "\n" for r in new)
-        rows = [r for r in old if r["instance"] == name] + new
+        # the latest row of each run (a scenario refused, then drawn again, counts once)
+        latest = {(r["kind"], r.get("method")): r for r in old + new if r["instance"] == name}
+        rows = list(latest.values())
         broken += problems(rows)
         profit = {r["method"]: r.get("profit") for r in rows if r["kind"] == "solve"}
         best = max((float(v) for v in profit.values() if v is not None), default=0.0)
