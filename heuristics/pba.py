@@ -207,17 +207,15 @@ def target_order(pp: PartProblem, order: Order = "rcm") -> list[int]:
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
     n, n_tasks = len(pp.targets), len(pp.tasks.targets)
-    pos = np.full(max(pp.targets) + 1, -1, dtype=np.int64)
+    pos = np.full(len(pp.weight), -1, dtype=np.int64)  # target -> its position, or -1
     pos[np.asarray(pp.targets, dtype=np.int64)] = np.arange(n)
     counts = np.fromiter((len(ks) for ks in pp.tasks.targets), dtype=np.int64, count=n_tasks)
     flat = np.fromiter(
         (k for ks in pp.tasks.targets for k in ks), dtype=np.int64, count=int(counts.sum())
     )
-    row = np.repeat(np.arange(n_tasks), counts)
-    col = np.where(flat < len(pos), pos[np.minimum(flat, len(pos) - 1)], -1)
-    inc = csr_array(
-        (np.ones(int((col >= 0).sum())), (row[col >= 0], col[col >= 0])), shape=(n_tasks, n)
-    )
+    row, col = np.repeat(np.arange(n_tasks), counts), pos[flat]
+    on = col >= 0
+    inc = csr_array((np.ones(int(on.sum())), (row[on], col[on])), shape=(n_tasks, n))
     keys = np.fromiter(pp.conflicts, dtype=np.int64, count=len(pp.conflicts))
     sizes = np.fromiter((len(pp.conflicts[t]) for t in keys), dtype=np.int64, count=len(keys))
     others = np.fromiter(

@@ -64,7 +64,7 @@ def setup_conflict_pairs(
     if n < 2:
         return np.empty((0, 2), dtype=np.int64)
     order, right, left, hi = _sweep_order(instance, orbit, start, end, roll)
-    counts = np.maximum(hi - np.arange(n) - 1, 0)
+    counts = _tested(hi)
     ends = np.cumsum(counts)
     found: list[np.ndarray] = []
     n_found = 0
@@ -221,8 +221,7 @@ def setup_conflict_rows(
     cap = np.iinfo(np.int64).max if max_pairs is None else int(max_pairs)
     indptr, indices, pairs = _conflict_rows()(*cols, keep, cap)
     if pairs > cap:
-        order, hi = cols[0], cols[-1]
-        candidates = int(np.maximum(hi - np.arange(len(order)) - 1, 0).sum())
+        candidates = int(_tested(cols[-1]).sum())
         raise TooManyConflicts(pairs, cap, candidates)
     return indptr, indices
 
@@ -239,8 +238,13 @@ def setup_pair_candidates(
     24 satellites: 15.3 million for 12.6 million conflicts, counted in 16 ms)."""
     if np.asarray(orbit).size < 2:
         return 0
-    hi = _sweep_order(instance, orbit, start, end, roll)[-1]
-    return int(np.maximum(hi - np.arange(len(hi)) - 1, 0).sum())
+    return int(_tested(_sweep_order(instance, orbit, start, end, roll)[-1]).sum())
+
+
+def _tested(hi: np.ndarray) -> np.ndarray:
+    """Per sorted item, how many later items the sweep tests it against (``hi`` from
+    :func:`_sweep_order`: one past the last it may conflict with)."""
+    return np.maximum(hi - np.arange(len(hi)) - 1, 0)
 
 
 def compile_conflict_kernel() -> None:
