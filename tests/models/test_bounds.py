@@ -253,3 +253,31 @@ def test_candidates_out_of_time_before_the_limit_give_the_cap_or_windows(
         assert brute_force(inst, "cluster").profit - 1e-6 <= out["bound"]
         assert out["bound"] <= observable_weight(inst)
         assert out["source"] == ("cap" if out["bound"] == observable_weight(inst) else "windows")
+
+
+def test_auto_and_lagrangian_leave_the_window_relaxation_its_share(monkeypatch) -> None:
+    # the candidates must be ready by (1 - WINDOWS_AFTER_SHARE) of the limit, so that when
+    # they are not the window relaxation still has its share (not the cap)
+    import time
+
+    import models.solve as msolve
+    from sosp.scenarios import generate_scenario
+
+    seen: list = []
+    real = msolve.model_data
+
+    def spy(instance, model="cluster", deadline=None, generate_by=None):
+        seen.append((deadline, generate_by, time.perf_counter()))
+        return real(instance, model, deadline, generate_by)
+
+    monkeypatch.setattr(msolve, "model_data", spy)
+    inst = generate_scenario("C1", 0)
+    for method in ("auto", "lagrangian", "lp"):
+        before = len(seen)
+        msolve.bound(inst, method=method, time_limit=8.0)
+        deadline, by, at = seen[before]  # the bound's own preparation
+        if method == "lp":  # no window relaxation to leave time to
+            assert by is None
+        else:
+            share = 1.0 - msolve.WINDOWS_AFTER_SHARE
+            assert deadline - 8.0 + share * 8.0 == pytest.approx(by) and by > at
