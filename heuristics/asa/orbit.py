@@ -74,7 +74,7 @@ from heuristics.orbit_search import (
     iterate,
     lp_start,
 )
-from sosp.candidates import candidate_mode, flatten
+from sosp.candidates import flatten
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitItems, best_feasible_path, orbit_data
@@ -481,11 +481,6 @@ def make_planner(
     if not (params.replan and params.replan_orbit > 0 and state.pb.mode == "dtc"):
         return None
     if params.candidates == "windows":
-        return WindowPlanner(instance, state)
-    if params.candidates == "auto" and candidate_mode(instance, "auto", deadline) == "windows":
-        # they would not fit, or not even their size estimate in the time (a 5,000-target
-        # instance at 3 s: 2.4 s of estimate, then no time left, profit 0)
-        log.info("asa-dtc: whole-orbit re-planning over windows")
         return WindowPlanner(instance, state)
     try:
         return OrbitPlanner(instance, state, deadline)

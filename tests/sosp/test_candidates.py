@@ -123,3 +123,24 @@ def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypat
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 1e-9)
     assert cands.candidate_mode(inst, "auto", soon) == "explicit"
     assert cands.candidate_mode(inst, "explicit", soon) == "explicit"
+
+
+def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkeypatch) -> None:
+    """Without a cap, the size estimate comes first: foreseen past its share of the time
+    left, the error comes before it and before any orbit is generated (every caller, such
+    as ASA-DTC's planner, then plans over windows)."""
+    import time
+
+    import pytest
+
+    import sosp.candidates as cands
+    from sosp.errors import TimeLimitReached
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)
+    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
+    with pytest.raises(TimeLimitReached, match="estimating"):
+        cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 60.0)
+    assert "need" not in cands._cache_of(inst)
+    assert not any(cands.cached_orbit_candidates(inst, j) for j in range(inst.n_orbits))
