@@ -42,12 +42,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks.bench_time_limits import slack  # noqa: E402  (max(1 s, 5 %), #17)
 from sosp.solve import available_methods  # noqa: E402
-
-
-def slack(limit: float) -> float:
-    """What a run may take beyond its limit: max(1 s, 5 %)."""
-    return max(1.0, 0.05 * limit)
 
 
 def draw(seed: int, i: int) -> tuple[str, list[str]]:
