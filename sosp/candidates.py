@@ -684,8 +684,8 @@ def _estimate_late(instance: Instance, deadline: float | None) -> bool:
     if deadline is None or "need" in _cache_of(instance):
         return False
     foreseen = ESTIMATE_S_PER_SAMPLE * sum(len(picks) for _, picks in _samples(instance))
-    if foreseen <= ESTIMATE_SHARE * (deadline - time.perf_counter()):
-        return False
+    if foreseen == 0.0 or foreseen <= ESTIMATE_SHARE * (deadline - time.perf_counter()):
+        return False  # (no sample: the estimate costs nothing, even past the deadline)
     log.info("candidates: their size estimate alone foreseen at %.1f s", foreseen)
     return True
 
