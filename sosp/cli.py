@@ -486,7 +486,7 @@ def build_parser() -> argparse.ArgumentParser:
         nargs=4,
         type=float,
         metavar=("LAT0", "LAT1", "LON0", "LON1"),
-        help="random targets in this box (degrees)",
+        help="random targets in this box (degrees); LON0 > LON1 is a box across 180 degrees",
     )
     p.add_argument("--targets", type=positive(int), help="number of targets with --region")
     p.add_argument("--targets-csv", help="targets file with header id,lat,lon,weight")

@@ -100,7 +100,10 @@ def random_targets(
     count
         Number of targets (ids ``"T0001"``, ``"T0002"``, ...; wider when count > 9999).
     region
-        ``(lat_min, lat_max, lon_min, lon_max)``.
+        ``(lat_min, lat_max, lon_min, lon_max)``. A box across the antimeridian is given
+        either with ``lon_max`` above 180 (``170, 190``) or, as GeoJSON bounding boxes do,
+        with its west edge east of its east edge (``170, -170``); its longitudes are then
+        returned in [-180, 180).
     rng
         The generator; draws latitudes, then longitudes, then weights.
 
@@ -109,14 +112,24 @@ def random_targets(
     ids, lat, lon, weight
     """
     lat0, lat1, lon0, lon1 = (float(x) for x in region)
-    if not (-90.0 <= lat0 <= lat1 <= 90.0) or not (-180.0 <= lon0 <= lon1 <= 360.0):
-        raise InputError(f"region: expected lat0 <= lat1 in [-90, 90], lon0 <= lon1: {region}")
+    if not -90.0 <= lat0 <= lat1 <= 90.0:
+        raise InputError(f"region: expected -90 <= lat0 <= lat1 <= 90, got {lat0}, {lat1}")
+    across = lon0 > lon1 and -180.0 <= lon1 and lon0 <= 180.0
+    if across:
+        lon1 += 360.0  # west edge east of the east edge: the box crosses 180 degrees
+    if not -180.0 <= lon0 <= lon1 <= 360.0:
+        raise InputError(
+            "region: expected -180 <= lon0 <= lon1 <= 360 (or lon0 > lon1 in [-180, 180] "
+            f"for a box across 180 degrees), got {lon0}, {float(region[3])}"
+        )
     if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 0:
         raise InputError(f"count: expected a non-negative integer, got {count!r}")
     width = max(4, len(str(count)))
     ids = [f"T{i:0{width}d}" for i in range(1, count + 1)]
     lat = rng.uniform(lat0, lat1, count)
     lon = rng.uniform(lon0, lon1, count)
+    if across:
+        lon = (lon + 180.0) % 360.0 - 180.0
     weight = rng.integers(WEIGHT_RANGE[0], WEIGHT_RANGE[1] + 1, count)
     return ids, lat, lon, weight
 

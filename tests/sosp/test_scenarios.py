@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sosp.errors import InputError
 from sosp.instance import Resources
@@ -12,6 +14,7 @@ from sosp.scenarios import (
     REGIONS,
     custom_scenario,
     generate_scenario,
+    random_targets,
     read_targets_csv,
     scenario_names,
 )
@@ -234,3 +237,52 @@ def test_start_with_an_offset_is_stored_as_utc_and_errors_name_start():
     assert generate_scenario("C1", hours=2).epoch == DEFAULT_START
     with pytest.raises(InputError, match=r"^start: not an ISO 8601 time: 'June 1st'"):
         generate_scenario("C1", start="June 1st")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    west=st.floats(-180.0, 180.0),
+    width=st.floats(0.5, 120.0),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_a_box_across_the_antimeridian_is_the_box_over_180_wrapped(west, width, seed):
+    """West edge east of the east edge (GeoJSON's convention) draws the same targets as the
+    same box given with its east edge above 180, with longitudes wrapped to [-180, 180)."""
+    east = west + width
+    if east <= 180.0:
+        return  # not across the antimeridian
+    wrapped_east = east - 360.0
+    ids, lat, lon, weight = random_targets(
+        40, (10.0, 20.0, west, wrapped_east), np.random.default_rng(seed)
+    )
+    ids2, lat2, lon2, weight2 = random_targets(
+        40, (10.0, 20.0, west, east), np.random.default_rng(seed)
+    )
+    assert ids == ids2 and np.array_equal(lat, lat2) and np.array_equal(weight, weight2)
+    assert np.all((lon >= -180.0) & (lon < 180.0))
+    assert np.allclose((lon2 + 180.0) % 360.0 - 180.0, lon)
+    inside = (lon >= west) | (lon <= wrapped_east + 1e-9)
+    assert inside.all()
+
+
+def test_a_region_that_is_not_a_box_names_its_edge():
+    rng = np.random.default_rng(0)
+    with pytest.raises(InputError, match="lat0 <= lat1"):
+        random_targets(3, (40.0, 30.0, 0.0, 10.0), rng)
+    with pytest.raises(InputError, match="lon0 <= lon1"):
+        random_targets(3, (30.0, 40.0, -200.0, 10.0), rng)
+    with pytest.raises(InputError, match="lon0 <= lon1"):
+        random_targets(3, (30.0, 40.0, 190.0, 100.0), rng)
+
+
+def test_the_cli_draws_a_box_across_the_antimeridian(tmp_path):
+    from sosp.cli import main
+
+    out = tmp_path / "fiji.json"
+    argv = ["scenario", "fiji", "-o", str(out), "--region", "-20", "-15", "175", "-178"]
+    assert main([*argv, "--targets", "30", "--hours", "6"]) == 0
+    from sosp.instance import load_instance
+
+    inst = load_instance(out)
+    lon = np.asarray(inst.target_lon)
+    assert inst.n_targets == 30 and np.all((lon >= 175.0) | (lon <= -178.0))
