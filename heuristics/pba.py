@@ -168,8 +168,8 @@ def part_problem(instance: Instance, tasks: TaskSet, unit: bool = False) -> Part
         t for t in range(len(tasks)) if (unit or tasks.weight[t] > 0) and c[int(tasks.orbit[t])] > 0
     ]
     idx = np.array(usable, dtype=np.int64)
-    # the compiled rows, one frozenset per task: a set.add per pair took seconds on the
-    # millions of pairs of a dense 2,500-target instance
+    # the compiled rows, one frozenset per task, instead of a Python set.add per pair (the
+    # same sets; na5000's 6,999 static tasks: 0.06 s against 0.10 s)
     indptr, indices = setup_conflict_rows(
         instance, tasks.orbit[idx], tasks.start[idx], tasks.end[idx], tasks.roll[idx]
     )
