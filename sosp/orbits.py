@@ -36,7 +36,7 @@ import logging
 import math
 import os
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from importlib import resources as importlib_resources
 from pathlib import Path
 from typing import Any
@@ -177,14 +177,19 @@ def utc_at(epoch: str, seconds: float) -> str:
     """The ISO 8601 UTC time (``...Z``, millisecond precision) ``seconds`` after ``epoch``.
 
     Plain calendar arithmetic (no leap seconds, as everywhere in sosp): schedule files and
-    exports print observation windows with it.
+    exports print observation windows with it. A time outside the calendar (years 1-9999),
+    which only a damaged file gives, is written as ``epoch +seconds s`` rather than raising
+    inside an error message about that file.
     """
     dt = datetime.fromisoformat(epoch.replace("Z", "+00:00"))
     if dt.tzinfo is None:
         dt = dt.replace(tzinfo=UTC)
-    ms = round((dt.astimezone(UTC).timestamp() + float(seconds)) * 1000.0)
-    at = datetime.fromtimestamp(ms // 1000, tz=UTC)
-    text = at.strftime("%Y-%m-%dT%H:%M:%S")
+    try:
+        ms = round((dt.astimezone(UTC).timestamp() + float(seconds)) * 1000.0)
+        at = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(seconds=ms // 1000)
+    except (OverflowError, ValueError):
+        return f"{epoch} {float(seconds):+g} s"
+    text = f"{at.year:04d}-{at:%m-%dT%H:%M:%S}"  # %Y does not pad years before 1000
     return text + (f".{ms % 1000:03d}Z" if ms % 1000 else "Z")
 
 

@@ -18,6 +18,7 @@ import pytest
 from sosp.errors import InputError
 from sosp.export import CSV_COLUMNS, export_csv, export_czml, export_kml, instance_satellites
 from sosp.instance import Instance
+from sosp.orbits import utc_at
 from sosp.scenarios import custom_scenario, generate_scenario
 from sosp.schedule import Schedule, load_schedule, make_observation
 from sosp.solve import solve
@@ -78,6 +79,24 @@ def test_utc_time_contradicting_the_seconds_is_refused(cluster, value, message) 
     data["observations"][1]["start_utc"] = value
     with pytest.raises(InputError, match=rf"^s\.json: observations\[1\]\.start_utc: .*{message}"):
         Schedule.from_dict(data, inst, source="s.json")
+
+
+@pytest.mark.parametrize("seconds", [1e300, -1e15, 10**20])
+def test_a_time_outside_the_calendar_gets_the_one_line_error(cluster, seconds) -> None:
+    """A damaged file's start (found by fuzzing: 1e300) once raised OverflowError while the
+    error about it was being written."""
+    inst, sched = cluster
+    data = sched.to_dict(inst)
+    data["observations"][1]["start"] = seconds
+    with pytest.raises(InputError, match=r"^s\.json: observations\[1\]\.start_utc: .*disagrees"):
+        Schedule.from_dict(data, inst, source="s.json")
+
+
+def test_utc_at_writes_any_year_of_the_calendar_in_full() -> None:
+    epoch = "2026-06-01T00:00:00Z"
+    assert utc_at(epoch, 86400.5) == "2026-06-02T00:00:00.500Z"
+    assert utc_at(epoch, -2000 * 365 * 86400) == "0027-09-29T00:00:00Z"
+    assert utc_at(epoch, 1e300) == "2026-06-01T00:00:00Z +1e+300 s"
 
 
 # --------------------------------------------------------------------------- CSV
