@@ -432,7 +432,9 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
         except (ValueError, IndexError) as exc:
             raise InputError(f"line {n1}: malformed element set ({exc})", source=source) from None
         if sat.error:
-            raise InputError(f"line {n1}: sgp4 rejects the elements (error {sat.error})", source)
+            raise InputError(
+                f"line {n1}: sgp4 rejects the elements (error {sat.error})", source=source
+            )
         try:
             norad = int(l1[2:7])
         except ValueError:  # alpha-5 catalogue numbers

@@ -77,6 +77,15 @@ def test_satellite_number_mismatch():
         parse_tle(f"CBERS 2\n{L1}\n{l2}\n")
 
 
+def test_elements_sgp4_rejects_get_the_one_line_error():
+    """Found by fuzzing the TLE file: the error was raised with its source as a positional
+    argument, a TypeError (a traceback) instead of the message."""
+    # eccentricity field "00008840" shifts the argument of perigee: sgp4 rejects the set
+    l2 = _with_checksum(L2[:26] + "00008840 88.1964" + L2[42:])
+    with pytest.raises(InputError, match=r"^s\.tle: line 2: sgp4 rejects the elements"):
+        parse_tle(f"CBERS 2\n{L1}\n{l2}\n", source="s.tle")
+
+
 def test_swapped_or_missing_lines():
     with pytest.raises(InputError, match="expected TLE line 1"):
         parse_tle(f"CBERS 2\n{L2}\n{L1}\n")
