@@ -1,7 +1,8 @@
 """Every method on randomly drawn instances: do the contracts hold away from the paper's?
 
 The instances are drawn from ``--seed`` (one ``numpy.random.Generator`` per instance, seeded
-``[seed, i]``): a random box anywhere between 60 S and 70 N, 100-2,500 targets, the four
+``[seed, i]``): a random box anywhere between 60 S and 70 N (``--anywhere``: over the whole
+globe, poles and antimeridian included), 100-2,500 targets (``--sizes``), the four
 built-in satellites or a Walker-delta constellation of 4-12 satellites at 450-800 km, a 12 or
 24 h horizon and, on half of them, tight per-orbit rules (memory, energy, openings, setup,
 slew rate, longest observation, roll, daylight) drawn over the ranges ``sosp scenario``
@@ -45,16 +46,34 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.bench_time_limits import slack  # noqa: E402  (max(1 s, 5 %), #17)
 from sosp.solve import available_methods  # noqa: E402
 
+#: Target counts drawn from by default.
+SIZES = (100, 300, 600, 1200, 2500)
 
-def draw(seed: int, i: int) -> tuple[str, list[str]]:
-    """Instance ``i`` of the sweep ``seed``: its name and ``sosp scenario`` arguments."""
+
+def draw(
+    seed: int, i: int, sizes: tuple[int, ...] = SIZES, anywhere: bool = False
+) -> tuple[str, list[str]]:
+    """Instance ``i`` of the sweep ``seed``: its name and ``sosp scenario`` arguments.
+
+    ``anywhere`` draws the box over the whole globe instead: up to the poles, and across the
+    antimeridian (west edge east of the east edge) when it reaches past 180 degrees; the
+    name then starts with ``world``. Without it, and with the default ``sizes``, a seed
+    draws the instances it always drew."""
     rng = np.random.default_rng([seed, i])
-    lat0 = float(rng.uniform(-60.0, 55.0))
-    lat1 = min(70.0, lat0 + float(rng.uniform(5.0, 30.0)))
-    lon0 = float(rng.uniform(-180.0, 140.0))
-    lon1 = lon0 + float(rng.uniform(5.0, 40.0))
-    targets = int(rng.choice([100, 300, 600, 1200, 2500]))
-    name = f"sweep{seed}-{i}"
+    if anywhere:
+        lat0 = float(rng.uniform(-90.0, 80.0))
+        lat1 = min(90.0, lat0 + float(rng.uniform(5.0, 30.0)))
+        lon0 = float(rng.uniform(-180.0, 180.0))
+        lon1 = lon0 + float(rng.uniform(5.0, 40.0))
+        if lon1 > 180.0:
+            lon1 -= 360.0
+    else:
+        lat0 = float(rng.uniform(-60.0, 55.0))
+        lat1 = min(70.0, lat0 + float(rng.uniform(5.0, 30.0)))
+        lon0 = float(rng.uniform(-180.0, 140.0))
+        lon1 = lon0 + float(rng.uniform(5.0, 40.0))
+    targets = int(rng.choice(list(sizes)))
+    name = f"{'world' if anywhere else 'sweep'}{seed}-{i}"
     args = [name, "--region", f"{lat0:.2f}", f"{lat1:.2f}", f"{lon0:.2f}", f"{lon1:.2f}"]
     args += ["--targets", str(targets), "--seed", str(i)]
     args += ["--hours", str(int(rng.choice([12, 24])))]
@@ -170,6 +189,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--limit", type=float, default=5.0, help="each solve's --time-limit")
     ap.add_argument("--methods", nargs="*", default=None, help="default: every method")
+    ap.add_argument(
+        "--sizes", nargs="+", type=int, default=list(SIZES), help="target counts to draw from"
+    )
+    ap.add_argument(
+        "--anywhere",
+        action="store_true",
+        help="boxes over the whole globe (poles, across 180 degrees), not 60 S to 70 N",
+    )
     ap.add_argument("--dir", default=None, help="where the instances are kept (default: temp)")
     ap.add_argument("--output", default=None, help="JSON lines, one per run (resumed)")
     args = ap.parse_args(argv)
@@ -186,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     print("|---|" + "---|" * (len(methods) + 1))
     broken: list[str] = []
     for i in range(args.instances):
-        name, scenario = draw(args.seed, i)
+        name, scenario = draw(args.seed, i, tuple(args.sizes), args.anywhere)
         new = sweep_instance(name, scenario, folder, args.limit, methods, done)
         for r in new:
             r["sweep_limit"] = args.limit
