@@ -771,7 +771,7 @@ MODEL_SHARE = 0.5
 
 #: The method that gives ``milp`` its schedule when the model cannot be built in time
 #: (:func:`_schedule_without_model`): it answers at any limit and on any instance.
-NO_MODEL_METHOD = "asa-dtc"
+NO_MODEL_METHOD = "asa-dtc"  # answers on every instance: see heuristics.asa.search.run_asa
 
 
 def _schedule_without_model(

@@ -33,6 +33,12 @@ from sosp.rules import OrbitRules, all_orbit_rules, alone_ok_mask
 MAX_CONFLICTS = 25_000_000
 
 
+class TooLargeForASA(InputError):
+    """The instance's (3) conflicts exceed :data:`MAX_CONFLICTS`: :func:`build_problem`
+    refuses it (ASA-DTC then answers with its start's search instead, see
+    :func:`heuristics.asa.search.run_asa`)."""
+
+
 @dataclass
 class Problem:
     """Flattened units, options, orbits and the setup-conflict adjacency (3).
@@ -203,8 +209,9 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
             )
         )
     except TooManyConflicts as exc:
-        raise InputError(
-            f"instance: {exc}: too large for ASA-DTC's conflict lists (use greedy or hpfs-stc)"
+        raise TooLargeForASA(
+            f"instance: {exc}: too large for ASA's conflict lists (use orbit-dp, greedy or "
+            "hpfs-stc)"
         ) from None
     alternatives: Sequence[list[int]]
     if mode == "stc":

@@ -7,6 +7,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from functools import partial
 from typing import Any
 
@@ -22,7 +23,7 @@ from heuristics.asa.neighbourhoods import (
 )
 from heuristics.asa.orbit import ascend, make_planner, orbit_search_start, replan_or_orbit
 from heuristics.asa.params import ASAParams
-from heuristics.asa.problem import Problem, build_problem
+from heuristics.asa.problem import Problem, TooLargeForASA, build_problem
 from heuristics.asa.replan import REPLAN, polish, replan_move
 from heuristics.asa.select import AdaptiveRoulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
@@ -331,18 +332,45 @@ def run_asa(
     """
     t0 = time.perf_counter()
     params = params or ASAParams()
-    search = Search(
-        instance,
-        mode,
-        rng=rng,
-        time_limit=time_limit,
-        params=params,
-        acceptance=acceptance,
-        selector=selector,
-        t0=t0,
-    )
+    try:
+        search = Search(
+            instance,
+            mode,
+            rng=rng,
+            time_limit=time_limit,
+            params=params,
+            acceptance=acceptance,
+            selector=selector,
+            t0=t0,
+        )
+    except TooLargeForASA as exc:
+        if mode != "dtc":
+            raise  # a variant stands for itself in a comparison: refused, not replaced
+        return _orbit_search_instead(instance, exc, rng, time_limit, t0)
     search.run(stop if stop is not None else default_stop(params, time_limit, t0))
     return search.result()
+
+
+def _orbit_search_instead(
+    instance: Instance,
+    exc: TooLargeForASA,
+    rng: np.random.Generator,
+    time_limit: float | None,
+    t0: float,
+) -> Result:
+    """ASA-DTC on an instance whose conflict lists it refuses (:data:`MAX_CONFLICTS`): the
+    search it starts from by default (``init="orbit-dp"``, :mod:`heuristics.orbit_search`)
+    for the whole time, reported as ASA-DTC's with ``stats["fallback"] = "orbit-dp"`` and a
+    warning. ASA-DTC is the default method and ``milp``'s schedule when its model cannot be
+    built, so it answers on every instance; a 2,500-target box near a pole under 8
+    satellites (35 million (3) pairs) was refused with exit 2 by both."""
+    from heuristics.orbit_search import solve_orbit_dp
+
+    log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
+    left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
+    res = solve_orbit_dp(instance, rng=rng, time_limit=left)
+    stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
+    return replace(res, method="asa-dtc", runtime_s=time.perf_counter() - t0, stats=stats)
 
 
 def build_schedule(instance: Instance, problem: Problem, snap: list[list[Cluster]]) -> Schedule:

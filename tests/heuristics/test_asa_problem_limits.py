@@ -1,4 +1,6 @@
-"""ASA-DTC refuses, with one line, an instance whose conflict lists would not fit."""
+"""An instance whose conflict lists would not fit: the ASA variants refuse it with one line,
+and ASA-DTC (the default method, and ``milp``'s schedule without a model) answers with the
+search it starts from."""
 
 from __future__ import annotations
 
@@ -8,10 +10,47 @@ import heuristics.asa.problem as problem
 from sosp.errors import InputError
 from sosp.scenarios import generate_scenario
 from sosp.solve import solve
+from sosp.validate import validate
 
 
-def test_too_many_conflicts_is_one_line(monkeypatch) -> None:
-    inst = generate_scenario("C1", 0)
+@pytest.fixture(scope="module")
+def c1():
+    return generate_scenario("C1", 0)
+
+
+@pytest.mark.parametrize("method", ["asa-stc", "asa-nontc"])
+def test_a_variant_refuses_too_many_conflicts_in_one_line(monkeypatch, c1, method) -> None:
     monkeypatch.setattr(problem, "MAX_CONFLICTS", 5)
     with pytest.raises(InputError, match=r"^instance: more than 5 setup conflicts .*hpfs-stc\)$"):
-        solve(inst, "asa-dtc", seed=0, iterations=10)
+        solve(c1, method, seed=0, iterations=10)
+
+
+def test_asa_dtc_answers_with_its_start_search_when_the_lists_do_not_fit(
+    monkeypatch, c1, caplog
+) -> None:
+    monkeypatch.setattr(problem, "MAX_CONFLICTS", 5)
+    res = solve(c1, "asa-dtc", seed=0, time_limit=2.0)
+    assert res.method == "asa-dtc" and res.stats["fallback"] == "orbit-dp"
+    assert "more than 5 setup conflicts" in res.stats["fallback_reason"]
+    assert "orbit-dp's search" in caplog.text
+    report = validate(c1, res.schedule)
+    assert report.feasible and report.profit == res.profit > 0
+    assert res.runtime_s <= 3.0
+
+
+def test_milp_without_a_model_gets_a_schedule_through_asa_dtc(monkeypatch, c1) -> None:
+    """``milp``'s schedule when its model cannot be built is ASA-DTC's
+    (:data:`models.solve.NO_MODEL_METHOD`), which must answer on every instance."""
+    import time
+
+    import numpy as np
+
+    from models.solve import _schedule_without_model
+
+    monkeypatch.setattr(problem, "MAX_CONFLICTS", 5)
+    stats: dict = {}
+    t0 = time.perf_counter()
+    sched = _schedule_without_model(c1, "auto", np.random.default_rng(0), t0 + 3.0, 3.0, stats)
+    assert stats["returned"] == "asa-dtc"
+    report = validate(c1, sched)
+    assert report.feasible and report.profit > 0
