@@ -103,6 +103,11 @@ RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
 
 #: The binary encoding written for a path ending in ``.npz``: its own format name and version
 #: (in the ``header`` entry), so the array layout can change without touching the JSON format.
+#: Largest target weight accepted: every profit, bound and sum of weights stays an integer
+#: that float64 holds exactly (the models and the LP bounds compute in floats) for up to
+#: nine million targets; a weight of 1e20 once wrapped to a negative int64 profit.
+MAX_WEIGHT = 10**9
+
 NPZ_FORMAT_NAME = "sosp-instance-npz"
 NPZ_FORMAT_VERSION = 1
 
@@ -365,10 +370,11 @@ class Instance:
         w_raw = col(target_weight, "targets", "weight", n_t)
         _range_check(lat, -90.0, 90.0, "targets", "lat", source)
         _range_check(lon, -180.0, 360.0, "targets", "lon", source)
-        bad = np.flatnonzero((w_raw < 0) | (w_raw != np.round(w_raw)))
+        bad = np.flatnonzero((w_raw < 0) | (w_raw > MAX_WEIGHT) | (w_raw != np.round(w_raw)))
         if bad.size:
             raise InputError(
-                f"targets[{bad[0]}].weight: expected a non-negative integer, got {w_raw[bad[0]]:g}",
+                f"targets[{bad[0]}].weight: expected an integer in [0, {MAX_WEIGHT:.0e}], "
+                f"got {w_raw[bad[0]]:g}",
                 source=source,
             )
         weight = w_raw.astype(np.int64)

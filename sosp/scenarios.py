@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from sosp.errors import InputError
-from sosp.instance import Instance, Resources
+from sosp.instance import MAX_WEIGHT, Instance, Resources
 from sosp.orbits import (
     Satellite,
     builtin_satellites,
@@ -463,9 +463,10 @@ def read_targets_csv(
             raise InputError(
                 f"line {lineno}: weight is not a number: {raw!r}", source=src
             ) from None
-        if not math.isfinite(w) or w < 0 or w != int(w):
+        if not math.isfinite(w) or w < 0 or w > MAX_WEIGHT or w != int(w):
             raise InputError(
-                f"line {lineno}: weight must be a non-negative integer, got {raw!r}", source=src
+                f"line {lineno}: weight must be an integer in [0, {MAX_WEIGHT:.0e}], got {raw!r}",
+                source=src,
             )
         ids.append(tid)
         lat.append(values["lat"])

@@ -98,6 +98,12 @@ BAD = [
     ("lon range", mutate("targets.0.lon", 400.0), "targets[0].lon"),
     ("negative weight", mutate("targets.2.weight", -1), "targets[2].weight"),
     ("fractional weight", mutate("targets.2.weight", 2.5), "targets[2].weight"),
+    # 1e20 once wrapped to a negative int64 weight: a "feasible" schedule of profit -9.2e18
+    (
+        "huge weight",
+        mutate("targets.2.weight", 10**20),
+        "targets[2].weight: expected an integer in",
+    ),
     ("duplicate id", mutate("targets.1.id", "a"), "duplicate id 'a'"),
     ("opp start>=end", mutate("opportunities.1.start", 14.0), "opportunities[1]: start must"),
     ("roll out of range", mutate("opportunities.0.roll", 20.0), "roll_min <= roll <= roll_max"),

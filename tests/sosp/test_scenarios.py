@@ -173,8 +173,11 @@ def test_read_targets_csv_accepts_column_order_and_float_weights(tmp_path):
         ("id,lat,lon,weight\na,91,2,3\n", "line 2: lat must be"),
         ("id,lat,lon,weight\na,1,400,3\n", "line 2: lon must be"),
         ("id,lat,lon,weight\na,1,x,3\n", "line 2: lon is not a number"),
-        ("id,lat,lon,weight\na,1,2,-3\n", "line 2: weight must be a non-negative integer"),
-        ("id,lat,lon,weight\na,1,2,2.5\n", "line 2: weight must be a non-negative integer"),
+        ("id,lat,lon,weight\na,1,2,-3\n", r"line 2: weight must be an integer in \[0, 1e\+09\]"),
+        ("id,lat,lon,weight\na,1,2,2.5\n", "line 2: weight must be an integer in"),
+        # 1e20 once raised OverflowError (a traceback) when the weights became int64
+        ("id,lat,lon,weight\na,1,2,1e20\n", "line 2: weight must be an integer in"),
+        ("id,lat,lon,weight\na,1,2,1000000001\n", "line 2: weight must be an integer in"),
         ("id,lat,lon,weight\na,1,2,3\na,1,2,3\n", "line 3: duplicate id 'a'"),
         ("id,lat,lon,weight\n,1,2,3\n", "line 2: empty id"),
     ],
