@@ -643,6 +643,10 @@ def _member_lists(
 def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[Any, Any]:
     """The groups with each target once (its first opportunity kept): a target seen twice
     inside one window is covered once (2)."""
+    if len(np.unique(oo.target)) == len(oo.target):
+        # no target twice on the orbit, so none twice in a window: the sort below took 3 s
+        # on 11.6 million members (4,714 opportunities of one orbit, 60 s windows)
+        return ptr, flat
     seg = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
     tgt = oo.target[flat]
     order = np.lexsort((flat, tgt, seg))

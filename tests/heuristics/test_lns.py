@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -345,3 +346,47 @@ def test_cli_bound_json_with_the_direct_backend_is_clean(tmp_path) -> None:
     )
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["bound"] >= 0
+
+
+def test_window_columns_are_not_started_when_foreseen_late() -> None:
+    """A dense orbit's window columns take seconds without reading the clock (a 5 s run went
+    to 12.8 s): an orbit is not started when its own last time, or the most seconds per
+    opportunity seen times its opportunities, exceeds the time left."""
+    import numpy as np
+
+    from heuristics.lns import _Late, _WindowColumns
+
+    inst = tiny_two_orbits()
+    price = np.asarray(inst.target_weight, dtype=float)
+    time_left = [10.0]
+    cols = _WindowColumns(inst, lambda: time_left[0])
+    busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
+    orbit, *_ = cols(busy[0], price)  # nothing known yet: made
+    assert set(orbit.tolist()) <= {busy[0]} and cols.rate > 0
+    cols.took[busy[0]] = 5.0
+    time_left[0] = 4.0
+    with pytest.raises(_Late):
+        cols(busy[0], price)  # its own last time does not fit
+    cols.rate = 10.0  # 10 s per opportunity: the other orbit is foreseen late too
+    with pytest.raises(_Late):
+        cols(busy[-1], price)
+    time_left[0] = 1e9
+    cols(busy[-1], price)
+
+
+def test_one_per_target_keeps_each_target_once_per_window() -> None:
+    """The duplicate-free shortcut (no target twice on the orbit) and the sort agree."""
+    import numpy as np
+
+    from sosp.windows import _one_per_target, orbit_opps
+
+    inst = tiny_two_orbits()
+    oo = orbit_opps(inst, int(np.argmax(np.diff(inst.orbit_offsets))))
+    n = len(oo.target)
+    ptr = np.array([0, n, 2 * n])
+    flat = np.concatenate([np.arange(n), np.arange(n)[::-1]])
+    p2, f2 = _one_per_target(oo, ptr, flat)
+    assert np.array_equal(p2, ptr) and np.array_equal(f2, flat)
+    twice = replace(oo, target=np.zeros(n, dtype=oo.target.dtype))  # one target seen n times
+    p3, f3 = _one_per_target(twice, ptr, flat)
+    assert p3.tolist() == [0, 1, 2] and f3.tolist() == [0, 0]
