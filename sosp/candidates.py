@@ -72,6 +72,15 @@ ESTIMATE_S_PER_SAMPLE = 1e-3
 #: that instance at 3 s spent 2.4 s estimating, then planned over windows anyway).
 ESTIMATE_SHARE = 0.25
 
+#: Foreseen seconds of generation per byte of :func:`estimate_bytes`'s estimate: with a
+#: deadline, :func:`candidate_mode` answers windows and :func:`cluster_candidates` refuses
+#: at once when this many seconds would pass it. Measured on the 2-core machine, generation
+#: without a deadline: 27-47 ns per estimated byte (d30 354 MB in 17.6 s; three drawn
+#: instances of 0.86-1.85 GB in 36-70 s); the least of them, so only generations clearly
+#: too long are refused. ``orbit-dp`` and ``asa-dtc`` at 5 s on a drawn 5,000-target
+#: instance (1.66 GB: 69 s) spent 2-2.5 s generating before switching to windows.
+GENERATE_S_PER_BYTE = 27e-9
+
 #: Most candidates the MILP models take (a Pyomo variable each: about 0.5 GB per million).
 #: C10, the densest reference scenario, has 176 610; orbits with hundreds of windows inside
 #: one Delta T (thousands of targets in a small region) have millions. The single-orbit
@@ -499,6 +508,12 @@ def cluster_candidates(
                 "observations' size; give more time or use asa-dtc"
             )
         check_memory(instance)
+        if _generation_late(instance, deadline):
+            raise TimeLimitReached(
+                "time limit foreseen to be reached while generating candidate observations "
+                f"(about {_need(instance) / 2**30:.2f} GB estimated); give more time or use "
+                "asa-dtc"
+            )
     parts: list[OrbitCandidates] = []
     total = 0
     # the foresight counts the orbits to generate (not those cached) by their opportunities
@@ -598,7 +613,9 @@ def candidate_mode(instance: Instance, requested: str, deadline: float | None = 
     if requested == "auto":
         if _estimate_late(instance, deadline):
             return "windows"
-        return "explicit" if candidates_fit(instance) else "windows"
+        if not candidates_fit(instance) or _generation_late(instance, deadline):
+            return "windows"
+        return "explicit"
     if requested == "explicit":
         check_memory(instance)
     return requested
@@ -687,6 +704,20 @@ def _estimate_late(instance: Instance, deadline: float | None) -> bool:
     if foreseen == 0.0 or foreseen <= ESTIMATE_SHARE * (deadline - time.perf_counter()):
         return False  # (no sample: the estimate costs nothing, even past the deadline)
     log.info("candidates: their size estimate alone foreseen at %.1f s", foreseen)
+    return True
+
+
+def _generation_late(instance: Instance, deadline: float | None) -> bool:
+    """Whether generating the candidates of the orbits not cached yet is foreseen to end past
+    ``deadline`` (None: never) at :data:`GENERATE_S_PER_BYTE` of their estimate."""
+    if deadline is None:
+        return False
+    store = _cache_of(instance)
+    cached = sum(store[j].nbytes for j in range(instance.n_orbits) if j in store)
+    foreseen = GENERATE_S_PER_BYTE * max(0, _need(instance) - cached)
+    if time.perf_counter() + foreseen <= deadline:
+        return False
+    log.info("candidates: their generation foreseen at %.1f s", foreseen)
     return True
 
 

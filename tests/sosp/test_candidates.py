@@ -144,3 +144,30 @@ def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkey
         cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 60.0)
     assert "need" not in cands._cache_of(inst)
     assert not any(cands.cached_orbit_candidates(inst, j) for j in range(inst.n_orbits))
+
+
+def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch) -> None:
+    """At :data:`GENERATE_S_PER_BYTE` of the estimate, a generation that would end past the
+    deadline is refused before any orbit (``auto``: windows at once); with room, or without
+    a deadline, it goes ahead. A drawn 5,000-target instance (1.66 GB, 69 s) spent 2-2.5 s
+    of a 5 s run generating before its deadline stopped it."""
+    import time
+
+    import pytest
+
+    import sosp.candidates as cands
+    from sosp.errors import TimeLimitReached
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled: a non-zero estimate
+    monkeypatch.setattr(cands, "GENERATE_S_PER_BYTE", 1.0)  # a second per byte
+    soon = time.perf_counter() + 60.0
+    assert cands.candidate_mode(inst, "auto", soon) == "windows"
+    with pytest.raises(TimeLimitReached, match="generating"):
+        cands.cluster_candidates(inst, None, deadline=soon)
+    assert not any(cands.cached_orbit_candidates(inst, j) for j in range(inst.n_orbits))
+    assert cands.candidate_mode(inst, "auto") == "explicit"  # no deadline: no foresight
+    monkeypatch.setattr(cands, "GENERATE_S_PER_BYTE", 1e-15)
+    assert cands.candidate_mode(inst, "auto", soon) == "explicit"
+    assert len(cands.cluster_candidates(inst, None, deadline=soon)[0]) > 0
