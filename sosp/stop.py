@@ -62,7 +62,11 @@ class MaxRuntime:
     """Stop once ``seconds`` of wall time have passed since ``start`` (default: construction).
 
     ``start`` is a ``clock()`` value, for a search whose limit counts from before the
-    criterion is built (e.g. candidate generation included).
+    criterion is built (e.g. candidate generation included). With ``foresee``, it also stops
+    when the longest time between two of its checks (one iteration, for a search that checks
+    once per iteration) would pass the deadline: a search whose single iteration can take
+    seconds (ASA-DTC re-planning a whole orbit of 4,714 opportunities over windows: up to
+    1.9 s) then ends before the limit rather than up to that long after it.
     """
 
     def __init__(
@@ -70,12 +74,22 @@ class MaxRuntime:
         seconds: float,
         clock: Callable[[], float] = time.perf_counter,
         start: float | None = None,
+        foresee: bool = False,
     ) -> None:
         self.clock = clock
         self.deadline = (clock() if start is None else start) + seconds
+        self.foresee = foresee
+        self.last: float | None = None
+        self.longest = 0.0
 
     def __call__(self, status: SearchStatus) -> bool:
-        return self.clock() >= self.deadline
+        now = self.clock()
+        if self.foresee:
+            if self.last is not None:
+                self.longest = max(self.longest, now - self.last)
+            self.last = now
+            return now + self.longest >= self.deadline
+        return now >= self.deadline
 
 
 class NoImprovement:

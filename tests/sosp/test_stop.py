@@ -229,3 +229,19 @@ def test_milp_on_the_highs_backend_stops_with_its_incumbent() -> None:
     assert result.status is Status.INTERRUPTED
     assert result.stats["termination"] == "Interrupted by user"
     assert result.profit > 0 and validate(inst, result.schedule).feasible
+
+
+def test_max_runtime_foresees_its_longest_iteration() -> None:
+    """With ``foresee``, the stop comes when the longest time between two checks would pass
+    the deadline (a 1.9 s orbit move ran a 5 s ASA-DTC to 5.8 s); without, at the deadline."""
+    now = [0.0]
+    plain = MaxRuntime(10.0, clock=lambda: now[0])
+    ahead = MaxRuntime(10.0, clock=lambda: now[0], foresee=True)
+    status = SearchStatus()
+    for t in (0.0, 1.0, 4.0):  # iterations of 1 s and 3 s
+        now[0] = t
+        assert not plain(status) and not ahead(status)
+    now[0] = 7.5  # 2.5 s left, the longest iteration took 3.5 s
+    assert ahead(status) and not plain(status)
+    now[0] = 10.0
+    assert plain(status)
