@@ -82,7 +82,7 @@ def stop_rule(
     if iterations is not None:
         crit.append(MaxIterations(iterations))
     if seconds is not None:
-        crit.append(MaxRuntime(seconds))
+        crit.append(MaxRuntime(seconds, foresee=True))  # an orbit move can take seconds
     if no_improve is not None:
         crit.append(NoImprovement(no_improve))
     if not crit:
@@ -159,7 +159,7 @@ class Search:
         self.init_stats: dict[str, float] = {}
         if params.init in ("orbit-dp", "lp") and self.planner is not None:
             self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
-        initial_solution(state, params, None if time_limit is None else t0 + time_limit)
+        initial_solution(state, params, self._completion_deadline(t0, time_limit))
         self.t_init = time.perf_counter() - t0
         self.best = state.profit
         self.best_snap = state.snapshot()
@@ -171,6 +171,18 @@ class Search:
         self.trace: list[list[float]] = []
         self.record()
         log.debug("asa-%s: initial profit %g in %.3f s", mode, self.best, self.t_init)
+
+    def _completion_deadline(self, t0: float, time_limit: float | None) -> float | None:
+        """When section 5.4's insertion stops: the limit, or after an orbit start its share
+        (``init_share``) of the time left. That start leaves the insertion the targets it
+        could not place; on a 5,000-target instance it tried 4,112 of them for 14 s of a
+        20 s run and placed none, leaving the annealing nothing."""
+        if time_limit is None:
+            return None
+        if not self.init_stats:
+            return t0 + time_limit
+        now = time.perf_counter()
+        return now + self.params.init_share * (t0 + time_limit - now)
 
     def record(self) -> None:
         """Append a trace row (columns :data:`TRACE_COLUMNS`)."""

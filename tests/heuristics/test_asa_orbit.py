@@ -369,3 +369,45 @@ def test_ascend_only_keeps_gains(inst: Instance, seed: int, rule: str) -> None:
     kept = ascend(state, rng, planner)
     assert state.check()
     assert state.profit >= before + kept - 1e-9  # integer weights: each kept re-plan adds >= 1
+
+
+def test_the_start_keeps_its_share_of_what_the_set_up_left() -> None:
+    """A set-up (the planner's candidates) that took the start's whole share of the limit
+    still leaves the start its share of the time left (a 5,000-target instance at 5 s had
+    no start step: 57 % of orbit-dp's profit)."""
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C1", seed=0)
+    params = ASAParams(init="orbit-dp")
+    state = State(build_problem(inst, "dtc", "nadir"), "nadir", params.nadir_singles)
+    planner = OrbitPlanner(inst, state, None)
+    limit = 4.0
+    t0 = time.perf_counter() - 0.5 * limit  # half the limit gone: past its 0.3 share
+    t = time.perf_counter()
+    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, t0, limit)
+    took = time.perf_counter() - t
+    assert figures["init_steps"] >= 1 and figures["init_profit"] > 0
+    assert took <= params.init_share * 0.5 * limit + 0.5  # its share of the 2 s left
+
+
+def test_insertion_after_an_orbit_start_has_its_share_of_the_time_left(monkeypatch) -> None:
+    """Section 5.4's insertion after an orbit start gets ``init_share`` of the time left, not
+    all of it (it spent 14 s of a 20 s run on targets the start could not place)."""
+    import heuristics.asa.search as search_mod
+    from sosp.scenarios import generate_scenario
+
+    seen: list[float] = []
+    real = search_mod.initial_solution
+
+    def spy(state, params, deadline=None):
+        seen.append(deadline - time.perf_counter())
+        return real(state, params, deadline)
+
+    monkeypatch.setattr(search_mod, "initial_solution", spy)
+    inst = generate_scenario("C1", seed=0)
+    search_mod.Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=10.0)
+    greedy = ASAParams(init="greedy")
+    search_mod.Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=10.0, params=greedy)
+    after_start, alone = seen
+    assert after_start <= 0.3 * 10.0 + 0.05  # at most its share of what the start left
+    assert alone > 5.0  # without an orbit start: the whole limit
