@@ -371,8 +371,8 @@ def _orbit_search_instead(
     t0: float,
 ) -> Result:
     """ASA-DTC on an instance whose conflict lists it refuses (:data:`MAX_CONFLICTS`): the
-    search it starts from by default (``init="orbit-dp"``, :mod:`heuristics.orbit_search`)
-    for the whole time, reported as ASA-DTC's with ``stats["fallback"] = "orbit-dp"`` and a
+    search its default start runs (``orbit-dp``'s iterated local search,
+    :mod:`heuristics.orbit_search`; ``init="lp"`` or ``"orbit-dp"``) for the whole time, reported as ASA-DTC's with ``stats["fallback"] = "orbit-dp"`` and a
     warning. ASA-DTC is the default method and ``milp``'s schedule when its model cannot be
     built, so it answers on every instance; a 2,500-target box near a pole under 8
     satellites (35 million (3) pairs) was refused with exit 2 by both."""
