@@ -372,10 +372,11 @@ def _orbit_search_instead(
 ) -> Result:
     """ASA-DTC on an instance whose conflict lists it refuses (:data:`MAX_CONFLICTS`): the
     search its default start runs (``orbit-dp``'s iterated local search,
-    :mod:`heuristics.orbit_search`; ``init="lp"`` or ``"orbit-dp"``) for the whole time, reported as ASA-DTC's with ``stats["fallback"] = "orbit-dp"`` and a
-    warning. ASA-DTC is the default method and ``milp``'s schedule when its model cannot be
-    built, so it answers on every instance; a 2,500-target box near a pole under 8
-    satellites (35 million (3) pairs) was refused with exit 2 by both."""
+    :mod:`heuristics.orbit_search`; ``init="lp"`` or ``"orbit-dp"``) for the whole time,
+    reported as ASA-DTC's with ``stats["fallback"] = "orbit-dp"`` and a warning. ASA-DTC is
+    the default method and ``milp``'s schedule when its model cannot be built, so it answers
+    on every instance; a 2,500-target box near a pole under 8 satellites (35 million (3)
+    pairs) was refused with exit 2 by both."""
     from heuristics.orbit_search import solve_orbit_dp
 
     log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
