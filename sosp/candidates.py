@@ -715,8 +715,8 @@ def _generation_late(instance: Instance, deadline: float | None) -> bool:
     store = _cache_of(instance)
     cached = sum(store[j].nbytes for j in range(instance.n_orbits) if j in store)
     foreseen = GENERATE_S_PER_BYTE * max(0, _need(instance) - cached)
-    if time.perf_counter() + foreseen <= deadline:
-        return False
+    if foreseen == 0.0 or time.perf_counter() + foreseen <= deadline:
+        return False  # (nothing estimated: no foresight, even past the deadline)
     log.info("candidates: their generation foreseen at %.1f s", foreseen)
     return True
 
