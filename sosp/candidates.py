@@ -712,13 +712,17 @@ def _generation_late(instance: Instance, deadline: float | None) -> bool:
     ``deadline`` (None: never) at :data:`GENERATE_S_PER_BYTE` of their estimate."""
     if deadline is None:
         return False
-    store = _cache_of(instance)
-    cached = sum(store[j].nbytes for j in range(instance.n_orbits) if j in store)
-    foreseen = GENERATE_S_PER_BYTE * max(0, _need(instance) - cached)
+    foreseen = GENERATE_S_PER_BYTE * max(0, _need(instance) - _cached_bytes(instance))
     if foreseen == 0.0 or time.perf_counter() + foreseen <= deadline:
         return False  # (nothing estimated: no foresight, even past the deadline)
     log.info("candidates: their generation foreseen at %.1f s", foreseen)
     return True
+
+
+def _cached_bytes(instance: Instance) -> int:
+    """Bytes of the orbits' candidates generated (cached) so far."""
+    store = _cache_of(instance)
+    return sum(store[j].nbytes for j in range(instance.n_orbits) if j in store)
 
 
 def _samples(instance: Instance) -> list[tuple[int, np.ndarray]]:
@@ -745,8 +749,7 @@ def estimate_bytes(instance: Instance) -> int:
     opportunities are generated and scaled to the orbit (about a second on an orbit with
     thousands of opportunities). Deterministic.
     """
-    store = _cache_of(instance)
-    total = float(sum(store[j].nbytes for j in range(instance.n_orbits) if j in store))
+    total = float(_cached_bytes(instance))
     for j, picks in _samples(instance):
         ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
         n = len(ts)
