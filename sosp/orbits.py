@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sgp4.api import WGS72, Satrec, SatrecArray, jday
+from sgp4.api import SGP4_ERRORS, WGS72, Satrec, SatrecArray, jday
 
 from sosp.errors import InputError
 
@@ -607,12 +607,16 @@ def propagate(satellites: list[Satellite], epoch: str, t: Any) -> tuple[np.ndarr
     bad = err != 0
     if bad.any():
         for i in np.flatnonzero(bad.any(axis=1)):
+            code = int(err[i][bad[i]][0])
             log.warning(
-                "sgp4 failed for %s at %d of %d times (error %d); those states are NaN",
+                "sgp4 failed for %s at %d of %d times, the first at %s (error %d: %s); no "
+                "opportunity at those times",
                 satellites[i].name,
                 int(bad[i].sum()),
                 t.size,
-                int(err[i][bad[i]][0]),
+                utc_at(epoch, float(t[bad[i]][0])),
+                code,
+                SGP4_ERRORS.get(code, "unknown"),
             )
         r[bad] = np.nan
         v[bad] = np.nan

@@ -321,8 +321,9 @@ def find_opportunities(
         for k0 in range(0, len(lat), chunk_size):
             rt = rt_all[k0 : k0 + chunk_size]
             f = rt @ vc.T - cvec  # (K, n_coarse): along-track coordinate times |v|
-            pos = f > 0
-            kk, ii = np.nonzero(pos[:, :-1] & ~pos[:, 1:])
+            # f <= 0 rather than not f > 0: where sgp4 failed (a decayed satellite) the
+            # states are NaN, and a sign change into NaN is no crossing.
+            kk, ii = np.nonzero((f[:, :-1] > 0) & (f[:, 1:] <= 0))
             if kk.size == 0:
                 continue
             f0, f1 = f[kk, ii], f[kk, ii + 1]

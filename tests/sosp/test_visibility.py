@@ -172,6 +172,36 @@ def test_roll_sign_is_positive_right_of_track():
     assert east > 10.0 and west < -10.0
 
 
+def test_decaying_satellite_is_seen_until_sgp4_fails(caplog):
+    """A satellite that decays within the horizon: opportunities before sgp4 gives up, none
+    after, one warning naming sgp4's reason, and no NaN reaching the arithmetic (a sign
+    change of the along-track coordinate into the NaN states was taken for a crossing)."""
+    import warnings
+
+    sat = from_elements(
+        "LOW",
+        epoch=EPOCH,
+        inclination=97.5,
+        raan=10.0,
+        eccentricity=0.001,
+        arg_perigee=0.0,
+        mean_anomaly=0.0,
+        mean_motion=16.3,
+        bstar=0.05,
+    )
+    rng = np.random.default_rng(0)
+    lat, lon = rng.uniform(-80.0, 80.0, 3000), rng.uniform(-180.0, 180.0, 3000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        revs, opps = find_opportunities([sat], lat, lon, epoch=EPOCH)
+    failed = [r.getMessage() for r in caplog.records if "sgp4 failed" in r.getMessage()]
+    assert len(failed) == 1 and "decayed" in failed[0]
+    assert len(opps) > 0
+    decay_s = 4 * 3600.0  # sgp4 fails from about 4 h on for these elements
+    assert opps.t_cross.max() < decay_s
+    assert np.isfinite(opps.roll).all() and np.isfinite(opps.start).all()
+
+
 def test_visible_only_within_reach():
     """A target near the ground track is seen on some pass; one far from every track of the
     first hour is not seen then."""
