@@ -408,6 +408,24 @@ def test_the_work_after_the_search_has_its_time_kept_back(
         assert t + 4.0 - kept - 0.05 <= seen[-1] <= time.perf_counter() + 4.0 - kept
 
 
+def test_subproblems_solved_by_repair_read_the_clock(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every subproblem of a loose instance is solved by repairing the last optimum, so no
+    search node reads the clock: the loop over the subproblems reads it itself (a polar box
+    of 2,212 targets ran 6.8 s of repairs past a 5 s limit)."""
+    rows = [(k, k // 6, 100.0 * (k % 6), 100.0 * (k % 6) + 5.0, 0.0) for k in range(24)]
+    inst = Instance.build([1 + k % 5 for k in range(24)], rows)
+    tasks = single_tasks(inst)
+    items = list(range(len(tasks)))
+    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", None)
+    assert out.proven and out.nodes == 0  # the repair alone solves it: no node, no clock
+    checks: list[int] = []
+    monkeypatch.setattr(rds_module, "_halt", lambda *a: checks.append(1) or len(checks) > 3)
+    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", 1.0, lambda: 0.0)
+    assert not out.proven and len(checks) == 4
+    assert out.bound >= out.value > 0
+    assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
+
+
 def test_preparation_foreseen_too_long_is_skipped(monkeypatch: pytest.MonkeyPatch) -> None:
     # a reduction and a decomposition foreseen to end past the deadline are not started (a
     # 5,000-target instance: 3 s limits ran to 5.8 s); the answer is still valid
