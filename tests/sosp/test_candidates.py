@@ -171,3 +171,30 @@ def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch) -> 
     monkeypatch.setattr(cands, "GENERATE_S_PER_BYTE", 1e-15)
     assert cands.candidate_mode(inst, "auto", soon) == "explicit"
     assert len(cands.cluster_candidates(inst, None, deadline=soon)[0]) > 0
+
+
+def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypatch) -> None:
+    """The size estimate reads the clock before each sample: foreseen in time (its rate per
+    sample set to nothing) but not done by its share of the time left, it stops; ``auto``
+    then plans over windows and the generation refuses, with nothing kept. A drawn
+    5,000-target instance spent 17 s of a 5 s limit estimating, and its searches found
+    nothing."""
+    import time
+
+    import pytest
+
+    import sosp.candidates as cands
+    from sosp.errors import TimeLimitReached
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C3", 0)
+    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
+    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 0.0)  # foreseen to take no time
+    now = time.perf_counter()
+    assert cands.candidate_mode(inst, "auto", now) == "windows"
+    assert "need" not in cands._cache_of(inst)
+    with pytest.raises(TimeLimitReached, match="estimating"):
+        cands.cluster_candidates(inst, None, deadline=now)
+    assert not any(cands.cached_orbit_candidates(inst, j) for j in range(inst.n_orbits))
+    assert cands.candidate_mode(inst, "auto", time.perf_counter() + 600.0) == "explicit"
+    assert cands._cache_of(inst)["need"] == cands.estimate_bytes(inst)

@@ -731,6 +731,22 @@ def test_vectorised_generator_equals_the_reference_loop(seed: int) -> None:
             assert np.array_equal(a.opps.flat, b.opps.flat)
 
 
+@pytest.mark.parametrize("seed", range(40))
+def test_start_counts_are_the_sizes_of_the_start_candidates(seed: int) -> None:
+    """The estimate's counts (:func:`sosp.candidates._start_counts`, no members built) are
+    the numbers of candidates and of members that :func:`_start_candidates` builds, start
+    by start."""
+    from sosp.candidates import _start_candidates, _start_counts, orbit_columns
+
+    for inst in (random_tiny(seed), _dense_orbit(seed)):
+        for j in range(inst.n_orbits):
+            ts, te, lo, hi, limit, stop = orbit_columns(inst, j)
+            for i in range(len(ts)):
+                got = _start_candidates(i, ts, te, lo, hi, int(stop[i]), limit)
+                want = (0, 0) if got is None else (len(got[1]), len(got[3]))
+                assert _start_counts(i, ts, te, lo, hi, int(stop[i]), limit) == want
+
+
 @pytest.mark.parametrize("seed", range(60))
 def test_pruning_keeps_the_optimum_on_crowded_orbits(
     seed: int, monkeypatch: pytest.MonkeyPatch
