@@ -294,6 +294,23 @@ def _window_plan(
 class _Late(Exception):
     """An orbit's window columns are foreseen to end past the deadline."""
 
+    def __init__(self, orbit: int) -> None:
+        super().__init__(orbit)
+        self.orbit = orbit
+
+
+#: Foreseen seconds of an orbit's window columns per (first, covered) pair of opportunities
+#: inside one Delta T, until one orbit's were timed: the most measured (2-core machine; the
+#: six densest orbits of three drawn instances of 2,500-5,000 targets took 0.27-1.19 us a
+#: pair, 0.2-4.6 s an orbit). Per opportunity they ranged 10-fold (0.14-1.6 ms).
+WINDOW_S_PER_PAIR = 1.2e-6
+
+
+#: Foreseen seconds of a step's model (data and arrays) per member of its candidates, until
+#: one was timed: the most measured (2-core machine, windowed steps on four drawn instances
+#: of 2,500-10,000 targets: 0.3-0.64 us a member, models of up to 3 million members).
+BUILD_S_PER_MEMBER = 6.5e-7
+
 
 class _WindowColumns:
     """Candidate columns (orbit, start, end, roll, opportunities) of an orbit at given prices
@@ -301,8 +318,10 @@ class _WindowColumns:
 
     The making is compiled and reads no clock: on a dense orbit (4,714 opportunities, 11.6
     million window members) it takes more than a second, and a 5 s ``milp-lns`` ran to
-    12.8 s. The foresight for orbit j is its own last time, else the most seconds per
-    opportunity any orbit took times j's opportunities (nothing known: no foresight)."""
+    12.8 s. The foresight for orbit j is its own last time, else its (first, covered) pairs
+    times the most seconds per pair any orbit took (none timed yet:
+    :data:`WINDOW_S_PER_PAIR`; a drawn 5,000-target instance's first orbit took 3.5 s
+    unforeseen, and a 5 s run went to 7.4 s)."""
 
     def __init__(self, instance: Instance, left: Callable[[], float]) -> None:
         self.instance = instance
@@ -310,21 +329,37 @@ class _WindowColumns:
         self.n_opps = np.diff(instance.orbit_offsets)
         self.opps_of: dict[int, Any] = {}  # each orbit's opportunity arrays, made once
         self.took: dict[int, float] = {}
-        self.rate = 0.0  # most seconds per opportunity seen
+        self.pairs_of: dict[int, int] = {}
+        self.rate = 0.0  # most seconds per pair seen
+
+    def pairs(self, j: int) -> int:
+        """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
+        if j not in self.pairs_of:
+            from sosp.candidates import orbit_columns
+
+            stop = orbit_columns(self.instance, j)[-1]
+            self.pairs_of[j] = int((stop - np.arange(len(stop))).sum())
+        return self.pairs_of[j]
+
+    def foreseen(self, j: int) -> float:
+        """Seconds orbit j's columns are foreseen to take (see the class docstring)."""
+        if j in self.took:
+            return self.took[j]
+        return (self.rate or WINDOW_S_PER_PAIR) * self.pairs(j)
 
     def __call__(
         self, j: int, price: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
         from sosp.windows import orbit_opps, window_candidates
 
-        if self.took.get(j, self.rate * self.n_opps[j]) > self.left():
-            raise _Late
+        if self.foreseen(j) > self.left():
+            raise _Late(j)
         t = time.perf_counter()
         if j not in self.opps_of:
             self.opps_of[j] = orbit_opps(self.instance, j)
         st, en, ro, groups = window_candidates(self.opps_of[j], price)
         self.took[j] = took = time.perf_counter() - t
-        self.rate = max(self.rate, took / max(int(self.n_opps[j]), 1))
+        self.rate = max(self.rate, took / max(self.pairs(j), 1))
         return np.full(len(st), j, dtype=np.int64), st, en, ro, groups
 
 
@@ -501,6 +536,7 @@ def solve_milp_lns(
         crit.append(NoImprovement(no_improve))
     stop, now = FirstOf(*crit), SearchStatus()
     prep_s = 0.0  # the last step's time to its model (candidates, data, arrays)
+    build_rate = 0.0  # the most seconds per candidates' member a model took (data, arrays)
     while len(active):
         now.iteration, now.since_best, now.best = steps, stale, float(profit)
         if stop(now):
@@ -524,17 +560,20 @@ def solve_milp_lns(
             # is a window of the seed orbit and the other orbits' are not made
             try:
                 made = {seed: window_columns(seed, w_sub)}
-            except _Late:
-                break  # not even the seed orbit's columns would be ready in time
-            cols = _stack_columns([made[seed]], [ob for ob in freed if ob.orbit == seed])
-            if not use_window and p.neighbourhood == "auto" and len(cols[4]) > p.max_items:
-                use_window = True
-            if not use_window and len(chosen) > 1:
-                try:
-                    for j in chosen - {seed}:
+                cols = _stack_columns([made[seed]], [ob for ob in freed if ob.orbit == seed])
+                if not use_window and p.neighbourhood == "auto" and len(cols[4]) > p.max_items:
+                    use_window = True
+                if not use_window and len(chosen) > 1:
+                    for j in sorted(chosen - {seed}):
                         made[j] = window_columns(j, w_sub)
-                except _Late:
-                    break
+            except _Late as late:
+                # that orbit's columns would not be ready in time, now or later (the time
+                # left only shrinks): the steps go on without it, over the orbits left
+                active = active[active != late.orbit]
+                k = min(k, len(active))
+                stale += 1
+                continue
+            if len(made) > 1:
                 everything = _stack_columns([made[j] for j in sorted(chosen)], freed)
                 use_window = p.neighbourhood == "auto" and len(everything[4]) > p.max_items
                 if not use_window:
@@ -570,6 +609,16 @@ def solve_milp_lns(
         if not len(sel):
             stale += 1
             continue
+        # the model's data and arrays read no clock either (3 million members: 1.7 s, and a
+        # 5 s run went to 7.4 s): a model foreseen past the deadline is not built, and the
+        # next step is not started for the same time
+        members = int(np.diff(c_opps.ptr)[sel].sum())
+        foreseen = (build_rate or BUILD_S_PER_MEMBER) * members
+        if foreseen > left():
+            prep_s = time.perf_counter() - step_t0 + foreseen
+            stale += 1
+            continue
+        build_t0 = time.perf_counter()
         data = prepare(
             "cluster",
             sub_instance,
@@ -584,6 +633,7 @@ def solve_milp_lns(
         sizes.append(data.n_items)
         am = build_arrays(data, slew=slew)
         prep_s = time.perf_counter() - step_t0
+        build_rate = max(build_rate, (time.perf_counter() - build_t0) / max(members, 1))
         x0 = None
         if freed:
             vals = warm_start_values(data, Schedule(tuple(freed)))

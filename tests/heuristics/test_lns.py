@@ -351,27 +351,72 @@ def test_cli_bound_json_with_the_direct_backend_is_clean(tmp_path) -> None:
 def test_window_columns_are_not_started_when_foreseen_late() -> None:
     """A dense orbit's window columns take seconds without reading the clock (a 5 s run went
     to 12.8 s): an orbit is not started when its own last time, or the most seconds per
-    opportunity seen times its opportunities, exceeds the time left."""
+    (first, covered) pair seen times its pairs (before any was timed,
+    ``WINDOW_S_PER_PAIR``), exceeds the time left."""
     import numpy as np
 
-    from heuristics.lns import _Late, _WindowColumns
+    from heuristics.lns import WINDOW_S_PER_PAIR, _Late, _WindowColumns
 
     inst = tiny_two_orbits()
     price = np.asarray(inst.target_weight, dtype=float)
-    time_left = [10.0]
+    time_left = [0.0]
     cols = _WindowColumns(inst, lambda: time_left[0])
     busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
-    orbit, *_ = cols(busy[0], price)  # nothing known yet: made
+    assert cols.foreseen(busy[0]) == WINDOW_S_PER_PAIR * cols.pairs(busy[0]) > 0
+    with pytest.raises(_Late) as late:
+        cols(busy[0], price)  # nothing timed yet: foreseen at the prior rate, not made
+    assert late.value.orbit == busy[0] and not cols.took
+    time_left[0] = 10.0
+    orbit, *_ = cols(busy[0], price)
     assert set(orbit.tolist()) <= {busy[0]} and cols.rate > 0
     cols.took[busy[0]] = 5.0
     time_left[0] = 4.0
     with pytest.raises(_Late):
         cols(busy[0], price)  # its own last time does not fit
-    cols.rate = 10.0  # 10 s per opportunity: the other orbit is foreseen late too
+    cols.rate = 10.0  # 10 s per pair: the other orbit is foreseen late too
     with pytest.raises(_Late):
         cols(busy[-1], price)
     time_left[0] = 1e9
     cols(busy[-1], price)
+
+
+def test_an_orbit_foreseen_late_is_left_out_and_the_steps_go_on(monkeypatch) -> None:
+    """Windowed steps drop an orbit whose columns are foreseen late and go on over the others
+    (they ended at the first such orbit: a drawn 5,000-target instance kept its start)."""
+    import numpy as np
+
+    import heuristics.lns as lns
+    from sosp.scenarios import generate_scenario
+    from sosp.validate import validate
+
+    inst = generate_scenario("B2", 0)
+    real = lns._WindowColumns.foreseen
+    n_opps = np.diff(inst.orbit_offsets)
+    dense = int(np.argmax(n_opps))
+    monkeypatch.setattr(
+        lns._WindowColumns, "foreseen", lambda self, j: 1e9 if j == dense else real(self, j)
+    )
+    made: list[int] = []
+    real_call = lns._WindowColumns.__call__
+
+    def spy(self, j, price):
+        out = real_call(self, j, price)
+        made.append(j)  # made (not refused)
+        return out
+
+    monkeypatch.setattr(lns._WindowColumns, "__call__", spy)
+    res = lns.solve_milp_lns(
+        inst,
+        rng=np.random.default_rng(0),
+        candidates="windows",
+        iterations=12,
+        orbits=2,
+        start="greedy",
+        time_limit=60.0,  # (a time left to compare with)
+    )
+    assert validate(inst, res.schedule).feasible
+    assert dense not in made, made
+    assert len(set(made)) > 2 and res.iterations == 12, (made, res.iterations)
 
 
 def test_one_per_target_keeps_each_target_once_per_window() -> None:
@@ -390,3 +435,28 @@ def test_one_per_target_keeps_each_target_once_per_window() -> None:
     twice = replace(oo, target=np.zeros(n, dtype=oo.target.dtype))  # one target seen n times
     p3, f3 = _one_per_target(twice, ptr, flat)
     assert p3.tolist() == [0, 1, 2] and f3.tolist() == [0, 0]
+
+
+def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
+    """A step's model (data, arrays) reads no clock (3 million members: 1.7 s, and a 5 s run
+    went to 7.4 s): foreseen past the deadline at ``BUILD_S_PER_MEMBER`` (until one was
+    timed), it is not built and no later step starts; the answer is the start's."""
+    import numpy as np
+
+    import heuristics.lns as lns
+    import models.data
+    from sosp.scenarios import generate_scenario
+    from sosp.validate import validate
+
+    inst = generate_scenario("B2", 0)
+    built: list[int] = []
+    real = models.data.prepare
+    monkeypatch.setattr(models.data, "prepare", lambda *a, **k: built.append(1) or real(*a, **k))
+    kw = dict(candidates="windows", iterations=5, start="greedy", time_limit=60.0)
+    monkeypatch.setattr(lns, "BUILD_S_PER_MEMBER", 1.0)  # a second a member: never in time
+    res = lns.solve_milp_lns(inst, rng=np.random.default_rng(0), **kw)
+    assert built == [] and res.stats["steps_improved"] == 0
+    assert res.profit == res.stats["start_profit"] and validate(inst, res.schedule).feasible
+    monkeypatch.setattr(lns, "BUILD_S_PER_MEMBER", 1e-12)
+    lns.solve_milp_lns(inst, rng=np.random.default_rng(0), **kw)
+    assert built
