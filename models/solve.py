@@ -300,7 +300,7 @@ def heuristic_start(
             break
         since += 1
         mark, before = len(search.journal), search.profit
-        search.perturb(params)
+        search.perturb(params, deadline)
         search.ascent(deadline)
         if search.profit + 1e-9 >= before:
             search.journal.clear()

@@ -286,12 +286,36 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     assert inst.n_orbits >= 3
     data = orbit_data(inst)
     search = OrbitSearch(data, np.random.default_rng(0))
-    clock = itertools.count()  # one tick per reading: the deadline 1.5 passes at the third
+    search._late = lambda g, deadline: False  # (no foresight here: below)
+    # one tick per reading: the check before an orbit reads once, its timed re-plan twice,
+    # so the deadline 3.5 passes at the check before the third orbit
+    clock = itertools.count()
     fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
     monkeypatch.setattr(orbit_search, "time", fake)
-    search.ascent(deadline=1.5)
+    search.ascent(deadline=3.5)
     assert search.replans == 2
     assert validate(inst, search.schedule()).feasible
+
+
+def test_ascent_skips_orbits_foreseen_past_the_deadline() -> None:
+    """An orbit whose plan is foreseen to end past the deadline (its own last time, else its
+    work at the last rate or the prior) is skipped and the others are planned; the ascent
+    ends when a pass plans none (one plan over windows of an orbit of 8,191 opportunities
+    took seconds, and a 1 s ``orbit-dp`` ran 2.8 s)."""
+    import time
+
+    inst = _slack_instance(0)
+    data = orbit_data(inst)
+    busy = [g for g in range(len(data.orbits)) if len(data.orbits[g].items)]
+    assert len(busy) >= 2
+    search = OrbitSearch(data, np.random.default_rng(0))
+    search.plan_s[busy[0]] = 1e6  # its last plan took "a million seconds"
+    search.ascent(deadline=time.perf_counter() + 60.0)
+    assert search.plan_s[busy[0]] == 1e6 and len(search.paths[busy[0]]) == 0
+    assert all(g in search.plan_s for g in busy[1:])
+    assert validate(inst, search.schedule()).feasible
+    search.ascent(deadline=None)  # no deadline: no foresight
+    assert search.plan_s[busy[0]] < 1e6
 
 
 @pytest.mark.parametrize("name", sorted(TINY))
