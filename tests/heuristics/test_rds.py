@@ -477,3 +477,26 @@ def test_interaction_components_are_those_of_the_whole_graph(seed: int) -> None:
         got = rds_module.interaction_components(inst, tasks, usable)
         assert {frozenset(c) for c in got} == want
         assert [len(c) for c in got] == sorted(len(c) for c in got)
+
+
+def test_conflict_lists_foreseen_late_or_too_large_are_not_made(monkeypatch) -> None:
+    """The (3) sweep reads no clock (167 million pairs: 5.7 s, and a 5 s run went to 7.1 s):
+    foreseen past the deadline it is not started; beyond ``MAX_PAIRS`` the lists (about 80
+    bytes a pair) are not made at all. Either way the search is not run and the answer is
+    the fall-back decode, valid."""
+    inst = generate_scenario("B1", 0)
+    tasks = single_tasks(inst)
+    usable = list(range(len(tasks)))
+    far = 1e12  # a deadline that never passes
+    assert len(pairwise_conflicts(inst, tasks, usable, deadline=far, clock=lambda: 0.0)) > 0
+    monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", far)
+    with pytest.raises(rds_module._OutOfTime):
+        pairwise_conflicts(inst, tasks, usable, deadline=far, clock=lambda: 0.0)
+    pairwise_conflicts(inst, tasks, usable)  # no deadline: no foresight
+    monkeypatch.undo()
+    monkeypatch.setattr(rds_module, "MAX_PAIRS", 1)
+    with pytest.raises(rds_module._OutOfTime):
+        pairwise_conflicts(inst, tasks, usable)
+    out = russian_doll(inst, tasks, decompose=False, reduce=False)
+    assert not out.proven and out.bound >= out.value > 0
+    assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
