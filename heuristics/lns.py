@@ -301,9 +301,9 @@ class _Late(Exception):
 
 #: Foreseen seconds of an orbit's window columns per (first, covered) pair of opportunities
 #: inside one Delta T, until one orbit's were timed: the most measured (2-core machine; the
-#: six densest orbits of three drawn instances of 2,500-5,000 targets took 0.27-1.19 us a
-#: pair, 0.2-4.6 s an orbit). Per opportunity they ranged 10-fold (0.14-1.6 ms).
-WINDOW_S_PER_PAIR = 1.2e-6
+#: densest orbits of five drawn instances of 1,200-5,000 targets took 0.07-2.28 us a pair,
+#: up to 4.6 s an orbit; per opportunity 0.01-1.66 ms).
+WINDOW_S_PER_PAIR = 2.3e-6
 
 
 #: Foreseen seconds of a step's model (data and arrays) per member of its candidates, until
@@ -319,9 +319,10 @@ class _WindowColumns:
     The making is compiled and reads no clock: on a dense orbit (4,714 opportunities, 11.6
     million window members) it takes more than a second, and a 5 s ``milp-lns`` ran to
     12.8 s. The foresight for orbit j is its own last time, else its (first, covered) pairs
-    times the most seconds per pair any orbit took (none timed yet:
-    :data:`WINDOW_S_PER_PAIR`; a drawn 5,000-target instance's first orbit took 3.5 s
-    unforeseen, and a 5 s run went to 7.4 s)."""
+    times the most seconds per pair any orbit took, at least :data:`WINDOW_S_PER_PAIR` (a
+    drawn 5,000-target instance's first orbit took 3.5 s unforeseen, and a 5 s run went to
+    7.4 s; on another, an orbit timed at 0.65 us a pair foresaw the next at 0.9 s, which took
+    2.6 s at 2 us a pair)."""
 
     def __init__(self, instance: Instance, left: Callable[[], float]) -> None:
         self.instance = instance
@@ -345,7 +346,7 @@ class _WindowColumns:
         """Seconds orbit j's columns are foreseen to take (see the class docstring)."""
         if j in self.took:
             return self.took[j]
-        return (self.rate or WINDOW_S_PER_PAIR) * self.pairs(j)
+        return max(self.rate, WINDOW_S_PER_PAIR) * self.pairs(j)
 
     def __call__(
         self, j: int, price: np.ndarray

@@ -351,8 +351,8 @@ def test_cli_bound_json_with_the_direct_backend_is_clean(tmp_path) -> None:
 def test_window_columns_are_not_started_when_foreseen_late() -> None:
     """A dense orbit's window columns take seconds without reading the clock (a 5 s run went
     to 12.8 s): an orbit is not started when its own last time, or the most seconds per
-    (first, covered) pair seen times its pairs (before any was timed,
-    ``WINDOW_S_PER_PAIR``), exceeds the time left."""
+    (first, covered) pair seen times its pairs (at least ``WINDOW_S_PER_PAIR``), exceeds
+    the time left."""
     import numpy as np
 
     from heuristics.lns import WINDOW_S_PER_PAIR, _Late, _WindowColumns
@@ -373,6 +373,8 @@ def test_window_columns_are_not_started_when_foreseen_late() -> None:
     time_left[0] = 4.0
     with pytest.raises(_Late):
         cols(busy[0], price)  # its own last time does not fit
+    cols.rate = 1e-12  # a rate below the prior: the prior stands
+    assert cols.foreseen(busy[-1]) == WINDOW_S_PER_PAIR * cols.pairs(busy[-1])
     cols.rate = 10.0  # 10 s per pair: the other orbit is foreseen late too
     with pytest.raises(_Late):
         cols(busy[-1], price)
