@@ -185,7 +185,8 @@ def window_colgen_bound(
                 and b is not None
                 and b / 2 >= MIN_BAND
                 and deadline is not None
-                and time.perf_counter() < deadline
+                # the finer band's rounds cost HALVING_COST times as much: one must fit
+                and time.perf_counter() + HALVING_COST * root.round_s < deadline
                 and rounds < max_rounds
                 and (lower_bound is None or math.floor(best + 1e-6) > lower_bound)
             ):

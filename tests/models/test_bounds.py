@@ -227,14 +227,14 @@ def test_candidates_out_of_time_before_the_limit_give_the_cap_or_windows(
     candidates' "time limit reached" can come before the limit. It is a
     :class:`TimeLimitReached`: the bounds answer with the cap (the observable weight), as
     at the limit; before, ``colgen`` checked the clock and passed the error on (exit 2).
-    ``lagrangian`` and ``auto`` with a quarter of the limit left (``WINDOWS_AFTER_SHARE``)
+    ``lagrangian`` and ``auto`` with a fifth of the limit left (``WINDOWS_MIN_SHARE``)
     answer with the window relaxation's bound instead, never above the cap nor below the
     optimum."""
     import models.solve as ms
     import sosp.planner as sp
 
     inst = random_tiny(7)
-    monkeypatch.setattr(ms, "WINDOWS_AFTER_SHARE", windows_share)
+    monkeypatch.setattr(ms, "WINDOWS_MIN_SHARE", windows_share)
 
     def out_of_time(*args, **kwargs):
         raise TimeLimitReached("orbit 'o': time limit reached while arranging (9)")

@@ -584,3 +584,35 @@ def test_give_way_rule() -> None:
     assert soon(200.0, -np.inf) and soon.gave_at == first  # the first time is kept
     side.proves = True
     assert late(np.inf, 100.0) and late.gave_at is None  # a proof stops HiGHS, no giving way
+
+
+def test_a_round_foreseen_past_the_deadline_is_not_started() -> None:
+    """A pricing round reads no clock inside an orbit (over windows of a dense orbit:
+    seconds), and a partial round is no bound: a round foreseen, at the longest one so
+    far, to end past the deadline is not started (a drawn 1,200-target instance's window
+    bound ran 7.9 s for a 5 s limit)."""
+    import time
+    import types
+
+    import numpy as np
+
+    from models.colgen import _master_highs, column_generation
+
+    _master_highs()  # HiGHS loaded before the clock (its first import takes a while)
+    calls: list[float] = []
+
+    def slow_price(mu, lam, deadline):
+        calls.append(time.perf_counter())
+        time.sleep(0.5)
+        return [(2.0, np.array([0]), (0.0, 0.0))]  # an over-estimate: never converges
+
+    rules = [types.SimpleNamespace(energy_capacity=10.0, memory_capacity=10.0)]
+    p, seen = np.array([1.0]), np.array([True])
+    start = (p.copy(), np.zeros((1, 2)))
+    t = time.perf_counter()
+    root = column_generation(p, seen, rules, slow_price, start, deadline=t + 0.8)
+    assert len(calls) == 1 and root.rounds == 1 and root.round_s >= 0.5
+    assert time.perf_counter() - t < 0.8 and root.best >= 1.0
+    calls.clear()
+    root = column_generation(p, seen, rules, slow_price, start, deadline=None, max_rounds=2)
+    assert len(calls) == 2  # no deadline: no foresight
