@@ -351,14 +351,20 @@ class _WindowColumns:
     def __call__(
         self, j: int, price: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
-        from sosp.windows import orbit_opps, window_candidates
+        from sosp.windows import TooManyMembers, orbit_opps, window_candidates
 
         if self.foreseen(j) > self.left():
             raise _Late(j)
         t = time.perf_counter()
         if j not in self.opps_of:
             self.opps_of[j] = orbit_opps(self.instance, j)
-        st, en, ro, groups = window_candidates(self.opps_of[j], price)
+        try:
+            st, en, ro, groups = window_candidates(self.opps_of[j], price)
+        except TooManyMembers as exc:
+            # too large a model for any step: the orbit is left out as if always late
+            log.warning("milp-lns: %s; the steps go on without it", exc)
+            self.took[j] = math.inf
+            raise _Late(j) from None
         self.took[j] = took = time.perf_counter() - t
         self.rate = max(self.rate, took / max(self.pairs(j), 1))
         return np.full(len(st), j, dtype=np.int64), st, en, ro, groups

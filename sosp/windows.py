@@ -623,10 +623,21 @@ def item_targets(oo: OrbitOpps, price: np.ndarray, ri: RelaxedItems, path: np.nd
     return oo.target[flat]
 
 
+#: Most members :func:`window_candidates` lists for one orbit (8 bytes each, and as much
+#: again in the model built from them): an orbit of 887 opportunities over a polar box of
+#: 10,000 targets has 116 million, a denser one 3.7 billion (27.5 GiB, a MemoryError).
+MAX_WINDOW_MEMBERS = 200_000_000
+
+
+class TooManyMembers(ValueError):
+    """An orbit's window candidates would list more than :data:`MAX_WINDOW_MEMBERS`."""
+
+
 def _member_lists(
     oo: OrbitOpps, w: np.ndarray, first: np.ndarray, last: np.ndarray, point: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """CSR (ptr, flat local indices) of :func:`_members`."""
+    """CSR (ptr, flat local indices) of :func:`_members`; :class:`TooManyMembers` beyond
+    :data:`MAX_WINDOW_MEMBERS`, before they are allocated."""
     cols = (_frozen(c, float) for c in (oo.start, oo.end, oo.roll_min, oo.roll_max, w))
     first, last = _frozen(first, np.int64), _frozen(last, np.int64)
     point = _frozen(point, float)
@@ -634,6 +645,11 @@ def _member_lists(
     guess = np.zeros(max(8 * len(first), 1), dtype=np.int64)
     args = (*cols, first, last, point, EPS)
     total = _members(*args, ptr, guess)
+    if total > MAX_WINDOW_MEMBERS:
+        raise TooManyMembers(
+            f"orbit {oo.orbit}: {total:,} window candidate members, more than "
+            f"{MAX_WINDOW_MEMBERS:,}"
+        )
     if total > len(guess):
         guess = np.zeros(total, dtype=np.int64)
         _members(*args, ptr, guess)

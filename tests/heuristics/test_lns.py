@@ -462,3 +462,24 @@ def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
     monkeypatch.setattr(lns, "BUILD_S_PER_MEMBER", 1e-12)
     lns.solve_milp_lns(inst, rng=np.random.default_rng(0), **kw)
     assert built
+
+
+def test_window_columns_beyond_the_members_cap_leave_the_orbit_out(monkeypatch) -> None:
+    """An orbit whose window candidates would list more than ``MAX_WINDOW_MEMBERS`` (a polar
+    box of 10,000 targets: 3.7 billion, a MemoryError) raises before they are allocated,
+    and milp-lns leaves that orbit out of its steps."""
+    import numpy as np
+
+    import sosp.windows as sw
+    from heuristics.lns import _Late, _WindowColumns
+
+    inst = tiny_two_orbits()
+    price = np.asarray(inst.target_weight, dtype=float)
+    cols = _WindowColumns(inst, lambda: 1e9)
+    busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
+    monkeypatch.setattr(sw, "MAX_WINDOW_MEMBERS", 0)
+    with pytest.raises(sw.TooManyMembers):
+        sw.window_candidates(sw.orbit_opps(inst, busy[0]), price)
+    with pytest.raises(_Late):
+        cols(busy[0], price)
+    assert cols.foreseen(busy[0]) == float("inf")
