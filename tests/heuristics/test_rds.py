@@ -418,10 +418,14 @@ def test_subproblems_solved_by_repair_read_the_clock(monkeypatch: pytest.MonkeyP
     items = list(range(len(tasks)))
     out = rds_module.rds_targets_component(inst, tasks, items, "orbit", None)
     assert out.proven and out.nodes == 0  # the repair alone solves it: no node, no clock
-    checks: list[int] = []
-    monkeypatch.setattr(rds_module, "_halt", lambda *a: checks.append(1) or len(checks) > 3)
-    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", 1.0, lambda: 0.0)
-    assert not out.proven and len(checks) == 4
+    readings: list[int] = []
+
+    def clock() -> float:  # the deadline (1.0) passes at the 12th reading
+        readings.append(1)
+        return 0.0 if len(readings) < 12 else 10.0
+
+    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", 1.0, clock)
+    assert not out.proven and len(readings) == 13  # (the 13th: the seconds spent)
     assert out.bound >= out.value > 0
     assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
 
