@@ -336,10 +336,9 @@ class _WindowColumns:
     def pairs(self, j: int) -> int:
         """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
         if j not in self.pairs_of:
-            from sosp.candidates import orbit_columns
+            from sosp.candidates import orbit_pairs
 
-            stop = orbit_columns(self.instance, j)[-1]
-            self.pairs_of[j] = int((stop - np.arange(len(stop))).sum())
+            self.pairs_of[j] = orbit_pairs(self.instance, j)
         return self.pairs_of[j]
 
     def foreseen(self, j: int) -> float:
