@@ -299,11 +299,16 @@ class _Late(Exception):
         self.orbit = orbit
 
 
-#: Foreseen seconds of an orbit's window columns per (first, covered) pair of opportunities
-#: inside one Delta T, until one orbit's were timed: the most measured (2-core machine; the
-#: densest orbits of five drawn instances of 1,200-5,000 targets took 0.07-2.28 us a pair,
-#: up to 4.6 s an orbit; per opportunity 0.01-1.66 ms).
-WINDOW_S_PER_PAIR = 2.3e-6
+#: Foreseen seconds of an orbit's window sweep (:func:`sosp.windows.window_items`) per
+#: (first, covered) pair of opportunities inside one Delta T, until one was timed: the most
+#: measured (2-core machine, the densest orbits of four drawn instances of 1,200-10,000
+#: targets: 0.09-0.35 us a pair, up to 6.5 s an orbit).
+WINDOW_S_PER_PAIR = 3.5e-7
+
+#: Foreseen seconds of the window candidates' members listing per opportunity it reads
+#: (:func:`sosp.windows.member_scan`), until one was timed: the most measured on the same
+#: orbits (7-12 ns, both passes; up to 28 s an orbit). Per pair the listing varies 200-fold.
+WINDOW_S_PER_SCAN = 1.25e-8
 
 
 #: Foreseen seconds of a step's model (data and arrays) per member of its candidates, until
@@ -318,11 +323,16 @@ class _WindowColumns:
 
     The making is compiled and reads no clock: on a dense orbit (4,714 opportunities, 11.6
     million window members) it takes more than a second, and a 5 s ``milp-lns`` ran to
-    12.8 s. The foresight for orbit j is its own last time, else its (first, covered) pairs
-    times the most seconds per pair any orbit took, at least :data:`WINDOW_S_PER_PAIR` (a
-    drawn 5,000-target instance's first orbit took 3.5 s unforeseen, and a 5 s run went to
-    7.4 s; on another, an orbit timed at 0.65 us a pair foresaw the next at 0.9 s, which took
-    2.6 s at 2 us a pair)."""
+    12.8 s. It is foreseen twice:
+
+    * before the sweep: orbit j's own last time, else its (first, covered) pairs times the
+      most seconds per pair any orbit took in all, at least :data:`WINDOW_S_PER_PAIR` (the
+      sweep's alone);
+    * before the members' listing: its :func:`sosp.windows.member_scan` times the most
+      seconds per opportunity read, at least :data:`WINDOW_S_PER_SCAN`. Per pair an orbit's
+      whole time varied 200-fold (0.07-15.7 us), and a 5 s run on a 10,000-target polar box
+      went to 8.0 s; per opportunity read, 7-12 ns.
+    """
 
     def __init__(self, instance: Instance, left: Callable[[], float]) -> None:
         self.instance = instance
@@ -331,7 +341,8 @@ class _WindowColumns:
         self.opps_of: dict[int, Any] = {}  # each orbit's opportunity arrays, made once
         self.took: dict[int, float] = {}
         self.pairs_of: dict[int, int] = {}
-        self.rate = 0.0  # most seconds per pair seen
+        self.rate = 0.0  # most seconds per pair seen, in all
+        self.scan_rate = 0.0  # most seconds per opportunity the listing read
 
     def pairs(self, j: int) -> int:
         """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
@@ -342,10 +353,15 @@ class _WindowColumns:
         return self.pairs_of[j]
 
     def foreseen(self, j: int) -> float:
-        """Seconds orbit j's columns are foreseen to take (see the class docstring)."""
+        """Seconds orbit j's columns are foreseen to take before its sweep (see the class
+        docstring)."""
         if j in self.took:
             return self.took[j]
         return max(self.rate, WINDOW_S_PER_PAIR) * self.pairs(j)
+
+    def listing(self, scan: int) -> float:
+        """Seconds a members' listing reading ``scan`` opportunities is foreseen to take."""
+        return max(self.scan_rate, WINDOW_S_PER_SCAN) * scan
 
     def __call__(
         self, j: int, price: np.ndarray
@@ -357,15 +373,27 @@ class _WindowColumns:
         t = time.perf_counter()
         if j not in self.opps_of:
             self.opps_of[j] = orbit_opps(self.instance, j)
+        scanned = [0, t]  # the listing's opportunities read, and when it started
+
+        def ahead(scan: int) -> None:
+            scanned[:] = [scan, time.perf_counter()]
+            if self.listing(scan) > self.left():
+                # not made, now or later: its time so far plus the listing, for foreseen(j)
+                self.took[j] = scanned[1] - t + self.listing(scan)
+                raise _Late(j)
+
         try:
-            st, en, ro, groups = window_candidates(self.opps_of[j], price)
+            st, en, ro, groups = window_candidates(self.opps_of[j], price, ahead=ahead)
         except TooManyMembers as exc:
             # too large a model for any step: the orbit is left out as if always late
             log.warning("milp-lns: %s; the steps go on without it", exc)
             self.took[j] = math.inf
             raise _Late(j) from None
-        self.took[j] = took = time.perf_counter() - t
+        end = time.perf_counter()
+        self.took[j] = took = end - t
         self.rate = max(self.rate, took / max(self.pairs(j), 1))
+        if scanned[0]:
+            self.scan_rate = max(self.scan_rate, (end - scanned[1]) / scanned[0])
         return np.full(len(st), j, dtype=np.int64), st, en, ro, groups
 
 

@@ -382,6 +382,34 @@ def test_window_columns_are_not_started_when_foreseen_late() -> None:
     cols(busy[-1], price)
 
 
+def test_window_members_are_not_listed_when_foreseen_late(monkeypatch) -> None:
+    """After the sweep, the members' listing is foreseen by the opportunities it reads (per
+    pair it varied 200-fold, and a 5 s run on a polar box went to 8.0 s): foreseen past the
+    time left, the orbit is late, its time so far plus the listing's is kept, and no
+    listing runs."""
+    import numpy as np
+
+    import heuristics.lns as lns
+    import sosp.windows as sw
+
+    inst = tiny_two_orbits()
+    price = np.asarray(inst.target_weight, dtype=float)
+    cols = lns._WindowColumns(inst, lambda: 100.0)
+    busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
+    listed: list[int] = []
+    real = sw._member_lists
+    monkeypatch.setattr(sw, "_member_lists", lambda *a: listed.append(1) or real(*a))
+    monkeypatch.setattr(lns, "WINDOW_S_PER_SCAN", 1e3)  # 1,000 s an opportunity read
+    assert cols.foreseen(busy[0]) < 100.0  # the sweep is in time
+    with pytest.raises(lns._Late):
+        cols(busy[0], price)
+    assert listed == [] and cols.took[busy[0]] > 100.0 and cols.scan_rate == 0.0
+    monkeypatch.setattr(lns, "WINDOW_S_PER_SCAN", 1e-12)
+    cols(busy[-1], price)
+    assert listed == [1] and cols.scan_rate > 0.0
+    assert cols.listing(10**6) == pytest.approx(cols.scan_rate * 10**6)
+
+
 def test_an_orbit_foreseen_late_is_left_out_and_the_steps_go_on(monkeypatch) -> None:
     """Windowed steps drop an orbit whose columns are foreseen late and go on over the others
     (they ended at the first such orbit: a drawn 5,000-target instance kept its start)."""

@@ -436,3 +436,42 @@ print(*ready, *count())
     counts = [int(n) for n in out.stdout.split()[-4:]]
     assert min(counts[:2]) >= 1  # both compiled before any call
     assert counts[2:] == counts[:2]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_member_scan_counts_what_the_listing_reads(seed: int) -> None:
+    """The listing's foresight measure: at least its members, and exactly the opportunities
+    read from each row's first i (no ties of starts before i here)."""
+    from sosp.windows import _observations, member_scan, window_candidates
+
+    oo, price = _random_orbit(seed, n=40)
+    oo = dataclasses.replace(oo, start=oo.start + 1e-3 * np.arange(40))  # no tied starts
+    wi = window_items(oo, price)
+    keep, *_ = _observations(oo, wi, "nadir")
+    first, last = wi.first[keep], wi.last[keep]
+    reads = sum(
+        int(np.sum((np.arange(40) >= i) & (oo.start <= oo.end[k])))
+        for i, k in zip(first, last, strict=True)
+    )
+    scan = member_scan(oo, first, last)
+    assert scan == reads
+    seen: list[int] = []
+    *_, groups = window_candidates(oo, price, ahead=seen.append)
+    assert seen == [scan] and len(groups.flat) <= scan
+    assert member_scan(oo, first[:0], last[:0]) == 0
+
+
+def test_ahead_can_stop_the_listing() -> None:
+    """``ahead`` raising stops window_candidates before the members are listed."""
+    from sosp.windows import window_candidates
+
+    oo, price = _random_orbit(0, n=40)
+
+    class Stop(Exception):
+        pass
+
+    def stop(scan: int) -> None:
+        raise Stop(scan)
+
+    with pytest.raises(Stop):
+        window_candidates(oo, price, ahead=stop)
