@@ -44,7 +44,15 @@ from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
-from sosp.stop import FirstOf, Interrupted, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
+from sosp.stop import (
+    FirstOf,
+    Foresight,
+    Interrupted,
+    MaxIterations,
+    MaxRuntime,
+    NoImprovement,
+    SearchStatus,
+)
 
 log = logging.getLogger(__name__)
 
@@ -339,10 +347,9 @@ class _WindowColumns:
         self.left = left
         self.n_opps = np.diff(instance.orbit_offsets)
         self.opps_of: dict[int, Any] = {}  # each orbit's opportunity arrays, made once
-        self.took: dict[int, float] = {}
         self.pairs_of: dict[int, int] = {}
-        self.rate = 0.0  # most seconds per pair seen, in all
-        self.scan_rate = 0.0  # most seconds per opportunity the listing read
+        self.whole = Foresight(WINDOW_S_PER_PAIR, most=True)  # per orbit, by its pairs
+        self.scan = Foresight(WINDOW_S_PER_SCAN, most=True)  # the listings, by their reads
 
     def pairs(self, j: int) -> int:
         """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
@@ -355,13 +362,11 @@ class _WindowColumns:
     def foreseen(self, j: int) -> float:
         """Seconds orbit j's columns are foreseen to take before its sweep (see the class
         docstring)."""
-        if j in self.took:
-            return self.took[j]
-        return max(self.rate, WINDOW_S_PER_PAIR) * self.pairs(j)
+        return self.whole(j, self.pairs(j))
 
     def listing(self, scan: int) -> float:
         """Seconds a members' listing reading ``scan`` opportunities is foreseen to take."""
-        return max(self.scan_rate, WINDOW_S_PER_SCAN) * scan
+        return self.scan.rate_or_prior() * scan
 
     def __call__(
         self, j: int, price: np.ndarray
@@ -379,7 +384,7 @@ class _WindowColumns:
             scanned[:] = [scan, time.perf_counter()]
             if self.listing(scan) > self.left():
                 # not made, now or later: its time so far plus the listing, for foreseen(j)
-                self.took[j] = scanned[1] - t + self.listing(scan)
+                self.whole.took[j] = scanned[1] - t + self.listing(scan)
                 raise _Late(j)
 
         try:
@@ -387,13 +392,11 @@ class _WindowColumns:
         except TooManyMembers as exc:
             # too large a model for any step: the orbit is left out as if always late
             log.warning("milp-lns: %s; the steps go on without it", exc)
-            self.took[j] = math.inf
+            self.whole.took[j] = math.inf
             raise _Late(j) from None
         end = time.perf_counter()
-        self.took[j] = took = end - t
-        self.rate = max(self.rate, took / max(self.pairs(j), 1))
-        if scanned[0]:
-            self.scan_rate = max(self.scan_rate, (end - scanned[1]) / scanned[0])
+        self.whole.record(j, self.pairs(j), end - t)
+        self.scan.record(j, scanned[0], end - scanned[1])
         return np.full(len(st), j, dtype=np.int64), st, en, ro, groups
 
 

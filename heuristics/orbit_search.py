@@ -56,6 +56,7 @@ if TYPE_CHECKING:
 
 from sosp.stop import (
     FirstOf,
+    Foresight,
     Interrupted,
     MaxIterations,
     MaxRuntime,
@@ -192,8 +193,10 @@ class OrbitSearch:
         self.dirty = np.ones(len(data.orbits), dtype=bool)
         self.journal: list[tuple[int, np.ndarray]] = []
         self.replans = 0
-        self.plan_s: dict[int, float] = {}  # each orbit's last planning time
-        self.plan_rate = 0.0  # the last timed plan's seconds per unit of :meth:`_work`
+        # each orbit's last planning time, and the last timed plan's seconds per unit of
+        # :meth:`_work` (plans get cheaper as the search covers targets: with the most rate
+        # seen instead, orbit-dp on a polar box at 20 s gave 21,394 against 30,724)
+        self.plans = Foresight(self.PLAN_S_PER_WORK, min_work=self.RATE_FROM_WORK)
 
     # ------------------------------------------------------------------ state changes
     def _set(self, g: int, path: np.ndarray) -> None:
@@ -269,12 +272,9 @@ class OrbitSearch:
 
     def foreseen(self, g: int) -> float:
         """Seconds a plan of orbit g is foreseen to take: its own last time, else its
-        :meth:`_work` at the last timed plan's rate (plans get cheaper as the search
-        covers targets: with the most rate seen instead, orbit-dp on a polar box at 20 s
-        gave 21,394 against 30,724), none timed yet at :attr:`PLAN_S_PER_WORK`."""
-        if g in self.plan_s:
-            return self.plan_s[g]
-        return (self.plan_rate or self.PLAN_S_PER_WORK) * self._work(g)
+        :meth:`_work` at the last timed plan's rate, none timed yet at
+        :attr:`PLAN_S_PER_WORK` (:class:`sosp.stop.Foresight`)."""
+        return self.plans(g, self._work(g))
 
     def _late(self, g: int, deadline: float | None) -> bool:
         return deadline is not None and time.perf_counter() + self.foreseen(g) > deadline
@@ -282,10 +282,7 @@ class OrbitSearch:
     def _timed_plan(self, g: int, price: np.ndarray) -> Any:
         t = time.perf_counter()
         path = self._plan(g, price)
-        self.plan_s[g] = took = time.perf_counter() - t
-        work = self._work(g)
-        if work >= self.RATE_FROM_WORK:
-            self.plan_rate = took / work
+        self.plans.record(g, self._work(g), time.perf_counter() - t)
         return path
 
     def replan(self, g: int) -> bool:

@@ -92,6 +92,52 @@ class MaxRuntime:
         return now >= self.deadline
 
 
+class Foresight:
+    """Seconds a repeated, uninterruptible job (an orbit's plan, its window columns) is
+    foreseen to take, so that a search starts it only when it ends in time.
+
+    A job is known by its key and its size ``work``. It is foreseen at its own last time,
+    else at ``work`` times the rate: seconds per unit of work of the timed jobs (only those
+    of at least ``min_work``, whose fixed costs do not dominate), before any
+    ``prior``. With ``most``, the rate is the most seen and never below ``prior`` (for a
+    cost that varies between jobs); without, the last one seen (for a cost that falls as
+    the search goes on, such as plans at prices that cover more targets).
+
+    Parameters
+    ----------
+    prior
+        Seconds per unit of work before any job was timed (0: foresee nothing).
+    most
+        Keep the most rate seen (at least ``prior``) instead of the last.
+    min_work
+        Jobs of less work set no rate.
+    """
+
+    def __init__(self, prior: float, most: bool = False, min_work: float = 0.0) -> None:
+        self.prior = prior
+        self.most = most
+        self.min_work = min_work
+        self.rate = prior if most else 0.0
+        self.took: dict[Any, float] = {}  # each job's last time
+
+    def rate_or_prior(self) -> float:
+        """Seconds per unit of work a job not timed yet is foreseen at."""
+        return self.rate or self.prior
+
+    def __call__(self, key: Any, work: float) -> float:
+        """Seconds job ``key`` of size ``work`` is foreseen to take."""
+        if key in self.took:
+            return self.took[key]
+        return self.rate_or_prior() * work
+
+    def record(self, key: Any, work: float, seconds: float) -> None:
+        """Job ``key`` of size ``work`` took ``seconds``."""
+        self.took[key] = seconds
+        if work >= max(self.min_work, 1e-300):
+            rate = seconds / work
+            self.rate = max(self.rate, rate) if self.most else rate
+
+
 class NoImprovement:
     """Stop after ``n`` consecutive iterations without a new best."""
 

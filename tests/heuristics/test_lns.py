@@ -365,17 +365,18 @@ def test_window_columns_are_not_started_when_foreseen_late() -> None:
     assert cols.foreseen(busy[0]) == WINDOW_S_PER_PAIR * cols.pairs(busy[0]) > 0
     with pytest.raises(_Late) as late:
         cols(busy[0], price)  # nothing timed yet: foreseen at the prior rate, not made
-    assert late.value.orbit == busy[0] and not cols.took
+    assert late.value.orbit == busy[0] and not cols.whole.took
     time_left[0] = 10.0
     orbit, *_ = cols(busy[0], price)
-    assert set(orbit.tolist()) <= {busy[0]} and cols.rate > 0
-    cols.took[busy[0]] = 5.0
+    assert set(orbit.tolist()) <= {busy[0]} and cols.whole.rate >= WINDOW_S_PER_PAIR
+    cols.whole.took[busy[0]] = 5.0
     time_left[0] = 4.0
     with pytest.raises(_Late):
         cols(busy[0], price)  # its own last time does not fit
-    cols.rate = 1e-12  # a rate below the prior: the prior stands
-    assert cols.foreseen(busy[-1]) == WINDOW_S_PER_PAIR * cols.pairs(busy[-1])
-    cols.rate = 10.0  # 10 s per pair: the other orbit is foreseen late too
+    fresh = _WindowColumns(inst, lambda: 1e9)
+    fresh.whole.record("other", 1e12, 1e-3)  # a rate below the prior: the prior stands
+    assert fresh.foreseen(busy[-1]) == WINDOW_S_PER_PAIR * fresh.pairs(busy[-1])
+    cols.whole.record("other", 1, 10.0)  # 10 s per pair: the other orbit is foreseen late
     with pytest.raises(_Late):
         cols(busy[-1], price)
     time_left[0] = 1e9
@@ -394,20 +395,21 @@ def test_window_members_are_not_listed_when_foreseen_late(monkeypatch) -> None:
 
     inst = tiny_two_orbits()
     price = np.asarray(inst.target_weight, dtype=float)
-    cols = lns._WindowColumns(inst, lambda: 100.0)
-    busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
     listed: list[int] = []
     real = sw._member_lists
     monkeypatch.setattr(sw, "_member_lists", lambda *a: listed.append(1) or real(*a))
     monkeypatch.setattr(lns, "WINDOW_S_PER_SCAN", 1e3)  # 1,000 s an opportunity read
+    cols = lns._WindowColumns(inst, lambda: 100.0)
+    busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
     assert cols.foreseen(busy[0]) < 100.0  # the sweep is in time
     with pytest.raises(lns._Late):
         cols(busy[0], price)
-    assert listed == [] and cols.took[busy[0]] > 100.0 and cols.scan_rate == 0.0
+    assert listed == [] and cols.whole.took[busy[0]] > 100.0 and not cols.scan.took
     monkeypatch.setattr(lns, "WINDOW_S_PER_SCAN", 1e-12)
+    cols = lns._WindowColumns(inst, lambda: 100.0)
     cols(busy[-1], price)
-    assert listed == [1] and cols.scan_rate > 0.0
-    assert cols.listing(10**6) == pytest.approx(cols.scan_rate * 10**6)
+    assert listed == [1] and cols.scan.rate > 1e-12
+    assert cols.listing(10**6) == pytest.approx(cols.scan.rate * 10**6)
 
 
 def test_an_orbit_foreseen_late_is_left_out_and_the_steps_go_on(monkeypatch) -> None:

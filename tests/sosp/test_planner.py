@@ -309,13 +309,13 @@ def test_ascent_skips_orbits_foreseen_past_the_deadline() -> None:
     busy = [g for g in range(len(data.orbits)) if len(data.orbits[g].items)]
     assert len(busy) >= 2
     search = OrbitSearch(data, np.random.default_rng(0))
-    search.plan_s[busy[0]] = 1e6  # its last plan took "a million seconds"
+    search.plans.took[busy[0]] = 1e6  # its last plan took "a million seconds"
     search.ascent(deadline=time.perf_counter() + 60.0)
-    assert search.plan_s[busy[0]] == 1e6 and len(search.paths[busy[0]]) == 0
-    assert all(g in search.plan_s for g in busy[1:])
+    assert search.plans.took[busy[0]] == 1e6 and len(search.paths[busy[0]]) == 0
+    assert all(g in search.plans.took for g in busy[1:])
     assert validate(inst, search.schedule()).feasible
     search.ascent(deadline=None)  # no deadline: no foresight
-    assert search.plan_s[busy[0]] < 1e6
+    assert search.plans.took[busy[0]] < 1e6
 
 
 @pytest.mark.parametrize("name", sorted(TINY))

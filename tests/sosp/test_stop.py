@@ -245,3 +245,32 @@ def test_max_runtime_foresees_its_longest_iteration() -> None:
     assert ahead(status) and not plain(status)
     now[0] = 10.0
     assert plain(status)
+
+
+def test_foresight_last_rate() -> None:
+    """Without ``most``: own last time, else the last rate of a job of at least
+    ``min_work``, else the prior."""
+    from sosp.stop import Foresight
+
+    f = Foresight(2.0, min_work=10.0)
+    assert f("a", 5.0) == 10.0  # the prior
+    f.record("a", 5.0, 1.0)  # too little work to set a rate
+    assert f("a", 5.0) == 1.0 and f("b", 5.0) == 10.0
+    f.record("b", 100.0, 50.0)  # 0.5 s a unit
+    f.record("c", 100.0, 10.0)  # 0.1 s a unit: the last one counts
+    assert f("d", 10.0) == pytest.approx(1.0) and f("b", 1.0) == 50.0
+    assert Foresight(0.0)("x", 1e9) == 0.0  # no prior: nothing foreseen
+
+
+def test_foresight_most_rate_never_below_the_prior() -> None:
+    """With ``most``: the most rate seen, at least the prior; no work sets no rate."""
+    from sosp.stop import Foresight
+
+    f = Foresight(2.0, most=True)
+    f.record("a", 10.0, 1.0)  # 0.1 s a unit, below the prior
+    assert f("b", 1.0) == 2.0 and f.rate_or_prior() == 2.0
+    f.record("c", 1.0, 5.0)
+    f.record("d", 1.0, 3.0)  # less than the most: the most stands
+    assert f("b", 2.0) == 10.0
+    f.record("e", 0.0, 100.0)  # no work: a fixed cost, no rate
+    assert f.rate == 5.0 and f("e", 0.0) == 100.0
