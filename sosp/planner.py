@@ -1117,7 +1117,9 @@ class PlanPool:
         try:
             wait(jobs, timeout=timeout)
         except TimeoutError:
-            self.client.cancel(jobs)
+            # the prices too: left to the garbage collector, the scheduler held them past
+            # a 10 s wait in one CI run
+            self.client.cancel([*jobs, mu])
             return None
         try:
             return self.client.gather(jobs)
