@@ -80,7 +80,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitItems, best_feasible_path, orbit_data
 from sosp.rules import RollRule
-from sosp.stop import MaxRuntime, NoImprovement
+from sosp.stop import Foresight, MaxRuntime, NoImprovement
 
 log = logging.getLogger(__name__)
 
@@ -131,6 +131,29 @@ class OrbitPlanner:
         self.orbits = sorted(self.orbit_items)
         self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._orbit_of = np.array([o.orbit for o in data.orbits], dtype=np.int64)
+        self._init_foresight()
+
+    #: Foreseen seconds of a plan per unit of :meth:`_work` before one was timed, and the
+    #: least work whose plan sets a rate: as ``orbit-dp``'s (:class:`OrbitSearch`).
+    PLAN_S_PER_WORK = OrbitSearch.PLAN_S_PER_WORK
+    RATE_FROM_WORK = OrbitSearch.RATE_FROM_WORK
+
+    def _init_foresight(self) -> None:
+        #: :func:`time.perf_counter` value no plan should end past (the search's limit;
+        #: None: none). A plan over windows of a dense orbit reads no clock and takes
+        #: seconds: an orbit move that started at 4.5 s of a 5 s run ended at 5.9 s.
+        self.deadline: float | None = None
+        self.foresight = Foresight(self.PLAN_S_PER_WORK, min_work=self.RATE_FROM_WORK)
+
+    def _work(self, j: int) -> float:
+        """The size orbit j's planning time grows with (:class:`sosp.stop.Foresight`)."""
+        return float(len(self.orbit_items[j].items))
+
+    def late(self, j: int) -> bool:
+        """Whether a plan of orbit j is foreseen to end past :attr:`deadline`."""
+        if self.deadline is None:
+            return False
+        return time.perf_counter() + self.foresight(j, self._work(j)) > self.deadline
 
     def seeing(self, targets: list[int]) -> list[int]:
         """The orbits with a candidate covering any of ``targets``, in index order."""
@@ -173,8 +196,13 @@ class OrbitPlanner:
         self, state: State, j: int, price: np.ndarray
     ) -> tuple[list[tuple[int, ...]], float] | None:
         """Step 3: the best plan of orbit j (covered options per observation, time order) and
-        its value at ``price``; None when it is worth no more than the current plan."""
+        its value at ``price``; None when it is worth no more than the current plan, or
+        foreseen to end past :attr:`deadline` (:meth:`late`: not made)."""
+        if self.late(j):
+            return None
+        t = time.perf_counter()
         plan, covered = self._best(j, price)
+        self.foresight.record(j, self._work(j), time.perf_counter() - t)
         value = float(price[covered].sum()) if len(covered) else 0.0
         unit = state.pb.opt_unit
         current = {unit[x] for c in state.lines[j].obs for x in c[MEMBERS]}
@@ -293,6 +321,19 @@ class WindowPlanner(OrbitPlanner):
         self.orbits = [o.orbit for o in self.data.orbits if o.size]
         self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}
+        self._pairs: dict[int, float] = {}
+        self._init_foresight()
+
+    #: As ``orbit-dp``'s over windows (:class:`WindowSearch`): per (first, covered) pair.
+    PLAN_S_PER_WORK = WindowSearch.PLAN_S_PER_WORK
+    RATE_FROM_WORK = WindowSearch.RATE_FROM_WORK
+
+    def _work(self, j: int) -> float:
+        if j not in self._pairs:
+            from sosp.candidates import orbit_pairs
+
+            self._pairs[j] = float(orbit_pairs(self.data.instance, j))
+        return self._pairs[j]
 
     def seeing(self, targets: list[int]) -> list[int]:
         if not targets:

@@ -154,6 +154,8 @@ class Search:
         self.planner = make_planner(instance, state, params, deadline)
         if self.planner is not None:
             self.moves[REPLAN] = partial(replan_or_orbit, planner=self.planner)
+            if time_limit is not None:  # no whole-orbit plan foreseen to end past the limit
+                self.planner.deadline = t0 + time_limit
         self.t_planner = time.perf_counter() - t0
 
         self.init_stats: dict[str, float] = {}

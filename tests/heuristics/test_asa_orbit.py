@@ -411,3 +411,39 @@ def test_insertion_after_an_orbit_start_has_its_share_of_the_time_left(monkeypat
     after_start, alone = seen
     assert after_start <= 0.3 * 10.0 + 0.05  # at most its share of what the start left
     assert alone > 5.0  # without an orbit start: the whole limit
+
+
+@pytest.mark.parametrize("candidates", ["explicit", "windows"])
+def test_a_plan_foreseen_past_the_deadline_is_not_made(
+    candidates: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A whole-orbit plan reads no clock (over windows on a dense orbit: seconds; a 5 s
+    ``asa-dtc`` ran to 5.9 s): one foreseen past the planner's deadline is not made and the
+    move is none; without a deadline nothing is foreseen."""
+    inst = _abc()
+    state = State(build_problem(inst, "dtc"), "midpoint")
+    planner = make_planner(inst, state, ASAParams(candidates=candidates), None)
+    assert planner is not None and planner.deadline is None
+    rng = np.random.default_rng(0)
+    j = planner.orbits[0]
+    price = planner.prices(state, j, None, rng)
+    assert planner.plan(state, j, price) is not None  # made and timed
+    assert planner.foresight.took[j] >= 0.0 and not planner.late(j)
+    made: list[int] = []
+    real = planner._best
+    monkeypatch.setattr(planner, "_best", lambda j, p: made.append(j) or real(j, p))
+    planner.deadline = time.perf_counter() + 3600.0
+    planner.foresight.took[j] = 7200.0  # "its last plan took two hours"
+    assert planner.late(j) and planner.plan(state, j, price) is None and made == []
+    planner.deadline = None
+    assert planner.plan(state, j, price) is not None and made == [j]
+
+
+def test_asa_sets_the_planners_deadline() -> None:
+    """With a time limit, the search's planner foresees against it; without, it does not."""
+    from heuristics.asa.search import Search
+
+    inst = _abc()
+    for limit, has in ((60.0, True), (None, False)):
+        s = Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=limit)
+        assert s.planner is not None and (s.planner.deadline is not None) == has
