@@ -42,6 +42,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import PlanPool
 from sosp.rules import within_duration
+from sosp.stop import Foresight
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 if TYPE_CHECKING:
@@ -303,6 +304,17 @@ def _replanned(
     return out
 
 
+#: Orbits of fewer (first, covered) pairs set no rate for :func:`_relaxed_plans`'s foresight
+#: (their fixed costs dominate), as ``orbit-dp``'s plans over windows.
+RELAXED_RATE_FROM_PAIRS = 100_000.0
+
+
+def _pairs(oo: OrbitOpps) -> float:
+    """Orbit ``oo``'s (first, covered) pairs of opportunities within one Delta T."""
+    stop = np.searchsorted(oo.start, oo.start + float(oo.rules.max_duration), side="right")
+    return float((stop - np.arange(len(stop))).sum())
+
+
 def _relaxed_plans(
     orbits: Sequence[OrbitOpps],
     idx: Iterable[int],
@@ -316,11 +328,17 @@ def _relaxed_plans(
     items count (with repeats) and the plan's (energy, memory), None for the empty plan. None
     when ``until`` passes first (a partial round is no bound)."""
     plans: list[Any] = []
+    # one orbit's plan reads no clock (seconds on a dense one: a 10 s bound ran to 12.7 s),
+    # so an orbit foreseen past ``until`` at the most rate of those before it ends the round
+    pace = Foresight(0.0, most=True, min_work=RELAXED_RATE_FROM_PAIRS)
     for g in idx:
-        if until is not None and time.perf_counter() > until:
-            return None
         oo = orbits[g]
+        work = _pairs(oo) if until is not None else 0.0
+        if until is not None and time.perf_counter() + pace(g, work) > until:
+            return None
+        t = time.perf_counter()
         v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]), band=band)
+        pace.record(g, work, time.perf_counter() - t)
         if len(path) == 0:
             plans.append((v, np.zeros(0, dtype=np.int64), None))
             continue

@@ -381,6 +381,36 @@ def test_the_timed_first_round_stops_at_the_deadline() -> None:
     assert band == wb.BAND and round_s == math.inf and value == math.inf
 
 
+def test_a_round_ends_before_an_orbit_foreseen_past_until(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """One orbit's relaxed plan reads no clock (a 10 s bound ran to 12.7 s): an orbit
+    foreseen past ``until`` at the most rate of those before it is not started, and the
+    round is none. Without ``until``, every orbit is planned."""
+    import models.window_bound as wb
+
+    inst = generate_scenario("C1", seed=0)
+    orbits = [orbit_opps(inst, j) for j in range(inst.n_orbits)]
+    g = max(range(len(orbits)), key=lambda j: len(orbits[j].start))
+    _, p = wb._observable(inst)
+    lam = np.zeros((len(orbits), 2))
+    calls: list[int] = []
+    real = wb.relaxed_best_path
+
+    def slow(oo, *a, **k):  # 0.3 s an orbit
+        calls.append(1)
+        time.sleep(0.3)
+        return real(oo, *a, **k)
+
+    monkeypatch.setattr(wb, "relaxed_best_path", slow)
+    monkeypatch.setattr(wb, "RELAXED_RATE_FROM_PAIRS", 0.0)
+    t = time.perf_counter()
+    assert wb._relaxed_plans(orbits, [g, g], p, lam, until=t + 0.45) is None
+    assert len(calls) == 1 and time.perf_counter() < t + 0.45  # the second foreseen late
+    assert wb._relaxed_plans(orbits, [g, g], p, lam) is not None and len(calls) == 3
+    assert wb._pairs(orbits[g]) > 0
+
+
 def test_no_round_is_started_that_cannot_end_in_time(monkeypatch: pytest.MonkeyPatch) -> None:
     """When the timed round shows that no round fits in the time left, the bound returns at
     once: the timed round's value or the cap, the least (G100k spent its whole limit on a
