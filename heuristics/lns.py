@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import CANDIDATE_MODES, OppGroups
+from sosp.candidates import CANDIDATE_MODES, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
@@ -347,17 +347,12 @@ class _WindowColumns:
         self.left = left
         self.n_opps = np.diff(instance.orbit_offsets)
         self.opps_of: dict[int, Any] = {}  # each orbit's opportunity arrays, made once
-        self.pairs_of: dict[int, int] = {}
         self.whole = Foresight(WINDOW_S_PER_PAIR, most=True)  # per orbit, by its pairs
         self.scan = Foresight(WINDOW_S_PER_SCAN, most=True)  # the listings, by their reads
 
     def pairs(self, j: int) -> int:
         """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
-        if j not in self.pairs_of:
-            from sosp.candidates import orbit_pairs
-
-            self.pairs_of[j] = orbit_pairs(self.instance, j)
-        return self.pairs_of[j]
+        return orbit_pairs(self.instance, j)
 
     def foreseen(self, j: int) -> float:
         """Seconds orbit j's columns are foreseen to take before its sweep (see the class

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sosp.candidates import CANDIDATE_MODES, candidate_mode
+from sosp.candidates import CANDIDATE_MODES, candidate_mode, orbit_pairs
 from sosp.dist import dask_client
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
@@ -277,7 +277,7 @@ class OrbitSearch:
         return self.plans(g, self._work(g))
 
     def _late(self, g: int, deadline: float | None) -> bool:
-        return deadline is not None and time.perf_counter() + self.foreseen(g) > deadline
+        return self.plans.late(g, self._work(g), deadline)
 
     def _timed_plan(self, g: int, price: np.ndarray) -> Any:
         t = time.perf_counter()
@@ -408,7 +408,6 @@ class WindowSearch(OrbitSearch):
         super().__init__(data, rng)  # type: ignore[arg-type]
         self._window_plan = window_plan
         self.paths = [empty_plan() for _ in data.orbits]  # type: ignore[misc]
-        self._pairs: dict[int, float] = {}
 
     #: One plan over windows took 0.08-0.24 us per (first, covered) pair of the orbit
     #: inside one Delta T (2-core machine, the densest and a middle orbit of four drawn
@@ -417,12 +416,8 @@ class WindowSearch(OrbitSearch):
     RATE_FROM_WORK = 100_000.0
 
     def _work(self, g: int) -> float:
-        if g not in self._pairs:
-            from sosp.candidates import orbit_pairs
-
-            j = self.data.orbits[g].orbit  # type: ignore[attr-defined]
-            self._pairs[g] = float(orbit_pairs(self.data.instance, j))
-        return self._pairs[g]
+        j = self.data.orbits[g].orbit  # type: ignore[attr-defined]
+        return float(orbit_pairs(self.data.instance, j))
 
     def _plan(self, g: int, price: np.ndarray) -> Any:
         return self._window_plan(self.data.orbits[g], price)  # type: ignore[arg-type]

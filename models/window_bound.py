@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from models.lagrangian import capped_bound
+from sosp.candidates import pairs_within
 from sosp.dist import parallelism
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -311,8 +312,7 @@ RELAXED_RATE_FROM_PAIRS = 100_000.0
 
 def _pairs(oo: OrbitOpps) -> float:
     """Orbit ``oo``'s (first, covered) pairs of opportunities within one Delta T."""
-    stop = np.searchsorted(oo.start, oo.start + float(oo.rules.max_duration), side="right")
-    return float((stop - np.arange(len(stop))).sum())
+    return float(pairs_within(oo.start, float(oo.rules.max_duration)))
 
 
 def _relaxed_plans(
@@ -334,7 +334,7 @@ def _relaxed_plans(
     for g in idx:
         oo = orbits[g]
         work = _pairs(oo) if until is not None else 0.0
-        if until is not None and time.perf_counter() + pace(g, work) > until:
+        if pace.late(g, work, until):
             return None
         t = time.perf_counter()
         v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]), band=band)

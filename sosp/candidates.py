@@ -358,16 +358,21 @@ def _within() -> Any:
 #: instead of changing another's data.
 _CACHE: dict[int, tuple[weakref.ref, dict[Any, Any]]] = {}
 
+#: Each instance's orbits' pairs (:func:`orbit_pairs`), kept apart from the candidates.
+_PAIRS: dict[int, tuple[weakref.ref, dict[Any, Any]]] = {}
 
-def _cache_of(instance: Instance) -> dict[Any, Any]:
-    """The cache entry of ``instance`` (created on first use)."""
+
+def _cache_of(
+    instance: Instance, table: dict[int, tuple[weakref.ref, dict[Any, Any]]] = _CACHE
+) -> dict[Any, Any]:
+    """The entry of ``instance`` in ``table`` (created on first use)."""
     key = id(instance)
-    hit = _CACHE.get(key)
+    hit = table.get(key)
     if hit is not None and hit[0]() is instance:
         return hit[1]
     store: dict[Any, Any] = {}
-    _CACHE[key] = (weakref.ref(instance), store)
-    weakref.finalize(instance, _CACHE.pop, key, None)
+    table[key] = (weakref.ref(instance), store)
+    weakref.finalize(instance, table.pop, key, None)
     return store
 
 
@@ -408,11 +413,22 @@ def cached_orbit_candidates(instance: Instance, j: int) -> OrbitCandidates | Non
     return _cache_of(instance).get(j)
 
 
+def pairs_within(start: np.ndarray, limit: float) -> int:
+    """(first, covered) pairs of opportunities sorted by ``start`` whose starts lie within
+    ``limit`` seconds (one Delta T) of each other (the ``stop`` of :func:`orbit_columns`)."""
+    stop = np.searchsorted(start, start + limit + EPS, side="right")
+    return int((stop - np.arange(len(stop))).sum())
+
+
 def orbit_pairs(instance: Instance, j: int) -> int:
     """Orbit ``j``'s (first, covered) pairs of opportunities within one Delta T: what its
-    candidates' number and generation time grow with."""
-    stop = orbit_columns(instance, j)[-1]
-    return int((stop - np.arange(len(stop))).sum())
+    candidates' number and generation time, its window sweep and its plans grow with
+    (cached per instance)."""
+    store = _cache_of(instance, _PAIRS)
+    if j not in store:
+        start = np.asarray(instance.opp_start[instance.orbit_opps(j)], dtype=float)
+        store[j] = pairs_within(start, float(instance.max_duration[j]))
+    return store[j]
 
 
 #: :func:`cluster_candidates` gives up at once when the orbits left are foreseen to take more
@@ -758,9 +774,9 @@ def _samples(instance: Instance) -> list[tuple[int, np.ndarray]]:
     for j in range(instance.n_orbits):
         if j in store:
             continue
-        stop = orbit_columns(instance, j)[-1]
-        n = len(stop)
-        if n == 0 or int((stop - np.arange(n)).sum()) < _SAMPLE_FROM:
+        sl = instance.orbit_opps(j)
+        n = sl.stop - sl.start
+        if n == 0 or orbit_pairs(instance, j) < _SAMPLE_FROM:
             continue
         out.append((j, np.unique(np.linspace(0, n - 1, min(_SAMPLES, n)).astype(np.int64))))
     return out

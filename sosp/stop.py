@@ -130,6 +130,11 @@ class Foresight:
             return self.took[key]
         return self.rate_or_prior() * work
 
+    def late(self, key: Any, work: float, deadline: float | None) -> bool:
+        """Whether job ``key`` of size ``work``, started now, is foreseen to end past
+        ``deadline`` (a :func:`time.perf_counter` value; None: never)."""
+        return deadline is not None and time.perf_counter() + self(key, work) > deadline
+
     def record(self, key: Any, work: float, seconds: float) -> None:
         """Job ``key`` of size ``work`` took ``seconds``."""
         self.took[key] = seconds

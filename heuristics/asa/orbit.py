@@ -75,7 +75,7 @@ from heuristics.orbit_search import (
     iterate,
     lp_start,
 )
-from sosp.candidates import flatten
+from sosp.candidates import flatten, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitItems, best_feasible_path, orbit_data
@@ -151,9 +151,7 @@ class OrbitPlanner:
 
     def late(self, j: int) -> bool:
         """Whether a plan of orbit j is foreseen to end past :attr:`deadline`."""
-        if self.deadline is None:
-            return False
-        return time.perf_counter() + self.foresight(j, self._work(j)) > self.deadline
+        return self.foresight.late(j, self._work(j), self.deadline)
 
     def seeing(self, targets: list[int]) -> list[int]:
         """The orbits with a candidate covering any of ``targets``, in index order."""
@@ -321,7 +319,6 @@ class WindowPlanner(OrbitPlanner):
         self.orbits = [o.orbit for o in self.data.orbits if o.size]
         self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}
-        self._pairs: dict[int, float] = {}
         self._init_foresight()
 
     #: As ``orbit-dp``'s over windows (:class:`WindowSearch`): per (first, covered) pair.
@@ -329,11 +326,7 @@ class WindowPlanner(OrbitPlanner):
     RATE_FROM_WORK = WindowSearch.RATE_FROM_WORK
 
     def _work(self, j: int) -> float:
-        if j not in self._pairs:
-            from sosp.candidates import orbit_pairs
-
-            self._pairs[j] = float(orbit_pairs(self.data.instance, j))
-        return self._pairs[j]
+        return float(orbit_pairs(self.data.instance, j))
 
     def seeing(self, targets: list[int]) -> list[int]:
         if not targets:
