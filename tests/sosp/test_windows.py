@@ -505,3 +505,31 @@ def test_ahead_can_stop_the_listing() -> None:
 
     with pytest.raises(Stop):
         window_candidates(oo, price, ahead=stop)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_window_candidates_list_their_members_in_int32_made_global_in_place(seed: int) -> None:
+    """Each candidate's members are the priced opportunities starting from its first's start,
+    ending by its last's end and holding its roll, as global int32 indices; the listing is
+    int32 from the start (on a fresh process an int64 list and its global copy took 4.9 s
+    for 70 million members, past a 5 s limit, where int32 made in place takes 1.7 s)."""
+    from sosp.windows import _member_lists, _observations, window_candidates
+
+    oo, price = _random_orbit(seed, n=40)
+    oo = dataclasses.replace(oo, first=1000)
+    wi = window_items(oo, price)
+    keep, *_ = _observations(oo, wi, "nadir")
+    _, flat = _member_lists(oo, price, wi.first[keep], wi.last[keep], wi.point[keep])
+    assert flat.dtype == np.int32
+    _, _, roll, groups = window_candidates(oo, price)
+    assert groups.flat.dtype == np.int32 and len(groups) == len(keep)
+    for u, row in enumerate(keep):
+        i, k, r = wi.first[row], wi.last[row], wi.point[row]
+        hold = (
+            (oo.start >= oo.start[i])
+            & (oo.end <= oo.end[k])
+            & (price > 0)
+            & (oo.roll_min - EPS <= r)
+            & (r <= oo.roll_max + EPS)
+        )
+        assert list(groups[u]) == (1000 + np.flatnonzero(hold)).tolist(), u
