@@ -18,6 +18,7 @@ from heuristics.orbit_search import (
     WindowData,
     WindowSearch,
     ascent_profit,
+    hpfs_start,
     lp_start,
 )
 from models.colgen import colgen_bound
@@ -288,6 +289,50 @@ def test_window_lp_start_on_c1(c1: Instance) -> None:
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(search.profit) == pytest.approx(figures["lp_profit"])
     assert search.profit > 0.9 * root["master"]
+
+
+def test_hpfs_start_sets_hpfs_schedule_on_c1(c1: Instance) -> None:
+    """The window search's HPFS start holds HPFS-STC's schedule, orbit by orbit, and is what
+    ``start="auto"`` does over windows (the LP root where the candidates are explicit)."""
+    from heuristics.hpfs import solve_hpfs_stc
+
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    figures = hpfs_start(search, None)
+    hpfs = solve_hpfs_stc(c1, rng=np.random.default_rng(0))
+    assert figures["hpfs_profit"] == search.profit == hpfs.profit > 0
+    rep = validate(c1, search.schedule())
+    assert rep.feasible, rep.violations
+    assert rep.profit == pytest.approx(hpfs.profit) and not search.journal
+    for g, plan in enumerate(search.paths):
+        mine = [ob for ob in hpfs.schedule.observations if ob.orbit == g]
+        assert plan.start.tolist() == sorted(ob.start for ob in mine)
+    only = solve(c1, "orbit-dp", seed=0, iterations=3, candidates="windows", start="hpfs")
+    assert only.stats["hpfs_profit"] == hpfs.profit and "lp_rounds" not in only.stats
+    assert only.profit >= hpfs.profit  # the ascent replaces a plan only when it gains
+    # auto: HPFS's plans, then the root's where it has time (here no limit)
+    auto = solve(c1, "orbit-dp", seed=0, iterations=3, candidates="windows")
+    assert auto.stats["hpfs_profit"] == hpfs.profit and auto.stats["lp_rounds"] >= 1
+    assert validate(c1, auto.schedule).feasible
+    explicit = solve(c1, "orbit-dp", seed=0, iterations=3)
+    assert explicit.stats["lp_rounds"] >= 1 and "hpfs_s" not in explicit.stats
+
+
+def test_hpfs_start_foreseen_late_falls_back_to_lp(c1: Instance) -> None:
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    figures = hpfs_start(search, time.perf_counter())  # no time at all
+    assert figures["hpfs_profit"] is None and search.profit == 0.0
+    assert all(plan.size == 0 for plan in search.paths)
+    res = solve(c1, "orbit-dp", seed=0, time_limit=1e-3, candidates="windows", start="hpfs")
+    assert res.stats["hpfs_profit"] is None and "lp_rounds" in res.stats
+    assert validate(c1, res.schedule).feasible
+
+
+def test_hpfs_start_needs_windows(caplog: pytest.LogCaptureFixture) -> None:
+    inst = generate_scenario("B1", 0)
+    with caplog.at_level("WARNING"):
+        res = solve(inst, "orbit-dp", seed=0, iterations=2, candidates="explicit", start="hpfs")
+    assert "start hpfs needs window candidates" in caplog.text
+    assert res.stats["lp_rounds"] >= 1
 
 
 def test_window_colgen_bound_on_c1(c1: Instance) -> None:
