@@ -169,7 +169,9 @@ class ASAParams:
         whole-orbit move's candidates, for ``init_share`` of the time limit, then section
         5.4's insertion on what is left; the annealing continues from there. ``"lp"``
         (default): the same, the search started from the plans of the column-generation root
-        (``heuristics.orbit_search.lp_start``; ``docs/asa.md``, "Start from the root").
+        (``heuristics.orbit_search.lp_start``; ``docs/asa.md``, "Start from the root"); over
+        window candidates, from HPFS-STC's schedule first and then the root's plans where
+        the share has time left (``heuristics.orbit_search.hpfs_start``).
         Both need the whole-orbit move (``replan``, ``replan_orbit > 0``, ASA-DTC);
         otherwise ``"greedy"``.
     init_share

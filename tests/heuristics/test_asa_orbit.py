@@ -315,6 +315,33 @@ def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str, init: str) -> No
     assert rep.feasible, rep.violations
 
 
+def test_the_lp_start_over_windows_begins_from_hpfs() -> None:
+    """Over windows ``init="lp"`` sets HPFS-STC's schedule first, then the root's plans (no
+    limit here: the root has time); with explicit candidates, the root alone."""
+    from heuristics.hpfs import solve_hpfs_stc
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C1", seed=0)
+    hpfs = solve_hpfs_stc(inst, rng=np.random.default_rng(0)).profit
+    params = ASAParams(init="lp", candidates="windows")
+    state = State(build_problem(inst, "dtc", "nadir"), "nadir", params.nadir_singles)
+    planner = make_planner(inst, state, params, None)
+    assert isinstance(planner, WindowPlanner)
+    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, 0.0, None)
+    assert figures["hpfs_profit"] == hpfs > 0 and figures["lp_rounds"] >= 1
+    assert state.profit == pytest.approx(figures["init_profit"])
+    rep = validate(inst, build_schedule(inst, state.pb, state.snapshot()))
+    assert rep.feasible, rep.violations
+    explicit = solve(inst, "asa-dtc", seed=0, iterations=50, candidates="explicit")
+    assert "hpfs_s" not in explicit.stats and explicit.stats["lp_rounds"] >= 1
+    late = ASAParams(init="lp", candidates="windows")
+    state = State(build_problem(inst, "dtc", "nadir"), "nadir", late.nadir_singles)
+    planner = make_planner(inst, state, late, None)
+    t0 = time.perf_counter() - 10.0  # the limit has passed: no HPFS, the root as before
+    figures = orbit_search_start(state, np.random.default_rng(3), late, planner, t0, 10.0)
+    assert figures["hpfs_profit"] is None and "lp_rounds" in figures
+
+
 def test_orbit_dp_start_is_at_least_the_greedy_start_and_seeded(tiny: Instance) -> None:
     dp = solve(tiny, "asa-dtc", seed=2, iterations=0)
     again = solve(tiny, "asa-dtc", seed=2, iterations=0)
