@@ -102,35 +102,50 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
         Tasks sorted by (orbit, start); every opportunity is in exactly one task.
     """
     groups: list[list[int]] = []
+    # plain Python floats and inlined min/max: the loop is sequential (each opportunity joins
+    # the open group it grows least), and numpy scalars and builtin calls were most of its
+    # time (a 10,000-target polar box, 61,223 opportunities: 4.7 s under the profiler)
+    starts, ends = instance.opp_start.tolist(), instance.opp_end.tolist()
+    los, his = instance.opp_roll_min.tolist(), instance.opp_roll_max.tolist()
+    inf = float("inf")
     for j in range(instance.n_orbits):
         sl = instance.orbit_opps(j)
         limit = float(instance.max_duration[j])
         # open groups: [first start, max end, lo, hi, members]
         open_: list[list] = []
         for i in range(sl.start, sl.stop):
-            s, e = float(instance.opp_start[i]), float(instance.opp_end[i])
-            lo, hi = float(instance.opp_roll_min[i]), float(instance.opp_roll_max[i])
+            s, e, lo, hi = starts[i], ends[i], los[i], his[i]
             # Opportunities come in start order (and end after they start): a group that this
             # start already outruns can take no later opportunity, so it is closed.
-            still_open = []
+            if open_ and s - open_[0][0] >= limit:
+                still_open = []
+                for g in open_:
+                    if s - g[0] >= limit:
+                        groups.append(g[4])
+                    else:
+                        still_open.append(g)
+                open_ = still_open
+            best, best_growth = None, inf
             for g in open_:
-                if s - g[0] >= limit:
-                    groups.append(g[4])
-                else:
-                    still_open.append(g)
-            open_ = still_open
-            best, best_growth = None, np.inf
-            for g in open_:
-                if max(g[2], lo) > min(g[3], hi) or max(g[1], e) - g[0] > limit:
+                g1 = g[1]
+                end = e if e > g1 else g1
+                if end - g[0] > limit:
                     continue
-                growth = max(g[1], e) - g[1]
+                glo, ghi = g[2], g[3]
+                if (glo if glo > lo else lo) > (ghi if ghi < hi else hi):
+                    continue
+                growth = end - g1
                 if growth < best_growth:
                     best, best_growth = g, growth
             if best is None:
                 open_.append([s, e, lo, hi, [i]])
             else:
-                best[1] = max(best[1], e)
-                best[2], best[3] = max(best[2], lo), min(best[3], hi)
+                if e > best[1]:
+                    best[1] = e
+                if lo > best[2]:
+                    best[2] = lo
+                if hi < best[3]:
+                    best[3] = hi
                 best[4].append(i)
         groups.extend(g[4] for g in open_)
     return _taskset(instance, groups, roll_rule)
