@@ -75,10 +75,11 @@ DEFAULT_NO_IMPROVE = 500
 START_MODES = ("auto", "lp", "hpfs", "empty")
 
 #: Seconds per opportunity foreseen for :func:`hpfs_start` (static clustering and the
-#: insertion, pure Python, one pass each, then the plans set): the most measured, 2-core
-#: machine, 32 drawn instances of 100-10,000 targets and up to 65,416 opportunities
-#: (HPFS-STC alone 7-13.5 us; the start in a fresh process up to 22 us, 1.35 s).
-HPFS_S_PER_OPP = 2.5e-5
+#: insertion, pure Python, one pass each, then the plans set): about twice the most
+#: measured inside ``sosp solve``, 2-core machine, drawn instances of up to 65,416
+#: opportunities (6.3 us on a 10,000-target polar box, 0.39 s; before the static
+#: clustering's loop was tightened, 31-37 us there).
+HPFS_S_PER_OPP = 1.5e-5
 
 #: Share of the time left (after the candidates' mode is decided: 2 s of a 5 s limit on a
 #: 10,000-target polar box) that :func:`hpfs_start` may be foreseen to take; past it the
@@ -128,7 +129,7 @@ class OrbitSearchParams:
         :data:`HPFS_START_SHARE` of the time left, else as ``"lp"``); ``"empty"``: from
         the empty schedule; ``"auto"`` (default): ``"lp"`` with explicit candidates; with
         window candidates HPFS-STC's schedule, then the root's plans on their orbits when
-        the root's share has time left.
+        the root's share has time left and they do not lower the profit.
     candidates
         ``"explicit"``: every candidate observation, made once (:mod:`sosp.candidates`);
         ``"windows"``: none made up front, each re-plan prices the orbit's windows at its
@@ -500,7 +501,13 @@ def ascent_profit(data: OrbitData, seed: int = 0) -> float:
     return search.profit
 
 
-def lp_start(search: OrbitSearch, deadline: float | None, workers: Workers = 1) -> dict[str, Any]:
+def lp_start(
+    search: OrbitSearch,
+    deadline: float | None,
+    workers: Workers = 1,
+    keep: bool = False,
+    plan_deadline: float | None = None,
+) -> dict[str, Any]:
     """Set each orbit's plan from the fractional schedule of the column-generation root.
 
     The root of :func:`models.colgen.colgen_bound` (the Dantzig-Wolfe master of the cluster
@@ -518,6 +525,17 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: Workers = 1) 
     can gain alone; on dense instances the master's plans are coordinated across orbits and
     the search from them ends much higher (D30, 300 s: 9,037 against 8,946; ``docs/exact.md``,
     "Start from the column-generation root").
+
+    With ``keep`` (a start already set, e.g. :func:`hpfs_start`'s), the root's plans stay
+    only when together they do not lower the profit, else the plans set before come back.
+    The plans are kept or undone together, not orbit by orbit: they are coordinated, and
+    one alone often loses against the other start's plans (over windows, from HPFS-STC's
+    schedule: C1 490 to 552 with all of them, 520 orbit by orbit; C3 1,098 to 1,429 and
+    1,216).
+
+    An orbit's re-plan foreseen to end past ``plan_deadline`` (the run's own limit; the
+    root's ``deadline`` is only its share) is not made, and the orbit keeps its plan: over
+    windows one re-plan of a dense orbit takes seconds.
 
     Returns the start's figures (rounds, seconds, the master's value, the profit set).
     """
@@ -549,13 +567,18 @@ def lp_start(search: OrbitSearch, deadline: float | None, workers: Workers = 1) 
             expect_rounds=LP_START_ROUNDS,
         )
     best: dict[int, tuple[float, np.ndarray]] = {}
+    mark, before = len(search.journal), search.profit
     for g, targets, value, _, _ in root.get("plans", []):
         if g not in best or value > best[g][0]:
             best[g] = (value, targets)
     for g, (_, targets) in sorted(best.items()):
         price = np.zeros(len(search.weight))
+        if search._late(g, plan_deadline):
+            continue
         price[targets] = search.weight[targets]
-        search._set(g, search._plan(g, price))
+        search._set(g, search._timed_plan(g, price))
+    if keep and search.profit < before - 1e-9:
+        search.undo(mark)
     search.journal.clear()
     return {
         "lp_rounds": root["rounds"],
@@ -732,17 +755,20 @@ def solve_orbit_dp(
     until = None if time_limit is None else t0 + LP_START_SHARE * float(time_limit)
     if start == "auto":
         # then the root's plans where its share leaves time for them (they replace HPFS's
-        # on their orbits: coordinated plans, D100 at 600 s 26,040 against 25,716 from
-        # nothing); HPFS's stay on the others
+        # on their orbits when together they gain: coordinated plans, D100 at 600 s 26,040
+        # against 25,716 from nothing); HPFS's stay on the others
         # (explicit candidates: the root, as before)
         late = until is not None and time.perf_counter() >= until
         start = "hpfs" if mode == "windows" and late else "lp"
     if start == "lp" and data.orbits:
+        # after HPFS-STC's schedule the root's plans stay only where together they do not
+        # lower the profit: the start is never below HPFS-STC's
+        keep = started.get("hpfs_profit") is not None
         if p.dask is None:
-            started.update(lp_start(search, until, p.workers))
+            started.update(lp_start(search, until, p.workers, keep, deadline))
         else:
             with dask_client(p.dask, p.workers if p.workers > 1 else None) as client:
-                started.update(lp_start(search, until, client))
+                started.update(lp_start(search, until, client, keep, deadline))
     crit: list[Any] = []
     if time_limit is not None:
         crit.append(MaxRuntime(float(time_limit), start=t0))

@@ -511,12 +511,20 @@ def orbit_search_start(
             now = time.perf_counter()
             until = now + HPFS_START_SHARE * max(t0 + time_limit - now, 0.0)
         started = hpfs_start(search, until)
-        # the root's plans then replace HPFS's on their orbits, if the share has time left
+        # the root's plans then replace HPFS's on their orbits if together they do not
+        # lower the profit, when the share has time left
         late = deadline is not None and time.perf_counter() >= deadline
         root = started["hpfs_profit"] is None or not late
     if root:
         # the root may take the start's whole share: what it leaves goes to the search
-        started.update(lp_start(search, deadline))
+        started.update(
+            lp_start(
+                search,
+                deadline,
+                keep=started.get("hpfs_profit") is not None,
+                plan_deadline=None if time_limit is None else t0 + time_limit,
+            )
+        )
     run = iterate(search, p, stop, deadline, t0)
     sched, w = state.sched, planner.weight
     for j, plan in planner.plans(run.best_paths):

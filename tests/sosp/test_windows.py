@@ -317,6 +317,39 @@ def test_hpfs_start_sets_hpfs_schedule_on_c1(c1: Instance) -> None:
     assert explicit.stats["lp_rounds"] >= 1 and "hpfs_s" not in explicit.stats
 
 
+def test_root_after_hpfs_keeps_its_plans_only_when_they_gain(c1: Instance) -> None:
+    """After HPFS-STC's schedule the root's plans stay only when together they do not lower
+    the profit; else HPFS-STC's come back (the start never ends below HPFS-STC's)."""
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    hpfs = hpfs_start(search, None)["hpfs_profit"]
+    figures = lp_start(search, None, keep=True)
+    assert figures["lp_rounds"] >= 1 and search.profit >= hpfs
+    assert not search.journal and validate(c1, search.schedule()).feasible
+    plain = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    lp_start(plain, None)  # on C1 the root's plans gain over HPFS-STC's: they are kept
+    assert search.profit == plain.profit > hpfs
+    # a start above anything the root's plans give: they are undone, the start comes back
+    high = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    high.set_schedule(solve(c1, "orbit-dp", seed=0, iterations=20).schedule)
+    best, plans = high.profit, [plan.start.tolist() for plan in high.paths]
+    assert best > plain.profit  # C1: 561 against the root's 552
+    lp_start(high, None, keep=True)
+    assert high.profit == best and [p.start.tolist() for p in high.paths] == plans
+    assert not high.journal
+
+
+def test_lp_start_makes_no_replan_foreseen_past_the_runs_limit(c1: Instance) -> None:
+    """The root may end in its share, but its plans' re-plans over windows take seconds on a
+    dense orbit: one foreseen past the run's limit is not made, and the orbit keeps its plan."""
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    hpfs = hpfs_start(search, None)["hpfs_profit"]
+    plans = [plan.start.tolist() for plan in search.paths]
+    figures = lp_start(search, None, plan_deadline=time.perf_counter())
+    assert figures["lp_rounds"] >= 1 and search.profit == hpfs
+    assert [plan.start.tolist() for plan in search.paths] == plans
+    assert lp_start(search, None)["lp_profit"] != hpfs  # with time, the root's plans go in
+
+
 def test_hpfs_start_foreseen_late_falls_back_to_lp(c1: Instance) -> None:
     search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     figures = hpfs_start(search, time.perf_counter())  # no time at all
