@@ -68,7 +68,6 @@ from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
 from heuristics.orbit_search import (
-    HPFS_START_SHARE,
     OrbitSearch,
     OrbitSearchParams,
     WindowData,
@@ -506,11 +505,7 @@ def orbit_search_start(
         # left most orbits empty (a drawn 5,000-target instance at 5 s: 8,179 at the start's
         # end, 17,793 in all; from HPFS-STC's 14,532: 16,230 and 18,842). It may take most
         # of what is left, past the start's share.
-        until = None
-        if time_limit is not None:
-            now = time.perf_counter()
-            until = now + HPFS_START_SHARE * max(t0 + time_limit - now, 0.0)
-        started = hpfs_start(search, until)
+        started = hpfs_start(search, None if time_limit is None else t0 + time_limit)
         # the root's plans then replace HPFS's on their orbits if together they do not
         # lower the profit, when the share has time left
         late = deadline is not None and time.perf_counter() >= deadline
