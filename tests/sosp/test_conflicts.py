@@ -222,8 +222,10 @@ def test_conflict_rows_cap_raises_before_the_rows() -> None:
     args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
     n_pairs = len(setup_conflict_pairs(*args))
     assert n_pairs > 10
-    with pytest.raises(TooManyConflicts, match="more than 10 setup conflicts"):
+    with pytest.raises(TooManyConflicts, match="more than 10 setup conflicts") as refused:
         setup_conflict_rows(*args, max_pairs=10)
+    # the count stops at the item where it passed the cap, not at the last one
+    assert 10 < refused.value.found < n_pairs
     indptr, indices = setup_conflict_rows(*args, max_pairs=n_pairs)
     assert len(indices) == 2 * n_pairs and rows_as_pairs(indptr, indices) == set(
         map(tuple, setup_conflict_pairs(*args).tolist())
