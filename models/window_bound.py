@@ -60,6 +60,13 @@ BAND = 0.5
 #: inverse of the band).
 MIN_BAND = 0.1
 
+#: Seconds per (first, covered) pair of opportunities (:func:`_pairs`) that one unbanded
+#: pricing round is foreseen to take at least, for ``expect_rounds``: below the least
+#: measured (2026-11-29, the 2-core machine, mu = p and p / 2: 115-406 ns on 16 drawn
+#: instances of ``benchmarks/bench_sweep.py --anywhere``, C5, C10 and D100; a 10,000-target
+#: polar box 192 million pairs, 64 s a round).
+ROUND_S_PER_PAIR = 1e-7
+
 #: Rounds a window root is expected to take, and a round's cost when the band is halved,
 #: for :func:`_first_band` (measured: D100 56-58 rounds, the generated set of
 #: ``benchmarks/bench_window_bound.py`` 15-48; D100's round 1 degree 6.0 s, 0.5 degree 9.3 s
@@ -99,7 +106,9 @@ def window_colgen_bound(
     max_rounds
         Pricing rounds at most.
     expect_rounds
-        See :func:`models.colgen.column_generation` (None: no such stop).
+        See :func:`models.colgen.column_generation` (None: no such stop). Unbanded, with a
+        time limit, the root is also given up before its first round when that many rounds
+        of the least foreseen length (:data:`ROUND_S_PER_PAIR`) would not fit.
     orbits
         Every orbit's :class:`sosp.windows.OrbitOpps` in orbit order, when the caller has
         them (a window search's :attr:`heuristics.orbit_search.WindowData.orbits`); None:
@@ -139,16 +148,33 @@ def window_colgen_bound(
     plans: list[Any] = []
     bands: list[float | None] = []
     if orbits and cap > 0.0:
-        # compile the numba kernels (or load them from their cache) on the smallest orbit
-        # before the first round, whose length decides ``expect_rounds``: a fresh install's
-        # compilation (seconds) is not a round, and the workers then load the cache
         busy = [g for g in range(len(orbits)) if len(orbits[g].start)]
-        if busy:
-            small = min(busy, key=lambda g: len(orbits[g].start))
-            _relaxed_plans(orbits, [small], p, np.zeros((len(orbits), 2)), band=band)
         start = (p.copy(), np.zeros((len(orbits), 2)))  # mu = p: the orbits' own optima first
         b = band
         fits = True
+        if expect_rounds is not None and deadline is not None and band is None:
+            # foreseen before the first round, which would otherwise run to the deadline
+            # (it stops where an orbit is foreseen late: a partial round is no bound) and
+            # only then show that expect_rounds such rounds do not fit; and before the
+            # kernels are loaded (0.5-0.9 s the first time in a process)
+            share = min(parallelism(workers), max(1, len(busy)))
+            round_s = ROUND_S_PER_PAIR * sum(_pairs(orbits[g]) for g in busy) / share
+            fits = time.perf_counter() + expect_rounds * round_s <= deadline
+            if not fits:
+                log.info(
+                    "window root given up before its first round: %d rounds of at least "
+                    "%.1f s foreseen, %.1f s left",
+                    expect_rounds,
+                    round_s,
+                    deadline - time.perf_counter(),
+                )
+        if busy and fits:
+            # compile the numba kernels (or load them from their cache) on the smallest
+            # orbit before the first round, whose length decides ``expect_rounds``: a fresh
+            # install's compilation (seconds) is not a round, and the workers then load the
+            # cache
+            small = min(busy, key=lambda g: len(orbits[g].start))
+            _relaxed_plans(orbits, [small], p, np.zeros((len(orbits), 2)), band=band)
         if refine and band is not None and deadline is not None:
             b, round_s, first = _first_band(orbits, p, band, deadline, workers)
             best = min(best, first)  # the timed round is a round too (mu = p, lam = 0)

@@ -291,6 +291,27 @@ def test_window_lp_start_on_c1(c1: Instance) -> None:
     assert search.profit > 0.9 * root["master"]
 
 
+def test_window_root_foreseen_too_slow_makes_no_round(c1: Instance, monkeypatch) -> None:
+    """With a deadline, an unbanded root whose ``expect_rounds`` rounds are foreseen past it
+    prices nothing (before, its first round ran until the deadline); without a deadline,
+    or banded, the foresight plays no part."""
+    import models.window_bound as wb
+
+    quick = window_colgen_bound(c1, time_limit=60.0, expect_rounds=20, band=None)
+    assert quick["rounds"] > 0 and quick["plans"]
+    monkeypatch.setattr(wb, "ROUND_S_PER_PAIR", 1.0)  # every round foreseen at hours
+    t = time.perf_counter()
+    out = window_colgen_bound(c1, time_limit=60.0, expect_rounds=20, band=None)
+    assert time.perf_counter() - t < 5.0
+    assert out["rounds"] == 0 and out["plans"] == [] and out["master"] is None
+    assert out["bound"] == out["cap"]
+    assert window_colgen_bound(c1, expect_rounds=20, band=None)["rounds"] == quick["rounds"]
+    # the search then keeps the start it had
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    figures = lp_start(search, time.perf_counter() + 60.0)
+    assert figures["lp_rounds"] == 0 and figures["lp_profit"] == 0.0
+
+
 def test_hpfs_start_sets_hpfs_schedule_on_c1(c1: Instance) -> None:
     """The window search's HPFS start holds HPFS-STC's schedule, orbit by orbit, and is what
     ``start="auto"`` does over windows (the LP root where the candidates are explicit)."""
