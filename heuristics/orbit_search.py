@@ -514,7 +514,9 @@ def lp_start(
     model over orbit plans, priced by the same planner; for a :class:`WindowSearch`, the
     window relaxation's, :func:`models.window_bound.window_colgen_bound`) is solved until
     it converges or ``deadline`` passes (or, when its first round shows that
-    :data:`LP_START_ROUNDS` rounds would not fit, not at all: the search then starts empty).
+    :data:`LP_START_ROUNDS` rounds would not fit, not at all: the search then keeps the start
+    it had, empty or HPFS-STC's; over windows that is foreseen before the first round,
+    :data:`models.window_bound.ROUND_S_PER_PAIR`).
     Each orbit then takes the plan of largest value in
     the last master's solution, re-planned by the search's own planner at the weights of
     that plan's targets (the master keeps a plan's targets, not its observations, and a

@@ -306,6 +306,7 @@ def test_window_root_foreseen_too_slow_makes_no_round(c1: Instance, monkeypatch)
     assert out["rounds"] == 0 and out["plans"] == [] and out["master"] is None
     assert out["bound"] == out["cap"]
     assert window_colgen_bound(c1, expect_rounds=20, band=None)["rounds"] == quick["rounds"]
+    assert window_colgen_bound(c1, time_limit=60.0, expect_rounds=20, band=1.0)["rounds"] > 0
     # the search then keeps the start it had
     search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     figures = lp_start(search, time.perf_counter() + 60.0)
