@@ -193,9 +193,12 @@ class Pricing:
             for g in range(len(self.orbits))
         )
 
-    def round(self, p: np.ndarray, duals: np.ndarray) -> tuple[float, int]:
-        """One pricing round: the Lagrangian value at ``duals`` (a bound when every cut is
-        priced exactly) and how many plans entered the master."""
+    def split(
+        self, p: np.ndarray, duals: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """The master's duals as target prices (per target of the instance), energy and
+        memory penalties per unit, cut duals, and the Lagrangian value's terms outside the
+        orbits (the cuts' right-hand sides, the targets' ``z`` and the knapsacks')."""
         mst, n, m = self.master, self.master.n, self.master.m
         mu = np.zeros(len(p))
         mu[self.targets] = duals[:n]
@@ -206,7 +209,14 @@ class Pricing:
         z_gain = p[self.targets] - duals[:n]
         for c, cut in enumerate(mst.cuts):
             z_gain[cut] -= sigma[c]
-        value = float(sigma.sum() + np.maximum(z_gain, 0.0).sum() + (pe * e_cap + pw * w_cap).sum())
+        outside = sigma.sum() + np.maximum(z_gain, 0.0).sum() + (pe * e_cap + pw * w_cap).sum()
+        return mu, pe, pw, sigma, float(outside)
+
+    def round(self, p: np.ndarray, duals: np.ndarray) -> tuple[float, int]:
+        """One pricing round: the Lagrangian value at ``duals`` (a bound when every cut is
+        priced exactly) and how many plans entered the master."""
+        mst, n = self.master, self.master.n
+        mu, pe, pw, sigma, value = self.split(p, duals)
         added = 0
         for g, o in enumerate(self.orbits):
             price, bonus = mu.copy(), np.zeros(o.size)
@@ -252,17 +262,8 @@ class MipPricing(Pricing):
     def round(self, p: np.ndarray, duals: np.ndarray) -> tuple[float, int]:
         import highspy
 
-        mst, n, m = self.master, self.master.n, self.master.m
-        mu = np.zeros(len(p))
-        mu[self.targets] = duals[:n]
-        e_cap = np.array([o.rules.energy_capacity for o in self.orbits])
-        w_cap = np.array([o.rules.memory_capacity for o in self.orbits])
-        pe, pw = duals[n + m : n + 2 * m], duals[n + 2 * m : n + 3 * m]
-        sigma = duals[mst.cut0 :]
-        z_gain = p[self.targets] - duals[:n]
-        for c, cut in enumerate(mst.cuts):
-            z_gain[cut] -= sigma[c]
-        value = float(sigma.sum() + np.maximum(z_gain, 0.0).sum() + (pe * e_cap + pw * w_cap).sum())
+        mst, n = self.master, self.master.n
+        mu, pe, pw, sigma, value = self.split(p, duals)
         added = 0
         inf = highspy.kHighsInf
         for g, o in enumerate(self.orbits):
