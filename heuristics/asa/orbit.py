@@ -72,6 +72,7 @@ from heuristics.orbit_search import (
     OrbitSearchParams,
     WindowData,
     WindowSearch,
+    ascend_from_both,
     hpfs_start,
     iterate,
     lp_start,
@@ -520,6 +521,10 @@ def orbit_search_start(
                 plan_deadline=None if time_limit is None else t0 + time_limit,
             )
         )
+    if started.get("hpfs_profit") is not None and not started.get("lp_rounds"):
+        # from nothing as well where that fits in the start's share (orbit-dp's rule)
+        search, ascents = ascend_from_both(search, deadline)
+        started.update(ascents)
     run = iterate(search, p, stop, deadline, t0)
     sched, w = state.sched, planner.weight
     for j, plan in planner.plans(run.best_paths):

@@ -17,6 +17,7 @@ from heuristics.orbit_search import (
     START_MODES,
     WindowData,
     WindowSearch,
+    ascend_from_both,
     ascent_profit,
     hpfs_start,
     lp_start,
@@ -370,6 +371,48 @@ def test_lp_start_makes_no_replan_foreseen_past_the_runs_limit(c1: Instance) -> 
     assert figures["lp_rounds"] >= 1 and search.profit == hpfs
     assert [plan.start.tolist() for plan in search.paths] == plans
     assert lp_start(search, None)["lp_profit"] != hpfs  # with time, the root's plans go in
+
+
+@pytest.mark.parametrize("start", ["hpfs", "lp"])
+def test_ascent_after_a_start_replans_every_orbit(c1: Instance, start: str) -> None:
+    """Plans set from outside the search (HPFS-STC's schedule, the root's plans re-planned at
+    their own targets' weights) are no optimum at the search's prices: every orbit stays
+    dirty, and the ascent that follows ends where no single orbit's re-plan gains."""
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    if start == "hpfs":
+        set_profit = hpfs_start(search, None)["hpfs_profit"]
+    else:
+        set_profit = lp_start(search, None)["lp_profit"]
+    assert search.dirty.all()
+    search.ascent()
+    assert search.profit > set_profit  # C1: HPFS-STC's 490, the root's 552
+    assert validate(c1, search.schedule()).feasible
+    assert not any(search.replan(g) for g in range(len(search.paths)))
+
+
+def test_ascend_from_both_keeps_the_higher_ascent(c1: Instance) -> None:
+    """After HPFS-STC's schedule, a second ascent from nothing is made where it is foreseen to
+    fit, and the search that ends higher is kept; where it does not fit only the first."""
+    search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    hpfs_start(search, None)
+    kept, figures = ascend_from_both(search, None)
+    assert figures["empty_ascent"] is not None and figures["hpfs_ascent"] > 0
+    assert kept.profit == max(figures["hpfs_ascent"], figures["empty_ascent"])
+    assert validate(c1, kept.schedule()).feasible
+    # the one from nothing is a plain ascent with the same generator's next draws
+    alone = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    hpfs_start(alone, None)
+    alone.ascent()
+    assert alone.profit == figures["hpfs_ascent"]
+    late = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    hpfs_start(late, None)
+    kept, figures = ascend_from_both(late, time.perf_counter() + 1e-6)
+    assert kept is late and figures["empty_ascent"] is None
+    # through solve: the figures are in the statistics, the same for the same seed
+    a = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
+    b = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
+    assert a.stats["empty_ascent"] is not None and a.profit == b.profit
+    assert a.stats["ascent_profit"] >= max(a.stats["hpfs_ascent"], a.stats["empty_ascent"])
 
 
 def test_hpfs_start_foreseen_late_falls_back_to_lp(c1: Instance) -> None:
