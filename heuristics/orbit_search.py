@@ -644,11 +644,12 @@ def ascend_from_both(
     one is higher depends on the instance. From HPFS-STC's schedule (static cluster-tasks,
     inserted by weight) the orbits keep its assignment of targets to orbits; from nothing the
     first orbits re-planned take whole dense strips. On the drawn instances of 1,200 to
-    10,000 targets the one from nothing ended higher on two (world4-4 and world5-0: 14,015
-    against 13,821 and 21,520 against 21,011 at 5 s), the one from HPFS-STC's higher on most
-    others, and on G100k at 290 s from nothing 585,092 against 578,302. Where a pass does
-    not fit (a 10,000-target polar box at 5 s: one plan of its densest orbit takes seconds,
-    the ascent from nothing ends at a fifth of the other) only HPFS-STC's is made.
+    5,000 targets where both were made, either ended higher, by instance and seed (world4-4
+    at 5 s: 13,901 from HPFS-STC's and 13,963 from nothing at seed 0, 13,821 and 14,112 at
+    seed 1; world4-3: 6,564 and 6,645, then 6,464 and 6,310); on G100k at 290 s, from nothing
+    585,092 (2026-11-27), from HPFS-STC's alone 578,426. Where a pass does not fit (a
+    10,000-target polar box at 5 s: one plan of its densest orbit takes seconds, the ascent
+    from nothing ends at a fifth of the other) only HPFS-STC's is made.
 
     Both searches draw from the one generator in turn, so a seed gives one result. The
     second search takes the first's foresight (its measured planning times).
