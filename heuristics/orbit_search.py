@@ -634,11 +634,16 @@ SECOND_ASCENT_SHARE = 0.25
 
 
 def ascend_from_both(
-    search: OrbitSearch, deadline: float | None
+    search: OrbitSearch, deadline: float | None, started: dict[str, Any] | None = None
 ) -> tuple[OrbitSearch, dict[str, Any]]:
     """Ascend from the start already set (HPFS-STC's schedule), then, when it is foreseen to
     fit in :data:`SECOND_ASCENT_SHARE` of the time left, from nothing in a second search over
     the same data; return the search that ends higher, and the figures.
+
+    With ``started`` (the start's figures, :func:`hpfs_start`'s and :func:`lp_start`'s),
+    nothing is done (``search`` and no figures are returned) unless HPFS-STC's schedule is
+    the start and the root made no round: where the root's plans went in, its coordinated
+    start stays alone. ``orbit-dp`` and ASA-DTC's start both call it so.
 
     Why: each ascent ends in a local optimum where no single orbit's re-plan gains, and which
     one is higher depends on the instance. From HPFS-STC's schedule (static cluster-tasks,
@@ -654,6 +659,8 @@ def ascend_from_both(
     Both searches draw from the one generator in turn, so a seed gives one result. The
     second search takes the first's foresight (its measured planning times).
     """
+    if started is not None and (started.get("hpfs_profit") is None or started.get("lp_rounds")):
+        return search, {}
     search.ascent(deadline)
     first = search.profit
     now = time.perf_counter()
@@ -835,11 +842,9 @@ def solve_orbit_dp(
         crit.append(MaxIterations(iterations))
     if no_improve is not None:
         crit.append(NoImprovement(no_improve))
-    if started.get("hpfs_profit") is not None and not started.get("lp_rounds"):
-        # HPFS-STC's schedule is the start (the root made no round): from nothing as well
-        # where that fits
-        search, ascents = ascend_from_both(search, deadline)
-        started.update(ascents)
+    # where HPFS-STC's schedule is the start, from nothing as well when that fits
+    search, ascents = ascend_from_both(search, deadline, started)
+    started.update(ascents)
     run = iterate(search, p, FirstOf(*crit), deadline, t0)
     search.paths = run.best_paths
     schedule = search.schedule()

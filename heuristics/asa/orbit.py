@@ -521,10 +521,10 @@ def orbit_search_start(
                 plan_deadline=None if time_limit is None else t0 + time_limit,
             )
         )
-    if started.get("hpfs_profit") is not None and not started.get("lp_rounds"):
-        # from nothing as well where that fits in the start's share (orbit-dp's rule)
-        search, ascents = ascend_from_both(search, deadline)
-        started.update(ascents)
+    # where HPFS-STC's schedule is the start, from nothing as well when that fits in the
+    # start's share (orbit-dp's rule)
+    search, ascents = ascend_from_both(search, deadline, started)
+    started.update(ascents)
     run = iterate(search, p, stop, deadline, t0)
     sched, w = state.sched, planner.weight
     for j, plan in planner.plans(run.best_paths):

@@ -408,6 +408,11 @@ def test_ascend_from_both_keeps_the_higher_ascent(c1: Instance) -> None:
     hpfs_start(late, None)
     kept, figures = ascend_from_both(late, time.perf_counter() + 1e-6)
     assert kept is late and figures["empty_ascent"] is None
+    # where the root made a round its start stays alone: no ascent here, no figures
+    root = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
+    hpfs_start(root, None)
+    kept, figures = ascend_from_both(root, None, {"hpfs_profit": 1.0, "lp_rounds": 3})
+    assert kept is root and figures == {} and root.dirty.all() and root.replans == 0
     # through solve: the figures are in the statistics, the same for the same seed
     a = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
     b = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
