@@ -256,7 +256,11 @@ def test_restarts_and_polish_stay_valid_and_below_the_optimum(
     assert rep.feasible, rep.violations
     assert rep.profit == pytest.approx(res.profit)
     oracle = {"asa-dtc": "cluster", "asa-stc": "static", "asa-nontc": "task"}[method]
-    assert res.profit <= brute_force(inst, oracle).profit + 1e-9
+    # the static optimum at the search's own roll rule (ASA's default is "nadir", the
+    # oracle's "midpoint": with midpoint rolls a static slew can be 0.5 s too long where the
+    # nadir-closest roll fits, and asa-stc then rightly beats that oracle)
+    roll_rule = ASAParams().roll_rule
+    assert res.profit <= brute_force(inst, oracle, roll_rule=roll_rule).profit + 1e-9
     assert res.stats["restarts"] >= 1 or res.iterations < 150
 
 
