@@ -22,7 +22,7 @@ import argparse
 import statistics
 import time
 
-from sosp.scenarios import generate_scenario
+from sosp.scenarios import generate_scenario, scenario_names
 from sosp.solve import solve
 
 METHODS = ("asa-dtc", "asa-stc", "asa-nontc")
@@ -41,7 +41,9 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--time-limit", type=float, default=60.0, help="seconds per ablation run")
     ap.add_argument("--seeds", type=int, default=10, help="seeds 0..n-1 per ablation cell")
-    ap.add_argument("--names", nargs="*", default=["C3", "C6", "C10", "B6", "B10"])
+    ap.add_argument(
+        "--names", nargs="*", default=["C3", "C6", "C10", "B6", "B10"], choices=scenario_names()
+    )
     ap.add_argument("--curve", nargs="*", default=["B10", "C10"], help="profit-vs-time runs")
     ap.add_argument("--curve-time", type=float, default=60.0)
     ap.add_argument("--scenario-seed", type=int, default=0, help="seed of the target draw")

@@ -32,7 +32,7 @@ import time
 from typing import Any
 
 from sosp.io import atomic_write_json, atomic_write_text
-from sosp.scenarios import generate_scenario
+from sosp.scenarios import generate_scenario, scenario_names
 from sosp.solve import solve
 
 log = logging.getLogger("bench_baselines")
@@ -223,7 +223,13 @@ def markdown(rows: list[dict[str, Any]], with_rds_single: bool) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scenarios", nargs="*", default=None, help="default: B1..B10 C1..C10")
+    p.add_argument(
+        "--scenarios",
+        nargs="*",
+        default=None,
+        choices=scenario_names(),
+        help="default: B1..B10 C1..C10",
+    )
     p.add_argument("--scenario-seed", type=int, default=0)
     p.add_argument("--rds-limit", type=float, default=60.0, help="RDS seconds per scenario")
     p.add_argument("--sa-limit", type=float, default=10.0, help="SA seconds per run")
@@ -242,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", help="write the raw rows here")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
-    names = args.scenarios or [f"{g}{k}" for g in "BC" for k in range(1, 11)]
+    names = args.scenarios or scenario_names()
     if args.compare:
         rows = [
             bench_compare(

@@ -38,12 +38,12 @@ from typing import Any
 
 from models.solve import bound, solve_milp
 from sosp.instance import Instance
-from sosp.scenarios import custom_scenario, generate_scenario
+from sosp.scenarios import custom_scenario, generate_scenario, scenario_names
 from sosp.solve import solve
 
 log = logging.getLogger("bench_exact")
 
-NAMES = [f"B{i}" for i in range(1, 11)] + [f"C{i}" for i in range(1, 11)]
+NAMES = scenario_names()
 
 #: Generated dense instances (name -> region lat0, lat1, lon0, lon1; targets), with the four
 #: built-in satellites over 24 h: the first four are ASA-DTC's tuning set
@@ -236,7 +236,7 @@ def _row(rec: dict[str, Any], models: list[str], heuristics: list[str]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--names", nargs="*", default=NAMES)
+    p.add_argument("--names", nargs="*", default=NAMES, choices=[*scenario_names(), *GENERATED])
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--time-limit", type=float, default=300.0, help="per MILP solve, seconds")
     p.add_argument("--models", nargs="*", default=["task", "cluster"])

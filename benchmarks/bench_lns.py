@@ -18,7 +18,7 @@ import time
 
 from benchmarks.bench_asa import profit_at
 from models.solve import bound
-from sosp.scenarios import generate_scenario
+from sosp.scenarios import generate_scenario, scenario_names
 from sosp.solve import solve
 
 
@@ -30,7 +30,7 @@ def _pct(a: float | None, b: float | None) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--names", nargs="+", default=["B10", "C10"])
+    ap.add_argument("--names", nargs="+", default=["B10", "C10"], choices=scenario_names())
     ap.add_argument("--time-limit", type=float, default=60.0, help="seconds per heuristic run")
     ap.add_argument("--lp-time-limit", type=float, default=300.0)
     ap.add_argument("--no-lp", action="store_true", help="skip the LP bound")

@@ -22,13 +22,13 @@ from benchmarks.bench_asa import profit_at
 from benchmarks.bench_lns import _pct
 from models.lagrangian import lagrangian_bound
 from models.solve import bound
-from sosp.scenarios import generate_scenario
+from sosp.scenarios import generate_scenario, scenario_names
 from sosp.solve import solve
 
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--names", nargs="+", default=["B10", "C10"])
+    ap.add_argument("--names", nargs="+", default=["B10", "C10"], choices=scenario_names())
     ap.add_argument("--time-limit", type=float, default=60.0, help="seconds per orbit-dp run")
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--scenario-seed", type=int, default=0)

@@ -51,7 +51,7 @@ import numpy as np
 from models.colgen import column_generation
 from sosp.instance import Instance, load_instance
 from sosp.planner import OrbitItems, PlanPool, _recursion, flat_positions, orbit_data
-from sosp.scenarios import generate_scenario
+from sosp.scenarios import generate_scenario, scenario_names
 
 log = logging.getLogger("bench_subset_row")
 
@@ -385,7 +385,12 @@ def run(inst: Instance, variant: str, seconds: float) -> dict[str, Any]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--names", nargs="*", default=["C5", "C6", "C7", "C8", "C9", "C10"])
+    ap.add_argument(
+        "--names",
+        nargs="*",
+        default=["C5", "C6", "C7", "C8", "C9", "C10"],
+        choices=scenario_names(),
+    )
     ap.add_argument("--instance", nargs="*", default=[], help="instance files besides")
     ap.add_argument(
         "--variants", nargs="+", default=["fixed", "over", "exact"],
