@@ -130,9 +130,9 @@ class OrbitSearchParams:
         the empty schedule; ``"auto"`` (default): ``"lp"`` with explicit candidates; with
         window candidates HPFS-STC's schedule, then the root's plans on their orbits when
         the root's share has time left and they do not lower the profit. When HPFS-STC's
-        schedule is the start (the root made no round), the search also ascends from
-        nothing where that is foreseen to fit, and goes on from the higher
-        (:func:`ascend_from_both`).
+        schedule is the start (the root made no round, or its plans were undone), the
+        search also ascends from nothing where that is foreseen to fit, and goes on from
+        the higher (:func:`ascend_from_both`).
     candidates
         ``"explicit"``: every candidate observation, made once (:mod:`sosp.candidates`);
         ``"windows"``: none made up front, each re-plan prices the orbit's windows at its
@@ -547,7 +547,8 @@ def lp_start(
     root's ``deadline`` is only its share) is not made, and the orbit keeps its plan: over
     windows one re-plan of a dense orbit takes seconds.
 
-    Returns the start's figures (rounds, seconds, the master's value, the profit set).
+    Returns the start's figures (rounds, seconds, the master's value, the profit set, and
+    ``lp_kept``: whether the root's plans went in and stayed).
     """
     t0 = time.perf_counter()
     instance = search.data.instance
@@ -587,8 +588,10 @@ def lp_start(
             continue
         price[targets] = search.weight[targets]
         search._set(g, search._timed_plan(g, price))
+    kept = len(search.journal) > mark
     if keep and search.profit < before - 1e-9:
         search.undo(mark)
+        kept = False
     search.journal.clear()
     # each root plan was re-planned at its own targets' weights only, no optimum at the
     # search's prices: the ascent re-plans every orbit (as after HPFS-STC's schedule)
@@ -598,6 +601,7 @@ def lp_start(
         "lp_s": round(time.perf_counter() - t0, 4),
         "lp_master": root["master"],
         "lp_profit": search.profit,
+        "lp_kept": kept,
     }
 
 
@@ -642,8 +646,10 @@ def ascend_from_both(
 
     With ``started`` (the start's figures, :func:`hpfs_start`'s and :func:`lp_start`'s),
     nothing is done (``search`` and no figures are returned) unless HPFS-STC's schedule is
-    the start and the root made no round: where the root's plans went in, its coordinated
-    start stays alone. ``orbit-dp`` and ASA-DTC's start both call it so.
+    the start: where the root's plans went in (``lp_kept``), that coordinated start stays
+    alone; where the root made no round, or its plans were undone because they lowered the
+    profit, HPFS-STC's schedule is the start as much as without a root. ``orbit-dp`` and
+    ASA-DTC's start both call it so.
 
     Why: each ascent ends in a local optimum where no single orbit's re-plan gains, and which
     one is higher depends on the instance. From HPFS-STC's schedule (static cluster-tasks,
@@ -659,7 +665,7 @@ def ascend_from_both(
     Both searches draw from the one generator in turn, so a seed gives one result. The
     second search takes the first's foresight (its measured planning times).
     """
-    if started is not None and (started.get("hpfs_profit") is None or started.get("lp_rounds")):
+    if started is not None and (started.get("hpfs_profit") is None or started.get("lp_kept")):
         return search, {}
     search.ascent(deadline)
     first = search.profit

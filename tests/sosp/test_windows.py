@@ -347,6 +347,7 @@ def test_root_after_hpfs_keeps_its_plans_only_when_they_gain(c1: Instance) -> No
     hpfs = hpfs_start(search, None)["hpfs_profit"]
     figures = lp_start(search, None, keep=True)
     assert figures["lp_rounds"] >= 1 and search.profit >= hpfs
+    assert figures["lp_kept"] is (search.profit > hpfs)
     assert not search.journal and validate(c1, search.schedule()).feasible
     plain = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     lp_start(plain, None)  # on C1 the root's plans gain over HPFS-STC's: they are kept
@@ -356,9 +357,9 @@ def test_root_after_hpfs_keeps_its_plans_only_when_they_gain(c1: Instance) -> No
     high.set_schedule(solve(c1, "orbit-dp", seed=0, iterations=20).schedule)
     best, plans = high.profit, [plan.start.tolist() for plan in high.paths]
     assert best > plain.profit  # C1: 561 against the root's 552
-    lp_start(high, None, keep=True)
+    assert lp_start(high, None, keep=True)["lp_kept"] is False
     assert high.profit == best and [p.start.tolist() for p in high.paths] == plans
-    assert not high.journal
+    assert not high.journal and high.dirty.all()
 
 
 def test_lp_start_makes_no_replan_foreseen_past_the_runs_limit(c1: Instance) -> None:
@@ -408,11 +409,15 @@ def test_ascend_from_both_keeps_the_higher_ascent(c1: Instance) -> None:
     hpfs_start(late, None)
     kept, figures = ascend_from_both(late, time.perf_counter() + 1e-6)
     assert kept is late and figures["empty_ascent"] is None
-    # where the root made a round its start stays alone: no ascent here, no figures
+    # where the root's plans went in, that coordinated start stays alone: no ascent here, no
+    # figures; where they were undone (HPFS-STC's schedule back) both ascents are made
     root = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     hpfs_start(root, None)
-    kept, figures = ascend_from_both(root, None, {"hpfs_profit": 1.0, "lp_rounds": 3})
+    kept_root = {"hpfs_profit": 1.0, "lp_rounds": 3, "lp_kept": True}
+    kept, figures = ascend_from_both(root, None, kept_root)
     assert kept is root and figures == {} and root.dirty.all() and root.replans == 0
+    undone = {"hpfs_profit": 1.0, "lp_rounds": 3, "lp_kept": False}
+    assert ascend_from_both(root, None, undone)[1]["empty_ascent"] is not None
     # through solve: the figures are in the statistics, the same for the same seed
     a = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
     b = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
