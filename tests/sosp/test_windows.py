@@ -417,7 +417,8 @@ def test_ascend_from_both_keeps_the_higher_ascent(c1: Instance) -> None:
     kept, figures = ascend_from_both(root, None, kept_root)
     assert kept is root and figures == {} and root.dirty.all() and root.replans == 0
     undone = {"hpfs_profit": 1.0, "lp_rounds": 3, "lp_kept": False}
-    assert ascend_from_both(root, None, undone)[1]["empty_ascent"] is not None
+    kept, figures = ascend_from_both(root, None, undone)
+    assert figures["empty_ascent"] is not None and validate(c1, kept.schedule()).feasible
     # through solve: the figures are in the statistics, the same for the same seed
     a = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
     b = solve(c1, "orbit-dp", seed=3, iterations=5, candidates="windows", start="hpfs")
