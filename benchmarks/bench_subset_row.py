@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from models.colgen import column_generation
+from models.subset_row import best_path_with_cuts, orbit_cuts
 from sosp.instance import Instance, load_instance
 from sosp.planner import OrbitItems, PlanPool, _recursion, flat_positions, orbit_data
 from sosp.scenarios import generate_scenario, scenario_names
@@ -79,7 +80,7 @@ class CutMaster:
         h.addRows(len(upper), np.full(len(upper), -self.inf), upper, 0, [], [], [])
         idx = np.arange(n, dtype=np.int32)
         h.addCols(n, -p[targets], np.zeros(n), np.ones(n), n, idx, idx, np.ones(n))
-        self.cols: list[tuple[int, np.ndarray]] = []  # (orbit, distinct target rows)
+        self.cols: list[tuple[int, np.ndarray, np.ndarray]] = []  # (orbit, target rows, counts)
         self.keys: set[tuple[int, bytes]] = set()
         self.cuts: list[np.ndarray] = []  # target rows of each cut
 
@@ -94,12 +95,12 @@ class CutMaster:
             return False
         self.keys.add(key)
         rows = self.row_of[tg]
-        self.cols.append((g, rows))
+        self.cols.append((g, rows, cnt))
         n, m = self.n, self.m
         r = [*rows.tolist(), n + g, n + m + g, n + 2 * m + g]
         v = [*(-cnt.astype(float)).tolist(), 1.0, energy, memory]
         for c, cut in enumerate(self.cuts):
-            hit = int(np.isin(cut, rows).sum())
+            hit = int(cnt[np.isin(rows, cut)].sum())
             if hit:
                 r.append(self.cut0 + c)
                 v.append(-float(math.ceil(hit / 2)))
@@ -109,8 +110,8 @@ class CutMaster:
     def add_cut(self, cut: np.ndarray) -> None:
         self.cuts.append(cut)
         r, v = cut.tolist(), [1.0] * len(cut)
-        for x, (_, rows) in enumerate(self.cols):
-            hit = int(np.isin(cut, rows).sum())
+        for x, (_, rows, cnt) in enumerate(self.cols):
+            hit = int(cnt[np.isin(rows, cut)].sum())
             if hit:
                 r.append(self.n + x)
                 v.append(-float(math.ceil(hit / 2)))
@@ -135,7 +136,7 @@ def violated(master: CutMaster, x: np.ndarray) -> list[tuple[float, int, int, in
     used = np.flatnonzero(y > 1e-9)
     cover = np.zeros((len(used), n))
     for r, c in enumerate(used):
-        cover[r, master.cols[c][1]] = 1.0
+        cover[r, master.cols[c][1]] = 1.0  # distinct: with h >= c the row may be less violated
     w = y[used]
     over = cover.T @ w - z
     pair = (cover * w[:, None]).T @ cover
@@ -329,6 +330,47 @@ class MipPricing(Pricing):
         return value, added
 
 
+class DpPricing(Pricing):
+    """Exact pricing of every cut by the recursion with a parity bit per cut
+    (:func:`models.subset_row.best_path_with_cuts`): the ``dp`` variant."""
+
+    def __init__(self, master: CutMaster, orbits: list[OrbitItems], targets: np.ndarray) -> None:
+        super().__init__(master, orbits, targets)
+        self.inexact = 0
+
+    def _hits(self, g: int, cut: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a = self.by_target[g]
+        parts = [
+            a.indices[a.indptr[t] : a.indptr[t + 1]]
+            for t in self.targets[cut].tolist()
+            if t < a.shape[1]
+        ]
+        if not parts:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        return np.unique(np.concatenate(parts), return_counts=True)
+
+    def round(self, p: np.ndarray, duals: np.ndarray) -> tuple[float, int]:
+        mst, n = self.master, self.master.n
+        mu, pe, pw, sigma, value = self.split(p, duals)
+        added = 0
+        for g, o in enumerate(self.orbits):
+            live = [
+                c for c, cut in enumerate(mst.cuts)
+                if sigma[c] > 1e-9 and self.seen[g].intersection(cut.tolist())
+            ]  # fmt: skip
+            cuts = orbit_cuts(
+                self.release_rank[g], o.n_before,
+                [self._hits(g, mst.cuts[c]) for c in live], sigma[live],
+            )  # fmt: skip
+            best = best_path_with_cuts(o, o.gains(mu), cuts, float(pe[g]), float(pw[g]))
+            self.inexact += not best.exact
+            value += best.value
+            if len(best.path) and best.value > duals[n + g] + 1e-6:
+                covered = o.target_flat[flat_positions(o, best.path)]
+                added += mst.add_plan(g, covered, *o.usage(best.path))
+        return value, added
+
+
 def run(inst: Instance, variant: str, seconds: float) -> dict[str, Any]:
     """The root, then ``variant`` (module docstring) for at most ``seconds``."""
     t0 = time.perf_counter()
@@ -345,7 +387,8 @@ def run(inst: Instance, variant: str, seconds: float) -> dict[str, Any]:
     master = CutMaster(p, targets, orbits)
     for g, tg, cnt, energy, memory in root.master.columns:
         master.add_plan(g, np.repeat(tg, cnt.astype(int)), energy, memory)
-    pricing = (MipPricing if variant == "mip" else Pricing)(master, orbits, targets)
+    kinds = {"mip": MipPricing, "dp": DpPricing}
+    pricing = kinds.get(variant, Pricing)(master, orbits, targets)
     end = time.perf_counter() + seconds
     bound, value = root.best, float(root.value or 0.0)
     while time.perf_counter() < end:
@@ -367,8 +410,11 @@ def run(inst: Instance, variant: str, seconds: float) -> dict[str, Any]:
         while variant != "fixed" and time.perf_counter() < end:
             value, x, duals = master.solve()
             lagrangian, added = pricing.round(p, duals)
-            log.info("master %.2f, round %.2f, %d plans added", value, lagrangian, added)
-            if variant in ("exact", "mip"):
+            log.info(
+                "master %.2f, round %.2f, %d plans added, %d cuts", value, lagrangian, added,
+                len(master.cuts),
+            )  # fmt: skip
+            if variant in ("exact", "mip", "dp"):
                 bound = min(bound, lagrangian)
             if added == 0:
                 break
@@ -376,7 +422,7 @@ def run(inst: Instance, variant: str, seconds: float) -> dict[str, Any]:
     return {
         "root": root.value,
         "value": value,
-        "bound": bound if variant in ("exact", "mip") else None,
+        "bound": bound if variant in ("exact", "mip", "dp") else None,
         "cuts": len(master.cuts),
         "columns": len(master.cols),
         "seconds": time.perf_counter() - t0,
@@ -394,7 +440,7 @@ def main() -> None:
     ap.add_argument("--instance", nargs="*", default=[], help="instance files besides")
     ap.add_argument(
         "--variants", nargs="+", default=["fixed", "over", "exact"],
-        choices=["fixed", "over", "exact", "mip"],
+        choices=["fixed", "over", "exact", "mip", "dp"],
     )  # fmt: skip
     ap.add_argument("--seconds", type=float, default=120.0, help="per variant, after the root")
     args = ap.parse_args()

@@ -584,6 +584,54 @@ def _restrict(o: OrbitItems, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return by_release, n_before
 
 
+def _penalised(
+    slew_s: np.ndarray,
+    duration: np.ndarray,
+    gain: np.ndarray,
+    by_release: np.ndarray | None,
+    r: OrbitRules,
+    pe: float,
+    pw: float,
+    *,
+    openings: int | None = None,
+    left_slew: float | None = None,
+    right_slew: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float]:
+    """The recursion's inputs (:func:`_recursion`'s parameters): per position the gain net
+    of the (4)-(5) penalties with each observation's slew counted twice, what the first and
+    the last observation get back, the (3) order, the number of levels and the empty plan's
+    value, as contiguous arrays for the compiled kernels."""
+    m = len(gain)
+    es = pe * r.slew_energy_rate
+    cap = min(r.max_openings if openings is None else openings, m)
+    empty = 0.0
+    if left_slew is not None and right_slew is not None:
+        empty = -es * (left_slew + right_slew)
+    # What the first (last) observation gets back: |theta| of the missing turn from (to)
+    # nadir, or minus the fixed neighbour's half of the turn to it.
+    first: Any = 0.0
+    last: Any = 0.0
+    g = gain
+    if pe > 0.0 or pw > 0.0:
+        slew_cost = es * slew_s
+        g = gain - pe * r.observe_energy_rate * duration
+        g -= pw * r.memory_rate * duration
+        g -= 2.0 * slew_cost
+        first = slew_cost if left_slew is None else -es * left_slew
+        last = slew_cost if right_slew is None else -es * right_slew
+    firsts = np.full(m, first) if np.ndim(first) == 0 else first
+    lasts = np.full(m, last) if np.ndim(last) == 0 else last
+    order = np.arange(m) if by_release is None else by_release
+    return (
+        np.ascontiguousarray(g, dtype=np.float64),
+        np.ascontiguousarray(firsts, dtype=np.float64),
+        np.ascontiguousarray(lasts, dtype=np.float64),
+        np.ascontiguousarray(order, dtype=np.int64),
+        cap,
+        empty,
+    )
+
+
 def _recursion(
     slew_s: np.ndarray,
     duration: np.ndarray,
@@ -616,36 +664,14 @@ def _recursion(
         empty plan (value ``-pe * es * (left_slew + right_slew)`` with both neighbours, the
         turn between them, else 0) when nothing beats it.
     """
-    m = len(gain)
-    es = pe * r.slew_energy_rate
-    cap = min(r.max_openings if openings is None else openings, m)
-    empty = 0.0
-    if left_slew is not None and right_slew is not None:
-        empty = -es * (left_slew + right_slew)
+    g, firsts, lasts, order, cap, empty = _penalised(
+        slew_s, duration, gain, by_release, r, pe, pw,
+        openings=openings, left_slew=left_slew, right_slew=right_slew,
+    )  # fmt: skip
     if cap <= 0:
         return empty, np.zeros(0, dtype=np.int64)
-    # What the first (last) observation gets back: |theta| of the missing turn from (to)
-    # nadir, or minus the fixed neighbour's half of the turn to it.
-    first: Any = 0.0
-    last: Any = 0.0
-    g = gain
-    if pe > 0.0 or pw > 0.0:
-        slew_cost = es * slew_s
-        g = gain - pe * r.observe_energy_rate * duration
-        g -= pw * r.memory_rate * duration
-        g -= 2.0 * slew_cost
-        first = slew_cost if left_slew is None else -es * left_slew
-        last = slew_cost if right_slew is None else -es * right_slew
-    firsts = np.full(m, first) if np.ndim(first) == 0 else first
-    lasts = np.full(m, last) if np.ndim(last) == 0 else last
-    order = np.arange(m) if by_release is None else by_release
     value, path = _levels()(
-        np.ascontiguousarray(g, dtype=np.float64),
-        np.ascontiguousarray(firsts, dtype=np.float64),
-        np.ascontiguousarray(lasts, dtype=np.float64),
-        np.ascontiguousarray(order, dtype=np.int64),
-        np.ascontiguousarray(n_before, dtype=np.int64),
-        cap,
+        g, firsts, lasts, order, np.ascontiguousarray(n_before, dtype=np.int64), cap
     )
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)

@@ -1,0 +1,683 @@
+"""Exact pricing of subset-row cuts in the single-orbit recursion.
+
+The master of :mod:`models.colgen` has, per target k, the coverage row ``z_k <= sum_P n_kP
+y_P`` (``n_kP``: how many observations of plan P cover k). For three targets S, the rank-1
+Chvatal-Gomory cut of their coverage rows and ``z_k <= 1`` with multipliers 1/2 is the
+subset-row cut
+
+    sum_{k in S} z_k - sum_P ceil(h_SP / 2) y_P <= 1,        h_SP = sum_{k in S} n_kP.
+
+It holds for every schedule (one plan per orbit): when two targets of S are covered, the
+plans' hits of S add up to two or more and ``sum ceil(h / 2) >= 1``; when all three are,
+to three or more and ``sum ceil(h / 2) >= 2`` (``ceil(3 / 2) = 2``, ``1 + 1``, ``1 + 1 +
+1``). Counting hits with their multiplicity (``h``, not the distinct targets) only raises a
+column's coefficient, so the cut stays valid, and it matches what the recursion sees: it
+sums the prices per observation.
+
+Its dual ``sigma_S >= 0`` takes ``sigma_S`` from each ``z_k`` of S and gives a plan
+``sigma_S ceil(h_SP / 2)`` (the plan's ``y_P`` loosens the row): not a sum over the plan's
+observations. Along a plan in time order it is one bit, the parity of the hits so far: an
+observation with ``a`` hits of S at parity ``b`` earns ``sigma_S (ceil((b + a) / 2) - b)``
+and leaves parity ``(b + a) mod 2`` (the first hit earns, the second nothing, the third
+earns again). :func:`cut_levels_py` is :func:`sosp.planner._levels_py` with such bits as
+labels: per position and level a set of ``(bits, value)`` labels, none dominated (a label
+dominates another if its value, less the sigmas of the bits it has and the other lacks, is
+still at least the other's: a set bit can cost at most one earning of its cut).
+
+Bits live only where they can matter. With ``rank`` the positions' places in the (3) order
+``by_release``, a plan's observations have strictly increasing ranks, so cut S's bit is
+needed between its first relevant rank ``lo_S`` and its last ``hi_S``; cuts whose rank spans
+do not overlap share a bit (a slot of an int64), so an orbit holds up to 64 cuts open at once.
+A cut whose relevant observations are pairwise incompatible by (3) needs no bit: each such
+observation earns ``sigma_S ceil(a / 2)`` outright. A cut beyond 64 open slots is priced the
+same way, never below its true earning (``ceil`` is subadditive): the value is then an
+over-estimate, still a valid bound, and :class:`CutPrice` reports it as not exact.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sosp.kernels import compiled
+from sosp.planner import PRUNE_FROM, OrbitItems, _penalised, best_path
+
+#: Slots of one int64 label mask.
+SLOTS = 64
+
+#: At most this many labels in the sweep's prefix structure; beyond it the two lowest are
+#: merged into one optimistic label (their bits and-ed, their best value), an over-estimate.
+MAX_LABELS = 512
+
+
+@dataclass(frozen=True, eq=False)
+class OrbitCuts:
+    """The cuts of one orbit, arranged for :func:`cut_levels_py`.
+
+    Attributes
+    ----------
+    hit_ptr, hit_slot, hit_a, hit_sigma, hit_read
+        Per position (CSR): the slotted cuts it hits, with its hits ``a`` of the cut's
+        targets, the cut's dual, and whether the bit in the prefix before the position
+        (``n_before``) belongs to that cut (its first relevant rank lies in the prefix).
+    carry, keep
+        Per position: the slots whose prefix bits it carries (cuts open in its prefix and
+        after it), and the slots its labels keep (cuts open after it).
+    close
+        Per boundary k (0 .. m): the slots whose cut's last relevant rank is k.
+    slot_sigma
+        Per slot, the largest dual of the cuts sharing it (for the dominance test).
+    direct
+        Per position, the earnings of the cuts priced outright (unslotted), added to its
+        gain.
+    exact
+        False when some cut had no slot (priced optimistically).
+    """
+
+    hit_ptr: np.ndarray
+    hit_slot: np.ndarray
+    hit_a: np.ndarray
+    hit_sigma: np.ndarray
+    hit_read: np.ndarray
+    carry: np.ndarray
+    keep: np.ndarray
+    close: np.ndarray
+    slot_sigma: np.ndarray
+    direct: np.ndarray
+    exact: bool
+
+
+def release_rank(o: OrbitItems) -> np.ndarray:
+    """Each position's place in ``o.by_release`` (the (3) order)."""
+    rank = np.empty(o.size, dtype=np.int64)
+    rank[o.by_release] = np.arange(o.size)
+    return rank
+
+
+@dataclass(frozen=True, eq=False)
+class CutEntries:
+    """Cuts' hits on one orbit, independent of their duals (built once per set of cuts).
+
+    Attributes
+    ----------
+    cut, pos, a
+        Per entry: the cut (0 .. n_cuts - 1), a position covering some of its targets, and
+        how many (with multiplicity).
+    lo, hi
+        Per cut: its first and last relevant rank in the (3) order (``lo`` above every rank
+        and ``hi`` -1 for a cut the orbit cannot hit).
+    chained
+        Per cut: whether two of its relevant positions can be on one plan (``r_u < nb_w``
+        for some pair, which holds iff the least rank is below the largest ``n_before``: a
+        position never precedes itself). Else a plan hits it once at most, no bit needed.
+    """
+
+    cut: np.ndarray
+    pos: np.ndarray
+    a: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    chained: np.ndarray
+
+
+def cut_entries(
+    rank: np.ndarray, n_before: np.ndarray, hits: Sequence[tuple[np.ndarray, np.ndarray]]
+) -> CutEntries:
+    """:class:`CutEntries` from each cut's ``(positions, a)`` (positions distinct)."""
+    n_cuts = len(hits)
+    sizes = np.array([len(p) for p, _ in hits], dtype=np.int64)
+    cut = np.repeat(np.arange(n_cuts, dtype=np.int64), sizes)
+    if len(cut):
+        pos = np.concatenate([np.asarray(p, dtype=np.int64) for p, _ in hits])
+        a = np.concatenate([np.asarray(x, dtype=np.int64) for _, x in hits])
+    else:
+        pos = a = np.zeros(0, dtype=np.int64)
+    m = len(rank)
+    lo = np.full(n_cuts, m, dtype=np.int64)
+    hi = np.full(n_cuts, -1, dtype=np.int64)
+    top_nb = np.full(n_cuts, -1, dtype=np.int64)
+    np.minimum.at(lo, cut, rank[pos])
+    np.maximum.at(hi, cut, rank[pos])
+    np.maximum.at(top_nb, cut, n_before[pos])
+    return CutEntries(cut, pos, a, lo, hi, lo < top_nb)
+
+
+def orbit_cuts(
+    rank: np.ndarray,
+    n_before: np.ndarray,
+    hits: Sequence[tuple[np.ndarray, np.ndarray]] | CutEntries,
+    sigma: np.ndarray,
+) -> OrbitCuts:
+    """Arrange cuts for one orbit.
+
+    Parameters
+    ----------
+    rank, n_before
+        Per position: its place in the (3) order, and how many positions of that order may
+        precede it.
+    hits
+        Per cut, ``(positions, a)``: the positions covering some of its targets and how
+        many (with multiplicity), positions distinct; or their :class:`CutEntries`.
+    sigma
+        Per cut, its dual (>= 0; cuts at 0 are skipped).
+    """
+    ent = hits if isinstance(hits, CutEntries) else cut_entries(rank, n_before, hits)
+    m = len(rank)
+    sigma = np.asarray(sigma, dtype=float)
+    live = (sigma > 0.0) & (ent.hi >= 0)
+    slotted = np.flatnonzero(live & ent.chained)
+    # interval colouring by lo: a slot is free for a cut once its last cut's hi < lo
+    slot_of = np.full(len(sigma), -1, dtype=np.int64)
+    free = list(range(SLOTS))
+    busy: list[tuple[int, int]] = []  # (hi, slot)
+    for c in slotted[np.argsort(ent.lo[slotted], kind="stable")].tolist():
+        lo = int(ent.lo[c])
+        while busy and busy[0][0] < lo:
+            heapq.heappush(free, heapq.heappop(busy)[1])
+        if free:
+            slot_of[c] = heapq.heappop(free)
+            heapq.heappush(busy, (int(ent.hi[c]), int(slot_of[c])))
+    exact = bool((slot_of[slotted] >= 0).all())
+    # outright: the cuts a plan hits once at most, and (optimistically) those left unslotted
+    direct = np.zeros(m)
+    e_sigma = sigma[ent.cut]
+    outright = live[ent.cut] & (slot_of[ent.cut] < 0)
+    np.add.at(direct, ent.pos[outright], e_sigma[outright] * ((ent.a[outright] + 1) // 2))
+    on = live[ent.cut] & (slot_of[ent.cut] >= 0)
+    pos, cut = ent.pos[on], ent.cut[on]
+    by_pos = np.argsort(pos, kind="stable")
+    pos, cut = pos[by_pos], cut[by_pos]
+    ptr = np.zeros(m + 1, dtype=np.int64)
+    np.cumsum(np.bincount(pos, minlength=m), out=ptr[1:])
+    slots = slot_of[slotted]
+    slots = slots[slots >= 0]
+    kept = slotted[slot_of[slotted] >= 0]
+    bits = np.left_shift(np.int64(1), slots.astype(np.int64))
+    slot_sigma = np.zeros(SLOTS)
+    np.maximum.at(slot_sigma, slots, sigma[kept])
+    close = np.zeros(m + 1, dtype=np.int64)
+    np.bitwise_or.at(close, ent.hi[kept], bits)
+    keep = np.zeros(m, dtype=np.int64)
+    carry = np.zeros(m, dtype=np.int64)
+    by_rank = np.empty(m, dtype=np.int64)
+    by_rank[rank] = np.arange(m)
+    for c, bit in zip(kept.tolist(), bits.tolist(), strict=True):
+        # open after the positions of ranks lo .. hi - 1; carried where lo is in the prefix
+        lo, hi = int(ent.lo[c]), int(ent.hi[c])
+        inside = by_rank[lo:hi]
+        keep[inside] |= bit
+        carry[inside[lo < n_before[inside]]] |= bit
+    return OrbitCuts(
+        hit_ptr=ptr,
+        hit_slot=slot_of[cut],
+        hit_a=np.ascontiguousarray(ent.a[on][by_pos]),
+        hit_sigma=np.ascontiguousarray(sigma[cut]),
+        hit_read=(ent.lo[cut] < n_before[pos]).astype(np.int64),
+        carry=carry,
+        keep=keep,
+        close=close,
+        slot_sigma=slot_sigma,
+        direct=direct,
+        exact=exact,
+    )
+
+
+def cut_levels_py(
+    g: np.ndarray,
+    first: np.ndarray,
+    last: np.ndarray,
+    order: np.ndarray,
+    n_before: np.ndarray,
+    cap: int,
+    hit_ptr: np.ndarray,
+    hit_slot: np.ndarray,
+    hit_a: np.ndarray,
+    hit_sigma: np.ndarray,
+    hit_read: np.ndarray,
+    carry: np.ndarray,
+    keep: np.ndarray,
+    close: np.ndarray,
+    slot_sigma: np.ndarray,
+    max_labels: int,
+) -> tuple[float, np.ndarray, int]:
+    """The levels of :func:`sosp.planner._levels_py` with a cut's parity bit per slot.
+
+    Level n holds, per position u, the labels ``(bits, value)`` of the plans of at most n
+    observations ending at u, none dominated. Level n sweeps the (3) order once: the prefix
+    structure holds the level n - 1 labels of the positions before the boundary k (bits of
+    the cuts open at k), and answers the positions with ``n_before == k`` from it. Returns
+    the best ``value + last``, its path, and 1 if a merge beyond ``max_labels`` made the
+    value an over-estimate (else 0).
+    """
+    m = g.shape[0]
+    relaxed = 0
+    low56 = np.int64(0x00FFFFFFFFFFFFFF)  # a right shift keeps the sign: clear it
+    # label store (grown by doubling)
+    size = 4 * m + 16
+    l_val = np.empty(size)
+    l_mask = np.empty(size, dtype=np.int64)
+    l_pred = np.empty(size, dtype=np.int64)
+    l_pos = np.empty(size, dtype=np.int64)
+    n_lab = 0
+    lo = np.zeros((cap, m), dtype=np.int64)
+    hi = np.zeros((cap, m), dtype=np.int64)
+    q_order = np.argsort(n_before, kind="mergesort")
+    room = 2 * max_labels + 4  # the structure, then one position's labels on top
+    s_mask = np.empty(room, dtype=np.int64)
+    s_val = np.empty(room)
+    s_id = np.empty(room, dtype=np.int64)
+    c_mask = np.empty(room, dtype=np.int64)
+    c_val = np.empty(room)
+    c_pred = np.empty(room, dtype=np.int64)
+    c_live = np.empty(room, dtype=np.int64)
+    top = 0
+    for n in range(cap):
+        n_s = 0
+        qi = 0
+        for k in range(m + 1):
+            while qi < m and n_before[q_order[qi]] == k:
+                u = q_order[qi]
+                qi += 1
+                # candidates: the start, then each prefix label (level n - 1)
+                n_c = 0
+                n_in = n_s + 1 if n > 0 else 1
+                for i in range(n_in):
+                    if i == 0:
+                        base, bits, pred = first[u], np.int64(0), np.int64(-1)
+                    else:
+                        base, bits, pred = s_val[i - 1], s_mask[i - 1], s_id[i - 1]
+                    v = base + g[u]
+                    out = bits & carry[u]
+                    for h in range(hit_ptr[u], hit_ptr[u + 1]):
+                        bit = np.int64(1) << hit_slot[h]
+                        b = 0
+                        if hit_read[h] == 1 and (bits & bit) != 0:
+                            b = 1
+                        a = hit_a[h]
+                        v += hit_sigma[h] * ((b + a + 1) // 2 - b)
+                        if (b + a) % 2 == 1:
+                            out |= bit
+                        else:
+                            out &= ~bit
+                    out &= keep[u]
+                    c_mask[n_c] = out
+                    c_val[n_c] = v
+                    c_pred[n_c] = pred
+                    c_live[n_c] = 1
+                    n_c += 1
+                # drop dominated candidates (ties: the earlier stays); a lower value never
+                # dominates, so the bits' loss is summed only when it might. Where u hits
+                # no cut and keeps every bit of the prefix, its candidates past the start
+                # are the prefix's labels shifted by g[u], already undominated among
+                # themselves: only the pairs with the start (0) need a test.
+                fast = hit_ptr[u] == hit_ptr[u + 1]
+                if fast:
+                    for i in range(1, n_c):
+                        if s_mask[i - 1] & ~carry[u] != 0:
+                            fast = False
+                            break
+                for i in range(n_c):
+                    if c_live[i] == 0:
+                        continue
+                    j_end = n_c if i == 0 or not fast else 1
+                    for j in range(j_end):
+                        if i == j or c_live[j] == 0 or c_val[i] < c_val[j]:
+                            continue
+                        # the sigmas of the bits i has and j lacks, by byte, skipping empty
+                        # bytes and stopping once i cannot dominate j
+                        loss = 0.0
+                        e = c_mask[i] & ~c_mask[j]
+                        room_ij = c_val[i] - c_val[j]
+                        base = 0
+                        while e != 0 and loss <= room_ij:
+                            byte = e & 255
+                            if byte != 0:
+                                for b in range(8):
+                                    if (byte >> b) & 1:
+                                        loss += slot_sigma[base + b]
+                            e = (e >> 8) & low56
+                            base += 8
+                        if c_val[i] - loss > c_val[j] or (c_val[i] - loss == c_val[j] and i < j):
+                            c_live[j] = 0
+                lo[n, u] = n_lab
+                for i in range(n_c):
+                    if c_live[i] == 1:
+                        if n_lab == size:
+                            size *= 2
+                            l_val = np.concatenate((l_val, np.empty(size - n_lab)))
+                            l_mask = np.concatenate(
+                                (l_mask, np.empty(size - n_lab, dtype=np.int64))
+                            )
+                            l_pred = np.concatenate(
+                                (l_pred, np.empty(size - n_lab, dtype=np.int64))
+                            )
+                            l_pos = np.concatenate((l_pos, np.empty(size - n_lab, dtype=np.int64)))
+                        l_val[n_lab] = c_val[i]
+                        l_mask[n_lab] = c_mask[i]
+                        l_pred[n_lab] = c_pred[i]
+                        l_pos[n_lab] = u
+                        n_lab += 1
+                hi[n, u] = n_lab
+            if k == m or n == 0:
+                continue
+            # advance the boundary to k + 1: clear the closing cuts, add position order[k]
+            w = order[k]
+            cl = close[k]
+            cleared = False
+            if cl != 0:
+                for i in range(n_s):
+                    if s_mask[i] & cl:
+                        s_mask[i] &= ~cl
+                        cleared = True
+            first_new = n_s
+            for x in range(lo[n - 1, w], hi[n - 1, w]):
+                s_mask[n_s] = l_mask[x]
+                s_val[n_s] = l_val[x]
+                s_id[n_s] = x
+                n_s += 1
+            if n_s > 1 and (cleared or n_s > first_new):
+                # prune: dominated labels out (ties: the earlier stays); after a clearing any
+                # pair may dominate, else only pairs with a new label
+                for i in range(n_s):
+                    c_live[i] = 1
+                for i in range(n_s):
+                    if c_live[i] == 0:
+                        continue
+                    j0 = 0 if cleared or i >= first_new else first_new
+                    for j in range(j0, n_s):
+                        if i == j or c_live[j] == 0 or s_val[i] < s_val[j]:
+                            continue
+                        # the sigmas of the bits i has and j lacks, by byte, skipping empty
+                        # bytes and stopping once i cannot dominate j
+                        loss = 0.0
+                        e = s_mask[i] & ~s_mask[j]
+                        room_ij = s_val[i] - s_val[j]
+                        base = 0
+                        while e != 0 and loss <= room_ij:
+                            byte = e & 255
+                            if byte != 0:
+                                for b in range(8):
+                                    if (byte >> b) & 1:
+                                        loss += slot_sigma[base + b]
+                            e = (e >> 8) & low56
+                            base += 8
+                        if s_val[i] - loss > s_val[j] or (s_val[i] - loss == s_val[j] and i < j):
+                            c_live[j] = 0
+                t = 0
+                for i in range(n_s):
+                    if c_live[i] == 1:
+                        s_mask[t] = s_mask[i]
+                        s_val[t] = s_val[i]
+                        s_id[t] = s_id[i]
+                        t += 1
+                n_s = t
+                while n_s > max_labels:
+                    # merge the two lowest into one optimistic label
+                    relaxed = 1
+                    a1 = 0
+                    for i in range(1, n_s):
+                        if s_val[i] < s_val[a1]:
+                            a1 = i
+                    a2 = 0 if a1 != 0 else 1
+                    for i in range(n_s):
+                        if i != a1 and s_val[i] < s_val[a2]:
+                            a2 = i
+                    s_mask[a2] &= s_mask[a1]
+                    s_mask[a1] = s_mask[n_s - 1]
+                    s_val[a1] = s_val[n_s - 1]
+                    s_id[a1] = s_id[n_s - 1]
+                    n_s -= 1
+        top = n + 1
+        if n > 0:
+            same = True
+            for u in range(m):
+                if hi[n, u] - lo[n, u] != hi[n - 1, u] - lo[n - 1, u]:
+                    same = False
+                    break
+                for x in range(lo[n, u], hi[n, u]):
+                    found = False
+                    for y in range(lo[n - 1, u], hi[n - 1, u]):
+                        if l_mask[y] == l_mask[x] and l_val[y] == l_val[x]:
+                            found = True
+                            break
+                    if not found:
+                        same = False
+                        break
+                if not same:
+                    break
+            if same:
+                break
+    best_x = -1
+    best_v = -np.inf
+    for u in range(m):
+        for x in range(lo[top - 1, u], hi[top - 1, u]):
+            v = l_val[x] + last[u]
+            if v > best_v:
+                best_x, best_v = x, v
+    path = np.empty(top, dtype=np.int64)
+    count = 0
+    x = best_x
+    while x >= 0 and count < top:
+        path[count] = l_pos[x]
+        count += 1
+        x = l_pred[x]
+    return best_v, path[:count][::-1].copy(), relaxed
+
+
+#: :func:`cut_levels_py`'s numba signature.
+CUT_LEVELS_SIGNATURE = (
+    "Tuple((float64, int64[::1], int64))(float64[::1], float64[::1], float64[::1], "
+    "int64[::1], int64[::1], int64, int64[::1], int64[::1], int64[::1], float64[::1], "
+    "int64[::1], int64[::1], int64[::1], int64[::1], float64[::1], int64)"
+)
+
+
+def cut_levels() -> Callable[..., tuple[float, np.ndarray, int]]:
+    """:func:`cut_levels_py` compiled by numba on first use (cached on disk)."""
+    return compiled(cut_levels_py, CUT_LEVELS_SIGNATURE)
+
+
+@dataclass(frozen=True)
+class CutPrice:
+    """One orbit's best plan with its cuts priced: ``value`` (penalised, cut costs
+    included), ``path`` (positions in time order) and ``exact`` (False when some cut was
+    priced optimistically, so ``value`` is an over-estimate)."""
+
+    value: float
+    path: np.ndarray
+    exact: bool
+
+
+def best_path_with_cuts(
+    o: OrbitItems,
+    gain: np.ndarray,
+    cuts: OrbitCuts,
+    pe: float = 0.0,
+    pw: float = 0.0,
+    kernel: Callable[..., Any] | None = None,
+) -> CutPrice:
+    """The best plan of orbit ``o`` at per-position ``gain`` (target prices summed per
+    observation), energy and memory penalties per unit ``pe``, ``pw`` ((4)-(5) as in
+    :func:`sosp.planner.best_path`), plus each plan's earning ``sum_S sigma_S ceil(h_SP /
+    2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it."""
+    empty = np.zeros(0, dtype=np.int64)
+    if o.size == 0:
+        return CutPrice(0.0, empty, cuts.exact)
+    g, firsts, lasts, order, cap, _ = _penalised(
+        o.slew_s, o.duration, gain + cuts.direct, o.by_release, o.rules, pe, pw
+    )
+    if cap <= 0:
+        return CutPrice(0.0, empty, cuts.exact)
+    run = cut_levels() if kernel is None else kernel
+    value, path, relaxed = run(
+        g, firsts, lasts, order, np.ascontiguousarray(o.n_before, dtype=np.int64), cap,
+        cuts.hit_ptr, cuts.hit_slot, cuts.hit_a, cuts.hit_sigma, cuts.hit_read, cuts.carry,
+        cuts.keep, cuts.close, cuts.slot_sigma, MAX_LABELS,
+    )  # fmt: skip
+    exact = cuts.exact and relaxed == 0
+    if not value > 0.0:
+        return CutPrice(0.0, empty, exact)
+    return CutPrice(float(value), path, exact)
+
+
+#: Separation: at most this many new cuts per round, and per target per round.
+CUTS_PER_ROUND = 100
+CUTS_PER_TARGET = 3
+
+#: No separation above this many targets with a fractional cover (the pair matrix is dense).
+SEPARATE_MAX_TARGETS = 4000
+
+
+class CutPool:
+    """The subset-row cuts of a branch and price (:func:`models.colgen.branch_and_price`),
+    valid for every schedule and so shared by every node, with what pricing them needs.
+
+    A cut is three targets (instance indices). Per orbit the pool keeps the cuts some of
+    whose targets the orbit can cover, and, computed on first use, each such cut's hits per
+    position (:func:`orbit_cuts`' input).
+    """
+
+    def __init__(self, groups: Sequence[OrbitItems]) -> None:
+        self.groups = groups
+        self.cuts: list[np.ndarray] = []
+        self._keys: set[tuple[int, ...]] = set()
+        self._of_target: dict[int, list[int]] = {}
+        self._on_orbit: list[list[int]] = [[] for _ in groups]
+        self._hits: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._csc: list[Any] = [None] * len(groups)
+        self._rank: list[np.ndarray | None] = [None] * len(groups)
+        self._entries: dict[int, tuple[int, CutEntries]] = {}  # orbit: (cuts then, entries)
+
+    def __len__(self) -> int:
+        return len(self.cuts)
+
+    def add(self, targets: Sequence[int]) -> int | None:
+        """Add the cut over ``targets`` (three); its index, or None if the pool has it."""
+        key = tuple(sorted(int(k) for k in targets))
+        if key in self._keys:
+            return None
+        self._keys.add(key)
+        c = len(self.cuts)
+        arr = np.array(key, dtype=np.int64)
+        self.cuts.append(arr)
+        for k in key:
+            self._of_target.setdefault(k, []).append(c)
+        for g, o in enumerate(self.groups):
+            if np.isin(arr, o.targets).any():
+                self._on_orbit[g].append(c)
+        return c
+
+    def coefficients(self, tg: np.ndarray, cnt: np.ndarray) -> dict[int, int]:
+        """A plan's ``ceil(h_SP / 2)`` per cut it hits, from its targets ``tg`` and how many
+        of its observations cover each (``cnt``)."""
+        h: dict[int, int] = {}
+        for k, n in zip(tg.tolist(), np.asarray(cnt).tolist(), strict=True):
+            for c in self._of_target.get(k, ()):
+                h[c] = h.get(c, 0) + int(round(n))
+        return {c: (x + 1) // 2 for c, x in h.items()}
+
+    def _orbit_hits(self, g: int, c: int) -> tuple[np.ndarray, np.ndarray]:
+        key = (g, c)
+        if key not in self._hits:
+            if self._csc[g] is None:
+                self._csc[g] = self.groups[g].incidence.tocsc()
+            a = self._csc[g]
+            parts = [
+                a.indices[a.indptr[t] : a.indptr[t + 1]]
+                for t in self.cuts[c].tolist()
+                if t < a.shape[1]
+            ]
+            pos = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+            self._hits[key] = np.unique(pos, return_counts=True)
+        return self._hits[key]
+
+    def best_path(
+        self, g: int, price: np.ndarray, lam: np.ndarray, sigma: np.ndarray
+    ) -> tuple[float, np.ndarray, bool]:
+        """Orbit g's best plan at target ``price``, knapsack multipliers ``lam`` (per whole
+        capacity, as :func:`sosp.planner.best_path` takes them) and cut duals ``sigma`` (per
+        cut of the pool): ``(value, path, exact)``, the value never below the true best."""
+        o = self.groups[g]
+        on = np.array(self._on_orbit[g], dtype=np.int64)
+        on = on[on < len(sigma)]
+        s_on = np.where(sigma[on] > 1e-9, sigma[on], 0.0)
+        if not s_on.any():
+            v, path = best_path(o, price, float(lam[0]), float(lam[1]))
+            return v, path, True
+        if o.size >= PRUNE_FROM:
+            # the pruning of best_path ranks positions by their gain alone: price each cut
+            # per target instead (each hit earns sigma, at least ceil(h / 2) of them)
+            up = price.copy()
+            for c, x in zip(on.tolist(), s_on.tolist(), strict=True):
+                up[self.cuts[c]] += x
+            v, path = best_path(o, up, float(lam[0]), float(lam[1]))
+            return v, path, False
+        if self._rank[g] is None:
+            self._rank[g] = release_rank(o)
+        made = self._entries.get(g)
+        if made is None or made[0] != len(on):
+            hits = [self._orbit_hits(g, c) for c in on.tolist()]
+            made = (len(on), cut_entries(self._rank[g], o.n_before, hits))
+            self._entries[g] = made
+        cuts = orbit_cuts(self._rank[g], o.n_before, made[1], s_on)
+        r = o.rules
+        pe = float(lam[0]) / r.energy_capacity if r.energy_capacity > 0 else 0.0
+        pw = float(lam[1]) / r.memory_capacity if r.memory_capacity > 0 else 0.0
+        found = best_path_with_cuts(o, o.gains(price), cuts, pe, pw)
+        return found.value, found.path, found.exact
+
+    def separate(
+        self, z: np.ndarray, plans: Sequence[tuple[np.ndarray, float]], limit: int = CUTS_PER_ROUND
+    ) -> list[int]:
+        """Add cuts that a master's solution violates, most violated first; their indices.
+
+        ``z`` holds each target's ``z_k`` (instance indices), ``plans`` the positive plans as
+        (distinct targets, value). With ``c`` the targets of S a plan covers, ``ceil(c / 2)
+        = c - [c >= 2]`` for ``c <= 3``, so the violation is ``sum_P [c_SP >= 2] y_P -
+        sum_{k in S} (cover_k - z_k) - 1``; the first term is the plans' pairwise co-cover
+        summed over S's pairs, less twice their triple co-cover.
+        """
+        if not plans:
+            return []
+        tg_all = np.unique(np.concatenate([tg for tg, _ in plans]))
+        if len(tg_all) > SEPARATE_MAX_TARGETS:
+            return []
+        col = np.arange(len(tg_all))
+        cover = np.zeros((len(plans), len(tg_all)))
+        for r, (tg, _) in enumerate(plans):
+            cover[r, np.searchsorted(tg_all, tg)] = 1.0
+        w = np.array([y for _, y in plans])
+        over = cover.T @ w - z[tg_all]
+        pair = (cover * w[:, None]).T @ cover
+        np.fill_diagonal(pair, 0.0)
+        cand = col[pair.sum(axis=1) > 0.3]  # a violated triple has a pair above 1/3
+        found: list[tuple[float, int, int, int]] = []
+        for a, i in enumerate(cand):
+            later = cand[a + 1 :]
+            for j in later[pair[i, later] > 1e-6]:
+                triple = cover.T @ (w * cover[:, i] * cover[:, j])
+                ks = cand[cand > j]
+                v = pair[i, j] + pair[i, ks] + pair[j, ks] - 2.0 * triple[ks]
+                v -= over[i] + over[j] + over[ks] + 1.0
+                hit = np.flatnonzero(v > 1e-3)
+                found.extend((float(v[q]), int(i), int(j), int(ks[q])) for q in hit)
+        found.sort(reverse=True)
+        added: list[int] = []
+        per_target: dict[int, int] = {}
+        for _, i, j, k in found:
+            trio = (int(tg_all[i]), int(tg_all[j]), int(tg_all[k]))
+            if any(per_target.get(t, 0) >= CUTS_PER_TARGET for t in trio):
+                continue
+            c = self.add(trio)
+            if c is None:
+                continue
+            for t in trio:
+                per_target[t] = per_target.get(t, 0) + 1
+            added.append(c)
+            if len(added) >= limit:
+                break
+        return added

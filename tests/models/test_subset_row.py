@@ -1,0 +1,175 @@
+"""The subset-row cut pricing (:mod:`models.subset_row`) against enumeration."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from models.subset_row import cut_levels, cut_levels_py, orbit_cuts
+
+
+def _orbit(rng: np.random.Generator, m: int) -> tuple[np.ndarray, ...]:
+    """Random intervals [L, R): ``order`` by R, each one's rank and ``n_before``."""
+    left = rng.integers(0, 4 * m, m).astype(float)
+    right = left + rng.integers(1, 8, m)
+    order = np.argsort(right, kind="stable")
+    rank = np.empty(m, dtype=np.int64)
+    rank[order] = np.arange(m)
+    n_before = np.searchsorted(right[order], left, side="right").astype(np.int64)
+    return order.astype(np.int64), rank, n_before
+
+
+def _cuts(rng: np.random.Generator, m: int, n_cuts: int) -> tuple[list, np.ndarray]:
+    hits = []
+    for _ in range(n_cuts):
+        # a few positions close in time (as a cut's targets are), or any
+        if rng.random() < 0.7:
+            lo = int(rng.integers(0, m))
+            pos = np.arange(lo, min(m, lo + int(rng.integers(1, 4))))
+        else:
+            pos = np.sort(rng.choice(m, size=int(rng.integers(1, m + 1)), replace=False))
+        hits.append((pos, rng.integers(1, 4, len(pos))))
+    sigma = np.round(rng.uniform(0.0, 3.0, n_cuts), 2)
+    sigma[rng.random(n_cuts) < 0.2] = 0.0
+    return hits, sigma
+
+
+def _enumerate(g, first, last, rank, n_before, cap, hits, sigma) -> float:
+    """The best nonempty chain's value, cut earnings ``sigma ceil(h / 2)`` exact."""
+    m = len(g)
+    a = np.zeros((len(hits), m))
+    for c, (pos, hc) in enumerate(hits):
+        a[c, pos] = hc
+    best = -math.inf
+    by_rank = np.argsort(rank)
+    for size in range(1, cap + 1):
+        for chain in itertools.combinations(by_rank.tolist(), size):
+            if any(rank[u] >= n_before[w] for u, w in itertools.pairwise(chain)):
+                continue
+            h = a[:, list(chain)].sum(axis=1)
+            v = first[chain[0]] + g[list(chain)].sum() + last[chain[-1]]
+            v += float(np.dot(sigma, np.ceil(h / 2.0)))
+            best = max(best, v)
+    return best
+
+
+def _run(kernel, g, first, last, order, n_before, cap, cuts):
+    return kernel(
+        g + cuts.direct, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot,
+        cuts.hit_a, cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close,
+        cuts.slot_sigma, 512,
+    )  # fmt: skip
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), m=st.integers(1, 10), n_cuts=st.integers(0, 8))
+def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
+    rng = np.random.default_rng(seed)
+    order, rank, n_before = _orbit(rng, m)
+    g = np.round(rng.uniform(-1.0, 5.0, m), 2)
+    first = np.round(rng.uniform(0.0, 1.0, m), 2)
+    last = np.round(rng.uniform(0.0, 1.0, m), 2)
+    cap = int(rng.integers(1, 6))
+    hits, sigma = _cuts(rng, m, n_cuts)
+    cuts = orbit_cuts(rank, n_before, hits, sigma)
+    assert cuts.exact
+    want = _enumerate(g, first, last, rank, n_before, cap, hits, sigma)
+    for kernel in (cut_levels_py, cut_levels()):
+        value, path, relaxed = _run(kernel, g, first, last, order, n_before, cap, cuts)
+        assert relaxed == 0
+        assert value == pytest.approx(want, abs=1e-9)
+        # the path is a chain of at most cap positions worth the value returned
+        assert 1 <= len(path) <= cap
+        assert all(rank[u] < n_before[w] for u, w in itertools.pairwise(path))
+        h = np.zeros(len(hits))
+        for c, (pos, hc) in enumerate(hits):
+            h[c] = sum(int(hc[list(pos).index(u)]) for u in path if u in pos)
+        got = first[path[0]] + g[path].sum() + last[path[-1]] + np.dot(sigma, np.ceil(h / 2))
+        assert got == pytest.approx(value, abs=1e-9)
+
+
+def test_without_cuts_the_kernel_is_the_planner_recursion() -> None:
+    from sosp.planner import _levels_py
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        m = int(rng.integers(1, 40))
+        order, rank, n_before = _orbit(rng, m)
+        g = rng.uniform(-1.0, 5.0, m)
+        first, last = rng.uniform(0, 1, m), rng.uniform(0, 1, m)
+        cap = int(rng.integers(1, 8))
+        cuts = orbit_cuts(rank, n_before, [], np.zeros(0))
+        value, path, _ = _run(cut_levels(), g, first, last, order, n_before, cap, cuts)
+        want, want_path = _levels_py(g, first, last, order, n_before, cap)
+        assert value == pytest.approx(want)
+
+
+def test_pairwise_incompatible_cut_is_priced_outright() -> None:
+    # three positions overlapping in time: no two on one plan, so no bit is needed
+    rank = np.array([0, 1, 2])
+    n_before = np.zeros(3, dtype=np.int64)
+    cuts = orbit_cuts(rank, n_before, [(np.array([0, 2]), np.array([1, 3]))], np.array([2.0]))
+    assert cuts.hit_ptr[-1] == 0
+    assert cuts.direct.tolist() == [2.0, 0.0, 4.0]
+
+
+def test_more_open_cuts_than_slots_are_priced_optimistically() -> None:
+    m = 2
+    order, rank = np.array([0, 1]), np.array([0, 1])
+    n_before = np.array([0, 1])
+    hits = [(np.array([0, 1]), np.array([1, 1]))] * 70
+    cuts = orbit_cuts(rank, n_before, hits, np.ones(70))
+    assert not cuts.exact
+    assert cuts.direct.tolist() == [6.0, 6.0]  # the six left over earn at every hit
+    g = np.array([100.0, 100.0])
+    z = np.zeros(m)
+    value, path, _ = _run(cut_levels(), g, z, z, order, n_before, 2, cuts)
+    # both observed: 200 and one earning per cut (ceil(2 / 2)); the six unslotted earn twice
+    assert value == pytest.approx(200.0 + 64.0 + 2 * 6.0)
+    assert value >= 200.0 + 70.0  # never below the true best
+    assert path.tolist() == [0, 1]
+
+
+def test_a_shared_slot_never_reads_the_earlier_cuts_bit() -> None:
+    # p0 [0, 1), p1 [2, 6) hit cut A; p2 [4, 7), p3 [8, 9) hit cut B. A's ranks (0, 1) end
+    # before B's (2, 3), so both take slot 0; p2's prefix (p0) still holds A's bit there.
+    left, right = np.array([0.0, 2, 4, 8]), np.array([1.0, 6, 7, 9])
+    order = np.argsort(right).astype(np.int64)
+    rank = np.arange(4, dtype=np.int64)
+    n_before = np.searchsorted(right[order], left, side="right").astype(np.int64)
+    hits = [(np.array([0, 1]), np.array([1, 1])), (np.array([2, 3]), np.array([1, 1]))]
+    cuts = orbit_cuts(rank, n_before, hits, np.array([1.0, 1.0]))
+    assert cuts.close.tolist()[:4] == [0, 1, 0, 1]  # one slot, reused
+    g = np.array([5.0, -100.0, 5.0, -100.0])
+    z = np.zeros(4)
+    for kernel in (cut_levels_py, cut_levels()):
+        value, path, _ = _run(kernel, g, z, z, order, n_before, 3, cuts)
+        assert path.tolist() == [0, 2]
+        assert value == pytest.approx(10.0 + 1.0 + 1.0)  # each cut hit once, earned once
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), m=st.integers(2, 10), n_cuts=st.integers(2, 8))
+def test_merged_labels_only_over_estimate(seed: int, m: int, n_cuts: int) -> None:
+    # with room for one label the structure merges the others into optimistic ones: the
+    # value may rise above the best plan's, never fall below it, and says so
+    rng = np.random.default_rng(seed)
+    order, rank, n_before = _orbit(rng, m)
+    g = np.round(rng.uniform(-1.0, 5.0, m), 2)
+    z = np.zeros(m)
+    cap = int(rng.integers(1, 6))
+    hits, sigma = _cuts(rng, m, n_cuts)
+    cuts = orbit_cuts(rank, n_before, hits, sigma)
+    want = _enumerate(g, z, z, rank, n_before, cap, hits, sigma)
+    value, _, relaxed = cut_levels()(
+        g + cuts.direct, z, z, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
+        cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma, 1,
+    )  # fmt: skip
+    assert value >= want - 1e-9
+    if relaxed == 0:
+        assert value == pytest.approx(want, abs=1e-9)
