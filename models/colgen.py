@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from models.lagrangian import capped_bound
+from models.subset_row import CutPool, cut_levels
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
@@ -51,6 +52,12 @@ SMOOTHING = 0.5
 
 #: A column enters the master when its reduced cost at the master's duals exceeds this.
 _RC_TOL = 1e-7
+
+#: Subset-row cut separation rounds (100 cuts each at most) at the branch and price's root
+#: (:func:`branch_and_price`). Bound after 600 s on C5 for 0 / 1 / 3 / 10 rounds: 2217 /
+#: 2217 / 2213 / 2220 (10 rounds leave time for 2 nodes); C7 0 / 3: 2889 / 2884; C9 3501 /
+#: 3495 (``docs/exact.md``, "Subset-row cuts in the branch and price").
+CUT_ROUNDS = 3
 
 
 def allow_seconds(h: Any, seconds: float | None) -> None:
@@ -345,6 +352,7 @@ def colgen_bound(
     root_time_limit: float | None = None,
     report: Callable[[float], None] | None = None,
     expect_rounds: int | None = None,
+    cut_rounds: int | None = None,
 ) -> dict[str, Any]:
     """Upper bound on the optimum (cluster model) by column generation over orbit plans.
 
@@ -388,6 +396,9 @@ def colgen_bound(
         that a caller in another process (:class:`SideBound`) always holds a valid bound.
     expect_rounds
         See :func:`column_generation` (None: no such stop).
+    cut_rounds
+        Subset-row cut separation rounds at the branching's root (:func:`branch_and_price`;
+        None: :data:`CUT_ROUNDS`, 0: none).
 
     Returns
     -------
@@ -405,11 +416,17 @@ def colgen_bound(
         and its ``profit`` when it ended on a node with nothing fractional whose plans the
         referee accepts as a schedule (a lower bound; the optimum when it meets ``bound``).
     """
+    if branch and (CUT_ROUNDS if cut_rounds is None else cut_rounds):
+        cut_levels()  # compiled (or loaded) before the clock starts, as the planner's kernels
     t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
         raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
     if not 0.0 <= float(smoothing) < 1.0:
         raise InputError(f"smoothing: expected a number in [0, 1), got {smoothing!r}")
+    if cut_rounds is not None and (
+        isinstance(cut_rounds, bool) or not isinstance(cut_rounds, int) or cut_rounds < 0
+    ):
+        raise InputError(f"cut_rounds: expected a non-negative integer, got {cut_rounds!r}")
     deadline = None if time_limit is None else t0 + float(time_limit)
     root_deadline = deadline
     if root_time_limit is not None:
@@ -479,7 +496,7 @@ def colgen_bound(
     if branch and converged and not proven:
         answer, nodes, final = branch_and_price(
             p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound,
-            report=report,
+            report=report, cut_rounds=CUT_ROUNDS if cut_rounds is None else cut_rounds,
         )  # fmt: skip
         result["nodes"] = nodes
         result["bound"] = min(bound, float(math.floor(answer + 1e-6)))
@@ -514,6 +531,7 @@ class _Node:
     lam: np.ndarray
     cover: dict[tuple[int, int], float] | None
     support: tuple[int, ...] = ()
+    sigma: np.ndarray | None = None  # subset-row cut duals (per cut of the pool), or None
 
 
 class _Columns:
@@ -554,6 +572,15 @@ class _Columns:
         return gained - lam_per_unit[orb, 0] * energy - lam_per_unit[orb, 1] * memory, orb
 
 
+def _padded(sigma: np.ndarray | None, cuts: CutPool | None) -> np.ndarray:
+    """Cut duals ``sigma`` (None: none yet) with zeros for the pool's cuts added since."""
+    n = 0 if cuts is None else len(cuts)
+    out = np.zeros(n)
+    if sigma is not None:
+        out[: len(sigma)] = sigma[:n]
+    return out
+
+
 def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> np.ndarray:
     """What covering each target is worth to orbit g in ``node``: ``mu`` for the targets whose
     cover counts, ``beta`` for those forced to g, 0 for targets banned on g or forced
@@ -575,6 +602,8 @@ def _solve_node(
     cols: _Columns,
     deadline: float | None,
     smoothing: float,
+    cuts: CutPool | None = None,
+    separate: int = 0,
 ) -> _Node:
     """Column generation on the master of ``node``; returns it with its bound and cover.
 
@@ -588,6 +617,17 @@ def _solve_node(
             + sum_j [max over plans of orbit j of (prices of the node) - penalties + lam_j]
 
     bounds the node's optimum (the coverage and forcing rows relaxed).
+
+    With ``cuts``, the master also holds the pool's subset-row cuts
+    (:mod:`models.subset_row`) that the node keeps: over targets S with F = S's forced
+    targets, ``sum_{free k in S} z_k - sum_P ceil(h_SP / 2) y_P <= 1 - |F|`` (valid: the
+    forced z are 1, and the node's counted covers are at most the real ones), for ``|F| <=
+    1`` (a cut with more is dropped here, which only weakens the node). Their duals
+    ``sigma >= 0`` add ``sum_S sigma_S (1 - |F|)`` to L, take ``sigma_S`` from each free
+    ``z_k`` of S and give each plan its earning ``sigma_S ceil(h_SP / 2)``
+    (:meth:`models.subset_row.CutPool.best_path`). After the column generation has
+    converged, up to ``separate`` rounds add the cuts its master violates
+    (:meth:`models.subset_row.CutPool.separate`) to the pool and go on.
     """
     import highspy
 
@@ -626,6 +666,10 @@ def _solve_node(
     first_y = nf + len(fk)
     in_lp: list[int] = []
     loaded: set[int] = set()
+    cut_ids: list[int] = []  # the pool's cuts this master holds, in row order
+    cut_rhs: list[float] = []
+    cut_free: list[np.ndarray] = []  # per held cut, its free targets' rows
+    cut0 = base + 3 * n_orb
 
     def load(i: int) -> None:
         if i in loaded:
@@ -642,42 +686,89 @@ def _solve_node(
         vals.append(cnt[mine])
         rows.append(np.array([base + g, base + n_orb + g, base + 2 * n_orb + g]))
         vals.append(np.array([1.0, energy, memory]))
+        if cut_ids:
+            coef = cuts.coefficients(tg, cnt)  # type: ignore[union-attr]
+            at = [(cut0 + x, -float(coef[c])) for x, c in enumerate(cut_ids) if c in coef]
+            if at:
+                rows.append(np.array([r for r, _ in at]))
+                vals.append(np.array([v for _, v in at]))
         r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
         h.addCol(0.0, 0.0, inf, len(r), r, v)
         in_lp.append(i)
 
+    def hold(new: Sequence[int]) -> None:
+        """Add rows for the pool's cuts ``new`` that this node keeps."""
+        assert cuts is not None
+        coefs = [cuts.coefficients(cols.items[i][1], cols.items[i][2]) for i in in_lp]
+        for c in new:
+            trio = cuts.cuts[c]
+            n_forced = int(np.count_nonzero(row_forced[trio] >= 0))
+            if n_forced >= 2:
+                continue
+            zs = row_free[trio][row_free[trio] >= 0]
+            idx = [*zs.tolist()]
+            val = [1.0] * len(idx)
+            for x, coef in enumerate(coefs):
+                if c in coef:
+                    idx.append(first_y + x)
+                    val.append(-float(coef[c]))
+            h.addRow(-inf, 1.0 - n_forced, len(idx), np.array(idx, np.int32), np.array(val))
+            cut_ids.append(c)
+            cut_rhs.append(1.0 - n_forced)
+            cut_free.append(zs)
+
     for i in _start_columns(node, cols, len(groups), e_cap, w_cap):
         load(int(i))
+    if cuts is not None and len(cuts):
+        hold(range(len(cuts)))
     pf = p[fk]
     best, mu_c, beta_c, lam_c = node.bound, node.mu, node.beta, node.lam
+    sigma_c = _padded(node.sigma, cuts)
     mu_m: np.ndarray | None = None
     beta_m = np.zeros(len(p))
     lam_m = np.zeros((n_orb, 2))
+    sigma_m = _padded(None, cuts)
     alpha = 0.0
+    resolve = False  # cuts were just added: solve the master before pricing again
+    sep_s = 0.5  # the longest separation so far (seconds)
     while deadline is None or time.perf_counter() < deadline:
-        at_master = mu_m is not None and alpha == 0.0
-        if mu_m is None:
-            mu_s, beta_s, lam_s = mu_c, beta_c, lam_c
-        else:
-            mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
-            beta_s = alpha * beta_c + (1.0 - alpha) * beta_m
-            lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
-        value = float(np.maximum(p[free] - mu_s[free], 0.0).sum())
-        value += float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
-        n_loaded = len(in_lp)
-        for g, o in enumerate(groups):
-            if deadline is not None and time.perf_counter() > deadline:
-                return replace(node, cover=None)
-            price = _node_prices(mu_s, beta_s, g, node)
-            v, path = best_path(o, price, float(lam_s[g, 0]), float(lam_s[g, 1]))
-            value += v
-            if len(path):
-                tg, cnt = np.unique(o.target_flat[flat_positions(o, path)], return_counts=True)
-                energy, memory = o.usage(path)
-                load(cols.add(g, tg, cnt, energy, memory))  # new to this master, or to all
-        if value < best:
-            best, mu_c, beta_c, lam_c = value, mu_s, beta_s, lam_s
-            node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c)
+        if not resolve:
+            at_master = mu_m is not None and alpha == 0.0
+            if mu_m is None:
+                mu_s, beta_s, lam_s, sigma_s = mu_c, beta_c, lam_c, sigma_c
+            else:
+                mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
+                beta_s = alpha * beta_c + (1.0 - alpha) * beta_m
+                lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
+                sigma_s = alpha * sigma_c + (1.0 - alpha) * sigma_m
+            z_gain = p[free] - mu_s[free]
+            value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
+            if cut_ids:
+                held = np.zeros(len(sigma_s), dtype=bool)
+                held[cut_ids] = True
+                sigma_s = np.where(held, sigma_s, 0.0)  # a parent's cut this node dropped
+                for c, rhs, zs in zip(cut_ids, cut_rhs, cut_free, strict=True):
+                    value += float(sigma_s[c]) * rhs
+                    z_gain[zs] -= sigma_s[c]
+            value += float(np.maximum(z_gain, 0.0).sum())
+            n_loaded = len(in_lp)
+            for g, o in enumerate(groups):
+                if deadline is not None and time.perf_counter() > deadline:
+                    return replace(node, cover=None)
+                price = _node_prices(mu_s, beta_s, g, node)
+                if cut_ids:
+                    v, path, _ = cuts.best_path(g, price, lam_s[g], sigma_s)  # type: ignore[union-attr]
+                else:
+                    v, path = best_path(o, price, float(lam_s[g, 0]), float(lam_s[g, 1]))
+                value += v
+                if len(path):
+                    tg, cnt = np.unique(o.target_flat[flat_positions(o, path)], return_counts=True)
+                    energy, memory = o.usage(path)
+                    load(cols.add(g, tg, cnt, energy, memory))  # new to this master, or to all
+            if value < best:
+                best, mu_c, beta_c, lam_c, sigma_c = value, mu_s, beta_s, lam_s, sigma_s
+                node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c, sigma=sigma_c)
+        resolve = False
         left = None if deadline is None else deadline - time.perf_counter()
         allow_seconds(h, left)
         h.run()
@@ -692,10 +783,14 @@ def _solve_node(
         lam_m = np.stack(
             [
                 np.maximum(-dual[base + n_orb : base + 2 * n_orb], 0.0) * e_cap,
-                np.maximum(-dual[base + 2 * n_orb :], 0.0) * w_cap,
+                np.maximum(-dual[base + 2 * n_orb : cut0], 0.0) * w_cap,
             ],
             axis=1,
         )
+        sigma_m = _padded(None, cuts)
+        if cut_ids:
+            sigma_m[cut_ids] = np.maximum(-dual[cut0 : cut0 + len(cut_ids)], 0.0)
+        sigma_c = _padded(sigma_c, cuts)
         # the weights are integers, so only the node's bound rounded down matters (the answer
         # is the largest, rounded down): once it equals the master's value rounded down, the
         # node's LP optimum (between the two) rounds to it too and the rounds that would close
@@ -707,11 +802,35 @@ def _solve_node(
                 alpha = 0.0  # no new plan at the smoothed point: price at the master's duals
                 continue
             done = True  # no plan prices out at the master's duals: solved (to rounding)
+        y = np.asarray(h.getSolution().col_value, dtype=float)
+        left = None if deadline is None else deadline - time.perf_counter()
+        if done and separate > 0 and cuts is not None and (left is None or left > 2 * sep_s):
+            # (separation reads no clock: not started unless twice the last one's time is
+            # left, at least a second)
+            separate -= 1
+            t_sep = time.perf_counter()
+            z = np.zeros(len(p))
+            z[free] = y[:nf]
+            z[fk] = 1.0
+            plans = [
+                (cols.items[i][1], float(yi))
+                for i, yi in zip(in_lp, y[first_y:], strict=True)
+                if yi > 1e-9
+            ]
+            new = cuts.separate(z, plans)
+            sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
+            if new:
+                log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))
+                hold(new)
+                sigma_c = _padded(sigma_c, cuts)
+                # solve the master with them, then price: "no new plan" means nothing
+                # until a pricing round has run at the new master's duals
+                alpha, resolve, n_loaded = 0.0, True, -1
+                continue
         if done:
-            y = np.asarray(h.getSolution().col_value, dtype=float)[first_y:]
             cover: dict[tuple[int, int], float] = {}
             support = []
-            for i, yi in zip(in_lp, y, strict=True):
+            for i, yi in zip(in_lp, y[first_y:], strict=True):
                 if yi > 1e-9:
                     support.append(i)
                     g, tg = cols.items[i][0], cols.items[i][1]
@@ -781,6 +900,7 @@ def branch_and_price(
     max_nodes: int | None = None,
     smoothing: float = SMOOTHING,
     report: Callable[[float], None] | None = None,
+    cut_rounds: int = 0,
 ) -> tuple[float, int, _Node | None]:
     """Best-first branch and price from a converged root; ``(bound, nodes, final)``, where
     ``final`` is the node of largest bound when it has nothing fractional left (else None).
@@ -810,13 +930,21 @@ def branch_and_price(
         :func:`time.perf_counter` value to stop at (None: none).
     lower_bound, max_nodes, smoothing, report
         See above and :func:`colgen_bound`.
+    cut_rounds
+        Rounds of subset-row cut separation at the root node (0: no cuts). The cuts hold
+        for every schedule, so every node's master keeps them (:func:`_solve_node`).
     """
     cols = _Columns()
     for g, tg, cnt, energy, memory in columns:
         cols.add(g, tg, cnt, energy, memory)
     bound0, mu0, lam0 = start
     root = _Node(bound0, frozenset(), {}, mu0, np.zeros(len(p)), lam0, None)
-    root = _solve_node(root, p, seen, groups, cols, deadline, smoothing)
+    pool = CutPool(groups) if cut_rounds > 0 else None
+    root = _solve_node(root, p, seen, groups, cols, deadline, smoothing, pool, cut_rounds)
+    if pool is not None:
+        log.info("branch and price: root %.4f with %d subset-row cuts", root.bound, len(pool))
+        if report is not None:
+            report(root.bound)  # the cuts may have taken a while: say what they gave
     heap: list[tuple[float, int, _Node]] = [(-root.bound, 0, root)]
     count, nodes = 1, 0
     final: _Node | None = None
@@ -845,7 +973,7 @@ def branch_and_price(
         for child in children:
             # the parent's bound holds for the child (a subset of its schedules) until its
             # own column generation finds a lower one
-            child = _solve_node(child, p, seen, groups, cols, deadline, smoothing)
+            child = _solve_node(child, p, seen, groups, cols, deadline, smoothing, pool)
             nodes += 1
             heapq.heappush(heap, (-child.bound, count, child))
             count += 1

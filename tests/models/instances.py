@@ -147,3 +147,46 @@ def random_dense(seed: int, n: int = 40, n_orbits: int = 2) -> Instance:
     )
     weights = [int(w) for w in rng.integers(1, 11, size=n // 2)]
     return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"dense{seed}")
+
+
+def triangle() -> Instance:
+    """Three orbits, one opening each: orbit j sees two of the targets a, b, c together (one
+    strip) or a target of its own (weight 8) at the same time, in another direction.
+
+    Two orbits cover a, b and c, the third its own target: 38. The master over orbit plans
+    takes each orbit half on its pair and half on its own target, 42, and no branching on
+    a single target is needed to see why: the subset-row cut over {a, b, c} (each pair plan
+    counts ceil(2 / 2) = 1) allows at most 1 + 3/2 of the three, which the master's 3 breaks.
+    """
+    rows = []
+    for j, (x, y) in enumerate([("a", "b"), ("b", "c"), ("a", "c")]):
+        rows += [(x, j, 0.0, 4.0, 10.0), (y, j, 1.0, 5.0, 10.0), (f"d{j}", j, 2.0, 6.0, -20.0)]
+    weights = {"a": 10, "b": 10, "c": 10, "d0": 8, "d1": 8, "d2": 8}
+    return Instance.build(
+        weights, rows, resources=Resources(max_openings=1), n_orbits=3, name="triangle"
+    )
+
+
+def shared_tiny(seed: int) -> Instance:
+    """A random tiny instance of :func:`triangle`'s kind: 3-4 orbits, each seeing two of 3-4
+    shared targets together and, mostly, a target of its own at the same time; one or two
+    openings. Its master mixes pair plans, so subset-row cuts are found on some."""
+    rng = np.random.default_rng(seed)
+    n_orbits = int(rng.integers(3, 5))
+    n_shared = int(rng.integers(3, 5))
+    rows = []
+    for j in range(n_orbits):
+        x, y = rng.choice(n_shared, size=2, replace=False)
+        s = float(np.round(rng.uniform(0, 5), 1))
+        roll = float(np.round(rng.uniform(-10, 10), 1))
+        late = float(np.round(rng.uniform(0, 2), 1))
+        turn = float(np.round(rng.uniform(-2, 2), 1))
+        rows.append((f"s{x}", j, s, s + 4.0, roll))
+        rows.append((f"s{y}", j, s + late, s + 5.0, roll + turn))
+        if len(rows) < 14 - (n_orbits - 1 - j) * 2:  # the oracle's 14 opportunities
+            own = float(np.round(rng.uniform(-30, -20), 1))
+            rows.append((f"p{j}", j, s + 1.0, s + 5.0, own))
+    names = sorted({r[0] for r in rows})
+    weights = {n: int(rng.integers(4, 11)) for n in names}
+    res = Resources(max_openings=int(rng.choice([1, 1, 2])))
+    return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"shared{seed}")

@@ -21,7 +21,7 @@ from sosp.planner import orbit_data
 from sosp.solve import bound_function, solve
 from sosp.validate import validate
 from tests.conftest import small_instances
-from tests.models.instances import random_dense, random_tiny
+from tests.models.instances import random_dense, random_tiny, shared_tiny, triangle
 from tests.oracle import brute_force
 
 
@@ -88,6 +88,9 @@ def test_bad_parameters() -> None:
         colgen_bound(inst, max_rounds=0)
     with pytest.raises(InputError, match="smoothing"):
         colgen_bound(inst, smoothing=1.0)
+    for bad in (-1, 1.5, True):
+        with pytest.raises(InputError, match="cut_rounds"):
+            colgen_bound(inst, branch=True, cut_rounds=bad)
     with pytest.raises(InputError, match="start"):
         colgen_bound(inst, start=(np.zeros(inst.n_targets), np.zeros((99, 2))))
 
@@ -230,9 +233,14 @@ def test_branch_and_price_keeps_its_time_limit() -> None:
     root = colgen_bound(inst, data=data)
     limit = root["runtime_s"] + 3.0
     t0 = time.perf_counter()
-    out = colgen_bound(inst, data=data, time_limit=limit, branch=True)
+    out = colgen_bound(inst, data=data, time_limit=limit, branch=True, cut_rounds=0)
     assert time.perf_counter() - t0 <= limit + 0.5
     assert out["bound"] <= root["bound"] and out["nodes"] >= 1
+    # with the default cuts, whose separation reads no clock (here they take the time left)
+    t0 = time.perf_counter()
+    out = colgen_bound(inst, data=data, time_limit=limit, branch=True)
+    assert time.perf_counter() - t0 <= limit + 0.5
+    assert out["bound"] <= root["bound"]
 
 
 @pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (226, 34)])
@@ -616,3 +624,52 @@ def test_a_round_foreseen_past_the_deadline_is_not_started() -> None:
     calls.clear()
     root = column_generation(p, seen, rules, slow_price, start, deadline=None, max_rounds=2)
     assert len(calls) == 2  # no deadline: no foresight
+
+
+# --------------------------------------------------------------------- subset-row cuts
+def _root_only(monkeypatch) -> None:
+    """``colgen_bound(branch=True)`` stops after the branching's root node (its cuts)."""
+    import models.colgen as colgen
+
+    whole = colgen.branch_and_price
+    monkeypatch.setattr(
+        colgen, "branch_and_price", lambda *a, **k: whole(*a, **{**k, "max_nodes": 0})
+    )
+
+
+def test_subset_row_cuts_close_the_triangle_at_the_root() -> None:
+    inst = triangle()
+    assert brute_force(inst, "cluster").profit == 38
+    assert colgen_bound(inst)["bound"] == 42  # each orbit half on its pair, half alone
+    out = colgen_bound(inst, branch=True, cut_rounds=3)
+    assert out["bound"] == 38 and out["nodes"] == 0  # no branching needed
+    assert validate(inst, out["schedule"]).profit == out["profit"] == 38
+    assert colgen_bound(inst, branch=True, cut_rounds=0)["nodes"] >= 2
+
+
+def test_subset_row_cuts_never_below_the_optimum(monkeypatch) -> None:
+    # instances whose masters mix pair plans: the cuts lower the root on some (8 of these
+    # 60), never below the optimum, and the branch and price with them stays exact
+    lowered = 0
+    for seed in range(60):
+        inst = shared_tiny(seed)
+        optimum = brute_force(inst, "cluster").profit
+        full = colgen_bound(inst, branch=True, cut_rounds=10)
+        assert full["bound"] == optimum, seed
+        with monkeypatch.context() as m:
+            _root_only(m)
+            plain = colgen_bound(inst, branch=True, cut_rounds=0)["bound"]
+            cut = colgen_bound(inst, branch=True, cut_rounds=10)["bound"]
+        assert optimum <= cut <= plain, seed
+        lowered += cut < plain
+    assert lowered >= 5
+
+
+@settings(max_examples=40, deadline=None)
+@given(inst=small_instances())
+def test_branch_and_price_with_cuts_never_below_the_optimum(inst: Instance) -> None:
+    optimum = brute_force(inst, "cluster").profit
+    out = colgen_bound(inst, branch=True, cut_rounds=10)
+    assert optimum <= out["bound"]
+    if "profit" in out:
+        assert validate(inst, out["schedule"]).feasible and out["profit"] <= optimum
