@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from models.colgen import column_generation
-from models.subset_row import best_path_with_cuts, orbit_cuts
+from models.subset_row import CutPool, best_path_with_cuts, orbit_cuts
 from sosp.instance import Instance, load_instance
 from sosp.planner import OrbitItems, PlanPool, _recursion, flat_positions, orbit_data
 from sosp.scenarios import generate_scenario, scenario_names
@@ -337,17 +337,14 @@ class DpPricing(Pricing):
     def __init__(self, master: CutMaster, orbits: list[OrbitItems], targets: np.ndarray) -> None:
         super().__init__(master, orbits, targets)
         self.inexact = 0
+        self.pool = CutPool(orbits)  # the hits of each cut on each orbit
+        self.index: dict[tuple[int, ...], int] = {}
 
     def _hits(self, g: int, cut: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        a = self.by_target[g]
-        parts = [
-            a.indices[a.indptr[t] : a.indptr[t + 1]]
-            for t in self.targets[cut].tolist()
-            if t < a.shape[1]
-        ]
-        if not parts:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        return np.unique(np.concatenate(parts), return_counts=True)
+        key = tuple(sorted(self.targets[cut].tolist()))
+        if key not in self.index:
+            self.index[key] = self.pool.add(key)
+        return self.pool.orbit_hits(g, self.index[key])
 
     def round(self, p: np.ndarray, duals: np.ndarray) -> tuple[float, int]:
         mst, n = self.master, self.master.n

@@ -256,6 +256,22 @@ def cut_levels_py(
     m = g.shape[0]
     relaxed = 0
     low56 = np.int64(0x00FFFFFFFFFFFFFF)  # a right shift keeps the sign: clear it
+
+    def bits_loss(e: np.int64, room: float) -> float:
+        """The sigmas of the bits ``e`` (one label has them, the other not), by byte,
+        skipping empty bytes, stopping once they exceed ``room`` (no domination then)."""
+        loss = 0.0
+        base = 0
+        while e != 0 and loss <= room:
+            byte = e & 255
+            if byte != 0:
+                for b in range(8):
+                    if (byte >> b) & 1:
+                        loss += slot_sigma[base + b]
+            e = (e >> 8) & low56
+            base += 8
+        return loss
+
     # label store (grown by doubling)
     size = 4 * m + 16
     l_val = np.empty(size)
@@ -327,20 +343,7 @@ def cut_levels_py(
                     for j in range(j_end):
                         if i == j or c_live[j] == 0 or c_val[i] < c_val[j]:
                             continue
-                        # the sigmas of the bits i has and j lacks, by byte, skipping empty
-                        # bytes and stopping once i cannot dominate j
-                        loss = 0.0
-                        e = c_mask[i] & ~c_mask[j]
-                        room_ij = c_val[i] - c_val[j]
-                        base = 0
-                        while e != 0 and loss <= room_ij:
-                            byte = e & 255
-                            if byte != 0:
-                                for b in range(8):
-                                    if (byte >> b) & 1:
-                                        loss += slot_sigma[base + b]
-                            e = (e >> 8) & low56
-                            base += 8
+                        loss = bits_loss(c_mask[i] & ~c_mask[j], c_val[i] - c_val[j])
                         if c_val[i] - loss > c_val[j] or (c_val[i] - loss == c_val[j] and i < j):
                             c_live[j] = 0
                 lo[n, u] = n_lab
@@ -391,20 +394,7 @@ def cut_levels_py(
                     for j in range(j0, n_s):
                         if i == j or c_live[j] == 0 or s_val[i] < s_val[j]:
                             continue
-                        # the sigmas of the bits i has and j lacks, by byte, skipping empty
-                        # bytes and stopping once i cannot dominate j
-                        loss = 0.0
-                        e = s_mask[i] & ~s_mask[j]
-                        room_ij = s_val[i] - s_val[j]
-                        base = 0
-                        while e != 0 and loss <= room_ij:
-                            byte = e & 255
-                            if byte != 0:
-                                for b in range(8):
-                                    if (byte >> b) & 1:
-                                        loss += slot_sigma[base + b]
-                            e = (e >> 8) & low56
-                            base += 8
+                        loss = bits_loss(s_mask[i] & ~s_mask[j], s_val[i] - s_val[j])
                         if s_val[i] - loss > s_val[j] or (s_val[i] - loss == s_val[j] and i < j):
                             c_live[j] = 0
                 t = 0
@@ -580,7 +570,8 @@ class CutPool:
                 h[c] = h.get(c, 0) + int(round(n))
         return {c: (x + 1) // 2 for c, x in h.items()}
 
-    def _orbit_hits(self, g: int, c: int) -> tuple[np.ndarray, np.ndarray]:
+    def orbit_hits(self, g: int, c: int) -> tuple[np.ndarray, np.ndarray]:
+        """Cut c's ``(positions, a)`` on orbit g (computed on first use)."""
         key = (g, c)
         if key not in self._hits:
             if self._csc[g] is None:
@@ -620,7 +611,7 @@ class CutPool:
             self._rank[g] = release_rank(o)
         made = self._entries.get(g)
         if made is None or made[0] != len(on):
-            hits = [self._orbit_hits(g, c) for c in on.tolist()]
+            hits = [self.orbit_hits(g, c) for c in on.tolist()]
             made = (len(on), cut_entries(self._rank[g], o.n_before, hits))
             self._entries[g] = made
         cuts = orbit_cuts(self._rank[g], o.n_before, made[1], s_on)

@@ -58,11 +58,11 @@ def _enumerate(g, first, last, rank, n_before, cap, hits, sigma) -> float:
     return best
 
 
-def _run(kernel, g, first, last, order, n_before, cap, cuts):
+def _run(kernel, g, first, last, order, n_before, cap, cuts, max_labels=512):
     return kernel(
         g + cuts.direct, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot,
         cuts.hit_a, cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close,
-        cuts.slot_sigma, 512,
+        cuts.slot_sigma, max_labels,
     )  # fmt: skip
 
 
@@ -166,10 +166,7 @@ def test_merged_labels_only_over_estimate(seed: int, m: int, n_cuts: int) -> Non
     hits, sigma = _cuts(rng, m, n_cuts)
     cuts = orbit_cuts(rank, n_before, hits, sigma)
     want = _enumerate(g, z, z, rank, n_before, cap, hits, sigma)
-    value, _, relaxed = cut_levels()(
-        g + cuts.direct, z, z, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
-        cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma, 1,
-    )  # fmt: skip
+    value, _, relaxed = _run(cut_levels(), g, z, z, order, n_before, cap, cuts, max_labels=1)
     assert value >= want - 1e-9
     if relaxed == 0:
         assert value == pytest.approx(want, abs=1e-9)
