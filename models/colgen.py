@@ -805,8 +805,8 @@ def _solve_node(
         y = np.asarray(h.getSolution().col_value, dtype=float)
         left = None if deadline is None else deadline - time.perf_counter()
         if done and separate > 0 and cuts is not None and (left is None or left > 2 * sep_s):
-            # (separation reads no clock: not started unless twice the last one's time is
-            # left, at least a second)
+            # not started unless twice the last one's time is left (at least a second): its
+            # products before the search read no clock
             separate -= 1
             t_sep = time.perf_counter()
             z = np.zeros(len(p))
@@ -817,7 +817,7 @@ def _solve_node(
                 for i, yi in zip(in_lp, y[first_y:], strict=True)
                 if yi > 1e-9
             ]
-            new = cuts.separate(z, plans)
+            new = cuts.separate(z, plans, deadline=deadline)
             sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
             if new:
                 log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))

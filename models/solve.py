@@ -1239,9 +1239,11 @@ def bound(
         bound, None when it did not finish); ``"milp"``: the incumbent ``profit``,
         ``status`` and ``gap``.
     """
+    from models.subset_row import cut_levels
     from sosp.planner import compile_kernels
 
     compile_kernels()  # before the clock, as imports are
+    cut_levels()  # the branch and price's cut pricing (colgen, auto)
     t0 = time.perf_counter()
     if method not in BOUND_METHODS:
         raise InputError(f"method: expected one of {', '.join(BOUND_METHODS)}, got {method!r}")

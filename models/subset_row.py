@@ -37,6 +37,7 @@ over-estimate, still a valid bound, and :class:`CutPrice` reports it as not exac
 from __future__ import annotations
 
 import heapq
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -622,15 +623,22 @@ class CutPool:
         return found.value, found.path, found.exact
 
     def separate(
-        self, z: np.ndarray, plans: Sequence[tuple[np.ndarray, float]], limit: int = CUTS_PER_ROUND
+        self,
+        z: np.ndarray,
+        plans: Sequence[tuple[np.ndarray, float]],
+        limit: int = CUTS_PER_ROUND,
+        deadline: float | None = None,
     ) -> list[int]:
         """Add cuts that a master's solution violates, most violated first; their indices.
 
         ``z`` holds each target's ``z_k`` (instance indices), ``plans`` the positive plans as
-        (distinct targets, value). With ``c`` the targets of S a plan covers, ``ceil(c / 2)
+        (distinct targets, ``y_P``). With ``c`` the targets of S a plan covers, ``ceil(c / 2)
         = c - [c >= 2]`` for ``c <= 3``, so the violation is ``sum_P [c_SP >= 2] y_P -
         sum_{k in S} (cover_k - z_k) - 1``; the first term is the plans' pairwise co-cover
-        summed over S's pairs, less twice their triple co-cover.
+        summed over S's pairs, less twice their triple co-cover. Covers are counted once per
+        plan here, while the master counts a plan seeing a target twice twice: a cut found
+        may then be violated less than computed, or not at all (it is valid all the same).
+        At ``deadline`` (:func:`time.perf_counter`) the search stops with what it has found.
         """
         if not plans:
             return []
@@ -648,6 +656,8 @@ class CutPool:
         cand = col[pair.sum(axis=1) > 0.3]  # a violated triple has a pair above 1/3
         found: list[tuple[float, int, int, int]] = []
         for a, i in enumerate(cand):
+            if deadline is not None and time.perf_counter() > deadline:
+                break
             later = cand[a + 1 :]
             for j in later[pair[i, later] > 1e-6]:
                 triple = cover.T @ (w * cover[:, i] * cover[:, j])

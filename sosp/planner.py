@@ -600,13 +600,17 @@ def _penalised(
     """The recursion's inputs (:func:`_recursion`'s parameters): per position the gain net
     of the (4)-(5) penalties with each observation's slew counted twice, what the first and
     the last observation get back, the (3) order, the number of levels and the empty plan's
-    value, as contiguous arrays for the compiled kernels."""
+    value, as contiguous arrays for the compiled kernels (empty ones when no level is
+    allowed: the callers return the empty plan)."""
     m = len(gain)
     es = pe * r.slew_energy_rate
     cap = min(r.max_openings if openings is None else openings, m)
     empty = 0.0
     if left_slew is not None and right_slew is not None:
         empty = -es * (left_slew + right_slew)
+    if cap <= 0:  # no observation allowed (a local search's stretch with no opening left)
+        none = np.zeros(0)
+        return none, none, none, np.zeros(0, dtype=np.int64), cap, empty
     # What the first (last) observation gets back: |theta| of the missing turn from (to)
     # nadir, or minus the fixed neighbour's half of the turn to it.
     first: Any = 0.0
