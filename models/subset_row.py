@@ -474,7 +474,7 @@ def cut_levels() -> Callable[..., tuple[float, np.ndarray, int]]:
 
 @dataclass(frozen=True)
 class CutPrice:
-    """One orbit's best plan with its cuts priced: ``value`` (penalised, cut costs
+    """One orbit's best plan with its cuts priced: ``value`` (penalised, the cuts' earnings
     included), ``path`` (positions in time order) and ``exact`` (False when some cut was
     priced optimistically, so ``value`` is an over-estimate)."""
 
