@@ -2,8 +2,9 @@
 generated instances of several regions, sizes and constellations (and two of the paper's).
 
 Each run is one ``sosp solve X --method M --time-limit T --json`` or ``sosp bound X --method
-M --time-limit T --json`` in its own process, one at a time (so imports and the numba
-kernels' load are in the wall time, not in the reported ``runtime_s``). A run holds its limit
+M --time-limit T --json`` in its own process, one at a time (so the interpreter's start,
+the imports and the exit are in the wall time, not in the reported ``runtime_s``, which counts
+from the call of ``solve()``/``bound()``, the numba kernels' load included). A run holds its limit
 when ``runtime_s`` is within max(1 s, 5 %) of it (#17); a one-line refusal (exit 2: too
 dense for the MILPs, candidates not ready for ``orbit-dp``) holds it too when it comes
 within the limit. One JSON object per run goes to ``--output``, a Markdown table to stdout.

@@ -1209,7 +1209,8 @@ def bound(
         list: what ``"auto"`` falls back to when the planner's candidates would not fit in
         memory).
     time_limit
-        Seconds for everything, building included (None: no limit).
+        Seconds for everything from the call, the kernels' load and building included (None:
+        no limit).
     threads
         HiGHS threads.
     backend, conflicts
@@ -1240,10 +1241,8 @@ def bound(
         ``status`` and ``gap``.
     """
     from models.subset_row import cut_levels
-    from sosp.planner import compile_kernels
+    from sosp.planner import kernels_within
 
-    compile_kernels()  # before the clock, as imports are
-    cut_levels()  # the branch and price's cut pricing (colgen, auto)
     t0 = time.perf_counter()
     if method not in BOUND_METHODS:
         raise InputError(f"method: expected one of {', '.join(BOUND_METHODS)}, got {method!r}")
@@ -1251,10 +1250,14 @@ def bound(
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
     check_workers(workers)
+    deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
+    cut_levels()  # the branch and price's cut pricing (colgen, auto)
+    if deadline is not None:
+        time_limit = deadline - t0  # the limit, or more when the load took most of it
     if method == "milp":
         res = solve_milp(
             instance,
-            time_limit=time_limit,
+            time_limit=None if deadline is None else deadline - time.perf_counter(),
             model=model,
             threads=threads,
             backend=backend,
@@ -1264,7 +1267,6 @@ def bound(
         out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
         out["source"] = "milp"
         return out
-    deadline = None if time_limit is None else t0 + time_limit
     _check_backend(backend, conflicts)
     _check_lp_solver(lp_solver)
     _check_params(None, threads)

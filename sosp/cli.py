@@ -16,6 +16,7 @@ import importlib
 import json
 import logging
 import sys
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -232,6 +233,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from sosp.io import check_output
     from sosp.schedule import load_schedule
 
+    t0 = time.perf_counter()  # reading the instance counts in --time-limit
     if args.output:
         check_output(args.output)
     inst = load_instance(args.instance)
@@ -250,7 +252,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if args.bound is None:
             raise InputError("--bound-workers: give it with --bound")
         params["bound_workers"] = args.bound_workers
-    result, interrupted = _solve_interruptibly(inst, args, params)
+    result, interrupted = _solve_interruptibly(inst, args, params, t0)
     data = result.summary()
     if args.output:
         data["output"] = args.output
@@ -272,11 +274,14 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _solve_interruptibly(
-    inst: Any, args: argparse.Namespace, params: dict[str, Any]
+    inst: Any, args: argparse.Namespace, params: dict[str, Any], t0: float
 ) -> tuple[Any, str | None]:
     """Solve with a status line on stderr (unless ``--quiet``) and with Ctrl-C / SIGTERM
     stopping the search (not the program): the best schedule so far is then written as
-    usual. Returns the result and the name of the signal that stopped it (None)."""
+    usual. ``--time-limit`` counts from ``t0`` (the command's start), so the run keeps what
+    reading the instance left of it (at least :data:`sosp.planner.KERNEL_SHARE_LEFT`).
+    Returns the result and the name of the signal that stopped it (None)."""
+    from sosp.planner import KERNEL_SHARE_LEFT
     from sosp.progress import Progress, StatusLine
     from sosp.solve import solve
     from sosp.stop import handle_signals, stop_reason
@@ -293,7 +298,14 @@ def _solve_interruptibly(
                 inst,
                 args.method,
                 seed=args.seed,
-                time_limit=args.time_limit,
+                time_limit=(
+                    None
+                    if args.time_limit is None
+                    else max(
+                        args.time_limit - (time.perf_counter() - t0),
+                        KERNEL_SHARE_LEFT * args.time_limit,
+                    )
+                ),
                 progress=progress,
                 **params,
             )
@@ -559,7 +571,12 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"{', '.join(METHODS)} (default {DEFAULT_METHOD}); see sosp methods",
     )
     p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
-    p.add_argument("--time-limit", type=positive(float), default=None, help="seconds")
+    p.add_argument(
+        "--time-limit",
+        type=positive(float),
+        default=None,
+        help="seconds of wall time from reading the instance to the schedule",
+    )
     p.add_argument(
         "--iterations", type=positive(int), default=None, help="iteration limit (search methods)"
     )
