@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from models.colgen import column_generation
-from models.subset_row import CutPool, best_path_with_cuts, orbit_cuts
+from models.subset_row import CutPool, best_path_with_cuts, orbit_cuts, violated_triples
 from sosp.instance import Instance, load_instance
 from sosp.planner import OrbitItems, PlanPool, _recursion, flat_positions, orbit_data
 from sosp.scenarios import generate_scenario, scenario_names
@@ -126,33 +126,15 @@ class CutMaster:
 
 
 def violated(master: CutMaster, x: np.ndarray) -> list[tuple[float, int, int, int]]:
-    """Triples whose cut the master's solution ``x`` violates, most violated first.
-
-    ``sum_S z - sum_P ceil(c/2) y = sum_P [c >= 2] y - sum_S (cover_k - z_k)`` (``ceil(c/2)
-    = c - floor(c/2)`` for ``c <= 3``); the first term is the pairwise co-cover matrix minus
-    twice the triple's."""
+    """Triples whose cut the master's solution ``x`` violates, most violated first
+    (:func:`models.subset_row.violated_triples` over the master's rows)."""
     n = master.n
     z, y = x[:n], x[n : n + len(master.cols)]
     used = np.flatnonzero(y > 1e-9)
     cover = np.zeros((len(used), n))
     for r, c in enumerate(used):
         cover[r, master.cols[c][1]] = 1.0  # distinct: with h >= c the row may be less violated
-    w = y[used]
-    over = cover.T @ w - z
-    pair = (cover * w[:, None]).T @ cover
-    np.fill_diagonal(pair, 0.0)
-    cand = np.flatnonzero(pair.sum(axis=1) > 0.3)  # a violated triple has a pair above 1/3
-    found = []
-    for a, i in enumerate(cand):
-        for j in cand[a + 1 :][pair[i, cand[a + 1 :]] > 1e-6]:
-            triple = cover.T @ (w * cover[:, i] * cover[:, j])
-            ks = cand[cand > j]
-            v = pair[i, j] + pair[i, ks] + pair[j, ks] - 2.0 * triple[ks]
-            v -= over[i] + over[j] + over[ks] + 1.0
-            hits = np.flatnonzero(v > 1e-3)
-            found.extend((float(v[q]), int(i), int(j), int(ks[q])) for q in hits)
-    found.sort(reverse=True)
-    return found
+    return violated_triples(cover, y[used], z)
 
 
 class Pricing:

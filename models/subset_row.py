@@ -523,6 +523,40 @@ CUTS_PER_TARGET = 3
 SEPARATE_MAX_TARGETS = 4000
 
 
+def violated_triples(
+    cover: np.ndarray, w: np.ndarray, z: np.ndarray, deadline: float | None = None
+) -> list[tuple[float, int, int, int]]:
+    """The triples (i, j, k) of columns of ``cover`` whose subset-row cut a master's solution
+    violates, as ``(violation, i, j, k)`` with i < j < k, most violated first.
+
+    ``cover`` is 0/1, a row per positive plan and a column per target, ``w`` the plans'
+    ``y_P`` and ``z`` the targets' ``z_k``. With ``c`` the targets of S a plan covers,
+    ``ceil(c / 2) = c - [c >= 2]`` for ``c <= 3``, so the violation is ``sum_P [c_SP >= 2]
+    y_P - sum_{k in S} (cover_k - z_k) - 1``: the plans' pairwise co-cover summed over S's
+    pairs, less twice their triple co-cover, less the over-cover. At ``deadline``
+    (:func:`time.perf_counter`) the search stops with what it has found.
+    """
+    col = np.arange(cover.shape[1])
+    over = cover.T @ w - z
+    pair = (cover * w[:, None]).T @ cover
+    np.fill_diagonal(pair, 0.0)
+    cand = col[pair.sum(axis=1) > 0.3]  # a violated triple has a pair above 1/3
+    found: list[tuple[float, int, int, int]] = []
+    for a, i in enumerate(cand):
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+        later = cand[a + 1 :]
+        for j in later[pair[i, later] > 1e-6]:
+            triple = cover.T @ (w * cover[:, i] * cover[:, j])
+            ks = cand[cand > j]
+            v = pair[i, j] + pair[i, ks] + pair[j, ks] - 2.0 * triple[ks]
+            v -= over[i] + over[j] + over[ks] + 1.0
+            hit = np.flatnonzero(v > 1e-3)
+            found.extend((float(v[q]), int(i), int(j), int(ks[q])) for q in hit)
+    found.sort(reverse=True)
+    return found
+
+
 class CutPool:
     """The subset-row cuts of a branch and price (:func:`models.colgen.branch_and_price`),
     valid for every schedule and so shared by every node, with what pricing them needs.
@@ -632,41 +666,21 @@ class CutPool:
         """Add cuts that a master's solution violates, most violated first; their indices.
 
         ``z`` holds each target's ``z_k`` (instance indices), ``plans`` the positive plans as
-        (distinct targets, ``y_P``). With ``c`` the targets of S a plan covers, ``ceil(c / 2)
-        = c - [c >= 2]`` for ``c <= 3``, so the violation is ``sum_P [c_SP >= 2] y_P -
-        sum_{k in S} (cover_k - z_k) - 1``; the first term is the plans' pairwise co-cover
-        summed over S's pairs, less twice their triple co-cover. Covers are counted once per
-        plan here, while the master counts a plan seeing a target twice twice: a cut found
-        may then be violated less than computed, or not at all (it is valid all the same).
-        At ``deadline`` (:func:`time.perf_counter`) the search stops with what it has found.
+        (distinct targets, ``y_P``); the search is :func:`violated_triples`, which stops at
+        ``deadline``. Covers are counted once per plan here, while the master counts a plan
+        seeing a target twice twice: a cut found may then be violated less than computed, or
+        not at all (it is valid all the same).
         """
         if not plans:
             return []
         tg_all = np.unique(np.concatenate([tg for tg, _ in plans]))
         if len(tg_all) > SEPARATE_MAX_TARGETS:
             return []
-        col = np.arange(len(tg_all))
         cover = np.zeros((len(plans), len(tg_all)))
         for r, (tg, _) in enumerate(plans):
             cover[r, np.searchsorted(tg_all, tg)] = 1.0
         w = np.array([y for _, y in plans])
-        over = cover.T @ w - z[tg_all]
-        pair = (cover * w[:, None]).T @ cover
-        np.fill_diagonal(pair, 0.0)
-        cand = col[pair.sum(axis=1) > 0.3]  # a violated triple has a pair above 1/3
-        found: list[tuple[float, int, int, int]] = []
-        for a, i in enumerate(cand):
-            if deadline is not None and time.perf_counter() > deadline:
-                break
-            later = cand[a + 1 :]
-            for j in later[pair[i, later] > 1e-6]:
-                triple = cover.T @ (w * cover[:, i] * cover[:, j])
-                ks = cand[cand > j]
-                v = pair[i, j] + pair[i, ks] + pair[j, ks] - 2.0 * triple[ks]
-                v -= over[i] + over[j] + over[ks] + 1.0
-                hit = np.flatnonzero(v > 1e-3)
-                found.extend((float(v[q]), int(i), int(j), int(ks[q])) for q in hit)
-        found.sort(reverse=True)
+        found = violated_triples(cover, w, z[tg_all], deadline)
         added: list[int] = []
         per_target: dict[int, int] = {}
         for _, i, j, k in found:

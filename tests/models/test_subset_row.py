@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from models.subset_row import cut_levels, cut_levels_py, orbit_cuts
+from models.subset_row import cut_levels, cut_levels_py, orbit_cuts, violated_triples
 
 
 def _orbit(rng: np.random.Generator, m: int) -> tuple[np.ndarray, ...]:
@@ -170,3 +170,17 @@ def test_merged_labels_only_over_estimate(seed: int, m: int, n_cuts: int) -> Non
     assert value >= want - 1e-9
     if relaxed == 0:
         assert value == pytest.approx(want, abs=1e-9)
+
+
+def test_violated_triples_finds_the_odd_cycle_and_only_it() -> None:
+    # three plans each covering two of targets 0-2 at y = 1/2 (z = 1): the cut over {0, 1,
+    # 2} reads 3 - 3 * 1/2 = 1.5 > 1; target 3, covered once by a whole plan, is in no
+    # violated triple
+    cover = np.array([[1, 1, 0, 0], [0, 1, 1, 0], [1, 0, 1, 0], [0, 0, 0, 1]], dtype=float)
+    w = np.array([0.5, 0.5, 0.5, 1.0])
+    found = violated_triples(cover, w, np.ones(4))
+    assert [t[1:] for t in found] == [(0, 1, 2)]
+    assert found[0][0] == pytest.approx(0.5)
+    # an integral solution violates nothing
+    whole = np.array([[1, 1, 0, 0], [0, 0, 1, 1]], dtype=float)
+    assert violated_triples(whole, np.ones(2), np.ones(4)) == []
