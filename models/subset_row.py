@@ -650,9 +650,7 @@ class CutPool:
             made = (len(on), cut_entries(self._rank[g], o.n_before, hits))
             self._entries[g] = made
         cuts = orbit_cuts(self._rank[g], o.n_before, made[1], s_on)
-        r = o.rules
-        pe = float(lam[0]) / r.energy_capacity if r.energy_capacity > 0 else 0.0
-        pw = float(lam[1]) / r.memory_capacity if r.memory_capacity > 0 else 0.0
+        pe, pw = o.rules.per_unit(float(lam[0]), float(lam[1]))
         found = best_path_with_cuts(o, o.gains(price), cuts, pe, pw)
         return found.value, found.path, found.exact
 

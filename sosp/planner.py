@@ -470,8 +470,7 @@ def best_path(
     if o.size == 0:
         return 0.0, np.zeros(0, dtype=np.int64)
     r = o.rules
-    pe = lam_energy / r.energy_capacity if r.energy_capacity > 0 else 0.0
-    pw = lam_memory / r.memory_capacity if r.memory_capacity > 0 else 0.0
+    pe, pw = r.per_unit(lam_energy, lam_memory)
     sub = priced(o, price) if prepared is None else prepared
     if sub.keep is None:
         return _recursion(o.slew_s, o.duration, sub.gain, o.by_release, o.n_before, r, pe, pw)

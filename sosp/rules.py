@@ -180,6 +180,13 @@ class OrbitRules:
         """Memory of (5) for these observed seconds."""
         return self.memory_rate * observe_s
 
+    def per_unit(self, lam_energy: float, lam_memory: float) -> tuple[float, float]:
+        """Multipliers of (4) and (5) per whole capacity as multipliers per unit of energy and
+        of memory (0 where a capacity is 0: nothing fits there anyway)."""
+        pe = lam_energy / self.energy_capacity if self.energy_capacity > 0 else 0.0
+        pw = lam_memory / self.memory_capacity if self.memory_capacity > 0 else 0.0
+        return pe, pw
+
     def energy_ok(self, observe_s: float, slew_s: float) -> bool:
         """(4) with the margin."""
         return self.energy(observe_s, slew_s) <= self.energy_capacity + EPS

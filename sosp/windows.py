@@ -604,8 +604,7 @@ def relaxed_best_path(
     if ri.size == 0:
         return 0.0, np.zeros(0, dtype=np.int64), ri
     r = oo.rules
-    pe = lam_energy / r.energy_capacity if r.energy_capacity > 0 else 0.0
-    pw = lam_memory / r.memory_capacity if r.memory_capacity > 0 else 0.0
+    pe, pw = r.per_unit(lam_energy, lam_memory)
     value, path = _recursion(
         ri.slew_s, ri.duration, ri.items.gain, ri.by_release, ri.n_before, r, pe, pw
     )
@@ -757,8 +756,7 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     by_release, n_before = release_order(r.left(start, roll), r.right(end, roll))
 
     def plan(pen: float) -> np.ndarray:
-        pe = pen / r.energy_capacity if r.energy_capacity > 0 else 0.0
-        pw = pen / r.memory_capacity if r.memory_capacity > 0 else 0.0
+        pe, pw = r.per_unit(pen, pen)
         _, path = _recursion(slew_s, duration, gain, by_release, n_before, r, pe, pw)
         return path
 
