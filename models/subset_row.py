@@ -36,7 +36,6 @@ over-estimate, still a valid bound, and :class:`CutPrice` reports it as not exac
 
 from __future__ import annotations
 
-import heapq
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -45,7 +44,12 @@ from typing import Any
 import numpy as np
 
 from sosp.kernels import compiled
-from sosp.planner import PRUNE_FROM, OrbitItems, _penalised, best_path
+from sosp.planner import PRUNE_FROM, OrbitItems, _penalised, _restrict, best_path
+from sosp.rules import OrbitRules
+
+#: The cut pricing restricts an orbit to the positions that may help a plan
+#: (:meth:`CutPool.best_path`) when fewer than this share of them can.
+KEEP_SHARE = 0.8
 
 #: Slots of one int64 label mask.
 SLOTS = 64
@@ -137,6 +141,18 @@ def cut_entries(
         a = np.concatenate([np.asarray(x, dtype=np.int64) for _, x in hits])
     else:
         pos = a = np.zeros(0, dtype=np.int64)
+    return _entries(n_cuts, cut, pos, a, rank, n_before)
+
+
+def _entries(
+    n_cuts: int,
+    cut: np.ndarray,
+    pos: np.ndarray,
+    a: np.ndarray,
+    rank: np.ndarray,
+    n_before: np.ndarray,
+) -> CutEntries:
+    """:class:`CutEntries` from its flat entries, over an orbit with this (3) order."""
     m = len(rank)
     lo = np.full(n_cuts, m, dtype=np.int64)
     hi = np.full(n_cuts, -1, dtype=np.int64)
@@ -145,6 +161,22 @@ def cut_entries(
     np.maximum.at(hi, cut, rank[pos])
     np.maximum.at(top_nb, cut, n_before[pos])
     return CutEntries(cut, pos, a, lo, hi, lo < top_nb)
+
+
+def restrict_entries(
+    ent: CutEntries, keep: np.ndarray, size: int, by_release: np.ndarray, n_before: np.ndarray
+) -> CutEntries:
+    """``ent`` over the sub-orbit of positions ``keep`` (sorted, of ``size``), whose (3)
+    order and predecessors are ``by_release`` and ``n_before``
+    (:func:`sosp.planner._restrict`)."""
+    new_pos = np.full(size, -1, dtype=np.int64)
+    new_pos[keep] = np.arange(len(keep))
+    inside = new_pos[ent.pos] >= 0
+    rank = np.empty(len(keep), dtype=np.int64)
+    rank[by_release] = np.arange(len(keep))
+    return _entries(
+        len(ent.lo), ent.cut[inside], new_pos[ent.pos[inside]], ent.a[inside], rank, n_before
+    )
 
 
 def orbit_cuts(
@@ -171,17 +203,12 @@ def orbit_cuts(
     sigma = np.asarray(sigma, dtype=float)
     live = (sigma > 0.0) & (ent.hi >= 0)
     slotted = np.flatnonzero(live & ent.chained)
-    # interval colouring by lo: a slot is free for a cut once its last cut's hi < lo
-    slot_of = np.full(len(sigma), -1, dtype=np.int64)
-    free = list(range(SLOTS))
-    busy: list[tuple[int, int]] = []  # (hi, slot)
-    for c in slotted[np.argsort(ent.lo[slotted], kind="stable")].tolist():
-        lo = int(ent.lo[c])
-        while busy and busy[0][0] < lo:
-            heapq.heappush(free, heapq.heappop(busy)[1])
-        if free:
-            slot_of[c] = heapq.heappop(free)
-            heapq.heappush(busy, (int(ent.hi[c]), int(slot_of[c])))
+    by_rank = np.empty(m, dtype=np.int64)
+    by_rank[rank] = np.arange(m)
+    slot_of, keep, carry = cut_slots()(
+        np.ascontiguousarray(slotted[np.argsort(ent.lo[slotted], kind="stable")]),
+        ent.lo, ent.hi, by_rank, np.ascontiguousarray(n_before, dtype=np.int64), len(sigma),
+    )  # fmt: skip
     exact = bool((slot_of[slotted] >= 0).all())
     # outright: the cuts a plan hits once at most, and (optimistically) those left unslotted
     direct = np.zeros(m)
@@ -202,16 +229,6 @@ def orbit_cuts(
     np.maximum.at(slot_sigma, slots, sigma[kept])
     close = np.zeros(m + 1, dtype=np.int64)
     np.bitwise_or.at(close, ent.hi[kept], bits)
-    keep = np.zeros(m, dtype=np.int64)
-    carry = np.zeros(m, dtype=np.int64)
-    by_rank = np.empty(m, dtype=np.int64)
-    by_rank[rank] = np.arange(m)
-    for c, bit in zip(kept.tolist(), bits.tolist(), strict=True):
-        # open after the positions of ranks lo .. hi - 1; carried where lo is in the prefix
-        lo, hi = int(ent.lo[c]), int(ent.hi[c])
-        inside = by_rank[lo:hi]
-        keep[inside] |= bit
-        carry[inside[lo < n_before[inside]]] |= bit
     return OrbitCuts(
         hit_ptr=ptr,
         hit_slot=slot_of[cut],
@@ -225,6 +242,55 @@ def orbit_cuts(
         direct=direct,
         exact=exact,
     )
+
+
+def cut_slots_py(
+    by_lo: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    by_rank: np.ndarray,
+    n_before: np.ndarray,
+    n_cuts: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Slots for the cuts ``by_lo`` (sorted by their first relevant rank ``lo``), and each
+    position's ``keep`` and ``carry`` masks (:class:`OrbitCuts`); compiled by numba
+    (:func:`cut_slots`).
+
+    Interval colouring: a cut takes the lowest slot whose last cut ended (``hi``) before its
+    ``lo``, none when all 64 are busy. Its bit is kept by the positions of ranks ``lo .. hi
+    - 1`` and carried by those of them whose prefix holds rank ``lo``.
+    """
+    m = by_rank.shape[0]
+    slot_of = np.full(n_cuts, -1, dtype=np.int64)
+    slot_end = np.full(SLOTS, -1, dtype=np.int64)
+    keep = np.zeros(m, dtype=np.int64)
+    carry = np.zeros(m, dtype=np.int64)
+    for c in by_lo:
+        a = lo[c]
+        for b in range(SLOTS):
+            if slot_end[b] < a:
+                slot_of[c] = b
+                slot_end[b] = hi[c]
+                bit = np.int64(1) << b
+                for r in range(a, hi[c]):
+                    u = by_rank[r]
+                    keep[u] |= bit
+                    if a < n_before[u]:
+                        carry[u] |= bit
+                break
+    return slot_of, keep, carry
+
+
+#: :func:`cut_slots_py`'s numba signature.
+CUT_SLOTS_SIGNATURE = (
+    "Tuple((int64[::1], int64[::1], int64[::1]))(int64[::1], int64[::1], int64[::1], "
+    "int64[::1], int64[::1], int64)"
+)
+
+
+def cut_slots() -> Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """:func:`cut_slots_py` compiled by numba on first use (cached on disk)."""
+    return compiled(cut_slots_py, CUT_SLOTS_SIGNATURE)
 
 
 def cut_levels_py(
@@ -244,6 +310,7 @@ def cut_levels_py(
     close: np.ndarray,
     slot_sigma: np.ndarray,
     max_labels: int,
+    single: int,
 ) -> tuple[float, np.ndarray, int]:
     """The levels of :func:`sosp.planner._levels_py` with a cut's parity bit per slot.
 
@@ -253,6 +320,12 @@ def cut_levels_py(
     the cuts open at k), and answers the positions with ``n_before == k`` from it. Returns
     the best ``value + last``, its path, and 1 if a merge beyond ``max_labels`` made the
     value an over-estimate (else 0).
+
+    With ``single`` 1, one sweep without the cap ``cap``: the structure takes each
+    position's labels as soon as the boundary passes it (a position's predecessors all come
+    before its own place in the (3) order, so its labels are final by then). The plans of
+    any length ending at u are then one level, a tenth of the work with C5's cap of 10
+    (:func:`label_best` uses it first).
     """
     m = g.shape[0]
     relaxed = 0
@@ -292,7 +365,8 @@ def cut_levels_py(
     c_pred = np.empty(room, dtype=np.int64)
     c_live = np.empty(room, dtype=np.int64)
     top = 0
-    for n in range(cap):
+    levels = 1 if single == 1 else cap
+    for n in range(levels):
         n_s = 0
         qi = 0
         for k in range(m + 1):
@@ -301,7 +375,7 @@ def cut_levels_py(
                 qi += 1
                 # candidates: the start, then each prefix label (level n - 1)
                 n_c = 0
-                n_in = n_s + 1 if n > 0 else 1
+                n_in = n_s + 1 if n > 0 or single == 1 else 1
                 for i in range(n_in):
                     if i == 0:
                         base, bits, pred = first[u], np.int64(0), np.int64(-1)
@@ -366,7 +440,7 @@ def cut_levels_py(
                         l_pos[n_lab] = u
                         n_lab += 1
                 hi[n, u] = n_lab
-            if k == m or n == 0:
+            if k == m or (n == 0 and single == 0):
                 continue
             # advance the boundary to k + 1: clear the closing cuts, add position order[k]
             w = order[k]
@@ -378,7 +452,8 @@ def cut_levels_py(
                         s_mask[i] &= ~cl
                         cleared = True
             first_new = n_s
-            for x in range(lo[n - 1, w], hi[n - 1, w]):
+            src = n if single == 1 else n - 1
+            for x in range(lo[src, w], hi[src, w]):
                 s_mask[n_s] = l_mask[x]
                 s_val[n_s] = l_val[x]
                 s_id[n_s] = x
@@ -449,10 +524,10 @@ def cut_levels_py(
             v = l_val[x] + last[u]
             if v > best_v:
                 best_x, best_v = x, v
-    path = np.empty(top, dtype=np.int64)
+    path = np.empty(m, dtype=np.int64)
     count = 0
     x = best_x
-    while x >= 0 and count < top:
+    while x >= 0 and count < m:
         path[count] = l_pos[x]
         count += 1
         x = l_pred[x]
@@ -463,13 +538,45 @@ def cut_levels_py(
 CUT_LEVELS_SIGNATURE = (
     "Tuple((float64, int64[::1], int64))(float64[::1], float64[::1], float64[::1], "
     "int64[::1], int64[::1], int64, int64[::1], int64[::1], int64[::1], float64[::1], "
-    "int64[::1], int64[::1], int64[::1], int64[::1], float64[::1], int64)"
+    "int64[::1], int64[::1], int64[::1], int64[::1], float64[::1], int64, int64)"
 )
 
 
 def cut_levels() -> Callable[..., tuple[float, np.ndarray, int]]:
-    """:func:`cut_levels_py` compiled by numba on first use (cached on disk)."""
+    """:func:`cut_levels_py` compiled by numba on first use (cached on disk); loads
+    :func:`cut_slots` too, so one call before a clock starts loads both."""
+    cut_slots()
     return compiled(cut_levels_py, CUT_LEVELS_SIGNATURE)
+
+
+def label_best(
+    run: Callable[..., tuple[float, np.ndarray, int]],
+    g: np.ndarray,
+    first: np.ndarray,
+    last: np.ndarray,
+    order: np.ndarray,
+    n_before: np.ndarray,
+    cap: int,
+    cuts: OrbitCuts,
+    max_labels: int = MAX_LABELS,
+) -> tuple[float, np.ndarray, int]:
+    """The best plan of at most ``cap`` observations by the kernel ``run``
+    (:func:`cut_levels_py`, compiled or not; ``g`` with ``cuts.direct`` added): one sweep
+    without the cap first, and the levels only when that sweep's best plan has more than
+    ``cap`` observations. Otherwise that plan is also the best of at most ``cap`` (the sweep
+    bounds every plan, and it is one of them). On C5 the cap bound in 3 % of the calls."""
+    value, path, relaxed = run(
+        g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
+        cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
+        max_labels, 1,
+    )  # fmt: skip
+    if len(path) <= cap:
+        return value, path, relaxed
+    return run(
+        g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
+        cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
+        max_labels, 0,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -495,20 +602,35 @@ def best_path_with_cuts(
     observation), energy and memory penalties per unit ``pe``, ``pw`` ((4)-(5) as in
     :func:`sosp.planner.best_path`), plus each plan's earning ``sum_S sigma_S ceil(h_SP /
     2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it."""
-    empty = np.zeros(0, dtype=np.int64)
     if o.size == 0:
-        return CutPrice(0.0, empty, cuts.exact)
+        return CutPrice(0.0, np.zeros(0, dtype=np.int64), cuts.exact)
+    return _price_with_cuts(
+        o.slew_s, o.duration, gain, o.by_release, o.n_before, o.rules, cuts, pe, pw, kernel
+    )
+
+
+def _price_with_cuts(
+    slew_s: np.ndarray,
+    duration: np.ndarray,
+    gain: np.ndarray,
+    by_release: np.ndarray,
+    n_before: np.ndarray,
+    rules: OrbitRules,
+    cuts: OrbitCuts,
+    pe: float,
+    pw: float,
+    kernel: Callable[..., Any] | None = None,
+) -> CutPrice:
+    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays."""
+    empty = np.zeros(0, dtype=np.int64)
     g, firsts, lasts, order, cap, _ = _penalised(
-        o.slew_s, o.duration, gain + cuts.direct, o.by_release, o.rules, pe, pw
+        slew_s, duration, gain + cuts.direct, by_release, rules, pe, pw
     )
     if cap <= 0:
         return CutPrice(0.0, empty, cuts.exact)
     run = cut_levels() if kernel is None else kernel
-    value, path, relaxed = run(
-        g, firsts, lasts, order, np.ascontiguousarray(o.n_before, dtype=np.int64), cap,
-        cuts.hit_ptr, cuts.hit_slot, cuts.hit_a, cuts.hit_sigma, cuts.hit_read, cuts.carry,
-        cuts.keep, cuts.close, cuts.slot_sigma, MAX_LABELS,
-    )  # fmt: skip
+    nb = np.ascontiguousarray(n_before, dtype=np.int64)
+    value, path, relaxed = label_best(run, g, firsts, lasts, order, nb, cap, cuts)
     exact = cuts.exact and relaxed == 0
     if not value > 0.0:
         return CutPrice(0.0, empty, exact)
@@ -649,9 +771,34 @@ class CutPool:
             hits = [self.orbit_hits(g, c) for c in on.tolist()]
             made = (len(on), cut_entries(self._rank[g], o.n_before, hits))
             self._entries[g] = made
-        cuts = orbit_cuts(self._rank[g], o.n_before, made[1], s_on)
-        pe, pw = o.rules.per_unit(float(lam[0]), float(lam[1]))
-        found = best_path_with_cuts(o, o.gains(price), cuts, pe, pw)
+        r = o.rules
+        pe, pw = r.per_unit(float(lam[0]), float(lam[1]))
+        gain = o.gains(price)
+        ent = made[1]
+        # A position whose gain, with every cut it hits earning its most, is worth no more
+        # than its observing penalty never helps a plan: dropping it from a plan gives back
+        # its penalties and slews (as in sosp.planner.best_path) and costs each cut at most
+        # sigma ceil(a / 2) (ceil(h / 2) - ceil((h - a) / 2) <= ceil(a / 2)). Fewer positions
+        # make the labelling faster and leave fewer cuts overlapping for the 64 slots.
+        most = gain.copy()
+        np.add.at(most, ent.pos, s_on[ent.cut] * ((ent.a + 1) // 2))
+        worth = most > (pe * r.observe_energy_rate + pw * r.memory_rate) * o.duration
+        n_worth = int(np.count_nonzero(worth))
+        if n_worth == 0:
+            return 0.0, np.zeros(0, dtype=np.int64), True
+        if n_worth < KEEP_SHARE * o.size:
+            keep = np.flatnonzero(worth)
+            by_release, n_before = _restrict(o, keep)
+            sub = restrict_entries(ent, keep, o.size, by_release, n_before)
+            rank = np.empty(len(keep), dtype=np.int64)
+            rank[by_release] = np.arange(len(keep))
+            found = _price_with_cuts(
+                o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
+                orbit_cuts(rank, n_before, sub, s_on), pe, pw,
+            )  # fmt: skip
+            return found.value, keep[found.path], found.exact
+        cuts = orbit_cuts(self._rank[g], o.n_before, ent, s_on)
+        found = best_path_with_cuts(o, gain, cuts, pe, pw)
         return found.value, found.path, found.exact
 
     def separate(

@@ -10,7 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from models.subset_row import cut_levels, cut_levels_py, orbit_cuts, violated_triples
+from models.subset_row import (
+    cut_levels,
+    cut_levels_py,
+    label_best,
+    orbit_cuts,
+    violated_triples,
+)
 
 
 def _orbit(rng: np.random.Generator, m: int) -> tuple[np.ndarray, ...]:
@@ -58,11 +64,11 @@ def _enumerate(g, first, last, rank, n_before, cap, hits, sigma) -> float:
     return best
 
 
-def _run(kernel, g, first, last, order, n_before, cap, cuts, max_labels=512):
+def _run(kernel, g, first, last, order, n_before, cap, cuts, max_labels=512, single=0):
     return kernel(
         g + cuts.direct, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot,
         cuts.hit_a, cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close,
-        cuts.slot_sigma, max_labels,
+        cuts.slot_sigma, max_labels, single,
     )  # fmt: skip
 
 
@@ -79,18 +85,25 @@ def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
     cuts = orbit_cuts(rank, n_before, hits, sigma)
     assert cuts.exact
     want = _enumerate(g, first, last, rank, n_before, cap, hits, sigma)
+    unbounded = _enumerate(g, first, last, rank, n_before, m, hits, sigma)
     for kernel in (cut_levels_py, cut_levels()):
-        value, path, relaxed = _run(kernel, g, first, last, order, n_before, cap, cuts)
-        assert relaxed == 0
-        assert value == pytest.approx(want, abs=1e-9)
-        # the path is a chain of at most cap positions worth the value returned
-        assert 1 <= len(path) <= cap
-        assert all(rank[u] < n_before[w] for u, w in itertools.pairwise(path))
-        h = np.zeros(len(hits))
-        for c, (pos, hc) in enumerate(hits):
-            h[c] = sum(int(hc[list(pos).index(u)]) for u in path if u in pos)
-        got = first[path[0]] + g[path].sum() + last[path[-1]] + np.dot(sigma, np.ceil(h / 2))
-        assert got == pytest.approx(value, abs=1e-9)
+        runs = [
+            (cap, want, _run(kernel, g, first, last, order, n_before, cap, cuts)),
+            (m, unbounded, _run(kernel, g, first, last, order, n_before, cap, cuts, single=1)),
+            (cap, want, label_best(kernel, g + cuts.direct, first, last, order, n_before, cap,
+                                   cuts)),
+        ]  # fmt: skip
+        for most, best, (value, path, relaxed) in runs:
+            assert relaxed == 0
+            assert value == pytest.approx(best, abs=1e-9)
+            # the path is a chain of at most ``most`` positions worth the value returned
+            assert 1 <= len(path) <= most
+            assert all(rank[u] < n_before[w] for u, w in itertools.pairwise(path))
+            h = np.zeros(len(hits))
+            for c, (pos, hc) in enumerate(hits):
+                h[c] = sum(int(hc[list(pos).index(u)]) for u in path if u in pos)
+            got = first[path[0]] + g[path].sum() + last[path[-1]]
+            assert got + np.dot(sigma, np.ceil(h / 2)) == pytest.approx(value, abs=1e-9)
 
 
 def test_without_cuts_the_kernel_is_the_planner_recursion() -> None:
@@ -166,10 +179,13 @@ def test_merged_labels_only_over_estimate(seed: int, m: int, n_cuts: int) -> Non
     hits, sigma = _cuts(rng, m, n_cuts)
     cuts = orbit_cuts(rank, n_before, hits, sigma)
     want = _enumerate(g, z, z, rank, n_before, cap, hits, sigma)
-    value, _, relaxed = _run(cut_levels(), g, z, z, order, n_before, cap, cuts, max_labels=1)
-    assert value >= want - 1e-9
-    if relaxed == 0:
-        assert value == pytest.approx(want, abs=1e-9)
+    for value, _, relaxed in (
+        _run(cut_levels(), g, z, z, order, n_before, cap, cuts, max_labels=1),
+        label_best(cut_levels(), g + cuts.direct, z, z, order, n_before, cap, cuts, 1),
+    ):
+        assert value >= want - 1e-9
+        if relaxed == 0:
+            assert value == pytest.approx(want, abs=1e-9)
 
 
 def test_violated_triples_finds_the_odd_cycle_and_only_it() -> None:
@@ -184,3 +200,37 @@ def test_violated_triples_finds_the_odd_cycle_and_only_it() -> None:
     # an integral solution violates nothing
     whole = np.array([[1, 1, 0, 0], [0, 0, 1, 1]], dtype=float)
     assert violated_triples(whole, np.ones(2), np.ones(4)) == []
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_positions_that_cannot_help_are_dropped_without_changing_the_price(
+    monkeypatch: pytest.MonkeyPatch, seed: int
+) -> None:
+    # CutPool.best_path restricts an orbit to the positions whose gain, each cut earning its
+    # most, beats their observing penalty: the best value must not move
+    import models.subset_row as sr
+    from sosp.planner import orbit_data
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C2", 0)
+    groups = orbit_data(inst).orbits
+    rng = np.random.default_rng(seed)
+    pool = sr.CutPool(groups)
+    g = int(np.argmax([o.size for o in groups]))
+    targets = groups[g].targets
+    for _ in range(20):
+        pool.add(rng.choice(targets, 3, replace=False).tolist())
+    price = rng.uniform(0.0, 2.0, inst.n_targets) * (rng.random(inst.n_targets) < 0.3)
+    sigma = rng.uniform(0.0, 3.0, len(pool)) * (rng.random(len(pool)) < 0.5)
+    lam = np.array([rng.uniform(0, 5), rng.uniform(0, 5)])
+    got = {}
+    for share in (0.0, 2.0):  # never restrict, restrict whenever a position is dropped
+        monkeypatch.setattr(sr, "KEEP_SHARE", share)
+        pool._entries.clear()
+        got[share] = pool.best_path(g, price, lam, sigma)
+    assert got[2.0][2]  # fewer positions: every cut has its slot
+    if got[0.0][2]:
+        assert got[2.0][0] == pytest.approx(got[0.0][0], rel=1e-9, abs=1e-9)
+    else:  # the whole orbit priced some cut optimistically: an over-estimate
+        assert got[2.0][0] <= got[0.0][0] + 1e-9
+    assert got[2.0][0] > 0
