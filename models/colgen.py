@@ -59,6 +59,11 @@ _RC_TOL = 1e-7
 #: 3495 (``docs/exact.md``, "Subset-row cuts in the branch and price").
 CUT_ROUNDS = 3
 
+#: Separation rounds in each node below the root (the cuts hold for every schedule, so one
+#: found in a node joins the pool every later node keeps), and the cuts each adds at most.
+NODE_CUT_ROUNDS = 0
+NODE_CUTS = 20
+
 
 def allow_seconds(h: Any, seconds: float | None) -> None:
     """Let the next ``h.run()`` take ``seconds`` (None: no limit).
@@ -604,6 +609,7 @@ def _solve_node(
     smoothing: float,
     cuts: CutPool | None = None,
     separate: int = 0,
+    cuts_per_round: int | None = None,
 ) -> _Node:
     """Column generation on the master of ``node``; returns it with its bound and cover.
 
@@ -729,6 +735,7 @@ def _solve_node(
     lam_m = np.zeros((n_orb, 2))
     sigma_m = _padded(None, cuts)
     alpha = 0.0
+    limit = {} if cuts_per_round is None else {"limit": cuts_per_round}
     resolve = False  # cuts were just added: solve the master before pricing again
     sep_s = 0.5  # the longest separation so far (seconds)
     while deadline is None or time.perf_counter() < deadline:
@@ -817,7 +824,7 @@ def _solve_node(
                 for i, yi in zip(in_lp, y[first_y:], strict=True)
                 if yi > 1e-9
             ]
-            new = cuts.separate(z, plans, deadline=deadline)
+            new = cuts.separate(z, plans, deadline=deadline, **limit)
             sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
             if new:
                 log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))
@@ -973,7 +980,10 @@ def branch_and_price(
         for child in children:
             # the parent's bound holds for the child (a subset of its schedules) until its
             # own column generation finds a lower one
-            child = _solve_node(child, p, seen, groups, cols, deadline, smoothing, pool)
+            child = _solve_node(
+                child, p, seen, groups, cols, deadline, smoothing, pool,
+                NODE_CUT_ROUNDS if pool is not None else 0, NODE_CUTS,
+            )  # fmt: skip
             nodes += 1
             heapq.heappush(heap, (-child.bound, count, child))
             count += 1

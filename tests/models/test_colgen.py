@@ -673,3 +673,30 @@ def test_branch_and_price_with_cuts_never_below_the_optimum(inst: Instance) -> N
     assert optimum <= out["bound"]
     if "profit" in out:
         assert validate(inst, out["schedule"]).feasible and out["profit"] <= optimum
+
+
+def test_cuts_separated_in_the_nodes_keep_the_branch_and_price_exact(monkeypatch) -> None:
+    # cuts found below the root join the pool every later node keeps: still the optimum
+    # (models.colgen.NODE_CUT_ROUNDS is 0 by default: measured slower on C5)
+    import models.colgen as colgen
+    from models.subset_row import CutPool
+
+    added: list[int] = []
+    separate = CutPool.separate
+
+    def counted(self, *a, **k):  # noqa: ANN001, ANN202
+        new = separate(self, *a, **k)
+        added.append(len(new))
+        return new
+
+    monkeypatch.setattr(CutPool, "separate", counted)
+    monkeypatch.setattr(colgen, "NODE_CUT_ROUNDS", 2)
+    in_nodes = 0
+    for seed in range(10):
+        inst = random_dense(seed)
+        optimum = colgen_bound(inst, branch=True, cut_rounds=0)["bound"]  # exact, no limit
+        added.clear()
+        out = colgen_bound(inst, branch=True, cut_rounds=1)
+        assert out["bound"] == optimum, seed
+        in_nodes += sum(added[1:]) > 0  # the root separates once (cut_rounds=1)
+    assert in_nodes >= 1
