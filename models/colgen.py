@@ -56,7 +56,8 @@ _RC_TOL = 1e-7
 #: Subset-row cut separation rounds (100 cuts each at most) at the branch and price's root
 #: (:func:`branch_and_price`). Bound after 600 s on C5 for 0 / 1 / 3 / 10 rounds: 2217 /
 #: 2217 / 2213 / 2220 (10 rounds leave time for 2 nodes); C7 0 / 3: 2889 / 2884; C9 3501 /
-#: 3495 (``docs/exact.md``, "Subset-row cuts in the branch and price").
+#: 3495. With the faster cut pricing of 46d7e0b, 3 rounds: C5 2210, C7 2880, C9 3491, C10
+#: 3880 (``docs/exact.md``, "Subset-row cuts in the branch and price").
 CUT_ROUNDS = 3
 
 #: Separation rounds in each node below the root (the cuts hold for every schedule, so one
