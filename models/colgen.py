@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from models.lagrangian import capped_bound
-from models.subset_row import CutPool, cut_levels
+from models.subset_row import CUTS_PER_ROUND, CutPool, cut_levels
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
@@ -610,7 +610,7 @@ def _solve_node(
     smoothing: float,
     cuts: CutPool | None = None,
     separate: int = 0,
-    cuts_per_round: int | None = None,
+    cuts_per_round: int = CUTS_PER_ROUND,
 ) -> _Node:
     """Column generation on the master of ``node``; returns it with its bound and cover.
 
@@ -736,7 +736,6 @@ def _solve_node(
     lam_m = np.zeros((n_orb, 2))
     sigma_m = _padded(None, cuts)
     alpha = 0.0
-    limit = {} if cuts_per_round is None else {"limit": cuts_per_round}
     resolve = False  # cuts were just added: solve the master before pricing again
     sep_s = 0.5  # the longest separation so far (seconds)
     while deadline is None or time.perf_counter() < deadline:
@@ -825,7 +824,7 @@ def _solve_node(
                 for i, yi in zip(in_lp, y[first_y:], strict=True)
                 if yi > 1e-9
             ]
-            new = cuts.separate(z, plans, deadline=deadline, **limit)
+            new = cuts.separate(z, plans, cuts_per_round, deadline=deadline)
             sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
             if new:
                 log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))

@@ -164,16 +164,14 @@ def _entries(
 
 
 def restrict_entries(
-    ent: CutEntries, keep: np.ndarray, size: int, by_release: np.ndarray, n_before: np.ndarray
+    ent: CutEntries, keep: np.ndarray, size: int, rank: np.ndarray, n_before: np.ndarray
 ) -> CutEntries:
-    """``ent`` over the sub-orbit of positions ``keep`` (sorted, of ``size``), whose (3)
-    order and predecessors are ``by_release`` and ``n_before``
+    """``ent`` over the sub-orbit of positions ``keep`` (sorted, of ``size``), whose places in
+    the (3) order and predecessors are ``rank`` and ``n_before``
     (:func:`sosp.planner._restrict`)."""
     new_pos = np.full(size, -1, dtype=np.int64)
     new_pos[keep] = np.arange(len(keep))
     inside = new_pos[ent.pos] >= 0
-    rank = np.empty(len(keep), dtype=np.int64)
-    rank[by_release] = np.arange(len(keep))
     return _entries(
         len(ent.lo), ent.cut[inside], new_pos[ent.pos[inside]], ent.a[inside], rank, n_before
     )
@@ -789,9 +787,9 @@ class CutPool:
         if n_worth < KEEP_SHARE * o.size:
             keep = np.flatnonzero(worth)
             by_release, n_before = _restrict(o, keep)
-            sub = restrict_entries(ent, keep, o.size, by_release, n_before)
             rank = np.empty(len(keep), dtype=np.int64)
             rank[by_release] = np.arange(len(keep))
+            sub = restrict_entries(ent, keep, o.size, rank, n_before)
             found = _price_with_cuts(
                 o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
                 orbit_cuts(rank, n_before, sub, s_on), pe, pw,
