@@ -9,9 +9,11 @@ feasible observation is dominated by one of them) that
   ``R_u = te_u + a + |theta_u| / v`` and ``L_w = ts_w - |theta_w| / v``. The condition splits
   into one number per item on each side, so "the best plan ending before w" is a prefix
   maximum over the items sorted by ``R``;
-* opens the sensor at most c_j times (6): the plan is built level by level, level n holding
-  the best plan of at most n observations ending at each item (at most c_j levels, fewer when
-  a level adds nothing);
+* opens the sensor at most c_j times (6). One sweep over the items sorted by ``R`` first
+  gives the best plan of any length; when it has at most c_j observations it is the answer
+  (on the tuning set's searches, every call). Otherwise the plan is built level by level,
+  level n holding the best plan of at most n observations ending at each item (at most c_j
+  levels, fewer when a level adds nothing);
 * keeps (4) and (5). Their observation terms are sums over the plan; the slew term of (4) is
   ``es / v * (2 sum |theta| - |theta_first| - |theta_last|)`` over consecutive pairs, exact in
   the recursion (the first and the last observation each get ``es |theta| / v`` back). The
@@ -674,7 +676,7 @@ def _recursion(
     if cap <= 0:
         return empty, np.zeros(0, dtype=np.int64)
     value, path = _levels()(
-        g, firsts, lasts, order, np.ascontiguousarray(n_before, dtype=np.int64), cap
+        g, firsts, lasts, order, np.ascontiguousarray(n_before, dtype=np.int64), cap, 1
     )
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)
@@ -688,8 +690,13 @@ def _levels_py(
     order: np.ndarray,
     n_before: np.ndarray,
     cap: int,
+    sweep: int = 1,
 ) -> tuple[float, np.ndarray]:
     """The levels of :func:`_recursion` and the way back (compiled by numba, :func:`_levels`).
+
+    With ``sweep`` 1 (the callers' choice), one sweep without the cap first, and the levels
+    only when its plan is longer than ``cap`` (see below); 0: the levels alone (kept for
+    ``benchmarks/bench_planner.py``, which times one against the other).
 
     Level n holds, per position u, ``g[u] + max(first[u], best of level n - 1 over the first
     n_before[u] positions of order)``; a level equal (bit for bit) to the one before ends the
@@ -700,10 +707,58 @@ def _levels_py(
     fixed cost per call was most of the time.
     """
     m = g.shape[0]
+    # First one sweep without the cap: every predecessor of u is among the first n_before[u]
+    # positions of ``order`` and u is not (positive durations), so visiting the positions
+    # in that order gives each the best plan of any length ending there. When the best of
+    # these plans has at most ``cap`` observations it is the best under the cap too, and
+    # the levels (cap sweeps, or until two agree) are not needed: most plans are shorter.
+    s = np.empty(m)
+    pm = np.empty(m + 1)
+    run = -np.inf
+    pm[0] = run
+    ordered = sweep == 1
+    for k in range(m if ordered else 0):
+        u = order[k]
+        if n_before[u] > k:
+            ordered = False  # not a (3) order (u among its own predecessors): the levels
+            break
+        b = pm[n_before[u]]
+        f = first[u]
+        s[u] = (b if b > f else f) + g[u]
+        if s[u] > run:
+            run = s[u]
+        pm[k + 1] = run
+    if ordered:
+        best_u = 0
+        best_v = s[0] + last[0]
+        for u in range(1, m):
+            v = s[u] + last[u]
+            if v > best_v:
+                best_u, best_v = u, v
+        path = np.empty(cap, dtype=np.int64)
+        u = best_u
+        path[0] = u
+        count = 1
+        while True:
+            best = -np.inf
+            pick = -1
+            for k in range(n_before[u]):
+                x = s[order[k]]
+                if x > best:  # strict: the first position reaching the maximum
+                    best, pick = x, order[k]
+            if not best > first[u]:
+                break  # u starts the plan (or has no predecessor)
+            if count == cap:
+                count = cap + 1  # longer than the cap: the levels decide
+                break
+            u = pick
+            path[count] = u
+            count += 1
+        if count <= cap:
+            return best_v, path[:count][::-1].copy()
     lv = np.empty((cap, m))
     for u in range(m):
         lv[0, u] = g[u] + first[u]
-    pm = np.empty(m + 1)
     top = 1
     while top < cap:
         prev = lv[top - 1]
@@ -757,7 +812,7 @@ def _levels_py(
 #: :func:`_levels_py`'s numba signature.
 LEVELS_SIGNATURE = (
     "Tuple((float64, int64[::1]))(float64[::1], float64[::1], float64[::1], "
-    "int64[::1], int64[::1], int64)"
+    "int64[::1], int64[::1], int64, int64)"
 )
 
 

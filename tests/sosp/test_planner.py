@@ -82,6 +82,50 @@ def test_recursion_equals_enumeration_of_plans(seed: int) -> None:
             assert _penalised(o, path, price, lam_e, lam_w) == pytest.approx(value, abs=1e-9)
 
 
+def _capped_reference(g, first, last, order, n_before, cap) -> float:
+    """The best value of a chain of at most ``cap`` positions, level by level (numpy)."""
+    level = g + first
+    best = float(np.max(level + last))
+    for _ in range(cap - 1):
+        prefix = np.concatenate([[-np.inf], np.maximum.accumulate(level[order])])
+        level = np.maximum(first, prefix[n_before]) + g
+        best = max(best, float(np.max(level + last)))
+    return best
+
+
+def test_levels_kernel_with_and_without_the_cap_binding() -> None:
+    # the kernel's uncapped sweep is taken only when its plan fits the cap, the levels
+    # otherwise: both give the best chain of at most cap positions, compiled or not, and
+    # the same as the levels alone (sweep 0)
+    from sosp.planner import _levels, _levels_py, release_order
+
+    binding = fitting = 0
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        m = int(rng.integers(1, 40))
+        left = rng.uniform(0, 100, m)
+        right = left + rng.uniform(0.5, 10, m)
+        order, n_before = release_order(left, right)
+        n_before = n_before.astype(np.int64)
+        g = rng.normal(1.0, 2.0, m)
+        first = rng.uniform(0, 1, m) if seed % 2 else np.zeros(m)
+        last = rng.uniform(-1, 1, m) if seed % 3 else np.zeros(m)
+        uncapped = _capped_reference(g, first, last, order, n_before, m)
+        for cap in range(1, 8):
+            want = _capped_reference(g, first, last, order, n_before, cap)
+            binding += uncapped > want + 1e-9
+            fitting += uncapped <= want + 1e-9
+            for kernel, sweep in ((_levels_py, 1), (_levels(), 1), (_levels(), 0)):
+                value, path = kernel(g, first, last, order, n_before, cap, sweep)
+                assert value == pytest.approx(want, abs=1e-9), (seed, cap)
+                assert 1 <= len(path) <= cap
+                for u, w in itertools.pairwise(path):
+                    assert u in order[: n_before[w]]  # u may precede w by (3)
+                got = first[path[0]] + g[path].sum() + last[path[-1]]
+                assert got == pytest.approx(value, abs=1e-9)
+    assert binding >= 40 and fitting >= 40
+
+
 @pytest.mark.parametrize("seed", range(10))
 def test_sparse_and_bincount_gains_agree(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """Both ways of summing prices per position (large orbits take the CSR product) give the
