@@ -54,11 +54,30 @@ SMOOTHING = 0.5
 _RC_TOL = 1e-7
 
 #: Subset-row cut separation rounds (100 cuts each at most) at the branch and price's root
-#: (:func:`branch_and_price`). Bound after 600 s on C5 for 0 / 1 / 3 / 10 rounds: 2217 /
-#: 2217 / 2213 / 2220 (10 rounds leave time for 2 nodes); C7 0 / 3: 2889 / 2884; C9 3501 /
-#: 3495. With the faster cut pricing of 46d7e0b, 3 rounds: C5 2210, C7 2880, C9 3491, C10
-#: 3880 (``docs/exact.md``, "Subset-row cuts in the branch and price").
+#: (:func:`branch_and_price`) of a run shorter than :data:`LONG_RUN_S`. Bound after 600 s on
+#: C5 for 0 / 1 / 3 / 10 rounds: 2217 / 2217 / 2213 / 2220 (10 rounds leave time for 2
+#: nodes); C7 0 / 3: 2889 / 2884; C9 3501 / 3495. With the faster cut pricing of 46d7e0b,
+#: 3 rounds: C5 2210, C7 2880, C9 3491, C10 3880 (``docs/exact.md``, "Subset-row cuts in
+#: the branch and price"). At 60 s 3 rounds against 5 over C5, C9 and three instances of the
+#: tuning set: two a unit lower, two equal (na-1000 proven only with 3), one a unit higher.
 CUT_ROUNDS = 3
+
+#: Root rounds of a run of at least :data:`LONG_RUN_S` seconds, or of no time limit. At 600 s
+#: on C5-C10, 5 rounds against 3: C5 2211 / 2210, C6 2592 / 2594, C7 2876 / 2880, C8 3194 /
+#: 3196, C9 3490 / 3491, C10 3878 / 3880 (8 rounds on C7: 2877).
+LONG_CUT_ROUNDS = 5
+
+#: See :data:`LONG_CUT_ROUNDS` (between the 60 s and the 600 s runs it was chosen on).
+LONG_RUN_S = 300.0
+
+
+def root_cut_rounds(time_limit: float | None) -> int:
+    """The branch and price's default root cut rounds for a run of ``time_limit`` seconds:
+    more cuts lower the root, but each round slows every node's pricing, which pays only on
+    long runs (:data:`CUT_ROUNDS`, :data:`LONG_CUT_ROUNDS`)."""
+    long = time_limit is None or float(time_limit) >= LONG_RUN_S
+    return LONG_CUT_ROUNDS if long else CUT_ROUNDS
+
 
 #: Separation rounds in each node below the root (the cuts hold for every schedule, so one
 #: found in a node joins the pool every later node keeps), and the cuts each adds at most.
@@ -404,7 +423,7 @@ def colgen_bound(
         See :func:`column_generation` (None: no such stop).
     cut_rounds
         Subset-row cut separation rounds at the branching's root (:func:`branch_and_price`;
-        None: :data:`CUT_ROUNDS`, 0: none).
+        None: :func:`root_cut_rounds` of ``time_limit``, 0: none).
 
     Returns
     -------
@@ -422,9 +441,6 @@ def colgen_bound(
         and its ``profit`` when it ended on a node with nothing fractional whose plans the
         referee accepts as a schedule (a lower bound; the optimum when it meets ``bound``).
     """
-    if branch and (CUT_ROUNDS if cut_rounds is None else cut_rounds):
-        cut_levels()  # compiled (or loaded) before the clock starts, as the planner's kernels
-    t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
         raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
     if not 0.0 <= float(smoothing) < 1.0:
@@ -433,6 +449,11 @@ def colgen_bound(
         isinstance(cut_rounds, bool) or not isinstance(cut_rounds, int) or cut_rounds < 0
     ):
         raise InputError(f"cut_rounds: expected a non-negative integer, got {cut_rounds!r}")
+    if cut_rounds is None:
+        cut_rounds = root_cut_rounds(time_limit)
+    if branch and cut_rounds:
+        cut_levels()  # compiled (or loaded) before the clock starts, as the planner's kernels
+    t0 = time.perf_counter()
     deadline = None if time_limit is None else t0 + float(time_limit)
     root_deadline = deadline
     if root_time_limit is not None:
@@ -502,7 +523,7 @@ def colgen_bound(
     if branch and converged and not proven:
         answer, nodes, final = branch_and_price(
             p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound,
-            report=report, cut_rounds=CUT_ROUNDS if cut_rounds is None else cut_rounds,
+            report=report, cut_rounds=cut_rounds,
         )  # fmt: skip
         result["nodes"] = nodes
         result["bound"] = min(bound, float(math.floor(answer + 1e-6)))
