@@ -716,11 +716,11 @@ def _levels_py(
     pm = np.empty(m + 1)
     run = -np.inf
     pm[0] = run
-    ordered = sweep == 1
-    for k in range(m if ordered else 0):
+    use_sweep = sweep == 1
+    for k in range(m if use_sweep else 0):
         u = order[k]
         if n_before[u] > k:
-            ordered = False  # not a (3) order (u among its own predecessors): the levels
+            use_sweep = False  # not a (3) order (u among its own predecessors): the levels
             break
         b = pm[n_before[u]]
         f = first[u]
@@ -728,85 +728,68 @@ def _levels_py(
         if s[u] > run:
             run = s[u]
         pm[k + 1] = run
-    if ordered:
+    lv = np.empty((cap, m))
+    path = np.empty(cap, dtype=np.int64)
+    top = cap
+    while True:
+        if not use_sweep:
+            for u in range(m):
+                lv[0, u] = g[u] + first[u]
+            top = 1
+            while top < cap:
+                prev = lv[top - 1]
+                run = -np.inf
+                pm[0] = run
+                for k in range(m):
+                    x = prev[order[k]]
+                    if x > run:
+                        run = x
+                    pm[k + 1] = run
+                cur = lv[top]
+                same = True
+                for u in range(m):
+                    b = pm[n_before[u]]
+                    f = first[u]
+                    v = (b if b > f else f) + g[u]
+                    cur[u] = v
+                    if same and (
+                        v != prev[u] or math.copysign(1.0, v) != math.copysign(1.0, prev[u])
+                    ):
+                        same = False
+                top += 1
+                if same:
+                    break
+        end = s if use_sweep else lv[top - 1]
         best_u = 0
-        best_v = s[0] + last[0]
+        best_v = end[0] + last[0]
         for u in range(1, m):
-            v = s[u] + last[u]
+            v = end[u] + last[u]
             if v > best_v:
                 best_u, best_v = u, v
-        path = np.empty(cap, dtype=np.int64)
         u = best_u
         path[0] = u
         count = 1
-        while True:
+        n = top  # levels left below the plan's last position (the sweep: no such limit)
+        while use_sweep or n > 1:
+            prev = s if use_sweep else lv[n - 2]
             best = -np.inf
             pick = -1
             for k in range(n_before[u]):
-                x = s[order[k]]
+                x = prev[order[k]]
                 if x > best:  # strict: the first position reaching the maximum
                     best, pick = x, order[k]
             if not best > first[u]:
                 break  # u starts the plan (or has no predecessor)
             if count == cap:
-                count = cap + 1  # longer than the cap: the levels decide
+                count = cap + 1  # the sweep's plan is longer than the cap
                 break
             u = pick
             path[count] = u
             count += 1
+            n -= 1
         if count <= cap:
             return best_v, path[:count][::-1].copy()
-    lv = np.empty((cap, m))
-    for u in range(m):
-        lv[0, u] = g[u] + first[u]
-    top = 1
-    while top < cap:
-        prev = lv[top - 1]
-        run = -np.inf
-        pm[0] = run
-        for k in range(m):
-            x = prev[order[k]]
-            if x > run:
-                run = x
-            pm[k + 1] = run
-        cur = lv[top]
-        same = True
-        for u in range(m):
-            b = pm[n_before[u]]
-            f = first[u]
-            v = (b if b > f else f) + g[u]
-            cur[u] = v
-            if same and (v != prev[u] or math.copysign(1.0, v) != math.copysign(1.0, prev[u])):
-                same = False
-        top += 1
-        if same:
-            break
-    best_u = 0
-    best_v = lv[top - 1, 0] + last[0]
-    for u in range(1, m):
-        v = lv[top - 1, u] + last[u]
-        if v > best_v:
-            best_u, best_v = u, v
-    path = np.empty(top, dtype=np.int64)
-    u = best_u
-    path[0] = u
-    count = 1
-    n = top
-    while n > 1:
-        prev = lv[n - 2]
-        best = -np.inf
-        pick = -1
-        for k in range(n_before[u]):
-            x = prev[order[k]]
-            if x > best:  # strict: the first position reaching the maximum
-                best, pick = x, order[k]
-        if not best > first[u]:
-            break  # u starts the plan (or has no predecessor)
-        u = pick
-        path[count] = u
-        count += 1
-        n -= 1
-    return best_v, path[:count][::-1].copy()
+        use_sweep = False  # the levels decide
 
 
 #: :func:`_levels_py`'s numba signature.
