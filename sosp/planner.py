@@ -728,11 +728,12 @@ def _levels_py(
         if s[u] > run:
             run = s[u]
         pm[k + 1] = run
-    lv = np.empty((cap, m))
+    lv = np.empty((0, m))  # the levels, allocated only when they run
     path = np.empty(cap, dtype=np.int64)
     top = cap
     while True:
         if not use_sweep:
+            lv = np.empty((cap, m))
             for u in range(m):
                 lv[0, u] = g[u] + first[u]
             top = 1
