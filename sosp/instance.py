@@ -144,12 +144,19 @@ _NPZ_KIND_NAMES = {"f": "float64", "i": "an integer dtype", "U": "a unicode stri
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 
 
+#: The largest ``max_openings`` accepted (a plan never has more observations than an orbit
+#: has opportunities; a larger value would not fit the planner's integers).
+MAX_OPENINGS = 2**31 - 1
+
+
 def _check_resource(key: str, value: Any, where: str) -> None:
     if not is_finite_number(value):
         raise InputError(f"{where}.{key}: expected a finite number, got {value!r}")
     if key == "max_openings":
-        if float(value) != int(value) or value < 0:
-            raise InputError(f"{where}.{key}: expected a non-negative integer, got {value!r}")
+        if float(value) != int(value) or value < 0 or value > MAX_OPENINGS:
+            raise InputError(
+                f"{where}.{key}: expected an integer from 0 to {MAX_OPENINGS}, got {value!r}"
+            )
     elif key in ("slew_rate", "max_duration"):
         if value <= 0:
             raise InputError(f"{where}.{key}: must be > 0, got {value!r}")
@@ -160,7 +167,7 @@ def _check_resource(key: str, value: Any, where: str) -> None:
 def _check_resource_column(key: str, arr: np.ndarray, source: str | None) -> None:
     """Vectorised :func:`_check_resource` over a per-orbit column (first bad row named)."""
     if key == "max_openings":
-        bad = ~np.isfinite(arr) | (arr < 0) | (arr != np.round(arr))
+        bad = ~np.isfinite(arr) | (arr < 0) | (arr != np.round(arr)) | (arr > MAX_OPENINGS)
     elif key in ("slew_rate", "max_duration"):
         bad = ~np.isfinite(arr) | (arr <= 0)
     else:

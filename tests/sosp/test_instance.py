@@ -113,6 +113,8 @@ BAD = [
     ("negative capacity", mutate("orbits.0.energy_capacity", -1), "orbits[0].energy_capacity"),
     ("zero slew rate", mutate("orbits.0.slew_rate", 0), "orbits[0].slew_rate"),
     ("fractional openings", mutate("orbits.0.max_openings", 2.5), "orbits[0].max_openings"),
+    # finite and integral, but beyond any integer the planner holds (was cast to garbage)
+    ("huge openings", mutate("orbits.0.max_openings", 1e20), "orbits[0].max_openings"),
     ("missing resource", mutate("orbits.0.setup_time", KeyError), "missing key 'setup_time'"),
     ("bad epoch", mutate("epoch", "yesterday"), "epoch"),
     ("local epoch", mutate("epoch", "2026-01-01T00:00:00+02:00"), "must be UTC"),
@@ -156,6 +158,8 @@ def test_resources_validate_in_post_init() -> None:
         Resources(slew_rate=0)
     with pytest.raises(InputError, match="resources.max_openings"):
         Resources(max_openings=-1)
+    with pytest.raises(InputError, match="resources.max_openings: expected an integer from 0"):
+        Resources(max_openings=2**31)
     with pytest.raises(InputError, match="resources.energy_capacity"):
         Resources(energy_capacity=float("inf"))
 
