@@ -303,7 +303,7 @@ BAD_FILES: dict[str, tuple[Callable[[Path], None], str]] = {
     ),
     "negative openings": (
         tampered(put("orbits.max_openings", [-1])),
-        r"orbits\[0\].max_openings: expected a non-negative integer",
+        r"orbits\[0\].max_openings: expected an integer from 0 to 2147483647, got -1",
     ),
 }
 
