@@ -182,8 +182,9 @@ def orbit_cuts(
     n_before: np.ndarray,
     hits: Sequence[tuple[np.ndarray, np.ndarray]] | CutEntries,
     sigma: np.ndarray,
+    kernel: Callable[..., tuple[Any, ...]] | None = None,
 ) -> OrbitCuts:
-    """Arrange cuts for one orbit.
+    """Arrange cuts for one orbit (:func:`arrange_py`).
 
     Parameters
     ----------
@@ -195,100 +196,140 @@ def orbit_cuts(
         many (with multiplicity), positions distinct; or their :class:`CutEntries`.
     sigma
         Per cut, its dual (>= 0; cuts at 0 are skipped).
+    kernel
+        :func:`arrange_py` or a compiled copy (None: the compiled one, :func:`arrange`).
     """
     ent = hits if isinstance(hits, CutEntries) else cut_entries(rank, n_before, hits)
-    m = len(rank)
-    sigma = np.asarray(sigma, dtype=float)
-    live = (sigma > 0.0) & (ent.hi >= 0)
-    slotted = np.flatnonzero(live & ent.chained)
-    by_rank = np.empty(m, dtype=np.int64)
-    by_rank[rank] = np.arange(m)
-    slot_of, keep, carry = cut_slots()(
-        np.ascontiguousarray(slotted[np.argsort(ent.lo[slotted], kind="stable")]),
-        ent.lo, ent.hi, by_rank, np.ascontiguousarray(n_before, dtype=np.int64), len(sigma),
+    run = arrange() if kernel is None else kernel
+    ptr, slot, a, hit_sigma, read, carry, keep, close, slot_sigma, direct, exact = run(
+        np.ascontiguousarray(rank, dtype=np.int64),
+        np.ascontiguousarray(n_before, dtype=np.int64),
+        ent.cut, ent.pos, ent.a, ent.lo, ent.hi, ent.chained,
+        np.ascontiguousarray(sigma, dtype=float),
     )  # fmt: skip
-    exact = bool((slot_of[slotted] >= 0).all())
-    # outright: the cuts a plan hits once at most, and (optimistically) those left unslotted
-    direct = np.zeros(m)
-    e_sigma = sigma[ent.cut]
-    outright = live[ent.cut] & (slot_of[ent.cut] < 0)
-    np.add.at(direct, ent.pos[outright], e_sigma[outright] * ((ent.a[outright] + 1) // 2))
-    on = live[ent.cut] & (slot_of[ent.cut] >= 0)
-    pos, cut = ent.pos[on], ent.cut[on]
-    by_pos = np.argsort(pos, kind="stable")
-    pos, cut = pos[by_pos], cut[by_pos]
-    ptr = np.zeros(m + 1, dtype=np.int64)
-    np.cumsum(np.bincount(pos, minlength=m), out=ptr[1:])
-    slots = slot_of[slotted]
-    slots = slots[slots >= 0]
-    kept = slotted[slot_of[slotted] >= 0]
-    bits = np.left_shift(np.int64(1), slots.astype(np.int64))
-    slot_sigma = np.zeros(SLOTS)
-    np.maximum.at(slot_sigma, slots, sigma[kept])
-    close = np.zeros(m + 1, dtype=np.int64)
-    np.bitwise_or.at(close, ent.hi[kept], bits)
     return OrbitCuts(
         hit_ptr=ptr,
-        hit_slot=slot_of[cut],
-        hit_a=np.ascontiguousarray(ent.a[on][by_pos]),
-        hit_sigma=np.ascontiguousarray(sigma[cut]),
-        hit_read=(ent.lo[cut] < n_before[pos]).astype(np.int64),
+        hit_slot=slot,
+        hit_a=a,
+        hit_sigma=hit_sigma,
+        hit_read=read,
         carry=carry,
         keep=keep,
         close=close,
         slot_sigma=slot_sigma,
         direct=direct,
-        exact=exact,
+        exact=bool(exact),
     )
 
 
-def cut_slots_py(
-    by_lo: np.ndarray,
+def arrange_py(
+    rank: np.ndarray,
+    n_before: np.ndarray,
+    cut: np.ndarray,
+    pos: np.ndarray,
+    a: np.ndarray,
     lo: np.ndarray,
     hi: np.ndarray,
-    by_rank: np.ndarray,
-    n_before: np.ndarray,
-    n_cuts: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Slots for the cuts ``by_lo`` (sorted by their first relevant rank ``lo``), and each
-    position's ``keep`` and ``carry`` masks (:class:`OrbitCuts`); compiled by numba
-    (:func:`cut_slots`).
+    chained: np.ndarray,
+    sigma: np.ndarray,
+) -> tuple[Any, ...]:
+    """:class:`OrbitCuts`' arrays (in field order, ``exact`` last) from a :class:`CutEntries`
+    (``cut`` .. ``chained``) and the cuts' duals ``sigma``; compiled by numba
+    (:func:`arrange`), as the pricing arranges an orbit's cuts on every call.
 
-    Interval colouring: a cut takes the lowest slot whose last cut ended (``hi``) before its
-    ``lo``, none when all 64 are busy. Its bit is kept by the positions of ranks ``lo .. hi
-    - 1`` and carried by those of them whose prefix holds rank ``lo``.
+    Slots: the live cuts (``sigma > 0``, hit by the orbit) that a plan can hit twice
+    (``chained``), taken by their first relevant rank ``lo`` (ties by index), each get the
+    lowest slot whose last cut ended (``hi``) before its ``lo``, none when all 64 are busy
+    (then ``exact`` is False). Its bit is kept by the positions of ranks ``lo .. hi - 1`` and
+    carried by those of them whose prefix holds rank ``lo``. A live cut without a slot is
+    priced outright: each of its entries adds ``sigma ceil(a / 2)`` to its position's
+    ``direct``. The slotted cuts' entries, grouped by position in entry order, are the hits.
     """
-    m = by_rank.shape[0]
+    m = rank.shape[0]
+    n_cuts = sigma.shape[0]
+    live = np.zeros(n_cuts, dtype=np.bool_)
+    n_slotted = 0
+    for c in range(n_cuts):
+        live[c] = sigma[c] > 0.0 and hi[c] >= 0
+        if live[c] and chained[c]:
+            n_slotted += 1
+    slotted = np.empty(n_slotted, dtype=np.int64)
+    j = 0
+    for c in range(n_cuts):
+        if live[c] and chained[c]:
+            slotted[j] = c
+            j += 1
+    by_lo = slotted[np.argsort(lo[slotted], kind="mergesort")]
+    by_rank = np.empty(m, dtype=np.int64)
+    for u in range(m):
+        by_rank[rank[u]] = u
     slot_of = np.full(n_cuts, -1, dtype=np.int64)
     slot_end = np.full(SLOTS, -1, dtype=np.int64)
     keep = np.zeros(m, dtype=np.int64)
     carry = np.zeros(m, dtype=np.int64)
+    slot_sigma = np.zeros(SLOTS)
+    close = np.zeros(m + 1, dtype=np.int64)
+    exact = True
     for c in by_lo:
-        a = lo[c]
+        first = lo[c]
         for b in range(SLOTS):
-            if slot_end[b] < a:
+            if slot_end[b] < first:
                 slot_of[c] = b
                 slot_end[b] = hi[c]
                 bit = np.int64(1) << b
-                for r in range(a, hi[c]):
+                for r in range(first, hi[c]):
                     u = by_rank[r]
                     keep[u] |= bit
-                    if a < n_before[u]:
+                    if first < n_before[u]:
                         carry[u] |= bit
+                slot_sigma[b] = max(slot_sigma[b], sigma[c])
+                close[hi[c]] |= bit
                 break
-    return slot_of, keep, carry
+        if slot_of[c] < 0:
+            exact = False
+    direct = np.zeros(m)
+    ptr = np.zeros(m + 1, dtype=np.int64)
+    for e in range(cut.shape[0]):
+        c = cut[e]
+        if live[c]:
+            if slot_of[c] < 0:
+                direct[pos[e]] += sigma[c] * ((a[e] + 1) // 2)
+            else:
+                ptr[pos[e] + 1] += 1
+    for u in range(m):
+        ptr[u + 1] += ptr[u]
+    fill = ptr[:m].copy()
+    n_hits = ptr[m]
+    hit_slot = np.empty(n_hits, dtype=np.int64)
+    hit_a = np.empty(n_hits, dtype=np.int64)
+    hit_sigma = np.empty(n_hits)
+    hit_read = np.empty(n_hits, dtype=np.int64)
+    for e in range(cut.shape[0]):
+        c = cut[e]
+        if live[c] and slot_of[c] >= 0:
+            u = pos[e]
+            q = fill[u]
+            fill[u] += 1
+            hit_slot[q] = slot_of[c]
+            hit_a[q] = a[e]
+            hit_sigma[q] = sigma[c]
+            hit_read[q] = 1 if lo[c] < n_before[u] else 0
+    return (
+        ptr, hit_slot, hit_a, hit_sigma, hit_read, carry, keep, close, slot_sigma, direct, exact
+    )  # fmt: skip
 
 
-#: :func:`cut_slots_py`'s numba signature.
-CUT_SLOTS_SIGNATURE = (
-    "Tuple((int64[::1], int64[::1], int64[::1]))(int64[::1], int64[::1], int64[::1], "
-    "int64[::1], int64[::1], int64)"
+#: :func:`arrange_py`'s numba signature.
+ARRANGE_SIGNATURE = (
+    "Tuple((int64[::1], int64[::1], int64[::1], float64[::1], int64[::1], int64[::1], "
+    "int64[::1], int64[::1], float64[::1], float64[::1], boolean))(int64[::1], int64[::1], "
+    "int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], boolean[::1], float64[::1])"
 )
 
 
-def cut_slots() -> Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """:func:`cut_slots_py` compiled by numba on first use (cached on disk)."""
-    return compiled(cut_slots_py, CUT_SLOTS_SIGNATURE)
+def arrange() -> Callable[..., tuple[Any, ...]]:
+    """:func:`arrange_py` compiled by numba on first use (cached on disk)."""
+    return compiled(arrange_py, ARRANGE_SIGNATURE)
 
 
 def cut_levels_py(
@@ -542,8 +583,8 @@ CUT_LEVELS_SIGNATURE = (
 
 def cut_levels() -> Callable[..., tuple[float, np.ndarray, int]]:
     """:func:`cut_levels_py` compiled by numba on first use (cached on disk); loads
-    :func:`cut_slots` too, so one call before a clock starts loads both."""
-    cut_slots()
+    :func:`arrange` too, so one call before a clock starts loads both."""
+    arrange()
     return compiled(cut_levels_py, CUT_LEVELS_SIGNATURE)
 
 

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from models.subset_row import (
+    arrange_py,
     cut_levels,
     cut_levels_py,
     label_best,
@@ -72,6 +73,45 @@ def _run(kernel, g, first, last, order, n_before, cap, cuts, max_labels=512, sin
     )  # fmt: skip
 
 
+_ARRANGEMENT = (
+    "hit_ptr", "hit_slot", "hit_a", "hit_sigma", "hit_read", "carry", "keep", "close",
+    "slot_sigma", "direct",
+)  # fmt: skip
+
+
+def _assert_same_arrangement(a, b) -> None:
+    for field in _ARRANGEMENT:
+        x, y = getattr(a, field), getattr(b, field)
+        assert x.dtype == y.dtype and np.array_equal(x, y), field
+    assert a.exact == b.exact
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), m=st.integers(1, 80), n_cuts=st.integers(0, 150))
+def test_compiled_arrangement_equals_python(seed: int, m: int, n_cuts: int) -> None:
+    """The compiled :func:`arrange_py` gives the same arrays, bit for bit, also with more
+    open cuts than slots (then not exact)."""
+    rng = np.random.default_rng(seed)
+    _, rank, n_before = _orbit(rng, m)
+    hits, sigma = _cuts(rng, m, n_cuts)
+    compiled = orbit_cuts(rank, n_before, hits, sigma)
+    _assert_same_arrangement(compiled, orbit_cuts(rank, n_before, hits, sigma, kernel=arrange_py))
+    assert compiled.hit_ptr[-1] == len(compiled.hit_slot)
+    assert compiled.exact == _fits(rank, n_before, hits, sigma)
+
+
+def _fits(rank, n_before, hits, sigma) -> bool:
+    """Whether at most 64 live cuts that a plan can hit twice are open at any rank: taking
+    the cuts by first rank, the lowest free slot needs exactly that many (interval graphs)."""
+    depth = np.zeros(len(rank) + 1, dtype=np.int64)
+    for (pos, _), s in zip(hits, sigma, strict=True):
+        r = rank[pos]
+        if s > 0 and len(pos) and r.min() < n_before[pos].max():
+            depth[r.min()] += 1
+            depth[r.max() + 1] -= 1
+    return bool(np.cumsum(depth).max() <= 64)
+
+
 @settings(max_examples=150, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), m=st.integers(1, 10), n_cuts=st.integers(0, 8))
 def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
@@ -84,6 +124,7 @@ def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
     hits, sigma = _cuts(rng, m, n_cuts)
     cuts = orbit_cuts(rank, n_before, hits, sigma)
     assert cuts.exact
+    _assert_same_arrangement(cuts, orbit_cuts(rank, n_before, hits, sigma, kernel=arrange_py))
     want = _enumerate(g, first, last, rank, n_before, cap, hits, sigma)
     unbounded = _enumerate(g, first, last, rank, n_before, m, hits, sigma)
     for kernel in (cut_levels_py, cut_levels()):
