@@ -270,6 +270,12 @@ def arrange_py(
     slot_sigma = np.zeros(SLOTS)
     close = np.zeros(m + 1, dtype=np.int64)
     exact = True
+    # a slot's cuts have disjoint rank spans, so a bit flipped at each end of a span and
+    # xor-ed along the ranks is set exactly on ranks lo .. hi - 1 (``flip``)
+    flip = np.zeros(m + 1, dtype=np.int64)
+    start = np.empty(len(by_lo), dtype=np.int64)  # the slotted cuts' lo, ascending
+    start_bit = np.empty(len(by_lo), dtype=np.int64)
+    n_start = 0
     for c in by_lo:
         first = lo[c]
         for b in range(SLOTS):
@@ -277,16 +283,35 @@ def arrange_py(
                 slot_of[c] = b
                 slot_end[b] = hi[c]
                 bit = np.int64(1) << b
-                for r in range(first, hi[c]):
-                    u = by_rank[r]
-                    keep[u] |= bit
-                    if first < n_before[u]:
-                        carry[u] |= bit
+                flip[first] ^= bit
+                flip[hi[c]] ^= bit
+                start[n_start] = first
+                start_bit[n_start] = bit
+                n_start += 1
                 slot_sigma[b] = max(slot_sigma[b], sigma[c])
                 close[hi[c]] |= bit
                 break
         if slot_of[c] < 0:
             exact = False
+    # Position u at rank r keeps the bits open there and carries those whose cut's lo lies
+    # in its prefix (lo < n_before[u]): all but the cuts that started at ranks n_before[u]
+    # .. r (the one in a slot at r is the slot's latest start; few start that close to r).
+    mask = np.int64(0)
+    begun = 0  # the cuts with lo <= r
+    for r in range(m):
+        mask ^= flip[r]
+        while begun < n_start and start[begun] <= r:
+            begun += 1
+        if mask == 0:
+            continue
+        u = by_rank[r]
+        keep[u] = mask
+        recent = np.int64(0)
+        q = begun - 1
+        while q >= 0 and start[q] >= n_before[u]:
+            recent |= start_bit[q]
+            q -= 1
+        carry[u] = mask & ~recent
     direct = np.zeros(m)
     ptr = np.zeros(m + 1, dtype=np.int64)
     for e in range(cut.shape[0]):
