@@ -559,6 +559,28 @@ class _Node:
     cover: dict[tuple[int, int], float] | None
     support: tuple[int, ...] = ()
     sigma: np.ndarray | None = None  # subset-row cut duals (per cut of the pool), or None
+    basis: _Basis | None = None  # its last master's basis (the children's masters start there)
+
+
+@dataclass(frozen=True, eq=False)
+class _Basis:
+    """A node's last master basis by what each row and column stands for, so a child's
+    master (other rows, other columns) can start from it: statuses as
+    ``highspy.HighsBasisStatus`` values, -1 where the master had no such row or column.
+
+    ``target_col`` and ``target_row`` hold, per target, its ``z_k`` (or forced slack) column
+    and its coverage (or forcing) row, ``orbit_row`` the convexity and knapsack rows, ``y``
+    and ``y_status`` the pool's columns the master held, ``cut`` and ``cut_status`` its cut
+    rows.
+    """
+
+    target_col: np.ndarray
+    target_row: np.ndarray
+    orbit_row: np.ndarray
+    y: np.ndarray
+    y_status: np.ndarray
+    cut: np.ndarray
+    cut_status: np.ndarray
 
 
 class _Columns:
@@ -758,6 +780,7 @@ def _solve_node(
     sigma_m = _padded(None, cuts)
     alpha = 0.0
     resolve = False  # cuts were just added: solve the master before pricing again
+    warm = node.basis  # the parent's basis, for this master's first solve
     sep_s = 0.5  # the longest separation so far (seconds)
     while deadline is None or time.perf_counter() < deadline:
         if not resolve:
@@ -799,7 +822,14 @@ def _solve_node(
         resolve = False
         left = None if deadline is None else deadline - time.perf_counter()
         allow_seconds(h, left)
+        if warm is not None:
+            _start_basis(h, warm, free, fk, in_lp, cut_ids)
         h.run()
+        if warm is not None and h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+            h.clearSolver()  # not expected; then from scratch, as without a parent's basis
+            allow_seconds(h, None if deadline is None else deadline - time.perf_counter())
+            h.run()
+        warm = None
         if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             return replace(node, cover=None)
         m_value = -float(h.getInfo().objective_function_value) + float(pf.sum())
@@ -865,9 +895,66 @@ def _solve_node(
                     for k in tg:
                         key = (int(k), g)
                         cover[key] = cover.get(key, 0.0) + float(yi)
-            return replace(node, cover=cover, support=tuple(support))
+            last = h.getBasis()
+            col_status = np.array([int(x) for x in last.col_status], dtype=np.int8)
+            row_status = np.array([int(x) for x in last.row_status], dtype=np.int8)
+            target_col = np.full(len(p), -1, dtype=np.int8)
+            target_col[free] = col_status[:nf]
+            target_col[fk] = col_status[nf:first_y]
+            target_row = np.full(len(p), -1, dtype=np.int8)
+            target_row[free] = row_status[:nf]
+            target_row[fk] = row_status[nf:base]
+            basis = _Basis(
+                target_col, target_row, row_status[base:cut0].copy(),
+                np.array(in_lp, dtype=np.int64), col_status[first_y:].copy(),
+                np.array(cut_ids, dtype=np.int64), row_status[cut0:].copy(),
+            )  # fmt: skip
+            return replace(node, cover=cover, support=tuple(support), basis=basis)
         alpha = smoothing
     return replace(node, cover=None)
+
+
+def _start_basis(
+    h: Any,
+    parent: _Basis,
+    free: np.ndarray,
+    forced: np.ndarray,
+    in_lp: Sequence[int],
+    cut_ids: Sequence[int],
+) -> None:
+    """Give the master ``h`` (rows: free targets, forced targets, orbits, cuts ``cut_ids``;
+    columns: free targets' ``z_k``, forced targets' slacks, the pool's ``in_lp``) the
+    parent's basis where the two share a row or column, as an alien basis (HiGHS makes it
+    square and nonsingular): a basic row or column stays basic, a nonbasic one sits at its
+    finite bound, and what the parent lacked is nonbasic (a column) or basic (a cut row).
+
+    A child's master differs from its parent's by one branching, so its first solve starts
+    near the parent's optimum rather than from the slack basis: the first solve was a third
+    of a C5 node's simplex time (2,500 iterations against 130 per later re-solve).
+    """
+    import highspy
+
+    st = highspy.HighsBasisStatus
+    lower, basic, upper = int(st.kLower), int(st.kBasic), int(st.kUpper)
+    z = parent.target_col[free]
+    z = np.where(z == basic, basic, np.where(z == upper, upper, lower))  # z_k in [0, 1]
+    slack = np.where(parent.target_col[forced] == basic, basic, lower)  # in [0, inf)
+    held = dict(zip(parent.y.tolist(), parent.y_status.tolist(), strict=True))
+    y = np.array([held.get(i, lower) for i in in_lp], dtype=np.int64)
+    y = np.where(y == basic, basic, lower)
+    cover_row = np.where(parent.target_row[free] == basic, basic, upper)  # <= 0
+    forcing_row = np.where(parent.target_row[forced] == basic, basic, lower)  # >= 1
+    orbit_row = np.where(parent.orbit_row == basic, basic, upper)  # <= 1, capacities
+    had = dict(zip(parent.cut.tolist(), parent.cut_status.tolist(), strict=True))
+    cut_row = np.array([had.get(c, basic) for c in cut_ids], dtype=np.int64)
+    cut_row = np.where(cut_row == basic, basic, upper)  # <= rhs
+    basis = highspy.HighsBasis()
+    basis.col_status = [st(int(x)) for x in np.concatenate([z, slack, y])]
+    basis.row_status = [
+        st(int(x)) for x in np.concatenate([cover_row, forcing_row, orbit_row, cut_row])
+    ]
+    basis.alien = True
+    h.setBasis(basis)
 
 
 #: A node's master starts with every column of the pool while it has at most this many;

@@ -209,6 +209,36 @@ def test_branch_and_price_with_a_restricted_start_master(monkeypatch, seed, opti
     assert out["bound"] == optimum
 
 
+@pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (105, 23), (226, 34)])
+def test_children_start_from_their_parents_basis(monkeypatch, seed, optimum) -> None:
+    # every child's first solve is given its parent's basis; with it, and with an absurd
+    # alien basis (every row and column basic), the answer is the same optimum
+    import highspy
+
+    import models.colgen as colgen
+
+    real = colgen._start_basis
+    given: list[int] = []
+
+    def counted(h, parent, free, forced, in_lp, cut_ids):
+        given.append(len(in_lp))
+        real(h, parent, free, forced, in_lp, cut_ids)
+
+    monkeypatch.setattr(colgen, "_start_basis", counted)
+    out = colgen_bound(random_tiny(seed), branch=True)
+    assert out["bound"] == optimum and len(given) == out["nodes"] >= 2
+
+    def absurd(h, parent, free, forced, in_lp, cut_ids):
+        basis = highspy.HighsBasis()
+        basis.col_status = [highspy.HighsBasisStatus.kBasic] * h.getNumCol()
+        basis.row_status = [highspy.HighsBasisStatus.kBasic] * h.getNumRow()
+        basis.alien = True
+        h.setBasis(basis)
+
+    monkeypatch.setattr(colgen, "_start_basis", absurd)
+    assert colgen_bound(random_tiny(seed), branch=True)["bound"] == optimum
+
+
 @settings(max_examples=30, deadline=None)
 @given(inst=small_instances())
 def test_restricted_start_masters_never_below_the_optimum(inst: Instance) -> None:
