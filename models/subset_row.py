@@ -247,18 +247,8 @@ def arrange_py(
     """
     m = rank.shape[0]
     n_cuts = sigma.shape[0]
-    live = np.zeros(n_cuts, dtype=np.bool_)
-    n_slotted = 0
-    for c in range(n_cuts):
-        live[c] = sigma[c] > 0.0 and hi[c] >= 0
-        if live[c] and chained[c]:
-            n_slotted += 1
-    slotted = np.empty(n_slotted, dtype=np.int64)
-    j = 0
-    for c in range(n_cuts):
-        if live[c] and chained[c]:
-            slotted[j] = c
-            j += 1
+    live = (sigma > 0.0) & (hi >= 0)
+    slotted = np.flatnonzero(live & chained)
     by_lo = slotted[np.argsort(lo[slotted], kind="mergesort")]
     by_rank = np.empty(m, dtype=np.int64)
     for u in range(m):
