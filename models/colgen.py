@@ -668,13 +668,14 @@ def _solve_node(
 
     bounds the node's optimum (the coverage and forcing rows relaxed).
 
-    With ``cuts``, the master also holds the pool's subset-row cuts
-    (:mod:`models.subset_row`) that the node keeps: over targets S with F = S's forced
-    targets, ``sum_{free k in S} z_k - sum_P ceil(h_SP / 2) y_P <= 1 - |F|`` (valid: the
-    forced z are 1, and the node's counted covers are at most the real ones), for ``|F| <=
-    1`` (a cut with more is dropped here, which only weakens the node). Their duals
-    ``sigma >= 0`` add ``sum_S sigma_S (1 - |F|)`` to L, take ``sigma_S`` from each free
-    ``z_k`` of S and give each plan its earning ``sigma_S ceil(h_SP / 2)``
+    With ``cuts``, the master also holds the pool's cuts (:class:`models.subset_row.CutPool`:
+    targets S and orbits G) that the node keeps: with F = S's forced targets, ``sum_{free k
+    in S} z_k - sum_P c_SP y_P <= r_S``, ``c_SP`` the plan's ``ceil(h_SP / 2)`` (``floor``
+    on G's orbits) and ``r_S = floor((|S| + |G|) / 2) - |F|`` (valid: the forced z are 1,
+    and the node's counted covers are at most the real ones), for ``r_S >= 0`` (a cut with
+    more forced targets is dropped here, which only weakens the node). Their duals ``sigma
+    >= 0`` add ``sum_S sigma_S r_S`` to L, take ``sigma_S`` from each free ``z_k`` of S and
+    give each plan its earning ``sigma_S c_SP``
     (:meth:`models.subset_row.CutPool.best_path`). After the column generation has
     converged, up to ``separate`` rounds add the cuts its master violates
     (:meth:`models.subset_row.CutPool.separate`) to the pool and go on.
@@ -737,7 +738,7 @@ def _solve_node(
         rows.append(np.array([base + g, base + n_orb + g, base + 2 * n_orb + g]))
         vals.append(np.array([1.0, energy, memory]))
         if cut_ids:
-            coef = cuts.coefficients(tg, cnt)  # type: ignore[union-attr]
+            coef = cuts.coefficients(tg, cnt, g)  # type: ignore[union-attr]
             at = [(cut0 + x, -float(coef[c])) for x, c in enumerate(cut_ids) if c in coef]
             if at:
                 rows.append(np.array([r for r, _ in at]))
@@ -749,22 +750,22 @@ def _solve_node(
     def hold(new: Sequence[int]) -> None:
         """Add rows for the pool's cuts ``new`` that this node keeps."""
         assert cuts is not None
-        coefs = [cuts.coefficients(cols.items[i][1], cols.items[i][2]) for i in in_lp]
+        coefs = [cuts.coefficients(*cols.items[i][1:3], cols.items[i][0]) for i in in_lp]
         for c in new:
-            trio = cuts.cuts[c]
-            n_forced = int(np.count_nonzero(row_forced[trio] >= 0))
-            if n_forced >= 2:
+            members = cuts.cuts[c]
+            rhs = cuts.rhs[c] - int(np.count_nonzero(row_forced[members] >= 0))
+            if rhs < 0:
                 continue
-            zs = row_free[trio][row_free[trio] >= 0]
+            zs = row_free[members][row_free[members] >= 0]
             idx = [*zs.tolist()]
             val = [1.0] * len(idx)
             for x, coef in enumerate(coefs):
                 if c in coef:
                     idx.append(first_y + x)
                     val.append(-float(coef[c]))
-            h.addRow(-inf, 1.0 - n_forced, len(idx), np.array(idx, np.int32), np.array(val))
+            h.addRow(-inf, float(rhs), len(idx), np.array(idx, np.int32), np.array(val))
             cut_ids.append(c)
-            cut_rhs.append(1.0 - n_forced)
+            cut_rhs.append(float(rhs))
             cut_free.append(zs)
 
     for i in _start_columns(node, cols, len(groups), e_cap, w_cap):
@@ -870,12 +871,12 @@ def _solve_node(
             z = np.zeros(len(p))
             z[free] = y[:nf]
             z[fk] = 1.0
-            plans = [
-                (cols.items[i][1], float(yi))
-                for i, yi in zip(in_lp, y[first_y:], strict=True)
-                if yi > 1e-9
+            positive = [
+                (i, float(yi)) for i, yi in zip(in_lp, y[first_y:], strict=True) if yi > 1e-9
             ]
-            new = cuts.separate(z, plans, cuts_per_round, deadline=deadline)
+            plans = [(cols.items[i][1], yi) for i, yi in positive]
+            orbits = [cols.items[i][0] for i, _ in positive]
+            new = cuts.separate(z, plans, cuts_per_round, deadline=deadline, orbits=orbits)
             sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
             if new:
                 log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))

@@ -32,6 +32,18 @@ A cut whose relevant observations are pairwise incompatible by (3) needs no bit:
 observation earns ``sigma_S ceil(a / 2)`` outright. A cut beyond 64 open slots is priced the
 same way, never below its true earning (``ceil`` is subadditive): the value is then an
 over-estimate, still a valid bound, and :class:`CutPrice` reports it as not exact.
+
+Orbit cuts. Adding an orbit j's convexity row ``sum_{P of j} y_P <= 1`` to two targets'
+rows, all with multipliers 1/2, gives the cut over S = {a, b} and G = {j}
+
+    z_a + z_b - sum_{P not of j} ceil(h_SP / 2) y_P - sum_{P of j} floor(h_SP / 2) y_P <= 1:
+
+orbit j earns both a and b only from a plan that sees both. The root masters of the dense
+scenarios break it wherever j mixes a plan for a with one for b while another orbit covers
+the pair in part (:func:`violated_orbit_pairs`). On j's plans the term ``floor(h / 2)`` is
+the parity bit read the other way: a hit at parity b earns ``ceil((1 - b + a) / 2) - (1 -
+b)``, so there a *clear* bit can cost a label one earning. Such cuts get slots of their own
+(``OrbitCuts.inv_slots``), so that dominance and merging know which way each bit reads.
 """
 
 from __future__ import annotations
@@ -81,6 +93,11 @@ class OrbitCuts:
         gain.
     exact
         False when some cut had no slot (priced optimistically).
+    hit_inv
+        Per hit, 1 when its cut earns ``floor(h / 2)`` on this orbit (the orbit is in the
+        cut's G, :class:`CutPool`), else 0 (``ceil(h / 2)``).
+    inv_slots
+        The slots holding such cuts (never shared with the others).
     """
 
     hit_ptr: np.ndarray
@@ -94,6 +111,8 @@ class OrbitCuts:
     slot_sigma: np.ndarray
     direct: np.ndarray
     exact: bool
+    hit_inv: np.ndarray
+    inv_slots: int
 
 
 def release_rank(o: OrbitItems) -> np.ndarray:
@@ -183,6 +202,7 @@ def orbit_cuts(
     hits: Sequence[tuple[np.ndarray, np.ndarray]] | CutEntries,
     sigma: np.ndarray,
     kernel: Callable[..., tuple[Any, ...]] | None = None,
+    inv: np.ndarray | None = None,
 ) -> OrbitCuts:
     """Arrange cuts for one orbit (:func:`arrange_py`).
 
@@ -198,15 +218,21 @@ def orbit_cuts(
         Per cut, its dual (>= 0; cuts at 0 are skipped).
     kernel
         :func:`arrange_py` or a compiled copy (None: the compiled one, :func:`arrange`).
+    inv
+        Per cut, whether it earns ``floor(h / 2)`` on this orbit instead of ``ceil(h / 2)``
+        (None: none does).
     """
     ent = hits if isinstance(hits, CutEntries) else cut_entries(rank, n_before, hits)
     run = arrange() if kernel is None else kernel
-    ptr, slot, a, hit_sigma, read, carry, keep, close, slot_sigma, direct, exact = run(
+    flags = np.zeros(len(sigma), dtype=bool) if inv is None else inv
+    out = run(
         np.ascontiguousarray(rank, dtype=np.int64),
         np.ascontiguousarray(n_before, dtype=np.int64),
         ent.cut, ent.pos, ent.a, ent.lo, ent.hi, ent.chained,
         np.ascontiguousarray(sigma, dtype=float),
+        np.ascontiguousarray(flags, dtype=np.bool_),
     )  # fmt: skip
+    ptr, slot, a, hit_sigma, read, carry, keep, close, slot_sigma, direct, exact = out[:11]
     return OrbitCuts(
         hit_ptr=ptr,
         hit_slot=slot,
@@ -219,6 +245,8 @@ def orbit_cuts(
         slot_sigma=slot_sigma,
         direct=direct,
         exact=bool(exact),
+        hit_inv=out[11],
+        inv_slots=int(out[12]),
     )
 
 
@@ -232,18 +260,24 @@ def arrange_py(
     hi: np.ndarray,
     chained: np.ndarray,
     sigma: np.ndarray,
+    inv: np.ndarray,
 ) -> tuple[Any, ...]:
-    """:class:`OrbitCuts`' arrays (in field order, ``exact`` last) from a :class:`CutEntries`
-    (``cut`` .. ``chained``) and the cuts' duals ``sigma``; compiled by numba
-    (:func:`arrange`), as the pricing arranges an orbit's cuts on every call.
+    """:class:`OrbitCuts`' arrays (in field order) from a :class:`CutEntries` (``cut`` ..
+    ``chained``), the cuts' duals ``sigma`` and their ``inv`` flags (earning ``floor(h /
+    2)`` on this orbit); compiled by numba (:func:`arrange`), as the pricing arranges an
+    orbit's cuts on every call.
 
     Slots: the live cuts (``sigma > 0``, hit by the orbit) that a plan can hit twice
     (``chained``), taken by their first relevant rank ``lo`` (ties by index), each get the
-    lowest slot whose last cut ended (``hi``) before its ``lo``, none when all 64 are busy
-    (then ``exact`` is False). Its bit is kept by the positions of ranks ``lo .. hi - 1`` and
-    carried by those of them whose prefix holds rank ``lo``. A live cut without a slot is
-    priced outright: each of its entries adds ``sigma ceil(a / 2)`` to its position's
-    ``direct``. The slotted cuts' entries, grouped by position in entry order, are the hits.
+    lowest slot of their kind (``inv`` or not: a slot never holds both, so a bit's meaning
+    is the slot's) whose last cut ended (``hi``) before its ``lo``, none when all 64 are
+    busy (then ``exact`` is False). Its bit is kept by the positions of ranks ``lo .. hi -
+    1`` and carried by those of them whose prefix holds rank ``lo``. A live cut without a
+    slot is priced outright: each of its entries adds ``sigma ceil(a / 2)`` to its
+    position's ``direct`` (exact when no plan hits the cut twice; else an over-estimate, as
+    ``ceil`` is subadditive and ``floor(h / 2) <= ceil(h / 2)``), or ``sigma floor(a / 2)``
+    for an ``inv`` cut no plan hits twice. The slotted cuts' entries, grouped by position
+    in entry order, are the hits.
     """
     m = rank.shape[0]
     n_cuts = sigma.shape[0]
@@ -255,6 +289,8 @@ def arrange_py(
         by_rank[rank[u]] = u
     slot_of = np.full(n_cuts, -1, dtype=np.int64)
     slot_end = np.full(SLOTS, -1, dtype=np.int64)
+    slot_kind = np.full(SLOTS, -1, dtype=np.int64)  # unused, 0 ceil, 1 floor (inv)
+    inv_slots = np.int64(0)
     keep = np.zeros(m, dtype=np.int64)
     carry = np.zeros(m, dtype=np.int64)
     slot_sigma = np.zeros(SLOTS)
@@ -268,11 +304,15 @@ def arrange_py(
     n_start = 0
     for c in by_lo:
         first = lo[c]
+        kind = 1 if inv[c] else 0
         for b in range(SLOTS):
-            if slot_end[b] < first:
+            if slot_end[b] < first and (slot_kind[b] < 0 or slot_kind[b] == kind):
                 slot_of[c] = b
                 slot_end[b] = hi[c]
+                slot_kind[b] = kind
                 bit = np.int64(1) << b
+                if kind == 1:
+                    inv_slots |= bit
                 flip[first] ^= bit
                 flip[hi[c]] ^= bit
                 start[n_start] = first
@@ -308,7 +348,10 @@ def arrange_py(
         c = cut[e]
         if live[c]:
             if slot_of[c] < 0:
-                direct[pos[e]] += sigma[c] * ((a[e] + 1) // 2)
+                if inv[c] and not chained[c]:
+                    direct[pos[e]] += sigma[c] * (a[e] // 2)
+                else:
+                    direct[pos[e]] += sigma[c] * ((a[e] + 1) // 2)
             else:
                 ptr[pos[e] + 1] += 1
     for u in range(m):
@@ -319,6 +362,7 @@ def arrange_py(
     hit_a = np.empty(n_hits, dtype=np.int64)
     hit_sigma = np.empty(n_hits)
     hit_read = np.empty(n_hits, dtype=np.int64)
+    hit_inv = np.empty(n_hits, dtype=np.int64)
     for e in range(cut.shape[0]):
         c = cut[e]
         if live[c] and slot_of[c] >= 0:
@@ -329,16 +373,19 @@ def arrange_py(
             hit_a[q] = a[e]
             hit_sigma[q] = sigma[c]
             hit_read[q] = 1 if lo[c] < n_before[u] else 0
+            hit_inv[q] = 1 if inv[c] else 0
     return (
-        ptr, hit_slot, hit_a, hit_sigma, hit_read, carry, keep, close, slot_sigma, direct, exact
+        ptr, hit_slot, hit_a, hit_sigma, hit_read, carry, keep, close, slot_sigma, direct, exact,
+        hit_inv, inv_slots,
     )  # fmt: skip
 
 
 #: :func:`arrange_py`'s numba signature.
 ARRANGE_SIGNATURE = (
     "Tuple((int64[::1], int64[::1], int64[::1], float64[::1], int64[::1], int64[::1], "
-    "int64[::1], int64[::1], float64[::1], float64[::1], boolean))(int64[::1], int64[::1], "
-    "int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], boolean[::1], float64[::1])"
+    "int64[::1], int64[::1], float64[::1], float64[::1], boolean, int64[::1], int64))"
+    "(int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], "
+    "boolean[::1], float64[::1], boolean[::1])"
 )
 
 
@@ -365,6 +412,8 @@ def cut_levels_py(
     slot_sigma: np.ndarray,
     max_labels: int,
     single: int,
+    hit_inv: np.ndarray,
+    inv_slots: int,
 ) -> tuple[float, np.ndarray, int]:
     """The levels of :func:`sosp.planner._levels_py` with a cut's parity bit per slot.
 
@@ -380,10 +429,21 @@ def cut_levels_py(
     before its own place in the (3) order, so its labels are final by then). The plans of
     any length ending at u are then one level, a tenth of the work with C5's cap of 10
     (:func:`label_best` uses it first).
+
+    A bit is the parity of the plan's hits of its cut. A ``ceil`` cut's next hit earns when
+    the bit is clear, so a set bit can cost a label one earning; a ``floor`` cut's
+    (``hit_inv``, its slots ``inv_slots``) earns when the bit is set, so there a clear bit
+    can. Dominance and merging read the bits so (:class:`OrbitCuts`).
     """
     m = g.shape[0]
     relaxed = 0
     low56 = np.int64(0x00FFFFFFFFFFFFFF)  # a right shift keeps the sign: clear it
+
+    inv = np.int64(inv_slots)
+
+    def worse(mi: np.int64, mj: np.int64) -> np.int64:
+        """The bits where a label of bits ``mi`` is worse placed than one of ``mj``."""
+        return (mi & ~mj & ~inv) | (mj & ~mi & inv)
 
     def bits_loss(e: np.int64, room: float) -> float:
         """The sigmas of the bits ``e`` (one label has them, the other not), by byte,
@@ -443,7 +503,8 @@ def cut_levels_py(
                         if hit_read[h] == 1 and (bits & bit) != 0:
                             b = 1
                         a = hit_a[h]
-                        v += hit_sigma[h] * ((b + a + 1) // 2 - b)
+                        bb = 1 - b if hit_inv[h] == 1 else b
+                        v += hit_sigma[h] * ((bb + a + 1) // 2 - bb)
                         if (b + a) % 2 == 1:
                             out |= bit
                         else:
@@ -472,7 +533,7 @@ def cut_levels_py(
                     for j in range(j_end):
                         if i == j or c_live[j] == 0 or c_val[i] < c_val[j]:
                             continue
-                        loss = bits_loss(c_mask[i] & ~c_mask[j], c_val[i] - c_val[j])
+                        loss = bits_loss(worse(c_mask[i], c_mask[j]), c_val[i] - c_val[j])
                         if c_val[i] - loss > c_val[j] or (c_val[i] - loss == c_val[j] and i < j):
                             c_live[j] = 0
                 lo[n, u] = n_lab
@@ -524,7 +585,7 @@ def cut_levels_py(
                     for j in range(j0, n_s):
                         if i == j or c_live[j] == 0 or s_val[i] < s_val[j]:
                             continue
-                        loss = bits_loss(s_mask[i] & ~s_mask[j], s_val[i] - s_val[j])
+                        loss = bits_loss(worse(s_mask[i], s_mask[j]), s_val[i] - s_val[j])
                         if s_val[i] - loss > s_val[j] or (s_val[i] - loss == s_val[j] and i < j):
                             c_live[j] = 0
                 t = 0
@@ -546,7 +607,9 @@ def cut_levels_py(
                     for i in range(n_s):
                         if i != a1 and s_val[i] < s_val[a2]:
                             a2 = i
-                    s_mask[a2] &= s_mask[a1]
+                    both = s_mask[a2] & s_mask[a1]
+                    either = s_mask[a2] | s_mask[a1]
+                    s_mask[a2] = (both & ~inv) | (either & inv)
                     s_mask[a1] = s_mask[n_s - 1]
                     s_val[a1] = s_val[n_s - 1]
                     s_id[a1] = s_id[n_s - 1]
@@ -592,7 +655,8 @@ def cut_levels_py(
 CUT_LEVELS_SIGNATURE = (
     "Tuple((float64, int64[::1], int64))(float64[::1], float64[::1], float64[::1], "
     "int64[::1], int64[::1], int64, int64[::1], int64[::1], int64[::1], float64[::1], "
-    "int64[::1], int64[::1], int64[::1], int64[::1], float64[::1], int64, int64)"
+    "int64[::1], int64[::1], int64[::1], int64[::1], float64[::1], int64, int64, int64[::1], "
+    "int64)"
 )
 
 
@@ -622,14 +686,14 @@ def label_best(
     value, path, relaxed = run(
         g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
         cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
-        max_labels, 1,
+        max_labels, 1, cuts.hit_inv, cuts.inv_slots,
     )  # fmt: skip
     if len(path) <= cap:
         return value, path, relaxed
     return run(
         g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
         cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
-        max_labels, 0,
+        max_labels, 0, cuts.hit_inv, cuts.inv_slots,
     )  # fmt: skip
 
 
@@ -698,6 +762,10 @@ CUTS_PER_TARGET = 3
 #: No separation above this many targets with a fractional cover (the pair matrix is dense).
 SEPARATE_MAX_TARGETS = 4000
 
+#: Whether the separation seeks the cuts over two targets and an orbit
+#: (:func:`violated_orbit_pairs`).
+ORBIT_CUTS = True
+
 
 def violated_triples(
     cover: np.ndarray, w: np.ndarray, z: np.ndarray, deadline: float | None = None
@@ -733,53 +801,112 @@ def violated_triples(
     return found
 
 
+def violated_orbit_pairs(
+    cover: np.ndarray, w: np.ndarray, z: np.ndarray, orbit: np.ndarray
+) -> list[tuple[float, int, int, int]]:
+    """The cuts over two targets {a, b} and one orbit j (:class:`CutPool`) that a master's
+    solution violates, as ``(violation, a, b, j)`` with a < b, most violated first.
+
+    ``cover``, ``w`` and ``z`` are as in :func:`violated_triples`, ``orbit`` gives each
+    plan's orbit. The violation is ``sum_{P not of j} [c_P = 2] y_P + sum_{P of j} [c_P >=
+    1] y_P - (cover_a - z_a) - (cover_b - z_b) - 1`` (``c_P``: how many of a, b plan P
+    covers), that is the pair's co-cover plus j's plans that cover exactly one of them,
+    less the over-cover, less 1.
+    """
+    over = cover.T @ w - z
+    pair = (cover * w[:, None]).T @ cover
+    np.fill_diagonal(pair, 0.0)
+    col = np.flatnonzero(pair.sum(axis=1) > 0.3)
+    if len(col) < 2:
+        return []
+    sub = cover[:, col]
+    base = pair[np.ix_(col, col)] - over[col][:, None] - over[col][None, :] - 1.0
+    iu, ju = np.triu_indices(len(col), 1)
+    found: list[tuple[float, int, int, int]] = []
+    for j in np.unique(orbit).tolist():
+        mine = orbit == j
+        cj, wj = sub[mine], w[mine]
+        one = (cj * wj[:, None]).T @ (1.0 - cj)  # j's plans covering a and not b
+        v = (base + one + one.T)[iu, ju]
+        hit = np.flatnonzero(v > 1e-3)
+        found.extend((float(v[q]), int(col[iu[q]]), int(col[ju[q]]), int(j)) for q in hit)
+    found.sort(reverse=True)
+    return found
+
+
 class CutPool:
     """The subset-row cuts of a branch and price (:func:`models.colgen.branch_and_price`),
     valid for every schedule and so shared by every node, with what pricing them needs.
 
-    A cut is three targets (instance indices). Per orbit the pool keeps the cuts some of
-    whose targets the orbit can cover, and, computed on first use, each such cut's hits per
+    A cut is a set S of targets (instance indices) and a set G of orbits with ``|S| + |G|``
+    odd: the rank-1 Chvatal-Gomory cut, multipliers 1/2, of S's coverage rows, their ``z_k
+    <= 1`` and G's convexity rows ``sum_{P of j} y_P <= 1``,
+
+        sum_{k in S} z_k - sum_{P not of G} ceil(h_SP / 2) y_P - sum_{P of G} floor(h_SP / 2) y_P
+            <= floor((|S| + |G|) / 2)
+
+    (a plan's coefficient ``-(h_SP - [P of G]) / 2`` rounded down; ``rhs`` holds the right
+    side). With G empty and |S| = 3 it is the module docstring's subset-row cut. With S =
+    {a, b} and G = {j} it says that orbit j gives both a and b only from one plan that sees
+    both, which the master's mixture of j's plans for a and for b breaks. On j's plans the
+    term ``floor(h / 2)`` is the same parity bit read the other way
+    (:class:`OrbitCuts`' ``hit_inv``). Per orbit the pool keeps the cuts some of whose
+    targets the orbit can cover, and, computed on first use, each such cut's hits per
     position (:func:`orbit_cuts`' input).
     """
 
     def __init__(self, groups: Sequence[OrbitItems]) -> None:
         self.groups = groups
         self.cuts: list[np.ndarray] = []
-        self._keys: set[tuple[int, ...]] = set()
+        self.orbits: list[frozenset[int]] = []  # per cut, its G
+        self.rhs: list[int] = []
+        self._keys: set[tuple[int, ...]] = set()  # S, then -1, then G
         self._of_target: dict[int, list[int]] = {}
         self._on_orbit: list[list[int]] = [[] for _ in groups]
         self._hits: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         self._csc: list[Any] = [None] * len(groups)
         self._rank: list[np.ndarray | None] = [None] * len(groups)
-        self._entries: dict[int, tuple[int, CutEntries]] = {}  # orbit: (cuts then, entries)
+        # orbit: (cuts then, their entries, whether the orbit is in each one's G)
+        self._entries: dict[int, tuple[int, CutEntries, np.ndarray]] = {}
 
     def __len__(self) -> int:
         return len(self.cuts)
 
-    def add(self, targets: Sequence[int]) -> int | None:
-        """Add the cut over ``targets`` (three); its index, or None if the pool has it."""
-        key = tuple(sorted(int(k) for k in targets))
+    def add(self, targets: Sequence[int], orbits: Sequence[int] = ()) -> int | None:
+        """Add the cut over ``targets`` (S, two or more, distinct) and ``orbits`` (G, with
+        ``|S| + |G|`` odd); its index, or None if the pool has it."""
+        tg = tuple(sorted(int(k) for k in targets))
+        og = tuple(sorted(int(j) for j in orbits))
+        if len(tg) < 2 or len(set(tg)) != len(tg) or len(set(og)) != len(og):
+            raise ValueError(f"a cut needs two or more distinct targets: {tg}, orbits {og}")
+        if (len(tg) + len(og)) % 2 == 0:
+            raise ValueError(f"a cut needs an odd number of targets and orbits: {tg}, {og}")
+        key = (*tg, -1, *og)
         if key in self._keys:
             return None
         self._keys.add(key)
         c = len(self.cuts)
-        arr = np.array(key, dtype=np.int64)
+        arr = np.array(tg, dtype=np.int64)
         self.cuts.append(arr)
-        for k in key:
+        self.orbits.append(frozenset(og))
+        self.rhs.append((len(tg) + len(og)) // 2)
+        for k in tg:
             self._of_target.setdefault(k, []).append(c)
         for g, o in enumerate(self.groups):
             if np.isin(arr, o.targets).any():
                 self._on_orbit[g].append(c)
         return c
 
-    def coefficients(self, tg: np.ndarray, cnt: np.ndarray) -> dict[int, int]:
-        """A plan's ``ceil(h_SP / 2)`` per cut it hits, from its targets ``tg`` and how many
-        of its observations cover each (``cnt``)."""
+    def coefficients(self, tg: np.ndarray, cnt: np.ndarray, g: int) -> dict[int, int]:
+        """A plan of orbit ``g``'s coefficient per cut it hits (``ceil(h_SP / 2)``, or
+        ``floor(h_SP / 2)`` where g is in the cut's G; zeros left out), from its targets
+        ``tg`` and how many of its observations cover each (``cnt``)."""
         h: dict[int, int] = {}
         for k, n in zip(tg.tolist(), np.asarray(cnt).tolist(), strict=True):
             for c in self._of_target.get(k, ()):
                 h[c] = h.get(c, 0) + int(round(n))
-        return {c: (x + 1) // 2 for c, x in h.items()}
+        out = {c: (x // 2 if g in self.orbits[c] else (x + 1) // 2) for c, x in h.items()}
+        return {c: v for c, v in out.items() if v}
 
     def orbit_hits(self, g: int, c: int) -> tuple[np.ndarray, np.ndarray]:
         """Cut c's ``(positions, a)`` on orbit g (computed on first use)."""
@@ -823,7 +950,8 @@ class CutPool:
         made = self._entries.get(g)
         if made is None or made[0] != len(on):
             hits = [self.orbit_hits(g, c) for c in on.tolist()]
-            made = (len(on), cut_entries(self._rank[g], o.n_before, hits))
+            inv = np.array([g in self.orbits[c] for c in on.tolist()], dtype=bool)
+            made = (len(on), cut_entries(self._rank[g], o.n_before, hits), inv)
             self._entries[g] = made
         r = o.rules
         pe, pw = r.per_unit(float(lam[0]), float(lam[1]))
@@ -848,10 +976,10 @@ class CutPool:
             sub = restrict_entries(ent, keep, o.size, rank, n_before)
             found = _price_with_cuts(
                 o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
-                orbit_cuts(rank, n_before, sub, s_on), pe, pw,
+                orbit_cuts(rank, n_before, sub, s_on, inv=made[2]), pe, pw,
             )  # fmt: skip
             return found.value, keep[found.path], found.exact
-        cuts = orbit_cuts(self._rank[g], o.n_before, ent, s_on)
+        cuts = orbit_cuts(self._rank[g], o.n_before, ent, s_on, inv=made[2])
         found = best_path_with_cuts(o, gain, cuts, pe, pw)
         return found.value, found.path, found.exact
 
@@ -861,14 +989,17 @@ class CutPool:
         plans: Sequence[tuple[np.ndarray, float]],
         limit: int = CUTS_PER_ROUND,
         deadline: float | None = None,
+        orbits: Sequence[int] | None = None,
     ) -> list[int]:
         """Add cuts that a master's solution violates, most violated first; their indices.
 
         ``z`` holds each target's ``z_k`` (instance indices), ``plans`` the positive plans as
-        (distinct targets, ``y_P``); the search is :func:`violated_triples`, which stops at
-        ``deadline``. Covers are counted once per plan here, while the master counts a plan
-        seeing a target twice twice: a cut found may then be violated less than computed, or
-        not at all (it is valid all the same).
+        (distinct targets, ``y_P``) and ``orbits`` their orbits (None: no cut with orbits is
+        sought); the search is :func:`violated_triples`, which stops at ``deadline``, and,
+        with ``orbits`` and :data:`ORBIT_CUTS`, :func:`violated_orbit_pairs`. Covers are
+        counted once per plan here, while the master counts a plan seeing a target twice
+        twice: a cut found may then be violated less than computed, or not at all (it is
+        valid all the same).
         """
         if not plans:
             return []
@@ -879,17 +1010,24 @@ class CutPool:
         for r, (tg, _) in enumerate(plans):
             cover[r, np.searchsorted(tg_all, tg)] = 1.0
         w = np.array([y for _, y in plans])
-        found = violated_triples(cover, w, z[tg_all], deadline)
+        zs = z[tg_all]
+        found: list[tuple[float, tuple[int, ...], tuple[int, ...]]] = [
+            (v, (i, j, k), ()) for v, i, j, k in violated_triples(cover, w, zs, deadline)
+        ]
+        if orbits is not None and ORBIT_CUTS:
+            of = np.asarray(orbits, dtype=np.int64)
+            found.extend((v, (a, b), (j,)) for v, a, b, j in violated_orbit_pairs(cover, w, zs, of))
+        found.sort(key=lambda f: -f[0])  # stable: triples first among equals
         added: list[int] = []
         per_target: dict[int, int] = {}
-        for _, i, j, k in found:
-            trio = (int(tg_all[i]), int(tg_all[j]), int(tg_all[k]))
-            if any(per_target.get(t, 0) >= CUTS_PER_TARGET for t in trio):
+        for _, members, in_g in found:
+            targets = [int(tg_all[i]) for i in members]
+            if any(per_target.get(t, 0) >= CUTS_PER_TARGET for t in targets):
                 continue
-            c = self.add(trio)
+            c = self.add(targets, in_g)
             if c is None:
                 continue
-            for t in trio:
+            for t in targets:
                 per_target[t] = per_target.get(t, 0) + 1
             added.append(c)
             if len(added) >= limit:

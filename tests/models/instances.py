@@ -167,6 +167,27 @@ def triangle() -> Instance:
     )
 
 
+def split_pair() -> Instance:
+    """Two orbits, one opening each: orbit 0 sees a or b (at the same time, in two
+    directions), orbit 1 sees a and b together (one strip) or d (weight 8) at the same time,
+    in another direction.
+
+    Orbit 1 on a and b gives 20; orbit 1 on d and orbit 0 on a gives 18: the optimum is 20.
+    The master over orbit plans takes orbit 0 half on a and half on b and orbit 1 half on the
+    pair and half on d, 24; no subset-row cut over three targets holds it off, but the cut
+    over {a, b} and orbit 0 (orbit 0 gives at most one of them, ``z_a + z_b <= 1 + the
+    others' ceil(h / 2)``) does: with it the master is 20.
+    """
+    rows = [
+        ("a", 0, 0.0, 4.0, 10.0), ("b", 0, 1.0, 5.0, -20.0),
+        ("a", 1, 0.0, 4.0, 10.0), ("b", 1, 1.0, 5.0, 10.0), ("d", 1, 2.0, 6.0, -20.0),
+    ]  # fmt: skip
+    return Instance.build(
+        {"a": 10, "b": 10, "d": 8}, rows, resources=Resources(max_openings=1), n_orbits=2,
+        name="split_pair",
+    )  # fmt: skip
+
+
 def shared_tiny(seed: int) -> Instance:
     """A random tiny instance of :func:`triangle`'s kind: 3-4 orbits, each seeing two of 3-4
     shared targets together and, mostly, a target of its own at the same time; one or two

@@ -21,7 +21,7 @@ from sosp.planner import orbit_data
 from sosp.solve import bound_function, solve
 from sosp.validate import validate
 from tests.conftest import small_instances
-from tests.models.instances import random_dense, random_tiny, shared_tiny, triangle
+from tests.models.instances import random_dense, random_tiny, shared_tiny, split_pair, triangle
 from tests.oracle import brute_force
 
 
@@ -675,6 +675,21 @@ def test_subset_row_cuts_close_the_triangle_at_the_root() -> None:
     assert out["bound"] == 38 and out["nodes"] == 0  # no branching needed
     assert validate(inst, out["schedule"]).profit == out["profit"] == 38
     assert colgen_bound(inst, branch=True, cut_rounds=0)["nodes"] >= 2
+
+
+def test_orbit_cuts_close_the_split_pair_at_the_root(monkeypatch) -> None:
+    # the cut over two targets and one orbit's convexity row closes what triples cannot
+    import models.subset_row as sr
+
+    inst = split_pair()
+    assert brute_force(inst, "cluster").profit == 20
+    assert colgen_bound(inst)["bound"] == 24
+    out = colgen_bound(inst, branch=True, cut_rounds=3)
+    assert out["bound"] == 20 and out["nodes"] == 0
+    assert validate(inst, out["schedule"]).profit == out["profit"] == 20
+    monkeypatch.setattr(sr, "ORBIT_CUTS", False)
+    _root_only(monkeypatch)
+    assert colgen_bound(inst, branch=True, cut_rounds=3)["bound"] == 24
 
 
 def test_subset_row_cuts_never_below_the_optimum(monkeypatch) -> None:

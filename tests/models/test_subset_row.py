@@ -11,11 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from models.subset_row import (
+    CutPool,
     arrange_py,
     cut_levels,
     cut_levels_py,
     label_best,
     orbit_cuts,
+    violated_orbit_pairs,
     violated_triples,
 )
 
@@ -46,8 +48,9 @@ def _cuts(rng: np.random.Generator, m: int, n_cuts: int) -> tuple[list, np.ndarr
     return hits, sigma
 
 
-def _enumerate(g, first, last, rank, n_before, cap, hits, sigma) -> float:
-    """The best nonempty chain's value, cut earnings ``sigma ceil(h / 2)`` exact."""
+def _enumerate(g, first, last, rank, n_before, cap, hits, sigma, inv=None) -> float:
+    """The best nonempty chain's value, cut earnings ``sigma ceil(h / 2)`` exact (``sigma
+    floor(h / 2)`` for the cuts ``inv`` flags)."""
     m = len(g)
     a = np.zeros((len(hits), m))
     for c, (pos, hc) in enumerate(hits):
@@ -60,22 +63,29 @@ def _enumerate(g, first, last, rank, n_before, cap, hits, sigma) -> float:
                 continue
             h = a[:, list(chain)].sum(axis=1)
             v = first[chain[0]] + g[list(chain)].sum() + last[chain[-1]]
-            v += float(np.dot(sigma, np.ceil(h / 2.0)))
+            v += float(np.dot(sigma, _earned(h, inv)))
             best = max(best, v)
     return best
+
+
+def _earned(h: np.ndarray, inv: np.ndarray | None) -> np.ndarray:
+    """Per cut, its coefficient for a plan of ``h`` hits: ``ceil(h / 2)``, or ``floor(h /
+    2)`` where ``inv``."""
+    up = np.ceil(h / 2.0)
+    return up if inv is None else np.where(inv, np.floor(h / 2.0), up)
 
 
 def _run(kernel, g, first, last, order, n_before, cap, cuts, max_labels=512, single=0):
     return kernel(
         g + cuts.direct, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot,
         cuts.hit_a, cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close,
-        cuts.slot_sigma, max_labels, single,
+        cuts.slot_sigma, max_labels, single, cuts.hit_inv, cuts.inv_slots,
     )  # fmt: skip
 
 
 _ARRANGEMENT = (
     "hit_ptr", "hit_slot", "hit_a", "hit_sigma", "hit_read", "carry", "keep", "close",
-    "slot_sigma", "direct",
+    "slot_sigma", "direct", "hit_inv",
 )  # fmt: skip
 
 
@@ -84,13 +94,15 @@ def _assert_same_arrangement(a, b) -> None:
         x, y = getattr(a, field), getattr(b, field)
         assert x.dtype == y.dtype and np.array_equal(x, y), field
     assert a.exact == b.exact
+    assert a.inv_slots == b.inv_slots
 
 
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), m=st.integers(1, 80), n_cuts=st.integers(0, 150))
 def test_compiled_arrangement_equals_python(seed: int, m: int, n_cuts: int) -> None:
     """The compiled :func:`arrange_py` gives the same arrays, bit for bit, also with more
-    open cuts than slots (then not exact)."""
+    open cuts than slots (then not exact), with and without ``floor`` cuts; a slot never
+    holds both kinds."""
     rng = np.random.default_rng(seed)
     _, rank, n_before = _orbit(rng, m)
     hits, sigma = _cuts(rng, m, n_cuts)
@@ -98,6 +110,14 @@ def test_compiled_arrangement_equals_python(seed: int, m: int, n_cuts: int) -> N
     _assert_same_arrangement(compiled, orbit_cuts(rank, n_before, hits, sigma, kernel=arrange_py))
     assert compiled.hit_ptr[-1] == len(compiled.hit_slot)
     assert compiled.exact == _fits(rank, n_before, hits, sigma)
+    assert compiled.inv_slots == 0 and not compiled.hit_inv.any()
+    inv = rng.random(n_cuts) < 0.5
+    mixed = orbit_cuts(rank, n_before, hits, sigma, inv=inv)
+    _assert_same_arrangement(
+        mixed, orbit_cuts(rank, n_before, hits, sigma, kernel=arrange_py, inv=inv)
+    )
+    in_inv = (mixed.inv_slots >> mixed.hit_slot) & 1
+    assert np.array_equal(in_inv, mixed.hit_inv)  # each hit's slot is of its cut's kind
 
 
 def _fits(rank, n_before, hits, sigma) -> bool:
@@ -122,11 +142,15 @@ def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
     last = np.round(rng.uniform(0.0, 1.0, m), 2)
     cap = int(rng.integers(1, 6))
     hits, sigma = _cuts(rng, m, n_cuts)
-    cuts = orbit_cuts(rank, n_before, hits, sigma)
+    # the floor cuts (a convexity row in the cut, models.subset_row.CutPool) on half the draws
+    inv = rng.random(n_cuts) < 0.5 if seed % 2 else None
+    cuts = orbit_cuts(rank, n_before, hits, sigma, inv=inv)
     assert cuts.exact
-    _assert_same_arrangement(cuts, orbit_cuts(rank, n_before, hits, sigma, kernel=arrange_py))
-    want = _enumerate(g, first, last, rank, n_before, cap, hits, sigma)
-    unbounded = _enumerate(g, first, last, rank, n_before, m, hits, sigma)
+    _assert_same_arrangement(
+        cuts, orbit_cuts(rank, n_before, hits, sigma, kernel=arrange_py, inv=inv)
+    )
+    want = _enumerate(g, first, last, rank, n_before, cap, hits, sigma, inv)
+    unbounded = _enumerate(g, first, last, rank, n_before, m, hits, sigma, inv)
     for kernel in (cut_levels_py, cut_levels()):
         runs = [
             (cap, want, _run(kernel, g, first, last, order, n_before, cap, cuts)),
@@ -144,7 +168,7 @@ def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
             for c, (pos, hc) in enumerate(hits):
                 h[c] = sum(int(hc[list(pos).index(u)]) for u in path if u in pos)
             got = first[path[0]] + g[path].sum() + last[path[-1]]
-            assert got + np.dot(sigma, np.ceil(h / 2)) == pytest.approx(value, abs=1e-9)
+            assert got + np.dot(sigma, _earned(h, inv)) == pytest.approx(value, abs=1e-9)
 
 
 def test_without_cuts_the_kernel_is_the_planner_recursion() -> None:
@@ -207,6 +231,35 @@ def test_a_shared_slot_never_reads_the_earlier_cuts_bit() -> None:
         assert value == pytest.approx(10.0 + 1.0 + 1.0)  # each cut hit once, earned once
 
 
+def test_a_floor_cuts_set_bit_is_worth_keeping() -> None:
+    # p0 [0, 1) and p1 [0.5, 1.5) overlap, both precede p2 [2, 3); a floor cut (sigma 5)
+    # is hit once by p0 and once by p2. p1's label (value 2, bit clear) must not dominate
+    # p0's (value 1, bit set): its next hit, at p2, earns floor(2 / 2) = 1 only after p0.
+    left, right = np.array([0.0, 0.5, 2.0]), np.array([1.0, 1.5, 3.0])
+    order = np.argsort(right).astype(np.int64)
+    rank = np.arange(3, dtype=np.int64)
+    n_before = np.searchsorted(right[order], left, side="right").astype(np.int64)
+    hits = [(np.array([0, 2]), np.array([1, 1]))]
+    g, z = np.array([1.0, 2.0, 0.0]), np.zeros(3)
+    for inv, best, path in ((np.array([True]), 6.0, [0, 2]), (None, 7.0, [1, 2])):
+        cuts = orbit_cuts(rank, n_before, hits, np.array([5.0]), inv=inv)
+        assert cuts.exact and cuts.inv_slots == (0 if inv is None else 1)
+        for kernel in (cut_levels_py, cut_levels()):
+            value, found, _ = _run(kernel, g, z, z, order, n_before, 3, cuts)
+            assert value == pytest.approx(best)
+            assert found.tolist() == path
+
+
+def test_a_floor_cut_no_plan_hits_twice_is_priced_outright() -> None:
+    # as the ceil cut above, but a plan earns floor(a / 2): 0 for one hit, 1 for three
+    rank = np.array([0, 1, 2])
+    n_before = np.zeros(3, dtype=np.int64)
+    hits = [(np.array([0, 2]), np.array([1, 3]))]
+    cuts = orbit_cuts(rank, n_before, hits, np.array([2.0]), inv=np.array([True]))
+    assert cuts.hit_ptr[-1] == 0 and cuts.exact
+    assert cuts.direct.tolist() == [0.0, 0.0, 2.0]
+
+
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), m=st.integers(2, 10), n_cuts=st.integers(2, 8))
 def test_merged_labels_only_over_estimate(seed: int, m: int, n_cuts: int) -> None:
@@ -218,8 +271,9 @@ def test_merged_labels_only_over_estimate(seed: int, m: int, n_cuts: int) -> Non
     z = np.zeros(m)
     cap = int(rng.integers(1, 6))
     hits, sigma = _cuts(rng, m, n_cuts)
-    cuts = orbit_cuts(rank, n_before, hits, sigma)
-    want = _enumerate(g, z, z, rank, n_before, cap, hits, sigma)
+    inv = rng.random(n_cuts) < 0.5 if seed % 2 else None  # merged floor bits are or-ed
+    cuts = orbit_cuts(rank, n_before, hits, sigma, inv=inv)
+    want = _enumerate(g, z, z, rank, n_before, cap, hits, sigma, inv)
     for value, _, relaxed in (
         _run(cut_levels(), g, z, z, order, n_before, cap, cuts, max_labels=1),
         label_best(cut_levels(), g + cuts.direct, z, z, order, n_before, cap, cuts, 1),
@@ -275,3 +329,66 @@ def test_positions_that_cannot_help_are_dropped_without_changing_the_price(
     else:  # the whole orbit priced some cut optimistically: an over-estimate
         assert got[2.0][0] <= got[0.0][0] + 1e-9
     assert got[2.0][0] > 0
+
+
+def _cut_value(cover, w, z, orbit, targets, orbits) -> float:
+    """The violation of the cut over ``targets`` and ``orbits`` from its definition (the
+    plans' coefficients ``ceil`` or ``floor`` of their hits over two, the right side)."""
+    h = cover[:, list(targets)].sum(axis=1)
+    coef = np.where(np.isin(orbit, list(orbits)), np.floor(h / 2), np.ceil(h / 2))
+    return float(z[list(targets)].sum() - coef @ w - (len(targets) + len(orbits)) // 2)
+
+
+def test_violated_orbit_pairs_finds_the_split_pair_and_only_it() -> None:
+    # tests/models/instances.split_pair's master: orbit 0 half on a, half on b; orbit 1 half
+    # on {a, b}, half on d. The cut over {a, b} and orbit 0 reads 2 - 1/2 = 1.5 > 1.
+    cover = np.array([[1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1]], dtype=float)
+    w = np.full(4, 0.5)
+    z = np.array([1.0, 1.0, 0.5])
+    orbit = np.array([0, 0, 1, 1])
+    found = violated_orbit_pairs(cover, w, z, orbit)
+    assert [f[1:] for f in found] == [(0, 1, 0)]
+    assert found[0][0] == pytest.approx(0.5)
+    assert found[0][0] == pytest.approx(_cut_value(cover, w, z, orbit, (0, 1), (0,)))
+    # an integral solution violates nothing
+    assert violated_orbit_pairs(cover[[2]], np.ones(1), np.array([1.0, 1.0, 0.0]), orbit[[2]]) == []
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_violated_orbit_pairs_are_the_cuts_violations(seed: int) -> None:
+    # every pair reported is violated by what the cut's definition says, and every violated
+    # pair (of targets some two plans cover together enough to be searched) is reported
+    rng = np.random.default_rng(seed)
+    n_plans, n_targets = int(rng.integers(2, 9)), int(rng.integers(2, 7))
+    cover = (rng.random((n_plans, n_targets)) < 0.5).astype(float)
+    w = np.round(rng.uniform(0.0, 1.0, n_plans), 2)
+    orbit = rng.integers(0, 3, n_plans)
+    z = np.minimum(1.0, cover.T @ w) * rng.choice([1.0, 0.8], n_targets)
+    found = {f[1:]: f[0] for f in violated_orbit_pairs(cover, w, z, orbit)}
+    pair = (cover * w[:, None]).T @ cover
+    np.fill_diagonal(pair, 0.0)
+    searched = np.flatnonzero(pair.sum(axis=1) > 0.3)
+    for a, b in itertools.combinations(searched.tolist(), 2):
+        for j in np.unique(orbit).tolist():
+            v = _cut_value(cover, w, z, orbit, (a, b), (j,))
+            if v > 1e-3:
+                assert found.pop((a, b, j)) == pytest.approx(v)
+    assert not found
+
+
+def test_cut_pool_coefficients_read_the_orbits() -> None:
+    from sosp.planner import orbit_data
+    from tests.models.instances import split_pair
+
+    pool = CutPool(orbit_data(split_pair()).orbits)
+    c = pool.add([0, 1], [0])
+    assert pool.add([1, 0], [0]) is None and pool.rhs[c] == 1
+    both = np.array([0, 1])
+    assert pool.coefficients(both, np.array([1, 1]), 1) == {c: 1}  # ceil(2 / 2)
+    assert pool.coefficients(both, np.array([1, 1]), 0) == {c: 1}  # floor(2 / 2)
+    assert pool.coefficients(np.array([0]), np.array([1]), 0) == {}  # floor(1 / 2)
+    assert pool.coefficients(np.array([0]), np.array([1]), 1) == {c: 1}
+    for bad in (([0, 1], []), ([0, 1, 2], [0]), ([0], [0, 1]), ([0, 0, 1], [])):
+        with pytest.raises(ValueError):
+            pool.add(*bad)
