@@ -802,7 +802,11 @@ def violated_triples(
 
 
 def violated_orbit_pairs(
-    cover: np.ndarray, w: np.ndarray, z: np.ndarray, orbit: np.ndarray
+    cover: np.ndarray,
+    w: np.ndarray,
+    z: np.ndarray,
+    orbit: np.ndarray,
+    deadline: float | None = None,
 ) -> list[tuple[float, int, int, int]]:
     """The cuts over two targets {a, b} and one orbit j (:class:`CutPool`) that a master's
     solution violates, as ``(violation, a, b, j)`` with a < b, most violated first.
@@ -811,7 +815,8 @@ def violated_orbit_pairs(
     plan's orbit. The violation is ``sum_{P not of j} [c_P = 2] y_P + sum_{P of j} [c_P >=
     1] y_P - (cover_a - z_a) - (cover_b - z_b) - 1`` (``c_P``: how many of a, b plan P
     covers), that is the pair's co-cover plus j's plans that cover exactly one of them,
-    less the over-cover, less 1.
+    less the over-cover, less 1. At ``deadline`` (:func:`time.perf_counter`) the search
+    stops with what it has found.
     """
     over = cover.T @ w - z
     pair = (cover * w[:, None]).T @ cover
@@ -824,6 +829,8 @@ def violated_orbit_pairs(
     iu, ju = np.triu_indices(len(col), 1)
     found: list[tuple[float, int, int, int]] = []
     for j in np.unique(orbit).tolist():
+        if deadline is not None and time.perf_counter() > deadline:
+            break
         mine = orbit == j
         cj, wj = sub[mine], w[mine]
         one = (cj * wj[:, None]).T @ (1.0 - cj)  # j's plans covering a and not b
@@ -995,8 +1002,8 @@ class CutPool:
 
         ``z`` holds each target's ``z_k`` (instance indices), ``plans`` the positive plans as
         (distinct targets, ``y_P``) and ``orbits`` their orbits (None: no cut with orbits is
-        sought); the search is :func:`violated_triples`, which stops at ``deadline``, and,
-        with ``orbits`` and :data:`ORBIT_CUTS`, :func:`violated_orbit_pairs`. Covers are
+        sought); the search is :func:`violated_triples` and, with ``orbits`` and
+        :data:`ORBIT_CUTS`, :func:`violated_orbit_pairs`, which stop at ``deadline``. Covers are
         counted once per plan here, while the master counts a plan seeing a target twice
         twice: a cut found may then be violated less than computed, or not at all (it is
         valid all the same).
@@ -1016,7 +1023,8 @@ class CutPool:
         ]
         if orbits is not None and ORBIT_CUTS:
             of = np.asarray(orbits, dtype=np.int64)
-            found.extend((v, (a, b), (j,)) for v, a, b, j in violated_orbit_pairs(cover, w, zs, of))
+            pairs = violated_orbit_pairs(cover, w, zs, of, deadline)
+            found.extend((v, (a, b), (j,)) for v, a, b, j in pairs)
         found.sort(key=lambda f: -f[0])  # stable: triples first among equals
         added: list[int] = []
         per_target: dict[int, int] = {}
