@@ -64,7 +64,9 @@ CUT_ROUNDS = 3
 
 #: Root rounds of a run of at least :data:`LONG_RUN_S` seconds, or of no time limit. At 600 s
 #: on C5-C10, 5 rounds against 3: C5 2211 / 2210, C6 2592 / 2594, C7 2876 / 2880, C8 3194 /
-#: 3196, C9 3490 / 3491, C10 3878 / 3880 (8 rounds on C7: 2877).
+#: 3196, C9 3490 / 3491, C10 3878 / 3880 (8 rounds on C7: 2877). With the orbit cuts
+#: (``docs/exact.md``, "Orbit cuts"), 5 rounds against 10: C5 2203 / 2204, C6 proven in 187
+#: s / 105 s, C7 2866 / 2864, C8 3183 / 3180, C9 proven 3480 / 3484, C10 3866 / proven.
 LONG_CUT_ROUNDS = 5
 
 #: See :data:`LONG_CUT_ROUNDS` (between the 60 s and the 600 s runs it was chosen on).
