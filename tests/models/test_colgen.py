@@ -737,14 +737,14 @@ def test_cuts_separated_in_the_nodes_keep_the_branch_and_price_exact(monkeypatch
     monkeypatch.setattr(CutPool, "separate", counted)
     monkeypatch.setattr(colgen, "NODE_CUT_ROUNDS", 2)
     in_nodes = 0
-    for seed in range(10):
+    for seed in range(40):  # the orbit cuts leave the nodes little to find: 9 of 40 do
         inst = random_dense(seed)
         optimum = colgen_bound(inst, branch=True, cut_rounds=0)["bound"]  # exact, no limit
         added.clear()
         out = colgen_bound(inst, branch=True, cut_rounds=1)
         assert out["bound"] == optimum, seed
         in_nodes += sum(added[1:]) > 0  # the root separates once (cut_rounds=1)
-    assert in_nodes >= 1
+    assert in_nodes >= 3
 
 
 def test_long_runs_take_more_root_cut_rounds(monkeypatch) -> None:
