@@ -767,8 +767,26 @@ SEPARATE_MAX_TARGETS = 4000
 ORBIT_CUTS = True
 
 
+def co_cover(
+    cover: np.ndarray, w: np.ndarray, z: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the searches for violated cuts share: per target its over-cover ``cover_k -
+    z_k``, the plans' pairwise co-cover ``sum_P y_P [k, l in P]`` (zero diagonal), and the
+    targets searched, those whose co-cover sums to more than 1/3 (a violated triple has a
+    pair above 1/3, and so does a violated orbit pair: its co-cover and orbit term exceed
+    1). ``cover``, ``w`` and ``z`` are as in :func:`violated_triples`."""
+    over = cover.T @ w - z
+    pair = (cover * w[:, None]).T @ cover
+    np.fill_diagonal(pair, 0.0)
+    return over, pair, np.flatnonzero(pair.sum(axis=1) > 0.3)
+
+
 def violated_triples(
-    cover: np.ndarray, w: np.ndarray, z: np.ndarray, deadline: float | None = None
+    cover: np.ndarray,
+    w: np.ndarray,
+    z: np.ndarray,
+    deadline: float | None = None,
+    shared: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> list[tuple[float, int, int, int]]:
     """The triples (i, j, k) of columns of ``cover`` whose subset-row cut a master's solution
     violates, as ``(violation, i, j, k)`` with i < j < k, most violated first.
@@ -778,13 +796,10 @@ def violated_triples(
     ``ceil(c / 2) = c - [c >= 2]`` for ``c <= 3``, so the violation is ``sum_P [c_SP >= 2]
     y_P - sum_{k in S} (cover_k - z_k) - 1``: the plans' pairwise co-cover summed over S's
     pairs, less twice their triple co-cover, less the over-cover. At ``deadline``
-    (:func:`time.perf_counter`) the search stops with what it has found.
+    (:func:`time.perf_counter`) the search stops with what it has found. ``shared`` is
+    :func:`co_cover` of the same arguments, when the caller has it.
     """
-    col = np.arange(cover.shape[1])
-    over = cover.T @ w - z
-    pair = (cover * w[:, None]).T @ cover
-    np.fill_diagonal(pair, 0.0)
-    cand = col[pair.sum(axis=1) > 0.3]  # a violated triple has a pair above 1/3
+    over, pair, cand = co_cover(cover, w, z) if shared is None else shared
     found: list[tuple[float, int, int, int]] = []
     for a, i in enumerate(cand):
         if deadline is not None and time.perf_counter() > deadline:
@@ -807,6 +822,7 @@ def violated_orbit_pairs(
     z: np.ndarray,
     orbit: np.ndarray,
     deadline: float | None = None,
+    shared: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> list[tuple[float, int, int, int]]:
     """The cuts over two targets {a, b} and one orbit j (:class:`CutPool`) that a master's
     solution violates, as ``(violation, a, b, j)`` with a < b, most violated first.
@@ -816,12 +832,9 @@ def violated_orbit_pairs(
     1] y_P - (cover_a - z_a) - (cover_b - z_b) - 1`` (``c_P``: how many of a, b plan P
     covers), that is the pair's co-cover plus j's plans that cover exactly one of them,
     less the over-cover, less 1. At ``deadline`` (:func:`time.perf_counter`) the search
-    stops with what it has found.
+    stops with what it has found; ``shared`` as in :func:`violated_triples`.
     """
-    over = cover.T @ w - z
-    pair = (cover * w[:, None]).T @ cover
-    np.fill_diagonal(pair, 0.0)
-    col = np.flatnonzero(pair.sum(axis=1) > 0.3)
+    over, pair, col = co_cover(cover, w, z) if shared is None else shared
     if len(col) < 2:
         return []
     sub = cover[:, col]
@@ -1018,12 +1031,13 @@ class CutPool:
             cover[r, np.searchsorted(tg_all, tg)] = 1.0
         w = np.array([y for _, y in plans])
         zs = z[tg_all]
+        shared = co_cover(cover, w, zs)  # both searches start from it
         found: list[tuple[float, tuple[int, ...], tuple[int, ...]]] = [
-            (v, (i, j, k), ()) for v, i, j, k in violated_triples(cover, w, zs, deadline)
+            (v, (i, j, k), ()) for v, i, j, k in violated_triples(cover, w, zs, deadline, shared)
         ]
         if orbits is not None and ORBIT_CUTS:
             of = np.asarray(orbits, dtype=np.int64)
-            pairs = violated_orbit_pairs(cover, w, zs, of, deadline)
+            pairs = violated_orbit_pairs(cover, w, zs, of, deadline, shared)
             found.extend((v, (a, b), (j,)) for v, a, b, j in pairs)
         found.sort(key=lambda f: -f[0])  # stable: triples first among equals
         added: list[int] = []
