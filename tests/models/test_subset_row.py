@@ -331,6 +331,39 @@ def test_positions_that_cannot_help_are_dropped_without_changing_the_price(
     assert got[2.0][0] > 0
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cuts_priced_exactly_where_the_planner_prunes(
+    monkeypatch: pytest.MonkeyPatch, seed: int
+) -> None:
+    # on orbits the planner prunes (from PRUNE_FROM positions), the cut pricing still runs
+    # the exact recursion: the same value as unpruned, and exact (japan-500's two orbits of
+    # 110,000+ positions had been priced with each hit earning sigma, a loose over-estimate)
+    import models.subset_row as sr
+    import sosp.planner as planner
+    from sosp.planner import orbit_data
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C2", 0)
+    groups = orbit_data(inst).orbits
+    rng = np.random.default_rng(seed)
+    pool = sr.CutPool(groups)
+    g = int(np.argmax([o.size for o in groups]))
+    for _ in range(10):
+        pool.add(rng.choice(groups[g].targets, 3, replace=False).tolist())
+    price = rng.uniform(0.0, 2.0, inst.n_targets) * (rng.random(inst.n_targets) < 0.3)
+    sigma = rng.uniform(0.5, 3.0, len(pool))
+    lam = np.zeros(2)
+    got = {}
+    for prune_from in (10**9, 1):
+        monkeypatch.setattr(planner, "PRUNE_FROM", prune_from)
+        monkeypatch.setattr(sr, "PRUNE_FROM", prune_from, raising=False)
+        pool._entries.clear()
+        got[prune_from] = pool.best_path(g, price, lam, sigma)
+    assert got[1][2] and got[10**9][2]
+    assert got[1][0] == pytest.approx(got[10**9][0], rel=1e-9, abs=1e-9)
+    assert np.array_equal(got[1][1], got[10**9][1])
+
+
 def _cut_value(cover, w, z, orbit, targets, orbits) -> float:
     """The violation of the cut over ``targets`` and ``orbits`` from its definition (the
     plans' coefficients ``ceil`` or ``floor`` of their hits over two, the right side)."""
