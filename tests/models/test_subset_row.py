@@ -297,6 +297,23 @@ def test_violated_triples_finds_the_odd_cycle_and_only_it() -> None:
     assert violated_triples(whole, np.ones(2), np.ones(4)) == []
 
 
+def _largest_c2_orbit(seed: int, n_cuts: int) -> tuple:
+    """C2's largest orbit g with ``n_cuts`` random triples of its targets in a pool:
+    ``(pool, g, price, rng)``, ``price`` random on 30 % of the targets."""
+    from sosp.planner import orbit_data
+    from sosp.scenarios import generate_scenario
+
+    inst = generate_scenario("C2", 0)
+    groups = orbit_data(inst).orbits
+    rng = np.random.default_rng(seed)
+    pool = CutPool(groups)
+    g = int(np.argmax([o.size for o in groups]))
+    for _ in range(n_cuts):
+        pool.add(rng.choice(groups[g].targets, 3, replace=False).tolist())
+    price = rng.uniform(0.0, 2.0, inst.n_targets) * (rng.random(inst.n_targets) < 0.3)
+    return pool, g, price, rng
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_positions_that_cannot_help_are_dropped_without_changing_the_price(
     monkeypatch: pytest.MonkeyPatch, seed: int
@@ -304,18 +321,8 @@ def test_positions_that_cannot_help_are_dropped_without_changing_the_price(
     # CutPool.best_path restricts an orbit to the positions whose gain, each cut earning its
     # most, beats their observing penalty: the best value must not move
     import models.subset_row as sr
-    from sosp.planner import orbit_data
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C2", 0)
-    groups = orbit_data(inst).orbits
-    rng = np.random.default_rng(seed)
-    pool = sr.CutPool(groups)
-    g = int(np.argmax([o.size for o in groups]))
-    targets = groups[g].targets
-    for _ in range(20):
-        pool.add(rng.choice(targets, 3, replace=False).tolist())
-    price = rng.uniform(0.0, 2.0, inst.n_targets) * (rng.random(inst.n_targets) < 0.3)
+    pool, g, price, rng = _largest_c2_orbit(seed, 20)
     sigma = rng.uniform(0.0, 3.0, len(pool)) * (rng.random(len(pool)) < 0.5)
     lam = np.array([rng.uniform(0, 5), rng.uniform(0, 5)])
     got = {}
@@ -340,25 +347,15 @@ def test_cuts_priced_exactly_where_the_planner_prunes(
     # 110,000+ positions had been priced with each hit earning sigma, a loose over-estimate)
     import models.subset_row as sr
     import sosp.planner as planner
-    from sosp.planner import orbit_data
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C2", 0)
-    groups = orbit_data(inst).orbits
-    rng = np.random.default_rng(seed)
-    pool = sr.CutPool(groups)
-    g = int(np.argmax([o.size for o in groups]))
-    for _ in range(10):
-        pool.add(rng.choice(groups[g].targets, 3, replace=False).tolist())
-    price = rng.uniform(0.0, 2.0, inst.n_targets) * (rng.random(inst.n_targets) < 0.3)
+    pool, g, price, rng = _largest_c2_orbit(seed, 10)
     sigma = rng.uniform(0.5, 3.0, len(pool))
-    lam = np.zeros(2)
     got = {}
     for prune_from in (10**9, 1):
         monkeypatch.setattr(planner, "PRUNE_FROM", prune_from)
         monkeypatch.setattr(sr, "PRUNE_FROM", prune_from, raising=False)
         pool._entries.clear()
-        got[prune_from] = pool.best_path(g, price, lam, sigma)
+        got[prune_from] = pool.best_path(g, price, np.zeros(2), sigma)
     assert got[1][2] and got[10**9][2]
     assert got[1][0] == pytest.approx(got[10**9][0], rel=1e-9, abs=1e-9)
     assert np.array_equal(got[1][1], got[10**9][1])
