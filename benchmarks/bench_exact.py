@@ -247,6 +247,23 @@ def run_proof(
     }
 
 
+def _report(output: str | None, rec: dict[str, Any], row: str) -> None:
+    """Append ``rec`` to the JSON lines file ``output`` (None: none) and print its row."""
+    if output:
+        with open(output, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps(rec) + "\n")
+    sys.stdout.write(row + "\n")
+    sys.stdout.flush()
+
+
+def _branch_and_price_row(rec: dict[str, Any]) -> str:
+    """One table row of :func:`run_branch_and_price`'s record."""
+    gap = "" if rec["gap"] is None else f"{100 * rec['gap']:.2f}%"
+    cells = [rec["name"], rec["cuts"], f"{rec['bound']:g}", f"{rec['best_known'] or ''}", gap]
+    cells += [str(rec["nodes"]), f"{rec['runtime_s']:.0f}"]
+    return "| " + " | ".join(cells) + " |"
+
+
 def _proof_row(rec: dict[str, Any]) -> str:
     if rec["status"] == "optimal":
         result = f"**optimal {rec['profit']:g}**"
@@ -320,14 +337,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in args.names:
             for cuts in args.cuts:
                 rec = run_branch_and_price(name, args.seed, args.time_limit, cuts)
-                if args.output:
-                    with open(args.output, "a", encoding="utf-8") as fh:
-                        fh.write(json.dumps(rec) + "\n")
-                gap = "" if rec["gap"] is None else f"{100 * rec['gap']:.2f}%"
-                cells = [name, cuts, f"{rec['bound']:g}", f"{rec['best_known'] or ''}", gap]
-                cells += [str(rec["nodes"]), f"{rec['runtime_s']:.0f}"]
-                sys.stdout.write("| " + " | ".join(cells) + " |\n")
-                sys.stdout.flush()
+                _report(args.output, rec, _branch_and_price_row(rec))
         return 0
     if args.proofs:
         head = ["scenario", "slew", "result", "gap", "time s", "start", "extra bound"]
@@ -336,11 +346,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in args.names:
             for slew in args.slews:
                 rec = run_proof(name, args.seed, args.time_limit, slew, args.threads)
-                if args.output:
-                    with open(args.output, "a", encoding="utf-8") as fh:
-                        fh.write(json.dumps(rec) + "\n")
-                sys.stdout.write(_proof_row(rec) + "\n")
-                sys.stdout.flush()
+                _report(args.output, rec, _proof_row(rec))
         return 0
     head = ["scenario", "opps", *args.heuristics]
     for m in args.models:
@@ -358,11 +364,7 @@ def main(argv: list[str] | None = None) -> int:
             args.backend,
             tuple(args.heuristics),
         )
-        if args.output:
-            with open(args.output, "a", encoding="utf-8") as fh:
-                fh.write(json.dumps(rec) + "\n")
-        sys.stdout.write(_row(rec, args.models, args.heuristics) + "\n")
-        sys.stdout.flush()
+        _report(args.output, rec, _row(rec, args.models, args.heuristics))
     return 0
 
 
