@@ -353,6 +353,7 @@ def test_cuts_priced_exactly_where_the_planner_prunes(
     got = {}
     for prune_from in (10**9, 1):
         monkeypatch.setattr(planner, "PRUNE_FROM", prune_from)
+        # also any copy of the threshold the cut pricing keeps (it imported one before)
         monkeypatch.setattr(sr, "PRUNE_FROM", prune_from, raising=False)
         pool._entries.clear()
         got[prune_from] = pool.best_path(g, price, np.zeros(2), sigma)
