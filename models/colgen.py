@@ -1209,13 +1209,16 @@ class SideBound:
     ) -> None:
         import multiprocessing as mp
 
-        ctx = mp.get_context("spawn")
-        self._recv, send = ctx.Pipe(duplex=False)
-        self._proc = ctx.Process(
-            target=_side_child, args=(send, instance, data, seconds, lower_bound), daemon=True
-        )
-        self._proc.start()
-        send.close()
+        from models.highs_direct import ChildStartError, spawn_child
+
+        self._recv, send = mp.get_context("spawn").Pipe(duplex=False)
+        self._proc: Any = None
+        try:
+            self._proc = spawn_child(_side_child, (send,), (instance, data, seconds, lower_bound))
+        except ChildStartError as exc:
+            log.warning("%s; no side branch and price", exc)
+        finally:
+            send.close()
         self.bound: float | None = None
         self.found: tuple[Any, float] | None = None
         self.lower_bound = lower_bound
@@ -1224,7 +1227,7 @@ class SideBound:
         #: :func:`time.perf_counter` when :meth:`watch` first found the child's bound to
         #: prove a schedule optimal (the MILP's incumbent, its start or its own; else None).
         self.proved_at: float | None = None
-        self._done = False
+        self._done = self._proc is None  # it did not start: nothing to read
         self._stopped = False
 
     def _take(self, msg: tuple[Any, ...]) -> None:
@@ -1320,5 +1323,6 @@ class SideBound:
         finally:
             from models.highs_direct import stop_child
 
-            stop_child(self._proc)
+            if self._proc is not None:
+                stop_child(self._proc)
             self._recv.close()

@@ -861,7 +861,61 @@ def stop_child(proc: Any) -> None:
         proc.join()
 
 
-def _guarded_child(conn: Any, lp: _Lp, left: float, kwargs: dict[str, Any], halt: Any) -> None:
+class ChildStartError(RuntimeError):
+    """A solver's child process ended before it had read its work (:func:`spawn_child`)."""
+
+
+#: What a :class:`ChildStartError` tells a user: the usual cause.
+CHILD_START_HINT = (
+    'a script that solves should do so under `if __name__ == "__main__":`, since the '
+    "solver's child processes import it again (multiprocessing's spawn)"
+)
+
+
+def _unpack(payload: Any, target: Callable[..., None], args: tuple[Any, ...]) -> None:
+    """A :func:`spawn_child` child: read the work from ``payload``, then run ``target``."""
+    work = payload.recv()
+    payload.close()
+    target(*args, *work)
+
+
+def spawn_child(target: Callable[..., None], args: tuple[Any, ...], work: tuple[Any, ...]) -> Any:
+    """Start ``target(*args, *work)`` in a ``spawn`` process and return it (started).
+
+    ``args`` (connections, events: what must be inherited) go with the start, ``work`` (the
+    large part: a model's arrays, an instance) through a pipe once it has started. Sent with
+    the start, a payload larger than a pipe's buffer blocks the parent for ever when the
+    child ends before reading it, which is what a child does that imports a script without
+    the ``__main__`` guard: it runs the script, whose solve fails to start a grandchild
+    (andes-300's `milp` from such a script, 120 s limit, was still blocked in its side
+    process's start when killed at 400 s). Through the pipe the parent's write fails instead.
+
+    Raises
+    ------
+    ChildStartError
+        The child ended before it read ``work``.
+    """
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    recv, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_unpack, args=(recv, target, args), daemon=True)
+    proc.start()
+    recv.close()
+    try:
+        send.send(work)
+    except OSError:  # BrokenPipeError: nobody reads the other end
+        stop_child(proc)
+        raise ChildStartError(
+            f"a solver's child process ended at its start (exit code {proc.exitcode}): "
+            + CHILD_START_HINT
+        ) from None
+    finally:
+        send.close()
+    return proc
+
+
+def _guarded_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict[str, Any]) -> None:
     """A guarded solve's child process: solve ``lp`` within ``left`` seconds, reporting to the
     parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
     ``("error", text)``."""
@@ -899,9 +953,15 @@ def _run_guarded(
     halt = ctx.Event()
     recv, send = ctx.Pipe(duplex=False)
     left = max(deadline - time.perf_counter(), 0.01)
-    proc = ctx.Process(target=child, args=(send, lp, left, kwargs, halt), daemon=True)
-    proc.start()
-    send.close()
+    try:
+        proc = spawn_child(child, (send, halt), (lp, left, kwargs))
+    except ChildStartError as exc:
+        # no guard against HiGHS's clockless parts then, but an answer
+        log.warning("%s; HiGHS runs in this process", exc)
+        recv.close()
+        return _run_here(lp, deadline=deadline, **kwargs)
+    finally:
+        send.close()
     progress = current_progress()
     best: tuple[float, np.ndarray] | None = None
     dual: float | None = None

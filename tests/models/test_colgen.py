@@ -290,6 +290,22 @@ def test_side_bound_in_its_own_process(seed: int, optimum: float) -> None:
         assert validate(inst, found[0]).profit == found[1] <= optimum
 
 
+def test_side_bound_that_cannot_start_is_no_bound(monkeypatch: pytest.MonkeyPatch) -> None:
+    # its child ended before reading the instance (a script without the __main__ guard):
+    # the MILP beside it goes on alone, and nothing waits for the child
+    import models.highs_direct as hd
+    from models.colgen import SideBound
+
+    def refuse(*args: object) -> None:
+        raise hd.ChildStartError("ended at its start")
+
+    monkeypatch.setattr(hd, "spawn_child", refuse)
+    inst = random_tiny(105)
+    side = SideBound(inst, orbit_data(inst), 30.0, None)
+    assert side.poll() is None and not side.yield_to(0.0) and not side.watch(0.0, 0.0)
+    assert side.finish(wait=5.0) == (None, None)
+
+
 def test_side_bound_stopped_early_keeps_a_valid_bound() -> None:
     from models.colgen import SideBound
 

@@ -3,14 +3,20 @@ HiGHS does not return by the deadline is stopped, keeping what it reported."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 
 from models.highs_direct import (
     BOUND_WATCH_S,
     GUARD_GRACE_S,
+    ChildStartError,
     HighsOutcome,
     _Lp,
     _run_guarded,
@@ -26,7 +32,7 @@ def _model() -> Any:
     return build_arrays(model_data(tiny_cluster(), "cluster"), relax=False)
 
 
-def hanging_child(conn: Any, lp: _Lp, left: float, kwargs: dict, halt: Any) -> None:
+def hanging_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict) -> None:
     """Reports one incumbent and a dual bound, then never returns (as HiGHS in a presolve
     that reads no clock)."""
     x = np.zeros(lp.n_items)
@@ -69,7 +75,7 @@ def test_a_guarded_solve_hands_its_dual_bound_to_the_watcher() -> None:
     assert len(got) == seen  # outside the block, nobody is told
 
 
-def halting_child(conn: Any, lp: _Lp, left: float, kwargs: dict, halt: Any) -> None:
+def halting_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict) -> None:
     """Reports a dual bound, then answers only when halted."""
     conn.send(("progress", 3, 9.0))
     halt.wait(60)
@@ -86,7 +92,7 @@ def test_a_watcher_halts_a_guarded_solve() -> None:
     assert out.model_status == "halted" and time.perf_counter() - t0 < 20.0
 
 
-def silent_child(conn: Any, lp: _Lp, left: float, kwargs: dict, halt: Any) -> None:
+def silent_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict) -> None:
     """Reports nothing and never returns (HiGHS in a presolve that reads no clock)."""
     time.sleep(60)
 
@@ -100,3 +106,44 @@ def test_a_watcher_stops_a_silent_guarded_solve() -> None:
         out = _run_guarded(lp, t0 + 30.0, {}, child=silent_child)
     assert time.perf_counter() - t0 < 2.0 + GUARD_GRACE_S
     assert got == [(np.inf, -np.inf)] and out.info["guard_stopped"] and out.objective is None
+
+
+def test_a_child_that_ends_before_its_work_does_not_hang_the_parent(tmp_path: Path) -> None:
+    # A script without the __main__ guard: spawn's child imports it again, fails to start a
+    # grandchild and ends before reading its work. Sent with the start, work larger than a
+    # pipe's buffer (here 8 MB) blocked the parent for ever; now the start is refused.
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import numpy as np
+            from models.highs_direct import ChildStartError, spawn_child
+            try:
+                spawn_child(print, (), (np.zeros(1_000_000),))
+            except ChildStartError as exc:
+                print("REFUSED", exc)
+            """
+        )
+    )
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run(
+        [sys.executable, str(script)], cwd=root, capture_output=True, text=True, timeout=60,
+        env={"PYTHONPATH": str(root), "PATH": ""},
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "REFUSED" in done.stdout and "__main__" in done.stdout
+
+
+def test_a_guarded_solve_whose_child_cannot_start_runs_here(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import models.highs_direct as hd
+
+    def refuse(*args: object) -> None:
+        raise ChildStartError("ended at its start")
+
+    monkeypatch.setattr(hd, "spawn_child", refuse)
+    am = _model()
+    here = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
+    out = _run_guarded(_Lp.of(am), time.perf_counter() + 30, {})
+    assert out.status == here.status == "optimal" and out.objective == here.objective
