@@ -28,6 +28,10 @@ triples and the cuts over two targets and one orbit's convexity row, the default
     python benchmarks/bench_exact.py --branch-and-price --time-limit 600 --names C5 C7
     python benchmarks/bench_exact.py --branch-and-price --time-limit 600 --cuts triples \
         --names C5 C7
+    python benchmarks/bench_exact.py --branch-and-price --time-limit 300 --strong 0 5 10 \
+        --names C7 C8
+
+``--strong`` sets the strong branching's candidates (``models.colgen.STRONG_CANDIDATES``).
 
 Besides the paper's names, ``--names`` takes the generated dense instances of :data:`GENERATED`
 (300-500 targets in regions that are none of the paper's; target draw seed ``--seed``), e.g.
@@ -85,10 +89,17 @@ BEST_KNOWN: dict[str, float] = {
 }
 
 
-def run_branch_and_price(name: str, seed: int, time_limit: float, cuts: str) -> dict[str, Any]:
-    """One ``colgen_bound(..., branch=True)`` run with the cut families ``cuts``."""
+def run_branch_and_price(
+    name: str, seed: int, time_limit: float, cuts: str, strong: int | None = None
+) -> dict[str, Any]:
+    """One ``colgen_bound(..., branch=True)`` run with the cut families ``cuts`` and
+    ``strong`` strong-branching candidates (None: the default)."""
+    import models.colgen as colgen
     import models.subset_row as subset_row
     from models.colgen import colgen_bound
+
+    if strong is not None:
+        colgen.STRONG_CANDIDATES = strong
 
     inst = scenario(name, seed)
     best = BEST_KNOWN.get(name) if seed == 0 else None
@@ -107,6 +118,7 @@ def run_branch_and_price(name: str, seed: int, time_limit: float, cuts: str) -> 
         "name": name,
         "seed": seed,
         "cuts": cuts,
+        "strong": colgen.STRONG_CANDIDATES,
         "time_limit": time_limit,
         "bound": out["bound"],
         "best_known": best,
@@ -259,7 +271,8 @@ def _report(output: str | None, rec: dict[str, Any], row: str) -> None:
 def _branch_and_price_row(rec: dict[str, Any]) -> str:
     """One table row of :func:`run_branch_and_price`'s record."""
     gap = "" if rec["gap"] is None else f"{100 * rec['gap']:.2f}%"
-    cells = [rec["name"], rec["cuts"], f"{rec['bound']:g}", f"{rec['best_known'] or ''}", gap]
+    cells = [rec["name"], rec["cuts"], str(rec.get("strong", "")), f"{rec['bound']:g}"]
+    cells += [f"{rec['best_known'] or ''}", gap]
     cells += [str(rec["nodes"]), f"{rec['runtime_s']:.0f}"]
     return "| " + " | ".join(cells) + " |"
 
@@ -329,15 +342,20 @@ def main(argv: list[str] | None = None) -> int:
         "--cuts", nargs="*", default=["orbit"], choices=("orbit", "triples", "none"),
         help="with --branch-and-price: cut families",
     )  # fmt: skip
+    p.add_argument(
+        "--strong", nargs="*", type=int, default=[None],
+        help="with --branch-and-price: strong-branching candidates (default: the library's)",
+    )  # fmt: skip
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     if args.branch_and_price:
-        head = ["scenario", "cuts", "bound", "best known", "gap", "nodes", "time s"]
+        head = ["scenario", "cuts", "strong", "bound", "best known", "gap", "nodes", "time s"]
         sys.stdout.write("| " + " | ".join(head) + " |\n|" + "---|" * len(head) + "\n")
         for name in args.names:
             for cuts in args.cuts:
-                rec = run_branch_and_price(name, args.seed, args.time_limit, cuts)
-                _report(args.output, rec, _branch_and_price_row(rec))
+                for strong in args.strong:
+                    rec = run_branch_and_price(name, args.seed, args.time_limit, cuts, strong)
+                    _report(args.output, rec, _branch_and_price_row(rec))
         return 0
     if args.proofs:
         head = ["scenario", "slew", "result", "gap", "time s", "start", "extra bound"]

@@ -225,6 +225,7 @@ def test_children_start_from_their_parents_basis(monkeypatch, seed, optimum) -> 
         real(h, parent, free, forced, in_lp, cut_ids)
 
     monkeypatch.setattr(colgen, "_start_basis", counted)
+    monkeypatch.setattr(colgen, "STRONG_CANDIDATES", 0)  # no node solved twice: one basis each
     out = colgen_bound(random_tiny(seed), branch=True)
     assert out["bound"] == optimum and len(given) == out["nodes"] >= 2
 
@@ -724,6 +725,45 @@ def test_subset_row_cuts_never_below_the_optimum(monkeypatch) -> None:
         assert optimum <= cut <= plain, seed
         lowered += cut < plain
     assert lowered >= 5
+
+
+@pytest.mark.parametrize("strong", [0, 1, 5, 50])
+def test_strong_branching_reaches_the_optimum(monkeypatch, strong: int) -> None:
+    # whatever the candidates, the branching ends on the oracle's optimum; with strong
+    # branching every branched node's pair is the one _strong_pick chose, among the node's
+    # fractional pairs, and the master it probed is left as it was (same optimum after)
+    import highspy
+
+    import models.colgen as colgen
+
+    real = colgen._strong_pick
+    picked: list[tuple[int, int]] = []
+
+    def checked(h, node, p, n, m_value, pf, *rest):  # noqa: ANN001, ANN202
+        pick = real(h, node, p, n, m_value, pf, *rest)
+        candidates = colgen._candidates(node, p, n)
+        assert pick in candidates if candidates else pick is None  # None: nothing fractional
+        h.run()
+        assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+        after = -h.getInfo().objective_function_value + float(pf.sum())
+        assert after == pytest.approx(m_value, abs=1e-7)
+        if pick is not None:
+            picked.append(pick)
+        return pick
+
+    monkeypatch.setattr(colgen, "_strong_pick", checked)
+    monkeypatch.setattr(colgen, "STRONG_CANDIDATES", strong)
+    for seed, optimum in [(19, 24), (105, 23), (226, 34)]:
+        picked.clear()
+        out = colgen_bound(random_tiny(seed), branch=True)
+        assert out["bound"] == optimum and out["nodes"] >= 2
+        assert (len(picked) >= out["nodes"] // 2) if strong else not picked
+    for seed in range(6):
+        inst = random_dense(seed)
+        out = colgen_bound(inst, branch=True, cut_rounds=2)
+        monkeypatch.setattr(colgen, "STRONG_CANDIDATES", 0)
+        assert out["bound"] == colgen_bound(inst, branch=True, cut_rounds=2)["bound"]
+        monkeypatch.setattr(colgen, "STRONG_CANDIDATES", strong)
 
 
 @settings(max_examples=40, deadline=None)
