@@ -347,6 +347,8 @@ def main(argv: list[str] | None = None) -> int:
         help="with --branch-and-price: strong-branching candidates (default: the library's)",
     )  # fmt: skip
     args = p.parse_args(argv)
+    if any(s is not None and s < 0 for s in args.strong):
+        p.error(f"--strong: expected non-negative candidate counts, got {args.strong}")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     if args.branch_and_price:
         head = ["scenario", "cuts", "strong", "bound", "best known", "gap", "nodes", "time s"]
