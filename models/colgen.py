@@ -92,6 +92,9 @@ NODE_CUTS = 20
 #: *Strong branching*): C7 2867.99 / 2866.84 / 2866.98, C8 3185.94 / 3184.98 / 3186.77.
 STRONG_CANDIDATES = 5
 
+#: HiGHS's primal simplex (``simplex_strategy``), the restricted masters' (:func:`_master_highs`).
+_MASTER_SIMPLEX = 4
+
 #: Dual simplex for the strong branching's solves: a child's changed coefficients leave the
 #: node's basis neither primal nor dual feasible, and from it C7's solves took 460-11,900
 #: primal iterations (0.04-1.4 s) against 685 dual on average (0.10 s a solve).
@@ -130,7 +133,7 @@ def _master_highs() -> Any:
     h.setOptionValue("output_flag", False)
     h.setOptionValue("presolve", "off")
     h.setOptionValue("solver", "simplex")
-    h.setOptionValue("simplex_strategy", 4)  # primal
+    h.setOptionValue("simplex_strategy", _MASTER_SIMPLEX)
     return h
 
 
@@ -1094,7 +1097,7 @@ def _strong_pick(
         score = falls[0] * falls[1]
         if score > best:
             best, pick = score, (k, g)
-    h.setOptionValue("simplex_strategy", 4)  # as :func:`_master_highs` left it
+    h.setOptionValue("simplex_strategy", _MASTER_SIMPLEX)  # as the master had it
     return pick
 
 
