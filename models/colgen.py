@@ -1188,7 +1188,8 @@ def branch_and_price(
             break
         if top.cover is None:
             break  # cut short by the deadline: its bound stands
-        if strong > 0 and top.pick is None and _branch_pair(top, p) is not None:
+        pair = top.pick if top.pick is not None else _branch_pair(top, p)
+        if strong > 0 and top.pick is None and pair is not None:
             # strong branching only on the nodes the search branches on (most solved nodes
             # never are): the node's master again, from its own columns and basis, which
             # converges in a round or two and keeps the bound it had (or lowers it)
@@ -1200,7 +1201,6 @@ def branch_and_price(
             heapq.heappush(heap, (-top.bound, count, top))
             count += 1
             continue
-        pair = top.pick if top.pick is not None else _branch_pair(top, p)
         if pair is None:
             final = top
             break  # nothing fractional to branch on: the largest bound is final
