@@ -609,6 +609,8 @@ class _Columns:
         self.items: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
         ints, floats = np.zeros(0, dtype=np.int64), np.zeros(0)
         self._flat: tuple[np.ndarray, ...] = (ints, ints, ints, floats, floats, floats)
+        # per column, its cut coefficients and how many of the pool's cuts they cover
+        self._coef: list[tuple[int, dict[int, int]]] = []
 
     def add(self, g: int, tg: np.ndarray, cnt: np.ndarray, energy: float, memory: float) -> int:
         """The column's index in the pool (added when new)."""
@@ -617,6 +619,20 @@ class _Columns:
             self.keys[key] = len(self.items)
             self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
         return self.keys[key]
+
+    def coefficients(self, i: int, cuts: CutPool) -> dict[int, int]:
+        """Column i's coefficient per cut of ``cuts`` it hits
+        (:meth:`models.subset_row.CutPool.coefficients`), computed once per column and cut:
+        every node's master holds the pool's cuts, and recomputing them for each master's
+        columns was a tenth of C7's branch and price."""
+        while len(self._coef) < len(self.items):
+            self._coef.append((0, {}))
+        n, coef = self._coef[i]
+        if n < len(cuts):
+            g, tg, cnt, _, _ = self.items[i]
+            coef = {**coef, **cuts.coefficients(tg, cnt, g, since=n)}
+            self._coef[i] = (len(cuts), coef)
+        return coef
 
     def values(self, price: np.ndarray, lam_per_unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each column's value, ``sum_k price[g, k] * n_kP - lam_e E_P - lam_w M_P`` with
@@ -738,6 +754,7 @@ def _solve_node(
     in_lp: list[int] = []
     loaded: set[int] = set()
     cut_ids: list[int] = []  # the pool's cuts this master holds, in row order
+    cut_row: dict[int, int] = {}  # a held cut's place in cut_ids
     cut_rhs: list[float] = []
     cut_free: list[np.ndarray] = []  # per held cut, its free targets' rows
     cut0 = base + 3 * n_orb
@@ -758,11 +775,11 @@ def _solve_node(
         rows.append(np.array([base + g, base + n_orb + g, base + 2 * n_orb + g]))
         vals.append(np.array([1.0, energy, memory]))
         if cut_ids:
-            coef = cuts.coefficients(tg, cnt, g)  # type: ignore[union-attr]
-            at = [(cut0 + x, -float(coef[c])) for x, c in enumerate(cut_ids) if c in coef]
+            coef = cols.coefficients(i, cuts)  # type: ignore[arg-type]
+            at = sorted((cut_row[c], v) for c, v in coef.items() if c in cut_row)
             if at:
-                rows.append(np.array([r for r, _ in at]))
-                vals.append(np.array([v for _, v in at]))
+                rows.append(np.array([cut0 + x for x, _ in at]))
+                vals.append(np.array([-float(v) for _, v in at]))
         r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
         h.addCol(0.0, 0.0, inf, len(r), r, v)
         in_lp.append(i)
@@ -770,23 +787,37 @@ def _solve_node(
     def hold(new: Sequence[int]) -> None:
         """Add rows for the pool's cuts ``new`` that this node keeps."""
         assert cuts is not None
-        coefs = [cuts.coefficients(*cols.items[i][1:3], cols.items[i][0]) for i in in_lp]
+        kept: dict[int, tuple[float, np.ndarray]] = {}
         for c in new:
             members = cuts.cuts[c]
             rhs = cuts.rhs[c] - int(np.count_nonzero(row_forced[members] >= 0))
-            if rhs < 0:
-                continue
-            zs = row_free[members][row_free[members] >= 0]
-            idx = [*zs.tolist()]
-            val = [1.0] * len(idx)
-            for x, coef in enumerate(coefs):
-                if c in coef:
-                    idx.append(first_y + x)
-                    val.append(-float(coef[c]))
-            h.addRow(-inf, float(rhs), len(idx), np.array(idx, np.int32), np.array(val))
+            if rhs >= 0:
+                kept[c] = (float(rhs), row_free[members][row_free[members] >= 0])
+        if not kept:
+            return
+        # each cut's y entries, in the master's column order, from the columns' coefficients
+        ys: dict[int, tuple[list[int], list[float]]] = {c: ([], []) for c in kept}
+        for x, i in enumerate(in_lp):
+            for c, v in cols.coefficients(i, cuts).items():
+                if c in ys:
+                    ys[c][0].append(first_y + x)
+                    ys[c][1].append(-float(v))
+        starts, idx, val, upper = [], [], [], []
+        for c, (rhs, zs) in kept.items():
+            starts.append(len(idx))
+            idx.extend(zs.tolist())
+            val.extend([1.0] * len(zs))
+            idx.extend(ys[c][0])
+            val.extend(ys[c][1])
+            upper.append(rhs)
+            cut_row[c] = len(cut_ids)
             cut_ids.append(c)
-            cut_rhs.append(float(rhs))
+            cut_rhs.append(rhs)
             cut_free.append(zs)
+        h.addRows(
+            len(kept), np.full(len(kept), -inf), np.array(upper), len(idx),
+            np.array(starts, np.int32), np.array(idx, np.int32), np.array(val, dtype=float),
+        )  # fmt: skip
 
     for i in _start_columns(node, cols, len(groups), e_cap, w_cap):
         load(int(i))

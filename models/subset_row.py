@@ -917,14 +917,18 @@ class CutPool:
                 self._on_orbit[g].append(c)
         return c
 
-    def coefficients(self, tg: np.ndarray, cnt: np.ndarray, g: int) -> dict[int, int]:
+    def coefficients(
+        self, tg: np.ndarray, cnt: np.ndarray, g: int, since: int = 0
+    ) -> dict[int, int]:
         """A plan of orbit ``g``'s coefficient per cut it hits (``ceil(h_SP / 2)``, or
         ``floor(h_SP / 2)`` where g is in the cut's G; zeros left out), from its targets
-        ``tg`` and how many of its observations cover each (``cnt``)."""
+        ``tg`` and how many of its observations cover each (``cnt``); only the cuts from
+        index ``since`` on."""
         h: dict[int, int] = {}
         for k, n in zip(tg.tolist(), np.asarray(cnt).tolist(), strict=True):
             for c in self._of_target.get(k, ()):
-                h[c] = h.get(c, 0) + int(round(n))
+                if c >= since:
+                    h[c] = h.get(c, 0) + int(round(n))
         out = {c: (x // 2 if g in self.orbits[c] else (x + 1) // 2) for c, x in h.items()}
         return {c: v for c, v in out.items() if v}
 

@@ -824,3 +824,30 @@ def test_long_runs_take_more_root_cut_rounds(monkeypatch) -> None:
     for limit, rounds in ((30.0, None), (None, None), (30.0, 1)):
         colgen_bound(inst, branch=True, time_limit=limit, cut_rounds=rounds)
     assert taken == [3, 5, 1]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cached_cut_coefficients_follow_the_growing_pool(seed: int) -> None:
+    # a column's cut coefficients are computed once per cut and kept (_Columns.coefficients):
+    # after more cuts join the pool they must still equal the pool's, computed from scratch
+    from models.colgen import _Columns
+    from models.subset_row import CutPool
+
+    groups = orbit_data(random_dense(seed, 40, 3)).orbits
+    rng = np.random.default_rng(seed)
+    pool, cols = CutPool(groups), _Columns()
+    for _ in range(30):
+        g = int(rng.integers(len(groups)))
+        tg = np.unique(rng.choice(groups[g].targets, min(6, len(groups[g].targets))))
+        cols.add(g, tg, rng.integers(1, 3, len(tg)), 1.0, 1.0)
+    every = np.unique(np.concatenate([o.targets for o in groups]))
+    for step in range(4):
+        for _ in range(10):
+            if rng.random() < 0.5 and len(groups) > 1:
+                pool.add(rng.choice(every, 2, replace=False).tolist(), [int(rng.integers(3))])
+            else:
+                pool.add(rng.choice(every, 3, replace=False).tolist())
+        for i in rng.permutation(len(cols.items))[: 10 + 7 * step]:
+            g, tg, cnt, _, _ = cols.items[i]
+            assert cols.coefficients(int(i), pool) == pool.coefficients(tg, cnt, g)
+    assert any(cols.coefficients(i, pool) for i in range(len(cols.items)))
