@@ -688,6 +688,7 @@ def _solve_node(
     separate: int = 0,
     cuts_per_round: int = CUTS_PER_ROUND,
     strong: int = 0,
+    prune: float | None = None,
 ) -> _Node:
     """Column generation on the master of ``node``; returns it with its bound and cover.
 
@@ -714,7 +715,9 @@ def _solve_node(
     converged, up to ``separate`` rounds add the cuts its master violates
     (:meth:`models.subset_row.CutPool.separate`) to the pool and go on. With ``strong``,
     the converged node also gets its branching pair (``pick``, :func:`_strong_pick` over
-    that many candidates).
+    that many candidates). With ``prune`` (a known schedule's profit), the column generation
+    stops as soon as the bound rounded down is at most ``prune``: the node then holds no
+    better schedule and its cover is never needed (returned as None).
     """
     import highspy
 
@@ -871,6 +874,8 @@ def _solve_node(
             if value < best:
                 best, mu_c, beta_c, lam_c, sigma_c = value, mu_s, beta_s, lam_s, sigma_s
                 node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c, sigma=sigma_c)
+                if prune is not None and math.floor(best + 1e-6) <= prune + 1e-9:
+                    return replace(node, cover=None)  # pruned: the search stops before it
         resolve = False
         left = None if deadline is None else deadline - time.perf_counter()
         allow_seconds(h, left)
@@ -1165,7 +1170,9 @@ def branch_and_price(
     node cut short by the deadline keeps a valid bound. The search takes the node of largest
     bound first (only that one can lower the answer) and stops at the deadline, at
     ``max_nodes``, when it meets ``lower_bound`` (a known schedule's profit), or when that
-    node has no fractional pair left (its bound is then the answer).
+    node has no fractional pair left (its bound is then the answer). A node whose bound
+    meets ``lower_bound`` during its column generation stops there (``prune`` of
+    :func:`_solve_node`): it can only be at the top once the search is over.
 
     Parameters
     ----------
@@ -1227,7 +1234,7 @@ def branch_and_price(
             heapq.heappop(heap)
             top = _solve_node(
                 replace(top, cover=None), p, seen, groups, cols, deadline, smoothing, pool,
-                0, NODE_CUTS, strong,
+                0, NODE_CUTS, strong, lower_bound,
             )  # fmt: skip
             heapq.heappush(heap, (-top.bound, count, top))
             count += 1
@@ -1248,7 +1255,7 @@ def branch_and_price(
             # own column generation finds a lower one
             child = _solve_node(
                 child, p, seen, groups, cols, deadline, smoothing, pool,
-                NODE_CUT_ROUNDS if pool is not None else 0, NODE_CUTS,
+                NODE_CUT_ROUNDS if pool is not None else 0, NODE_CUTS, prune=lower_bound,
             )  # fmt: skip
             nodes += 1
             heapq.heappush(heap, (-child.bound, count, child))

@@ -197,6 +197,39 @@ def test_branch_and_price_closes_the_root_gap(seed: int, optimum: float, root: f
     assert validate(inst, out["schedule"]).profit == out["profit"] <= optimum
 
 
+@settings(max_examples=40, deadline=None)
+@given(inst=small_instances())
+def test_nodes_pruned_by_a_known_schedule_never_hide_the_optimum(inst: Instance) -> None:
+    # a node's column generation stops once its bound is at most a known schedule's profit:
+    # with a profit one or two below the optimum, the node holding the optimum is never
+    # pruned, so the answer stays at least the optimum
+    optimum = brute_force(inst, "cluster").profit
+    for below in (1, 2):
+        out = colgen_bound(inst, branch=True, lower_bound=optimum - below)
+        assert out["bound"] >= optimum
+
+
+@pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (105, 23), (226, 34)])
+def test_pruning_by_a_known_schedule_proves_it(monkeypatch, seed: int, optimum: int) -> None:
+    # given the optimum as the known profit, the search ends at it; the children whose bound
+    # reaches it stop there (returned without a cover)
+    import models.colgen as colgen
+
+    real, pruned = colgen._solve_node, []
+
+    def watched(node, *args, **kwargs):
+        out = real(node, *args, **kwargs)
+        if kwargs.get("prune") is not None and out.cover is None:
+            pruned.append((out.bound, kwargs["prune"]))
+        return out
+
+    monkeypatch.setattr(colgen, "_solve_node", watched)
+    inst = random_tiny(seed)
+    assert colgen_bound(inst, branch=True, lower_bound=optimum)["bound"] == optimum
+    assert colgen_bound(inst, branch=True, lower_bound=optimum - 1)["bound"] == optimum
+    assert pruned and all(math.floor(b + 1e-6) <= known for b, known in pruned)
+
+
 @pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (105, 23), (226, 34)])
 def test_branch_and_price_with_a_restricted_start_master(monkeypatch, seed, optimum) -> None:
     # the nodes' masters start from a few pool columns (as on large pools): the answer is
