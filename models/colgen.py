@@ -618,6 +618,7 @@ class _Columns:
         if key not in self.keys:
             self.keys[key] = len(self.items)
             self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
+            self._coef.append((0, {}))
         return self.keys[key]
 
     def coefficients(self, i: int, cuts: CutPool) -> dict[int, int]:
@@ -625,8 +626,6 @@ class _Columns:
         (:meth:`models.subset_row.CutPool.coefficients`), computed once per column and cut:
         every node's master holds the pool's cuts, and recomputing them for each master's
         columns was a tenth of C7's branch and price."""
-        while len(self._coef) < len(self.items):
-            self._coef.append((0, {}))
         n, coef = self._coef[i]
         if n < len(cuts):
             g, tg, cnt, _, _ = self.items[i]
@@ -1234,7 +1233,7 @@ def branch_and_price(
             heapq.heappop(heap)
             top = _solve_node(
                 replace(top, cover=None), p, seen, groups, cols, deadline, smoothing, pool,
-                0, NODE_CUTS, strong, lower_bound,
+                0, NODE_CUTS, strong, prune=lower_bound,
             )  # fmt: skip
             heapq.heappush(heap, (-top.bound, count, top))
             count += 1

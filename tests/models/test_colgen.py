@@ -877,7 +877,9 @@ def test_cached_cut_coefficients_follow_the_growing_pool(seed: int) -> None:
     for step in range(4):
         for _ in range(10):
             if rng.random() < 0.5 and len(groups) > 1:
-                pool.add(rng.choice(every, 2, replace=False).tolist(), [int(rng.integers(3))])
+                pool.add(
+                    rng.choice(every, 2, replace=False).tolist(), [int(rng.integers(len(groups)))]
+                )
             else:
                 pool.add(rng.choice(every, 3, replace=False).tolist())
         for i in rng.permutation(len(cols.items))[: 10 + 7 * step]:
