@@ -79,8 +79,9 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=positive(int),
         default=None,
         help="processes planning the orbits of each pricing round of colgen, lagrangian and "
-        "auto (default 1); with --dask local, the local cluster's processes (default: one per "
-        "core)",
+        "auto (default 1), and from 2 on solving the two children of each branching of their "
+        "branch and price side by side; with --dask local, the local cluster's processes "
+        "(default: one per core)",
     )
     p.add_argument(
         "--dask",

@@ -416,7 +416,9 @@ def colgen_bound(
     data
         Prepared candidates (built here when None).
     workers
-        Processes for the orbits' plans of each round (:class:`sosp.planner.PlanPool`).
+        Processes for the orbits' plans of each round (:class:`sosp.planner.PlanPool`), and
+        with ``branch`` and an integer of 2 or more, for the two children of each branching
+        (:func:`branch_and_price`).
     max_rounds
         Pricing rounds at most.
     smoothing
@@ -540,6 +542,7 @@ def colgen_bound(
         answer, nodes, final = branch_and_price(
             p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound,
             report=report, cut_rounds=cut_rounds,
+            workers=workers if isinstance(workers, int) else 1,
         )  # fmt: skip
         result["nodes"] = nodes
         result["bound"] = min(bound, float(math.floor(answer + 1e-6)))
@@ -614,12 +617,28 @@ class _Columns:
 
     def add(self, g: int, tg: np.ndarray, cnt: np.ndarray, energy: float, memory: float) -> int:
         """The column's index in the pool (added when new)."""
+        # keyed by the stored dtypes, so that a plan priced here (integer counts) and the
+        # same plan received from a helper (:class:`_Helper`, float counts) are one column
+        tg, cnt = np.asarray(tg, dtype=np.int64), np.asarray(cnt, dtype=float)
         key = (g, tg.tobytes() + cnt.tobytes())
         if key not in self.keys:
             self.keys[key] = len(self.items)
-            self.items.append((g, tg.astype(np.int64), cnt.astype(float), energy, memory))
+            self.items.append((g, tg, cnt, energy, memory))
             self._coef.append((0, {}))
         return self.keys[key]
+
+    def truncate(self, n: int) -> None:
+        """Drop the columns from index ``n`` on (a helper's own, before it takes the
+        parent's pool, :class:`_Helper`)."""
+        if n >= len(self.items):
+            return
+        self.keys = {key: i for key, i in self.keys.items() if i < n}
+        del self.items[n:]
+        del self._coef[n:]
+        col, orb, tgt, cnt, energy, memory = self._flat
+        if len(energy) > n:
+            cut = int(np.searchsorted(col, n))  # entries are in column order
+            self._flat = (col[:cut], orb[:n], tgt[:cut], cnt[:cut], energy[:n], memory[:n])
 
     def coefficients(self, i: int, cuts: CutPool) -> dict[int, int]:
         """Column i's coefficient per cut of ``cuts`` it hits
@@ -1143,6 +1162,189 @@ def _branch_pair(node: _Node, p: np.ndarray) -> tuple[int, int] | None:
     return pairs[0] if pairs else None
 
 
+#: Seconds a :class:`_Helper` may take past the deadline to return its child (a node cut
+#: short by the deadline comes back at once; this is for a helper that has hung or died).
+HELPER_GRACE_S = 5.0
+
+
+def _helper_child(
+    conn: Any,
+    p: np.ndarray,
+    seen: np.ndarray,
+    groups: tuple[Any, ...],
+    items: list[tuple[int, np.ndarray, np.ndarray, float, float]],
+    cuts: CutPool | None,
+    smoothing: float,
+) -> None:
+    """A :class:`_Helper`'s process: solve the nodes it is sent (:func:`_solve_node`), each
+    after taking the parent's pool of columns, and send each back with the columns it
+    added, until ``("stop",)`` or the parent's end."""
+    from models.highs_direct import child_setup
+
+    child_setup()
+    cols = _Columns()
+    for item in items:
+        cols.add(*item)
+    try:
+        while True:
+            msg = conn.recv()
+            if msg[0] != "node":
+                break
+            _, keep, new, node, deadline, prune = msg
+            cols.truncate(keep)  # its own columns of the last node came back in ``new``
+            for item in new:
+                cols.add(*item)
+            n0 = len(cols.items)
+            out = _solve_node(
+                node, p, seen, groups, cols, deadline, smoothing, cuts, 0, NODE_CUTS,
+                prune=prune,
+            )  # fmt: skip
+            conn.send(("node", out, cols.items[n0:]))
+    except (EOFError, OSError):
+        pass  # the parent has gone
+    except Exception as exc:  # pragma: no cover - HiGHS or pickling failures
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+    finally:
+        conn.close()
+
+
+def _remapped(node: _Node, index: np.ndarray) -> _Node:
+    """``node`` with its columns (``support``, its basis's ``y``) renumbered by ``index``."""
+    support = tuple(int(index[i]) for i in node.support)
+    basis = node.basis
+    if basis is not None:
+        basis = replace(basis, y=index[basis.y])
+    return replace(node, support=support, basis=basis)
+
+
+class _Helper:
+    """A second process for :func:`branch_and_price`: it solves one of the two children of
+    each branching while this process solves the other.
+
+    Both start from the same pool of columns, the one at the branching, so the children,
+    and the search, are the same whatever either process's speed (only a deadline cuts
+    them). The pools stay identical up to :attr:`synced`: after a branching this process
+    adds the helper's new columns after its own child's, and the helper, before its next
+    child, drops its own and takes this process's (:meth:`send`). The cut pool is sent
+    once, at the start (the helper is started after the root's separation and is not used
+    when the nodes separate cuts, :data:`NODE_CUT_ROUNDS`). The process is started with
+    ``spawn``, as :class:`SideBound`'s; a daemonic process (a side process) cannot start
+    one, and then the search stays in one process.
+    """
+
+    def __init__(
+        self,
+        p: np.ndarray,
+        seen: np.ndarray,
+        groups: tuple[Any, ...],
+        cols: _Columns,
+        cuts: CutPool | None,
+        smoothing: float,
+    ) -> None:
+        import multiprocessing as mp
+
+        from models.highs_direct import spawn_child
+
+        self._conn, child = mp.get_context("spawn").Pipe()
+        try:
+            work = (p, seen, groups, list(cols.items), cuts, smoothing)
+            self._proc = spawn_child(_helper_child, (child,), work)
+        finally:
+            child.close()
+        #: The pools of both processes are the same up to this index.
+        self.synced = len(cols.items)
+        self._base = self.synced
+
+    def send(
+        self, cols: _Columns, node: _Node, deadline: float | None, prune: float | None
+    ) -> bool:
+        """Start solving ``node`` there, from this process's pool as it is now; False if
+        the helper has gone (logged)."""
+        msg = ("node", self.synced, cols.items[self.synced :], node, deadline, prune)
+        try:
+            self._conn.send(msg)
+        except (OSError, ValueError):
+            log.warning("branch and price: the helper process ended")
+            return False
+        self._base = len(cols.items)
+        return True
+
+    def receive(self, cols: _Columns, deadline: float | None) -> _Node | None:
+        """The node sent, solved, its new columns added to ``cols``; None if the helper
+        failed or did not answer by ``deadline`` (plus :data:`HELPER_GRACE_S`)."""
+        wait = None if deadline is None else max(deadline - time.perf_counter(), 0.0)
+        try:
+            if not self._conn.poll(None if wait is None else wait + HELPER_GRACE_S):
+                log.warning("branch and price: the helper process did not answer")
+                return None
+            msg = self._conn.recv()
+        except (EOFError, OSError):
+            log.warning("branch and price: the helper process ended")
+            return None
+        if msg[0] != "node":
+            log.warning("branch and price: the helper process failed: %s", msg[1])
+            return None
+        _, node, added = msg
+        index = np.arange(self._base + len(added), dtype=np.int64)
+        for x, item in enumerate(added):
+            index[self._base + x] = cols.add(*item)
+        self.synced = self._base
+        return _remapped(node, index)
+
+    def close(self) -> None:
+        """Stop the helper (it ends by itself when this process does)."""
+        from models.highs_direct import stop_child
+
+        try:
+            self._conn.send(("stop",))
+        except (OSError, ValueError):
+            pass
+        self._proc.join(timeout=1.0)
+        stop_child(self._proc)
+        self._conn.close()
+
+
+def _start_helper(
+    p: np.ndarray,
+    seen: np.ndarray,
+    groups: tuple[Any, ...],
+    cols: _Columns,
+    cuts: CutPool | None,
+    smoothing: float,
+) -> _Helper | None:
+    """A :class:`_Helper`, or None (with the reason logged) where none can start."""
+    import multiprocessing as mp
+
+    from models.highs_direct import ChildStartError
+
+    if mp.current_process().daemon:
+        log.debug("branch and price: one process (a daemonic process starts none)")
+        return None
+    try:
+        return _Helper(p, seen, groups, cols, cuts, smoothing)
+    except ChildStartError as exc:
+        log.warning("%s; branch and price in one process", exc)
+        return None
+
+
+def _child(
+    child: _Node,
+    p: np.ndarray,
+    seen: np.ndarray,
+    groups: tuple[Any, ...],
+    cols: _Columns,
+    deadline: float | None,
+    smoothing: float,
+    pool: CutPool | None,
+    prune: float | None,
+) -> _Node:
+    """A child of a branching solved here (:func:`_solve_node`)."""
+    separate = NODE_CUT_ROUNDS if pool is not None else 0
+    return _solve_node(
+        child, p, seen, groups, cols, deadline, smoothing, pool, separate, NODE_CUTS, prune=prune
+    )
+
+
 def branch_and_price(
     p: np.ndarray,
     seen: np.ndarray,
@@ -1156,6 +1358,7 @@ def branch_and_price(
     report: Callable[[float], None] | None = None,
     cut_rounds: int = 0,
     strong: int | None = None,
+    workers: int = 1,
 ) -> tuple[float, int, _Node | None]:
     """Best-first branch and price from a converged root; ``(bound, nodes, final)``, where
     ``final`` is the node of largest bound when it has nothing fractional left (else None).
@@ -1196,6 +1399,11 @@ def branch_and_price(
         solved again (its master from its own columns and basis, a round or two) and
         branched on the pair the candidates' restricted children rank first; the nodes
         never branched on, most of them, cost nothing more.
+    workers
+        Processes: from 2 on, a second process (:class:`_Helper`) solves one child of each
+        branching while this one solves the other; the search is the same for any number
+        of two or more, and differs from one process's only by the columns each child
+        starts with (a bound is valid either way). One process where a second cannot start.
     """
     if strong is None:
         strong = STRONG_CANDIDATES
@@ -1215,54 +1423,75 @@ def branch_and_price(
     heap: list[tuple[float, int, _Node]] = [(-root.bound, 0, root)]
     count, nodes = 1, 0
     final: _Node | None = None
-    while heap:
-        if deadline is not None and time.perf_counter() > deadline:
-            break
-        if max_nodes is not None and nodes >= max_nodes:
-            break
-        top = heap[0][2]
-        if lower_bound is not None and math.floor(top.bound + 1e-6) <= lower_bound + 1e-9:
-            break
-        if top.cover is None:
-            break  # cut short by the deadline: its bound stands
-        pair = top.pick if top.pick is not None else _branch_pair(top, p)
-        if strong > 0 and top.pick is None and pair is not None:
-            # strong branching only on the nodes the search branches on (most solved nodes
-            # never are): the node's master again, from its own columns and basis, which
-            # converges in a round or two and keeps the bound it had (or lowers it)
+    # a helper needs the cut pool to stay as the root left it; started at the first branching
+    helped = workers >= 2 and (pool is None or NODE_CUT_ROUNDS == 0)
+    helper: _Helper | None = None
+    try:
+        while heap:
+            if deadline is not None and time.perf_counter() > deadline:
+                break
+            if max_nodes is not None and nodes >= max_nodes:
+                break
+            top = heap[0][2]
+            if lower_bound is not None and math.floor(top.bound + 1e-6) <= lower_bound + 1e-9:
+                break
+            if top.cover is None:
+                break  # cut short by the deadline: its bound stands
+            pair = top.pick if top.pick is not None else _branch_pair(top, p)
+            if strong > 0 and top.pick is None and pair is not None:
+                # strong branching only on the nodes the search branches on (most solved nodes
+                # never are): the node's master again, from its own columns and basis, which
+                # converges in a round or two and keeps the bound it had (or lowers it)
+                heapq.heappop(heap)
+                top = _solve_node(
+                    replace(top, cover=None), p, seen, groups, cols, deadline, smoothing, pool,
+                    0, NODE_CUTS, strong, prune=lower_bound,
+                )  # fmt: skip
+                heapq.heappush(heap, (-top.bound, count, top))
+                count += 1
+                continue
+            if pair is None:
+                final = top
+                break  # nothing fractional to branch on: the largest bound is final
             heapq.heappop(heap)
-            top = _solve_node(
-                replace(top, cover=None), p, seen, groups, cols, deadline, smoothing, pool,
-                0, NODE_CUTS, strong, prune=lower_bound,
-            )  # fmt: skip
-            heapq.heappush(heap, (-top.bound, count, top))
-            count += 1
-            continue
-        if pair is None:
-            final = top
-            break  # nothing fractional to branch on: the largest bound is final
-        heapq.heappop(heap)
-        k, g = pair
-        beta = top.beta.copy()
-        beta[k] = top.mu[k]
-        children = (
-            replace(top, banned=top.banned | {(k, g)}, cover=None, pick=None),
-            replace(top, forced={**top.forced, k: g}, beta=beta, cover=None, pick=None),
-        )
-        for child in children:
-            # the parent's bound holds for the child (a subset of its schedules) until its
-            # own column generation finds a lower one
-            child = _solve_node(
-                child, p, seen, groups, cols, deadline, smoothing, pool,
-                NODE_CUT_ROUNDS if pool is not None else 0, NODE_CUTS, prune=lower_bound,
-            )  # fmt: skip
-            nodes += 1
-            heapq.heappush(heap, (-child.bound, count, child))
-            count += 1
-        if report is not None:
-            report(-heap[0][0])
-        if nodes % 100 < 2:  # a long run shows its progress (sosp -v)
-            log.info("branch and price: %d nodes, bound %.4f", nodes, -heap[0][0])
+            k, g = pair
+            beta = top.beta.copy()
+            beta[k] = top.mu[k]
+            children = (
+                replace(top, banned=top.banned | {(k, g)}, cover=None, pick=None),
+                replace(top, forced={**top.forced, k: g}, beta=beta, cover=None, pick=None),
+            )
+            if helped and helper is None:
+                helper = _start_helper(p, seen, groups, cols, pool, smoothing)
+                helped = helper is not None
+            # the parent's bound holds for a child (a subset of its schedules) until its own
+            # column generation finds a lower one
+            if helper is not None and not helper.send(cols, children[1], deadline, lower_bound):
+                helper.close()
+                helper, helped = None, False
+            solved = [
+                _child(children[0], p, seen, groups, cols, deadline, smoothing, pool, lower_bound)
+            ]
+            there = None if helper is None else helper.receive(cols, deadline)
+            if helper is not None and there is None:
+                helper.close()  # it failed (logged): this process goes on alone
+                helper, helped = None, False
+            if there is None:
+                there = _child(
+                    children[1], p, seen, groups, cols, deadline, smoothing, pool, lower_bound
+                )
+            solved.append(there)
+            for child in solved:
+                nodes += 1
+                heapq.heappush(heap, (-child.bound, count, child))
+                count += 1
+            if report is not None:
+                report(-heap[0][0])
+            if nodes % 100 < 2:  # a long run shows its progress (sosp -v)
+                log.info("branch and price: %d nodes, bound %.4f", nodes, -heap[0][0])
+    finally:
+        if helper is not None:
+            helper.close()
     answer = max((-b for b, _, _ in heap), default=-math.inf)
     log.info("branch and price: %d nodes, bound %.4f", nodes, answer)
     return answer, nodes, final

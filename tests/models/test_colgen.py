@@ -886,3 +886,95 @@ def test_cached_cut_coefficients_follow_the_growing_pool(seed: int) -> None:
             g, tg, cnt, _, _ = cols.items[i]
             assert cols.coefficients(int(i), pool) == pool.coefficients(tg, cnt, g)
     assert any(cols.coefficients(i, pool) for i in range(len(cols.items)))
+
+
+# ------------------------------------------------------- two processes in the branch and price
+def test_truncated_pool_is_its_first_columns() -> None:
+    # a helper drops its own columns before taking the parent's (_Columns.truncate): what is
+    # left must be the pool of the first n columns, keys and flat values included
+    from models.colgen import _Columns
+
+    rng = np.random.default_rng(3)
+    items = []
+    for _ in range(12):
+        tg = np.unique(rng.integers(0, 20, 4))
+        items.append((int(rng.integers(3)), tg, rng.integers(1, 3, len(tg)), 1.0, 2.0))
+    full, first = _Columns(), _Columns()
+    for item in items:
+        full.add(*item)
+    for item in items[:7]:
+        first.add(*item)
+    price, per_unit = rng.random((3, 20)), rng.random((3, 2))
+    full.values(price, per_unit)  # flat arrays made for all twelve before the cut
+    full.truncate(7)
+    assert full.keys == first.keys and len(full.items) == 7
+    np.testing.assert_allclose(full.values(price, per_unit)[0], first.values(price, per_unit)[0])
+    # the same plan with integer or float counts (priced here, received from a helper) is one
+    g, tg, cnt, e, m = items[8]
+    assert full.add(g, tg, cnt, e, m) == full.add(g, tg, cnt.astype(float), e, m) == 7
+
+
+def _helper_answers(monkeypatch) -> list[int]:
+    """Count the children the helper process returns."""
+    import models.colgen as colgen
+
+    real, answered = colgen._Helper.receive, []
+
+    def counted(self, cols, deadline):
+        out = real(self, cols, deadline)
+        answered.append(out is not None)
+        return out
+
+    monkeypatch.setattr(colgen._Helper, "receive", counted)
+    return answered
+
+
+@pytest.mark.parametrize(("seed", "optimum"), [(19, 24), (105, 23), (226, 34)])
+def test_two_processes_reach_the_optimum(monkeypatch, seed: int, optimum: int) -> None:
+    answered = _helper_answers(monkeypatch)
+    inst = random_tiny(seed)
+    for cut_rounds in (0, 5):
+        out = colgen_bound(inst, branch=True, workers=2, cut_rounds=cut_rounds)
+        assert out["bound"] == optimum and out["nodes"] >= 2
+        if "schedule" in out:
+            assert validate(inst, out["schedule"]).profit == out["profit"] <= optimum
+    assert answered and all(answered)  # the helper solved every second child
+
+
+def test_two_processes_search_the_same_tree_every_time() -> None:
+    # both children start from the pool at the branching, whichever process is faster: the
+    # same nodes and bound on every run, and with any number of processes from two on
+    inst = random_tiny(226)
+    runs = [colgen_bound(inst, branch=True, workers=w, cut_rounds=0) for w in (2, 2, 3)]
+    assert len({(r["bound"], r["nodes"], r["profit"]) for r in runs}) == 1
+
+
+@settings(max_examples=10, deadline=None)
+@given(inst=small_instances())
+def test_two_processes_never_below_the_optimum(inst: Instance) -> None:
+    optimum = brute_force(inst, "cluster").profit
+    out = colgen_bound(inst, branch=True, workers=2)
+    assert optimum <= out["bound"] <= colgen_bound(inst)["bound"]
+
+
+@pytest.mark.parametrize("fails", ["send", "receive"])
+def test_a_failed_helper_leaves_the_search_to_this_process(monkeypatch, fails: str) -> None:
+    # a helper gone before it takes its child, or one that never returns it: this process
+    # solves that child itself and goes on alone
+    import models.colgen as colgen
+
+    monkeypatch.setattr(
+        colgen._Helper, fails, lambda self, *args: False if fails == "send" else None
+    )
+    assert colgen_bound(random_tiny(19), branch=True, workers=2)["bound"] == 24
+
+
+def test_no_helper_where_none_can_start(monkeypatch) -> None:
+    import models.colgen as colgen
+    from models.highs_direct import ChildStartError
+
+    def refuse(*args, **kwargs):
+        raise ChildStartError("ended at its start")
+
+    monkeypatch.setattr(colgen, "_Helper", refuse)
+    assert colgen_bound(random_tiny(105), branch=True, workers=2)["bound"] == 23
