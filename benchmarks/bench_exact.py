@@ -31,7 +31,12 @@ triples and the cuts over two targets and one orbit's convexity row, the default
     python benchmarks/bench_exact.py --branch-and-price --time-limit 300 --strong 0 5 10 \
         --names C7 C8
 
-``--strong`` sets the strong branching's candidates (``models.colgen.STRONG_CANDIDATES``).
+``--strong`` sets the strong branching's candidates (``models.colgen.STRONG_CANDIDATES``),
+``--workers`` the processes (2: the two children of each branching side by side; run such
+a row alone on a 2-core machine)::
+
+    python benchmarks/bench_exact.py --branch-and-price --time-limit 300 --workers 1 2 \
+        --names C7 C8
 
 Besides the paper's names, ``--names`` takes the generated dense instances of :data:`GENERATED`
 (300-500 targets in regions that are none of the paper's; target draw seed ``--seed``), e.g.
@@ -90,10 +95,15 @@ BEST_KNOWN: dict[str, float] = {
 
 
 def run_branch_and_price(
-    name: str, seed: int, time_limit: float, cuts: str, strong: int | None = None
+    name: str,
+    seed: int,
+    time_limit: float,
+    cuts: str,
+    strong: int | None = None,
+    workers: int = 1,
 ) -> dict[str, Any]:
-    """One ``colgen_bound(..., branch=True)`` run with the cut families ``cuts`` and
-    ``strong`` strong-branching candidates (None: the default)."""
+    """One ``colgen_bound(..., branch=True)`` run with the cut families ``cuts``, ``strong``
+    strong-branching candidates (None: the default) and ``workers`` processes."""
     import models.colgen as colgen
     import models.subset_row as subset_row
     from models.colgen import colgen_bound
@@ -111,6 +121,7 @@ def run_branch_and_price(
         time_limit=time_limit,
         lower_bound=best,
         cut_rounds=0 if cuts == "none" else None,
+        workers=workers,
     )
     runtime = time.perf_counter() - t0
     gap = None if best is None else (out["bound"] - best) / best
@@ -119,6 +130,7 @@ def run_branch_and_price(
         "seed": seed,
         "cuts": cuts,
         "strong": colgen.STRONG_CANDIDATES,
+        "workers": workers,
         "time_limit": time_limit,
         "bound": out["bound"],
         "best_known": best,
@@ -271,7 +283,8 @@ def _report(output: str | None, rec: dict[str, Any], row: str) -> None:
 def _branch_and_price_row(rec: dict[str, Any]) -> str:
     """One table row of :func:`run_branch_and_price`'s record."""
     gap = "" if rec["gap"] is None else f"{100 * rec['gap']:.2f}%"
-    cells = [rec["name"], rec["cuts"], str(rec.get("strong", "")), f"{rec['bound']:g}"]
+    cells = [rec["name"], rec["cuts"], str(rec.get("strong", "")), str(rec.get("workers", 1))]
+    cells += [f"{rec['bound']:g}"]
     cells += [f"{rec['best_known'] or ''}", gap]
     cells += [str(rec["nodes"]), f"{rec['runtime_s']:.0f}"]
     return "| " + " | ".join(cells) + " |"
@@ -346,18 +359,28 @@ def main(argv: list[str] | None = None) -> int:
         "--strong", nargs="*", type=int, default=[None],
         help="with --branch-and-price: strong-branching candidates (default: the library's)",
     )  # fmt: skip
+    p.add_argument(
+        "--workers", nargs="*", type=int, default=[1],
+        help="with --branch-and-price: processes (2: two children at a time)",
+    )  # fmt: skip
     args = p.parse_args(argv)
+    if any(w < 1 for w in args.workers):
+        p.error(f"--workers: expected positive process counts, got {args.workers}")
     if any(s is not None and s < 0 for s in args.strong):
         p.error(f"--strong: expected non-negative candidate counts, got {args.strong}")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     if args.branch_and_price:
-        head = ["scenario", "cuts", "strong", "bound", "best known", "gap", "nodes", "time s"]
+        head = ["scenario", "cuts", "strong", "workers", "bound", "best known", "gap", "nodes"]
+        head += ["time s"]
         sys.stdout.write("| " + " | ".join(head) + " |\n|" + "---|" * len(head) + "\n")
         for name in args.names:
             for cuts in args.cuts:
                 for strong in args.strong:
-                    rec = run_branch_and_price(name, args.seed, args.time_limit, cuts, strong)
-                    _report(args.output, rec, _branch_and_price_row(rec))
+                    for workers in args.workers:
+                        rec = run_branch_and_price(
+                            name, args.seed, args.time_limit, cuts, strong, workers
+                        )
+                        _report(args.output, rec, _branch_and_price_row(rec))
         return 0
     if args.proofs:
         head = ["scenario", "slew", "result", "gap", "time s", "start", "extra bound"]
