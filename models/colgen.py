@@ -1249,11 +1249,31 @@ class _Helper:
         try:
             work = (p, seen, groups, list(cols.items), cuts, smoothing)
             self._proc = spawn_child(_helper_child, (child,), work)
+        except BaseException:
+            self._conn.close()
+            raise
         finally:
             child.close()
         #: The pools of both processes are the same up to this index.
         self.synced = len(cols.items)
         self._base = self.synced
+
+    @classmethod
+    def start(cls, *args: Any) -> _Helper | None:
+        """A helper (the arguments are the constructor's), or None, with the reason logged,
+        where none can start."""
+        import multiprocessing as mp
+
+        from models.highs_direct import ChildStartError
+
+        if mp.current_process().daemon:
+            log.debug("branch and price: one process (a daemonic process starts none)")
+            return None
+        try:
+            return cls(*args)
+        except ChildStartError as exc:
+            log.warning("%s; branch and price in one process", exc)
+            return None
 
     def send(
         self, cols: _Columns, node: _Node, deadline: float | None, prune: float | None
@@ -1302,47 +1322,6 @@ class _Helper:
         self._proc.join(timeout=1.0)
         stop_child(self._proc)
         self._conn.close()
-
-
-def _start_helper(
-    p: np.ndarray,
-    seen: np.ndarray,
-    groups: tuple[Any, ...],
-    cols: _Columns,
-    cuts: CutPool | None,
-    smoothing: float,
-) -> _Helper | None:
-    """A :class:`_Helper`, or None (with the reason logged) where none can start."""
-    import multiprocessing as mp
-
-    from models.highs_direct import ChildStartError
-
-    if mp.current_process().daemon:
-        log.debug("branch and price: one process (a daemonic process starts none)")
-        return None
-    try:
-        return _Helper(p, seen, groups, cols, cuts, smoothing)
-    except ChildStartError as exc:
-        log.warning("%s; branch and price in one process", exc)
-        return None
-
-
-def _child(
-    child: _Node,
-    p: np.ndarray,
-    seen: np.ndarray,
-    groups: tuple[Any, ...],
-    cols: _Columns,
-    deadline: float | None,
-    smoothing: float,
-    pool: CutPool | None,
-    prune: float | None,
-) -> _Node:
-    """A child of a branching solved here (:func:`_solve_node`)."""
-    separate = NODE_CUT_ROUNDS if pool is not None else 0
-    return _solve_node(
-        child, p, seen, groups, cols, deadline, smoothing, pool, separate, NODE_CUTS, prune=prune
-    )
 
 
 def branch_and_price(
@@ -1423,6 +1402,14 @@ def branch_and_price(
     heap: list[tuple[float, int, _Node]] = [(-root.bound, 0, root)]
     count, nodes = 1, 0
     final: _Node | None = None
+
+    def solve_child(child: _Node) -> _Node:
+        separate = NODE_CUT_ROUNDS if pool is not None else 0
+        return _solve_node(
+            child, p, seen, groups, cols, deadline, smoothing, pool, separate, NODE_CUTS,
+            prune=lower_bound,
+        )  # fmt: skip
+
     # a helper needs the cut pool to stay as the root left it; started at the first branching
     helped = workers >= 2 and (pool is None or NODE_CUT_ROUNDS == 0)
     helper: _Helper | None = None
@@ -1462,24 +1449,20 @@ def branch_and_price(
                 replace(top, forced={**top.forced, k: g}, beta=beta, cover=None, pick=None),
             )
             if helped and helper is None:
-                helper = _start_helper(p, seen, groups, cols, pool, smoothing)
+                helper = _Helper.start(p, seen, groups, cols, pool, smoothing)
                 helped = helper is not None
             # the parent's bound holds for a child (a subset of its schedules) until its own
             # column generation finds a lower one
             if helper is not None and not helper.send(cols, children[1], deadline, lower_bound):
                 helper.close()
                 helper, helped = None, False
-            solved = [
-                _child(children[0], p, seen, groups, cols, deadline, smoothing, pool, lower_bound)
-            ]
+            solved = [solve_child(children[0])]
             there = None if helper is None else helper.receive(cols, deadline)
             if helper is not None and there is None:
                 helper.close()  # it failed (logged): this process goes on alone
                 helper, helped = None, False
             if there is None:
-                there = _child(
-                    children[1], p, seen, groups, cols, deadline, smoothing, pool, lower_bound
-                )
+                there = solve_child(children[1])
             solved.append(there)
             for child in solved:
                 nodes += 1

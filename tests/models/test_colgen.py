@@ -970,11 +970,13 @@ def test_a_failed_helper_leaves_the_search_to_this_process(monkeypatch, fails: s
 
 
 def test_no_helper_where_none_can_start(monkeypatch) -> None:
-    import models.colgen as colgen
+    # a helper that ends at its start (as under a script without the __main__ guard): the
+    # search runs in this process
+    import models.highs_direct as highs_direct
     from models.highs_direct import ChildStartError
 
     def refuse(*args, **kwargs):
         raise ChildStartError("ended at its start")
 
-    monkeypatch.setattr(colgen, "_Helper", refuse)
+    monkeypatch.setattr(highs_direct, "spawn_child", refuse)
     assert colgen_bound(random_tiny(105), branch=True, workers=2)["bound"] == 23
