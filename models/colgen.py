@@ -1453,17 +1453,13 @@ def branch_and_price(
                 helped = helper is not None
             # the parent's bound holds for a child (a subset of its schedules) until its own
             # column generation finds a lower one
-            if helper is not None and not helper.send(cols, children[1], deadline, lower_bound):
-                helper.close()
-                helper, helped = None, False
+            sent = helper is not None and helper.send(cols, children[1], deadline, lower_bound)
             solved = [solve_child(children[0])]
-            there = None if helper is None else helper.receive(cols, deadline)
+            there = helper.receive(cols, deadline) if sent else None
             if helper is not None and there is None:
                 helper.close()  # it failed (logged): this process goes on alone
                 helper, helped = None, False
-            if there is None:
-                there = solve_child(children[1])
-            solved.append(there)
+            solved.append(solve_child(children[1]) if there is None else there)
             for child in solved:
                 nodes += 1
                 heapq.heappush(heap, (-child.bound, count, child))

@@ -289,7 +289,9 @@ def test_restricted_start_masters_never_below_the_optimum(inst: Instance) -> Non
 
 
 @pytest.mark.slow
-def test_branch_and_price_keeps_its_time_limit() -> None:
+@pytest.mark.parametrize("workers", [1, 2])
+def test_branch_and_price_keeps_its_time_limit(workers: int) -> None:
+    # with two processes too: the helper's child is cut by the same deadline
     from sosp.scenarios import generate_scenario
 
     inst = generate_scenario("C2")
@@ -297,12 +299,14 @@ def test_branch_and_price_keeps_its_time_limit() -> None:
     root = colgen_bound(inst, data=data)
     limit = root["runtime_s"] + 3.0
     t0 = time.perf_counter()
-    out = colgen_bound(inst, data=data, time_limit=limit, branch=True, cut_rounds=0)
+    out = colgen_bound(
+        inst, data=data, time_limit=limit, branch=True, cut_rounds=0, workers=workers
+    )
     assert time.perf_counter() - t0 <= limit + 0.5
     assert out["bound"] <= root["bound"] and out["nodes"] >= 1
     # with the default cuts, whose separation reads no clock (here they take the time left)
     t0 = time.perf_counter()
-    out = colgen_bound(inst, data=data, time_limit=limit, branch=True)
+    out = colgen_bound(inst, data=data, time_limit=limit, branch=True, workers=workers)
     assert time.perf_counter() - t0 <= limit + 0.5
     assert out["bound"] <= root["bound"]
 
