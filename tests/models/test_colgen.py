@@ -984,3 +984,26 @@ def test_no_helper_where_none_can_start(monkeypatch) -> None:
 
     monkeypatch.setattr(highs_direct, "spawn_child", refuse)
     assert colgen_bound(random_tiny(105), branch=True, workers=2)["bound"] == 23
+
+
+def test_no_helper_with_too_little_time_left(monkeypatch) -> None:
+    # a helper's start costs more than a child: with less than HELPER_MIN_LEFT_S left at the
+    # first branching none starts; with a limit that leaves it, one starts and is stopped
+    import models.colgen as colgen
+
+    started = []
+    real = colgen._Helper.start.__func__
+
+    def counted(cls, *args):
+        helper = real(cls, *args)
+        started.append(helper)
+        return helper
+
+    monkeypatch.setattr(colgen._Helper, "start", classmethod(counted))
+    inst = random_tiny(226)
+    monkeypatch.setattr(colgen, "HELPER_MIN_LEFT_S", 1e6)
+    assert colgen_bound(inst, branch=True, workers=2, time_limit=60.0)["bound"] == 34
+    assert not started
+    monkeypatch.setattr(colgen, "HELPER_MIN_LEFT_S", 0.0)
+    assert colgen_bound(inst, branch=True, workers=2, time_limit=60.0)["bound"] == 34
+    assert len(started) == 1 and not started[0]._proc.is_alive()  # closed, not left running
