@@ -472,7 +472,7 @@ def test_one_per_target_keeps_each_target_once_per_window() -> None:
 def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
     """A step's model (data, arrays) reads no clock (3 million members: 1.7 s, and a 5 s run
     went to 7.4 s): foreseen past the deadline at ``BUILD_S_PER_MEMBER`` (until one was
-    timed), it is not built and no later step starts; the answer is the start's."""
+    timed), it is not built; the answer is the start's."""
     import numpy as np
 
     import heuristics.lns as lns
@@ -485,13 +485,58 @@ def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
     real = models.data.prepare
     monkeypatch.setattr(models.data, "prepare", lambda *a, **k: built.append(1) or real(*a, **k))
     kw = dict(candidates="windows", iterations=5, start="greedy", time_limit=60.0)
-    monkeypatch.setattr(lns, "BUILD_S_PER_MEMBER", 1.0)  # a second a member: never in time
+    monkeypatch.setattr(lns, "BUILD_S_PER_MEMBER", 1e6)  # never in time, however small
     res = lns.solve_milp_lns(inst, rng=np.random.default_rng(0), **kw)
     assert built == [] and res.stats["steps_improved"] == 0
     assert res.profit == res.stats["start_profit"] and validate(inst, res.schedule).feasible
     monkeypatch.setattr(lns, "BUILD_S_PER_MEMBER", 1e-12)
     lns.solve_milp_lns(inst, rng=np.random.default_rng(0), **kw)
     assert built
+
+
+def test_a_model_foreseen_too_long_skips_its_step_not_the_search(monkeypatch) -> None:
+    """One neighbourhood too large for the time left ends that step only: the next step
+    draws another (it ended the search, and a 20 s run on a 600-target instance at 14 s)."""
+    import numpy as np
+
+    import heuristics.lns as lns
+    import models.data
+    from sosp.scenarios import generate_scenario
+    from sosp.validate import validate
+
+    inst = generate_scenario("B2", 0)
+    built: list[int] = []
+    real = models.data.prepare
+    monkeypatch.setattr(models.data, "prepare", lambda *a, **k: built.append(1) or real(*a, **k))
+    asked: list[int] = []
+    seconds = lns.BuildForesight.seconds
+
+    def first_too_long(self, members: int) -> float:
+        asked.append(members)
+        return float("inf") if len(asked) == 1 else seconds(self, members)
+
+    monkeypatch.setattr(lns.BuildForesight, "seconds", first_too_long)
+    kw = dict(candidates="windows", iterations=5, start="greedy", time_limit=60.0)
+    res = lns.solve_milp_lns(inst, rng=np.random.default_rng(0), **kw)
+    assert len(asked) >= 2 and len(built) == len(asked) - 1
+    assert res.profit >= res.stats["start_profit"] and validate(inst, res.schedule).feasible
+
+
+def test_build_foresight_keeps_a_small_models_time_out_of_the_rate() -> None:
+    # one member's model takes about 1 ms, all of it fixed cost: read as a rate (820 us a
+    # member) it foresaw 7.6 s for a model of 25,718 members that takes 11 ms
+    from heuristics.lns import BUILD_S_PER_MEMBER, RATE_MIN_MEMBERS, BuildForesight
+
+    f = BuildForesight()
+    assert f.seconds(1000) == pytest.approx(1000 * BUILD_S_PER_MEMBER)
+    f.record(1, 0.0008)
+    assert f.seconds(25_718) == pytest.approx(0.0008 + 25_718 * BUILD_S_PER_MEMBER)
+    f.record(RATE_MIN_MEMBERS - 1, 0.002)  # small: the fixed part, the most so far
+    f.record(100_000, 0.05)  # large: the rate, 0.5 us a member
+    assert f.seconds(1_000_000) == pytest.approx(0.002 + 0.5)
+    f.record(50_000, 0.01)  # a faster large model does not lower the rate
+    f.record(10, 0.001)  # nor a faster small one the fixed part
+    assert f.seconds(1_000_000) == pytest.approx(0.002 + 0.5)
 
 
 def test_window_columns_beyond_the_members_cap_leave_the_orbit_out(monkeypatch) -> None:
