@@ -268,7 +268,7 @@ def test_through_sosp_solve_with_params(monkeypatch) -> None:
     assert res.stats["proven_by"] == "cap" and "variables" not in res.stats
     # without a start and no side process to come (less than SIDE_MIN_S left) the branch and
     # price before the MILP ends on an integral node: proven, no MILP either
-    res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=10, warm_start="none")
+    res = solve(inst, "milp", mip_gap=0.0, threads=1, time_limit=3, warm_start="none")
     assert res.status is Status.OPTIMAL and res.profit == 11
     assert res.stats["start_from"] == "branch_and_price" and "variables" not in res.stats
     # with one to come, the branching is the side's and the MILP is built
