@@ -42,7 +42,7 @@ import numpy as np
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.rules import EPS
-from sosp.stop import worker_signals
+from sosp.stop import held_for_fork, worker_signals
 
 log = logging.getLogger(__name__)
 
@@ -703,7 +703,9 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
     _WORKER_INSTANCE = instance
     try:
         ctx = mp.get_context("fork")
-        with ctx.Pool(min(workers, len(todo)), initializer=worker_signals) as pool:
+        with held_for_fork():
+            pool = ctx.Pool(min(workers, len(todo)), initializer=worker_signals)
+        with pool:
             for out in pool.imap_unordered(_worker_orbit, [(j, deadline) for j in todo]):
                 store[out.orbit] = out
     finally:

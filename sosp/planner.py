@@ -63,7 +63,7 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.kernels import compiled
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
-from sosp.stop import worker_signals
+from sosp.stop import held_for_fork, worker_signals
 
 log = logging.getLogger(__name__)
 
@@ -1154,9 +1154,10 @@ class PlanPool:
             global _POOL_ORBITS, _POOL_PLANS
             _POOL_ORBITS, _POOL_PLANS = self.orbits, self.plans_of
             try:
-                self.pool = mp.get_context("fork").Pool(
-                    min(workers, len(orbits)), initializer=worker_signals
-                )
+                with held_for_fork():
+                    self.pool = mp.get_context("fork").Pool(
+                        min(workers, len(orbits)), initializer=worker_signals
+                    )
             finally:
                 _POOL_ORBITS, _POOL_PLANS = (), None
             self.groups = _balanced(self.orbits, min(workers, len(orbits)))

@@ -252,3 +252,31 @@ def worker_signals() -> None:
     """
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):  # held since the fork (held_for_fork)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
+
+
+#: The signals :func:`held_for_fork` holds.
+_HELD = {signal.SIGTERM, signal.SIGINT}
+
+
+@contextmanager
+def held_for_fork() -> Iterator[None]:
+    """Hold SIGTERM and SIGINT (pending, not lost) in this thread while a pool forks its
+    workers, which :func:`worker_signals` then releases in each worker.
+
+    A worker forked under :func:`handle_signals` keeps its handler until the initialiser
+    runs; a SIGTERM from ``Pool.terminate`` in that window only requested a stop, the worker
+    lived on and the parent's join waited for ever (a pricing pool closed at once, on a
+    loaded machine: a test hung). Held, the signal waits in the worker until the initialiser
+    has set its default disposition. Threads the pool starts here inherit the mask, so the
+    workers it forks later are held too.
+    """
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)

@@ -274,3 +274,32 @@ def test_foresight_most_rate_never_below_the_prior() -> None:
     assert f("b", 2.0) == 10.0
     f.record("e", 0.0, 100.0)  # no work: a fixed cost, no rate
     assert f.rate == 5.0 and f("e", 0.0) == 100.0
+
+
+def _signalled_before_the_initialiser() -> None:
+    # a SIGTERM from Pool.terminate before the initialiser has run, then the initialiser
+    from sosp.stop import worker_signals
+
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(0.2)
+    worker_signals()
+    time.sleep(5.0)  # alive here means the SIGTERM was taken as a stop request
+
+
+@pytest.mark.skipif(
+    "fork" not in __import__("multiprocessing").get_all_start_methods(), reason="no fork"
+)
+def test_a_sigterm_before_a_forked_workers_initialiser_still_ends_it() -> None:
+    """A worker forked under ``handle_signals`` keeps its handler until ``worker_signals``
+    runs: a SIGTERM in that window only requested a stop, and ``Pool.terminate`` waited for
+    ever (a test's pricing pool, on a loaded machine). Held from the fork, it ends the worker
+    as soon as the initialiser has run."""
+    import multiprocessing as mp
+
+    from sosp.stop import handle_signals, held_for_fork
+
+    with handle_signals(), held_for_fork():
+        proc = mp.get_context("fork").Process(target=_signalled_before_the_initialiser)
+        proc.start()
+    proc.join(10.0)
+    assert proc.exitcode == -signal.SIGTERM
