@@ -148,19 +148,32 @@ def cmd_bound(args: argparse.Namespace) -> int:
     if getattr(args, "json", False):
         sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
         return 0
-    size = f"{out.get('candidates', out.get('items', 0))} items"
+    # what was computed: no item count where none was generated (the windows bound needs
+    # none; a run can stop before its candidates)
+    items = out.get("candidates", out.get("items"))
+    size = [] if items is None else [f"{items} items"]
+    if items is None and out.get("timed_out") == "candidates":
+        size.append("stopped before its candidates")
     if "variables" in out:
-        size += f", {out['variables']} variables, {out.get('constraints', 0)} constraints"
+        size.append(f"{out['variables']} variables, {out.get('constraints', 0)} constraints")
     if "iterations" in out:
-        size += f", {out['iterations']} subgradient steps"
+        size.append(f"{out['iterations']} subgradient steps")
     if "rounds" in out:
-        size += f", {out['rounds']} pricing rounds"
+        size.append(f"{out['rounds']} pricing rounds")
     if "nodes" in out:
-        size += f", {out['nodes']} branch-and-price nodes"
+        size.append(f"{out['nodes']} branch-and-price nodes")
     head = f"{out['model']} model, {out['method']} bound: {out['bound']:g}"
-    text = f"{head} (from {out['source']}; {out['runtime_s']:.2f} s; {size})"
+    said = ", ".join([f"{out['runtime_s']:.2f} s", *size])
+    text = f"{head} (from {out['source']}; {said})"
     if args.method == "milp":
         text += f"\nincumbent {out['profit']:g}, status {out['status']}"
+    unsolved = out["source"] == "cap" and out["bound"] and out.get("lp_value") is None
+    if args.method == "lp" and unsolved:
+        # the cap is a bound, but a weak one: say why, and what is quicker on such sizes
+        text += (
+            "\nthe LP was not solved within the time limit: only the total observable weight "
+            "holds; --method auto or colgen bounds large instances faster"
+        )
     sys.stdout.write(text + "\n")
     return 0
 

@@ -400,6 +400,32 @@ def test_cli_bound_json(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     assert "--workers" in capsys.readouterr().err
 
 
+def test_cli_bound_says_when_the_lp_was_not_solved(
+    tmp_path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # an LP too large for its time limit leaves only the cap: the text says so, and where to
+    # turn, instead of quoting "0 items" for candidates that were never generated
+    import models.solve as msolve
+    from sosp.cli import main
+
+    path = tmp_path / "inst.json"
+    tiny_cluster().save(path)
+    cut_short = {
+        "bound": 15.0, "method": "lp", "model": "cluster", "runtime_s": 0.5,
+        "timed_out": "candidates", "source": "cap",
+    }  # fmt: skip
+    monkeypatch.setattr(msolve, "bound", lambda *a, **k: dict(cut_short))
+    assert main(["bound", str(path), "--method", "lp", "--time-limit", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "lp bound: 15 (from cap" in text and "stopped before its candidates" in text
+    assert "the LP was not solved within the time limit" in text and "0 items" not in text
+    # solved: no such line
+    monkeypatch.undo()
+    assert main(["bound", str(path), "--method", "lp"]) == 0
+    text = capsys.readouterr().out
+    assert "from lp" in text and "not solved" not in text
+
+
 def test_cli_module_imports_nothing_heavy() -> None:
     code = (
         "import sys, models.cli; "
