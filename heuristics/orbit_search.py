@@ -782,7 +782,8 @@ def solve_orbit_dp(
     Returns
     -------
     Result
-        Status ``feasible`` (``no_solution`` without candidates); ``iterations`` the
+        Status ``feasible`` (``optimal`` when the instance has no opportunity: the empty
+        schedule is then the only one, and every schedule is one); ``iterations`` the
         perturbation steps; ``stats``: candidates, ascent profit, re-plans, accepted steps,
         seconds of candidate generation, trace of (step, seconds, best).
     """
@@ -855,7 +856,8 @@ def solve_orbit_dp(
     search.paths = run.best_paths
     schedule = search.schedule()
     profit, observed = schedule.coverage_profit(instance)
-    status = Status.FEASIBLE if data.orbits else Status.NO_SOLUTION
+    # without candidates (none in time) the empty schedule is still a schedule: feasible
+    status = Status.FEASIBLE if instance.n_opps else Status.OPTIMAL
     return Result(
         method="orbit-dp",
         status=status,

@@ -279,6 +279,14 @@ class Instance:
         """EN: the number of targets with at least one opportunity."""
         return int(np.count_nonzero(np.bincount(self.opp_target, minlength=self.n_targets)))
 
+    @cached_property
+    def observable_weight(self) -> float:
+        """Total weight of the targets with at least one opportunity: the profit (1) of
+        observing all of them, so a bound on every schedule's for free."""
+        seen = np.zeros(self.n_targets, dtype=bool)
+        seen[np.asarray(self.opp_target, dtype=np.int64)] = True
+        return float(np.asarray(self.target_weight, dtype=float)[seen].sum())
+
     def resources(self, j: int) -> Resources:
         """The resource parameters of orbit ``j`` as a :class:`Resources`."""
         vals = {k: getattr(self, k)[j].item() for k in RESOURCE_KEYS}

@@ -12,8 +12,9 @@ from sosp.schedule import Schedule
 class Status(StrEnum):
     """How a solve ended.
 
-    ``optimal``: optimality proven. ``feasible``: a heuristic's schedule, optimality not
-    proven. ``time_limit``: an exact method stopped at its limit with an incumbent.
+    ``optimal``: optimality proven (by any method whose schedule observes every target with
+    an opportunity, :func:`sosp.solve.solve` says so). ``feasible``: a heuristic's schedule,
+    optimality not proven. ``time_limit``: an exact method stopped at its limit with an incumbent.
     ``no_solution``: stopped without any schedule. ``infeasible``: proven infeasible.
     ``interrupted``: stopped on request (Ctrl-C, SIGTERM, :func:`sosp.stop.request_stop`)
     with the best schedule found so far.

@@ -26,6 +26,7 @@ from sosp.errors import InputError, SospError
 from sosp.instance import Instance
 from sosp.progress import Progress, reporting
 from sosp.result import Result, Status
+from sosp.schedule import Schedule
 from sosp.stop import stop_requested
 from sosp.validate import validate
 
@@ -206,9 +207,15 @@ def solve(
     t0 = time.perf_counter()
     deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
     left = None if deadline is None else deadline - time.perf_counter()
-    with reporting(progress) as prog:
-        prog.start(method)
-        result = func(instance, rng=rng, time_limit=left, **params)
+    if instance.n_opps == 0:
+        # nothing can be observed: the empty schedule is optimal, with no search to run (an
+        # iterative method would spend its whole limit finding that out)
+        result = Result(method, Status.OPTIMAL, Schedule(()), 0.0, 0, bound=0.0)
+        result.stats["proven_by"] = "cap"
+    else:
+        with reporting(progress) as prog:
+            prog.start(method)
+            result = func(instance, rng=rng, time_limit=left, **params)
     runtime = time.perf_counter() - t0
     schedule = replace(
         result.schedule,
@@ -218,10 +225,19 @@ def solve(
         profit=float(result.profit),
         fingerprint=instance.fingerprint,
     )
-    status = result.status
+    status, upper, stats = result.status, result.bound, result.stats
     if stop_requested() and status in (Status.FEASIBLE, Status.TIME_LIMIT):
         status = Status.INTERRUPTED  # stopped on request: its limits were not reached
-    result = replace(result, method=method, schedule=schedule, runtime_s=runtime, status=status)
+    cap = instance.observable_weight
+    if status is not Status.OPTIMAL and result.profit >= cap - 1e-6:
+        # every target that has an opportunity is observed: no schedule does better,
+        # whichever method found this one (and however it was stopped)
+        status, upper = Status.OPTIMAL, cap
+        stats = {**stats, "proven_by": "cap"}
+    result = replace(
+        result, method=method, schedule=schedule, runtime_s=runtime, status=status,
+        bound=upper, stats=stats,
+    )  # fmt: skip
     if check:
         report = validate(instance, schedule)
         if not report.feasible:

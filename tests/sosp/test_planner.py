@@ -13,7 +13,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.orbit_search import START_MODES, OrbitSearch, OrbitSearchParams, lp_start
+from heuristics.orbit_search import (
+    START_MODES,
+    OrbitSearch,
+    OrbitSearchParams,
+    lp_start,
+    solve_orbit_dp,
+)
 from models.colgen import colgen_bound
 from models.lagrangian import lagrangian_bound
 from sosp.errors import InputError, TimeLimitReached
@@ -414,8 +420,12 @@ def test_same_seed_same_schedule() -> None:
 def test_no_opportunities_gives_an_empty_schedule() -> None:
     inst = Instance.build({"a": 3}, [], resources=Resources(), n_orbits=1)
     res = solve(inst, "orbit-dp", seed=0, time_limit=1)
-    assert res.status is Status.NO_SOLUTION
+    assert res.status is Status.OPTIMAL and res.bound == 0.0
     assert res.schedule.observations == ()
+    res = solve_orbit_dp(
+        inst, rng=np.random.default_rng(0), time_limit=1
+    )  # without solve's shortcut
+    assert res.status is Status.OPTIMAL and res.schedule.observations == ()
     assert lagrangian_bound(inst)["bound"] == 0.0
 
 

@@ -131,3 +131,32 @@ def test_the_kernels_load_counts_in_the_time_limit(
     res = solve(tiny_chain(), "greedy", time_limit=limit)
     assert given[0] == pytest.approx(expected, abs=0.05)
     assert res.runtime_s >= load_s  # the run's time counts from the call
+
+
+@pytest.mark.parametrize("method", sorted(METHODS))
+def test_nothing_observable_is_optimal_at_once(method: str) -> None:
+    # no opportunity at all: the empty schedule is optimal for every method, and no search
+    # spends its limit finding that out (orbit-dp said no_solution, asa-dtc ran 2 s of 2)
+    from sosp.instance import Resources
+
+    inst = Instance.build({"a": 3, "b": 2}, [], resources=Resources(), n_orbits=2)
+    res = solve(inst, method, time_limit=30)
+    assert res.status is Status.OPTIMAL and res.profit == 0 and res.bound == 0
+    assert len(res.schedule) == 0 and res.gap == 0 and res.runtime_s < 5
+
+
+def test_every_observable_target_observed_is_optimal() -> None:
+    # a schedule is optimal, whatever the method, when its profit is the total weight of the
+    # targets with an opportunity: nothing can be better
+    inst = tiny_chain()  # a (5) and b (4) conflict: greedy takes a and c, 8 of 12
+    res = solve(inst, "greedy")
+    assert res.status is Status.FEASIBLE and res.bound is None
+    easy = Instance.build(
+        {"a": 5, "b": 4, "z": 7},  # z has no opportunity: it bounds nothing
+        [("a", 0, 0, 5, 0.0), ("b", 0, 100, 105, 0.0)],
+        resources=inst.resources(0),
+        n_orbits=1,
+    )
+    res = solve(easy, "greedy")
+    assert res.profit == 9 and res.status is Status.OPTIMAL and res.bound == 9
+    assert res.gap == 0 and res.stats["proven_by"] == "cap"

@@ -134,6 +134,13 @@ SEARCHES = [
 ]
 
 
+def _stopped(inst, profit: float) -> Status:
+    """The status of a search ended by a request: interrupted, unless its schedule observes
+    every target with an opportunity (C1's searches often get there within 0.3 s), which
+    proves it optimal however it was stopped."""
+    return Status.OPTIMAL if profit >= inst.observable_weight - 1e-9 else Status.INTERRUPTED
+
+
 @pytest.mark.parametrize(("method", "params"), SEARCHES, ids=lambda v: str(v))
 def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params: dict) -> None:
     """Limits far out of reach: only the request (made from the progress callback, as a
@@ -148,7 +155,7 @@ def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params:
     t0 = time.perf_counter()
     result = solve(c1, method, seed=1, progress=Progress(cb, interval=0.05), **params)
     assert time.perf_counter() - t0 < 60
-    assert result.status is Status.INTERRUPTED
+    assert result.status is _stopped(c1, result.profit)
     assert seen, "the search never reported progress"
     assert validate(c1, result.schedule).feasible
     assert result.profit > 0
@@ -205,7 +212,7 @@ def test_cli_signal_writes_the_best_so_far(
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr
     data = json.loads(stdout)
-    assert data["status"] == "interrupted"
+    assert data["status"] == _stopped(c1, data["profit"]).value
     assert out.exists()
     check = subprocess.run(
         [sys.executable, "-m", "sosp", "validate", str(inst), str(out), "--json"],
