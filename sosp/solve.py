@@ -205,14 +205,15 @@ def solve(
     from sosp.planner import kernels_within
 
     t0 = time.perf_counter()
-    deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
-    left = None if deadline is None else deadline - time.perf_counter()
     if instance.n_opps == 0:
         # nothing can be observed: the empty schedule is optimal, with no search to run (an
-        # iterative method would spend its whole limit finding that out)
+        # iterative method would spend its whole limit finding that out) and no kernels to
+        # load for one (about a second in a fresh process)
         result = Result(method, Status.OPTIMAL, Schedule(()), 0.0, 0, bound=0.0)
         result.stats["proven_by"] = "cap"
     else:
+        deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
+        left = None if deadline is None else deadline - time.perf_counter()
         with reporting(progress) as prog:
             prog.start(method)
             result = func(instance, rng=rng, time_limit=left, **params)
