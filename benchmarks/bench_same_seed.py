@@ -81,8 +81,9 @@ def main(argv: list[str] | None = None) -> int:
             limit = None if method in LIMITED else TIME_LIMIT_S
             t0 = time.perf_counter()
             res = solve(inst, method, seed=1, time_limit=limit, **params)
+            seconds = round(time.perf_counter() - t0, 2)
             row = {"profit": res.profit, "observed": len(res.schedule.observations),
-                   "hash": fingerprint(res), "seconds": round(time.perf_counter() - t0, 2)}  # fmt: skip
+                   "hash": fingerprint(res), "seconds": seconds}  # fmt: skip
             table[f"{iname}/{method}"] = row
             print(f"{iname:9s} {method:11s} {row['profit']:9.1f} {row['observed']:5d} "
                   f"{row['hash']} {row['seconds']:7.2f} s", flush=True)  # fmt: skip
