@@ -36,8 +36,8 @@ from functools import partial
 import numpy as np
 
 from models.window_bound import _observable, _relaxed_plans
-from sosp.dist import cluster_size, dask_client
 from sosp.instance import load_instance
+from sosp.parallel import cluster_size, dask_client
 from sosp.planner import PlanPool
 from sosp.windows import orbit_opps
 

@@ -42,16 +42,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sosp.candidates import CANDIDATE_MODES, candidate_mode, orbit_pairs
-from sosp.dist import dask_client
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.parallel import workers_for
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import Schedule, items_to_schedule
 
 if TYPE_CHECKING:
-    from sosp.dist import Workers
+    from sosp.parallel import Workers
     from sosp.windows import OrbitOpps
 
 from sosp.stop import (
@@ -837,11 +837,9 @@ def solve_orbit_dp(
         # after HPFS-STC's schedule the root's plans stay only where together they do not
         # lower the profit: the start is never below HPFS-STC's
         keep = started.get("hpfs_profit") is not None
-        if p.dask is None:
-            started.update(lp_start(search, until, p.workers, keep, deadline))
-        else:
-            with dask_client(p.dask, p.workers if p.workers > 1 else None) as client:
-                started.update(lp_start(search, until, client, keep, deadline))
+        local = p.workers if p.workers > 1 else None
+        with workers_for(p.workers, p.dask, local) as workers:
+            started.update(lp_start(search, until, workers, keep, deadline))
     crit: list[Any] = []
     if time_limit is not None:
         crit.append(MaxRuntime(float(time_limit), start=t0))

@@ -10,9 +10,9 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
+
+from sosp.parallel import workers_for
 
 
 def _positive_float(text: str) -> float:
@@ -124,7 +124,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
         return _pba(inst, args)
     args.model = args.model or "cluster"
     t_workers = time.perf_counter()
-    with _workers(args) as workers:
+    with workers_for(args.workers or 1, args.dask, args.workers) as workers:
         limit = args.time_limit
         if limit is not None:
             # a cluster's start-up (about 1 s for a local one) counts, and a local cluster
@@ -176,18 +176,6 @@ def cmd_bound(args: argparse.Namespace) -> int:
         )
     sys.stdout.write(text + "\n")
     return 0
-
-
-@contextmanager
-def _workers(args: argparse.Namespace) -> Iterator[Any]:
-    """``--workers``, or with ``--dask`` a client of that cluster for the run."""
-    if args.dask is None:
-        yield args.workers or 1
-        return
-    from sosp.dist import dask_client
-
-    with dask_client(args.dask, args.workers) as client:
-        yield client
 
 
 def _pba(inst: Any, args: argparse.Namespace) -> int:

@@ -41,7 +41,7 @@ from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_d
 from sosp.rules import OrbitRules
 
 if TYPE_CHECKING:
-    from sosp.dist import Workers
+    from sosp.parallel import Workers
 
 log = logging.getLogger(__name__)
 

@@ -23,7 +23,7 @@ from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, orbit_data
 
 if TYPE_CHECKING:
-    from sosp.dist import Workers
+    from sosp.parallel import Workers
 
 log = logging.getLogger(__name__)
 

@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from models.data import ModelData, TimeUp, fits
-from sosp.dist import check_workers
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.parallel import check_workers
 from sosp.result import Result, Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     import pyomo.environ as pyo
 
     from models.colgen import SideBound
-    from sosp.dist import Workers
+    from sosp.parallel import Workers
     from sosp.planner import OrbitData
 
 log = logging.getLogger(__name__)

@@ -38,16 +38,16 @@ import numpy as np
 
 from models.lagrangian import capped_bound
 from sosp.candidates import pairs_within
-from sosp.dist import parallelism
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.parallel import parallelism
 from sosp.planner import PlanPool
 from sosp.rules import within_duration
 from sosp.stop import Foresight
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 if TYPE_CHECKING:
-    from sosp.dist import Workers
+    from sosp.parallel import Workers
 
 log = logging.getLogger(__name__)
 

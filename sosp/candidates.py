@@ -41,8 +41,8 @@ import numpy as np
 
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.parallel import held_for_fork, worker_signals
 from sosp.rules import EPS
-from sosp.stop import held_for_fork, worker_signals
 
 log = logging.getLogger(__name__)
 

@@ -58,12 +58,18 @@ from typing import Any
 import numpy as np
 
 from sosp.candidates import OppGroups, Pace, cluster_candidates, compile_within, flatten
-from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.kernels import compiled
+from sosp.parallel import (
+    Workers,
+    cluster_size,
+    held_for_fork,
+    is_client,
+    local_processes,
+    worker_signals,
+)
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
-from sosp.stop import held_for_fork, worker_signals
 
 log = logging.getLogger(__name__)
 
@@ -1109,7 +1115,7 @@ class PlanPool:
     whatever ``workers`` is. With ``workers`` 1, or where processes cannot be forked, the
     plans are made here.
 
-    With a Dask client as ``workers`` (:func:`sosp.dist.dask_client`), the orbits are split
+    With a Dask client as ``workers`` (:func:`sosp.parallel.dask_client`), the orbits are split
     into :data:`DASK_GROUPS_PER_THREAD` groups per worker thread (so that the scheduler
     balances uneven orbits and workers) and sent to the cluster once; each call then sends
     the prices once and one small task per group. The workers need sosp installed (the

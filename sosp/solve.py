@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from sosp.dist import Workers, check_workers
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance
+from sosp.parallel import Workers, check_workers
 from sosp.progress import Progress, reporting
 from sosp.result import Result, Status
 from sosp.schedule import Schedule

@@ -272,7 +272,7 @@ def _process_pool(specs: list[RunSpec], workers: int) -> Iterator[dict[str, Any]
 
 
 def _dask(specs: list[RunSpec], address: Any, workers: int) -> Iterator[dict[str, Any]]:
-    from sosp.dist import dask_client
+    from sosp.parallel import dask_client
 
     with dask_client(address, workers) as client:
         from distributed import as_completed

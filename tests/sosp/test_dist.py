@@ -1,4 +1,4 @@
-"""Dask clusters for the per-orbit work (sosp.dist, PlanPool on a client, --dask options)."""
+"""Dask clusters for the per-orbit work (sosp.parallel, PlanPool on a client, --dask options)."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ import pytest
 from models.solve import bound
 from models.window_bound import _relaxed_plans
 from sosp.cli import main
-from sosp.dist import check_workers, dask_client, parallelism
 from sosp.errors import InputError
+from sosp.parallel import check_workers, dask_client, parallelism
 from sosp.planner import PlanPool, orbit_data
 from sosp.solve import solve
 from sosp.validate import validate
@@ -162,7 +162,7 @@ def test_bound_cli_counts_the_cluster_start_in_the_time_limit(
     import models.solve as msolve
 
     @contextmanager
-    def slow_start(args: Any) -> Iterator[int]:
+    def slow_start(*args: Any) -> Iterator[int]:
         time.sleep(0.3)
         yield 1
 
@@ -173,7 +173,7 @@ def test_bound_cli_counts_the_cluster_start_in_the_time_limit(
         return {"bound": 1.0, "model": "cluster", "method": "auto", "source": "cap",
                 "runtime_s": 0.0}  # fmt: skip
 
-    monkeypatch.setattr(mcli, "_workers", slow_start)
+    monkeypatch.setattr(mcli, "workers_for", slow_start)
     monkeypatch.setattr(msolve, "bound", fake_bound)
     path = tmp_path / "i.json"
     random_tiny(1).save(path)

@@ -285,7 +285,7 @@ def test_foresight_most_rate_never_below_the_prior() -> None:
 
 def _signalled_before_the_initialiser() -> None:
     # a SIGTERM from Pool.terminate before the initialiser has run, then the initialiser
-    from sosp.stop import worker_signals
+    from sosp.parallel import worker_signals
 
     os.kill(os.getpid(), signal.SIGTERM)
     time.sleep(0.2)
@@ -303,7 +303,8 @@ def test_a_sigterm_before_a_forked_workers_initialiser_still_ends_it() -> None:
     as soon as the initialiser has run."""
     import multiprocessing as mp
 
-    from sosp.stop import handle_signals, held_for_fork
+    from sosp.parallel import held_for_fork
+    from sosp.stop import handle_signals
 
     with handle_signals(), held_for_fork():
         proc = mp.get_context("fork").Process(target=_signalled_before_the_initialiser)

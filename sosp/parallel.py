@@ -1,4 +1,8 @@
-"""Dask clusters for work that one machine does too slowly (optional: ``pip install -e '.[dist]'``).
+"""Parallel work, written once: Dask clusters, forked pools and guarded child processes.
+
+* Dask clusters (optional: ``pip install -e '.[dist]'``) for work that one machine does too
+  slowly;
+* the signal rules of forked workers (:func:`worker_signals`, :func:`held_for_fork`).
 
 Two kinds of work use a cluster:
 
@@ -15,6 +19,7 @@ processes, several machines"). Dask is imported here only when a cluster is aske
 from __future__ import annotations
 
 import logging
+import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, TypeAlias
@@ -71,6 +76,18 @@ def dask_client(address: Any, workers: int | None = None) -> Iterator[Any]:
     finally:
         for name, level in quiet.items():
             logging.getLogger(name).setLevel(level)
+
+
+@contextmanager
+def workers_for(processes: int, dask: Any = None, local: int | None = None) -> Iterator[Any]:
+    """Where a run's per-orbit work goes: ``processes`` on this machine, or with ``dask`` (an
+    address or client as :func:`dask_client` takes it; ``local`` processes for ``"local"``)
+    a client of that cluster for the duration of the block."""
+    if dask is None:
+        yield processes
+        return
+    with dask_client(dask, local) as client:
+        yield client
 
 
 @contextmanager
@@ -132,3 +149,45 @@ def check_workers(workers: Any, name: str = "workers") -> None:
         return
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise InputError(f"{name}: expected a positive integer, got {workers!r}")
+
+
+# --------------------------------------------------------------------------- signals
+def worker_signals() -> None:
+    """Initialiser of a forked pool's workers: SIGTERM ends the worker, SIGINT is ignored.
+
+    A forked worker inherits :func:`sosp.stop.handle_signals`'s handler, under which SIGTERM
+    only requests a stop. ``multiprocessing.Pool.terminate`` ends its workers with one SIGTERM
+    and then waits for them, so a worker blocked on the pool's task queue lived on and the
+    parent waited for ever (a pricing pool closed inside ``sosp solve``: one close in a few
+    hung). Ctrl-C reaches the whole process group; the parent decides what stops.
+    """
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):  # held since the fork (held_for_fork)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
+
+
+#: The signals :func:`held_for_fork` holds.
+_HELD = {signal.SIGTERM, signal.SIGINT}
+
+
+@contextmanager
+def held_for_fork() -> Iterator[None]:
+    """Hold SIGTERM and SIGINT (pending, not lost) in this thread while a pool forks its
+    workers, which :func:`worker_signals` then releases in each worker.
+
+    A worker forked under :func:`sosp.stop.handle_signals` keeps its handler until the
+    initialiser runs; a SIGTERM from ``Pool.terminate`` in that window only requested a stop,
+    the worker lived on and the parent's join waited for ever (a pricing pool closed at once,
+    on a loaded machine: a test hung). Held, the signal waits in the worker until the
+    initialiser has set its default disposition. Threads the pool starts here inherit the
+    mask, so the workers it forks later are held too.
+    """
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
