@@ -41,7 +41,7 @@ import numpy as np
 
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
-from sosp.parallel import held_for_fork, worker_signals
+from sosp.parallel import fork_pool, inherited
 from sosp.rules import EPS
 
 log = logging.getLogger(__name__)
@@ -594,14 +594,9 @@ def cluster_candidates(
     return result
 
 
-#: The instance a worker process generates candidates for (set before the fork).
-_WORKER_INSTANCE: Instance | None = None
-
-
 def _worker_orbit(args: tuple[int, float | None]) -> OrbitCandidates:
     j, deadline = args
-    assert _WORKER_INSTANCE is not None
-    return _generate_orbit(_WORKER_INSTANCE, j, deadline, None)
+    return _generate_orbit(inherited(), j, deadline, None)
 
 
 def _need(instance: Instance) -> int:
@@ -685,8 +680,6 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
     a pipe (about 30 bytes per candidate and 4 per member). Where processes cannot be forked
     the orbits are generated here, one after another.
     """
-    import multiprocessing as mp
-
     store = _cache_of(instance)
     todo = [j for j in range(instance.n_orbits) if j not in store]
     if todo:
@@ -695,21 +688,14 @@ def generate_in_processes(instance: Instance, workers: int, deadline: float | No
         check_memory(instance)
     sizes = np.diff(instance.orbit_offsets)
     todo.sort(key=lambda j: -int(sizes[j]))
-    if workers <= 1 or len(todo) <= 1 or "fork" not in mp.get_all_start_methods():
+    pool = fork_pool(min(workers, len(todo)), instance)
+    if pool is None:
         for j in todo:
             orbit_candidates(instance, j, deadline)
         return
-    global _WORKER_INSTANCE
-    _WORKER_INSTANCE = instance
-    try:
-        ctx = mp.get_context("fork")
-        with held_for_fork():
-            pool = ctx.Pool(min(workers, len(todo)), initializer=worker_signals)
-        with pool:
-            for out in pool.imap_unordered(_worker_orbit, [(j, deadline) for j in todo]):
-                store[out.orbit] = out
-    finally:
-        _WORKER_INSTANCE = None
+    with pool:
+        for out in pool.imap_unordered(_worker_orbit, [(j, deadline) for j in todo]):
+            store[out.orbit] = out
 
 
 def orbit_columns(

@@ -2,7 +2,8 @@
 
 * Dask clusters (optional: ``pip install -e '.[dist]'``) for work that one machine does too
   slowly;
-* the signal rules of forked workers (:func:`worker_signals`, :func:`held_for_fork`).
+* the signal rules of forked workers (:func:`worker_signals`, :func:`held_for_fork`) and a
+  pool of them that shares data copy-on-write (:func:`fork_pool`, :func:`inherited`).
 
 Two kinds of work use a cluster:
 
@@ -191,3 +192,43 @@ def held_for_fork() -> Iterator[None]:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+# --------------------------------------------------------------------------- forked pools
+#: What the workers of the pool being forked inherit (:func:`inherited`).
+_INHERITED: Any = None
+
+
+def can_fork() -> bool:
+    """Whether processes can be forked here (not on Windows; macOS has fork, not as default)."""
+    import multiprocessing as mp
+
+    return "fork" in mp.get_all_start_methods()
+
+
+def inherited() -> Any:
+    """In a :func:`fork_pool`'s worker: the ``shared`` object the pool was forked with."""
+    return _INHERITED
+
+
+def fork_pool(processes: int, shared: Any = None) -> Any:
+    """A ``multiprocessing`` pool of ``processes`` forked workers, or None where one process
+    is enough (``processes`` <= 1) or processes cannot be forked (the caller works here).
+
+    The workers find ``shared`` by :func:`inherited`: forked, they share it copy-on-write and
+    nothing is pickled but each task's arguments and result. Their signals follow
+    :func:`worker_signals` (held from the fork, :func:`held_for_fork`), so the pool's
+    ``terminate`` always ends them. The caller closes the pool (``with pool:`` or
+    ``terminate``).
+    """
+    global _INHERITED
+    if processes <= 1 or not can_fork():
+        return None
+    import multiprocessing as mp
+
+    _INHERITED = shared
+    try:
+        with held_for_fork():
+            return mp.get_context("fork").Pool(processes, initializer=worker_signals)
+    finally:
+        _INHERITED = None

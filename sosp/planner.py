@@ -64,10 +64,10 @@ from sosp.kernels import compiled
 from sosp.parallel import (
     Workers,
     cluster_size,
-    held_for_fork,
+    fork_pool,
+    inherited,
     is_client,
     local_processes,
-    worker_signals,
 )
 from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
 
@@ -1044,12 +1044,6 @@ def flat_positions(o: OrbitItems, path: np.ndarray) -> np.ndarray:
     return np.concatenate([np.arange(ptr[u], ptr[u + 1]) for u in path])
 
 
-#: The orbits and the pricing function of the :class:`PlanPool` being forked (read by its
-#: worker processes).
-_POOL_ORBITS: tuple[Any, ...] = ()
-_POOL_PLANS: Callable[..., list[Any]] | None = None
-
-
 def _plans_of(
     orbits: tuple[OrbitItems, ...],
     idx: list[int],
@@ -1101,8 +1095,8 @@ def _pool_task(
     task: tuple[list[int], np.ndarray, np.ndarray],
 ) -> list[tuple[float, np.ndarray, tuple[float, float] | None]]:
     idx, price, lam = task
-    assert _POOL_PLANS is not None
-    return _POOL_PLANS(_POOL_ORBITS, idx, price, lam)
+    orbits, plans_of = inherited()  # the PlanPool's, forked with the worker
+    return plans_of(orbits, idx, price, lam)
 
 
 class PlanPool:
@@ -1156,17 +1150,11 @@ class PlanPool:
                     self.client.scatter([tuple(self.orbits[g] for g in idx)], hash=False)[0]
                     for idx in self.groups
                 ]
-        elif workers > 1 and len(orbits) > 1 and "fork" in mp.get_all_start_methods():
-            global _POOL_ORBITS, _POOL_PLANS
-            _POOL_ORBITS, _POOL_PLANS = self.orbits, self.plans_of
-            try:
-                with held_for_fork():
-                    self.pool = mp.get_context("fork").Pool(
-                        min(workers, len(orbits)), initializer=worker_signals
-                    )
-            finally:
-                _POOL_ORBITS, _POOL_PLANS = (), None
-            self.groups = _balanced(self.orbits, min(workers, len(orbits)))
+        else:
+            n = min(workers, len(self.orbits))
+            self.pool = fork_pool(n, (self.orbits, self.plans_of))
+            if self.pool is not None:
+                self.groups = _balanced(self.orbits, n)
 
     def best_paths(
         self, price: np.ndarray, lam: np.ndarray, until: float | None = None
