@@ -37,6 +37,7 @@ from models.lagrangian import capped_bound
 from models.subset_row import CUTS_PER_ROUND, CutPool, cut_levels
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.parallel import Child, ChildStartError, child_setup
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
 from sosp.rules import OrbitRules
 
@@ -881,7 +882,7 @@ def _solve_node(
                     return replace(node, cover=None)
                 price = _node_prices(mu_s, beta_s, g, node)
                 if cut_ids:
-                    v, path, _ = cuts.best_path(g, price, lam_s[g], sigma_s)  # type: ignore[union-attr]
+                    v, path, _ = cuts.best_path(g, price, lam_s[g], sigma_s)
                 else:
                     v, path = best_path(o, price, float(lam_s[g, 0]), float(lam_s[g, 1]))
                 value += v
@@ -1184,8 +1185,6 @@ def _helper_child(
     """A :class:`_Helper`'s process: solve the nodes it is sent (:func:`_solve_node`), each
     after taking the parent's pool of columns, and send each back with the columns it
     added, until ``("stop",)`` or the parent's end."""
-    from models.highs_direct import child_setup
-
     child_setup()
     cols = _Columns()
     for item in items:
@@ -1246,19 +1245,9 @@ class _Helper:
         cuts: CutPool | None,
         smoothing: float,
     ) -> None:
-        import multiprocessing as mp
-
-        from models.highs_direct import spawn_child
-
-        self._conn, child = mp.get_context("spawn").Pipe()
-        try:
-            work = (p, seen, groups, list(cols.items), cuts, smoothing)
-            self._proc = spawn_child(_helper_child, (child,), work)
-        except BaseException:
-            self._conn.close()
-            raise
-        finally:
-            child.close()
+        work = (p, seen, groups, list(cols.items), cuts, smoothing)
+        self._child = Child(_helper_child, (), work, duplex=True)
+        self._conn = self._child.conn
         #: The pools of both processes are the same up to this index.
         self.synced = len(cols.items)
         self._base = self.synced
@@ -1268,8 +1257,6 @@ class _Helper:
         """A helper (the arguments are the constructor's), or None, with the reason logged,
         where none can start."""
         import multiprocessing as mp
-
-        from models.highs_direct import ChildStartError
 
         if mp.current_process().daemon:
             log.debug("branch and price: one process (a daemonic process starts none)")
@@ -1318,12 +1305,9 @@ class _Helper:
 
     def close(self) -> None:
         """Stop the helper (it ends by itself when this process does)."""
-        from models.highs_direct import stop_child
-
         # it has nothing to save and no message to finish: ended at once, not waited for
         # (its interpreter's exit took 0.17 s on C2 after a deadline, more on a busy machine)
-        self._conn.close()
-        stop_child(self._proc)
+        self._child.stop()
 
 
 def branch_and_price(
@@ -1534,8 +1518,6 @@ def _side_child(
     sending ``("bound", value)`` whenever its bound rounded down falls, then ``("done",
     bound, schedule, profit)`` (``schedule`` None when the search ended on none), or
     ``("error", text)``."""
-    from models.highs_direct import child_setup
-
     child_setup()
     sent = [math.inf]
 
@@ -1584,18 +1566,11 @@ class SideBound:
     def __init__(
         self, instance: Instance, data: OrbitData, seconds: float, lower_bound: float | None
     ) -> None:
-        import multiprocessing as mp
-
-        from models.highs_direct import ChildStartError, spawn_child
-
-        self._recv, send = mp.get_context("spawn").Pipe(duplex=False)
-        self._proc: Any = None
+        self._child: Child | None = None
         try:
-            self._proc = spawn_child(_side_child, (send,), (instance, data, seconds, lower_bound))
+            self._child = Child(_side_child, (), (instance, data, seconds, lower_bound))
         except ChildStartError as exc:
             log.warning("%s; no side branch and price", exc)
-        finally:
-            send.close()
         self.bound: float | None = None
         self.found: tuple[Any, float] | None = None
         self.lower_bound = lower_bound
@@ -1604,7 +1579,7 @@ class SideBound:
         #: :func:`time.perf_counter` when :meth:`watch` first found the child's bound to
         #: prove a schedule optimal (the MILP's incumbent, its start or its own; else None).
         self.proved_at: float | None = None
-        self._done = self._proc is None  # it did not start: nothing to read
+        self._done = self._child is None  # it did not start: nothing to read
         self._stopped = False
 
     def _take(self, msg: tuple[Any, ...]) -> None:
@@ -1622,8 +1597,8 @@ class SideBound:
     def poll(self) -> float | None:
         """Read what the child has sent so far; its bound (not rounded), None before any."""
         try:
-            while not self._done and self._recv.poll(0):
-                self._take(self._recv.recv())
+            while not self._done and self._child.conn.poll(0):
+                self._take(self._child.conn.recv())
         except (EOFError, OSError):
             self._done = True
         return self.bound
@@ -1692,14 +1667,11 @@ class SideBound:
         try:
             while not self._done:
                 left = end - time.perf_counter()
-                if left <= 0 or not self._recv.poll(left):
+                if left <= 0 or not self._child.conn.poll(left):
                     break
-                self._take(self._recv.recv())
+                self._take(self._child.conn.recv())
         except (EOFError, OSError):
             pass
         finally:
-            from models.highs_direct import stop_child
-
-            if self._proc is not None:
-                stop_child(self._proc)
-            self._recv.close()
+            if self._child is not None:
+                self._child.stop()

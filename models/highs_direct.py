@@ -55,6 +55,7 @@ import scipy.sparse as sp
 
 from models.data import ModelData
 from sosp.candidates import flatten
+from sosp.parallel import Child, ChildStartError, child_setup
 from sosp.progress import current as current_progress
 from sosp.stop import stop_requested
 
@@ -829,92 +830,6 @@ def _report_to(h: Any, report: Any, halt: Any, n_items: int) -> None:
     h.cbIpmInterrupt += lp_interrupt
 
 
-def child_setup() -> None:
-    """Set up a solver's child process (a guarded solve's, a side branch and price's): Ctrl-C
-    is the parent's to handle, and the child ends when its parent does. A parent killed
-    outright (SIGKILL, SIGTERM) cannot stop its children, which would otherwise run on until
-    their own time limits as orphans."""
-    import os
-    import signal
-    import threading
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent = os.getppid()
-
-    def watch() -> None:
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != parent:
-                os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
-
-
-def stop_child(proc: Any) -> None:
-    """End a solver's child process (a no-op when it has ended): SIGTERM, then SIGKILL if it
-    is still there after 5 s."""
-    if proc.is_alive():
-        proc.terminate()
-    proc.join(timeout=5.0)
-    if proc.is_alive():  # pragma: no cover - SIGTERM ignored
-        proc.kill()
-        proc.join()
-
-
-class ChildStartError(RuntimeError):
-    """A solver's child process ended before it had read its work (:func:`spawn_child`)."""
-
-
-#: What a :class:`ChildStartError` tells a user: the usual cause.
-CHILD_START_HINT = (
-    'a script that solves should do so under `if __name__ == "__main__":`, since the '
-    "solver's child processes import it again (multiprocessing's spawn)"
-)
-
-
-def _unpack(payload: Any, target: Callable[..., None], args: tuple[Any, ...]) -> None:
-    """A :func:`spawn_child` child: read the work from ``payload``, then run ``target``."""
-    work = payload.recv()
-    payload.close()
-    target(*args, *work)
-
-
-def spawn_child(target: Callable[..., None], args: tuple[Any, ...], work: tuple[Any, ...]) -> Any:
-    """Start ``target(*args, *work)`` in a ``spawn`` process and return it (started).
-
-    ``args`` (connections, events: what must be inherited) go with the start, ``work`` (the
-    large part: a model's arrays, an instance) through a pipe once it has started. Sent with
-    the start, a payload larger than a pipe's buffer blocks the parent for ever when the
-    child ends before reading it, which is what a child does that imports a script without
-    the ``__main__`` guard: it runs the script, whose solve fails to start a grandchild
-    (andes-300's `milp` from such a script, 120 s limit, was still blocked in its side
-    process's start when killed at 400 s). Through the pipe the parent's write fails instead.
-
-    Raises
-    ------
-    ChildStartError
-        The child ended before it read ``work``.
-    """
-    import multiprocessing as mp
-
-    ctx = mp.get_context("spawn")
-    recv, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_unpack, args=(recv, target, args), daemon=True)
-    proc.start()
-    recv.close()
-    try:
-        send.send(work)
-    except OSError:  # BrokenPipeError: nobody reads the other end
-        stop_child(proc)
-        raise ChildStartError(
-            f"a solver's child process ended at its start (exit code {proc.exitcode}): "
-            + CHILD_START_HINT
-        ) from None
-    finally:
-        send.close()
-    return proc
-
-
 def _guarded_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict[str, Any]) -> None:
     """A guarded solve's child process: solve ``lp`` within ``left`` seconds, reporting to the
     parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
@@ -949,19 +864,15 @@ def _run_guarded(
     import multiprocessing as mp
 
     t0 = time.perf_counter()
-    ctx = mp.get_context("spawn")
-    halt = ctx.Event()
-    recv, send = ctx.Pipe(duplex=False)
+    halt = mp.get_context("spawn").Event()
     left = max(deadline - time.perf_counter(), 0.01)
     try:
-        proc = spawn_child(child, (send, halt), (lp, left, kwargs))
+        guard = Child(child, (halt,), (lp, left, kwargs))
     except ChildStartError as exc:
         # no guard against HiGHS's clockless parts then, but an answer
         log.warning("%s; HiGHS runs in this process", exc)
-        recv.close()
         return _run_here(lp, deadline=deadline, **kwargs)
-    finally:
-        send.close()
+    recv = guard.conn
     progress = current_progress()
     best: tuple[float, np.ndarray] | None = None
     dual: float | None = None
@@ -984,7 +895,8 @@ def _run_guarded(
             try:
                 msg = recv.recv()
             except EOFError:
-                raise RuntimeError(f"HiGHS's process ended (exit code {proc.exitcode})") from None
+                code = guard.proc.exitcode
+                raise RuntimeError(f"HiGHS's process ended (exit code {code})") from None
             kind = msg[0]
             if kind == "incumbent":
                 if best is None or msg[1] > best[0]:
@@ -998,8 +910,7 @@ def _run_guarded(
             else:
                 raise RuntimeError(f"HiGHS's process failed: {msg[1]}")
     finally:
-        stop_child(proc)
-        recv.close()
+        guard.stop()
     if out is not None:
         return out
     objective, x = (None, None) if best is None else best

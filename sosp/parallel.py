@@ -3,7 +3,9 @@
 * Dask clusters (optional: ``pip install -e '.[dist]'``) for work that one machine does too
   slowly;
 * the signal rules of forked workers (:func:`worker_signals`, :func:`held_for_fork`) and a
-  pool of them that shares data copy-on-write (:func:`fork_pool`, :func:`inherited`).
+  pool of them that shares data copy-on-write (:func:`fork_pool`, :func:`inherited`);
+* a guarded child process that answers through a pipe and is ended with its parent
+  (:class:`Child`, :func:`child_setup`).
 
 Two kinds of work use a cluster:
 
@@ -20,8 +22,11 @@ processes, several machines"). Dask is imported here only when a cluster is aske
 from __future__ import annotations
 
 import logging
+import os
 import signal
-from collections.abc import Iterator
+import threading
+import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, TypeAlias
 
@@ -232,3 +237,131 @@ def fork_pool(processes: int, shared: Any = None) -> Any:
             return mp.get_context("fork").Pool(processes, initializer=worker_signals)
     finally:
         _INHERITED = None
+
+
+# --------------------------------------------------------------------------- child processes
+class ChildStartError(RuntimeError):
+    """A child process ended before it had read its work (:class:`Child`)."""
+
+
+#: What a :class:`ChildStartError` tells a user: the usual cause.
+CHILD_START_HINT = (
+    'a script that solves should do so under `if __name__ == "__main__":`, since the '
+    "solver's child processes import it again (multiprocessing's spawn)"
+)
+
+
+def child_setup() -> None:
+    """Set up a solver's child process (a guarded solve's, a side branch and price's): Ctrl-C
+    is the parent's to handle, and the child ends when its parent does. A parent killed
+    outright (SIGKILL, SIGTERM) cannot stop its children, which would otherwise run on until
+    their own time limits as orphans."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def stop_child(proc: Any) -> None:
+    """End a child process (a no-op when it has ended): SIGTERM, then SIGKILL if it is still
+    there after 5 s."""
+    if proc.is_alive():
+        proc.terminate()
+    proc.join(timeout=5.0)
+    if proc.is_alive():  # pragma: no cover - SIGTERM ignored
+        proc.kill()
+        proc.join()
+
+
+def _unpack(payload: Any, target: Callable[..., None], args: tuple[Any, ...]) -> None:
+    """A :class:`Child` with work: read the work from ``payload``, then run ``target``."""
+    work = payload.recv()
+    payload.close()
+    target(*args, *work)
+
+
+class Child:
+    """``target(conn, *args, *work)`` in a daemonic child process that answers through a pipe.
+
+    ``conn`` is the child's end of the pipe (write-only unless ``duplex``), :attr:`conn` the
+    parent's. ``args`` (connections, events: what must be inherited) go with the start,
+    ``work`` (the large part: a model's arrays, an instance) through a second pipe once it has
+    started. Sent with the start, a payload larger than a pipe's buffer blocks the parent for
+    ever when the child ends before reading it, which is what a child does that imports a
+    script without the ``__main__`` guard: it runs the script, whose solve fails to start a
+    grandchild (andes-300's `milp` from such a script, 120 s limit, was still blocked in its
+    side process's start when killed at 400 s). Through the pipe the parent's write fails
+    instead.
+
+    Parameters
+    ----------
+    target, args, work
+        As above; ``target`` calls :func:`child_setup` if it is a solver's child.
+    method
+        The start method: ``"spawn"`` (default: a forked child would inherit HiGHS's
+        process-wide task scheduler without its threads), or None for the platform's default.
+    duplex
+        Whether the parent may send to the child too.
+
+    Raises
+    ------
+    ChildStartError
+        The child ended before it read ``work``.
+    """
+
+    def __init__(
+        self,
+        target: Callable[..., None],
+        args: tuple[Any, ...] = (),
+        work: tuple[Any, ...] = (),
+        *,
+        method: str | None = "spawn",
+        duplex: bool = False,
+    ) -> None:
+        import multiprocessing as mp
+
+        ctx = mp.get_context(method)
+        self.conn, end = ctx.Pipe(duplex=duplex)
+        try:
+            if not work:
+                self.proc = ctx.Process(target=target, args=(end, *args), daemon=True)
+                self.proc.start()
+            else:
+                self.proc = self._with_work(ctx, target, (end, *args), work)
+        except BaseException:
+            self.conn.close()
+            raise
+        finally:
+            end.close()
+
+    @staticmethod
+    def _with_work(ctx: Any, target: Callable[..., None], args: tuple[Any, ...], work: Any) -> Any:
+        recv, send = ctx.Pipe(duplex=False)
+        proc = ctx.Process(target=_unpack, args=(recv, target, args), daemon=True)
+        proc.start()
+        recv.close()
+        try:
+            send.send(work)
+        except OSError:  # BrokenPipeError: nobody reads the other end
+            stop_child(proc)
+            raise ChildStartError(
+                f"a solver's child process ended at its start (exit code {proc.exitcode}): "
+                + CHILD_START_HINT
+            ) from None
+        finally:
+            send.close()
+        return proc
+
+    def stop(self, wait: float = 0.0) -> None:
+        """End the child (after up to ``wait`` seconds for it to end by itself; SIGTERM, then
+        SIGKILL, :func:`stop_child`) and close the parent's end of the pipe."""
+        if wait > 0:
+            self.proc.join(wait)
+        stop_child(self.proc)
+        self.conn.close()

@@ -331,13 +331,14 @@ def test_side_bound_in_its_own_process(seed: int, optimum: float) -> None:
 def test_side_bound_that_cannot_start_is_no_bound(monkeypatch: pytest.MonkeyPatch) -> None:
     # its child ended before reading the instance (a script without the __main__ guard):
     # the MILP beside it goes on alone, and nothing waits for the child
-    import models.highs_direct as hd
+    import models.colgen as colgen
     from models.colgen import SideBound
+    from sosp.parallel import ChildStartError
 
-    def refuse(*args: object) -> None:
-        raise hd.ChildStartError("ended at its start")
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise ChildStartError("ended at its start")
 
-    monkeypatch.setattr(hd, "spawn_child", refuse)
+    monkeypatch.setattr(colgen, "Child", refuse)
     inst = random_tiny(105)
     side = SideBound(inst, orbit_data(inst), 30.0, None)
     assert side.poll() is None and not side.yield_to(0.0) and not side.watch(0.0, 0.0)
@@ -364,9 +365,9 @@ def test_side_bound_yields_to_a_lower_milp_bound() -> None:
     side._done = True  # what the child sent so far: 40.7
     assert not side.yield_to(1e9)  # above: goes on
     assert not side.yield_to(40.9)  # 40 after rounding down, as its own: goes on
-    assert side._proc.is_alive() and side.yielded_at is None
+    assert side._child.proc.is_alive() and side.yielded_at is None
     assert side.yield_to(39.99)
-    assert side.yielded_at is not None and not side._proc.is_alive()
+    assert side.yielded_at is not None and not side._child.proc.is_alive()
     first = side.yielded_at
     assert side.yield_to(0.0) and side.yielded_at == first
     got, _ = side.finish(wait=5.0)  # already stopped: its last bound
@@ -489,7 +490,7 @@ def test_milp_with_the_side_bound(monkeypatch) -> None:
 
 def test_solver_children_end_with_their_parent(tmp_path) -> None:
     # a parent killed outright cannot stop its children (a guarded HiGHS solve, a side
-    # branch and price): models.highs_direct.child_setup makes them end by themselves
+    # branch and price): sosp.parallel.child_setup makes them end by themselves
     import os
     import subprocess
     import sys
@@ -498,7 +499,7 @@ def test_solver_children_end_with_their_parent(tmp_path) -> None:
     script.write_text(
         "import multiprocessing as mp, os, signal, time\n"
         "def child():\n"
-        "    from models.highs_direct import child_setup\n"
+        "    from sosp.parallel import child_setup\n"
         "    child_setup()\n"
         "    time.sleep(60.0)\n"
         "if __name__ == '__main__':\n"
@@ -976,13 +977,13 @@ def test_a_failed_helper_leaves_the_search_to_this_process(monkeypatch, fails: s
 def test_no_helper_where_none_can_start(monkeypatch) -> None:
     # a helper that ends at its start (as under a script without the __main__ guard): the
     # search runs in this process
-    import models.highs_direct as highs_direct
-    from models.highs_direct import ChildStartError
+    import models.colgen as colgen
+    from sosp.parallel import ChildStartError
 
     def refuse(*args, **kwargs):
         raise ChildStartError("ended at its start")
 
-    monkeypatch.setattr(highs_direct, "spawn_child", refuse)
+    monkeypatch.setattr(colgen, "Child", refuse)
     assert colgen_bound(random_tiny(105), branch=True, workers=2)["bound"] == 23
 
 
@@ -1006,4 +1007,4 @@ def test_no_helper_with_too_little_time_left(monkeypatch) -> None:
     assert not started
     monkeypatch.setattr(colgen, "HELPER_MIN_LEFT_S", 0.0)
     assert colgen_bound(inst, branch=True, workers=2, time_limit=60.0)["bound"] == 34
-    assert len(started) == 1 and not started[0]._proc.is_alive()  # closed, not left running
+    assert len(started) == 1 and not started[0]._child.proc.is_alive()  # closed, not left running

@@ -16,7 +16,6 @@ import pytest
 from models.highs_direct import (
     BOUND_WATCH_S,
     GUARD_GRACE_S,
-    ChildStartError,
     HighsOutcome,
     _Lp,
     _run_guarded,
@@ -25,6 +24,7 @@ from models.highs_direct import (
     watching_bound,
 )
 from models.solve import model_data
+from sosp.parallel import ChildStartError
 from tests.conftest import tiny_cluster
 
 
@@ -119,9 +119,9 @@ def test_a_child_that_ends_before_its_work_does_not_hang_the_parent(tmp_path: Pa
         textwrap.dedent(
             """
             import numpy as np
-            from models.highs_direct import ChildStartError, spawn_child
+            from sosp.parallel import Child, ChildStartError
             try:
-                spawn_child(print, (), (np.zeros(1_000_000),))
+                Child(print, (), (np.zeros(1_000_000),))
             except ChildStartError as exc:
                 print("REFUSED", exc)
             """
@@ -141,10 +141,10 @@ def test_a_guarded_solve_whose_child_cannot_start_runs_here(
 ) -> None:
     import models.highs_direct as hd
 
-    def refuse(*args: object) -> None:
+    def refuse(*args: object, **kwargs: object) -> None:
         raise ChildStartError("ended at its start")
 
-    monkeypatch.setattr(hd, "spawn_child", refuse)
+    monkeypatch.setattr(hd, "Child", refuse)
     am = _model()
     here = run_highs(am, deadline=time.perf_counter() + 30, guard=False)
     out = _run_guarded(_Lp.of(am), time.perf_counter() + 30, {})
