@@ -37,6 +37,7 @@ import numpy as np
 from heuristics.asa.params import ASAParams
 from heuristics.asa.search import run_asa
 from sosp.instance import Instance
+from sosp.parallel import Child
 from sosp.progress import Progress, Snapshot, reporting
 from sosp.progress import current as current_progress
 from sosp.result import Result
@@ -98,7 +99,7 @@ def _chain(
 
 
 class _Chains:
-    """The parent's handles on the chain processes (pipes and processes)."""
+    """The parent's handles on the chain processes (:class:`sosp.parallel.Child`)."""
 
     def __init__(
         self,
@@ -110,45 +111,27 @@ class _Chains:
     ) -> None:
         ctx = mp.get_context()
         started = time.time()
-        self.conns: list[Connection] = []
-        self.procs: list[Any] = []
         self.shared = ctx.RawArray("d", 2 * len(rngs))
         self.halt = ctx.Event()
         self.progress = current_progress()
+        self.chains: list[Child] = []
         for i, rng in enumerate(rngs):
-            parent, child = ctx.Pipe()
-            proc = ctx.Process(
-                target=_chain,
-                args=(
-                    child,
-                    instance,
-                    mode,
-                    rng,
-                    time_limit,
-                    params,
-                    started,
-                    i,
-                    self.shared,
-                    self.halt,
-                ),
-                daemon=True,
-            )
-            proc.start()
-            child.close()
-            self.conns.append(parent)
-            self.procs.append(proc)
+            args = (instance, mode, rng, time_limit, params, started, i, self.shared, self.halt)
+            # the platform's start method; everything goes with the start (the shared
+            # array and event must be inherited)
+            self.chains.append(Child(_chain, args, method=None))
 
     def results(self) -> list[Result]:
         """Each chain's result, in order; a chain's error is raised here."""
         out = []
-        for i, conn in enumerate(self.conns):
-            while not conn.poll(POLL_S):
+        for i, chain in enumerate(self.chains):
+            while not chain.conn.poll(POLL_S):
                 self.tick()
             try:
-                kind, value = conn.recv()
+                kind, value = chain.conn.recv()
             except EOFError:
-                self.procs[i].join(timeout=1.0)
-                code = self.procs[i].exitcode
+                chain.proc.join(timeout=1.0)
+                code = chain.proc.exitcode
                 raise RuntimeError(
                     f"asa chain {i} ended without answering (exit code {code})"
                 ) from None
@@ -161,19 +144,14 @@ class _Chains:
         """While waiting: pass a stop request on to the chains, report their progress."""
         if stop_requested() and not self.halt.is_set():
             self.halt.set()
-        n = len(self.procs)
+        n = len(self.chains)
         iterations = sum(int(self.shared[2 * i]) for i in range(n))
         best = max(self.shared[2 * i + 1] for i in range(n))
         self.progress.update(iterations, best or None)  # None: the chains are still building
 
     def close(self) -> None:
-        for conn in self.conns:
-            conn.close()
-        for proc in self.procs:
-            proc.join(timeout=1.0)
-            if proc.is_alive():
-                proc.terminate()
-                proc.join()
+        for chain in self.chains:
+            chain.stop(wait=1.0)
 
 
 def run_parallel(
