@@ -5,7 +5,9 @@
 * the signal rules of forked workers (:func:`worker_signals`, :func:`held_for_fork`) and a
   pool of them that shares data copy-on-write (:func:`fork_pool`, :func:`inherited`);
 * a guarded child process that answers through a pipe and is ended with its parent
-  (:class:`Child`, :func:`child_setup`).
+  (:class:`Child`, :func:`child_setup`);
+* independent calls whose results are taken as they finish, in processes or on a cluster
+  (:func:`completed`: a campaign's runs).
 
 Two kinds of work use a cluster:
 
@@ -26,7 +28,7 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, TypeAlias
 
@@ -365,3 +367,67 @@ class Child:
             self.proc.join(wait)
         stop_child(self.proc)
         self.conn.close()
+
+
+# --------------------------------------------------------------------------- completions
+def completed(
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    processes: int,
+    dask: Any = None,
+    lost: Callable[[Any, BaseException], None] | None = None,
+) -> Iterator[Any]:
+    """``fn(item)`` of every item, yielded as each finishes.
+
+    In this process one after another when ``processes`` or the items are one (a failure
+    raises), else in a pool of ``processes`` processes (``fn`` and the items are pickled), or
+    with ``dask`` (as :func:`dask_client` takes it; ``processes`` workers of a ``"local"``
+    cluster) on that cluster. In a pool or on a cluster a call that fails is passed to
+    ``lost(item, exc)`` and skipped, but a broken process pool raises. Nothing starts before
+    the first result is asked for.
+    """
+    if dask is not None:
+        yield from _on_cluster(fn, items, dask, processes, lost)
+    elif processes <= 1 or len(items) <= 1:
+        for item in items:
+            yield fn(item)
+    else:
+        yield from _in_processes(fn, items, min(processes, len(items)), lost)
+
+
+def _in_processes(
+    fn: Callable[[Any], Any], items: Sequence[Any], processes: int, lost: Any
+) -> Iterator[Any]:
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    with ProcessPoolExecutor(max_workers=processes) as pool:
+        futures = {pool.submit(fn, item): item for item in items}
+        try:
+            for fut in as_completed(futures):
+                try:
+                    yield fut.result()
+                except BrokenProcessPool:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - the caller's to report
+                    if lost is not None:
+                        lost(futures[fut], exc)
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+
+def _on_cluster(
+    fn: Callable[[Any], Any], items: Sequence[Any], dask: Any, processes: int, lost: Any
+) -> Iterator[Any]:
+    with dask_client(dask, processes) as client:
+        from distributed import as_completed
+
+        futures = {client.submit(fn, item, pure=False): item for item in items}
+        for fut in as_completed(list(futures)):
+            try:
+                yield fut.result()
+            except Exception as exc:  # noqa: BLE001 - the caller's to report
+                if lost is not None:
+                    lost(futures[fut], exc)
+            fut.release()

@@ -1,7 +1,7 @@
 """Running a campaign: expand the grid, skip what is stored, run the rest in parallel.
 
-Runs go to a local process pool (:class:`concurrent.futures.ProcessPoolExecutor`), to a Dask
-distributed cluster, or run in this process (``workers=1``). Only :class:`RunSpec` objects
+Runs go to a local process pool, to a Dask distributed cluster, or run in this process
+(``workers=1``): :func:`sosp.parallel.completed`. Only :class:`RunSpec` objects
 and result rows cross process boundaries: each worker generates or loads its instances itself
 (cached per process). The parent stores each finished run at once, in one transaction
 (:class:`~sosp.campaign.store.Store`), so a crash loses only the runs in flight.
@@ -16,7 +16,7 @@ import threading
 import time
 import traceback
 from collections import OrderedDict
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 from sosp.campaign.spec import Campaign, RunSpec, ScenarioSpec, canonical_params
 from sosp.campaign.store import Store, verdict_json
 from sosp.errors import InputError
+from sosp.parallel import completed
 
 if TYPE_CHECKING:
     from sosp.instance import Instance
@@ -246,44 +247,8 @@ def plan(campaign: Campaign, store: Store | None, retry_failed: bool = False) ->
     return Plan(runs, pending, skipped, infos)
 
 
-# --------------------------------------------------------------------------- executors
-def _serial(specs: list[RunSpec]) -> Iterator[dict[str, Any]]:
-    for spec in specs:
-        yield execute_run(spec)
-
-
-def _process_pool(specs: list[RunSpec], workers: int) -> Iterator[dict[str, Any]]:
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    from concurrent.futures.process import BrokenProcessPool
-
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(execute_run, s): s for s in specs}
-        try:
-            for fut in as_completed(futures):
-                try:
-                    yield fut.result()
-                except BrokenProcessPool:
-                    raise
-                except Exception as exc:  # noqa: BLE001 - a lost run is rerun on resume
-                    log.error("run %s lost (%s); it will run again on resume", futures[fut], exc)
-        finally:
-            for fut in futures:
-                fut.cancel()
-
-
-def _dask(specs: list[RunSpec], address: Any, workers: int) -> Iterator[dict[str, Any]]:
-    from sosp.parallel import dask_client
-
-    with dask_client(address, workers) as client:
-        from distributed import as_completed
-
-        futures = [client.submit(execute_run, s, pure=False) for s in specs]
-        for fut in as_completed(futures):
-            try:
-                yield fut.result()
-            except Exception as exc:  # noqa: BLE001 - a lost run is rerun on resume
-                log.error("a run was lost on the cluster (%s); it will run again on resume", exc)
-            fut.release()
+def _lost(spec: RunSpec, exc: BaseException) -> None:
+    log.error("run %s lost (%s); it will run again on resume", spec, exc)
 
 
 # --------------------------------------------------------------------------- campaign
@@ -350,12 +315,7 @@ def run_campaign(
         len(p.pending),
         f"dask {dask}" if dask is not None else f"{n_workers} worker(s)",
     )
-    if dask is not None:
-        stream = _dask(p.pending, dask, n_workers)
-    elif n_workers == 1 or len(p.pending) <= 1:
-        stream = _serial(p.pending)
-    else:
-        stream = _process_pool(p.pending, min(n_workers, len(p.pending)))
+    stream = completed(execute_run, p.pending, n_workers, dask, _lost)
     if p.pending:
         store.put_instances(p.instances)
     ran = failed = infeasible = 0
