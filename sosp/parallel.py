@@ -29,7 +29,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from sosp.errors import InputError
@@ -78,7 +78,21 @@ def dask_client(address: Any, workers: int | None = None) -> Iterator[Any]:
         raise InputError(f"--dask: expected 'local' or a scheduler address, got {address!r}")
     quiet = _quiet(logging.WARNING)
     try:
-        with _connect(address, workers, Client, LocalCluster) as client:
+        with ExitStack() as stack:  # closed on exit: the client, then the local cluster
+            if address == "local":
+                # ":0": any free port. None still binds Dask's HTTP server to 8787 and warns
+                # ("Port 8787 is already in use") beside another cluster on the same machine
+                cluster = LocalCluster(
+                    n_workers=workers, threads_per_worker=1, dashboard_address=":0"
+                )
+                stack.callback(cluster.close)
+                client = Client(cluster)
+            else:
+                try:
+                    client = Client(address, timeout=10)
+                except OSError as exc:
+                    raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
+            stack.callback(client.close)
             log.info("dask cluster %s: %d worker thread(s)", address, cluster_size(client))
             yield client
     finally:
@@ -96,28 +110,6 @@ def workers_for(processes: int, dask: Any = None, local: int | None = None) -> I
         return
     with dask_client(dask, local) as client:
         yield client
-
-
-@contextmanager
-def _connect(address: str, workers: int | None, client_cls: Any, cluster_cls: Any) -> Iterator[Any]:
-    """The client of a new local cluster or of the scheduler at ``address``, closed on exit."""
-    cluster = None
-    if address == "local":
-        # ":0": any free port. None still binds Dask's HTTP server to 8787 and warns
-        # ("Port 8787 is already in use") beside another cluster on the same machine
-        cluster = cluster_cls(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
-        client = client_cls(cluster)
-    else:
-        try:
-            client = client_cls(address, timeout=10)
-        except OSError as exc:
-            raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
-    try:
-        yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def _quiet(level: int) -> dict[str, int]:
@@ -246,13 +238,6 @@ class ChildStartError(RuntimeError):
     """A child process ended before it had read its work (:class:`Child`)."""
 
 
-#: What a :class:`ChildStartError` tells a user: the usual cause.
-CHILD_START_HINT = (
-    'a script that solves should do so under `if __name__ == "__main__":`, since the '
-    "solver's child processes import it again (multiprocessing's spawn)"
-)
-
-
 def child_setup() -> None:
     """Set up a solver's child process (a guarded solve's, a side branch and price's): Ctrl-C
     is the parent's to handle, and the child ends when its parent does. A parent killed
@@ -268,17 +253,6 @@ def child_setup() -> None:
                 os._exit(1)
 
     threading.Thread(target=watch, daemon=True).start()
-
-
-def stop_child(proc: Any) -> None:
-    """End a child process (a no-op when it has ended): SIGTERM, then SIGKILL if it is still
-    there after 5 s."""
-    if proc.is_alive():
-        proc.terminate()
-    proc.join(timeout=5.0)
-    if proc.is_alive():  # pragma: no cover - SIGTERM ignored
-        proc.kill()
-        proc.join()
 
 
 def _unpack(payload: Any, target: Callable[..., None], args: tuple[Any, ...]) -> None:
@@ -334,38 +308,40 @@ class Child:
             if not work:
                 self.proc = ctx.Process(target=target, args=(end, *args), daemon=True)
                 self.proc.start()
-            else:
-                self.proc = self._with_work(ctx, target, (end, *args), work)
+                return
+            recv, send = ctx.Pipe(duplex=False)
+            self.proc = ctx.Process(target=_unpack, args=(recv, target, (end, *args)), daemon=True)
+            self.proc.start()
+            recv.close()
+            try:
+                send.send(work)
+            except OSError:  # BrokenPipeError: nobody reads the other end
+                self.stop()
+                raise ChildStartError(
+                    f"a solver's child process ended at its start (exit code "
+                    f"{self.proc.exitcode}): a script that solves should do so under "
+                    '`if __name__ == "__main__":`, since the solver\'s child processes import '
+                    "it again (multiprocessing's spawn)"
+                ) from None
+            finally:
+                send.close()
         except BaseException:
             self.conn.close()
             raise
         finally:
             end.close()
 
-    @staticmethod
-    def _with_work(ctx: Any, target: Callable[..., None], args: tuple[Any, ...], work: Any) -> Any:
-        recv, send = ctx.Pipe(duplex=False)
-        proc = ctx.Process(target=_unpack, args=(recv, target, args), daemon=True)
-        proc.start()
-        recv.close()
-        try:
-            send.send(work)
-        except OSError:  # BrokenPipeError: nobody reads the other end
-            stop_child(proc)
-            raise ChildStartError(
-                f"a solver's child process ended at its start (exit code {proc.exitcode}): "
-                + CHILD_START_HINT
-            ) from None
-        finally:
-            send.close()
-        return proc
-
     def stop(self, wait: float = 0.0) -> None:
-        """End the child (after up to ``wait`` seconds for it to end by itself; SIGTERM, then
-        SIGKILL, :func:`stop_child`) and close the parent's end of the pipe."""
-        if wait > 0:
-            self.proc.join(wait)
-        stop_child(self.proc)
+        """End the child (after up to ``wait`` seconds for it to end by itself; then SIGTERM,
+        and SIGKILL if it is still there 5 s later) and close the parent's end of the pipe."""
+        proc = self.proc
+        proc.join(wait)
+        if proc.is_alive():
+            proc.terminate()
+        proc.join(timeout=5.0)
+        if proc.is_alive():  # pragma: no cover - SIGTERM ignored
+            proc.kill()
+            proc.join()
         self.conn.close()
 
 
