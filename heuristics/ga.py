@@ -49,6 +49,7 @@ from heuristics.stc import Selection, StcData, check_int, params_from_kwargs, st
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import RollRule, check_roll_rule
@@ -80,11 +81,11 @@ class GAParams:
         Roll of multi-opportunity cluster-tasks: ``"midpoint"`` (9) or ``"nadir"``.
     """
 
-    population: int = 100
-    tournament: int = 2
-    mutation_bits: int = 2
-    iterations: int | None = None
-    roll_rule: RollRule = "midpoint"
+    population: int = param(100, "Individuals in the population (Chu and Beasley: 100).")
+    tournament: int = param(2, "Tournament size of the parent selection (binary tournament: 2).")
+    mutation_bits: int = param(2, "Bits flipped in each child (Chu and Beasley: 2).")
+    iterations: int | None = param(None, "Children generated (None: to the time limit).")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def __post_init__(self) -> None:
         check_int("population", self.population, 2)

@@ -33,13 +33,14 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from sosp.candidates import CANDIDATE_MODES, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.params import param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
@@ -125,18 +126,28 @@ class LNSParams:
         unless they would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES``.
     """
 
-    orbits: int = 4
-    sub_time_limit: float = 10.0
-    start: str = "orbit-dp"
-    start_time_limit: float | None = 10.0
-    start_params: dict[str, Any] | None = None
-    neighbourhood: str = "auto"
-    window: float = 120.0
-    max_items: int = 1500
-    iterations: int | None = None
-    no_improve: int | None = None
-    threads: int = 1
-    candidates: str = "auto"
+    #: :func:`solve_milp_lns`'s keyword beside the fields, for ``sosp methods``.
+    KEYWORDS: ClassVar[dict[str, tuple[str, Any, str]]] = {
+        "warm_start": (
+            "Schedule | None",
+            None,
+            "A schedule to start from instead of running start (ignored with a warning when "
+            "the validator rejects it).",
+        )
+    }
+
+    orbits: int = param(4, "Orbits freed and re-planned per step (the neighbourhood size).")
+    sub_time_limit: float = param(10.0, "Time limit of one sub-MILP.", "s")
+    start: str = param("orbit-dp", "Heuristic method giving the initial schedule.")
+    start_time_limit: float | None = param(10.0, "Time limit of the start method.", "s")
+    start_params: dict[str, Any] | None = param(None, "Parameters of the start method.")
+    neighbourhood: str = param("auto", "'orbits', 'window' or 'auto'.")
+    window: float = param(120.0, "Time window of a window step.", "s")
+    max_items: int = param(1500, "Largest orbit neighbourhood 'auto' solves whole.")
+    iterations: int | None = param(None, "Stop after this many steps (None: no limit).")
+    no_improve: int | None = param(None, "Stop after this many steps without a gain.")
+    threads: int = param(1, "HiGHS threads per sub-MILP.")
+    candidates: str = param("auto", "'explicit', 'windows' or 'auto'.")
 
     def __post_init__(self) -> None:
         def positive_int(name: str, value: Any, allow_none: bool = False) -> None:
@@ -175,7 +186,7 @@ class LNSParams:
             )
         if self.start_params is not None and not isinstance(self.start_params, dict):
             raise InputError(f"start_params: expected an object, got {self.start_params!r}")
-        from sosp.solve import METHODS
+        from sosp.registry import METHODS
 
         if not isinstance(self.start, str) or self.start not in METHODS or self.start in _EXACT:
             raise InputError(

@@ -45,6 +45,7 @@ from sosp.candidates import CANDIDATE_MODES, candidate_mode, orbit_pairs
 from sosp.dist import dask_client
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.params import param
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
@@ -146,15 +147,15 @@ class OrbitSearchParams:
         search's own re-plans stay in this process. Where it pays: ``docs/scenarios.md``.
     """
 
-    perturb_orbits: int = 2
-    noise: float = 0.5
-    steal: float = 0.3
-    iterations: int | None = None
-    no_improve: int | None = None
-    workers: int = 1
-    start: str = "auto"
-    candidates: str = "auto"
-    dask: str | None = None
+    perturb_orbits: int = param(2, "Most orbits re-planned with noisy prices per step.")
+    noise: float = param(0.5, "Relative price noise of a perturbation, in [0, 1).")
+    steal: float = param(0.3, "Probability a target observed elsewhere keeps its weight.")
+    iterations: int | None = param(None, "Stop after this many steps (None: no limit).")
+    no_improve: int | None = param(None, "Stop after this many steps without a new best.")
+    workers: int = param(1, "Processes generating the candidates side by side.")
+    start: str = param("auto", "'lp', 'hpfs', 'empty' or 'auto'.")
+    candidates: str = param("auto", "'explicit', 'windows' or 'auto'.")
+    dask: str | None = param(None, "Dask scheduler's address or 'local' (lp start).")
 
     def __post_init__(self) -> None:
         if self.dask is not None and (not isinstance(self.dask, str) or not self.dask):

@@ -81,6 +81,7 @@ from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_rows
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import param
 from sosp.result import Result, Status
 from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
@@ -113,11 +114,11 @@ class PBAParams:
         itself (the paper's reading; for comparisons).
     """
 
-    max_part: int = 10
-    node_limit: int = 20000
-    order: Order = "rcm"
-    roll_rule: RollRule = "midpoint"
-    prices: PriceRule = "lp"
+    max_part: int = param(10, "Most targets in one part.")
+    node_limit: int = param(20000, "Search nodes per part before its total weight.")
+    order: Order = param("rcm", "Order of the targets: 'rcm' or 'index'.")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
+    prices: PriceRule = param("lp", "'lp': orbits priced across the parts; 'none'.")
 
     def __post_init__(self) -> None:
         for name in ("max_part", "node_limit"):

@@ -61,6 +61,7 @@ from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import check_roll_rule
@@ -95,12 +96,12 @@ class TSParams:
         Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
     """
 
-    iterations: int = 20000
-    tenure_min: int = 10
-    tenure_freq: float = 1.0
-    restart_after: int = 1000
-    perturb: int = 3
-    roll_rule: RollRule = "midpoint"
+    iterations: int = param(20000, "Moves at most.")
+    tenure_min: int = param(10, "Iterations a dropped task stays tabu at least.")
+    tenure_freq: float = param(1.0, "Extra tabu iterations per earlier drop of a task.")
+    restart_after: int = param(1000, "Idle iterations before restarting from the best.")
+    perturb: int = param(3, "Tasks of the best configuration dropped at a restart.")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def __post_init__(self) -> None:
         _nonneg_int("iterations", self.iterations)
