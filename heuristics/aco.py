@@ -62,10 +62,10 @@ from sosp import rules
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import param
+from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
-from sosp.rules import RollRule, check_roll_rule
+from sosp.rules import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
@@ -80,7 +80,7 @@ DENSE_TASKS = 2048
 
 
 @dataclass(frozen=True)
-class ACOParams:
+class ACOParams(Params):
     """Parameters of ACO-STC (MAX-MIN Ant System defaults without local search).
 
     Parameters
@@ -145,7 +145,7 @@ class ACOParams:
     ls_passes: int = param(10, "Most passes of the local search over the unscheduled tasks.")
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         check_int("ants", self.ants, 1)
         check_float("alpha", self.alpha, 0.0, 100.0)
         check_float("beta", self.beta, 0.0, 100.0)
@@ -157,14 +157,9 @@ class ACOParams:
         check_int("restart", self.restart, 0)
         check_int("candidates", self.candidates, 1)
         check_float("q0", self.q0, 0.0, 1.0)
-        if self.heuristic not in ("loss", "resource"):
-            raise InputError(f"heuristic: expected 'loss' or 'resource', got {self.heuristic!r}")
         check_float("gap_weight", self.gap_weight, 0.0, 1e6)
         check_int("iterations", self.iterations, 0, optional=True)
         check_int("ls_passes", self.ls_passes, 1)
-        if not isinstance(self.local_search, bool):
-            raise InputError(f"local_search: expected true or false, got {self.local_search!r}")
-        check_roll_rule(self.roll_rule)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:

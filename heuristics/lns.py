@@ -32,15 +32,15 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
-from typing import Any, ClassVar
+from dataclasses import dataclass, replace
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from sosp.candidates import CANDIDATE_MODES, OppGroups, orbit_pairs
+from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
-from sosp.params import param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
@@ -61,7 +61,7 @@ log = logging.getLogger(__name__)
 _EXACT = ("milp", "milp-lns")
 
 #: Neighbourhoods of a step (see :class:`LNSParams`).
-NEIGHBOURHOODS = ("auto", "orbits", "window")
+Neighbourhood = Literal["auto", "orbits", "window"]
 
 #: Margin kept on (3) against fixed neighbours (the validator allows 1e-6; never rely on it).
 _MARGIN = EPS
@@ -73,7 +73,7 @@ FALLBACK_START = "asa-dtc"
 
 
 @dataclass(frozen=True)
-class LNSParams:
+class LNSParams(Params):
     """Parameters of :func:`solve_milp_lns`.
 
     Parameters
@@ -141,15 +141,15 @@ class LNSParams:
     start: str = param("orbit-dp", "Heuristic method giving the initial schedule.")
     start_time_limit: float | None = param(10.0, "Time limit of the start method.", "s")
     start_params: dict[str, Any] | None = param(None, "Parameters of the start method.")
-    neighbourhood: str = param("auto", "'orbits', 'window' or 'auto'.")
+    neighbourhood: Neighbourhood = param("auto", "What a step frees: orbits or a time window.")
     window: float = param(120.0, "Time window of a window step.", "s")
     max_items: int = param(1500, "Largest orbit neighbourhood 'auto' solves whole.")
     iterations: int | None = param(None, "Stop after this many steps (None: no limit).")
     no_improve: int | None = param(None, "Stop after this many steps without a gain.")
     threads: int = param(1, "HiGHS threads per sub-MILP.")
-    candidates: str = param("auto", "'explicit', 'windows' or 'auto'.")
+    candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         def positive_int(name: str, value: Any, allow_none: bool = False) -> None:
             if value is None and allow_none:
                 return
@@ -175,15 +175,6 @@ class LNSParams:
         positive_int("threads", self.threads)
         positive_seconds("window", self.window)
         positive_int("max_items", self.max_items)
-        if self.neighbourhood not in NEIGHBOURHOODS:
-            raise InputError(
-                f"neighbourhood: expected one of {', '.join(NEIGHBOURHOODS)}, "
-                f"got {self.neighbourhood!r}"
-            )
-        if self.candidates not in CANDIDATE_MODES:
-            raise InputError(
-                f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
-            )
         if self.start_params is not None and not isinstance(self.start_params, dict):
             raise InputError(f"start_params: expected an object, got {self.start_params!r}")
         from sosp.registry import METHODS
@@ -196,12 +187,8 @@ class LNSParams:
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> LNSParams:
-        """Build from keyword parameters, naming an unknown one in the error."""
-        known = {f.name for f in fields(cls)}
-        for key in params:
-            if key not in known:
-                raise InputError(f"milp-lns: unknown parameter {key!r}")
-        return cls(**params)
+        """Build from keyword parameters (CLI strings coerced from the type hints)."""
+        return from_kwargs(cls, params, method="milp-lns")
 
 
 def _claims_value(instance: Instance, observations: list[Observation], weight: np.ndarray) -> int:

@@ -36,16 +36,16 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
-from sosp.candidates import CANDIDATE_MODES, candidate_mode, orbit_pairs
+from sosp.candidates import CandidateMode, candidate_mode, orbit_pairs
 from sosp.dist import dask_client
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
-from sosp.params import param
+from sosp.params import Params, from_kwargs, param
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
@@ -73,7 +73,8 @@ log = logging.getLogger(__name__)
 DEFAULT_NO_IMPROVE = 500
 
 #: Starts of the search (:attr:`OrbitSearchParams.start`).
-START_MODES = ("auto", "lp", "hpfs", "empty")
+StartMode = Literal["auto", "lp", "hpfs", "empty"]
+START_MODES = get_args(StartMode)
 
 #: Seconds per opportunity foreseen for :func:`hpfs_start` (static clustering and the
 #: insertion, pure Python, one pass each, then the plans set): about twice the most
@@ -102,7 +103,7 @@ LP_START_ROUNDS = 20
 
 
 @dataclass(frozen=True)
-class OrbitSearchParams:
+class OrbitSearchParams(Params):
     """Parameters of :func:`solve_orbit_dp`.
 
     Parameters
@@ -153,19 +154,13 @@ class OrbitSearchParams:
     iterations: int | None = param(None, "Stop after this many steps (None: no limit).")
     no_improve: int | None = param(None, "Stop after this many steps without a new best.")
     workers: int = param(1, "Processes generating the candidates side by side.")
-    start: str = param("auto", "'lp', 'hpfs', 'empty' or 'auto'.")
-    candidates: str = param("auto", "'explicit', 'windows' or 'auto'.")
+    start: StartMode = param("auto", "Where the search starts (lp: the column-generation root).")
+    candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
     dask: str | None = param(None, "Dask scheduler's address or 'local' (lp start).")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         if self.dask is not None and (not isinstance(self.dask, str) or not self.dask):
             raise InputError(f"dask: expected 'local' or a scheduler address, got {self.dask!r}")
-        if self.start not in START_MODES:
-            raise InputError(f"start: expected {', '.join(START_MODES)}, got {self.start!r}")
-        if self.candidates not in CANDIDATE_MODES:
-            raise InputError(
-                f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
-            )
         for name in ("perturb_orbits", "iterations", "no_improve", "workers"):
             value = getattr(self, name)
             if value is None and name not in ("perturb_orbits", "workers"):
@@ -183,12 +178,8 @@ class OrbitSearchParams:
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> OrbitSearchParams:
-        """Build from keyword parameters, naming an unknown one in the error."""
-        known = {f.name for f in fields(cls)}
-        for key in params:
-            if key not in known:
-                raise InputError(f"orbit-dp: unknown parameter {key!r}")
-        return cls(**params)
+        """Build from keyword parameters (CLI strings coerced from the type hints)."""
+        return from_kwargs(cls, params, method="orbit-dp")
 
 
 class OrbitSearch:
