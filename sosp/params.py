@@ -16,9 +16,8 @@ import argparse
 import dataclasses
 import types
 import typing
+from numbers import Integral
 from typing import Any, ClassVar, Literal, TypeVar, get_args, get_origin
-
-import numpy as np
 
 from sosp.errors import InputError
 
@@ -135,7 +134,7 @@ def check_types(params: Any) -> None:
         members, optional = _parts(hint)
         if (value is None and optional) or choices(hint) is not None or bool in members:
             continue
-        number = not isinstance(value, bool) and isinstance(value, int | np.integer)
+        number = not isinstance(value, bool) and isinstance(value, Integral)  # numpy's too
         if int in members and number:
             continue
         if float in members and (number or isinstance(value, float)):
