@@ -14,7 +14,7 @@ from typing import Any, ClassVar, Literal
 
 from sosp import params as P
 from sosp.errors import InputError
-from sosp.params import param
+from sosp.params import Params, param
 from sosp.rules import RollRule
 
 #: Named parameter sets, applied before the caller's own parameters (``preset="paper"``).
@@ -48,7 +48,7 @@ Candidates = Literal["auto", "explicit", "windows"]
 
 
 @dataclass(frozen=True)
-class ASAParams:
+class ASAParams(Params):
     """Every tunable of the search; each can be overridden by a keyword of the solve functions.
 
     Parameters
@@ -233,7 +233,7 @@ class ASAParams:
     init_share: float = param(0.3, "Share of the limit the orbit-dp or lp start may take.")
     workers: int = param(1, "Chains run side by side, one process each.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         def positive(name: str, strict: bool = True) -> None:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
@@ -284,7 +284,6 @@ class ASAParams:
         integer("polish", minimum=0)
         integer("trace_every")
         integer("workers")
-        P.check_choices(self)
 
     @classmethod
     def from_kwargs(cls, preset: str | None = None, **kwargs: Any) -> ASAParams:
