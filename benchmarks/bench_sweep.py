@@ -44,7 +44,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.bench_time_limits import slack  # noqa: E402  (max(1 s, 5 %), #17)
-from sosp.solve import available_methods  # noqa: E402
+from sosp.registry import available_methods  # noqa: E402
 
 #: Target counts drawn from by default.
 SIZES = (100, 300, 600, 1200, 2500)

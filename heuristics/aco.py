@@ -62,9 +62,10 @@ from sosp import rules
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
-from sosp.rules import RollRule, check_roll_rule
+from sosp.rules import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
@@ -79,7 +80,7 @@ DENSE_TASKS = 2048
 
 
 @dataclass(frozen=True)
-class ACOParams:
+class ACOParams(Params):
     """Parameters of ACO-STC (MAX-MIN Ant System defaults without local search).
 
     Parameters
@@ -128,23 +129,23 @@ class ACOParams:
         Roll of multi-opportunity cluster-tasks: ``"midpoint"`` (9) or ``"nadir"``.
     """
 
-    ants: int = 10
-    alpha: float = 1.0
-    beta: float = 2.0
-    rho: float = 0.2
-    p_best: float = 0.05
-    gb_every: int = 10
-    restart: int = 250
-    candidates: int = 20
-    q0: float = 0.9
-    heuristic: Literal["loss", "resource"] = "loss"
-    gap_weight: float = 10.0
-    iterations: int | None = None
-    local_search: bool = False
-    ls_passes: int = 10
-    roll_rule: RollRule = "midpoint"
+    ants: int = param(10, "Ants per iteration (docs/baselines.md).")
+    alpha: float = param(1.0, "Weight of the pheromone in the choice rule (MMAS: 1).")
+    beta: float = param(2.0, "Weight of the heuristic information in the choice rule (MMAS: 2).")
+    rho: float = param(0.2, "Evaporation rate (MMAS: 0.02, 0.2 with local search).")
+    p_best: float = param(0.05, "Probability of building the best at convergence (tau_min).")
+    gb_every: int = param(10, "Iterations between deposits of the best so far (0: never).")
+    restart: int = param(250, "Reset the trails after this many idle iterations (0: never).")
+    candidates: int = param(20, "Successors an ant considers at each step.")
+    q0: float = param(0.9, "Probability of taking the best-rated candidate (ACS).")
+    heuristic: Literal["loss", "resource"] = param("loss", "Heuristic information.")
+    gap_weight: float = param(10.0, "Weight of idle time in the 'resource' heuristic.")
+    iterations: int | None = param(None, "Colony iterations (None: to the time limit).")
+    local_search: bool = param(False, "Apply local_search to the iteration-best ant (ACO-LS-STC).")
+    ls_passes: int = param(10, "Most passes of the local search over the unscheduled tasks.")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         check_int("ants", self.ants, 1)
         check_float("alpha", self.alpha, 0.0, 100.0)
         check_float("beta", self.beta, 0.0, 100.0)
@@ -156,14 +157,9 @@ class ACOParams:
         check_int("restart", self.restart, 0)
         check_int("candidates", self.candidates, 1)
         check_float("q0", self.q0, 0.0, 1.0)
-        if self.heuristic not in ("loss", "resource"):
-            raise InputError(f"heuristic: expected 'loss' or 'resource', got {self.heuristic!r}")
         check_float("gap_weight", self.gap_weight, 0.0, 1e6)
         check_int("iterations", self.iterations, 0, optional=True)
         check_int("ls_passes", self.ls_passes, 1)
-        if not isinstance(self.local_search, bool):
-            raise InputError(f"local_search: expected true or false, got {self.local_search!r}")
-        check_roll_rule(self.roll_rule)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:
@@ -173,47 +169,18 @@ class ACOParams:
 
 @dataclass(frozen=True)
 class ACOLSParams(ACOParams):
-    ants: int = 10
-    rho: float = 0.2
-    q0: float = 0.0
-    local_search: bool = True
+    """Parameters of ACO-LS-STC: MAX-MIN Ant System with local search (:class:`ACOParams`
+    with these defaults)."""
+
+    ants: int = param(10, "Ants per iteration (MMAS with local search: 10).")
+    rho: float = param(0.2, "Evaporation rate (MMAS with local search: 0.2).")
+    q0: float = param(0.0, "Probability of taking the best-rated candidate.")
+    local_search: bool = param(True, "Apply local_search to the iteration-best ant.")
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOLSParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
         return params_from_kwargs(cls, "aco-ls-stc", params)
-
-
-def _override(doc: str, title: str, entries: dict[str, str]) -> str:
-    """``doc`` with its first line replaced by ``title`` and the named numpydoc entries'
-    descriptions replaced (so ``sosp methods`` lists every field of a subclass)."""
-    lines = doc.splitlines()
-    out = [title]
-    skip = False
-    for line in lines[1:]:
-        name = line.strip()
-        if line.startswith("    ") and not line.startswith("     ") and name in entries:
-            out += [line, "        " + entries[name]]
-            skip = True
-            continue
-        if skip and line.startswith("        "):
-            continue
-        skip = False
-        out.append(line)
-    return "\n".join(out)
-
-
-ACOLSParams.__doc__ = _override(
-    ACOParams.__doc__ or "",
-    "Parameters of ACO-LS-STC: MAX-MIN Ant System with local search.",
-    {
-        "ants": "Ants per iteration (MMAS with local search: 10).",
-        "rho": "Evaporation rate (MMAS with local search: 0.2).",
-        "q0": "Pseudo-random proportional rule (ACO-LS-STC: 0, MMAS's random proportional "
-        "rule alone: the local search intensifies, the ants keep diverse).",
-        "local_search": "Apply local_search to the iteration-best ant (ACO-LS-STC: True).",
-    },
-)
 
 
 # ----------------------------------------------------------------------------- the graph

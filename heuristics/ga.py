@@ -49,9 +49,10 @@ from heuristics.stc import Selection, StcData, check_int, params_from_kwargs, st
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
-from sosp.rules import RollRule, check_roll_rule
+from sosp.rules import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
@@ -62,7 +63,7 @@ DEFAULT_ITERATIONS = 20000
 
 
 @dataclass(frozen=True)
-class GAParams:
+class GAParams(Params):
     """Parameters of GA-STC (Chu and Beasley's published values as defaults).
 
     Parameters
@@ -80,13 +81,13 @@ class GAParams:
         Roll of multi-opportunity cluster-tasks: ``"midpoint"`` (9) or ``"nadir"``.
     """
 
-    population: int = 100
-    tournament: int = 2
-    mutation_bits: int = 2
-    iterations: int | None = None
-    roll_rule: RollRule = "midpoint"
+    population: int = param(100, "Individuals in the population (Chu and Beasley: 100).")
+    tournament: int = param(2, "Tournament size of the parent selection (binary tournament: 2).")
+    mutation_bits: int = param(2, "Bits flipped in each child (Chu and Beasley: 2).")
+    iterations: int | None = param(None, "Children generated (None: to the time limit).")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         check_int("population", self.population, 2)
         check_int("tournament", self.tournament, 1)
         check_int("mutation_bits", self.mutation_bits, 0)
@@ -96,7 +97,6 @@ class GAParams:
                 f"tournament: must not exceed population ({self.population}), "
                 f"got {self.tournament!r}"
             )
-        check_roll_rule(self.roll_rule)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> GAParams:

@@ -23,12 +23,14 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
 from heuristics.timeline import OrbitTimeline
 from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.result import Result, Status
 from sosp.schedule import RollRule
 
@@ -95,12 +97,19 @@ def priority_order(tasks: TaskSet) -> np.ndarray:
     return np.lexsort((np.arange(len(tasks)), -np.asarray(tasks.weight, dtype=np.int64)))
 
 
+@dataclass(frozen=True)
+class HPFSParams(Params):
+    """Parameters of :func:`solve_hpfs_stc`."""
+
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
+
+
 def solve_hpfs_stc(
     instance: Instance,
     *,
     rng: np.random.Generator,
     time_limit: float | None = None,
-    roll_rule: RollRule = "midpoint",
+    roll_rule: RollRule = HPFSParams.roll_rule,
 ) -> Result:
     """HPFS-STC: static cluster-tasks by decreasing weight, each inserted when feasible.
 

@@ -32,14 +32,15 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from sosp.candidates import CANDIDATE_MODES, OppGroups, orbit_pairs
+from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
@@ -60,7 +61,7 @@ log = logging.getLogger(__name__)
 _EXACT = ("milp", "milp-lns")
 
 #: Neighbourhoods of a step (see :class:`LNSParams`).
-NEIGHBOURHOODS = ("auto", "orbits", "window")
+Neighbourhood = Literal["auto", "orbits", "window"]
 
 #: Margin kept on (3) against fixed neighbours (the validator allows 1e-6; never rely on it).
 _MARGIN = EPS
@@ -72,7 +73,7 @@ FALLBACK_START = "asa-dtc"
 
 
 @dataclass(frozen=True)
-class LNSParams:
+class LNSParams(Params):
     """Parameters of :func:`solve_milp_lns`.
 
     Parameters
@@ -125,20 +126,30 @@ class LNSParams:
         unless they would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES``.
     """
 
-    orbits: int = 4
-    sub_time_limit: float = 10.0
-    start: str = "orbit-dp"
-    start_time_limit: float | None = 10.0
-    start_params: dict[str, Any] | None = None
-    neighbourhood: str = "auto"
-    window: float = 120.0
-    max_items: int = 1500
-    iterations: int | None = None
-    no_improve: int | None = None
-    threads: int = 1
-    candidates: str = "auto"
+    #: :func:`solve_milp_lns`'s keyword beside the fields, for ``sosp methods``.
+    KEYWORDS: ClassVar[dict[str, tuple[str, Any, str]]] = {
+        "warm_start": (
+            "Schedule | None",
+            None,
+            "A schedule to start from instead of running start (ignored with a warning when "
+            "the validator rejects it).",
+        )
+    }
 
-    def __post_init__(self) -> None:
+    orbits: int = param(4, "Orbits freed and re-planned per step (the neighbourhood size).")
+    sub_time_limit: float = param(10.0, "Time limit of one sub-MILP.", "s")
+    start: str = param("orbit-dp", "Heuristic method giving the initial schedule.")
+    start_time_limit: float | None = param(10.0, "Time limit of the start method.", "s")
+    start_params: dict[str, Any] | None = param(None, "Parameters of the start method.")
+    neighbourhood: Neighbourhood = param("auto", "What a step frees: orbits or a time window.")
+    window: float = param(120.0, "Time window of a window step.", "s")
+    max_items: int = param(1500, "Largest orbit neighbourhood 'auto' solves whole.")
+    iterations: int | None = param(None, "Stop after this many steps (None: no limit).")
+    no_improve: int | None = param(None, "Stop after this many steps without a gain.")
+    threads: int = param(1, "HiGHS threads per sub-MILP.")
+    candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
+
+    def check(self) -> None:
         def positive_int(name: str, value: Any, allow_none: bool = False) -> None:
             if value is None and allow_none:
                 return
@@ -164,18 +175,9 @@ class LNSParams:
         positive_int("threads", self.threads)
         positive_seconds("window", self.window)
         positive_int("max_items", self.max_items)
-        if self.neighbourhood not in NEIGHBOURHOODS:
-            raise InputError(
-                f"neighbourhood: expected one of {', '.join(NEIGHBOURHOODS)}, "
-                f"got {self.neighbourhood!r}"
-            )
-        if self.candidates not in CANDIDATE_MODES:
-            raise InputError(
-                f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
-            )
         if self.start_params is not None and not isinstance(self.start_params, dict):
             raise InputError(f"start_params: expected an object, got {self.start_params!r}")
-        from sosp.solve import METHODS
+        from sosp.registry import METHODS
 
         if not isinstance(self.start, str) or self.start not in METHODS or self.start in _EXACT:
             raise InputError(
@@ -185,12 +187,8 @@ class LNSParams:
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> LNSParams:
-        """Build from keyword parameters, naming an unknown one in the error."""
-        known = {f.name for f in fields(cls)}
-        for key in params:
-            if key not in known:
-                raise InputError(f"milp-lns: unknown parameter {key!r}")
-        return cls(**params)
+        """Build from keyword parameters (CLI strings coerced from the type hints)."""
+        return from_kwargs(cls, params, method="milp-lns")
 
 
 def _claims_value(instance: Instance, observations: list[Observation], weight: np.ndarray) -> int:

@@ -36,15 +36,16 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
-from sosp.candidates import CANDIDATE_MODES, candidate_mode, orbit_pairs
+from sosp.candidates import CandidateMode, candidate_mode, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import workers_for
+from sosp.params import Params, from_kwargs, param
 from sosp.planner import OrbitData, best_feasible_path, orbit_data
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
@@ -72,7 +73,8 @@ log = logging.getLogger(__name__)
 DEFAULT_NO_IMPROVE = 500
 
 #: Starts of the search (:attr:`OrbitSearchParams.start`).
-START_MODES = ("auto", "lp", "hpfs", "empty")
+StartMode = Literal["auto", "lp", "hpfs", "empty"]
+START_MODES = get_args(StartMode)
 
 #: Seconds per opportunity foreseen for :func:`hpfs_start` (static clustering and the
 #: insertion, pure Python, one pass each, then the plans set): about twice the most
@@ -101,7 +103,7 @@ LP_START_ROUNDS = 20
 
 
 @dataclass(frozen=True)
-class OrbitSearchParams:
+class OrbitSearchParams(Params):
     """Parameters of :func:`solve_orbit_dp`.
 
     Parameters
@@ -146,25 +148,19 @@ class OrbitSearchParams:
         search's own re-plans stay in this process. Where it pays: ``docs/scenarios.md``.
     """
 
-    perturb_orbits: int = 2
-    noise: float = 0.5
-    steal: float = 0.3
-    iterations: int | None = None
-    no_improve: int | None = None
-    workers: int = 1
-    start: str = "auto"
-    candidates: str = "auto"
-    dask: str | None = None
+    perturb_orbits: int = param(2, "Most orbits re-planned with noisy prices per step.")
+    noise: float = param(0.5, "Relative price noise of a perturbation, in [0, 1).")
+    steal: float = param(0.3, "Probability a target observed elsewhere keeps its weight.")
+    iterations: int | None = param(None, "Stop after this many steps (None: no limit).")
+    no_improve: int | None = param(None, "Stop after this many steps without a new best.")
+    workers: int = param(1, "Processes generating the candidates side by side.")
+    start: StartMode = param("auto", "Where the search starts (lp: the column-generation root).")
+    candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
+    dask: str | None = param(None, "Dask scheduler's address or 'local' (lp start).")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         if self.dask is not None and (not isinstance(self.dask, str) or not self.dask):
             raise InputError(f"dask: expected 'local' or a scheduler address, got {self.dask!r}")
-        if self.start not in START_MODES:
-            raise InputError(f"start: expected {', '.join(START_MODES)}, got {self.start!r}")
-        if self.candidates not in CANDIDATE_MODES:
-            raise InputError(
-                f"candidates: expected auto, explicit or windows, got {self.candidates!r}"
-            )
         for name in ("perturb_orbits", "iterations", "no_improve", "workers"):
             value = getattr(self, name)
             if value is None and name not in ("perturb_orbits", "workers"):
@@ -182,12 +178,8 @@ class OrbitSearchParams:
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> OrbitSearchParams:
-        """Build from keyword parameters, naming an unknown one in the error."""
-        known = {f.name for f in fields(cls)}
-        for key in params:
-            if key not in known:
-                raise InputError(f"orbit-dp: unknown parameter {key!r}")
-        return cls(**params)
+        """Build from keyword parameters (CLI strings coerced from the type hints)."""
+        return from_kwargs(cls, params, method="orbit-dp")
 
 
 class OrbitSearch:

@@ -81,6 +81,7 @@ from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_rows
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.result import Result, Status
 from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
@@ -93,7 +94,7 @@ PriceRule = Literal["lp", "none"]
 
 
 @dataclass(frozen=True)
-class PBAParams:
+class PBAParams(Params):
     """Parameters of the partition-based bound (reasons in ``docs/baselines.md``).
 
     Parameters
@@ -113,21 +114,17 @@ class PBAParams:
         itself (the paper's reading; for comparisons).
     """
 
-    max_part: int = 10
-    node_limit: int = 20000
-    order: Order = "rcm"
-    roll_rule: RollRule = "midpoint"
-    prices: PriceRule = "lp"
+    max_part: int = param(10, "Most targets in one part.")
+    node_limit: int = param(20000, "Search nodes per part before its total weight.")
+    order: Order = param("rcm", "Order of the targets: 'rcm' or 'index'.")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
+    prices: PriceRule = param("lp", "'lp': orbits priced across the parts; 'none'.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         for name in ("max_part", "node_limit"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
                 raise InputError(f"{name}: expected an integer >= 1, got {v!r}")
-        if self.order not in ("rcm", "index"):
-            raise InputError(f"order: expected 'rcm' or 'index', got {self.order!r}")
-        if self.prices not in ("lp", "none"):
-            raise InputError(f"prices: expected 'lp' or 'none', got {self.prices!r}")
         check_roll_rule(self.roll_rule)
 
 

@@ -121,6 +121,7 @@ from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
@@ -1208,14 +1209,30 @@ def _result(method: str, instance: Instance, tasks: TaskSet, out: RdsOutcome) ->
     )
 
 
+@dataclass(frozen=True)
+class RDSParams(Params):
+    """Parameters of :func:`solve_rds`."""
+
+    order: Order = param("orbit", 'Variable order: "orbit" (by orbit, then time) or "weight".')
+    decompose: bool = param(True, "Solve independent components separately.")
+    variables: Variables = param("targets", "One variable per target or per task.")
+
+
+@dataclass(frozen=True)
+class RDSSTCParams(RDSParams):
+    """Parameters of :func:`solve_rds_stc`."""
+
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
+
+
 def solve_rds(
     instance: Instance,
     *,
     rng: np.random.Generator,
     time_limit: float | None = None,
-    order: Order = "orbit",
-    decompose: bool = True,
-    variables: Variables = "targets",
+    order: Order = RDSParams.order,
+    decompose: bool = RDSParams.decompose,
+    variables: Variables = RDSParams.variables,
 ) -> Result:
     """RDS over single opportunities at their own roll (no clustering): exact for (1)-(6).
 
@@ -1258,10 +1275,10 @@ def solve_rds_stc(
     *,
     rng: np.random.Generator,
     time_limit: float | None = None,
-    order: Order = "orbit",
-    decompose: bool = True,
-    variables: Variables = "targets",
-    roll_rule: RollRule = "midpoint",
+    order: Order = RDSParams.order,
+    decompose: bool = RDSParams.decompose,
+    variables: Variables = RDSParams.variables,
+    roll_rule: RollRule = RDSSTCParams.roll_rule,
 ) -> Result:
     """RDS-STC: RDS over the static cluster-tasks (the paper's exact baseline, Tables 3-4).
 

@@ -46,6 +46,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -54,6 +55,7 @@ from heuristics.timeline import OrbitTimeline, fits_alone
 from sosp.clustering import static_cluster_tasks, tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import RollRule
@@ -69,15 +71,31 @@ def swap_distance(n: int, temperature: float, t0: float) -> int:
     return max(1, min(n - 1, int(round((n - 1) * temperature / t0))))
 
 
+@dataclass(frozen=True)
+class SAParams(Params):
+    """Parameters of :func:`solve_sa_stc`."""
+
+    iterations: int = param(20000, "Number of swap moves.")
+    t0: float | None = param(None, "Initial temperature (None: mean task weight).", "weight")
+    t_final: float | None = param(None, "Final temperature (None: t0 / 100).", "weight")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
+
+    def check(self) -> None:
+        if self.iterations < 0:
+            raise InputError(
+                f"iterations: expected a non-negative integer, got {self.iterations!r}"
+            )
+
+
 def solve_sa_stc(
     instance: Instance,
     *,
     rng: np.random.Generator,
     time_limit: float | None = None,
-    iterations: int = 20000,
-    t0: float | None = None,
-    t_final: float | None = None,
-    roll_rule: RollRule = "midpoint",
+    iterations: int = SAParams.iterations,
+    t0: float | None = SAParams.t0,
+    t_final: float | None = SAParams.t_final,
+    roll_rule: RollRule = SAParams.roll_rule,
 ) -> Result:
     """SA-STC: simulated annealing with temperature-dependent swaps over cluster-task orders.
 

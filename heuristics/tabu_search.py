@@ -61,9 +61,9 @@ from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
-from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -76,7 +76,7 @@ def _nonneg_int(name: str, value: object, minimum: int = 0) -> None:
 
 
 @dataclass(frozen=True)
-class TSParams:
+class TSParams(Params):
     """Parameters of TS-STC (defaults and their reasons in ``docs/baselines.md``).
 
     Parameters
@@ -95,14 +95,14 @@ class TSParams:
         Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
     """
 
-    iterations: int = 20000
-    tenure_min: int = 10
-    tenure_freq: float = 1.0
-    restart_after: int = 1000
-    perturb: int = 3
-    roll_rule: RollRule = "midpoint"
+    iterations: int = param(20000, "Moves at most.")
+    tenure_min: int = param(10, "Iterations a dropped task stays tabu at least.")
+    tenure_freq: float = param(1.0, "Extra tabu iterations per earlier drop of a task.")
+    restart_after: int = param(1000, "Idle iterations before restarting from the best.")
+    perturb: int = param(3, "Tasks of the best configuration dropped at a restart.")
+    roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         _nonneg_int("iterations", self.iterations)
         _nonneg_int("tenure_min", self.tenure_min)
         _nonneg_int("restart_after", self.restart_after, 1)
@@ -110,7 +110,6 @@ class TSParams:
         tf = self.tenure_freq
         if isinstance(tf, bool) or not isinstance(tf, int | float) or not 0 <= tf < 1e6:
             raise InputError(f"tenure_freq: expected a number in [0, 1e6), got {tf!r}")
-        check_roll_rule(self.roll_rule)
 
 
 def tabu_tenure(params: TSParams, drops: int) -> int:

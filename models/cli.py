@@ -29,7 +29,8 @@ def _positive_float(text: str) -> float:
 
 def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``bound`` subcommand to the ``sosp`` CLI's subparsers."""
-    from sosp.cli import positive  # loaded already: it is the caller
+    from sosp.params import positive
+    from sosp.registry import BOUNDS, PROBLEM_MODEL
 
     p = subparsers.add_parser(
         "bound",
@@ -47,19 +48,14 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--model",
         default=None,
-        help="cluster (default: bounds every method), task (no clustering) or static (the "
-        "default of --method pba)",
+        help=f"{PROBLEM_MODEL} (default: bounds every method), task (no clustering) or static "
+        f"(the model of {', '.join(n for n, b in BOUNDS.items() if b.model == 'static')})",
     )
     p.add_argument(
         "--method",
         default="auto",
-        choices=("auto", "lp", "milp", "lagrangian", "colgen", "windows", "pba"),
-        help="auto (default: the column-generation bound, then the LP with the time left "
-        "unless it converged; the least), lp, milp, lagrangian, colgen (Dantzig-Wolfe over "
-        "orbit plans, then branch and price with the time left; docs/exact.md), windows (the "
-        "Lagrangian bound over the window relaxation, no candidate list: what auto uses where "
-        "the candidates would not fit in memory) or pba "
-        "(PBA-STC's partition-based bound of the static model, docs/baselines.md)",
+        choices=tuple(BOUNDS),
+        help="; ".join(f"{name}: {b.help}" for name, b in BOUNDS.items()) + " (default auto)",
     )
     p.add_argument(
         "--iterations",
@@ -117,12 +113,13 @@ def cmd_bound(args: argparse.Namespace) -> int:
     """Run ``sosp bound``; returns the exit code (bad input raises ``InputError``)."""
     from models.solve import bound
     from sosp.instance import load_instance
+    from sosp.registry import BOUNDS, PROBLEM_MODEL
 
     t0 = time.perf_counter()  # reading the instance counts in --time-limit
     inst = load_instance(args.instance)
-    if args.method == "pba":
-        return _pba(inst, args)
-    args.model = args.model or "cluster"
+    if BOUNDS[args.method].model != PROBLEM_MODEL:
+        return _of_its_model(inst, args)
+    args.model = args.model or PROBLEM_MODEL
     t_workers = time.perf_counter()
     with workers_for(args.workers or 1, args.dask, args.workers) as workers:
         limit = args.time_limit
@@ -178,20 +175,23 @@ def cmd_bound(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pba(inst: Any, args: argparse.Namespace) -> int:
-    """``--method pba``: the partition-based bound of the static model (sosp.solve.BOUNDS)."""
+def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
+    """A bound of one model only (``pba``: the static model's partition-based bound)."""
     from sosp.errors import InputError
-    from sosp.solve import bound_function
+    from sosp.registry import BOUNDS, compute_bound
 
-    if args.model not in (None, "static"):
-        raise InputError(f"--model: the pba bound is of the static model, got {args.model!r}")
-    out = bound_function("pba")(inst, time_limit=args.time_limit)
+    model = BOUNDS[args.method].model
+    if args.model not in (None, model):
+        raise InputError(
+            f"--model: the {args.method} bound is of the {model} model, got {args.model!r}"
+        )
+    out = compute_bound(args.method, inst, time_limit=args.time_limit)
     out["instance"] = inst.name or str(args.instance)
     if getattr(args, "json", False):
         sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
         return 0
-    sys.stdout.write(
-        f"static model, pba bound: {out['bound']:g} ({out['runtime_s']:.2f} s; "
-        f"{out['parts']} parts, {out['targets']} targets covered by the parts' optima)\n"
-    )
+    text = f"{model} model, {args.method} bound: {out['bound']:g} ({out['runtime_s']:.2f} s"
+    if "parts" in out:
+        text += f"; {out['parts']} parts, {out['targets']} targets covered by the parts' optima"
+    sys.stdout.write(text + ")\n")
     return 0

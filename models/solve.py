@@ -25,7 +25,8 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
@@ -33,6 +34,8 @@ from models.data import ModelData, TimeUp, fits
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import check_workers
+from sosp.params import Params, param
+from sosp.registry import BOUNDS, PROBLEM_MODEL
 from sosp.result import Result, Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
@@ -252,8 +255,25 @@ GIVE_WAY_SHARE = 0.2
 #: stops sooner when it meets the warm start: then no MILP is needed).
 EXTRA_BOUND_SHARE = 0.1
 
-#: What :func:`solve_milp` computes besides HiGHS's dual bound.
-EXTRA_BOUNDS = ("colgen", "lagrangian", "lp", "none")
+#: What :func:`solve_milp` computes besides HiGHS's dual bound (``extra_bound``).
+ExtraBound = Literal["colgen", "lagrangian", "lp", "none"]
+
+
+@dataclass(frozen=True)
+class MILPParams(Params):
+    """Parameters of :func:`solve_milp` (the steps they steer are in its docstring)."""
+
+    model: str = param("cluster", "'cluster' (the problem), 'task' or 'static'.")
+    mip_gap: float | None = param(None, "Relative gap at which HiGHS stops (None: 1e-4).")
+    threads: int | None = param(None, "HiGHS threads (None: HiGHS's default).")
+    warm_start: Schedule | str | None = param("auto", "'auto', 'none' or a schedule.")
+    extra_bound: ExtraBound = param("colgen", "Bound computed before the MILP.")
+    relax: bool = param(False, "Solve the LP relaxation instead (no schedule).")
+    backend: str = param("auto", "'pyomo', 'highs' or 'auto' (by size).")
+    conflicts: str = param("network", "Form of (3) in the direct backend: 'network' or 'clique'.")
+    lp_solver: str = param("choose", "HiGHS LP algorithm: 'choose', 'simplex', 'ipm' or 'pdlp'.")
+    slew: str | None = param(None, "Slew term of (4): 'exact', 'lazy', 'auto' or 'relaxed'.")
+    probing: str = param("auto", "HiGHS probing in presolve: 'on', 'off' or 'auto'.")
 
 
 def heuristic_start(
@@ -363,17 +383,17 @@ def solve_milp(
     *,
     rng: np.random.Generator | None = None,
     time_limit: float | None = None,
-    model: str = "cluster",
-    mip_gap: float | None = None,
-    threads: int | None = None,
-    warm_start: Schedule | str | None = "auto",
-    extra_bound: str = "colgen",
-    relax: bool = False,
-    backend: str = "auto",
-    conflicts: str = "network",
-    lp_solver: str = "choose",
-    slew: str | None = None,
-    probing: str = "auto",
+    model: str = MILPParams.model,
+    mip_gap: float | None = MILPParams.mip_gap,
+    threads: int | None = MILPParams.threads,
+    warm_start: Schedule | str | None = MILPParams.warm_start,
+    extra_bound: ExtraBound = MILPParams.extra_bound,
+    relax: bool = MILPParams.relax,
+    backend: str = MILPParams.backend,
+    conflicts: str = MILPParams.conflicts,
+    lp_solver: str = MILPParams.lp_solver,
+    slew: str | None = MILPParams.slew,
+    probing: str = MILPParams.probing,
 ) -> Result:
     """Solve an exact model of (1)-(6) with HiGHS.
 
@@ -487,9 +507,9 @@ def solve_milp(
             )
     elif not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected 'auto', 'none' or a Schedule")
-    if extra_bound not in EXTRA_BOUNDS:
+    if extra_bound not in get_args(ExtraBound):
         raise InputError(
-            f"extra_bound: expected one of {', '.join(EXTRA_BOUNDS)}, got {extra_bound!r}"
+            f"extra_bound: expected one of {', '.join(get_args(ExtraBound))}, got {extra_bound!r}"
         )
     rng = np.random.default_rng(0) if rng is None else rng
     deadline = None if time_limit is None else t0 + time_limit
@@ -1159,8 +1179,8 @@ def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel, res: Any) -> list[int]:
     return [int(u) for u in m.U if (m.x[u].value or 0.0) > 0.5]
 
 
-#: Methods of :func:`bound`.
-BOUND_METHODS = ("auto", "lp", "milp", "lagrangian", "colgen", "windows")
+#: Methods of :func:`bound`: the registered bounds of the problem (every model's bound here).
+BOUND_METHODS = tuple(name for name, b in BOUNDS.items() if b.model == PROBLEM_MODEL)
 
 #: Share of ``time_limit`` :func:`bound` with ``method="auto"`` gives the column-generation
 #: bound before the LP gets the rest.
@@ -1584,55 +1604,3 @@ def _bound_out(
         if key in stats:
             out[key] = stats[key]
     return out
-
-
-def auto_bound(
-    instance: Instance,
-    *,
-    time_limit: float | None = None,
-    lower_bound: float | None = None,
-    workers: Workers = 1,
-) -> dict[str, Any]:
-    """``bound(method="auto")`` of the cluster model (the problem's optimum): for
-    :data:`sosp.solve.BOUNDS`."""
-    return bound(
-        instance, method="auto", time_limit=time_limit, lower_bound=lower_bound, workers=workers
-    )
-
-
-def lp_bound(
-    instance: Instance,
-    *,
-    time_limit: float | None = None,
-    lower_bound: float | None = None,
-    workers: Workers = 1,
-) -> dict[str, Any]:
-    """``bound(method="lp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
-    del lower_bound, workers  # neither helps this method
-    return bound(instance, method="lp", time_limit=time_limit)
-
-
-def colgen_bound(
-    instance: Instance,
-    *,
-    time_limit: float | None = None,
-    lower_bound: float | None = None,
-    workers: Workers = 1,
-) -> dict[str, Any]:
-    """``bound(method="colgen")`` of the cluster model (with a limit, branch and price after
-    the column generation): for :data:`sosp.solve.BOUNDS`."""
-    return bound(
-        instance, method="colgen", time_limit=time_limit, lower_bound=lower_bound, workers=workers
-    )
-
-
-def milp_bound(
-    instance: Instance,
-    *,
-    time_limit: float | None = None,
-    lower_bound: float | None = None,
-    workers: Workers = 1,
-) -> dict[str, Any]:
-    """``bound(method="milp")`` of the cluster model: for :data:`sosp.solve.BOUNDS`."""
-    del lower_bound, workers  # neither helps this method
-    return bound(instance, method="milp", time_limit=time_limit)

@@ -10,9 +10,10 @@ Importing :mod:`sosp` is light: Pyomo, HiGHS and the solvers load only when a me
 
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance, Resources, load_instance
+from sosp.registry import METHODS
 from sosp.result import Result, Status
 from sosp.schedule import Observation, Schedule, load_schedule, make_observation
-from sosp.solve import METHODS, solve
+from sosp.solve import solve
 from sosp.validate import ValidationReport, Violation, validate
 
 __version__ = "0.1.0"

@@ -35,7 +35,7 @@ import weakref
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import chain
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -635,7 +635,8 @@ def candidates_fit(instance: Instance) -> bool:
 
 
 #: What a search's ``candidates`` parameter takes (``orbit-dp``, ``milp-lns``).
-CANDIDATE_MODES = ("auto", "explicit", "windows")
+CandidateMode = Literal["auto", "explicit", "windows"]
+CANDIDATE_MODES = get_args(CandidateMode)
 
 
 def candidate_mode(instance: Instance, requested: str, deadline: float | None = None) -> str:

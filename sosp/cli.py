@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from sosp.errors import InputError
+from sosp.params import positive
 
 log = logging.getLogger("sosp")
 
@@ -322,7 +323,7 @@ def _solve_interruptibly(
 # --------------------------------------------------------------------------- methods
 def cmd_methods(args: argparse.Namespace) -> int:
     from sosp.methods import describe_methods, method_info
-    from sosp.solve import DEFAULT_METHOD
+    from sosp.registry import DEFAULT_METHOD
 
     infos = [method_info(m) for m in args.method] if args.method else describe_methods()
     data = {"default": DEFAULT_METHOD, "methods": [m.to_dict() for m in infos]}
@@ -333,7 +334,8 @@ def cmd_methods(args: argparse.Namespace) -> int:
         if not m.params:
             lines.append("    (no parameters)")
         for prm in m.params:
-            lines.append(f"    {prm.name} ({prm.type or 'any'}, default {prm.default!r})")
+            unit = f", in {prm.unit}" if prm.unit else ""
+            lines.append(f"    {prm.name} ({prm.type or 'any'}, default {prm.default!r}{unit})")
             if prm.help:
                 lines.append(f"        {prm.help}")
         lines.append("")
@@ -368,7 +370,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     import time
 
     from sosp import scenarios
-    from sosp.solve import available_methods, bound_function, solve
+    from sosp.registry import available_methods, compute_bound
+    from sosp.solve import solve
     from sosp.validate import validate
 
     t0 = time.perf_counter()
@@ -386,7 +389,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     upper = None
     if "orbit-dp" in methods:
         best = max(res.profit for _, res, _ in rows)
-        upper = bound_function("lagrangian")(inst, lower_bound=best)["bound"]
+        upper = compute_bound("lagrangian", inst, lower_bound=best)["bound"]
     data = {
         "scenario": name,
         "generate_s": t_gen,
@@ -430,22 +433,6 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- parser
-def positive(kind: type) -> Any:
-    """An argparse type: a number of ``kind`` that must be > 0 (NaN refused)."""
-
-    def parse(text: str) -> Any:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a {kind.__name__}, got {text!r}") from None
-        if value != value or value <= 0:  # NaN or not positive
-            raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-        return value
-
-    parse.__name__ = f"positive {kind.__name__}"
-    return parse
-
-
 def _nonneg_int(text: str) -> int:
     try:
         value = int(text)
@@ -557,7 +544,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("instance")
     p.set_defaults(func=cmd_info)
 
-    from sosp.solve import DEFAULT_METHOD, METHODS
+    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS
 
     p = add("solve", "solve an instance and write the schedule")
     p.epilog = (
@@ -597,7 +584,7 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="?",
         const="auto",
         default=None,
-        choices=("auto", "lp", "lagrangian", "colgen", "milp"),
+        choices=CERTIFYING_BOUNDS,
         help="certify the schedule: compute an upper bound of the problem after the solve "
         "(auto if no value; its own time limit = --time-limit) and report the gap",
     )

@@ -1,18 +1,23 @@
 """Method parameters as small validated dataclasses, read from ``--param key=value`` strings.
 
-Every method's parameters are a frozen dataclass whose ``__post_init__`` validates the values
-(raising :class:`~sosp.errors.InputError` naming the field). This module converts command-line
-strings to each field's type *from its type hints*, so no list of field names is kept by hand:
-``bool`` reads true/false (1/0, yes/no, on/off), ``int`` and ``float`` numbers, ``Literal[...]``
-one of its values, and ``X | None`` also ``none``/``null``.
+Every method's parameters are a frozen dataclass (registered in :mod:`sosp.registry`) whose
+fields are made by :func:`param`: a default, one line of help and a unit, which ``sosp methods``
+prints. :class:`Params` checks each value against its field's type on construction (raising
+:class:`~sosp.errors.InputError` naming the field); a subclass adds its ranges in ``check``.
+This module converts command-line strings to each field's type *from its type hints*, so no
+list of field names is kept by hand: ``bool`` reads true/false (1/0, yes/no, on/off), ``int``
+and ``float`` numbers, ``Literal[...]`` one of its values, and ``X | None`` also
+``none``/``null``.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import types
 import typing
-from typing import Any, Literal, TypeVar, get_args, get_origin
+from numbers import Integral
+from typing import Any, ClassVar, Literal, TypeVar, get_args, get_origin
 
 from sosp.errors import InputError
 
@@ -20,6 +25,33 @@ P = TypeVar("P")
 
 _TRUE = ("true", "1", "yes", "on")
 _FALSE = ("false", "0", "no", "off")
+
+
+def param(default: Any, help: str, unit: str = "") -> Any:  # noqa: A002 - the field's help
+    """A dataclass field with its default, its help line and its unit (``sosp methods``)."""
+    return dataclasses.field(default=default, metadata={"help": help, "unit": unit})
+
+
+@dataclasses.dataclass(frozen=True)
+class Params:
+    """Base of the parameter dataclasses: each value is checked against its field's type
+    (:func:`check_types`), then by the subclass's own :meth:`check`."""
+
+    #: Keywords of ``from_kwargs`` that are not fields (ASA's ``preset``): name -> (type,
+    #: default, help), for ``sosp methods``.
+    KEYWORDS: ClassVar[dict[str, tuple[str, Any, str]]] = {}
+
+    def __post_init__(self) -> None:
+        check_types(self)
+        self.check()
+
+    def check(self) -> None:
+        """Ranges and relations of the values (raise :class:`InputError` naming the field)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class NoParams(Params):
+    """A method without parameters."""
 
 
 def field_types(cls: type) -> dict[str, Any]:
@@ -93,6 +125,28 @@ def check_choices(params: Any) -> None:
             raise InputError(f"{name}: expected true or false, got {value!r}")
 
 
+def check_types(params: Any) -> None:
+    """:func:`check_choices`, and each ``int``, ``float`` or ``str`` field holding one (None
+    where the hint allows it); other hints are the subclass's to check."""
+    check_choices(params)
+    for name, hint in field_types(type(params)).items():
+        value = getattr(params, name)
+        members, optional = _parts(hint)
+        if (value is None and optional) or choices(hint) is not None or bool in members:
+            continue
+        number = not isinstance(value, bool) and isinstance(value, Integral)  # numpy's too
+        if int in members and number:
+            continue
+        if float in members and (number or isinstance(value, float)):
+            continue
+        if str in members and isinstance(value, str):
+            continue
+        kinds = {int: "an integer", float: "a number", str: "text"}
+        known = [kinds[m] for m in members if m in kinds]
+        if len(known) == len(members):  # every member is one of these: the value is none
+            raise InputError(f"{name}: expected {' or '.join(known)}, got {value!r}")
+
+
 def from_kwargs(
     cls: type[P],
     kwargs: dict[str, Any],
@@ -114,3 +168,19 @@ def from_kwargs(
             )
         out[key] = coerce(key, value, hints[key])
     return cls(**out)
+
+
+def positive(kind: type) -> Any:
+    """An argparse type: a number of ``kind`` that must be > 0 (NaN refused)."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a {kind.__name__}, got {text!r}") from None
+        if value != value or value <= 0:  # NaN or not positive
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+        return value
+
+    parse.__name__ = f"positive {kind.__name__}"
+    return parse

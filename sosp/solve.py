@@ -1,8 +1,8 @@
 """The one entry point: :func:`solve` runs any registered method on an instance.
 
-Methods are registered by name in :data:`METHODS` as ``"module:function"`` and imported
-lazily, so the CLI stays fast and heavy dependencies (Pyomo, HiGHS) load only when used.
-A method function has the signature::
+Methods and bounds are registered in :mod:`sosp.registry` and imported lazily, so the CLI
+stays fast and heavy dependencies (Pyomo, HiGHS) load only when used. A method function has
+the signature::
 
     def solve_xxx(instance: Instance, *, rng: numpy.random.Generator,
                   time_limit: float | None, **params) -> Result
@@ -10,12 +10,9 @@ A method function has the signature::
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import logging
 import math
 import time
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -25,6 +22,14 @@ from sosp.errors import InputError, SospError
 from sosp.instance import Instance
 from sosp.parallel import Workers, check_workers
 from sosp.progress import Progress, reporting
+from sosp.registry import (
+    CERTIFYING_BOUNDS,
+    DEFAULT_METHOD,
+    PROBLEM_MODEL,
+    bounded_model,
+    compute_bound,
+    method_function,
+)
 from sosp.result import Result, Status
 from sosp.schedule import Schedule
 from sosp.stop import stop_requested
@@ -32,95 +37,9 @@ from sosp.validate import validate
 
 log = logging.getLogger(__name__)
 
-#: Method name -> "module:function". The module is imported on first use.
-METHODS: dict[str, str] = {
-    "greedy": "heuristics.greedy:solve_greedy",
-    "hpfs-stc": "heuristics.hpfs:solve_hpfs_stc",
-    "asa-dtc": "heuristics.asa:solve_asa_dtc",
-    "asa-stc": "heuristics.asa:solve_asa_stc",
-    "asa-nontc": "heuristics.asa:solve_asa_nontc",
-    "rds": "heuristics.rds:solve_rds",
-    "rds-stc": "heuristics.rds:solve_rds_stc",
-    "sa-stc": "heuristics.sa:solve_sa_stc",
-    "aco-stc": "heuristics.aco:solve_aco_stc",
-    "aco-ls-stc": "heuristics.aco:solve_aco_ls_stc",
-    "ga-stc": "heuristics.ga:solve_ga_stc",
-    "ts-stc": "heuristics.tabu_search:solve_ts_stc",
-    "pba-stc": "heuristics.pba:solve_pba_stc",
-    "milp": "models.solve:solve_milp",
-    "milp-lns": "heuristics.lns:solve_milp_lns",
-    "orbit-dp": "heuristics.orbit_search:solve_orbit_dp",
-}
-
-#: Method name -> "module:Class" of the parameter dataclass a method taking ``**params`` builds
-#: (with its ``from_kwargs``): ``sosp methods`` lists its fields and
-#: :func:`sosp.methods.check_params` validates a parameter set with it before any run starts.
-#: Methods with explicit keyword parameters need no entry: their signature says it all.
-PARAM_CLASSES: dict[str, str] = {
-    "asa-dtc": "heuristics.asa.params:ASAParams",
-    "asa-stc": "heuristics.asa.params:ASAParams",
-    "asa-nontc": "heuristics.asa.params:ASAParams",
-    "milp-lns": "heuristics.lns:LNSParams",
-    "orbit-dp": "heuristics.orbit_search:OrbitSearchParams",
-    "aco-stc": "heuristics.aco:ACOParams",
-    "aco-ls-stc": "heuristics.aco:ACOLSParams",
-    "ga-stc": "heuristics.ga:GAParams",
-}
-
-#: The method of :func:`solve` and of ``sosp solve`` when none is named.
-DEFAULT_METHOD = "asa-dtc"
-
-#: Bound name -> "module:function" (each returns a dict with at least ``bound``), so the core
-#: and its CLI reach the models only through this table.
-BOUNDS: dict[str, str] = {
-    "auto": "models.solve:auto_bound",
-    "lp": "models.solve:lp_bound",
-    "milp": "models.solve:milp_bound",
-    "lagrangian": "models.lagrangian:lagrangian_bound",
-    "colgen": "models.solve:colgen_bound",
-    "pba": "heuristics.pba:pba_bound",
-}
-
 
 class SolverError(SospError):
     """A solver returned a schedule the validator rejects (a bug, never bad input)."""
-
-
-def available_methods() -> list[str]:
-    """The registered methods whose module is installed."""
-    out = []
-    for name, target in METHODS.items():
-        module = target.split(":")[0]
-        try:
-            if importlib.util.find_spec(module) is not None:
-                out.append(name)
-        except ModuleNotFoundError:
-            pass
-    return out
-
-
-def method_function(method: str) -> Callable[..., Result]:
-    """The function registered for ``method``; :class:`InputError` if unknown."""
-    if method not in METHODS:
-        raise InputError(
-            f"method: unknown method {method!r} (choose from {', '.join(available_methods())})"
-        )
-    module, func = METHODS[method].split(":")
-    try:
-        mod = importlib.import_module(module)
-    except ModuleNotFoundError as exc:
-        if exc.name and module.startswith(exc.name):
-            raise InputError(f"method: {method!r} is not available in this build") from None
-        raise
-    return getattr(mod, func)
-
-
-def bound_function(name: str) -> Callable[..., dict[str, Any]]:
-    """The function registered for bound ``name`` in :data:`BOUNDS`."""
-    if name not in BOUNDS:
-        raise InputError(f"bound: unknown method {name!r} (choose from {', '.join(BOUNDS)})")
-    module, func = BOUNDS[name].split(":")
-    return getattr(importlib.import_module(module), func)
 
 
 def check_time_limit(time_limit: Any) -> float | None:
@@ -153,7 +72,7 @@ def solve(
     instance
         The problem.
     method
-        A name from :data:`METHODS` (e.g. ``"asa-dtc"``, ``"milp"``, ``"hpfs-stc"``);
+        A name from :data:`sosp.registry.METHODS` (e.g. ``"asa-dtc"``, ``"milp"``, ``"hpfs-stc"``);
         :data:`DEFAULT_METHOD` by default, as on the command line.
     seed
         Seeds the one :class:`numpy.random.Generator` passed down to the method.
@@ -169,8 +88,8 @@ def solve(
         far, once :func:`sosp.stop.request_stop` is called (e.g. by a signal handler): the
         status is then ``interrupted`` (unless optimality or infeasibility was proven).
     bound
-        Certify the schedule: one of :data:`CERTIFYING_BOUNDS` (bounds of the problem itself,
-        the cluster model) computed after the solve, with a time limit of its own equal to
+        Certify the schedule: one of :data:`sosp.registry.CERTIFYING_BOUNDS` (bounds of the problem
+        itself, the cluster model) computed after the solve, with a time limit of its own equal to
         ``time_limit``; the result's ``bound`` is then the least of the method's and this one,
         ``gap`` how far the schedule may be from optimal, and the status ``optimal`` when the
         bound meets the profit. None (default): the method's own bound only.
@@ -248,14 +167,13 @@ def solve(
                 f"violations; first: ({first.constraint}) {first.message})"
             )
     if bound is not None:
+        if bounded_model(method, params) != PROBLEM_MODEL:
+            # the method's own bound is of a restriction (static, task model): it may lie
+            # below the problem's optimum, so it certifies nothing
+            result = replace(result, bound=None)
         result = certify(instance, result, bound, time_limit, bound_workers)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
     return result
-
-
-#: Bounds of :data:`BOUNDS` that bound the problem itself (the cluster model's optimum), so
-#: every method's schedule: what :func:`solve`'s ``bound`` accepts.
-CERTIFYING_BOUNDS = ("auto", "lp", "lagrangian", "colgen", "milp")
 
 
 def certify(
@@ -270,8 +188,8 @@ def certify(
 
     The status becomes ``optimal`` when the bound meets the profit (nothing better exists).
     """
-    out = bound_function(bound)(
-        instance, time_limit=time_limit, lower_bound=result.profit, workers=workers
+    out = compute_bound(
+        bound, instance, time_limit=time_limit, lower_bound=result.profit, workers=workers
     )
     value = out.get("bound")
     if value is None:

@@ -1,4 +1,4 @@
-"""The contract every registered method keeps (``sosp.solve.METHODS``), checked for all of them.
+"""The contract every registered method keeps (``sosp.registry.METHODS``), checked for all of them.
 
 On random tiny instances: the schedule passes the validator (the referee), its profit is never
 above the brute-force optimum of the clustering-exact problem (``tests/oracle.py``; static and
@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.solve import METHODS, available_methods, method_function, solve
+from sosp.registry import METHODS, available_methods, method_function
+from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import small_instances, tiny_cluster
 from tests.oracle import brute_force

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 from sosp import params as P
 from sosp.errors import InputError
+from sosp.params import Params, param
 from sosp.rules import RollRule
 
 #: Named parameter sets, applied before the caller's own parameters (``preset="paper"``).
@@ -42,9 +43,12 @@ PRESETS: dict[str, dict[str, Any]] = {
     },
 }
 
+OptionRule = Literal["resources", "feasible-first"]
+Candidates = Literal["auto", "explicit", "windows"]
+
 
 @dataclass(frozen=True)
-class ASAParams:
+class ASAParams(Params):
     """Every tunable of the search; each can be overridden by a keyword of the solve functions.
 
     Parameters
@@ -184,43 +188,52 @@ class ASAParams:
         count per chain; set it to the number of cores the run may use.
     """
 
-    lambda_min: float = 0.2
-    rho: float = 0.2
-    delta: float = 10.0
-    eta: float = 0.8
-    itr: int = 10
-    pro1: float = 0.5
-    pro2: float = 0.5
-    replan: bool = True
-    pro3: float = 0.5
-    replan_opps: int = 40
-    replan_pull: float = 0.5
-    replan_pair: float = 0.3
-    replan_floor: float = 0.1
-    replan_orbit: float = 1.0
-    orbit_steal: float = 0.3
-    orbit_noise: float = 0.5
-    orbit_ascent: int = 10
-    orbit_share: bool = True
-    tabu_length: int | None = None
-    pool: int = 32
-    roll_rule: RollRule = "nadir"
-    nadir_singles: bool = True
-    rule16: bool = True
-    rule16_openings: bool = True
-    r_update: Literal["accepted", "generated"] = "generated"
-    option_rule: Literal["resources", "feasible-first"] = "feasible-first"
-    restart: int | None = 2000
-    polish: int = 300
-    iterations: int | None = None
-    no_improve: int | None = None
-    trace_every: int = 100
-    candidates: Literal["auto", "explicit", "windows"] = "auto"
-    init: Literal["greedy", "orbit-dp", "lp"] = "lp"
-    init_share: float = 0.3
-    workers: int = 1
+    #: ``from_kwargs``'s keyword beside the fields, for ``sosp methods``.
+    KEYWORDS: ClassVar[dict[str, tuple[str, Any, str]]] = {
+        "preset": (
+            " | ".join(map(repr, PRESETS)) + " | None",
+            None,
+            "A named set of parameters (PRESETS) applied first; the other keywords override it.",
+        )
+    }
 
-    def __post_init__(self) -> None:
+    lambda_min: float = param(0.2, "Minimum temperature of (21) (Table 2, preset paper: 0.5).")
+    rho: float = param(0.2, "Weight coefficient of (21) (Table 2, preset paper: 1).")
+    delta: float = param(10.0, "Rising-rate coefficient delta of (21) (Table 2: 10).")
+    eta: float = param(0.8, "Inertial weight eta of (17) (Table 2: 0.8).")
+    itr: int = param(10, "Iterations between two updates (17)-(18) of the probabilities.")
+    pro1: float = param(0.5, "Initial probability of insertion-removal (Table 2: 0.5).")
+    pro2: float = param(0.5, "Initial probability of migration (Table 2: 0.5).")
+    replan: bool = param(True, "Add sosp's third neighbourhood, orbit re-planning.")
+    pro3: float = param(0.5, "Initial probability of orbit re-planning (with replan).")
+    replan_opps: int = param(40, "Most consecutive options of a re-planned stretch.")
+    replan_pull: float = param(0.5, "Share of its weight a task scheduled elsewhere keeps.")
+    replan_pair: float = param(0.3, "Probability of re-planning two orbits together.")
+    replan_floor: float = param(0.1, "With replan, floor of each probability after (18).")
+    replan_orbit: float = param(1.0, "ASA-DTC: probability of re-planning a whole orbit.")
+    orbit_steal: float = param(0.3, "Probability a target scheduled elsewhere keeps its weight.")
+    orbit_noise: float = param(0.5, "Price noise of whole-orbit re-planning, in [0, 1).")
+    orbit_ascent: int = param(10, "More orbits re-planned after the drawn one, at most.")
+    orbit_share: bool = param(True, "Share a task two orbits' plans cover for the move.")
+    tabu_length: int | None = param(None, "FIFO tabu list length (None: max(1, N // 50)).")
+    pool: int = param(32, "Insertion step 1: roulette among this many heaviest tasks.")
+    roll_rule: RollRule = param("nadir", "Roll of a cluster-task: 'nadir' or 'midpoint' (9).")
+    nadir_singles: bool = param(True, "ASA-DTC: roll a lone option closest to nadir.")
+    rule16: bool = param(True, "Apply the effectiveness test (16) to clustering insertion.")
+    rule16_openings: bool = param(True, "Count the openings (6) as a resource in (16).")
+    r_update: Literal["accepted", "generated"] = param("generated", "When r of (20) is updated.")
+    option_rule: OptionRule = param("feasible-first", "Opportunity choice of insertion.")
+    restart: int | None = param(2000, "Back to the best after this many idle iterations.")
+    polish: int = param(300, "Orbit pairs re-planned at each restart, at most.")
+    iterations: int | None = param(None, "Stop after this many iterations (None: no limit).")
+    no_improve: int | None = param(None, "Stop after this many without a new best.")
+    trace_every: int = param(100, "Record a trace row every this many iterations.")
+    candidates: Candidates = param("auto", "Candidates of the whole-orbit moves.")
+    init: Literal["greedy", "orbit-dp", "lp"] = param("lp", "How the search starts.")
+    init_share: float = param(0.3, "Share of the limit the orbit-dp or lp start may take.")
+    workers: int = param(1, "Chains run side by side, one process each.")
+
+    def check(self) -> None:
         def positive(name: str, strict: bool = True) -> None:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
@@ -271,7 +284,6 @@ class ASAParams:
         integer("polish", minimum=0)
         integer("trace_every")
         integer("workers")
-        P.check_choices(self)
 
     @classmethod
     def from_kwargs(cls, preset: str | None = None, **kwargs: Any) -> ASAParams:

@@ -178,7 +178,7 @@ def check_methods(campaign: Campaign) -> tuple[list[str], list[str]]:
         or a bad parameter value (:func:`sosp.methods.check_params`).
     """
     from sosp.methods import check_params
-    from sosp.solve import METHODS, available_methods, method_function
+    from sosp.registry import METHODS, available_methods, method_function
 
     avail = set(available_methods())
     usable: list[str] = []

@@ -20,7 +20,8 @@ from heuristics.pba import (
 from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
-from sosp.solve import bound_function, solve
+from sosp.registry import compute_bound
+from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import small_instances
 from tests.heuristics.test_tabu_search import chain_no_cluster, openings_no_cluster
@@ -189,7 +190,7 @@ def test_a_part_over_its_node_limit_counts_its_total_weight() -> None:
 
 def test_registered_as_a_bound_and_a_method() -> None:
     inst = chain_no_cluster()
-    assert bound_function("pba")(inst)["bound"] == 8
+    assert compute_bound("pba", inst)["bound"] == 8
     res = solve(inst, "pba-stc")
     assert res.bound == 8 and res.profit == 8
 

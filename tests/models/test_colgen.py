@@ -18,7 +18,8 @@ from models.solve import bound
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import orbit_data
-from sosp.solve import bound_function, solve
+from sosp.registry import compute_bound
+from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import small_instances
 from tests.models.instances import random_dense, random_tiny, shared_tiny, split_pair, triangle
@@ -63,7 +64,7 @@ def test_registered_and_dispatched(tiny: Instance) -> None:
     optimum = brute_force(tiny, "cluster").profit
     for out in (
         bound(tiny, method="colgen"),
-        bound_function("colgen")(tiny, time_limit=10.0, lower_bound=None),
+        compute_bound("colgen", tiny, time_limit=10.0, lower_bound=None),
     ):
         assert optimum <= out["bound"] <= cap
     out = bound(tiny, method="colgen")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import sqlite3
 from pathlib import Path
@@ -148,8 +147,9 @@ def test_bench_stores_validated_rows_and_resumes(tmp_path: Path, inst_files: lis
 def test_failures_are_stored_and_retried_only_on_request(
     tmp_path: Path, inst_files: list[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    solve_mod = importlib.import_module("sosp.solve")  # the name sosp.solve is the function
-    monkeypatch.setitem(solve_mod.METHODS, "flaky", f"{__name__}:solve_flaky_seed")
+    from sosp.registry import METHODS, Method
+
+    monkeypatch.setitem(METHODS, "flaky", Method(f"{__name__}:solve_flaky_seed"))
     db = tmp_path / "r.db"
     c = campaign_from_options(inst_files[0], "flaky", "1-3")
     _FLAKY["fail"] = {2}
@@ -290,9 +290,9 @@ def test_dry_run_counts_pending(
 def test_unavailable_methods_are_skipped_only_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
     from sosp.campaign import campaign_from_dict
     from sosp.campaign.runner import check_methods
+    from sosp.registry import METHODS, Method
 
-    solve_mod = importlib.import_module("sosp.solve")
-    monkeypatch.setitem(solve_mod.METHODS, "notyet", "heuristics.not_written_yet:solve")
+    monkeypatch.setitem(METHODS, "notyet", Method("heuristics.not_written_yet:solve"))
     data = {
         "campaign": {"scenarios": ["B1"], "seeds": 1, "skip_unavailable": True},
         "methods": ["greedy", "notyet"],

@@ -31,8 +31,9 @@ SLOW = f"{__name__}:solve_slow"
 NAP = 0.15
 
 _SCRIPT = (
-    "import sys, importlib\n"
-    "importlib.import_module('sosp.solve').METHODS['slow'] = {slow!r}\n"
+    "import sys\n"
+    "from sosp.registry import METHODS, Method\n"
+    "METHODS['slow'] = Method({slow!r})\n"
     "from sosp.cli import main\n"
     "sys.exit(main(sys.argv[1:]))\n"
 )

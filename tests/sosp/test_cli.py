@@ -346,8 +346,7 @@ def test_methods_lists_every_registered_method_from_the_code(capsys) -> None:
     import dataclasses
     import inspect
 
-    from sosp.methods import param_class
-    from sosp.solve import available_methods, method_function
+    from sosp.registry import available_methods, method_function, param_class
 
     code, out, _ = run(capsys, "methods", "--json")
     assert code == 0
@@ -491,35 +490,6 @@ def test_notebooks_extra_brings_jupyterlab_and_the_readme_says_how() -> None:
     readme = (root / "README.md").read_text()
     assert "pip install -e '.[notebooks]' && jupyter lab notebooks/" in readme
     assert list((root / "notebooks").glob("*.ipynb"))
-
-
-def test_param_docs_reads_numpydoc_entries() -> None:
-    from sosp.methods import param_docs
-
-    doc = """Summary.
-
-    Parameters
-    ----------
-    alpha
-        First sentence, e.g. with (a. b) inside. Second sentence.
-    pro1, pro2
-        Shared ``line``; more
-        on the next line.
-    **params
-        Keywords.
-
-    Returns
-    -------
-    thing
-        Not a parameter.
-    """
-    assert param_docs(doc) == {
-        "alpha": "First sentence, e.g. with (a. b) inside.",
-        "pro1": "Shared line; more on the next line.",
-        "pro2": "Shared line; more on the next line.",
-        "params": "Keywords.",
-    }
-    assert param_docs("No sections.") == {}
 
 
 def test_unwritable_output_folder_is_refused_in_process(

@@ -6,8 +6,9 @@ import pytest
 
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.registry import METHODS, available_methods
 from sosp.result import Status
-from sosp.solve import METHODS, SolverError, available_methods, solve
+from sosp.solve import SolverError, solve
 from sosp.validate import validate
 from tests.conftest import tiny_chain, tiny_openings, tiny_two_orbits
 
@@ -69,8 +70,8 @@ def test_result_is_stamped_and_valid(tiny: Instance) -> None:
 
 
 def test_every_registered_method_is_named_consistently() -> None:
-    for name, target in METHODS.items():
-        module, func = target.split(":")
+    for name, entry in METHODS.items():
+        module, func = entry.function.split(":")
         assert func.startswith("solve_"), name
     assert "greedy" in available_methods()
 
@@ -160,3 +161,16 @@ def test_every_observable_target_observed_is_optimal() -> None:
     res = solve(easy, "greedy")
     assert res.profit == 9 and res.status is Status.OPTIMAL and res.bound == 9
     assert res.gap == 0 and res.stats["proven_by"] == "cap"
+
+
+def test_a_bound_of_a_restriction_certifies_nothing() -> None:
+    # PBA-STC's own bound is of the static model: on tiny_chain 7, below the problem's
+    # optimum 8 (the oracle), so a certified result must not take it as the problem's bound
+    from tests.oracle import brute_force
+
+    inst = tiny_chain()
+    optimum = brute_force(inst, "cluster").profit
+    own = solve(inst, "pba-stc")
+    assert own.bound == own.profit < optimum
+    res = solve(inst, "pba-stc", bound="lagrangian")
+    assert res.bound >= optimum and res.status is not Status.OPTIMAL

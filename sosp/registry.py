@@ -1,0 +1,192 @@
+"""The one table of methods and bounds: a method or a bound is one entry here plus its function.
+
+This module is the one place ``sosp/`` reaches ``models/`` and ``heuristics/``: every entry
+names its function (and parameter class) as ``"module:name"``, imported on first use, so the
+CLI starts fast and a build without Pyomo or HiGHS still lists what it has. Everything else
+(the CLI's choices, ``sosp methods``, ``sosp bound``, what ``solve(..., bound=...)`` accepts,
+the methods of :func:`models.solve.bound`) is read from :data:`METHODS` and :data:`BOUNDS`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from sosp.errors import InputError
+
+#: The model whose optimum is the problem's (``docs/model.md``): the clustering-exact model.
+#: A bound of another model (a restriction: fixed cluster-tasks, no clustering) can be below
+#: the problem's optimum, so it certifies no schedule.
+PROBLEM_MODEL = "cluster"
+
+
+@dataclass(frozen=True)
+class Method:
+    """A method: ``function(instance, *, rng, time_limit, **params) -> Result``.
+
+    Attributes
+    ----------
+    function
+        ``"module:name"`` of the solve function.
+    params
+        ``"module:Class"`` of its parameter dataclass (:class:`sosp.params.Params`).
+    model
+        The model whose optimum the method's own ``Result.bound`` bounds (None: it claims
+        none). A method with a ``model`` parameter (``milp``) bounds the model it is given.
+    """
+
+    function: str
+    params: str = "sosp.params:NoParams"
+    model: str | None = None
+
+
+@dataclass(frozen=True)
+class Bound:
+    """A bound: ``function(instance, *, time_limit, lower_bound, workers, **options) -> dict``
+    with at least ``{"bound": value}``.
+
+    Attributes
+    ----------
+    function
+        ``"module:name"`` of the bound function.
+    help
+        One line for ``sosp bound --help``.
+    model
+        The model whose optimum it bounds: only a bound of :data:`PROBLEM_MODEL` certifies a
+        schedule (:data:`CERTIFYING_BOUNDS`).
+    options
+        Keywords the function is always called with (``method`` of :func:`models.solve.bound`).
+    """
+
+    function: str
+    help: str
+    model: str = PROBLEM_MODEL
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def certifying(self) -> bool:
+        """Whether it bounds the problem itself, so every method's schedule."""
+        return self.model == PROBLEM_MODEL
+
+
+#: Method name -> :class:`Method`, in the order ``sosp methods`` lists them.
+METHODS: dict[str, Method] = {
+    "greedy": Method("heuristics.greedy:solve_greedy"),
+    "hpfs-stc": Method("heuristics.hpfs:solve_hpfs_stc", "heuristics.hpfs:HPFSParams"),
+    "asa-dtc": Method("heuristics.asa:solve_asa_dtc", "heuristics.asa.params:ASAParams"),
+    "asa-stc": Method("heuristics.asa:solve_asa_stc", "heuristics.asa.params:ASAParams"),
+    "asa-nontc": Method("heuristics.asa:solve_asa_nontc", "heuristics.asa.params:ASAParams"),
+    "rds": Method("heuristics.rds:solve_rds", "heuristics.rds:RDSParams", "task"),
+    "rds-stc": Method("heuristics.rds:solve_rds_stc", "heuristics.rds:RDSSTCParams", "static"),
+    "sa-stc": Method("heuristics.sa:solve_sa_stc", "heuristics.sa:SAParams"),
+    "aco-stc": Method("heuristics.aco:solve_aco_stc", "heuristics.aco:ACOParams"),
+    "aco-ls-stc": Method("heuristics.aco:solve_aco_ls_stc", "heuristics.aco:ACOLSParams"),
+    "ga-stc": Method("heuristics.ga:solve_ga_stc", "heuristics.ga:GAParams"),
+    "ts-stc": Method("heuristics.tabu_search:solve_ts_stc", "heuristics.tabu_search:TSParams"),
+    "pba-stc": Method("heuristics.pba:solve_pba_stc", "heuristics.pba:PBAParams", "static"),
+    "milp": Method("models.solve:solve_milp", "models.solve:MILPParams", PROBLEM_MODEL),
+    "milp-lns": Method("heuristics.lns:solve_milp_lns", "heuristics.lns:LNSParams"),
+    "orbit-dp": Method(
+        "heuristics.orbit_search:solve_orbit_dp", "heuristics.orbit_search:OrbitSearchParams"
+    ),
+}
+
+#: The method of :func:`sosp.solve.solve` and of ``sosp solve`` when none is named.
+DEFAULT_METHOD = "asa-dtc"
+
+#: Bound name -> :class:`Bound`, in the order ``sosp bound --method`` lists them.
+BOUNDS: dict[str, Bound] = {
+    "auto": Bound(
+        "models.solve:bound",
+        "the column-generation bound, then the LP with the time left unless it converged "
+        "(the least of the two)",
+        options={"method": "auto"},
+    ),
+    "lp": Bound("models.solve:bound", "the clique-strengthened LP", options={"method": "lp"}),
+    "milp": Bound(
+        "models.solve:bound", "the bound of a time-limited MILP", options={"method": "milp"}
+    ),
+    "lagrangian": Bound(
+        "models.lagrangian:lagrangian_bound",
+        "the Lagrangian relaxation across orbits by dynamic programming (no LP solver)",
+    ),
+    "colgen": Bound(
+        "models.solve:bound",
+        "Dantzig-Wolfe over orbit plans, then branch and price with the time left (docs/exact.md)",
+        options={"method": "colgen"},
+    ),
+    "windows": Bound(
+        "models.solve:bound",
+        "the Lagrangian bound over the window relaxation, no candidate list: what auto uses "
+        "where the candidates would not fit in memory",
+        options={"method": "windows"},
+    ),
+    "pba": Bound(
+        "heuristics.pba:pba_bound",
+        "PBA-STC's partition-based bound of the static model (docs/baselines.md)",
+        model="static",
+    ),
+}
+
+#: Bounds of the problem itself (:data:`PROBLEM_MODEL`): what ``solve(..., bound=...)`` and
+#: ``sosp solve --bound`` accept.
+CERTIFYING_BOUNDS = tuple(name for name, b in BOUNDS.items() if b.certifying)
+
+
+def load(target: str) -> Any:
+    """The object named by ``"module:name"``, its module imported now."""
+    module, name = target.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def available_methods() -> list[str]:
+    """The registered methods whose module is installed."""
+    out = []
+    for name, m in METHODS.items():
+        try:
+            if importlib.util.find_spec(m.function.split(":")[0]) is not None:
+                out.append(name)
+        except ModuleNotFoundError:
+            pass
+    return out
+
+
+def _method(method: str) -> Method:
+    if method not in METHODS:
+        raise InputError(
+            f"method: unknown method {method!r} (choose from {', '.join(available_methods())})"
+        )
+    return METHODS[method]
+
+
+def method_function(method: str) -> Callable[..., Any]:
+    """The solve function of ``method``; :class:`InputError` if unknown or not installed."""
+    target = _method(method).function
+    try:
+        return load(target)
+    except ModuleNotFoundError as exc:
+        if exc.name and target.startswith(exc.name):
+            raise InputError(f"method: {method!r} is not available in this build") from None
+        raise
+
+
+def param_class(method: str) -> type:
+    """The parameter dataclass of ``method`` (:class:`sosp.params.Params`)."""
+    return load(_method(method).params)
+
+
+def bounded_model(method: str, params: Mapping[str, Any]) -> str | None:
+    """The model whose optimum ``method``'s own bound bounds with ``params`` (None: none)."""
+    model = _method(method).model
+    return None if model is None else params.get("model") or model
+
+
+def compute_bound(name: str, instance: Any, **kwargs: Any) -> dict[str, Any]:
+    """Bound ``name`` of ``instance`` (``kwargs``: ``time_limit``, ``lower_bound``, ...)."""
+    if name not in BOUNDS:
+        raise InputError(f"bound: unknown method {name!r} (choose from {', '.join(BOUNDS)})")
+    b = BOUNDS[name]
+    return load(b.function)(instance, **b.options, **kwargs)
