@@ -265,7 +265,7 @@ def heuristic_start(
     initial: list[int] | None = None,
     stop: Callable[[float], bool] | None = None,
 ) -> list[int]:
-    """A fast schedule over the model's items: orbit-dp's search (:mod:`heuristics.orbit_search`).
+    """A fast schedule over the model's items: orbit-dp's search (:mod:`sosp.ascent`).
 
     Each orbit is re-planned exactly over the model's own items (:mod:`sosp.planner`: (3)-(6)
     with the exact slew term), then perturbation steps until ``no_improve`` steps in a row
@@ -282,7 +282,7 @@ def heuristic_start(
     list of int
         The chosen items (each target claimed once by :func:`sosp.schedule.items_to_schedule`).
     """
-    from heuristics.orbit_search import OrbitSearch, OrbitSearchParams
+    from sosp.ascent import OrbitSearch, OrbitSearchParams
     from sosp.planner import with_rolls
 
     od = arranged if arranged is not None else with_rolls(data, data.roll)

@@ -13,15 +13,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.orbit_search import (
-    START_MODES,
-    OrbitSearch,
-    OrbitSearchParams,
-    lp_start,
-    solve_orbit_dp,
-)
+from heuristics.orbit_search import lp_start, solve_orbit_dp
 from models.colgen import colgen_bound
 from models.lagrangian import lagrangian_bound
+from sosp.ascent import START_MODES, OrbitSearch, OrbitSearchParams
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance, Resources
 from sosp.planner import (
@@ -330,7 +325,7 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     """A pass over a dense instance's orbits takes seconds: the deadline is read before each
     orbit's re-plan, so an ascent whose deadline passes after the second re-plan stops
     there (and leaves a feasible, partly ascended schedule), not at the end of the pass."""
-    import heuristics.orbit_search as orbit_search
+    import sosp.ascent as ascent
 
     inst = _slack_instance(0)
     assert inst.n_orbits >= 3
@@ -341,7 +336,7 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     # so the deadline 3.5 passes at the check before the third orbit
     clock = itertools.count()
     fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
-    monkeypatch.setattr(orbit_search, "time", fake)
+    monkeypatch.setattr(ascent, "time", fake)
     search.ascent(deadline=3.5)
     assert search.replans == 2
     assert validate(inst, search.schedule()).feasible
