@@ -68,7 +68,7 @@ import numpy as np
 from sosp.candidates import OppGroups
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.planner import _recursion, least_penalty_plan, release_order
+from sosp.recursion import least_penalty_plan, recursion, release_order
 from sosp.rules import EPS, OrbitRules, RollRule, check_roll_rule, orbit_rules
 
 log = logging.getLogger(__name__)
@@ -538,7 +538,7 @@ def _window_rows(
 @dataclass(frozen=True, eq=False)
 class RelaxedItems:
     """The relaxation's items of one orbit at some prices (see the module docstring), in
-    the arrangement :func:`sosp.planner._recursion` takes.
+    the arrangement :func:`sosp.recursion.recursion` takes.
 
     Attributes
     ----------
@@ -605,7 +605,7 @@ def relaxed_best_path(
         return 0.0, np.zeros(0, dtype=np.int64), ri
     r = oo.rules
     pe, pw = r.per_unit(lam_energy, lam_memory)
-    value, path = _recursion(
+    value, path = recursion(
         ri.slew_s, ri.duration, ri.items.gain, ri.by_release, ri.n_before, r, pe, pw
     )
     return float(value), path, ri
@@ -757,7 +757,7 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
 
     def plan(pen: float) -> np.ndarray:
         pe, pw = r.per_unit(pen, pen)
-        _, path = _recursion(slew_s, duration, gain, by_release, n_before, r, pe, pw)
+        _, path = recursion(slew_s, duration, gain, by_release, n_before, r, pe, pw)
         return path
 
     def fits(path: np.ndarray) -> bool:

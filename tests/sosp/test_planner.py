@@ -21,13 +21,13 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance, Resources
 from sosp.planner import (
     OrbitItems,
-    _recursion,
     best_feasible_path,
     best_path,
     orbit_data,
     plan_sequence,
     with_rolls,
 )
+from sosp.recursion import recursion
 from sosp.result import Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Observation, Schedule
@@ -98,7 +98,7 @@ def test_levels_kernel_with_and_without_the_cap_binding() -> None:
     # the kernel's uncapped sweep is taken only when its plan fits the cap, the levels
     # otherwise: both give the best chain of at most cap positions, compiled or not, and
     # the same as the levels alone (sweep 0)
-    from sosp.planner import _levels, _levels_py, release_order
+    from sosp.recursion import levels, levels_py, release_order
 
     binding = fitting = 0
     for seed in range(40):
@@ -116,7 +116,7 @@ def test_levels_kernel_with_and_without_the_cap_binding() -> None:
             want = _capped_reference(g, first, last, order, n_before, cap)
             binding += uncapped > want + 1e-9
             fitting += uncapped <= want + 1e-9
-            for kernel, sweep in ((_levels_py, 1), (_levels(), 1), (_levels(), 0)):
+            for kernel, sweep in ((levels_py, 1), (levels(), 1), (levels(), 0)):
                 value, path = kernel(g, first, last, order, n_before, cap, sweep)
                 assert value == pytest.approx(want, abs=1e-9), (seed, cap)
                 assert 1 <= len(path) <= cap
@@ -1051,7 +1051,7 @@ def test_stretch_recursion_is_exact_under_penalties(seed: int) -> None:
     idx = np.flatnonzero(ok)
     by_release = np.argsort(hi_end[idx], kind="stable")
     n_before = np.searchsorted(hi_end[idx][by_release], lo_end[idx] + 1e-9, side="right")
-    value, path = _recursion(
+    value, path = recursion(
         r.slew(roll[idx]),
         (end - start)[idx],
         gain[idx],
