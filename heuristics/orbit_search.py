@@ -34,23 +34,16 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sosp.ascent import (
-    OrbitSearch,
-    OrbitSearchParams,
-    WindowData,
-    WindowSearch,
-)
+from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
 from sosp.candidates import candidate_mode
 from sosp.dist import dask_client
 from sosp.errors import TimeLimitReached
 from sosp.instance import Instance
 from sosp.planner import orbit_data
-from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 
 if TYPE_CHECKING:
@@ -58,12 +51,9 @@ if TYPE_CHECKING:
 
 from sosp.stop import (
     FirstOf,
-    Interrupted,
     MaxIterations,
     MaxRuntime,
     NoImprovement,
-    SearchStatus,
-    StoppingCriterion,
 )
 
 log = logging.getLogger(__name__)
@@ -272,57 +262,6 @@ def ascend_from_both(
         return other, figures
     search.replans += other.replans
     return search, figures
-
-
-@dataclass
-class IlsRun:
-    """What :func:`iterate` found: the best plans, their profit, and the run's counters."""
-
-    best_profit: float
-    best_paths: list[Any]
-    ascent_profit: float
-    steps: int
-    accepted: int
-    trace: list[tuple[int, float, float]]
-
-
-def iterate(
-    search: OrbitSearch,
-    p: OrbitSearchParams,
-    stop: StoppingCriterion,
-    deadline: float | None,
-    t0: float,
-) -> IlsRun:
-    """Steps 1-3 of the module docstring on ``search`` (ascent, then perturb / ascend /
-    accept until ``stop``, a stop request or the progress says so); the search is left at
-    its last accepted state, the best plans are returned. Shared by ``orbit-dp`` and
-    ASA-DTC's start (``init="orbit-dp"``)."""
-    search.ascent(deadline)
-    first = search.profit
-    best_profit, best_paths = search.profit, list(search.paths)
-    trace = [(0, round(time.perf_counter() - t0, 4), best_profit)]
-    steps = accepted = since = 0
-    stop = FirstOf(current_progress(), Interrupted(), stop)
-    now = SearchStatus()
-    while search.data.orbits:
-        now.iteration, now.since_best, now.best = steps, since, best_profit
-        if stop(now):
-            break
-        steps += 1
-        since += 1
-        mark, before = len(search.journal), search.profit
-        search.perturb(p, deadline)
-        search.ascent(deadline)
-        if search.profit + 1e-9 >= before:
-            accepted += 1
-            search.journal.clear()
-            if search.profit > best_profit + 1e-9:
-                best_profit, best_paths, since = search.profit, list(search.paths), 0
-                trace.append((steps, round(time.perf_counter() - t0, 4), best_profit))
-        else:
-            search.undo(mark)
-            search.journal.clear()
-    return IlsRun(best_profit, best_paths, first, steps, accepted, trace)
 
 
 #: With ``candidates="auto"`` and a time limit, the explicit candidates must be generated and

@@ -57,7 +57,7 @@ import numpy as np
 
 from sosp.kernels import compiled
 from sosp.planner import OrbitItems, best_path
-from sosp.recursion import penalised, restrict
+from sosp.recursion import recursion, restrict
 from sosp.rules import OrbitRules
 
 #: The cut pricing restricts an orbit to the positions that may help a plan
@@ -740,20 +740,18 @@ def _price_with_cuts(
     pw: float,
     kernel: Callable[..., Any] | None = None,
 ) -> CutPrice:
-    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays."""
-    empty = np.zeros(0, dtype=np.int64)
-    g, firsts, lasts, order, cap, _ = penalised(
-        slew_s, duration, gain + cuts.direct, by_release, rules, pe, pw
-    )
-    if cap <= 0:
-        return CutPrice(0.0, empty, cuts.exact)
-    run = cut_levels() if kernel is None else kernel
-    nb = np.ascontiguousarray(n_before, dtype=np.int64)
-    value, path, relaxed = label_best(run, g, firsts, lasts, order, nb, cap, cuts)
-    exact = cuts.exact and relaxed == 0
-    if not value > 0.0:
-        return CutPrice(0.0, empty, exact)
-    return CutPrice(float(value), path, exact)
+    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays: the recursion
+    (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`)."""
+    relaxed = []
+
+    def labels(*args: Any) -> tuple[float, np.ndarray]:
+        value, path, over = label_best(cut_levels() if kernel is None else kernel, *args, cuts)
+        relaxed.append(over)
+        return value, path
+
+    gain = gain + cuts.direct
+    value, path = recursion(slew_s, duration, gain, by_release, n_before, rules, pe, pw, run=labels)
+    return CutPrice(float(value), path, cuts.exact and not any(relaxed))
 
 
 #: Separation: at most this many new cuts per round, and per target per round.

@@ -28,8 +28,16 @@ from sosp.candidates import CANDIDATE_MODES, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path
+from sosp.progress import current as current_progress
 from sosp.schedule import Schedule, items_to_schedule
-from sosp.stop import Foresight, stop_requested
+from sosp.stop import (
+    FirstOf,
+    Foresight,
+    Interrupted,
+    SearchStatus,
+    StoppingCriterion,
+    stop_requested,
+)
 
 if TYPE_CHECKING:
     from sosp.windows import OrbitOpps
@@ -438,6 +446,62 @@ class _Columns:
     end: np.ndarray
     roll: np.ndarray
     opps: list[tuple[int, ...]]
+
+
+@dataclass
+class IlsRun:
+    """What :func:`iterate` found: the best plans, their profit, and the run's counters."""
+
+    best_profit: float
+    best_paths: list[Any]
+    ascent_profit: float
+    steps: int
+    accepted: int
+    trace: list[tuple[int, float, float]]
+
+
+def iterate(
+    search: OrbitSearch,
+    p: OrbitSearchParams,
+    stop: StoppingCriterion,
+    deadline: float | None,
+    t0: float,
+    *,
+    report: bool = True,
+) -> IlsRun:
+    """The iterated local search of ``orbit-dp`` on ``search``: the ascent, then perturb,
+    ascend and accept (a step worth at least the current profit; else undone) until
+    ``stop`` says so (and, with ``report``, a stop request; the solve's progress is
+    reported at each check). The search is left at its last accepted state, the best plans
+    are returned. Shared by ``orbit-dp`` (:mod:`heuristics.orbit_search`), ASA-DTC's start
+    (``init="orbit-dp"``) and the exact models' heuristic start (:mod:`models.solve`)."""
+    search.ascent(deadline)
+    first = search.profit
+    best_profit, best_paths = search.profit, list(search.paths)
+    trace = [(0, round(time.perf_counter() - t0, 4), best_profit)]
+    steps = accepted = since = 0
+    if report:
+        stop = FirstOf(current_progress(), Interrupted(), stop)
+    now = SearchStatus()
+    while search.data.orbits:
+        now.iteration, now.since_best, now.best = steps, since, best_profit
+        if stop(now):
+            break
+        steps += 1
+        since += 1
+        mark, before = len(search.journal), search.profit
+        search.perturb(p, deadline)
+        search.ascent(deadline)
+        if search.profit + 1e-9 >= before:
+            accepted += 1
+            search.journal.clear()
+            if search.profit > best_profit + 1e-9:
+                best_profit, best_paths, since = search.profit, list(search.paths), 0
+                trace.append((steps, round(time.perf_counter() - t0, 4), best_profit))
+        else:
+            search.undo(mark)
+            search.journal.clear()
+    return IlsRun(best_profit, best_paths, first, steps, accepted, trace)
 
 
 def ascent_profit(data: OrbitData, seed: int = 0) -> float:

@@ -119,9 +119,10 @@ def recursion(
     openings: int | None = None,
     left_slew: float | None = None,
     right_slew: float | None = None,
+    run: Callable[..., tuple[float, np.ndarray]] | None = None,
 ) -> tuple[float, np.ndarray]:
     """The level-by-level recursion of :func:`sosp.planner.best_path` and
-    :func:`sosp.planner.plan_sequence`.
+    :func:`sosp.planner.plan_sequence`, and of :mod:`models.subset_row` with its cuts.
 
     Level n holds, per position, the best penalised value of a plan of at most n
     observations ending there ((3) through ``by_release``/``n_before``, ``by_release`` None
@@ -130,7 +131,8 @@ def recursion(
     consecutive pairs: each observation pays ``2 |theta| / v`` and the first one gets
     ``|theta_first| / v`` back, or, after a fixed neighbour of slew ``left_slew`` (seconds
     ``|theta| / v``), pays that neighbour's half of the turn instead; the same at the end
-    with ``right_slew``.
+    with ``right_slew``. ``run(g, first, last, order, n_before, cap)`` replaces the levels
+    (:func:`levels_py`) by another kernel over the same inputs (the subset-row cuts' labels).
 
     Returns
     -------
@@ -145,9 +147,11 @@ def recursion(
     )  # fmt: skip
     if cap <= 0:
         return empty, np.zeros(0, dtype=np.int64)
-    value, path = levels()(
-        g, firsts, lasts, order, np.ascontiguousarray(n_before, dtype=np.int64), cap, 1
-    )
+    nb = np.ascontiguousarray(n_before, dtype=np.int64)
+    if run is None:
+        value, path = levels()(g, firsts, lasts, order, nb, cap, 1)
+    else:
+        value, path = run(g, firsts, lasts, order, nb, cap)
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)
     return value, path

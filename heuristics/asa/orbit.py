@@ -67,8 +67,8 @@ from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
-from heuristics.orbit_search import ascend_from_both, hpfs_start, iterate, lp_start
-from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch
+from heuristics.orbit_search import ascend_from_both, hpfs_start, lp_start
+from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
 from sosp.candidates import flatten, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
