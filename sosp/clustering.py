@@ -27,7 +27,8 @@ from functools import cached_property
 import numpy as np
 
 from sosp.instance import Instance
-from sosp.schedule import RollRule, Schedule, choose_roll, items_to_schedule
+from sosp.rules import RollRule, choose_roll, range_empty, within_duration
+from sosp.schedule import Schedule, items_to_schedule
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,10 +118,10 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
             s, e, lo, hi = starts[i], ends[i], los[i], his[i]
             # Opportunities come in start order (and end after they start): a group that this
             # start already outruns can take no later opportunity, so it is closed.
-            if open_ and s - open_[0][0] >= limit:
+            if open_ and not within_duration(open_[0][0], s, limit):
                 still_open = []
                 for g in open_:
-                    if s - g[0] >= limit:
+                    if not within_duration(g[0], s, limit):
                         groups.append(g[4])
                     else:
                         still_open.append(g)
@@ -129,11 +130,11 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
             for g in open_:
                 g1 = g[1]
                 end = e if e > g1 else g1
-                if end - g[0] > limit:
-                    continue
+                if not within_duration(g[0], end, limit):
+                    continue  # (11)
                 glo, ghi = g[2], g[3]
-                if (glo if glo > lo else lo) > (ghi if ghi < hi else hi):
-                    continue
+                if range_empty(glo if glo > lo else lo, ghi if ghi < hi else hi):
+                    continue  # (7)
                 growth = end - g1
                 if growth < best_growth:
                     best, best_growth = g, growth

@@ -61,7 +61,7 @@ from sosp.dist import Workers, cluster_size, is_client, local_processes
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.recursion import least_penalty_plan, levels, recursion, release_order, restrict
-from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
+from sosp.rules import EPS, OrbitRules, may_precede, orbit_rules, sequence_slew_time
 from sosp.stop import held_for_fork, worker_signals
 
 log = logging.getLogger(__name__)
@@ -662,16 +662,15 @@ def plan_sequence(
         return nothing
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
     roll, gain = np.asarray(roll, dtype=float), np.asarray(gain, dtype=float)
-    # (3) as interval ends, with the solvers' margin on the left ones: u may precede w iff
-    # R_u <= L_w + EPS
-    lo_eps, hi_end = rules.left(start, roll) + EPS, rules.right(end, roll)
+    # (3) as interval ends (sosp.rules.may_precede): u may precede w iff R_u <= L_w + EPS
+    lo, hi_end = rules.left(start, roll), rules.right(end, roll)
     ok = gain > 0.0
     left_slew = right_slew = None
     if left is not None:
-        ok &= rules.right(left[0], left[1]) <= lo_eps  # (3) after ``left``
+        ok &= may_precede(rules.right(left[0], left[1]), lo)  # (3) after ``left``
         left_slew = float(rules.slew(left[1]))
     if right is not None:
-        ok &= hi_end <= rules.left(right[0], right[1]) + EPS  # (3) before ``right``
+        ok &= may_precede(hi_end, rules.left(right[0], right[1]))  # (3) before ``right``
         right_slew = float(rules.slew(right[1]))
     # the usable candidates in R order, so that the recursion's prefix maxima need no gather
     idx = np.flatnonzero(ok)
@@ -679,8 +678,8 @@ def plan_sequence(
         return nothing
     idx = idx[np.argsort(hi_end[idx], kind="stable")]
     duration = (end - start)[idx]
-    lo_eps, hi_end, roll, gain = lo_eps[idx], hi_end[idx], roll[idx], gain[idx]
-    n_before = np.searchsorted(hi_end, lo_eps, side="right")
+    lo, hi_end, roll, gain = lo[idx], hi_end[idx], roll[idx], gain[idx]
+    n_before = np.searchsorted(hi_end, lo + EPS, side="right")
     # rolls of the fixed neighbours, around the sequence in the exact slew of (4)
     lead = [float(left[1])] if left is not None else []
     trail = [float(right[1])] if right is not None else []
