@@ -45,16 +45,10 @@ from sosp.errors import TimeLimitReached
 from sosp.instance import Instance
 from sosp.planner import orbit_data
 from sosp.result import Result, Status
+from sosp.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement
 
 if TYPE_CHECKING:
     from sosp.dist import Workers
-
-from sosp.stop import (
-    FirstOf,
-    MaxIterations,
-    MaxRuntime,
-    NoImprovement,
-)
 
 log = logging.getLogger(__name__)
 

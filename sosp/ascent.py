@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -30,14 +31,7 @@ from sosp.instance import Instance
 from sosp.planner import OrbitData, best_feasible_path
 from sosp.progress import current as current_progress
 from sosp.schedule import Schedule, items_to_schedule
-from sosp.stop import (
-    FirstOf,
-    Foresight,
-    Interrupted,
-    SearchStatus,
-    StoppingCriterion,
-    stop_requested,
-)
+from sosp.stop import FirstOf, Foresight, Interrupted, SearchStatus, stop_requested
 
 if TYPE_CHECKING:
     from sosp.windows import OrbitOpps
@@ -427,7 +421,8 @@ class WindowSearch(OrbitSearch):
             for u in range(plan.size):  # type: ignore[attr-defined]
                 p: Any = plan
                 obs.append((g, p.start[u], p.end[u], p.roll[u], p.opps[u]))
-        cols = _Columns(
+        # observation columns as sosp.schedule.items_to_schedule reads them
+        cols = SimpleNamespace(
             orbit=np.array([o[0] for o in obs], dtype=np.int64),
             start=np.array([o[1] for o in obs], dtype=float),
             end=np.array([o[2] for o in obs], dtype=float),
@@ -435,17 +430,6 @@ class WindowSearch(OrbitSearch):
             opps=[o[4] for o in obs],
         )
         return items_to_schedule(self.data.instance, cols, range(len(obs)))
-
-
-@dataclass(frozen=True)
-class _Columns:
-    """Observation columns as :func:`sosp.schedule.items_to_schedule` reads them."""
-
-    orbit: np.ndarray
-    start: np.ndarray
-    end: np.ndarray
-    roll: np.ndarray
-    opps: list[tuple[int, ...]]
 
 
 @dataclass
@@ -463,7 +447,7 @@ class IlsRun:
 def iterate(
     search: OrbitSearch,
     p: OrbitSearchParams,
-    stop: StoppingCriterion,
+    stop: Callable[[SearchStatus], bool],
     deadline: float | None,
     t0: float,
     *,

@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from sosp.instance import Instance
-from sosp.rules import RollRule, choose_roll, range_empty, within_duration
+from sosp.rules import RollRule, choose_roll, common_roll_range, range_empty, within_duration
 from sosp.schedule import Schedule, items_to_schedule
 
 
@@ -154,6 +154,7 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
 
 def _taskset(instance: Instance, groups: list[list[int]], roll_rule: RollRule) -> TaskSet:
     rows = []
+    roll_min, roll_max = instance.opp_roll_min, instance.opp_roll_max
     for members in groups:
         idx = np.array(sorted(members), dtype=np.int64)
         s = float(instance.opp_start[idx].min())
@@ -161,11 +162,7 @@ def _taskset(instance: Instance, groups: list[list[int]], roll_rule: RollRule) -
         if idx.size == 1:
             r = float(instance.opp_roll[idx[0]])
         else:
-            r = choose_roll(
-                float(instance.opp_roll_min[idx].max()),
-                float(instance.opp_roll_max[idx].min()),
-                roll_rule,
-            )
+            r = choose_roll(*common_roll_range(roll_min[idx], roll_max[idx]), roll_rule)
         ks = tuple(sorted({int(k) for k in instance.opp_target[idx]}))
         rows.append((int(instance.opp_orbit[idx[0]]), s, e, r, tuple(idx.tolist()), ks))
     rows.sort(key=lambda x: (x[0], x[1], x[2], x[4]))

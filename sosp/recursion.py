@@ -148,10 +148,8 @@ def recursion(
     if cap <= 0:
         return empty, np.zeros(0, dtype=np.int64)
     nb = np.ascontiguousarray(n_before, dtype=np.int64)
-    if run is None:
-        value, path = levels()(g, firsts, lasts, order, nb, cap, 1)
-    else:
-        value, path = run(g, firsts, lasts, order, nb, cap)
+    kernel = run if run is not None else lambda *args: levels()(*args, 1)  # sweep, then levels
+    value, path = kernel(g, firsts, lasts, order, nb, cap)
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)
     return value, path
