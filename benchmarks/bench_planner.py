@@ -6,7 +6,7 @@ Usage::
 
 For each instance of the tuning set (``benchmarks/bench_tuning.py``), it runs ``orbit-dp``
 and ``asa-dtc`` for ``--time-limit`` seconds each and records the calls they make to the
-single-orbit kernel (:func:`sosp.planner._levels_py`, every call's inputs up to
+single-orbit kernel (:func:`sosp.recursion.levels_py`, every call's inputs up to
 ``--max-calls``), then replays the recorded calls twice: with the sweep (``sweep`` 1, the
 default) and with the levels alone (``sweep`` 0), checks that both give the same value, and
 prints per instance the calls, the share whose uncapped plan fits the cap, and the kernel's
@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 import sosp.planner as planner
+import sosp.recursion as recursion
 from benchmarks.bench_tuning import TUNING_SET
 from sosp.scenarios import custom_scenario
 from sosp.solve import solve
@@ -30,26 +31,26 @@ from sosp.solve import solve
 def record(inst: Any, methods: list[str], time_limit: float, max_calls: int) -> list[tuple]:
     """The kernel's inputs over runs of ``methods`` on ``inst`` (seed 1 each)."""
     calls: list[tuple] = []
-    kernel = planner._levels()
+    kernel = recursion.levels()
 
     def recording(*args: Any) -> tuple[float, np.ndarray]:
         if len(calls) < max_calls:
             calls.append(tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args))
         return kernel(*args)
 
-    saved = planner._levels
-    planner._levels = lambda: recording
+    saved = recursion.levels
+    recursion.levels = lambda: recording
     try:
         for method in methods:
             solve(inst, method, seed=1, time_limit=time_limit)
     finally:
-        planner._levels = saved
+        recursion.levels = saved
     return calls
 
 
 def replay(calls: list[tuple], sweep: int) -> tuple[float, list[float]]:
     """Seconds to replay ``calls`` with ``sweep`` and the values they give."""
-    kernel = planner._levels()
+    kernel = recursion.levels()
     values = []
     t0 = time.perf_counter()
     for *args, _ in calls:
@@ -84,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"{name}: the sweep's values differ from the levels'")
         fits = 0
         for g, first, last, order, n_before, cap, _ in calls:
-            _, path = planner._levels()(g, first, last, order, n_before, len(g), 1)
+            _, path = recursion.levels()(g, first, last, order, n_before, len(g), 1)
             fits += len(path) <= cap
         mean_m = float(np.mean([len(c[0]) for c in calls]))
         total[0] += t_levels

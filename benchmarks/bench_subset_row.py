@@ -51,7 +51,8 @@ import numpy as np
 from models.colgen import column_generation
 from models.subset_row import CutPool, best_path_with_cuts, orbit_cuts, violated_triples
 from sosp.instance import Instance, load_instance
-from sosp.planner import OrbitItems, PlanPool, _recursion, flat_positions, orbit_data
+from sosp.planner import OrbitItems, PlanPool, flat_positions, orbit_data
+from sosp.recursion import recursion
 from sosp.scenarios import generate_scenario, scenario_names
 
 log = logging.getLogger("bench_subset_row")
@@ -211,7 +212,7 @@ class Pricing:
                     bonus += sigma[c] * np.ceil(hits / 2.0)
                 else:
                     price[self.targets[cut]] += sigma[c]
-            v, path = _recursion(
+            v, path = recursion(
                 o.slew_s, o.duration, o.gains(price) + bonus, o.by_release, o.n_before,
                 o.rules, float(pe[g]), float(pw[g]),
             )  # fmt: skip

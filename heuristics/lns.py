@@ -37,13 +37,14 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from heuristics.timeline import OrbitTimeline
 from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
-from sosp.rules import EPS, orbit_rules
+from sosp.rules import EPS, may_precede, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
 from sosp.stop import (
     FirstOf,
@@ -62,10 +63,6 @@ _EXACT = ("milp", "milp-lns")
 
 #: Neighbourhoods of a step (see :class:`LNSParams`).
 Neighbourhood = Literal["auto", "orbits", "window"]
-
-#: Margin kept on (3) against fixed neighbours (the validator allows 1e-6; never rely on it).
-_MARGIN = EPS
-
 
 #: The start taken when ``start`` runs out of its share of the limit without an answer
 #: (:func:`solve_milp_lns`); it answers at any limit.
@@ -267,18 +264,13 @@ def _window_plan(
     # (3) against the kept neighbours by the interval ends of sosp.rules, with a margin so the
     # sub-MILP's plans never sit on the boundary
     if prev is not None:
-        ok &= r.right(prev.end, prev.roll) + _MARGIN <= r.left(st, th)
+        ok &= may_precede(r.right(prev.end, prev.roll), r.left(st, th), -EPS)
     if nxt is not None:
-        ok &= r.right(en, th) + _MARGIN <= r.left(nxt.start, nxt.roll)
-    dur = sum(ob.end - ob.start for ob in kept)
-    slew = sum(r.turn(x.roll, y.roll) for x, y in zip(kept, kept[1:], strict=False))
-    if prev is not None and nxt is None:
-        slew += r.slew(prev.roll)
-    if nxt is not None and prev is None:
-        slew += r.slew(nxt.roll)
-    energy = r.energy_capacity - r.energy(dur, slew)
-    memory = r.memory_capacity - r.memory(dur)
-    openings = r.max_openings - len(kept)
+        ok &= may_precede(r.right(en, th), r.left(nxt.start, nxt.roll), -EPS)
+    line = OrbitTimeline(r)
+    line.load([(ob.start, ob.end, ob.roll) for ob in on_j])
+    first = sum(1 for ob in on_j if ob.start < t0)  # the freed ones follow prev, if any
+    energy, memory, openings = line.budget_between(first, first + len(freed) - 1, ends_paid=True)
     if not ok.any() or openings <= 0 or memory <= 0 or energy <= 0:
         return None
 

@@ -298,6 +298,35 @@ class OrbitTimeline:
         self.observe = sum(e[1] - e[0] for e in self.obs)
         self.slew = sum(self.turn(a, b) for a, b in zip(self.obs, self.obs[1:], strict=False))
 
+    def budget_between(
+        self, first: int, last: int, *, ends_paid: bool = False
+    ) -> tuple[float, float, int]:
+        """What the entries outside positions ``first..last`` (a stretch to re-plan between
+        its fixed neighbours, the entries at ``first - 1`` and ``last + 1`` when there are;
+        ``last = first - 1`` for an empty stretch) leave of (4)-(6): ``(energy, memory,
+        openings)``.
+
+        The turn between the two neighbours is not charged: every plan of the stretch pays
+        it, the empty one included (:func:`sosp.planner.plan_sequence`). With ``ends_paid``
+        each neighbour's turn to nadir is charged instead (``|theta| / v`` each, the turn
+        between them when both are there): a plan may then count every new observation's
+        slew twice, ``2 |theta| / v``, and never exceed (4) (:mod:`heuristics.lns`).
+        """
+        obs, r = self.obs, self.rules
+        freed = obs[first : last + 1]
+        left = obs[first - 1] if first > 0 else None
+        right = obs[last + 1] if last + 1 < len(obs) else None
+        rest_obs = self.observe - sum(c[1] - c[0] for c in freed)
+        seq = [c for c in (left, *freed, right) if c is not None]
+        rest_slew = self.slew - sum(self.turn(x, y) for x, y in zip(seq, seq[1:], strict=False))
+        if ends_paid:
+            rest_slew += sum(r.slew(c[2]) for c in (left, right) if c is not None)
+        return (
+            r.energy_capacity - r.energy(rest_obs, rest_slew),
+            r.memory_capacity - r.memory(rest_obs),
+            r.max_openings - (len(obs) - len(freed)),
+        )
+
     def snapshot(self) -> tuple[list[Entry], float, float]:
         """The content and totals, for :meth:`restore` (a copy of the short list only)."""
         return (list(self.obs), self.observe, self.slew)

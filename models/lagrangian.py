@@ -69,7 +69,7 @@ def lagrangian_bound(
         Seconds for everything, candidates included (None: no limit).
     lower_bound
         A known feasible profit (Polyak's target); None: the profit of a quick orbit-by-orbit
-        plan (:func:`heuristics.orbit_search.ascent_profit`).
+        plan (:func:`sosp.ascent.ascent_profit`).
     data
         Prepared candidates (built here when None).
     workers
@@ -97,7 +97,7 @@ def lagrangian_bound(
     cap = float(p.sum())
     groups = data.orbits
     if lower_bound is None:
-        from heuristics.orbit_search import ascent_profit
+        from sosp.ascent import ascent_profit
 
         lower_bound = ascent_profit(data)
     pool = PlanPool(groups, workers)

@@ -285,7 +285,7 @@ def heuristic_start(
     initial: list[int] | None = None,
     stop: Callable[[float], bool] | None = None,
 ) -> list[int]:
-    """A fast schedule over the model's items: orbit-dp's search (:mod:`heuristics.orbit_search`).
+    """A fast schedule over the model's items: orbit-dp's search (:mod:`sosp.ascent`).
 
     Each orbit is re-planned exactly over the model's own items (:mod:`sosp.planner`: (3)-(6)
     with the exact slew term), then perturbation steps until ``no_improve`` steps in a row
@@ -302,34 +302,20 @@ def heuristic_start(
     list of int
         The chosen items (each target claimed once by :func:`sosp.schedule.items_to_schedule`).
     """
-    from heuristics.orbit_search import OrbitSearch, OrbitSearchParams
+    from sosp.ascent import OrbitSearch, OrbitSearchParams, iterate
     from sosp.planner import with_rolls
+    from sosp.stop import FirstOf, NoImprovement
 
-    od = arranged if arranged is not None else with_rolls(data, data.roll)
-    search = OrbitSearch(od, rng)
+    search = OrbitSearch(arranged if arranged is not None else with_rolls(data, data.roll), rng)
     if initial:
         search.set_chosen(initial)
-    search.ascent(deadline)
-    best_profit, best_paths = search.profit, list(search.paths)
-    params = OrbitSearchParams()
-    since = 0
-    while od.orbits and since < no_improve:
-        if deadline is not None and time.perf_counter() >= deadline:
-            break
-        if stop is not None and stop(best_profit):
-            break
-        since += 1
-        mark, before = len(search.journal), search.profit
-        search.perturb(params, deadline)
-        search.ascent(deadline)
-        if search.profit + 1e-9 >= before:
-            search.journal.clear()
-            if search.profit > best_profit + 1e-9:
-                best_profit, best_paths, since = search.profit, list(search.paths), 0
-        else:
-            search.undo(mark)
-            search.journal.clear()
-    search.paths = best_paths
+    until = FirstOf(
+        NoImprovement(no_improve),
+        lambda _: deadline is not None and time.perf_counter() >= deadline,
+        lambda now: stop is not None and stop(now.best),
+    )
+    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
+    search.paths = run.best_paths
     return search.chosen()
 
 

@@ -19,7 +19,7 @@ Its dual ``sigma_S >= 0`` takes ``sigma_S`` from each ``z_k`` of S and gives a p
 observations. Along a plan in time order it is one bit, the parity of the hits so far: an
 observation with ``a`` hits of S at parity ``b`` earns ``sigma_S (ceil((b + a) / 2) - b)``
 and leaves parity ``(b + a) mod 2`` (the first hit earns, the second nothing, the third
-earns again). :func:`cut_levels_py` is :func:`sosp.planner._levels_py` with such bits as
+earns again). :func:`cut_levels_py` is :func:`sosp.recursion.levels_py` with such bits as
 labels: per position and level a set of ``(bits, value)`` labels, none dominated (a label
 dominates another if its value, less the sigmas of the bits it has and the other lacks, is
 still at least the other's: a set bit can cost at most one earning of its cut).
@@ -56,7 +56,8 @@ from typing import Any
 import numpy as np
 
 from sosp.kernels import compiled
-from sosp.planner import OrbitItems, _penalised, _restrict, best_path
+from sosp.planner import OrbitItems, best_path
+from sosp.recursion import recursion, restrict
 from sosp.rules import OrbitRules
 
 #: The cut pricing restricts an orbit to the positions that may help a plan
@@ -187,7 +188,7 @@ def restrict_entries(
 ) -> CutEntries:
     """``ent`` over the sub-orbit of positions ``keep`` (sorted, of ``size``), whose places in
     the (3) order and predecessors are ``rank`` and ``n_before``
-    (:func:`sosp.planner._restrict`)."""
+    (:func:`sosp.recursion.restrict`)."""
     new_pos = np.full(size, -1, dtype=np.int64)
     new_pos[keep] = np.arange(len(keep))
     inside = new_pos[ent.pos] >= 0
@@ -415,7 +416,7 @@ def cut_levels_py(
     hit_inv: np.ndarray,
     inv_slots: int,
 ) -> tuple[float, np.ndarray, int]:
-    """The levels of :func:`sosp.planner._levels_py` with a cut's parity bit per slot.
+    """The levels of :func:`sosp.recursion.levels_py` with a cut's parity bit per slot.
 
     Level n holds, per position u, the labels ``(bits, value)`` of the plans of at most n
     observations ending at u, none dominated. Level n sweeps the (3) order once: the prefix
@@ -739,20 +740,18 @@ def _price_with_cuts(
     pw: float,
     kernel: Callable[..., Any] | None = None,
 ) -> CutPrice:
-    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays."""
-    empty = np.zeros(0, dtype=np.int64)
-    g, firsts, lasts, order, cap, _ = _penalised(
-        slew_s, duration, gain + cuts.direct, by_release, rules, pe, pw
-    )
-    if cap <= 0:
-        return CutPrice(0.0, empty, cuts.exact)
-    run = cut_levels() if kernel is None else kernel
-    nb = np.ascontiguousarray(n_before, dtype=np.int64)
-    value, path, relaxed = label_best(run, g, firsts, lasts, order, nb, cap, cuts)
-    exact = cuts.exact and relaxed == 0
-    if not value > 0.0:
-        return CutPrice(0.0, empty, exact)
-    return CutPrice(float(value), path, exact)
+    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays: the recursion
+    (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`)."""
+    relaxed = []
+
+    def labels(*args: Any) -> tuple[float, np.ndarray]:
+        value, path, over = label_best(cut_levels() if kernel is None else kernel, *args, cuts)
+        relaxed.append(over)
+        return value, path
+
+    gain = gain + cuts.direct
+    value, path = recursion(slew_s, duration, gain, by_release, n_before, rules, pe, pw, run=labels)
+    return CutPrice(float(value), path, cuts.exact and not any(relaxed))
 
 
 #: Separation: at most this many new cuts per round, and per target per round.
@@ -991,7 +990,7 @@ class CutPool:
             return 0.0, np.zeros(0, dtype=np.int64), True
         if n_worth < KEEP_SHARE * o.size:
             keep = np.flatnonzero(worth)
-            by_release, n_before = _restrict(o, keep)
+            by_release, n_before = restrict(o.by_release, o.n_before, keep)
             rank = np.empty(len(keep), dtype=np.int64)
             rank[by_release] = np.arange(len(keep))
             sub = restrict_entries(ent, keep, o.size, rank, n_before)

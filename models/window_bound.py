@@ -111,7 +111,7 @@ def window_colgen_bound(
         of the least foreseen length (:data:`ROUND_S_PER_PAIR`) would not fit.
     orbits
         Every orbit's :class:`sosp.windows.OrbitOpps` in orbit order, when the caller has
-        them (a window search's :attr:`heuristics.orbit_search.WindowData.orbits`); None:
+        them (a window search's :attr:`sosp.ascent.WindowData.orbits`); None:
         made here.
     band
         Degrees of the roll bands the relaxation prices per (:func:`sosp.windows.window_items`;

@@ -42,7 +42,7 @@ import numpy as np
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import fork_pool, inherited
-from sosp.rules import EPS
+from sosp.rules import EPS, roll_in_range, starts_within
 
 log = logging.getLogger(__name__)
 
@@ -416,8 +416,7 @@ def cached_orbit_candidates(instance: Instance, j: int) -> OrbitCandidates | Non
 def pairs_within(start: np.ndarray, limit: float) -> int:
     """(first, covered) pairs of opportunities sorted by ``start`` whose starts lie within
     ``limit`` seconds (one Delta T) of each other (the ``stop`` of :func:`orbit_columns`)."""
-    stop = np.searchsorted(start, start + limit + EPS, side="right")
-    return int((stop - np.arange(len(stop))).sum())
+    return int((starts_within(start, limit) - np.arange(len(start))).sum())
 
 
 def orbit_pairs(instance: Instance, j: int) -> int:
@@ -711,7 +710,7 @@ def orbit_columns(
     lo = np.asarray(instance.opp_roll_min[sl], dtype=float)
     hi = np.asarray(instance.opp_roll_max[sl], dtype=float)
     limit = float(instance.max_duration[j])
-    return ts, te, lo, hi, limit, np.searchsorted(ts, ts + limit + EPS, side="right")
+    return ts, te, lo, hi, limit, starts_within(ts, limit)
 
 
 def _densest(instance: Instance) -> int:
@@ -873,7 +872,7 @@ def generate(
     """
     n = len(ts)
     if stop is None:
-        stop = np.searchsorted(ts, ts + limit + EPS, side="right")
+        stop = starts_within(ts, limit)
     tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
     if n > 1:
         same = ts[1:] == ts[:-1]
@@ -1039,11 +1038,11 @@ def _start_kept(
     if not end_ok.any():
         return None
     rolls = np.unique(np.concatenate(([0.0], lo_w[lo_w > 0], hi_w[hi_w < 0])))
-    rolls = rolls[(rolls >= lo[i] - EPS) & (rolls <= hi[i] + EPS)]
+    rolls = rolls[roll_in_range(rolls, lo[i], hi[i])]
     n_t = len(rolls)
     if n_t == 0:
         return None
-    inside = (lo_w[:, None] <= rolls[None, :] + EPS) & (rolls[None, :] <= hi_w[:, None] + EPS)
+    inside = roll_in_range(rolls[None, :], lo_w[:, None], hi_w[:, None])
     n_k = len(w)
     has = inside.any(axis=1)
     a = np.where(has, inside.argmax(axis=1), n_t)  # interval [a_k, b_k] of rolls (empty: a > b)

@@ -27,7 +27,8 @@ from functools import cached_property
 import numpy as np
 
 from sosp.instance import Instance
-from sosp.schedule import RollRule, Schedule, choose_roll, items_to_schedule
+from sosp.rules import RollRule, choose_roll, common_roll_range, range_empty, within_duration
+from sosp.schedule import Schedule, items_to_schedule
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,10 +118,10 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
             s, e, lo, hi = starts[i], ends[i], los[i], his[i]
             # Opportunities come in start order (and end after they start): a group that this
             # start already outruns can take no later opportunity, so it is closed.
-            if open_ and s - open_[0][0] >= limit:
+            if open_ and not within_duration(open_[0][0], s, limit):
                 still_open = []
                 for g in open_:
-                    if s - g[0] >= limit:
+                    if not within_duration(g[0], s, limit):
                         groups.append(g[4])
                     else:
                         still_open.append(g)
@@ -129,11 +130,11 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
             for g in open_:
                 g1 = g[1]
                 end = e if e > g1 else g1
-                if end - g[0] > limit:
-                    continue
+                if not within_duration(g[0], end, limit):
+                    continue  # (11)
                 glo, ghi = g[2], g[3]
-                if (glo if glo > lo else lo) > (ghi if ghi < hi else hi):
-                    continue
+                if range_empty(glo if glo > lo else lo, ghi if ghi < hi else hi):
+                    continue  # (7)
                 growth = end - g1
                 if growth < best_growth:
                     best, best_growth = g, growth
@@ -153,6 +154,7 @@ def static_cluster_tasks(instance: Instance, roll_rule: RollRule = "midpoint") -
 
 def _taskset(instance: Instance, groups: list[list[int]], roll_rule: RollRule) -> TaskSet:
     rows = []
+    roll_min, roll_max = instance.opp_roll_min, instance.opp_roll_max
     for members in groups:
         idx = np.array(sorted(members), dtype=np.int64)
         s = float(instance.opp_start[idx].min())
@@ -160,11 +162,7 @@ def _taskset(instance: Instance, groups: list[list[int]], roll_rule: RollRule) -
         if idx.size == 1:
             r = float(instance.opp_roll[idx[0]])
         else:
-            r = choose_roll(
-                float(instance.opp_roll_min[idx].max()),
-                float(instance.opp_roll_max[idx].min()),
-                roll_rule,
-            )
+            r = choose_roll(*common_roll_range(roll_min[idx], roll_max[idx]), roll_rule)
         ks = tuple(sorted({int(k) for k in instance.opp_target[idx]}))
         rows.append((int(instance.opp_orbit[idx[0]]), s, e, r, tuple(idx.tolist()), ks))
     rows.sort(key=lambda x: (x[0], x[1], x[2], x[4]))

@@ -47,7 +47,6 @@ and the MILP LNS (:mod:`heuristics.lns`).
 from __future__ import annotations
 
 import logging
-import math
 import multiprocessing as mp
 import time
 from collections.abc import Callable, Sequence
@@ -60,7 +59,6 @@ import numpy as np
 from sosp.candidates import OppGroups, Pace, cluster_candidates, compile_within, flatten
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
-from sosp.kernels import compiled
 from sosp.parallel import (
     Workers,
     cluster_size,
@@ -69,16 +67,11 @@ from sosp.parallel import (
     is_client,
     local_processes,
 )
-from sosp.rules import EPS, OrbitRules, orbit_rules, sequence_slew_time
+from sosp.recursion import least_penalty_plan, levels, recursion, release_order, restrict
+from sosp.rules import EPS, OrbitRules, may_precede, orbit_rules, sequence_slew_time
 
 log = logging.getLogger(__name__)
 
-
-#: Penalty doublings tried before :func:`best_feasible_path` settles for the empty plan.
-_MAX_DOUBLINGS = 60
-
-#: Bisection steps of :func:`best_feasible_path` between an infeasible and a feasible penalty.
-_BISECTIONS = 12
 
 #: From this many (position, target) pairs on, an orbit's gains are one ``scipy.sparse`` CSR
 #: product instead of ``np.bincount`` over ``price[target_flat]``: the product's fixed cost is
@@ -423,14 +416,6 @@ def _end_targets(
     return out[0], out[1]
 
 
-def release_order(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The recursion's view of (3) on one orbit from the items' interval ends (``L``, ``R``
-    of :mod:`sosp.rules`): the items by ``R`` (``by_release``), and per item how many of
-    them have ``R <= L + EPS``, i.e. may precede it (``n_before``, a prefix of that order)."""
-    by_release = np.argsort(right, kind="stable")
-    return by_release, np.searchsorted(right[by_release], left + EPS, side="right")
-
-
 def _covered_targets(opp_target: np.ndarray, opps: OppGroups) -> tuple[np.ndarray, np.ndarray]:
     """The distinct targets of each group of opportunities, sorted within the group, flat, and
     the group of each entry (both in group order; int32)."""
@@ -481,7 +466,7 @@ def best_path(
     pe, pw = r.per_unit(lam_energy, lam_memory)
     sub = priced(o, price) if prepared is None else prepared
     if sub.keep is None:
-        return _recursion(o.slew_s, o.duration, sub.gain, o.by_release, o.n_before, r, pe, pw)
+        return recursion(o.slew_s, o.duration, sub.gain, o.by_release, o.n_before, r, pe, pw)
     keep = sub.keep
     rate = pe * r.observe_energy_rate + pw * r.memory_rate
     if rate > 0 and len(keep):
@@ -491,11 +476,11 @@ def best_path(
         worth = sub.gain > rate * o.duration[keep]
         if np.count_nonzero(worth) < 0.8 * len(keep):
             keep = keep[worth]
-            by_release, n_before = _restrict(o, keep)
+            by_release, n_before = restrict(o.by_release, o.n_before, keep)
             sub = Priced(keep, sub.gain[worth], by_release, n_before)
     if len(keep) == 0:
         return 0.0, np.zeros(0, dtype=np.int64)
-    value, path = _recursion(
+    value, path = recursion(
         o.slew_s[keep], o.duration[keep], sub.gain, sub.by_release, sub.n_before, r, pe, pw
     )
     return value, keep[path]
@@ -529,7 +514,7 @@ def priced(o: OrbitItems, price: np.ndarray) -> Priced:
     gain = o.gains(price)
     if o.size >= PRUNE_FROM and o.start is not None:
         keep = _useful(o, gain, price)
-        by_release, n_before = _restrict(o, keep)
+        by_release, n_before = restrict(o.by_release, o.n_before, keep)
         return Priced(keep, gain[keep], by_release, n_before)
     return Priced(None, gain, None, None)
 
@@ -576,242 +561,6 @@ def _useful(o: OrbitItems, gain: np.ndarray, price: np.ndarray) -> np.ndarray:
     return np.sort(order[ok])
 
 
-def _restrict(o: OrbitItems, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``by_release`` and ``n_before`` of the sub-orbit of positions ``keep`` (sorted), in
-    the sub-orbit's positions."""
-    inside = np.zeros(o.size, dtype=bool)
-    inside[keep] = True
-    new_pos = np.cumsum(inside) - 1
-    kept_release = inside[o.by_release]
-    by_release = new_pos[o.by_release[kept_release]]
-    # kept positions among the first n of by_release, for each n
-    prefix = np.zeros(o.size + 1, dtype=np.int64)
-    np.cumsum(kept_release, out=prefix[1:])
-    n_before = prefix[o.n_before[keep]]
-    return by_release, n_before
-
-
-def _penalised(
-    slew_s: np.ndarray,
-    duration: np.ndarray,
-    gain: np.ndarray,
-    by_release: np.ndarray | None,
-    r: OrbitRules,
-    pe: float,
-    pw: float,
-    *,
-    openings: int | None = None,
-    left_slew: float | None = None,
-    right_slew: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float]:
-    """The recursion's inputs (:func:`_recursion`'s parameters): per position the gain net
-    of the (4)-(5) penalties with each observation's slew counted twice, what the first and
-    the last observation get back, the (3) order, the number of levels and the empty plan's
-    value, as contiguous arrays for the compiled kernels (empty ones when no level is
-    allowed: the callers return the empty plan)."""
-    m = len(gain)
-    es = pe * r.slew_energy_rate
-    cap = min(r.max_openings if openings is None else openings, m)
-    empty = 0.0
-    if left_slew is not None and right_slew is not None:
-        empty = -es * (left_slew + right_slew)
-    if cap <= 0:  # no observation allowed (a local search's stretch with no opening left)
-        none = np.zeros(0)
-        return none, none, none, np.zeros(0, dtype=np.int64), cap, empty
-    # What the first (last) observation gets back: |theta| of the missing turn from (to)
-    # nadir, or minus the fixed neighbour's half of the turn to it.
-    first: Any = 0.0
-    last: Any = 0.0
-    g = gain
-    if pe > 0.0 or pw > 0.0:
-        slew_cost = es * slew_s
-        g = gain - pe * r.observe_energy_rate * duration
-        g -= pw * r.memory_rate * duration
-        g -= 2.0 * slew_cost
-        first = slew_cost if left_slew is None else -es * left_slew
-        last = slew_cost if right_slew is None else -es * right_slew
-    firsts = np.full(m, first) if np.ndim(first) == 0 else first
-    lasts = np.full(m, last) if np.ndim(last) == 0 else last
-    order = np.arange(m) if by_release is None else by_release
-    return (
-        np.ascontiguousarray(g, dtype=np.float64),
-        np.ascontiguousarray(firsts, dtype=np.float64),
-        np.ascontiguousarray(lasts, dtype=np.float64),
-        np.ascontiguousarray(order, dtype=np.int64),
-        cap,
-        empty,
-    )
-
-
-def _recursion(
-    slew_s: np.ndarray,
-    duration: np.ndarray,
-    gain: np.ndarray,
-    by_release: np.ndarray | None,
-    n_before: np.ndarray,
-    r: OrbitRules,
-    pe: float,
-    pw: float,
-    *,
-    openings: int | None = None,
-    left_slew: float | None = None,
-    right_slew: float | None = None,
-) -> tuple[float, np.ndarray]:
-    """The level-by-level recursion of :func:`best_path` and :func:`plan_sequence`.
-
-    Level n holds, per position, the best penalised value of a plan of at most n
-    observations ending there ((3) through ``by_release``/``n_before``, ``by_release`` None
-    when the positions are already in ``R`` order; (6) through the
-    number of levels, at most ``openings``, default c_j). The slew term of (4) runs over
-    consecutive pairs: each observation pays ``2 |theta| / v`` and the first one gets
-    ``|theta_first| / v`` back, or, after a fixed neighbour of slew ``left_slew`` (seconds
-    ``|theta| / v``), pays that neighbour's half of the turn instead; the same at the end
-    with ``right_slew``.
-
-    Returns
-    -------
-    tuple
-        ``(value, path)``: the plan's penalised value and its positions in (3) order; the
-        empty plan (value ``-pe * es * (left_slew + right_slew)`` with both neighbours, the
-        turn between them, else 0) when nothing beats it.
-    """
-    g, firsts, lasts, order, cap, empty = _penalised(
-        slew_s, duration, gain, by_release, r, pe, pw,
-        openings=openings, left_slew=left_slew, right_slew=right_slew,
-    )  # fmt: skip
-    if cap <= 0:
-        return empty, np.zeros(0, dtype=np.int64)
-    value, path = _levels()(
-        g, firsts, lasts, order, np.ascontiguousarray(n_before, dtype=np.int64), cap, 1
-    )
-    if not value > empty:
-        return empty, np.zeros(0, dtype=np.int64)
-    return value, path
-
-
-def _levels_py(
-    g: np.ndarray,
-    first: np.ndarray,
-    last: np.ndarray,
-    order: np.ndarray,
-    n_before: np.ndarray,
-    cap: int,
-    sweep: int = 1,
-) -> tuple[float, np.ndarray]:
-    """The levels of :func:`_recursion` and the way back (compiled by numba, :func:`_levels`).
-
-    With ``sweep`` 1 (the callers' choice), one sweep without the cap first, and the levels
-    only when its plan is longer than ``cap`` (see below); 0: the levels alone (kept for
-    ``benchmarks/bench_planner.py``, which times one against the other).
-
-    Level n holds, per position u, ``g[u] + max(first[u], best of level n - 1 over the first
-    n_before[u] positions of order)``; a level equal (bit for bit) to the one before ends the
-    recursion, itself kept as the top level. The best final value ``level + last`` is taken
-    at its first position, and each step back takes the first position by ``order``
-    reaching its predecessors' maximum, while that maximum beats starting at u. Loops, not
-    array operations: a local search's stretch has a few dozen positions, where numpy's
-    fixed cost per call was most of the time.
-    """
-    m = g.shape[0]
-    # First one sweep without the cap: every predecessor of u is among the first n_before[u]
-    # positions of ``order`` and u is not (positive durations), so visiting the positions
-    # in that order gives each the best plan of any length ending there. When the best of
-    # these plans has at most ``cap`` observations it is the best under the cap too, and
-    # the levels (cap sweeps, or until two agree) are not needed: most plans are shorter.
-    s = np.empty(m)
-    pm = np.empty(m + 1)
-    run = -np.inf
-    pm[0] = run
-    use_sweep = sweep == 1
-    for k in range(m if use_sweep else 0):
-        u = order[k]
-        if n_before[u] > k:
-            use_sweep = False  # not a (3) order (u among its own predecessors): the levels
-            break
-        b = pm[n_before[u]]
-        f = first[u]
-        s[u] = (b if b > f else f) + g[u]
-        if s[u] > run:
-            run = s[u]
-        pm[k + 1] = run
-    lv = np.empty((0, m))  # the levels, allocated only when they run
-    path = np.empty(cap, dtype=np.int64)
-    top = cap
-    while True:
-        if not use_sweep:
-            lv = np.empty((cap, m))
-            for u in range(m):
-                lv[0, u] = g[u] + first[u]
-            top = 1
-            while top < cap:
-                prev = lv[top - 1]
-                run = -np.inf
-                pm[0] = run
-                for k in range(m):
-                    x = prev[order[k]]
-                    if x > run:
-                        run = x
-                    pm[k + 1] = run
-                cur = lv[top]
-                same = True
-                for u in range(m):
-                    b = pm[n_before[u]]
-                    f = first[u]
-                    v = (b if b > f else f) + g[u]
-                    cur[u] = v
-                    if same and (
-                        v != prev[u] or math.copysign(1.0, v) != math.copysign(1.0, prev[u])
-                    ):
-                        same = False
-                top += 1
-                if same:
-                    break
-        end = s if use_sweep else lv[top - 1]
-        best_u = 0
-        best_v = end[0] + last[0]
-        for u in range(1, m):
-            v = end[u] + last[u]
-            if v > best_v:
-                best_u, best_v = u, v
-        u = best_u
-        path[0] = u
-        count = 1
-        n = top  # levels left below the plan's last position (the sweep: no such limit)
-        while use_sweep or n > 1:
-            prev = s if use_sweep else lv[n - 2]
-            best = -np.inf
-            pick = -1
-            for k in range(n_before[u]):
-                x = prev[order[k]]
-                if x > best:  # strict: the first position reaching the maximum
-                    best, pick = x, order[k]
-            if not best > first[u]:
-                break  # u starts the plan (or has no predecessor)
-            if count == cap:
-                count = cap + 1  # the sweep's plan is longer than the cap
-                break
-            u = pick
-            path[count] = u
-            count += 1
-            n -= 1
-        if count <= cap:
-            return best_v, path[:count][::-1].copy()
-        use_sweep = False  # the levels decide
-
-
-#: :func:`_levels_py`'s numba signature.
-LEVELS_SIGNATURE = (
-    "Tuple((float64, int64[::1]))(float64[::1], float64[::1], float64[::1], "
-    "int64[::1], int64[::1], int64, int64)"
-)
-
-
-def _levels() -> Callable[..., tuple[float, np.ndarray]]:
-    """:func:`_levels_py` compiled by numba on first use (cached on disk: about 1.5 s the
-    first time, then about 0.5 s a process to import numba and load it)."""
-    return compiled(_levels_py, LEVELS_SIGNATURE)
-
-
 def compile_kernels() -> None:
     """Compile (or load) the suite's numba kernels now (the planner's recursion, the
     candidates' cut to a stretch, :meth:`sosp.candidates.OrbitCandidates.within`, the
@@ -822,7 +571,7 @@ def compile_kernels() -> None:
     from sosp.conflicts import compile_conflict_kernel
     from sosp.windows import compile_window_kernels  # sosp.windows imports this module
 
-    _levels()
+    levels()
     compile_within()
     compile_window_kernels()
     compile_conflict_kernel()
@@ -919,16 +668,15 @@ def plan_sequence(
         return nothing
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
     roll, gain = np.asarray(roll, dtype=float), np.asarray(gain, dtype=float)
-    # (3) as interval ends, with the solvers' margin on the left ones: u may precede w iff
-    # R_u <= L_w + EPS
-    lo_eps, hi_end = rules.left(start, roll) + EPS, rules.right(end, roll)
+    # (3) as interval ends (sosp.rules.may_precede): u may precede w iff R_u <= L_w + EPS
+    lo, hi_end = rules.left(start, roll), rules.right(end, roll)
     ok = gain > 0.0
     left_slew = right_slew = None
     if left is not None:
-        ok &= rules.right(left[0], left[1]) <= lo_eps  # (3) after ``left``
+        ok &= may_precede(rules.right(left[0], left[1]), lo)  # (3) after ``left``
         left_slew = float(rules.slew(left[1]))
     if right is not None:
-        ok &= hi_end <= rules.left(right[0], right[1]) + EPS  # (3) before ``right``
+        ok &= may_precede(hi_end, rules.left(right[0], right[1]))  # (3) before ``right``
         right_slew = float(rules.slew(right[1]))
     # the usable candidates in R order, so that the recursion's prefix maxima need no gather
     idx = np.flatnonzero(ok)
@@ -936,8 +684,8 @@ def plan_sequence(
         return nothing
     idx = idx[np.argsort(hi_end[idx], kind="stable")]
     duration = (end - start)[idx]
-    lo_eps, hi_end, roll, gain = lo_eps[idx], hi_end[idx], roll[idx], gain[idx]
-    n_before = np.searchsorted(hi_end, lo_eps, side="right")
+    lo, hi_end, roll, gain = lo[idx], hi_end[idx], roll[idx], gain[idx]
+    n_before = np.searchsorted(hi_end, lo + EPS, side="right")
     # rolls of the fixed neighbours, around the sequence in the exact slew of (4)
     lead = [float(left[1])] if left is not None else []
     trail = [float(right[1])] if right is not None else []
@@ -949,7 +697,7 @@ def plan_sequence(
 
     def plan(t: float) -> np.ndarray:
         pe, pw = t / max(e_net, EPS), t / max(w_budget, EPS)
-        _, path = _recursion(
+        _, path = recursion(
             rules.slew(roll),
             duration,
             gain,
@@ -1001,41 +749,6 @@ def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
     """
     sub = priced(o, price)
     return least_penalty_plan(lambda t: best_path(o, price, t, t, sub)[1], o.fits)
-
-
-def least_penalty_plan(
-    plan: Callable[[float], np.ndarray], fits: Callable[[np.ndarray], bool]
-) -> np.ndarray:
-    """The plan at about the least common penalty on (4)-(5) whose plan fits them.
-
-    ``plan(t)`` is the recursion's plan with penalty ``t`` per unit of energy and memory
-    capacity. ``plan(0)`` when it fits (then optimal under (3), (6)); otherwise ``t`` is
-    doubled from 1 (at most :data:`_MAX_DOUBLINGS` times; the empty plan when none fits) and
-    bisected :data:`_BISECTIONS` times towards the least fitting penalty (a larger penalty
-    makes the plan's penalised use of the two budgets no larger). Only a plan that passed
-    ``fits`` is returned, so it is feasible: a Lagrangian heuristic, not proven optimal when
-    the knapsacks bind.
-    """
-    path = plan(0.0)
-    if fits(path):
-        return path
-    lo, hi = 0.0, 1.0
-    for _ in range(_MAX_DOUBLINGS):
-        path = plan(hi)
-        if fits(path):
-            break
-        lo, hi = hi, 2.0 * hi
-    else:
-        return np.zeros(0, dtype=np.int64)
-    best = path
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        trial = plan(mid)
-        if fits(trial):
-            hi, best = mid, trial
-        else:
-            lo = mid
-    return best
 
 
 def flat_positions(o: OrbitItems, path: np.ndarray) -> np.ndarray:

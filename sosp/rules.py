@@ -65,15 +65,23 @@ def right_end(end: Any, roll: Any, setup_time: Any, slew_rate: Any) -> Any:
     return end + setup_time + abs(roll) / slew_rate
 
 
-def may_precede(right_u: Any, left_w: Any) -> Any:
-    """(3) for u before w from their ends: ``R_u <= L_w`` (with the solvers' margin)."""
-    return right_u <= left_w + EPS
+def may_precede(right_u: Any, left_w: Any, margin: float = EPS) -> Any:
+    """(3) for u before w from their ends: ``R_u <= L_w`` (with the solvers' margin; a
+    negative ``margin`` asks for that much room, elementwise)."""
+    return right_u <= left_w + margin
 
 
 # --------------------------------------------------------------------------- (4)-(6) usage
 def within_duration(start: Any, end: Any, max_duration: Any) -> Any:
     """(11): a window [start, end] lasts at most Delta T (elementwise on arrays)."""
     return end - start <= max_duration + EPS
+
+
+def starts_within(start: np.ndarray, max_duration: Any, at: Any = None) -> np.ndarray:
+    """(11) over starts sorted in time: per start (or per time of ``at``), one past the last
+    start within Delta T of it (with the margin), i.e. the run of opportunities one
+    observation opening there may still cover."""
+    return np.searchsorted(start, (start if at is None else at) + max_duration + EPS, "right")
 
 
 def sequence_slew_time(rolls: np.ndarray, slew_rate: float) -> float:
@@ -103,7 +111,7 @@ def memory(observe_s: Any, memory_rate: Any) -> Any:
 # ------------------------------------------------------------------- (7)-(11) cluster-tasks
 def common_roll_range(roll_min: np.ndarray, roll_max: np.ndarray) -> tuple[float, float]:
     """(8): the rolls every covered opportunity accepts, ``[max theta_lo, min theta_hi]``
-    (empty when the first exceeds the second by more than :data:`EPS`)."""
+    (empty when the first exceeds the second, :func:`range_empty`)."""
     return float(np.max(roll_min)), float(np.min(roll_max))
 
 
@@ -116,12 +124,43 @@ def check_roll_rule(rule: Any, name: str = "roll_rule") -> None:
         raise InputError(f"{name}: expected one of {', '.join(ROLL_RULES)}, got {rule!r}")
 
 
-def choose_roll(lo: float, hi: float, rule: RollRule = "midpoint") -> float:
+def range_empty(lo: Any, hi: Any) -> Any:
+    """(7)-(8): whether no roll lies in the common range ``[lo, hi]`` (elementwise)."""
+    return lo > hi
+
+
+def roll_in_range(roll: Any, lo: Any, hi: Any) -> Any:
+    """(7): whether ``roll`` lies in the range ``[lo, hi]``, with the margin (elementwise)."""
+    return (lo <= roll + EPS) & (roll <= hi + EPS)
+
+
+def group_roll_ranges(
+    lo: np.ndarray, hi: np.ndarray, ptr: np.ndarray, flat: np.ndarray, block: int = 1 << 18
+) -> tuple[np.ndarray, np.ndarray]:
+    """(8) of many groups at once: the common range ``[max lo, min hi]`` of each non-empty
+    group of members ``flat[ptr[g]:ptr[g + 1]]`` (indices into ``lo``, ``hi``). Reduced by
+    blocks of ``block`` groups, so that millions of them need no gather of every member at
+    once."""
+    n = len(ptr) - 1
+    glo, ghi = np.empty(n), np.empty(n)
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        f0, f1 = int(ptr[a]), int(ptr[b])
+        part = flat[f0:f1]
+        glo[a:b] = np.maximum.reduceat(lo[part], ptr[a:b] - f0)
+        ghi[a:b] = np.minimum.reduceat(hi[part], ptr[a:b] - f0)
+    return glo, ghi
+
+
+def choose_roll(lo: Any, hi: Any, rule: RollRule = "midpoint") -> Any:
     """A roll in the common range ``[lo, hi]`` (7): the midpoint (9), or the point closest to
-    nadir (never more slew time or energy than any other roll in the range)."""
+    nadir (never more slew time or energy than any other roll in the range). Elementwise on
+    arrays; a float for floats."""
     if rule == "midpoint":
         return 0.5 * (lo + hi)
     if rule == "nadir":
+        if isinstance(lo, np.ndarray) or isinstance(hi, np.ndarray):
+            return np.minimum(np.maximum(0.0, lo), hi)
         return float(min(max(0.0, lo), hi))
     raise InputError(f"roll rule: expected 'midpoint' or 'nadir', got {rule!r}")
 

@@ -55,15 +55,6 @@ class Observation:
         return self.end - self.start
 
 
-def common_roll_range(instance: Instance, opps: Sequence[int]) -> tuple[float, float]:
-    """The common roll range (8) of some opportunities (:func:`sosp.rules.common_roll_range`).
-
-    Returns ``(lo, hi)``; the range is empty when ``lo > hi`` (then (7) fails).
-    """
-    idx = np.asarray(opps, dtype=np.int64)
-    return rules.common_roll_range(instance.opp_roll_min[idx], instance.opp_roll_max[idx])
-
-
 def make_observation(
     instance: Instance, opps: Iterable[int], rule: RollRule = "midpoint"
 ) -> Observation:
@@ -88,8 +79,8 @@ def make_observation(
     if len(ids) == 1:
         roll = float(instance.opp_roll[ids[0]])
     else:
-        lo, hi = common_roll_range(instance, ids)
-        if lo > hi:
+        lo, hi = rules.common_roll_range(instance.opp_roll_min[idx], instance.opp_roll_max[idx])
+        if rules.range_empty(lo, hi):
             raise ValueError("the opportunities have no common roll (7)")
         roll = choose_roll(lo, hi, rule)
     return Observation(int(orbits[0]), start, end, roll, ids)

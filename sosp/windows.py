@@ -68,8 +68,16 @@ import numpy as np
 from sosp.candidates import OppGroups
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.planner import _recursion, least_penalty_plan, release_order
-from sosp.rules import EPS, OrbitRules, RollRule, check_roll_rule, orbit_rules
+from sosp.recursion import least_penalty_plan, recursion, release_order
+from sosp.rules import (
+    EPS,
+    OrbitRules,
+    RollRule,
+    check_roll_rule,
+    choose_roll,
+    orbit_rules,
+    starts_within,
+)
 
 log = logging.getLogger(__name__)
 
@@ -462,7 +470,7 @@ def window_items(
         first, last, gain, point, spans = _window_rows(
             oo.start[sel], oo.end[sel], clo, chi, w[sel], float(oo.rules.max_duration), span
         )
-        least = least_abs_roll(clo[first], chi[first])
+        least = np.abs(choose_roll(clo[first], chi[first], "nadir"))  # the least |r|
         parts.append((sel[first], sel[last], gain, point, *spans.T, least))
     if not parts:
         return _no_items()
@@ -523,7 +531,7 @@ def _window_rows(
         return z, z, np.zeros(0), np.zeros(0), np.zeros((0, 3))
     # room: per priced start, the opportunities starting in its window (ties before it too)
     lo_at = np.searchsorted(ts, ts[priced], side="left")
-    hi_at = np.searchsorted(ts, ts[priced] + limit + EPS, side="right")
+    hi_at = starts_within(ts, limit, ts[priced])
     room = int((hi_at - lo_at).sum())
     first = np.empty(room, dtype=np.int64)
     last = np.empty(room, dtype=np.int64)
@@ -538,7 +546,7 @@ def _window_rows(
 @dataclass(frozen=True, eq=False)
 class RelaxedItems:
     """The relaxation's items of one orbit at some prices (see the module docstring), in
-    the arrangement :func:`sosp.planner._recursion` takes.
+    the arrangement :func:`sosp.recursion.recursion` takes.
 
     Attributes
     ----------
@@ -562,11 +570,6 @@ class RelaxedItems:
     @property
     def size(self) -> int:
         return self.items.size
-
-
-def least_abs_roll(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The least |r| over [lo, hi] (0 when the range holds nadir)."""
-    return np.where(lo > 0.0, lo, np.where(hi < 0.0, -hi, 0.0))
 
 
 def relaxed_items(oo: OrbitOpps, price: np.ndarray, band: float | None = None) -> RelaxedItems:
@@ -605,7 +608,7 @@ def relaxed_best_path(
         return 0.0, np.zeros(0, dtype=np.int64), ri
     r = oo.rules
     pe, pw = r.per_unit(lam_energy, lam_memory)
-    value, path = _recursion(
+    value, path = recursion(
         ri.slew_s, ri.duration, ri.items.gain, ri.by_release, ri.n_before, r, pe, pw
     )
     return float(value), path, ri
@@ -757,7 +760,7 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
 
     def plan(pen: float) -> np.ndarray:
         pe, pw = r.per_unit(pen, pen)
-        _, path = _recursion(slew_s, duration, gain, by_release, n_before, r, pe, pw)
+        _, path = recursion(slew_s, duration, gain, by_release, n_before, r, pe, pw)
         return path
 
     def fits(path: np.ndarray) -> bool:
@@ -787,10 +790,7 @@ def _observations(
     (rows kept, start, end, roll)."""
     r = oo.rules
     start, end, lo, hi = oo.start[wi.first], wi.end, wi.roll_lo, wi.roll_hi
-    if roll_rule == "nadir":
-        roll = np.minimum(np.maximum(0.0, lo), hi)
-    else:
-        roll = 0.5 * (lo + hi)
+    roll = choose_roll(lo, hi, roll_rule)
     ok = r.duration_ok(start, end) & r.fits(0.0, 0.0)
     keep = np.flatnonzero(ok)
     return keep, start[keep], end[keep], roll[keep]

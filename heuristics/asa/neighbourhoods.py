@@ -17,6 +17,7 @@ from heuristics.asa.params import ASAParams
 from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from heuristics.timeline import OrbitTimeline
+from sosp.rules import range_empty
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +59,7 @@ def clustering_gain(
     pb = state.pb
     lo = max(c[LO], pb.opt_lo[x])
     hi = min(c[HI], pb.opt_hi[x])
-    if lo > hi:
+    if range_empty(lo, hi):
         return None  # (7)
     s = min(c[START], pb.opt_start[x])
     e = max(c[END], pb.opt_end[x])

@@ -67,16 +67,8 @@ from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
-from heuristics.orbit_search import (
-    OrbitSearch,
-    OrbitSearchParams,
-    WindowData,
-    WindowSearch,
-    ascend_from_both,
-    hpfs_start,
-    iterate,
-    lp_start,
-)
+from heuristics.orbit_search import ascend_from_both, hpfs_start, lp_start
+from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
 from sosp.candidates import flatten, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -124,7 +116,7 @@ class OrbitPlanner:
     def __init__(self, instance: Instance, state: State, deadline: float | None) -> None:
         if state.pb.mode != "dtc":
             raise ValueError("whole-orbit re-planning needs dynamic clustering (asa-dtc)")
-        if state.nadir and state.nadir_singles:
+        if state.roll_rule == "nadir" and state.nadir_singles:
             data = orbit_data(instance, deadline)
         else:  # the search's rolls, arranged once
             data = orbit_data(instance, deadline, roll=lambda opps: _rolls_of(opps, state))
@@ -317,7 +309,7 @@ class WindowPlanner(OrbitPlanner):
 
         self.data = WindowData.build(instance)
         self._window_plan = window_plan
-        self._rule: RollRule = "nadir" if state.nadir else "midpoint"
+        self._rule: RollRule = state.roll_rule
         self.orbits = [o.orbit for o in self.data.orbits if o.size]
         self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}

@@ -169,7 +169,7 @@ class ASAParams(Params):
     init
         How the search starts. ``"greedy"``: section 5.4's insertion of every task by
         decreasing weight (the paper's). ``"orbit-dp"`` (sosp's, not the paper's): the
-        iterated local search of ``orbit-dp`` (``heuristics.orbit_search.iterate``) over the
+        iterated local search of ``orbit-dp`` (``sosp.ascent.iterate``) over the
         whole-orbit move's candidates, for ``init_share`` of the time limit, then section
         5.4's insertion on what is left; the annealing continues from there. ``"lp"``
         (default): the same, the search started from the plans of the column-generation root

@@ -284,13 +284,7 @@ class _Stretch:
         self.left = obs[first - 1] if first > 0 else None
         self.right = obs[last + 1] if last + 1 < len(obs) else None
         # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
-        p = line.rules
-        rest_obs = line.observe - sum(c[END] - c[START] for c in freed)
-        seq = [c for c in (self.left, *freed, self.right) if c is not None]
-        rest_slew = line.slew - sum(line.turn(x, y) for x, y in zip(seq, seq[1:], strict=False))
-        self.energy = p.energy_capacity - p.energy(rest_obs, rest_slew)
-        self.memory = p.memory_capacity - p.memory(rest_obs)
-        self.openings = p.max_openings - (len(obs) - len(freed))
+        self.energy, self.memory, self.openings = line.budget_between(first, last)
 
     def units(self, state: State) -> set[int]:
         unit = state.pb.opt_unit

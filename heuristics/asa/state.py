@@ -25,6 +25,7 @@ import numpy as np
 
 from heuristics.asa.problem import Problem
 from heuristics.timeline import OrbitTimeline
+from sosp.rules import RollRule, choose_roll, group_roll_ranges
 
 #: Cluster tuple fields.
 START, END, ROLL, LO, HI, MEMBERS = range(6)
@@ -50,7 +51,7 @@ class State:
         self, problem: Problem, roll_rule: str = "midpoint", nadir_singles: bool = False
     ) -> None:
         self.pb = problem
-        self.nadir = roll_rule == "nadir"
+        self.roll_rule: RollRule = "nadir" if roll_rule == "nadir" else "midpoint"
         self.nadir_singles = nadir_singles and problem.clustering
         #: Roll of each option observed alone.
         self.single_roll = list(problem.opt_roll)
@@ -205,20 +206,11 @@ class State:
 
     def group_rolls(self, ptr: np.ndarray, flat: np.ndarray) -> np.ndarray:
         """The roll :meth:`make_cluster` gives each group of options ``flat[ptr[g]:ptr[g + 1]]``
-        (non-empty), for many groups at once: (9) or the nadir rule over the common range (8),
-        a single option its own roll (:attr:`single_roll`). The ranges are reduced by blocks
-        of groups, so that millions of them need no gather of every member at once."""
+        (non-empty), for many groups at once: (9) or the nadir rule over the common range (8)
+        (:func:`sosp.rules.group_roll_ranges`), a single option its own roll
+        (:attr:`single_roll`)."""
         cols = self.arrays
-        n = len(ptr) - 1
-        lo, hi = np.empty(n), np.empty(n)
-        block = 1 << 18
-        for a in range(0, n, block):
-            b = min(n, a + block)
-            f0, f1 = int(ptr[a]), int(ptr[b])
-            part = flat[f0:f1]
-            lo[a:b] = np.maximum.reduceat(cols.lo[part], ptr[a:b] - f0)
-            hi[a:b] = np.minimum.reduceat(cols.hi[part], ptr[a:b] - f0)
-        roll = np.clip(0.0, lo, hi) if self.nadir else 0.5 * (lo + hi)
+        roll = choose_roll(*group_roll_ranges(cols.lo, cols.hi, ptr, flat), self.roll_rule)
         single = np.diff(ptr) == 1
         roll[single] = cols.single_roll[flat[ptr[:-1][single]]]
         return roll
@@ -241,7 +233,7 @@ class State:
         e = max(en[x] for x in members)
         lo = max(lo_[x] for x in members)
         hi = min(hi_[x] for x in members)
-        roll = min(max(0.0, lo), hi) if self.nadir else 0.5 * (lo + hi)
+        roll = choose_roll(lo, hi, self.roll_rule)
         return (s, e, roll, lo, hi, members)
 
     def cluster_with(self, c: Cluster, x: int) -> Cluster:
@@ -252,7 +244,7 @@ class State:
         e = max(c[END], pb.opt_end[x])
         lo = max(c[LO], pb.opt_lo[x])
         hi = min(c[HI], pb.opt_hi[x])
-        roll = min(max(0.0, lo), hi) if self.nadir else 0.5 * (lo + hi)
+        roll = choose_roll(lo, hi, self.roll_rule)
         return (s, e, roll, lo, hi, members)
 
     def cluster_without(self, c: Cluster, x: int) -> Cluster | None:

@@ -172,7 +172,7 @@ def test_cut_levels_matches_enumeration(seed: int, m: int, n_cuts: int) -> None:
 
 
 def test_without_cuts_the_kernel_is_the_planner_recursion() -> None:
-    from sosp.planner import _levels_py
+    from sosp.recursion import levels_py
 
     rng = np.random.default_rng(3)
     for _ in range(50):
@@ -183,7 +183,7 @@ def test_without_cuts_the_kernel_is_the_planner_recursion() -> None:
         cap = int(rng.integers(1, 8))
         cuts = orbit_cuts(rank, n_before, [], np.zeros(0))
         value, path, _ = _run(cut_levels(), g, first, last, order, n_before, cap, cuts)
-        want, want_path = _levels_py(g, first, last, order, n_before, cap)
+        want, want_path = levels_py(g, first, last, order, n_before, cap)
         assert value == pytest.approx(want)
 
 

@@ -13,26 +13,21 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.orbit_search import (
-    START_MODES,
-    OrbitSearch,
-    OrbitSearchParams,
-    lp_start,
-    solve_orbit_dp,
-)
+from heuristics.orbit_search import lp_start, solve_orbit_dp
 from models.colgen import colgen_bound
 from models.lagrangian import lagrangian_bound
+from sosp.ascent import START_MODES, OrbitSearch, OrbitSearchParams
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance, Resources
 from sosp.planner import (
     OrbitItems,
-    _recursion,
     best_feasible_path,
     best_path,
     orbit_data,
     plan_sequence,
     with_rolls,
 )
+from sosp.recursion import recursion
 from sosp.result import Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Observation, Schedule
@@ -103,7 +98,7 @@ def test_levels_kernel_with_and_without_the_cap_binding() -> None:
     # the kernel's uncapped sweep is taken only when its plan fits the cap, the levels
     # otherwise: both give the best chain of at most cap positions, compiled or not, and
     # the same as the levels alone (sweep 0)
-    from sosp.planner import _levels, _levels_py, release_order
+    from sosp.recursion import levels, levels_py, release_order
 
     binding = fitting = 0
     for seed in range(40):
@@ -121,7 +116,7 @@ def test_levels_kernel_with_and_without_the_cap_binding() -> None:
             want = _capped_reference(g, first, last, order, n_before, cap)
             binding += uncapped > want + 1e-9
             fitting += uncapped <= want + 1e-9
-            for kernel, sweep in ((_levels_py, 1), (_levels(), 1), (_levels(), 0)):
+            for kernel, sweep in ((levels_py, 1), (levels(), 1), (levels(), 0)):
                 value, path = kernel(g, first, last, order, n_before, cap, sweep)
                 assert value == pytest.approx(want, abs=1e-9), (seed, cap)
                 assert 1 <= len(path) <= cap
@@ -330,7 +325,7 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     """A pass over a dense instance's orbits takes seconds: the deadline is read before each
     orbit's re-plan, so an ascent whose deadline passes after the second re-plan stops
     there (and leaves a feasible, partly ascended schedule), not at the end of the pass."""
-    import heuristics.orbit_search as orbit_search
+    import sosp.ascent as ascent
 
     inst = _slack_instance(0)
     assert inst.n_orbits >= 3
@@ -341,7 +336,7 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     # so the deadline 3.5 passes at the check before the third orbit
     clock = itertools.count()
     fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
-    monkeypatch.setattr(orbit_search, "time", fake)
+    monkeypatch.setattr(ascent, "time", fake)
     search.ascent(deadline=3.5)
     assert search.replans == 2
     assert validate(inst, search.schedule()).feasible
@@ -1056,7 +1051,7 @@ def test_stretch_recursion_is_exact_under_penalties(seed: int) -> None:
     idx = np.flatnonzero(ok)
     by_release = np.argsort(hi_end[idx], kind="stable")
     n_before = np.searchsorted(hi_end[idx][by_release], lo_end[idx] + 1e-9, side="right")
-    value, path = _recursion(
+    value, path = recursion(
         r.slew(roll[idx]),
         (end - start)[idx],
         gain[idx],

@@ -13,17 +13,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from heuristics.orbit_search import (
-    START_MODES,
-    WindowData,
-    WindowSearch,
-    ascend_from_both,
-    ascent_profit,
-    hpfs_start,
-    lp_start,
-)
+from heuristics.orbit_search import ascend_from_both, hpfs_start, lp_start
 from models.colgen import colgen_bound
 from models.window_bound import window_colgen_bound
+from sosp.ascent import START_MODES, WindowData, WindowSearch, ascent_profit
 from sosp.instance import Instance, Resources
 from sosp.planner import best_path, orbit_data
 from sosp.rules import EPS, orbit_rules
