@@ -9,6 +9,9 @@ changes what a seeded search does before it stops.
 thread, or from a signal handler installed by :func:`handle_signals` (the CLI installs it,
 so Ctrl-C or SIGTERM ends the search and the best schedule found so far is kept). Reading the
 flag is one attribute lookup, cheap enough for every iteration.
+
+:class:`Budget` is the time (and memory) a piece of work may take: one object passed down
+instead of deadline floats, cut into sub-budgets that never outlast their parent.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 
@@ -239,3 +242,67 @@ def handle_signals(
         for s, h in previous.items():
             signal.signal(s, h)
         clear_stop()
+
+
+# ------------------------------------------------------------------------------- budget
+@dataclass(frozen=True)
+class Budget:
+    """The time (and memory) a piece of work may take, passed down instead of deadlines.
+
+    Picklable: a child process given one keeps its end (:func:`time.perf_counter` reads a
+    clock shared by the processes of a machine).
+
+    Attributes
+    ----------
+    end
+        :func:`time.perf_counter` value at which the time is up (None: no limit).
+    memory
+        Bytes the work may hold (None: no limit); carried to sub-budgets.
+    """
+
+    end: float | None = None
+    memory: int | None = None
+
+    @classmethod
+    def of(cls, time_limit: float | None, memory: int | None = None) -> Budget:
+        """``time_limit`` seconds from now (None: no limit)."""
+        end = None if time_limit is None else time.perf_counter() + float(time_limit)
+        return cls(end, memory)
+
+    @classmethod
+    def until(cls, deadline: float | None, memory: int | None = None) -> Budget:
+        """Until ``deadline``, a :func:`time.perf_counter` value (None: no limit)."""
+        return cls(None if deadline is None else float(deadline), memory)
+
+    @property
+    def deadline(self) -> float | None:
+        """The end as a :func:`time.perf_counter` value, for code that takes a float."""
+        return self.end
+
+    def left(self) -> float | None:
+        """Seconds left, at least 0 (None: no limit)."""
+        return None if self.end is None else max(0.0, self.end - time.perf_counter())
+
+    def expired(self) -> bool:
+        """True once the time is up or a stop was requested (:func:`request_stop`)."""
+        return _FLAG.requested or (self.end is not None and time.perf_counter() >= self.end)
+
+    def fits(self, seconds: float) -> bool:
+        """Whether work of ``seconds``, started now, ends in time (and no stop was
+        requested)."""
+        if _FLAG.requested:
+            return False
+        return self.end is None or time.perf_counter() + seconds <= self.end
+
+    def child(self, seconds: float | None = None, *, fraction: float | None = None) -> Budget:
+        """A sub-budget of at most ``seconds`` from now and at most ``fraction`` of the time
+        left (None: no such cap); it never ends after this one."""
+        now = time.perf_counter()
+        ends = [e for e in (self.end, None if seconds is None else now + seconds) if e is not None]
+        if fraction is not None and self.end is not None:
+            ends.append(now + fraction * max(0.0, self.end - now))
+        return replace(self, end=min(ends) if ends else None)
+
+    def share(self, fraction: float) -> Budget:
+        """A sub-budget of ``fraction`` of the time left (unlimited stays unlimited)."""
+        return self.child(fraction=fraction)
