@@ -152,7 +152,7 @@ def window_colgen_bound(
         start = (p.copy(), np.zeros((len(orbits), 2)))  # mu = p: the orbits' own optima first
         b = band
         fits = True
-        if expect_rounds is not None and budget.end is not None and band is None:
+        if expect_rounds is not None and budget.deadline is not None and band is None:
             # foreseen before the first round, which would otherwise run to the deadline
             # (it stops where an orbit is foreseen late: a partial round is no bound) and
             # only then show that expect_rounds such rounds do not fit; and before the
@@ -175,7 +175,7 @@ def window_colgen_bound(
             # cache
             small = min(busy, key=lambda g: len(orbits[g].start))
             _relaxed_plans(orbits, [small], p, np.zeros((len(orbits), 2)), band=band)
-        if refine and band is not None and budget.end is not None:
+        if refine and band is not None and budget.deadline is not None:
             b, round_s, first = _first_band(orbits, p, band, budget, workers)
             best = min(best, first)  # the timed round is a round too (mu = p, lam = 0)
             # no round that cannot end before the deadline (a partial round is no bound):
@@ -213,7 +213,7 @@ def window_colgen_bound(
                 and converged
                 and b is not None
                 and b / 2 >= MIN_BAND
-                and budget.end is not None
+                and budget.deadline is not None
                 # the finer band's rounds cost HALVING_COST times as much: one must fit
                 and budget.fits(HALVING_COST * root.round_s)
                 and rounds < max_rounds
@@ -259,7 +259,7 @@ def _first_band(
     """
     t = time.perf_counter()
     zero = np.zeros((len(orbits), 2))
-    plans = _relaxed_plans(orbits, range(len(orbits)), p, zero, band=band, until=budget.end)
+    plans = _relaxed_plans(orbits, range(len(orbits)), p, zero, band=band, until=budget.deadline)
     if plans is None:
         # the timed round alone passes the deadline (5,000 targets on 24 satellites: 5 s
         # a round, and a 5 s limit ran to 6.2 s): no round, and no bound from it

@@ -254,54 +254,47 @@ class Budget:
 
     Attributes
     ----------
-    end
-        :func:`time.perf_counter` value at which the time is up (None: no limit).
+    deadline
+        :func:`time.perf_counter` value at which the time is up (None: no limit), for code
+        that still takes a float.
     memory
         Bytes the work may hold (None: no limit); carried to sub-budgets.
     """
 
-    end: float | None = None
+    deadline: float | None = None
     memory: int | None = None
 
     @classmethod
     def of(cls, time_limit: float | None, memory: int | None = None) -> Budget:
         """``time_limit`` seconds from now (None: no limit)."""
-        end = None if time_limit is None else time.perf_counter() + float(time_limit)
-        return cls(end, memory)
+        return cls.until(None if time_limit is None else time.perf_counter() + time_limit, memory)
 
     @classmethod
     def until(cls, deadline: float | None, memory: int | None = None) -> Budget:
         """Until ``deadline``, a :func:`time.perf_counter` value (None: no limit)."""
         return cls(None if deadline is None else float(deadline), memory)
 
-    @property
-    def deadline(self) -> float | None:
-        """The end as a :func:`time.perf_counter` value, for code that takes a float."""
-        return self.end
-
     def left(self) -> float | None:
         """Seconds left, at least 0 (None: no limit)."""
-        return None if self.end is None else max(0.0, self.end - time.perf_counter())
+        return None if self.deadline is None else max(0.0, self.deadline - time.perf_counter())
+
+    def fits(self, seconds: float) -> bool:
+        """Whether work of ``seconds``, started now, ends in time (False once a stop was
+        requested, :func:`request_stop`)."""
+        end = self.deadline
+        return not _FLAG.requested and (end is None or time.perf_counter() + seconds <= end)
 
     def expired(self) -> bool:
         """True once the time is up or a stop was requested (:func:`request_stop`)."""
-        return _FLAG.requested or (self.end is not None and time.perf_counter() >= self.end)
-
-    def fits(self, seconds: float) -> bool:
-        """Whether work of ``seconds``, started now, ends in time (and no stop was
-        requested)."""
-        if _FLAG.requested:
-            return False
-        return self.end is None or time.perf_counter() + seconds <= self.end
+        return not self.fits(0.0)
 
     def child(self, seconds: float | None = None, *, fraction: float | None = None) -> Budget:
         """A sub-budget of at most ``seconds`` from now and at most ``fraction`` of the time
         left (None: no such cap); it never ends after this one."""
-        now = time.perf_counter()
-        ends = [e for e in (self.end, None if seconds is None else now + seconds) if e is not None]
-        if fraction is not None and self.end is not None:
-            ends.append(now + fraction * max(0.0, self.end - now))
-        return replace(self, end=min(ends) if ends else None)
+        now, left = time.perf_counter(), self.left()
+        caps = [seconds, None if fraction is None or left is None else fraction * left]
+        ends = [self.deadline, *(now + c for c in caps if c is not None)]
+        return replace(self, deadline=min((e for e in ends if e is not None), default=None))
 
     def share(self, fraction: float) -> Budget:
         """A sub-budget of ``fraction`` of the time left (unlimited stays unlimited)."""

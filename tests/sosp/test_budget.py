@@ -28,9 +28,9 @@ def _no_stop():
 def test_a_sub_budget_never_ends_after_its_parent(limit, fraction, seconds) -> None:
     parent = Budget.of(limit, memory=123)
     for sub in (parent.share(fraction), parent.child(seconds), parent.child(fraction=fraction)):
-        assert sub.end is not None and sub.end <= parent.end
+        assert sub.deadline is not None and sub.deadline <= parent.deadline
         assert sub.memory == 123
-        assert sub.child(seconds, fraction=fraction).end <= sub.end
+        assert sub.child(seconds, fraction=fraction).deadline <= sub.deadline
 
 
 def test_a_share_is_that_part_of_the_time_left() -> None:
@@ -38,14 +38,14 @@ def test_a_share_is_that_part_of_the_time_left() -> None:
     half = parent.share(0.5)
     assert 49.0 < half.left() <= 50.0
     assert parent.child(10.0).left() <= 10.0
-    assert parent.child(1000.0).end == parent.end
+    assert parent.child(1000.0).deadline == parent.deadline
 
 
 def test_no_limit_stays_no_limit() -> None:
     free = Budget.of(None)
     assert free == Budget.until(None) == Budget()
     for sub in (free.share(0.1), free.child(fraction=0.5), free.child()):
-        assert sub.end is None and sub.left() is None and sub.deadline is None
+        assert sub.deadline is None and sub.left() is None and sub.deadline is None
         assert not sub.expired() and sub.fits(1e12)
     assert free.child(5.0).left() <= 5.0  # seconds cap an unlimited parent
 
