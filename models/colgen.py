@@ -308,7 +308,7 @@ def column_generation(
     sigma = np.zeros(len(rules))
     alpha = 0.0  # the first round prices at the start point itself
     converged = False
-    t_start, given = time.perf_counter(), budget.left()
+    given = budget.left()
     round_s = 0.0  # the longest round so far
     while rounds < max_rounds:
         # a round foreseen to end past the deadline is not started: a partial round is no
@@ -330,19 +330,13 @@ def column_generation(
         value = _round_value(p, mu_s, lam_s, plans)
         if value < best - 1e-9:
             best, mu_c, lam_c = value, mu_s, lam_s
-        if rounds == 1 and expect_rounds is not None and given is not None:
-            took = time.perf_counter() - t_start
-            if expect_rounds * took > given:
-                # too slow a round for this deadline: no master (see above)
-                log.info(
-                    "root given up: its first round took %.1f s, %d such rounds need %.0f s, "
-                    "%.0f s were given",
-                    took,
-                    expect_rounds,
-                    expect_rounds * took,
-                    given,
-                )
-                break
+        if rounds == 1 and given is not None and (expect_rounds or 0) * round_s > given:
+            # too slow a round for this budget: no master (see above)
+            log.info(
+                "root given up: its first round took %.1f s, %d such rounds need %.0f s, "
+                "%.0f s were given", round_s, expect_rounds, expect_rounds * round_s, given,
+            )  # fmt: skip
+            break
         improving = 0
         for g, (_, covered, used) in enumerate(plans):
             if used is None:

@@ -185,9 +185,8 @@ def window_colgen_bound(
             if not fits and math.isinf(round_s):
                 log.info("window bound: the timed round did not end by the deadline")
             elif not fits:
-                log.info(
-                    "window bound: a round takes about %.0f s, %.0f s left", round_s, budget.left()
-                )
+                left = budget.left()
+                log.info("window bound: a round takes about %.0f s, %.0f s left", round_s, left)
         seed: list[tuple[int, np.ndarray, float, float]] = []
         while fits:
             root = _root(
