@@ -54,6 +54,7 @@ from sosp.instance import Instance, load_instance
 from sosp.planner import OrbitItems, PlanPool, flat_positions, orbit_data
 from sosp.recursion import recursion
 from sosp.scenarios import generate_scenario, scenario_names
+from sosp.stop import Budget
 
 log = logging.getLogger("bench_subset_row")
 
@@ -361,7 +362,7 @@ def run(inst: Instance, variant: str, seconds: float) -> dict[str, Any]:
     p = np.where(seen, np.asarray(inst.target_weight, dtype=float), 0.0)
     root = column_generation(
         p, seen, [o.rules for o in orbits], PlanPool(orbits, 1).best_paths,
-        (0.5 * p, np.zeros((len(orbits), 2))), None,
+        (0.5 * p, np.zeros((len(orbits), 2))), Budget(),
     )  # fmt: skip
     targets = np.flatnonzero(seen)
     master = CutMaster(p, targets, orbits)

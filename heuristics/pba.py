@@ -85,7 +85,7 @@ from sosp.params import Params, param
 from sosp.result import Result, Status
 from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
-from sosp.stop import Interrupted
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
@@ -234,8 +234,7 @@ def target_order(pp: PartProblem, order: Order = "rcm", deadline: float | None =
     if deadline is not None:
         work = float((counts[keys] ** 2).sum())
         work += float((counts[np.repeat(keys, sizes)] * counts[others]).sum())
-        left = deadline - time.perf_counter()
-        if RCM_S_PER_WORK * work > RCM_SHARE * left:
+        if not Budget.until(deadline).share(RCM_SHARE).fits(RCM_S_PER_WORK * work):
             log.info("pba: targets in index order (rcm foreseen at %.1f s)", RCM_S_PER_WORK * work)
             return list(pp.targets)
     usable = np.zeros(n_tasks)
@@ -539,14 +538,12 @@ def partition_dp(
     arg = [0] * (n + 1)
     memo: dict[tuple[int, int], tuple[float, list[int], bool]] = {}
     solved = 0
-    stopped = False
-    interrupted = Interrupted()
+    stopped, budget = False, Budget.until(deadline)
     for j in range(1, n + 1):
-        stopped = stopped or interrupted()
         for length in range(1, min(lmax, j) + 1):
             i = j - length
             part = order[i:j]
-            if stopped or (deadline is not None and time.perf_counter() > deadline):
+            if stopped or budget.expired():
                 stopped = True
                 res = (sum(prices.upper[k] for k in part), [], False)
             else:
@@ -614,13 +611,11 @@ def pba_partition(
     order = target_order(pp, params.order, deadline)
     coverable = sum(pp.weight[k] for k in pp.targets)
     prices = zero_prices(pp)
-    late = deadline is not None and time.perf_counter() > deadline
-    if params.prices == "lp" and not late and not Interrupted()():
+    budget = Budget.until(deadline)
+    if params.prices == "lp" and not budget.expired():
         # The LP first: if time runs out in the partition, the parts not reached count their
         # upper values, and with the LP's prices these still add up to the LP bound.
-        prices = lp_prices(
-            instance, pp, None if deadline is None else deadline - time.perf_counter()
-        )
+        prices = lp_prices(instance, pp, budget.left())
     out = partition_dp(pp, order, params, prices, deadline)
     solved = out["subproblems"]
     # The optimum is an integer: round down, with a margin far above the float error of these

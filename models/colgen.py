@@ -40,6 +40,7 @@ from sosp.instance import Instance
 from sosp.parallel import Child, ChildStartError, child_setup
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
 from sosp.rules import OrbitRules
+from sosp.stop import Budget
 
 if TYPE_CHECKING:
     from sosp.parallel import Workers
@@ -268,7 +269,7 @@ def column_generation(
     rules: Sequence[OrbitRules],
     price: Pricer,
     start: tuple[np.ndarray, np.ndarray],
-    deadline: float | None,
+    budget: Budget,
     lower_bound: float | None = None,
     max_rounds: int = 10_000,
     smoothing: float = SMOOTHING,
@@ -280,8 +281,8 @@ def column_generation(
     window relaxation's :func:`sosp.windows.relaxed_best_path`): every round's value is then
     a valid upper bound, whatever the master. Stops when no plan prices out at the master's
     duals, when the rounded bound meets the rounded master optimum or ``lower_bound``, at
-    ``max_rounds`` or at ``deadline``; with ``expect_rounds``, also after the first round
-    when that many rounds of its length would not fit before ``deadline`` (before any master
+    ``max_rounds`` or when ``budget`` runs out; with ``expect_rounds``, also after the first
+    round when that many rounds of its length would not fit in ``budget`` (before any master
     is solved: a caller that wants the master's plans gets none rather than an early,
     uncoordinated master's).
 
@@ -307,13 +308,13 @@ def column_generation(
     sigma = np.zeros(len(rules))
     alpha = 0.0  # the first round prices at the start point itself
     converged = False
-    t_start = time.perf_counter()
+    given = budget.left()
     round_s = 0.0  # the longest round so far
     while rounds < max_rounds:
         # a round foreseen to end past the deadline is not started: a partial round is no
         # bound, and a round over windows of a dense orbit prices it for seconds without
         # reading the clock (a drawn 1,200-target instance: 7.9 s for a 5 s limit)
-        if deadline is not None and time.perf_counter() + round_s > deadline:
+        if not budget.fits(round_s):
             break
         if mu_m is None:
             mu_s, lam_s = mu_c, lam_c
@@ -321,7 +322,7 @@ def column_generation(
             mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
             lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
         t_round = time.perf_counter()
-        plans = price(mu_s, lam_s, deadline)
+        plans = price(mu_s, lam_s, budget.deadline)
         round_s = max(round_s, time.perf_counter() - t_round)
         if plans is None:
             break  # the deadline fell inside the round: its bound is incomplete
@@ -329,19 +330,13 @@ def column_generation(
         value = _round_value(p, mu_s, lam_s, plans)
         if value < best - 1e-9:
             best, mu_c, lam_c = value, mu_s, lam_s
-        if rounds == 1 and expect_rounds is not None and deadline is not None:
-            took = time.perf_counter() - t_start
-            if t_start + expect_rounds * took > deadline:
-                # too slow a round for this deadline: no master (see above)
-                log.info(
-                    "root given up: its first round took %.1f s, %d such rounds need %.0f s, "
-                    "%.0f s were given",
-                    took,
-                    expect_rounds,
-                    expect_rounds * took,
-                    deadline - t_start,
-                )
-                break
+        if rounds == 1 and given is not None and (expect_rounds or 0) * round_s > given:
+            # too slow a round for this budget: no master (see above)
+            log.info(
+                "root given up: its first round took %.1f s, %d such rounds need %.0f s, "
+                "%.0f s were given", round_s, expect_rounds, expect_rounds * round_s, given,
+            )  # fmt: skip
+            break
         improving = 0
         for g, (_, covered, used) in enumerate(plans):
             if used is None:
@@ -359,8 +354,7 @@ def column_generation(
             continue
         if lower_bound is not None and math.floor(best + 1e-6) <= lower_bound + 1e-9:
             break
-        left = None if deadline is None else deadline - time.perf_counter()
-        solved = master.solve(left)
+        solved = master.solve(budget.left())
         if solved is None:
             break  # out of time inside the master: the best bound so far stands
         master_value, mu_t, sigma, pi = solved
@@ -473,14 +467,10 @@ def colgen_bound(
     if branch and cut_rounds:
         cut_levels()  # compiled (or loaded) before the clock starts, as the planner's kernels
     t0 = time.perf_counter()
-    deadline = None if time_limit is None else t0 + float(time_limit)
-    root_deadline = deadline
-    if root_time_limit is not None:
-        root_deadline = t0 + float(root_time_limit)
-        if deadline is not None:
-            root_deadline = min(root_deadline, deadline)
+    budget = Budget.of(time_limit)
+    root_budget = budget.child(root_time_limit)
     if data is None:
-        data = orbit_data(instance, root_deadline, workers=workers)
+        data = orbit_data(instance, root_budget.deadline, workers=workers)
     groups = data.orbits
     p = np.zeros(instance.n_targets)
     seen = np.zeros(instance.n_targets, dtype=bool)
@@ -523,7 +513,7 @@ def colgen_bound(
             [o.rules for o in groups],
             pool.best_paths,
             (mu_c, lam_c),
-            root_deadline,
+            root_budget,
             lower_bound,
             max_rounds,
             smoothing,
@@ -541,7 +531,7 @@ def colgen_bound(
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
     if branch and converged and not proven:
         answer, nodes, final = branch_and_price(
-            p, seen, groups, master.columns, (best, mu_c, lam_c), deadline, lower_bound,
+            p, seen, groups, master.columns, (best, mu_c, lam_c), budget, lower_bound,
             report=report, cut_rounds=cut_rounds,
             workers=workers if isinstance(workers, int) else 1,
         )  # fmt: skip
@@ -701,7 +691,7 @@ def _solve_node(
     seen: np.ndarray,
     groups: tuple[Any, ...],
     cols: _Columns,
-    deadline: float | None,
+    budget: Budget,
     smoothing: float,
     cuts: CutPool | None = None,
     separate: int = 0,
@@ -856,7 +846,7 @@ def _solve_node(
     resolve = False  # cuts were just added: solve the master before pricing again
     warm = node.basis  # the parent's basis, for this master's first solve
     sep_s = 0.5  # the longest separation so far (seconds)
-    while deadline is None or time.perf_counter() < deadline:
+    while not budget.expired():
         if not resolve:
             at_master = mu_m is not None and alpha == 0.0
             if mu_m is None:
@@ -878,7 +868,7 @@ def _solve_node(
             value += float(np.maximum(z_gain, 0.0).sum())
             n_loaded = len(in_lp)
             for g, o in enumerate(groups):
-                if deadline is not None and time.perf_counter() > deadline:
+                if budget.expired():
                     return replace(node, cover=None)
                 price = _node_prices(mu_s, beta_s, g, node)
                 if cut_ids:
@@ -896,14 +886,13 @@ def _solve_node(
                 if prune is not None and math.floor(best + 1e-6) <= prune + 1e-9:
                     return replace(node, cover=None)  # pruned: the search stops before it
         resolve = False
-        left = None if deadline is None else deadline - time.perf_counter()
-        allow_seconds(h, left)
+        allow_seconds(h, budget.left())
         if warm is not None:
             _start_basis(h, warm, free, fk, in_lp, cut_ids)
         h.run()
         if warm is not None and h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             h.clearSolver()  # not expected; then from scratch, as without a parent's basis
-            allow_seconds(h, None if deadline is None else deadline - time.perf_counter())
+            allow_seconds(h, budget.left())
             h.run()
         warm = None
         if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
@@ -937,8 +926,7 @@ def _solve_node(
                 continue
             done = True  # no plan prices out at the master's duals: solved (to rounding)
         y = np.asarray(h.getSolution().col_value, dtype=float)
-        left = None if deadline is None else deadline - time.perf_counter()
-        if done and separate > 0 and cuts is not None and (left is None or left > 2 * sep_s):
+        if done and separate > 0 and cuts is not None and budget.fits(2 * sep_s):
             # not started unless twice the last one's time is left (at least a second): its
             # products before the search read no clock
             separate -= 1
@@ -951,7 +939,7 @@ def _solve_node(
             ]
             plans = [(cols.items[i][1], yi) for i, yi in positive]
             orbits = [cols.items[i][0] for i, _ in positive]
-            new = cuts.separate(z, plans, cuts_per_round, deadline=deadline, orbits=orbits)
+            new = cuts.separate(z, plans, cuts_per_round, deadline=budget.deadline, orbits=orbits)
             sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
             if new:
                 log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))
@@ -990,7 +978,7 @@ def _solve_node(
                 node = replace(
                     node, pick=_strong_pick(h, node, p, strong, m_value, pf, row_free,
                                             [(first_y + x, cols.items[i]) for x, i in
-                                             enumerate(in_lp)], banned_on, last, deadline)
+                                             enumerate(in_lp)], banned_on, last, budget)
                 )  # fmt: skip
             return node
         alpha = smoothing
@@ -1099,7 +1087,7 @@ def _strong_pick(
     columns: list[tuple[int, tuple[int, np.ndarray, np.ndarray, float, float]]],
     banned_on: dict[int, np.ndarray],
     basis: Any,
-    deadline: float | None,
+    budget: Budget,
 ) -> tuple[int, int] | None:
     """Strong branching on the restricted master: of the ``n`` heaviest fractional pairs,
     the one whose two children's master values, with the node's columns and no pricing, fall
@@ -1129,7 +1117,7 @@ def _strong_pick(
     # (C7, 300 s: 2868.87 after 102 nodes against 2868.98 after 100 without strong branching)
     h.setOptionValue("simplex_strategy", _STRONG_SIMPLEX)
     for k, g in picks:
-        if deadline is not None and time.perf_counter() > deadline:
+        if budget.expired():
             break
         row = int(row_free[k])
         falls = []
@@ -1140,7 +1128,7 @@ def _strong_pick(
             if force:
                 h.changeColBounds(row, 1.0, 1.0)  # z_k is column ``row`` (free targets first)
             h.setBasis(basis)
-            allow_seconds(h, None if deadline is None else deadline - time.perf_counter())
+            allow_seconds(h, budget.left())
             h.run()
             ok = h.getModelStatus() == highspy.HighsModelStatus.kOptimal
             value = -float(h.getInfo().objective_function_value) + forced_value
@@ -1194,13 +1182,13 @@ def _helper_child(
             msg = conn.recv()
             if msg[0] != "node":
                 break
-            _, keep, new, node, deadline, prune = msg
+            _, keep, new, node, budget, prune = msg
             cols.truncate(keep)  # its own columns of the last node came back in ``new``
             for item in new:
                 cols.add(*item)
             n0 = len(cols.items)
             out = _solve_node(
-                node, p, seen, groups, cols, deadline, smoothing, cuts, 0, NODE_CUTS,
+                node, p, seen, groups, cols, budget, smoothing, cuts, 0, NODE_CUTS,
                 prune=prune,
             )  # fmt: skip
             conn.send(("node", out, cols.items[n0:]))
@@ -1267,12 +1255,10 @@ class _Helper:
             log.warning("%s; branch and price in one process", exc)
             return None
 
-    def send(
-        self, cols: _Columns, node: _Node, deadline: float | None, prune: float | None
-    ) -> bool:
+    def send(self, cols: _Columns, node: _Node, budget: Budget, prune: float | None) -> bool:
         """Start solving ``node`` there, from this process's pool as it is now; False if
         the helper has gone (logged)."""
-        msg = ("node", self.synced, cols.items[self.synced :], node, deadline, prune)
+        msg = ("node", self.synced, cols.items[self.synced :], node, budget, prune)
         try:
             self._conn.send(msg)
         except (OSError, ValueError):
@@ -1281,10 +1267,10 @@ class _Helper:
         self._base = len(cols.items)
         return True
 
-    def receive(self, cols: _Columns, deadline: float | None) -> _Node | None:
+    def receive(self, cols: _Columns, budget: Budget) -> _Node | None:
         """The node sent, solved, its new columns added to ``cols``; None if the helper
-        failed or did not answer by ``deadline`` (plus :data:`HELPER_GRACE_S`)."""
-        wait = None if deadline is None else max(deadline - time.perf_counter(), 0.0)
+        failed or did not answer within ``budget`` (plus :data:`HELPER_GRACE_S`)."""
+        wait = budget.left()
         try:
             if not self._conn.poll(None if wait is None else wait + HELPER_GRACE_S):
                 log.warning("branch and price: the helper process did not answer")
@@ -1316,7 +1302,7 @@ def branch_and_price(
     groups: tuple[Any, ...],
     columns: list[tuple[int, np.ndarray, np.ndarray, float, float]],
     start: tuple[float, np.ndarray, np.ndarray],
-    deadline: float | None,
+    budget: Budget,
     lower_bound: float | None = None,
     max_nodes: int | None = None,
     smoothing: float = SMOOTHING,
@@ -1351,8 +1337,8 @@ def branch_and_price(
         The root's plans (orbit, targets, counts, energy, memory).
     start
         The root's bound and its multipliers ``(bound, mu, lam)``.
-    deadline
-        :func:`time.perf_counter` value to stop at (None: none).
+    budget
+        When to stop (:class:`sosp.stop.Budget`).
     lower_bound, max_nodes, smoothing, report
         See above and :func:`colgen_bound`.
     cut_rounds
@@ -1379,7 +1365,7 @@ def branch_and_price(
     root = _Node(bound0, frozenset(), {}, mu0, np.zeros(len(p)), lam0, None)
     pool = CutPool(groups) if cut_rounds > 0 else None
     root = _solve_node(
-        root, p, seen, groups, cols, deadline, smoothing, pool, cut_rounds, strong=strong
+        root, p, seen, groups, cols, budget, smoothing, pool, cut_rounds, strong=strong
     )
     if pool is not None:
         log.info("branch and price: root %.4f with %d subset-row cuts", root.bound, len(pool))
@@ -1392,7 +1378,7 @@ def branch_and_price(
     def solve_child(child: _Node) -> _Node:
         separate = NODE_CUT_ROUNDS if pool is not None else 0
         return _solve_node(
-            child, p, seen, groups, cols, deadline, smoothing, pool, separate, NODE_CUTS,
+            child, p, seen, groups, cols, budget, smoothing, pool, separate, NODE_CUTS,
             prune=lower_bound,
         )  # fmt: skip
 
@@ -1401,7 +1387,7 @@ def branch_and_price(
     helper: _Helper | None = None
     try:
         while heap:
-            if deadline is not None and time.perf_counter() > deadline:
+            if budget.expired():
                 break
             if max_nodes is not None and nodes >= max_nodes:
                 break
@@ -1417,7 +1403,7 @@ def branch_and_price(
                 # converges in a round or two and keeps the bound it had (or lowers it)
                 heapq.heappop(heap)
                 top = _solve_node(
-                    replace(top, cover=None), p, seen, groups, cols, deadline, smoothing, pool,
+                    replace(top, cover=None), p, seen, groups, cols, budget, smoothing, pool,
                     0, NODE_CUTS, strong, prune=lower_bound,
                 )  # fmt: skip
                 heapq.heappush(heap, (-top.bound, count, top))
@@ -1434,18 +1420,14 @@ def branch_and_price(
                 replace(top, banned=top.banned | {(k, g)}, cover=None, pick=None),
                 replace(top, forced={**top.forced, k: g}, beta=beta, cover=None, pick=None),
             )
-            if (
-                helped
-                and helper is None
-                and (deadline is None or deadline - time.perf_counter() >= HELPER_MIN_LEFT_S)
-            ):
+            if helped and helper is None and budget.fits(HELPER_MIN_LEFT_S):
                 helper = _Helper.start(p, seen, groups, cols, pool, smoothing)
                 helped = helper is not None
             # the parent's bound holds for a child (a subset of its schedules) until its own
             # column generation finds a lower one
-            sent = helper is not None and helper.send(cols, children[1], deadline, lower_bound)
+            sent = helper is not None and helper.send(cols, children[1], budget, lower_bound)
             solved = [solve_child(children[0])]
-            there = helper.receive(cols, deadline) if sent else None
+            there = helper.receive(cols, budget) if sent else None
             if helper is not None and there is None:
                 helper.close()  # it failed (logged): this process goes on alone
                 helper, helped = None, False
@@ -1663,10 +1645,10 @@ class SideBound:
 
     def _stop(self, wait: float) -> None:
         self._stopped = True
-        end = time.perf_counter() + wait
+        budget = Budget.of(wait)
         try:
             while not self._done:
-                left = end - time.perf_counter()
+                left = budget.left()
                 if left <= 0 or not self._child.conn.poll(left):
                     break
                 self._take(self._child.conn.recv())

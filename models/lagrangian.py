@@ -21,6 +21,7 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitData, PlanPool, orbit_data
+from sosp.stop import Budget
 
 if TYPE_CHECKING:
     from sosp.parallel import Workers
@@ -83,11 +84,11 @@ def lagrangian_bound(
         ``iterations``, ``candidates``, ``lower_bound``.
     """
     t0 = time.perf_counter()
+    budget = Budget.of(time_limit)
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
     if data is None:
-        deadline = None if time_limit is None else t0 + float(time_limit)
-        data = orbit_data(instance, deadline, workers=workers)
+        data = orbit_data(instance, budget.deadline, workers=workers)
     # a target no candidate covers adds nothing: its weight is left out of the bound
     p = np.zeros(instance.n_targets)
     seen = np.zeros(instance.n_targets, dtype=bool)
@@ -117,9 +118,8 @@ def lagrangian_bound(
                 grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
         return value, count, grad_lam
 
-    stop = None if time_limit is None else t0 + float(time_limit)
     try:
-        best, done = subgradient(p, len(groups), price, 0.5 * p, iterations, lower_bound, stop)
+        best, done = subgradient(p, len(groups), price, 0.5 * p, iterations, lower_bound, budget)
     finally:
         pool.close()
     bound = capped_bound(best, cap)
@@ -156,7 +156,7 @@ def subgradient(
     mu: np.ndarray,
     iterations: int,
     lower_bound: float,
-    stop: float | None,
+    budget: Budget,
 ) -> tuple[float, int]:
     """Subgradient steps on ``L(mu, lam)``; the least value found and the steps made.
 
@@ -168,8 +168,8 @@ def subgradient(
     ``lower_bound`` with a factor halved after 20 steps without progress, the direction
     deflected by :data:`DEFLECTION` times the previous one. ``lam`` starts at 0.
 
-    Time (``stop``, a :func:`time.perf_counter` value or None): a step that would end after
-    ``stop`` (judged by the last step's time) is not started.
+    A step that would not end within ``budget`` (judged by the last step's time) is not
+    started.
     """
     lam = np.zeros((n_orbits, 2))
     best = math.inf
@@ -177,9 +177,9 @@ def subgradient(
     prev_dir: tuple[np.ndarray, np.ndarray] | None = None
     last_step = 0.0
     while done < iterations:
-        t_step = time.perf_counter()
-        if stop is not None and done and t_step + last_step > stop:
+        if done and not budget.fits(last_step):
             break  # the next step would end after the limit
+        t_step = time.perf_counter()
         orbits_value, count, grad_lam = price(mu, lam)
         value = float(np.maximum(p - mu, 0.0).sum()) + orbits_value
         done += 1

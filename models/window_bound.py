@@ -43,7 +43,7 @@ from sosp.instance import Instance
 from sosp.parallel import parallelism
 from sosp.planner import PlanPool
 from sosp.rules import within_duration
-from sosp.stop import Foresight
+from sosp.stop import Budget, Foresight
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 if TYPE_CHECKING:
@@ -138,7 +138,7 @@ def window_colgen_bound(
     t0 = time.perf_counter()
     if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
         raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
-    deadline = None if time_limit is None else t0 + float(time_limit)
+    budget = Budget.of(time_limit)
     if orbits is None:
         orbits = [orbit_opps(instance, j) for j in range(instance.n_orbits)]
     seen, p = _observable(instance)
@@ -152,21 +152,21 @@ def window_colgen_bound(
         start = (p.copy(), np.zeros((len(orbits), 2)))  # mu = p: the orbits' own optima first
         b = band
         fits = True
-        if expect_rounds is not None and deadline is not None and band is None:
+        if expect_rounds is not None and budget.deadline is not None and band is None:
             # foreseen before the first round, which would otherwise run to the deadline
             # (it stops where an orbit is foreseen late: a partial round is no bound) and
             # only then show that expect_rounds such rounds do not fit; and before the
             # kernels are loaded (0.5-0.9 s the first time in a process)
             share = min(parallelism(workers), max(1, len(busy)))
             round_s = ROUND_S_PER_PAIR * sum(_pairs(orbits[g]) for g in busy) / share
-            fits = time.perf_counter() + expect_rounds * round_s <= deadline
+            fits = budget.fits(expect_rounds * round_s)
             if not fits:
                 log.info(
                     "window root given up before its first round: %d rounds of at least "
                     "%.1f s foreseen, %.1f s left",
                     expect_rounds,
                     round_s,
-                    deadline - time.perf_counter(),
+                    budget.left(),
                 )
         if busy and fits:
             # compile the numba kernels (or load them from their cache) on the smallest
@@ -175,17 +175,17 @@ def window_colgen_bound(
             # cache
             small = min(busy, key=lambda g: len(orbits[g].start))
             _relaxed_plans(orbits, [small], p, np.zeros((len(orbits), 2)), band=band)
-        if refine and band is not None and deadline is not None:
-            b, round_s, first = _first_band(orbits, p, band, deadline, workers)
+        if refine and band is not None and budget.deadline is not None:
+            b, round_s, first = _first_band(orbits, p, band, budget, workers)
             best = min(best, first)  # the timed round is a round too (mu = p, lam = 0)
             # no round that cannot end before the deadline (a partial round is no bound):
             # the rest of the limit would be spent for the cap (G100k: 170 s a round in
             # one process, 100 s left after the timed one)
-            fits = time.perf_counter() + round_s <= deadline
+            fits = budget.fits(round_s)
             if not fits and math.isinf(round_s):
                 log.info("window bound: the timed round did not end by the deadline")
             elif not fits:
-                left = deadline - time.perf_counter()
+                left = budget.left()
                 log.info("window bound: a round takes about %.0f s, %.0f s left", round_s, left)
         seed: list[tuple[int, np.ndarray, float, float]] = []
         while fits:
@@ -195,7 +195,7 @@ def window_colgen_bound(
                 seen,
                 b,
                 start,
-                deadline,
+                budget,
                 lower_bound,
                 max_rounds - rounds,
                 None if bands else expect_rounds,
@@ -212,9 +212,9 @@ def window_colgen_bound(
                 and converged
                 and b is not None
                 and b / 2 >= MIN_BAND
-                and deadline is not None
+                and budget.deadline is not None
                 # the finer band's rounds cost HALVING_COST times as much: one must fit
-                and time.perf_counter() + HALVING_COST * root.round_s < deadline
+                and budget.fits(HALVING_COST * root.round_s)
                 and rounds < max_rounds
                 and (lower_bound is None or math.floor(best + 1e-6) > lower_bound)
             ):
@@ -224,7 +224,7 @@ def window_colgen_bound(
             # from this one's columns re-planned in the finer band (a master built from
             # nothing again took as many rounds as the first band: D100, no gain in 300 s)
             b, start = b / 2, (root.mu, root.lam)
-            seed = _replanned(orbits, p, root.master.columns, b, deadline)
+            seed = _replanned(orbits, p, root.master.columns, b, budget)
     bound = capped_bound(best, cap)
     log.info("window colgen bound %g after %d rounds (bands %s)", bound, rounds, bands)
     return {
@@ -243,14 +243,14 @@ def window_colgen_bound(
 
 
 def _first_band(
-    orbits: Sequence[OrbitOpps], p: np.ndarray, band: float, deadline: float, workers: Workers
+    orbits: Sequence[OrbitOpps], p: np.ndarray, band: float, budget: Budget, workers: Workers
 ) -> tuple[float, float, float]:
     """The finest of ``band``, ``band / 2``, ... (not below :data:`MIN_BAND`) whose column
-    generation is expected to converge before ``deadline``: :data:`ROOT_ROUNDS` rounds, each
+    generation is expected to converge within ``budget``: :data:`ROOT_ROUNDS` rounds, each
     :data:`HALVING_COST` times longer per halving than one round at ``band`` (timed here, in
     this process, and divided among the ``workers``); with it, the expected seconds of one
     of its rounds and the timed round's value (``L(p, 0)``, a bound like any round's). When
-    the timed round does not end by ``deadline``, both are infinite (no round fits).
+    the timed round does not end in time, both are infinite (no round fits).
 
     Why: refining a converged band (:func:`window_colgen_bound`) needs many rounds again, so
     when the time allows a finer band from the start, that is the tighter bound (D100, 600 s,
@@ -258,14 +258,13 @@ def _first_band(
     """
     t = time.perf_counter()
     zero = np.zeros((len(orbits), 2))
-    plans = _relaxed_plans(orbits, range(len(orbits)), p, zero, band=band, until=deadline)
+    plans = _relaxed_plans(orbits, range(len(orbits)), p, zero, band=band, until=budget.deadline)
     if plans is None:
         # the timed round alone passes the deadline (5,000 targets on 24 satellites: 5 s
         # a round, and a 5 s limit ran to 6.2 s): no round, and no bound from it
         return band, math.inf, math.inf
     cost = (time.perf_counter() - t) / min(parallelism(workers), max(1, len(orbits)))
-    left = deadline - time.perf_counter()
-    while band / 2 >= MIN_BAND and ROOT_ROUNDS * cost * HALVING_COST <= left:
+    while band / 2 >= MIN_BAND and budget.fits(ROOT_ROUNDS * cost * HALVING_COST):
         band, cost = band / 2, cost * HALVING_COST
     return band, cost, float(sum(v for v, _, _ in plans))
 
@@ -276,7 +275,7 @@ def _root(
     seen: np.ndarray,
     band: float | None,
     start: tuple[np.ndarray, np.ndarray],
-    deadline: float | None,
+    budget: Budget,
     lower_bound: float | None,
     max_rounds: int,
     expect_rounds: int | None,
@@ -295,7 +294,7 @@ def _root(
             [oo.rules for oo in orbits],
             pool.best_paths,
             start,
-            deadline,
+            budget,
             lower_bound,
             max_rounds,
             expect_rounds=expect_rounds,
@@ -310,16 +309,16 @@ def _replanned(
     p: np.ndarray,
     columns: Sequence[tuple[Any, ...]],
     band: float | None,
-    deadline: float | None,
+    budget: Budget,
 ) -> list[tuple[int, np.ndarray, float, float]]:
     """Each master column ``(orbit, targets, counts, energy, memory)`` re-planned in the
     relaxation of ``band``: the orbit's best relaxed plan at the weights of the column's
     targets alone (a plan of that relaxation, covering those targets as far as it can);
-    as many as ``deadline`` allows."""
+    as many as ``budget`` allows."""
     out: list[tuple[int, np.ndarray, float, float]] = []
     lam = np.zeros((len(orbits), 2))
     for g, targets, *_ in columns:
-        if deadline is not None and time.perf_counter() > deadline:
+        if budget.expired():
             break
         price = np.zeros_like(p)
         price[targets] = p[targets]

@@ -43,6 +43,7 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import fork_pool, inherited
 from sosp.rules import EPS, roll_in_range, starts_within
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
@@ -519,7 +520,7 @@ def cluster_candidates(
     if max_candidates is None:
         if (
             _estimate_late(instance, deadline)
-            or _need_by(instance, _estimate_deadline(deadline)) is None
+            or _need_by(instance, Budget.until(deadline).share(ESTIMATE_SHARE).deadline) is None
         ):
             raise TimeLimitReached(
                 "time limit foreseen to be reached while estimating the candidate "
@@ -618,15 +619,6 @@ def _need_by(instance: Instance, deadline: float | None) -> int | None:
     return int(store["need"])
 
 
-def _estimate_deadline(deadline: float | None) -> float | None:
-    """When the size estimate must be done: :data:`ESTIMATE_SHARE` of the time left to
-    ``deadline`` (None: no limit)."""
-    if deadline is None:
-        return None
-    now = time.perf_counter()
-    return now + ESTIMATE_SHARE * max(0.0, deadline - now)
-
-
 def candidates_fit(instance: Instance) -> bool:
     """Whether every orbit's candidates fit in :data:`MAX_CANDIDATE_BYTES` (the choice of the
     searches' ``candidates="auto"``; the estimate is shared with :func:`check_memory`)."""
@@ -648,7 +640,7 @@ def candidate_mode(instance: Instance, requested: str, deadline: float | None = 
     if requested == "auto":
         if _estimate_late(instance, deadline):
             return "windows"
-        need = _need_by(instance, _estimate_deadline(deadline))
+        need = _need_by(instance, Budget.until(deadline).share(ESTIMATE_SHARE).deadline)
         if need is None or need > MAX_CANDIDATE_BYTES or _generation_late(instance, deadline):
             return "windows"
         return "explicit"

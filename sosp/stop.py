@@ -9,6 +9,9 @@ changes what a seeded search does before it stops.
 thread, or from a signal handler installed by :func:`handle_signals` (the CLI installs it,
 so Ctrl-C or SIGTERM ends the search and the best schedule found so far is kept). Reading the
 flag is one attribute lookup, cheap enough for every iteration.
+
+:class:`Budget` is the time (and memory) a piece of work may take: one object passed down
+instead of deadline floats, cut into sub-budgets that never outlast their parent.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 
@@ -239,3 +242,60 @@ def handle_signals(
         for s, h in previous.items():
             signal.signal(s, h)
         clear_stop()
+
+
+# ------------------------------------------------------------------------------- budget
+@dataclass(frozen=True)
+class Budget:
+    """The time (and memory) a piece of work may take, passed down instead of deadlines.
+
+    Picklable: a child process given one keeps its end (:func:`time.perf_counter` reads a
+    clock shared by the processes of a machine).
+
+    Attributes
+    ----------
+    deadline
+        :func:`time.perf_counter` value at which the time is up (None: no limit), for code
+        that still takes a float.
+    memory
+        Bytes the work may hold (None: no limit); carried to sub-budgets.
+    """
+
+    deadline: float | None = None
+    memory: int | None = None
+
+    @classmethod
+    def of(cls, time_limit: float | None, memory: int | None = None) -> Budget:
+        """``time_limit`` seconds from now (None: no limit)."""
+        return cls.until(None if time_limit is None else time.perf_counter() + time_limit, memory)
+
+    @classmethod
+    def until(cls, deadline: float | None, memory: int | None = None) -> Budget:
+        """Until ``deadline``, a :func:`time.perf_counter` value (None: no limit)."""
+        return cls(None if deadline is None else float(deadline), memory)
+
+    def left(self) -> float | None:
+        """Seconds left, at least 0 (None: no limit)."""
+        return None if self.deadline is None else max(0.0, self.deadline - time.perf_counter())
+
+    def fits(self, seconds: float) -> bool:
+        """Whether work of ``seconds``, started now, ends in time (False once a stop was
+        requested, :func:`request_stop`)."""
+        end = self.deadline
+        return not _FLAG.requested and (end is None or time.perf_counter() + seconds <= end)
+
+    def expired(self) -> bool:
+        """True once the time is up or a stop was requested (:func:`request_stop`)."""
+        return not self.fits(0.0)
+
+    def child(self, seconds: float | None = None, *, fraction: float | None = None) -> Budget:
+        """A sub-budget of at most ``seconds`` from now and at most ``fraction`` of the time
+        left (None: no such cap); it never ends after this one."""
+        now, left = time.perf_counter(), self.left()
+        caps = [seconds, None if fraction is None or left is None else fraction * left]
+        ends = [self.deadline, *(now + c for c in caps if c is not None)]
+        return replace(self, deadline=min((e for e in ends if e is not None), default=None))
+
+    def share(self, fraction: float) -> Budget:
+        """A sub-budget of ``fraction`` of the time left (unlimited stays unlimited)."""
+        return self.child(fraction=fraction)

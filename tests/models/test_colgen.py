@@ -691,6 +691,7 @@ def test_a_round_foreseen_past_the_deadline_is_not_started() -> None:
     import numpy as np
 
     from models.colgen import _master_highs, column_generation
+    from sosp.stop import Budget
 
     _master_highs()  # HiGHS loaded before the clock (its first import takes a while)
     calls: list[float] = []
@@ -704,11 +705,11 @@ def test_a_round_foreseen_past_the_deadline_is_not_started() -> None:
     p, seen = np.array([1.0]), np.array([True])
     start = (p.copy(), np.zeros((1, 2)))
     t = time.perf_counter()
-    root = column_generation(p, seen, rules, slow_price, start, deadline=t + 0.8)
+    root = column_generation(p, seen, rules, slow_price, start, Budget.until(t + 0.8))
     assert len(calls) == 1 and root.rounds == 1 and root.round_s >= 0.5
     assert time.perf_counter() - t < 0.8 and root.best >= 1.0
     calls.clear()
-    root = column_generation(p, seen, rules, slow_price, start, deadline=None, max_rounds=2)
+    root = column_generation(p, seen, rules, slow_price, start, Budget(), max_rounds=2)
     assert len(calls) == 2  # no deadline: no foresight
 
 

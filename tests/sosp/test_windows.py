@@ -23,6 +23,7 @@ from sosp.rules import EPS, orbit_rules
 from sosp.scenarios import generate_scenario
 from sosp.schedule import Observation, Schedule
 from sosp.solve import solve
+from sosp.stop import Budget
 from sosp.validate import validate
 from sosp.windows import (
     OrbitOpps,
@@ -510,7 +511,7 @@ def test_the_timed_first_round_is_a_bound(inst: Instance) -> None:
 
     orbits = [orbit_opps(inst, j) for j in range(inst.n_orbits)]
     _, p = wb._observable(inst)
-    band, round_s, value = wb._first_band(orbits, p, wb.BAND, time.perf_counter() + 60.0, 1)
+    band, round_s, value = wb._first_band(orbits, p, wb.BAND, Budget.of(60.0), 1)
     assert wb.MIN_BAND <= band <= wb.BAND and round_s >= 0.0
     assert value + 1e-6 >= brute_force(inst, "cluster").profit
 
@@ -524,7 +525,7 @@ def test_the_timed_first_round_stops_at_the_deadline() -> None:
     inst = generate_scenario("C1", seed=0)
     orbits = [orbit_opps(inst, j) for j in range(inst.n_orbits)]
     _, p = wb._observable(inst)
-    band, round_s, value = wb._first_band(orbits, p, wb.BAND, time.perf_counter() - 1.0, 1)
+    band, round_s, value = wb._first_band(orbits, p, wb.BAND, Budget.of(-1.0), 1)
     assert band == wb.BAND and round_s == math.inf and value == math.inf
 
 
