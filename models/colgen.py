@@ -48,27 +48,21 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 #: Weight of the best-bound duals in the pricing point (Wentges smoothing). 0 is plain column
-#: generation (pricing at the master's duals). Rounds to convergence for 0 / 0.3 / 0.5 / 0.7 /
-#: 0.85: C10 75 / 51 / 52 / 51 / 63, europe-400 31 / 27 / 29 / 32 / 42.
+#: generation (pricing at the master's duals); 0.3-0.7 took about a third fewer rounds to
+#: converge than 0, and more than 0.7 as many as 0 again.
 SMOOTHING = 0.5
 
 #: A column enters the master when its reduced cost at the master's duals exceeds this.
 _RC_TOL = 1e-7
 
 #: Subset-row cut separation rounds (100 cuts each at most) at the branch and price's root
-#: (:func:`branch_and_price`) of a run shorter than :data:`LONG_RUN_S`. Bound after 600 s on
-#: C5 for 0 / 1 / 3 / 10 rounds: 2217 / 2217 / 2213 / 2220 (10 rounds leave time for 2
-#: nodes); C7 0 / 3: 2889 / 2884; C9 3501 / 3495. With the faster cut pricing of 46d7e0b,
-#: 3 rounds: C5 2210, C7 2880, C9 3491, C10 3880 (``docs/exact.md``, "Subset-row cuts in
-#: the branch and price"). At 60 s 3 rounds against 5 over C5, C9 and three instances of the
-#: tuning set: two a unit lower, two equal (na-1000 proven only with 3), one a unit higher.
+#: (:func:`branch_and_price`) of a run shorter than :data:`LONG_RUN_S`: each round lowers the
+#: root but slows every node's pricing; 3 gave the lowest bounds at 60 s (the measurements:
+#: ``CHANGELOG.md``, "Subset-row cuts in the branch and price").
 CUT_ROUNDS = 3
 
-#: Root rounds of a run of at least :data:`LONG_RUN_S` seconds, or of no time limit. At 600 s
-#: on C5-C10, 5 rounds against 3: C5 2211 / 2210, C6 2592 / 2594, C7 2876 / 2880, C8 3194 /
-#: 3196, C9 3490 / 3491, C10 3878 / 3880 (8 rounds on C7: 2877). With the orbit cuts
-#: (``docs/exact.md``, "Orbit cuts"), 5 rounds against 10: C5 2203 / 2204, C6 proven in 187
-#: s / 105 s, C7 2866 / 2864, C8 3183 / 3180, C9 proven 3480 / 3484, C10 3866 / proven.
+#: Root rounds of a run of at least :data:`LONG_RUN_S` seconds, or of no time limit: on
+#: 600 s runs 5 rounds gave lower bounds than 3 on most C scenarios and as low as 10.
 LONG_CUT_ROUNDS = 5
 
 #: See :data:`LONG_CUT_ROUNDS` (between the 60 s and the 600 s runs it was chosen on).
@@ -90,16 +84,16 @@ NODE_CUTS = 20
 
 #: Branching candidates evaluated on the restricted master of each node the search branches
 #: on (strong branching, :func:`_strong_pick`; 0: the heaviest fractional pair,
-#: :func:`_branch_pair`). Bound after 300 s (0 / 5 / 10 candidates; ``docs/exact.md``,
-#: *Strong branching*): C7 2867.99 / 2866.84 / 2866.98, C8 3185.94 / 3184.98 / 3186.77.
+#: :func:`_branch_pair`). 5 gave lower bounds after 300 s than 0 or 10 (``CHANGELOG.md``,
+#: "Strong branching on the restricted master").
 STRONG_CANDIDATES = 5
 
 #: HiGHS's primal simplex (``simplex_strategy``), the restricted masters' (:func:`_master_highs`).
 _MASTER_SIMPLEX = 4
 
 #: Dual simplex for the strong branching's solves: a child's changed coefficients leave the
-#: node's basis neither primal nor dual feasible, and from it C7's solves took 460-11,900
-#: primal iterations (0.04-1.4 s) against 685 dual on average (0.10 s a solve).
+#: node's basis neither primal nor dual feasible, and from there the primal simplex took up
+#: to twenty times the dual's iterations.
 _STRONG_SIMPLEX = 1
 
 
@@ -124,8 +118,7 @@ def _master_highs() -> Any:
 
     Primal simplex, presolve off: new columns leave the last basis primal feasible, so the
     re-solve starts from it (presolve would discard it). HiGHS's default dual simplex spends
-    about three times the iterations per re-solve here (B10's branch and price: 0.10 s a
-    re-solve against 0.03 s; *Column generation* in ``docs/exact.md``). No ``threads``
+    about three times the iterations per re-solve here. No ``threads``
     option: HiGHS keeps one scheduler per process, and a solve asking for another count than
     it started with fails (:func:`models.highs_direct.use_threads`).
     """
@@ -1479,9 +1472,8 @@ def node_schedule(
 
 # ------------------------------------------------------------ beside the MILP, one process
 #: :func:`models.solve.solve_milp` starts a :class:`SideBound` only when at least this many
-#: seconds are left for the MILP. A child starts in about a second; from 20 s down to 4 s,
-#: `milp` at 10 s proved 8 of 12 drawn and paper instances optimal instead of 3, with every
-#: other bound lower (docs/exact.md, *A side process from 4 s on*).
+#: seconds are left for the MILP. A child starts in about a second, and a short run gains
+#: most from a second bound (``CHANGELOG.md``, "A side process from 4 s on").
 SIDE_MIN_S = 4.0
 
 

@@ -22,7 +22,7 @@ Each orbit is priced per roll band of :data:`BAND` degrees (:func:`sosp.windows.
 the relaxation's slews are then at most one band short of the real ones, and the bound comes
 close to the explicit candidates' at a few times the pricing's cost; the rounds can be priced
 in ``workers`` processes. Column generation replaced subgradient steps here (the same
-relaxation). Figures in ``docs/scenarios.md``, "The window bound's roll bands".
+relaxation).
 """
 
 from __future__ import annotations
@@ -51,9 +51,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-#: Degrees of the relaxation's roll bands by default (``docs/scenarios.md``, "The window
-#: bound's roll bands"): the slew terms are under-estimated by at most one band over the slew
-#: rate. The tightest width measured that still converges within D100's 600 s.
+#: Degrees of the relaxation's roll bands by default: the slew terms are under-estimated by
+#: at most one band over the slew rate. The tightest width that still converged on the
+#: largest scenarios within 600 s (``CHANGELOG.md``, "The window bound's roll bands").
 BAND = 0.5
 
 #: The finest band :func:`window_colgen_bound` refines to (a round's cost grows about as the
@@ -61,16 +61,14 @@ BAND = 0.5
 MIN_BAND = 0.1
 
 #: Seconds per (first, covered) pair of opportunities (:func:`_pairs`) that one unbanded
-#: pricing round is foreseen to take at least, for ``expect_rounds``: below the least
-#: measured (2026-11-29, the 2-core machine, mu = p and p / 2: 115-406 ns on 16 drawn
-#: instances of ``benchmarks/bench_sweep.py --anywhere``, C5, C10 and D100; a 10,000-target
-#: polar box 192 million pairs, 64 s a round).
+#: pricing round is foreseen to take at least, for ``expect_rounds``, before a round has
+#: been timed: below the least rate measured over drawn and paper instances, so that the
+#: bound gives up early only on rounds that cannot fit.
 ROUND_S_PER_PAIR = 1e-7
 
 #: Rounds a window root is expected to take, and a round's cost when the band is halved,
-#: for :func:`_first_band` (measured: D100 56-58 rounds, the generated set of
-#: ``benchmarks/bench_window_bound.py`` 15-48; D100's round 1 degree 6.0 s, 0.5 degree 9.3 s
-#: in one process, 0.25 degree about 2.2 times 0.5 degree's in two).
+#: for :func:`_first_band`: at most about 60 rounds on ``benchmarks/bench_window_bound.py``'s
+#: instances, and a round at half the band about twice as long.
 ROOT_ROUNDS = 60
 HALVING_COST = 2.0
 
