@@ -22,7 +22,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import bound_function, solve
 from sosp.validate import validate
-from tests.conftest import small_instances
+from tests.conftest import scenario, small_instances
 from tests.heuristics.test_tabu_search import chain_no_cluster, openings_no_cluster
 from tests.oracle import brute_force
 
@@ -207,9 +207,8 @@ def test_bad_parameters_raise_input_error(kw: dict) -> None:
 @pytest.mark.parametrize("name", ["B1", "C1"])
 def test_bound_is_at_least_the_static_milp_optimum(name: str) -> None:
     pytest.importorskip("highspy")
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario(name, seed=0)
+    inst = scenario(name)
     exact = solve(inst, "milp", model="static", time_limit=300)
     assert exact.status == "optimal"
     out = pba_bound(inst)
@@ -309,9 +308,8 @@ def test_an_rcm_order_foreseen_past_its_share_is_the_index_order(monkeypatch) ->
     import time
 
     import heuristics.pba as pba
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C1", 0)
+    inst = scenario("C1")
     pp = part_problem(inst, static_cluster_tasks(inst), False)
     rcm = target_order(pp)
     assert rcm != list(pp.targets)  # (else the test could not tell them apart)

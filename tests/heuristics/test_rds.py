@@ -14,10 +14,9 @@ from heuristics.rds import orbit_resources_can_bind, pairwise_conflicts, russian
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.instance import Instance, Resources
 from sosp.result import Status
-from sosp.scenarios import generate_scenario
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
+from tests.conftest import scenario, tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
 from tests.oracle import brute_force as oracle
 
 
@@ -334,9 +333,7 @@ def test_time_limit_returns_incumbent_and_bound() -> None:
 
 @pytest.mark.slow
 def test_rds_stc_scenario_b1_is_proven() -> None:
-    from sosp.scenarios import generate_scenario
-
-    inst = generate_scenario("B1", 0)
+    inst = scenario("B1")
     res = solve(inst, "rds-stc", time_limit=120)
     assert res.status is Status.OPTIMAL and res.bound == res.profit
     hpfs = solve(inst, "hpfs-stc")
@@ -352,9 +349,8 @@ def test_rds_proves_the_milp_optimum(name: str, method: str, model: str) -> None
     # Issue 5's acceptance: RDS proves the optimum and equals the MILP model's optimum there
     # (C1: one interaction component of 214 static tasks, proven in about 10-45 s).
     models_solve = pytest.importorskip("models.solve")
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario(name, 0)
+    inst = scenario(name)
     rds = solve(inst, method, time_limit=300)
     assert rds.status is Status.OPTIMAL and rds.bound == rds.profit
     assert validate(inst, rds.schedule).feasible
@@ -370,7 +366,7 @@ def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch) -> Non
     pairs, a component's search is not started, and the answer is the fall-back decode,
     valid, within the limit."""
     monkeypatch.setattr(rds_module, "PAIRS_PER_CHECK", 1)
-    inst = generate_scenario("B3", 0)
+    inst = scenario("B3")
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
     late = iter([0.0] + [10.0] * 10**6).__next__  # the deadline (1.0) passes after one reading
@@ -391,7 +387,7 @@ def test_the_work_after_the_search_has_its_time_kept_back(
     ``FALLBACK_S_PER_TASK`` a usable task, at most half the limit."""
     import time
 
-    inst = generate_scenario("B1", 0)
+    inst = scenario("B1")
     tasks = single_tasks(inst)
     seen: list[float] = []
     real = rds_module.fix_free_tasks
@@ -437,7 +433,7 @@ def test_preparation_foreseen_too_long_is_skipped(monkeypatch: pytest.MonkeyPatc
     monkeypatch.setattr(rds_module, "fix_free_tasks", lambda *a: calls.append("fix"))
     monkeypatch.setattr(rds_module, "interaction_components", lambda *a: calls.append("comps"))
     monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", 1e6)
-    inst = generate_scenario("B1", 0)
+    inst = scenario("B1")
     tasks = single_tasks(inst)
     out = russian_doll(inst, tasks, time_limit=2.0)
     assert calls == []
@@ -488,7 +484,7 @@ def test_conflict_lists_foreseen_late_or_too_large_are_not_made(monkeypatch) -> 
     foreseen past the deadline it is not started; beyond ``MAX_PAIRS`` the lists (about 80
     bytes a pair) are not made at all. Either way the search is not run and the answer is
     the fall-back decode, valid."""
-    inst = generate_scenario("B1", 0)
+    inst = scenario("B1")
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
     far = 1e12  # a deadline that never passes

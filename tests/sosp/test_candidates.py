@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from sosp.candidates import OppGroups, OrbitCandidates, orbit_candidates
 from sosp.rules import EPS
-from tests.conftest import tiny_cluster
+from tests.conftest import scenario, tiny_cluster
 
 
 def _within_reference(
@@ -89,9 +89,8 @@ def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     monkeypatch.setattr(cands, "FORESIGHT_AFTER_S", 0.0)
     # a deadline far off, but a margin that foresees any rate as too slow for it
     monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1e-12)
@@ -111,9 +110,8 @@ def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypat
     import time
 
     import sosp.candidates as cands
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
     soon = time.perf_counter() + 60.0
@@ -135,9 +133,8 @@ def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkey
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
     with pytest.raises(TimeLimitReached, match="estimating"):
@@ -157,9 +154,8 @@ def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch) -> 
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled: a non-zero estimate
     monkeypatch.setattr(cands, "GENERATE_S_PER_BYTE", 1.0)  # a second per byte
     soon = time.perf_counter() + 60.0
@@ -185,9 +181,8 @@ def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypa
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 0.0)  # foreseen to take no time
     now = time.perf_counter()

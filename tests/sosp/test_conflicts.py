@@ -13,7 +13,7 @@ from sosp.conflicts import conflict_graph, setup_conflict_pairs
 from sosp.instance import Instance, Resources
 from sosp.schedule import Observation, Schedule
 from sosp.validate import validate
-from tests.conftest import tiny_chain, tiny_cluster, tiny_two_orbits
+from tests.conftest import scenario, tiny_chain, tiny_cluster, tiny_two_orbits
 
 
 @st.composite
@@ -169,9 +169,8 @@ def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch) -> None:
     import pytest
 
     import sosp.conflicts as conflicts
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
     whole = conflicts.setup_conflict_pairs(*args)
     monkeypatch.setattr(conflicts, "CHUNK_PAIRS", 7)
@@ -216,9 +215,8 @@ def test_conflict_rows_cap_raises_before_the_rows() -> None:
     import pytest
 
     from sosp.conflicts import TooManyConflicts, setup_conflict_rows
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = scenario("C3")
     args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
     n_pairs = len(setup_conflict_pairs(*args))
     assert n_pairs > 10
