@@ -132,11 +132,6 @@ def c5() -> Instance:
     return scenario("C5")
 
 
-@pytest.fixture
-def c10() -> Instance:
-    return scenario("C10")
-
-
 # ------------------------------------------------------------------- the random-instance strategy
 @st.composite
 def small_instances(draw: st.DrawFn, max_opps: int = 9) -> Instance:

@@ -94,8 +94,8 @@ def test_local_search_reaches_the_optimum_of_four_apart() -> None:
     assert res.profit == 7  # c + d, the two heaviest under max_openings = 2
 
 
-def test_time_limit_stops_early() -> None:
-    inst = scenario("C1")
+def test_time_limit_stops_early(c1) -> None:
+    inst = c1
     res = solve(inst, "aco-stc", time_limit=0.3, iterations=10**6)
     assert 0 < res.iterations < 10**6
     assert validate(inst, res.schedule).feasible
@@ -280,12 +280,12 @@ def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_a_stop_request_ends_the_colony_with_its_best(method: str) -> None:
+def test_a_stop_request_ends_the_colony_with_its_best(method: str, c1) -> None:
     from sosp.progress import Progress
     from sosp.result import Status
     from sosp.stop import clear_stop, request_stop
 
-    inst = scenario("C1")
+    inst = c1
 
     def cb(snap) -> None:  # noqa: ANN001
         if snap.elapsed > 0.3:

@@ -15,7 +15,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import scenario, small_instances
+from tests.conftest import small_instances
 from tests.heuristics.test_aco import four_apart
 from tests.heuristics.test_hpfs import x_blocks_y_and_z
 from tests.oracle import brute_force
@@ -57,8 +57,8 @@ def test_finds_the_pair_that_highest_weight_first_misses() -> None:
     assert res.profit == 9
 
 
-def test_time_limit_stops_early() -> None:
-    inst = scenario("C1")
+def test_time_limit_stops_early(c1) -> None:
+    inst = c1
     res = solve(inst, "ga-stc", time_limit=0.5, iterations=10**6)
     assert res.iterations < 10**6
     assert validate(inst, res.schedule).feasible
@@ -153,12 +153,12 @@ def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
         GAParams.from_kwargs(**kwargs)
 
 
-def test_a_stop_request_ends_the_ga_with_its_best() -> None:
+def test_a_stop_request_ends_the_ga_with_its_best(c1) -> None:
     from sosp.progress import Progress
     from sosp.result import Status
     from sosp.stop import clear_stop, request_stop
 
-    inst = scenario("C1")
+    inst = c1
 
     def cb(snap) -> None:  # noqa: ANN001
         if snap.elapsed > 0.3:

@@ -17,7 +17,7 @@ from sosp.result import Status
 from sosp.schedule import Schedule
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import TINY, scenario, tiny_two_orbits
+from tests.conftest import TINY, tiny_two_orbits
 from tests.heuristics.test_asa import small_instances
 from tests.limits import limit_kept
 from tests.models.instances import random_tiny
@@ -410,7 +410,7 @@ def test_window_members_are_not_listed_when_foreseen_late(monkeypatch) -> None:
     assert cols.listing(10**6) == pytest.approx(cols.scan.rate * 10**6)
 
 
-def test_an_orbit_foreseen_late_is_left_out_and_the_steps_go_on(monkeypatch) -> None:
+def test_an_orbit_foreseen_late_is_left_out_and_the_steps_go_on(monkeypatch, b2) -> None:
     """Windowed steps drop an orbit whose columns are foreseen late and go on over the others
     (they ended at the first such orbit: a drawn 5,000-target instance kept its start)."""
     import numpy as np
@@ -418,7 +418,7 @@ def test_an_orbit_foreseen_late_is_left_out_and_the_steps_go_on(monkeypatch) -> 
     import heuristics.lns as lns
     from sosp.validate import validate
 
-    inst = scenario("B2")
+    inst = b2
     real = lns._WindowColumns.foreseen
     n_opps = np.diff(inst.orbit_offsets)
     dense = int(np.argmax(n_opps))
@@ -466,7 +466,7 @@ def test_one_per_target_keeps_each_target_once_per_window() -> None:
     assert p3.tolist() == [0, 1, 2] and f3.tolist() == [0, 0]
 
 
-def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
+def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch, b2) -> None:
     """A step's model (data, arrays) reads no clock (3 million members: 1.7 s, and a 5 s run
     went to 7.4 s): foreseen past the deadline at ``BUILD_S_PER_MEMBER`` (until one was
     timed), it is not built; the answer is the start's."""
@@ -476,7 +476,7 @@ def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
     import models.data
     from sosp.validate import validate
 
-    inst = scenario("B2")
+    inst = b2
     built: list[int] = []
     real = models.data.prepare
     monkeypatch.setattr(models.data, "prepare", lambda *a, **k: built.append(1) or real(*a, **k))
@@ -490,7 +490,7 @@ def test_a_model_foreseen_past_the_deadline_is_not_built(monkeypatch) -> None:
     assert built
 
 
-def test_a_model_foreseen_too_long_skips_its_step_not_the_search(monkeypatch) -> None:
+def test_a_model_foreseen_too_long_skips_its_step_not_the_search(monkeypatch, b2) -> None:
     """One neighbourhood too large for the time left ends that step only: the next step
     draws another (it ended the search, and a 20 s run on a 600-target instance at 14 s)."""
     import numpy as np
@@ -499,7 +499,7 @@ def test_a_model_foreseen_too_long_skips_its_step_not_the_search(monkeypatch) ->
     import models.data
     from sosp.validate import validate
 
-    inst = scenario("B2")
+    inst = b2
     built: list[int] = []
     real = models.data.prepare
     monkeypatch.setattr(models.data, "prepare", lambda *a, **k: built.append(1) or real(*a, **k))

@@ -301,7 +301,7 @@ def test_target_order_is_rcm_over_its_graph(inst: Instance, unit: bool) -> None:
         assert target_order(pp) == _order_reference(pp)
 
 
-def test_an_rcm_order_foreseen_past_its_share_is_the_index_order(monkeypatch) -> None:
+def test_an_rcm_order_foreseen_past_its_share_is_the_index_order(monkeypatch, c1) -> None:
     """The order's sparse products read no clock (a polar box of 10,000 targets: 13.4 s,
     and a 5 s run went to 14.5 s): with a deadline, an order foreseen past its share of the
     time left keeps the targets' index order; without one, or with room, it is the rcm."""
@@ -309,7 +309,7 @@ def test_an_rcm_order_foreseen_past_its_share_is_the_index_order(monkeypatch) ->
 
     import heuristics.pba as pba
 
-    inst = scenario("C1")
+    inst = c1
     pp = part_problem(inst, static_cluster_tasks(inst), False)
     rcm = target_order(pp)
     assert rcm != list(pp.targets)  # (else the test could not tell them apart)

@@ -8,7 +8,6 @@ from heuristics.sa import swap_distance
 from sosp.result import Status
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import scenario
 from tests.heuristics.test_hpfs import names, x_blocks_y_and_z
 from tests.heuristics.test_rds import random_tiny
 
@@ -54,8 +53,8 @@ def test_reaches_rds_optimum_on_random_tiny() -> None:
         )
 
 
-def test_time_limit_stops_early() -> None:
-    inst = scenario("C1")
+def test_time_limit_stops_early(c1) -> None:
+    inst = c1
     res = solve(inst, "sa-stc", time_limit=0.2, iterations=10**9)
     assert 0 < res.iterations < 10**9
     assert validate(inst, res.schedule).feasible

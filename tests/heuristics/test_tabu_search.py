@@ -13,7 +13,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import scenario, small_instances, tiny_chain
+from tests.conftest import small_instances, tiny_chain
 from tests.oracle import brute_force
 
 
@@ -123,12 +123,12 @@ def test_bad_parameters_raise_input_error(kw: dict) -> None:
         solve(tiny_chain(), "ts-stc", **kw)
 
 
-def test_a_stop_request_ends_the_search_with_its_best() -> None:
+def test_a_stop_request_ends_the_search_with_its_best(c1) -> None:
     from sosp.progress import Progress
     from sosp.result import Status
     from sosp.stop import clear_stop, request_stop
 
-    inst = scenario("C1")
+    inst = c1
 
     def cb(snap) -> None:  # noqa: ANN001
         if snap.elapsed > 0.3:

@@ -20,7 +20,7 @@ from sosp.result import Status
 from sosp.schedule import items_to_schedule
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import scenario, tiny_cluster
+from tests.conftest import tiny_cluster
 from tests.limits import limit_kept
 from tests.models.instances import random_tiny
 from tests.oracle import brute_force
@@ -258,7 +258,7 @@ def test_candidates_out_of_time_before_the_limit_give_the_cap_or_windows(
         assert out["source"] == ("cap" if out["bound"] == observable_weight(inst) else "windows")
 
 
-def test_auto_and_lagrangian_leave_the_window_relaxation_its_share(monkeypatch) -> None:
+def test_auto_and_lagrangian_leave_the_window_relaxation_its_share(monkeypatch, c1) -> None:
     # the candidates must be ready by (1 - WINDOWS_AFTER_SHARE) of the limit, so that when
     # they are not the window relaxation still has its share (not the cap)
     import time
@@ -273,7 +273,7 @@ def test_auto_and_lagrangian_leave_the_window_relaxation_its_share(monkeypatch) 
         return real(instance, model, deadline, generate_by)
 
     monkeypatch.setattr(msolve, "model_data", spy)
-    inst = scenario("C1")
+    inst = c1
     for method in ("auto", "lagrangian", "lp"):
         before = len(seen)
         msolve.bound(inst, method=method, time_limit=8.0)

@@ -107,8 +107,8 @@ def test_warm_start_reaches_the_same_limit() -> None:
 
 @pytest.mark.limits
 @pytest.mark.slow
-def test_keeps_its_time_limit() -> None:
-    inst = scenario("C2")  # about 50 rounds to converge
+def test_keeps_its_time_limit(c2) -> None:
+    inst = c2  # about 50 rounds to converge
     data = orbit_data(inst)
     colgen_bound(inst, data=data)  # the first run compiles the planner
     t0 = time.perf_counter()
@@ -292,10 +292,10 @@ def test_restricted_start_masters_never_below_the_optimum(inst: Instance) -> Non
 @pytest.mark.limits
 @pytest.mark.slow
 @pytest.mark.parametrize("workers", [1, 2])
-def test_branch_and_price_keeps_its_time_limit(workers: int) -> None:
+def test_branch_and_price_keeps_its_time_limit(workers: int, c2) -> None:
     # with two processes too: the helper's child is cut by the same deadline
 
-    inst = scenario("C2")
+    inst = c2
     data = orbit_data(inst)
     root = colgen_bound(inst, data=data)
     limit = root["runtime_s"] + 3.0

@@ -40,7 +40,6 @@ from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import (
     TINY,
-    scenario,
     small_instances,
     tiny_cluster,
     tiny_openings,
@@ -515,13 +514,13 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
     assert res.stats["candidate_mode"] == "windows"
 
 
-def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monkeypatch) -> None:
+def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monkeypatch, c3) -> None:
     """Candidates foreseen not ready within ``EXPLICIT_SHARE`` of the limit: by default
     orbit-dp plans over windows (and answers); asked for explicit candidates, it is the
     one-line error."""
     import sosp.candidates as cands
 
-    inst = scenario("C3")
+    inst = c3
     monkeypatch.setattr(cands, "FORESIGHT_AFTER_S", 0.0)
     monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1e-12)  # any rate is too slow
     res = solve(inst, "orbit-dp", seed=0, time_limit=60, iterations=2)  # validated by solve
@@ -557,12 +556,13 @@ def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
 
 def test_arranging_gives_up_at_once_when_the_rest_is_foreseen_past_the_deadline(
     monkeypatch,
+    c3,
 ) -> None:
     """The second orbit would end before the deadline, but all the orbits left would not
     (at the rate of the first): nothing more is started."""
     import sosp.planner as planner
 
-    inst = scenario("C3")
+    inst = c3
     whole = orbit_data(inst)
     sizes = [len(o.items) for o in whole.orbits]
     assert len(sizes) > 3 and sum(sizes[2:]) > 2 * sizes[1]

@@ -86,8 +86,8 @@ def test_solve_passes_progress_to_the_search() -> None:
     assert all(s.best is not None and s.best > 0 for s in got)
 
 
-def test_progress_does_not_change_a_seeded_run() -> None:
-    inst = scenario("C1")
+def test_progress_does_not_change_a_seeded_run(c1) -> None:
+    inst = c1
     for method, kw in (("asa-dtc", {"iterations": 300}), ("orbit-dp", {"iterations": 20})):
         a = solve(inst, method, seed=5, **kw)
         b = solve(inst, method, seed=5, progress=Progress(lambda s: None, 0.0), **kw)

@@ -227,10 +227,10 @@ def test_cli_signal_writes_the_best_so_far(
 
 @pytest.mark.limits
 @pytest.mark.slow
-def test_milp_on_the_highs_backend_stops_with_its_incumbent() -> None:
+def test_milp_on_the_highs_backend_stops_with_its_incumbent(c2) -> None:
     """HiGHS asks its interrupt callback (models.highs_direct) and stops at once when a stop
     was requested; the incumbent (the warm start at least) is returned, ``interrupted``."""
-    inst = scenario("C2")  # a limit of 60 s is reached without a request
+    inst = c2  # a limit of 60 s is reached without a request
     request_stop("test")
     t0 = time.perf_counter()
     result = solve(inst, "milp", backend="highs", time_limit=60)

@@ -437,8 +437,8 @@ def test_hpfs_start_foreseen_late_falls_back_to_lp(c1: Instance) -> None:
     assert validate(c1, res.schedule).feasible
 
 
-def test_hpfs_start_needs_windows(caplog: pytest.LogCaptureFixture) -> None:
-    inst = scenario("B1")
+def test_hpfs_start_needs_windows(caplog: pytest.LogCaptureFixture, b1) -> None:
+    inst = b1
     with caplog.at_level("WARNING"):
         res = solve(inst, "orbit-dp", seed=0, iterations=2, candidates="explicit", start="hpfs")
     assert "start hpfs needs window candidates" in caplog.text
@@ -524,13 +524,13 @@ def test_the_timed_first_round_is_a_bound(inst: Instance) -> None:
     assert value + 1e-6 >= brute_force(inst, "cluster").profit
 
 
-def test_the_timed_first_round_stops_at_the_deadline() -> None:
+def test_the_timed_first_round_stops_at_the_deadline(c1) -> None:
     """The timed round reads the clock before each orbit: past the deadline it is no round,
     no bound from it and no time for another (5,000 targets on 24 satellites take 5 s a
     round, and the bound at 5 s ran to 6.2 s)."""
     import models.window_bound as wb
 
-    inst = scenario("C1")
+    inst = c1
     orbits = [orbit_opps(inst, j) for j in range(inst.n_orbits)]
     _, p = wb._observable(inst)
     band, round_s, value = wb._first_band(orbits, p, wb.BAND, time.perf_counter() - 1.0, 1)
@@ -539,13 +539,14 @@ def test_the_timed_first_round_stops_at_the_deadline() -> None:
 
 def test_a_round_ends_before_an_orbit_foreseen_past_until(
     monkeypatch: pytest.MonkeyPatch,
+    c1,
 ) -> None:
     """One orbit's relaxed plan reads no clock (a 10 s bound ran to 12.7 s): an orbit
     foreseen past ``until`` at the most rate of those before it is not started, and the
     round is none. Without ``until``, every orbit is planned."""
     import models.window_bound as wb
 
-    inst = scenario("C1")
+    inst = c1
     orbits = [orbit_opps(inst, j) for j in range(inst.n_orbits)]
     g = max(range(len(orbits)), key=lambda j: len(orbits[j].start))
     _, p = wb._observable(inst)
@@ -568,13 +569,13 @@ def test_a_round_ends_before_an_orbit_foreseen_past_until(
 
 
 @pytest.mark.limits
-def test_no_round_is_started_that_cannot_end_in_time(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_no_round_is_started_that_cannot_end_in_time(monkeypatch: pytest.MonkeyPatch, c1) -> None:
     """When the timed round shows that no round fits in the time left, the bound returns at
     once: the timed round's value or the cap, the least (G100k spent its whole limit on a
     round that could not end)."""
     import models.window_bound as wb
 
-    inst = scenario("C1")
+    inst = c1
 
     def never(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("a round was started")
