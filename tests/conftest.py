@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import copy
+import functools
+
 import pytest
 from hypothesis import strategies as st
 
 from sosp.instance import Instance, Resources
+from sosp.scenarios import generate_scenario
 
 
 def tiny_chain() -> Instance:
@@ -73,6 +77,59 @@ TINY = {
 def tiny(request: pytest.FixtureRequest) -> Instance:
     """Each tiny named instance in turn."""
     return TINY[request.param]()
+
+
+# ------------------------------------------------------------- the paper's generated scenarios
+@functools.cache
+def _generated(name: str, seed: int) -> Instance:
+    return generate_scenario(name, seed)
+
+
+def scenario(name: str, seed: int = 0) -> Instance:
+    """The paper's scenario ``name`` (``generate_scenario(name, seed)``), generated once per test
+    process (each xdist worker has its own cache).
+
+    The instance's arrays are read-only; each call returns a shallow copy with its own ``meta``,
+    so a test that edits the metadata (or sets attributes) does not change another test's copy.
+    """
+    inst = copy.copy(_generated(name, seed))
+    object.__setattr__(inst, "meta", copy.deepcopy(dict(inst.meta)))
+    return inst
+
+
+@pytest.fixture
+def b1() -> Instance:
+    return scenario("B1")
+
+
+@pytest.fixture
+def b2() -> Instance:
+    return scenario("B2")
+
+
+@pytest.fixture
+def b3() -> Instance:
+    return scenario("B3")
+
+
+@pytest.fixture
+def c1() -> Instance:
+    return scenario("C1")
+
+
+@pytest.fixture
+def c2() -> Instance:
+    return scenario("C2")
+
+
+@pytest.fixture
+def c3() -> Instance:
+    return scenario("C3")
+
+
+@pytest.fixture
+def c5() -> Instance:
+    return scenario("C5")
 
 
 # ------------------------------------------------------------------- the random-instance strategy

@@ -1,4 +1,4 @@
-"""ACO-STC and ACO-LS-STC: validity, the static optimum as a ceiling, determinism, and each
+"""ACO-STC and ACO-LS-STC: validity, the static optimum as a ceiling, and each
 characteristic step (trail update, trail limits, arcs of a schedule, the exchange move) by hand."""
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import small_instances
+from tests.conftest import scenario, small_instances
 from tests.heuristics.test_hpfs import x_blocks_y_and_z
 from tests.oracle import brute_force
 
@@ -82,15 +82,6 @@ def test_profit_never_exceeds_the_static_optimum(inst: Instance, seed: int, meth
     assert res.profit <= brute_force(inst, "static").profit + 1e-9
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(inst=small_instances(), seed=st.integers(0, 2**16), method=st.sampled_from(METHODS))
-def test_same_seed_same_schedule(inst: Instance, seed: int, method: str) -> None:
-    a = solve(inst, method, seed=seed, iterations=4)
-    b = solve(inst, method, seed=seed, iterations=4)
-    assert a.schedule.observations == b.schedule.observations and a.profit == b.profit
-    assert a.iterations == b.iterations <= 4
-
-
 @pytest.mark.parametrize("method", METHODS)
 def test_finds_the_pair_that_highest_weight_first_misses(method: str) -> None:
     # x (6) blocks y (5) and z (4); the optimum is {y, z} = 9 (tests/heuristics/test_hpfs).
@@ -103,10 +94,8 @@ def test_local_search_reaches_the_optimum_of_four_apart() -> None:
     assert res.profit == 7  # c + d, the two heaviest under max_openings = 2
 
 
-def test_time_limit_stops_early() -> None:
-    from sosp.scenarios import generate_scenario
-
-    inst = generate_scenario("C1", 0)
+def test_time_limit_stops_early(c1) -> None:
+    inst = c1
     res = solve(inst, "aco-stc", time_limit=0.3, iterations=10**6)
     assert 0 < res.iterations < 10**6
     assert validate(inst, res.schedule).feasible
@@ -200,9 +189,8 @@ def test_a_covered_target_earns_nothing_on_another_orbit() -> None:
 
 def test_computed_successor_rows_equal_the_kept_matrix(monkeypatch) -> None:  # noqa: ANN001
     import heuristics.aco as aco
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C1", 0)
+    inst = scenario("C1")
     dense = Graph(stc_data(inst))
     monkeypatch.setattr(aco, "DENSE_TASKS", 0)
     lazy = Graph(stc_data(inst))
@@ -292,13 +280,12 @@ def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_a_stop_request_ends_the_colony_with_its_best(method: str) -> None:
+def test_a_stop_request_ends_the_colony_with_its_best(method: str, c1) -> None:
     from sosp.progress import Progress
     from sosp.result import Status
-    from sosp.scenarios import generate_scenario
     from sosp.stop import clear_stop, request_stop
 
-    inst = generate_scenario("C1", 0)
+    inst = c1
 
     def cb(snap) -> None:  # noqa: ANN001
         if snap.elapsed > 0.3:

@@ -31,6 +31,7 @@ from sosp.validate import validate
 from tests.conftest import small_instances
 from tests.heuristics.test_asa import commit_or_rollback
 from tests.heuristics.test_asa_replan import _abc, _only
+from tests.limits import limit_kept
 from tests.oracle import brute_force
 
 #: The hand computations below use the paper's rolls (midpoint (9), singles at their own roll)
@@ -296,11 +297,10 @@ def test_whole_orbit_moves_are_counted_and_deterministic(tiny: Instance) -> None
 @pytest.mark.parametrize(
     ("rule", "init"), [("nadir", "orbit-dp"), ("midpoint", "orbit-dp"), ("nadir", "lp")]
 )
-def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str, init: str) -> None:
+def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str, init: str, c1) -> None:
     # C1's orbits share targets, so loading must place each target once and lose nothing.
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C1", seed=0)
+    inst = c1
     params = ASAParams(roll_rule=rule, init=init)
     state = State(build_problem(inst, "dtc", rule), rule, params.nadir_singles)
     planner = OrbitPlanner(inst, state, None)
@@ -315,13 +315,12 @@ def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str, init: str) -> No
     assert rep.feasible, rep.violations
 
 
-def test_the_lp_start_over_windows_begins_from_hpfs() -> None:
+def test_the_lp_start_over_windows_begins_from_hpfs(c1) -> None:
     """Over windows ``init="lp"`` sets HPFS-STC's schedule first, then the root's plans (no
     limit here: the root has time); with explicit candidates, the root alone."""
     from heuristics.hpfs import solve_hpfs_stc
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C1", seed=0)
+    inst = c1
     hpfs = solve_hpfs_stc(inst, rng=np.random.default_rng(0)).profit
     params = ASAParams(init="lp", candidates="windows")
     state = State(build_problem(inst, "dtc", "nadir"), "nadir", params.nadir_singles)
@@ -398,13 +397,13 @@ def test_ascend_only_keeps_gains(inst: Instance, seed: int, rule: str) -> None:
     assert state.profit >= before + kept - 1e-9  # integer weights: each kept re-plan adds >= 1
 
 
-def test_the_start_keeps_its_share_of_what_the_set_up_left() -> None:
+@pytest.mark.limits
+def test_the_start_keeps_its_share_of_what_the_set_up_left(c1) -> None:
     """A set-up (the planner's candidates) that took the start's whole share of the limit
     still leaves the start its share of the time left (a 5,000-target instance at 5 s had
     no start step: 57 % of orbit-dp's profit)."""
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C1", seed=0)
+    inst = c1
     params = ASAParams(init="orbit-dp")
     state = State(build_problem(inst, "dtc", "nadir"), "nadir", params.nadir_singles)
     planner = OrbitPlanner(inst, state, None)
@@ -414,14 +413,13 @@ def test_the_start_keeps_its_share_of_what_the_set_up_left() -> None:
     figures = orbit_search_start(state, np.random.default_rng(3), params, planner, t0, limit)
     took = time.perf_counter() - t
     assert figures["init_steps"] >= 1 and figures["init_profit"] > 0
-    assert took <= params.init_share * 0.5 * limit + 0.5  # its share of the 2 s left
+    limit_kept("start, its share of 2 s", took, params.init_share * 0.5 * limit + 0.5)
 
 
-def test_insertion_after_an_orbit_start_has_its_share_of_the_time_left(monkeypatch) -> None:
+def test_insertion_after_an_orbit_start_has_its_share_of_the_time_left(monkeypatch, c1) -> None:
     """Section 5.4's insertion after an orbit start gets ``init_share`` of the time left, not
     all of it (it spent 14 s of a 20 s run on targets the start could not place)."""
     import heuristics.asa.search as search_mod
-    from sosp.scenarios import generate_scenario
 
     seen: list[float] = []
     real = search_mod.initial_solution
@@ -431,7 +429,7 @@ def test_insertion_after_an_orbit_start_has_its_share_of_the_time_left(monkeypat
         return real(state, params, deadline)
 
     monkeypatch.setattr(search_mod, "initial_solution", spy)
-    inst = generate_scenario("C1", seed=0)
+    inst = c1
     search_mod.Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=10.0)
     greedy = ASAParams(init="greedy")
     search_mod.Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=10.0, params=greedy)
@@ -471,6 +469,7 @@ def test_asa_sets_the_planners_deadline() -> None:
     from heuristics.asa.search import Search
 
     inst = _abc()
-    for limit, has in ((60.0, True), (None, False)):
+    # 2 s, not 60: the start search (orbit_search_start) runs for its share of the limit
+    for limit, has in ((2.0, True), (None, False)):
         s = Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=limit)
         assert s.planner is not None and (s.planner.deadline is not None) == has

@@ -8,14 +8,15 @@ import pytest
 
 import heuristics.asa.problem as problem
 from sosp.errors import InputError
-from sosp.scenarios import generate_scenario
 from sosp.solve import solve
 from sosp.validate import validate
+from tests.conftest import scenario
+from tests.limits import limit_kept
 
 
 @pytest.fixture(scope="module")
 def c1():
-    return generate_scenario("C1", 0)
+    return scenario("C1")
 
 
 @pytest.mark.parametrize("method", ["asa-stc", "asa-nontc"])
@@ -25,6 +26,7 @@ def test_a_variant_refuses_too_many_conflicts_in_one_line(monkeypatch, c1, metho
         solve(c1, method, seed=0, iterations=10)
 
 
+@pytest.mark.limits
 def test_asa_dtc_answers_with_its_start_search_when_the_lists_do_not_fit(
     monkeypatch, c1, caplog
 ) -> None:
@@ -35,7 +37,7 @@ def test_asa_dtc_answers_with_its_start_search_when_the_lists_do_not_fit(
     assert "orbit-dp's search" in caplog.text
     report = validate(c1, res.schedule)
     assert report.feasible and report.profit == res.profit > 0
-    assert res.runtime_s <= 3.0
+    limit_kept("asa-dtc fallback, 2 s", res.runtime_s, 3.0)
 
 
 def test_milp_without_a_model_gets_a_schedule_through_asa_dtc(monkeypatch, c1) -> None:

@@ -1,4 +1,4 @@
-"""GA-STC: validity, the static optimum as a ceiling, determinism, and its operators by hand
+"""GA-STC: validity, the static optimum as a ceiling, and its operators by hand
 (repair's DROP and ADD, uniform crossover, mutation, tournament)."""
 
 from __future__ import annotations
@@ -51,26 +51,14 @@ def test_profit_never_exceeds_the_static_optimum(inst: Instance, seed: int) -> N
     assert res.profit <= brute_force(inst, "static").profit + 1e-9
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(inst=small_instances(), seed=st.integers(0, 2**16))
-def test_same_seed_same_schedule(inst: Instance, seed: int) -> None:
-    a = solve(inst, "ga-stc", seed=seed, iterations=40, population=8)
-    b = solve(inst, "ga-stc", seed=seed, iterations=40, population=8)
-    assert a.schedule.observations == b.schedule.observations and a.profit == b.profit
-    assert a.iterations == b.iterations
-    assert a.stats["duplicates"] == b.stats["duplicates"]
-
-
 def test_finds_the_pair_that_highest_weight_first_misses() -> None:
     # x (6) blocks y (5) and z (4); the optimum is {y, z} = 9 (tests/heuristics/test_hpfs).
     res = solve(x_blocks_y_and_z(), "ga-stc", seed=0, iterations=50, population=4)
     assert res.profit == 9
 
 
-def test_time_limit_stops_early() -> None:
-    from sosp.scenarios import generate_scenario
-
-    inst = generate_scenario("C1", 0)
+def test_time_limit_stops_early(c1) -> None:
+    inst = c1
     res = solve(inst, "ga-stc", time_limit=0.5, iterations=10**6)
     assert res.iterations < 10**6
     assert validate(inst, res.schedule).feasible
@@ -165,13 +153,12 @@ def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
         GAParams.from_kwargs(**kwargs)
 
 
-def test_a_stop_request_ends_the_ga_with_its_best() -> None:
+def test_a_stop_request_ends_the_ga_with_its_best(c1) -> None:
     from sosp.progress import Progress
     from sosp.result import Status
-    from sosp.scenarios import generate_scenario
     from sosp.stop import clear_stop, request_stop
 
-    inst = generate_scenario("C1", 0)
+    inst = c1
 
     def cb(snap) -> None:  # noqa: ANN001
         if snap.elapsed > 0.3:

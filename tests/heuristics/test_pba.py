@@ -23,7 +23,7 @@ from sosp.instance import Instance, Resources
 from sosp.registry import compute_bound
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import small_instances
+from tests.conftest import scenario, small_instances
 from tests.heuristics.test_tabu_search import chain_no_cluster, openings_no_cluster
 from tests.oracle import brute_force
 
@@ -208,9 +208,8 @@ def test_bad_parameters_raise_input_error(kw: dict) -> None:
 @pytest.mark.parametrize("name", ["B1", "C1"])
 def test_bound_is_at_least_the_static_milp_optimum(name: str) -> None:
     pytest.importorskip("highspy")
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario(name, seed=0)
+    inst = scenario(name)
     exact = solve(inst, "milp", model="static", time_limit=300)
     assert exact.status == "optimal"
     out = pba_bound(inst)
@@ -303,16 +302,15 @@ def test_target_order_is_rcm_over_its_graph(inst: Instance, unit: bool) -> None:
         assert target_order(pp) == _order_reference(pp)
 
 
-def test_an_rcm_order_foreseen_past_its_share_is_the_index_order(monkeypatch) -> None:
+def test_an_rcm_order_foreseen_past_its_share_is_the_index_order(monkeypatch, c1) -> None:
     """The order's sparse products read no clock (a polar box of 10,000 targets: 13.4 s,
     and a 5 s run went to 14.5 s): with a deadline, an order foreseen past its share of the
     time left keeps the targets' index order; without one, or with room, it is the rcm."""
     import time
 
     import heuristics.pba as pba
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C1", 0)
+    inst = c1
     pp = part_problem(inst, static_cluster_tasks(inst), False)
     rcm = target_order(pp)
     assert rcm != list(pp.targets)  # (else the test could not tell them apart)

@@ -14,10 +14,9 @@ from heuristics.rds import orbit_resources_can_bind, pairwise_conflicts, russian
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
 from sosp.instance import Instance, Resources
 from sosp.result import Status
-from sosp.scenarios import generate_scenario
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
+from tests.conftest import scenario, tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
 from tests.oracle import brute_force as oracle
 
 
@@ -333,10 +332,8 @@ def test_time_limit_returns_incumbent_and_bound() -> None:
 
 
 @pytest.mark.slow
-def test_rds_stc_scenario_b1_is_proven() -> None:
-    from sosp.scenarios import generate_scenario
-
-    inst = generate_scenario("B1", 0)
+def test_rds_stc_scenario_b1_is_proven(b1) -> None:
+    inst = b1
     res = solve(inst, "rds-stc", time_limit=120)
     assert res.status is Status.OPTIMAL and res.bound == res.profit
     hpfs = solve(inst, "hpfs-stc")
@@ -352,9 +349,8 @@ def test_rds_proves_the_milp_optimum(name: str, method: str, model: str) -> None
     # Issue 5's acceptance: RDS proves the optimum and equals the MILP model's optimum there
     # (C1: one interaction component of 214 static tasks, proven in about 10-45 s).
     models_solve = pytest.importorskip("models.solve")
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario(name, 0)
+    inst = scenario(name)
     rds = solve(inst, method, time_limit=300)
     assert rds.status is Status.OPTIMAL and rds.bound == rds.profit
     assert validate(inst, rds.schedule).feasible
@@ -363,14 +359,14 @@ def test_rds_proves_the_milp_optimum(name: str, method: str, model: str) -> None
     assert milp.profit == pytest.approx(rds.profit), (name, method)
 
 
-def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch, b3) -> None:
     """On a 5,000-target instance the preparation before the search took 60 s under a 10 s
     limit: the fixing reads the clock before and after its (compiled) adjacency and stops
     with nothing fixed, the loops over conflict pairs read it every ``PAIRS_PER_CHECK``
     pairs, a component's search is not started, and the answer is the fall-back decode,
     valid, within the limit."""
     monkeypatch.setattr(rds_module, "PAIRS_PER_CHECK", 1)
-    inst = generate_scenario("B3", 0)
+    inst = b3
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
     late = iter([0.0] + [10.0] * 10**6).__next__  # the deadline (1.0) passes after one reading
@@ -385,13 +381,14 @@ def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch) -> Non
 
 def test_the_work_after_the_search_has_its_time_kept_back(
     monkeypatch: pytest.MonkeyPatch,
+    b1,
 ) -> None:
     """The fall-back decode after an unproven search reads no clock (20,000 targets: about
     1 s, and a 3 s limit ran to 4.04 s): the fixing and the search stop that much earlier,
     ``FALLBACK_S_PER_TASK`` a usable task, at most half the limit."""
     import time
 
-    inst = generate_scenario("B1", 0)
+    inst = b1
     tasks = single_tasks(inst)
     seen: list[float] = []
     real = rds_module.fix_free_tasks
@@ -430,14 +427,14 @@ def test_subproblems_solved_by_repair_read_the_clock(monkeypatch: pytest.MonkeyP
     assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
 
 
-def test_preparation_foreseen_too_long_is_skipped(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_preparation_foreseen_too_long_is_skipped(monkeypatch: pytest.MonkeyPatch, b1) -> None:
     # a reduction and a decomposition foreseen to end past the deadline are not started (a
     # 5,000-target instance: 3 s limits ran to 5.8 s); the answer is still valid
     calls: list[str] = []
     monkeypatch.setattr(rds_module, "fix_free_tasks", lambda *a: calls.append("fix"))
     monkeypatch.setattr(rds_module, "interaction_components", lambda *a: calls.append("comps"))
     monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", 1e6)
-    inst = generate_scenario("B1", 0)
+    inst = b1
     tasks = single_tasks(inst)
     out = russian_doll(inst, tasks, time_limit=2.0)
     assert calls == []
@@ -483,12 +480,12 @@ def test_interaction_components_are_those_of_the_whole_graph(seed: int) -> None:
         assert [len(c) for c in got] == sorted(len(c) for c in got)
 
 
-def test_conflict_lists_foreseen_late_or_too_large_are_not_made(monkeypatch) -> None:
+def test_conflict_lists_foreseen_late_or_too_large_are_not_made(monkeypatch, b1) -> None:
     """The (3) sweep reads no clock (167 million pairs: 5.7 s, and a 5 s run went to 7.1 s):
     foreseen past the deadline it is not started; beyond ``MAX_PAIRS`` the lists (about 80
     bytes a pair) are not made at all. Either way the search is not run and the answer is
     the fall-back decode, valid."""
-    inst = generate_scenario("B1", 0)
+    inst = b1
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
     far = 1e12  # a deadline that never passes

@@ -21,6 +21,7 @@ from sosp.result import Status
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import tiny_chain, tiny_cluster
+from tests.limits import limit_kept
 from tests.models.instances import random_dense, random_tiny
 
 
@@ -185,28 +186,26 @@ def test_cli_bound_backend(tmp_path, capsys: pytest.CaptureFixture[str]) -> None
     assert main(["bound", str(path), "--backend", "nope"]) == 2
 
 
+@pytest.mark.limits
 @pytest.mark.slow
-def test_time_limit_direct_does_not_raise() -> None:
+def test_time_limit_direct_does_not_raise(c5) -> None:
     import time
 
-    from sosp.scenarios import generate_scenario
-
-    inst = generate_scenario("C5", 0)
+    inst = c5
     t0 = time.perf_counter()
     res = solve_milp(inst, model="task", time_limit=3.0, backend="highs")
-    assert time.perf_counter() - t0 < 3.0 + 2.0
+    limit_kept("task model on HiGHS, 3 s", time.perf_counter() - t0, 3.0 + 2.0)
     assert res.status in (Status.TIME_LIMIT, Status.OPTIMAL, Status.NO_SOLUTION)
     if res.status is Status.TIME_LIMIT:
         assert res.bound >= res.profit and validate(inst, res.schedule).feasible
 
 
 @pytest.mark.slow
-def test_no_finite_bound_is_not_a_zero_gap() -> None:
+def test_no_finite_bound_is_not_a_zero_gap(c5) -> None:
     """Stopped during C5's root LP with a MIP start: an incumbent, no dual bound from HiGHS,
     and a bound from elsewhere (never a zero gap)."""
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C5", 0)
+    inst = c5
     start = solve_greedy(inst, rng=np.random.default_rng(0)).schedule
     res = solve_milp(inst, model="cluster", time_limit=6.0, warm_start=start, backend="highs")
     assert res.status is Status.TIME_LIMIT and res.stats["warm_start"] is True

@@ -20,6 +20,7 @@ from models.subset_row import (
     violated_orbit_pairs,
     violated_triples,
 )
+from tests.conftest import scenario
 
 
 def _orbit(rng: np.random.Generator, m: int) -> tuple[np.ndarray, ...]:
@@ -301,9 +302,8 @@ def _largest_c2_orbit(seed: int, n_cuts: int) -> tuple:
     """C2's largest orbit g with ``n_cuts`` random triples of its targets in a pool:
     ``(pool, g, price, rng)``, ``price`` random on 30 % of the targets."""
     from sosp.planner import orbit_data
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C2", 0)
+    inst = scenario("C2")
     groups = orbit_data(inst).orbits
     rng = np.random.default_rng(seed)
     pool = CutPool(groups)

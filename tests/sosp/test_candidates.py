@@ -80,6 +80,7 @@ def test_within_on_a_real_orbit():
 
 def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline(
     monkeypatch,
+    c3,
 ) -> None:
     """After the first orbit, the rest foreseen (at its rate) past the deadline: the error
     comes at once, with the other orbits not generated; with room to spare, all are."""
@@ -89,9 +90,8 @@ def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     monkeypatch.setattr(cands, "FORESIGHT_AFTER_S", 0.0)
     # a deadline far off, but a margin that foresees any rate as too slow for it
     monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1e-12)
@@ -104,16 +104,15 @@ def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline
     assert len(got[0]) > 0 and inst.n_orbits > 2
 
 
-def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypatch) -> None:
+def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypatch, c3) -> None:
     """``auto`` with a deadline: an estimate foreseen to take more than its share of the time
     left means windows, at once and with nothing estimated; without a deadline, or with
     room, the estimate decides as before (C3's candidates fit: explicit)."""
     import time
 
     import sosp.candidates as cands
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
     soon = time.perf_counter() + 60.0
@@ -125,7 +124,7 @@ def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypat
     assert cands.candidate_mode(inst, "explicit", soon) == "explicit"
 
 
-def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkeypatch) -> None:
+def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkeypatch, c3) -> None:
     """Without a cap, the size estimate comes first: foreseen past its share of the time
     left, the error comes before it and before any orbit is generated (every caller, such
     as ASA-DTC's planner, then plans over windows)."""
@@ -135,9 +134,8 @@ def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkey
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
     with pytest.raises(TimeLimitReached, match="estimating"):
@@ -146,7 +144,7 @@ def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkey
     assert not any(cands.cached_orbit_candidates(inst, j) for j in range(inst.n_orbits))
 
 
-def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch) -> None:
+def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch, c3) -> None:
     """At :data:`GENERATE_S_PER_BYTE` of the estimate, a generation that would end past the
     deadline is refused before any orbit (``auto``: windows at once); with room, or without
     a deadline, it goes ahead. A drawn 5,000-target instance (1.66 GB, 69 s) spent 2-2.5 s
@@ -157,9 +155,8 @@ def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch) -> 
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled: a non-zero estimate
     monkeypatch.setattr(cands, "GENERATE_S_PER_BYTE", 1.0)  # a second per byte
     soon = time.perf_counter() + 60.0
@@ -173,7 +170,7 @@ def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch) -> 
     assert len(cands.cluster_candidates(inst, None, deadline=soon)[0]) > 0
 
 
-def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypatch) -> None:
+def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypatch, c3) -> None:
     """The size estimate reads the clock before each sample: foreseen in time (its rate per
     sample set to nothing) but not done by its share of the time left, it stops; ``auto``
     then plans over windows and the generation refuses, with nothing kept. A drawn
@@ -185,9 +182,8 @@ def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypa
 
     import sosp.candidates as cands
     from sosp.errors import TimeLimitReached
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
     monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 0.0)  # foreseen to take no time
     now = time.perf_counter()

@@ -165,13 +165,12 @@ def test_tasks_to_schedule_claims_each_target_once() -> None:
     assert rep.feasible and rep.profit == 9
 
 
-def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch) -> None:
+def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch, c3) -> None:
     import pytest
 
     import sosp.conflicts as conflicts
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
     whole = conflicts.setup_conflict_pairs(*args)
     monkeypatch.setattr(conflicts, "CHUNK_PAIRS", 7)
@@ -212,13 +211,12 @@ def test_conflict_rows_are_the_pairs_as_sorted_symmetric_rows(inst: Instance, se
         assert row == sorted({h for i, h in want if i == x} | {i for i, h in want if h == x})
 
 
-def test_conflict_rows_cap_raises_before_the_rows() -> None:
+def test_conflict_rows_cap_raises_before_the_rows(c3) -> None:
     import pytest
 
     from sosp.conflicts import TooManyConflicts, setup_conflict_rows
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
     n_pairs = len(setup_conflict_pairs(*args))
     assert n_pairs > 10

@@ -33,7 +33,13 @@ from sosp.rules import orbit_rules
 from sosp.schedule import Observation, Schedule
 from sosp.solve import solve
 from sosp.validate import validate
-from tests.conftest import TINY, small_instances, tiny_cluster, tiny_openings, tiny_two_orbits
+from tests.conftest import (
+    TINY,
+    small_instances,
+    tiny_cluster,
+    tiny_openings,
+    tiny_two_orbits,
+)
 from tests.models.instances import EDGE_CASES, random_tiny
 from tests.oracle import brute_force
 
@@ -403,15 +409,6 @@ def test_lp_start_is_the_default_and_can_be_turned_off() -> None:
     assert on.stats["lp_rounds"] >= 1 and "lp_rounds" not in off.stats
 
 
-def test_same_seed_same_schedule() -> None:
-    inst = random_tiny(7)
-    a = solve(inst, "orbit-dp", seed=3, iterations=25)
-    b = solve(inst, "orbit-dp", seed=3, iterations=25)
-    assert a.schedule.observations == b.schedule.observations
-    assert a.profit == b.profit
-    assert [t[2] for t in a.stats["trace"]] == [t[2] for t in b.stats["trace"]]
-
-
 def test_no_opportunities_gives_an_empty_schedule() -> None:
     inst = Instance.build({"a": 3}, [], resources=Resources(), n_orbits=1)
     res = solve(inst, "orbit-dp", seed=0, time_limit=1)
@@ -512,14 +509,13 @@ def test_candidates_past_the_deadline_are_a_one_line_error() -> None:
     assert res.stats["candidate_mode"] == "windows"
 
 
-def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monkeypatch) -> None:
+def test_orbit_dp_plans_over_windows_when_the_candidates_are_foreseen_late(monkeypatch, c3) -> None:
     """Candidates foreseen not ready within ``EXPLICIT_SHARE`` of the limit: by default
     orbit-dp plans over windows (and answers); asked for explicit candidates, it is the
     one-line error."""
     import sosp.candidates as cands
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     monkeypatch.setattr(cands, "FORESIGHT_AFTER_S", 0.0)
     monkeypatch.setattr(cands, "FORESIGHT_MARGIN", 1e-12)  # any rate is too slow
     res = solve(inst, "orbit-dp", seed=0, time_limit=60, iterations=2)  # validated by solve
@@ -555,13 +551,13 @@ def test_arranging_past_the_deadline_is_the_same_one_line_error() -> None:
 
 def test_arranging_gives_up_at_once_when_the_rest_is_foreseen_past_the_deadline(
     monkeypatch,
+    c3,
 ) -> None:
     """The second orbit would end before the deadline, but all the orbits left would not
     (at the rate of the first): nothing more is started."""
     import sosp.planner as planner
-    from sosp.scenarios import generate_scenario
 
-    inst = generate_scenario("C3", 0)
+    inst = c3
     whole = orbit_data(inst)
     sizes = [len(o.items) for o in whole.orbits]
     assert len(sizes) > 3 and sum(sizes[2:]) > 2 * sizes[1]

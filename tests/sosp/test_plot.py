@@ -17,7 +17,7 @@ from sosp.plot import (
     schedule_figure,
 )
 from sosp.schedule import Schedule, make_observation
-from tests.conftest import tiny_cluster
+from tests.conftest import scenario, tiny_cluster
 
 
 def test_plot_tiny_cluster_counts_and_png(tmp_path: Path) -> None:
@@ -60,10 +60,9 @@ def test_plot_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
 
 # ------------------------------------------------------------------- figures people read
 def _c1_figure(utc: bool = False):
-    from sosp.scenarios import generate_scenario
     from sosp.solve import solve
 
-    inst = generate_scenario("C1", 0)
+    inst = scenario("C1")
     sched = solve(inst, "greedy").schedule
     fig, info = schedule_figure(inst, sched, utc=utc)
     return inst, sched, fig, info

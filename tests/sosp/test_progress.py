@@ -15,10 +15,9 @@ from pathlib import Path
 import pytest
 
 from sosp.progress import Progress, Snapshot, StatusLine, current, format_snapshot, reporting
-from sosp.scenarios import generate_scenario
 from sosp.solve import solve
 from sosp.stop import FirstOf, MaxIterations, SearchStatus
-from tests.conftest import tiny_chain
+from tests.conftest import scenario, tiny_chain
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -87,8 +86,8 @@ def test_solve_passes_progress_to_the_search() -> None:
     assert all(s.best is not None and s.best > 0 for s in got)
 
 
-def test_progress_does_not_change_a_seeded_run() -> None:
-    inst = generate_scenario("C1", 0)
+def test_progress_does_not_change_a_seeded_run(c1) -> None:
+    inst = c1
     for method, kw in (("asa-dtc", {"iterations": 300}), ("orbit-dp", {"iterations": 20})):
         a = solve(inst, method, seed=5, **kw)
         b = solve(inst, method, seed=5, progress=Progress(lambda s: None, 0.0), **kw)
@@ -175,7 +174,7 @@ def _run_on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
 @pytest.mark.parametrize("quiet", [False, True])
 def test_cli_status_line_and_quiet(tmp_path: Path, quiet: bool) -> None:
     inst = tmp_path / "c1.json"
-    generate_scenario("C1", 0).save(inst)
+    scenario("C1").save(inst)
     args = ["solve", str(inst), "--method", "orbit-dp", "--time-limit", "5", "-o", "s.json"]
     code, err = _run_on_a_terminal(args + (["--quiet"] if quiet else []), tmp_path)
     assert code == 0

@@ -18,7 +18,6 @@ import heuristics.asa as asa
 import sosp.stop as stop_mod
 from sosp.progress import Progress
 from sosp.result import Status
-from sosp.scenarios import generate_scenario
 from sosp.solve import solve
 from sosp.stop import (
     FirstOf,
@@ -34,7 +33,8 @@ from sosp.stop import (
     stop_requested,
 )
 from sosp.validate import validate
-from tests.conftest import tiny_chain
+from tests.conftest import scenario, tiny_chain
+from tests.limits import limit_kept
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -120,7 +120,7 @@ def test_first_signal_requests_a_stop_the_second_aborts(sig: signal.Signals) -> 
 # ------------------------------------------------------------------- every search obeys
 @pytest.fixture(scope="module")
 def c1():
-    return generate_scenario("C1", 0)
+    return scenario("C1")
 
 
 SEARCHES = [
@@ -141,6 +141,7 @@ def _stopped(inst, profit: float) -> Status:
     return Status.OPTIMAL if profit >= inst.observable_weight - 1e-9 else Status.INTERRUPTED
 
 
+@pytest.mark.limits
 @pytest.mark.parametrize(("method", "params"), SEARCHES, ids=lambda v: str(v))
 def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params: dict) -> None:
     """Limits far out of reach: only the request (made from the progress callback, as a
@@ -154,7 +155,7 @@ def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params:
 
     t0 = time.perf_counter()
     result = solve(c1, method, seed=1, progress=Progress(cb, interval=0.05), **params)
-    assert time.perf_counter() - t0 < 60
+    limit_kept(f"{method} stopped", time.perf_counter() - t0, 60.0)
     assert result.status is _stopped(c1, result.profit)
     assert seen, "the search never reported progress"
     assert validate(c1, result.schedule).feasible
@@ -224,15 +225,16 @@ def test_cli_signal_writes_the_best_so_far(
     assert json.loads(check.stdout)["profit"] == data["profit"]
 
 
+@pytest.mark.limits
 @pytest.mark.slow
-def test_milp_on_the_highs_backend_stops_with_its_incumbent() -> None:
+def test_milp_on_the_highs_backend_stops_with_its_incumbent(c2) -> None:
     """HiGHS asks its interrupt callback (models.highs_direct) and stops at once when a stop
     was requested; the incumbent (the warm start at least) is returned, ``interrupted``."""
-    inst = generate_scenario("C2", 0)  # a limit of 60 s is reached without a request
+    inst = c2  # a limit of 60 s is reached without a request
     request_stop("test")
     t0 = time.perf_counter()
     result = solve(inst, "milp", backend="highs", time_limit=60)
-    assert time.perf_counter() - t0 < 40
+    limit_kept("milp on HiGHS stopped", time.perf_counter() - t0, 40.0)
     assert result.status is Status.INTERRUPTED
     assert result.stats["termination"] == "Interrupted by user"
     assert result.profit > 0 and validate(inst, result.schedule).feasible
