@@ -93,6 +93,10 @@ def _scenario_order(name: str) -> tuple[int, str, int, str]:
     return (0 if g else 1, g, int(name[1:]) if g else 0, name)
 
 
+def _mean(xs: list[float]) -> float:
+    return sum(xs) / len(xs) if xs else math.nan
+
+
 @dataclass
 class Cell:
     """The runs of one method on one scenario (errors and infeasible schedules left out)."""
@@ -109,29 +113,11 @@ class Cell:
     def n(self) -> int:
         return len(self.profits)
 
-    @staticmethod
-    def _mean(xs: list[float]) -> float:
-        return sum(xs) / len(xs) if xs else math.nan
-
-    @property
-    def mean_profit(self) -> float:
-        return self._mean(self.profits)
-
-    @property
-    def mean_observed(self) -> float:
-        return self._mean(self.observed)
-
-    @property
-    def mean_runtime(self) -> float:
-        return self._mean(self.runtimes)
-
-    @property
-    def mean_per_energy(self) -> float:
-        return self._mean(self.per_energy)
-
-    @property
-    def mean_per_memory(self) -> float:
-        return self._mean(self.per_memory)
+    mean_profit = property(lambda self: _mean(self.profits))
+    mean_observed = property(lambda self: _mean(self.observed))
+    mean_runtime = property(lambda self: _mean(self.runtimes))
+    mean_per_energy = property(lambda self: _mean(self.per_energy))
+    mean_per_memory = property(lambda self: _mean(self.per_memory))
 
     @property
     def sd(self) -> float:
@@ -271,9 +257,9 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         exact,
         best,
         notes,
-        method_bound=method_bound,
-        method_bound_count=method_bound_count,
-        method_exact=method_exact,
+        method_bound,
+        method_bound_count,
+        method_exact,
     )
 
 
@@ -345,8 +331,7 @@ def build_paper_table(
     ``opt``) and the best known profit of any run. A method without runs loses its columns
     (noted).
     """
-    scen = [s for s in summary.scenarios if scenario_group(s) == group]
-    present = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+    scen, present = _group(summary, group)
     notes: list[str] = []
     cols: dict[str, str] = {}
     for title, cands in PAPER_METHODS.items():
@@ -372,16 +357,10 @@ def build_paper_table(
     for title in ("ACO-LS-STC", "ASA-DTC"):
         if title in cols:
             header += [f"{title} R", f"{title} F", f"{title} SD", f"{title} T (s)"]
-    compare = target in present and baseline in present and target != baseline
+    compare = _compared(target, baseline, present, notes)
     if compare:
         header += ["IMP", "t-test", "p"]
         notes.append(f"IMP and t-test: {target} against {baseline}")
-    else:
-        missing = [x or "?" for x in (target, baseline) if x not in present]
-        notes.append(
-            "IMP and t-test omitted: "
-            + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
-        )
     header += ["sosp bound", "proven", "sosp best"]
     rows: list[list[Any]] = []
     for s in scen:
@@ -399,17 +378,38 @@ def build_paper_table(
             row += [ex[0], ex[1]] if ex else [None, None]
         for title in ("ACO-LS-STC", "ASA-DTC"):
             if title in cols:
-                c = summary.cells.get((s, cols[title]))
-                if c is None or not c.n:
-                    row += [None, None, None, None]
-                else:
-                    row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
+                row += _rfst(summary.cells.get((s, cols[title])))
         if compare:
             row += _imp(summary, s, target, baseline)  # type: ignore[arg-type]
         ex = summary.exact.get(s)
         row += [ex[0] if ex else summary.bound.get(s), "opt" if ex else "", summary.best.get(s)]
         rows.append(row)
     return header, rows, notes
+
+
+def _group(summary: Summary, group: str) -> tuple[list[str], list[str]]:
+    """The scenarios of ``group`` and the method labels with runs on any of them."""
+    scen = [s for s in summary.scenarios if scenario_group(s) == group]
+    return scen, [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+
+
+def _compared(
+    target: str | None, baseline: str | None, present: list[str], notes: list[str]
+) -> bool:
+    """Whether IMP and the t-test can be computed; if not, the reason goes into ``notes``."""
+    if target in present and baseline in present and target != baseline:
+        return True
+    missing = [x or "?" for x in (target, baseline) if x not in present]
+    notes.append(
+        "IMP and t-test omitted: "
+        + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
+    )
+    return False
+
+
+def _rfst(c: Cell | None) -> list[Any]:
+    """A method's R, F, SD, T on one scenario (None without a valid run)."""
+    return [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime] if c and c.n else [None] * 4
 
 
 def _imp(summary: Summary, s: str, target: str, baseline: str) -> list[Any]:
@@ -426,22 +426,15 @@ def build_methods_table(
     summary: Summary, group: str, target: str | None = None, baseline: str | None = None
 ) -> tuple[list[str], list[list[Any]], list[str]]:
     """Every method's R, F, SD, T side by side (the numbers of Fig. 2), IMP and t-test."""
-    scen = [s for s in summary.scenarios if scenario_group(s) == group]
-    methods = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+    scen, methods = _group(summary, group)
     notes: list[str] = []
     target, baseline, _ = comparison(summary, target, baseline, methods)
     header = ["SN", "EN", "TN", "bound", "exact R", "exact F", "best R"]
     for m in methods:
         header += [f"{m} R", f"{m} F", f"{m} SD", f"{m} T (s)"]
-    compare = target in methods and baseline in methods and target != baseline
+    compare = _compared(target, baseline, methods, notes)
     if compare:
         header += [f"IMP ({target} vs {baseline})", "t-test", "p"]
-    else:
-        missing = [x or "?" for x in (target, baseline) if x not in methods]
-        notes.append(
-            "IMP and t-test omitted: "
-            + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
-        )
     rows: list[list[Any]] = []
     for s in scen:
         ex = summary.exact.get(s)
@@ -455,11 +448,7 @@ def build_methods_table(
             summary.best.get(s),
         ]
         for m in methods:
-            c = summary.cells.get((s, m))
-            if c is None or not c.n:
-                row += [None, None, None, None]
-            else:
-                row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
+            row += _rfst(summary.cells.get((s, m)))
         if compare:
             row += _imp(summary, s, target, baseline)  # type: ignore[arg-type]
         rows.append(row)
@@ -485,12 +474,10 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
         out = []
         for i, v in enumerate(r):
             h = header[i]
-            if h.endswith(" SD") or h == "p":
-                text = _fmt(v, 2) if v is not None else "_"
+            if h.endswith((" SD", "T (s)")) or h == "p":
+                text = _fmt(v, 2)
             elif h.startswith("IMP"):
-                text = _fmt(v, 3) if v is not None else "_"
-            elif h.endswith("T (s)"):
-                text = _fmt(v, 2) if v is not None else "_"
+                text = _fmt(v, 3)
             elif isinstance(v, float):
                 text = _fmt(v, 1) if not float(v).is_integer() else f"{v:.0f}"
             else:
@@ -657,36 +644,29 @@ def write_report(
         have = {m.split("[")[0].split("@")[0] for m in clustering}
         absent = [m for m in CLUSTERING if m not in have]
         notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
-    fig_methods = clustering
     fig2 = [m for m in (_fig2_label(summary.methods, x) for x in FIG2) if m]
     if len(fig2) < len(FIG2):
         absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
         notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
     figs = [
-        (
-            "fig2_methods.png",
-            fig2,
-            "mean_profit",
-            "mean profit",
-            "Fig. 2: methods",
-        ),
+        ("fig2_methods.png", fig2, "mean_profit", "mean profit", "Fig. 2: methods"),
         (
             "fig3_clustering.png",
-            fig_methods,
+            clustering,
             "mean_profit",
             "mean profit",
             "Fig. 3: dynamic vs static vs no task clustering",
         ),
         (
             "fig4_profit_memory.png",
-            fig_methods,
+            clustering,
             "mean_per_memory",
             "profit / memory",
             "Fig. 4: profit-memory ratio",
         ),
         (
             "fig5_profit_energy.png",
-            fig_methods,
+            clustering,
             "mean_per_energy",
             "profit / energy",
             "Fig. 5: profit-energy ratio",
