@@ -173,12 +173,11 @@ def _check_resource_column(key: str, arr: np.ndarray, source: str | None) -> Non
     else:
         bad = ~np.isfinite(arr) | (arr < 0)
     rows = np.flatnonzero(bad)
-    if rows.size:
+    if rows.size:  # the masks above are _check_resource's tests: it raises
         try:
             _check_resource(key, float(arr[rows[0]]), f"orbits[{rows[0]}]")
         except InputError as exc:
             raise InputError(str(exc), source=source) from None
-        raise InputError(f"orbits[{rows[0]}].{key}: invalid value {arr[rows[0]]}", source=source)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -283,8 +282,7 @@ class Instance:
     def observable_weight(self) -> float:
         """Total weight of the targets with at least one opportunity: the profit (1) of
         observing all of them, so a bound on every schedule's for free."""
-        seen = np.zeros(self.n_targets, dtype=bool)
-        seen[np.asarray(self.opp_target, dtype=np.int64)] = True
+        seen = np.bincount(self.opp_target, minlength=self.n_targets) > 0
         return float(np.asarray(self.target_weight, dtype=float)[seen].sum())
 
     def resources(self, j: int) -> Resources:
@@ -582,32 +580,28 @@ class Instance:
         )
 
     # ------------------------------------------------------------ (de)serialise
+    def _columns(self) -> dict[str, dict[str, Any]]:
+        """The tables as columns in file order (:data:`NPZ_TABLES`): numpy arrays, and tuples
+        for the ids; the opportunities' ``target`` and ``orbit`` as row indices."""
+        prefix = {"targets": "target_", "orbits": "orbit_", "opportunities": "opp_"}
+        return {
+            table: {
+                k: getattr(
+                    self, k if k in RESOURCE_KEYS else prefix[table] + ("ids" if k == "id" else k)
+                )
+                for k, _ in spec
+            }
+            for table, spec in NPZ_TABLES.items()
+        }
+
     def to_dict(self, layout: str = "records") -> dict[str, Any]:
         """The instance as a JSON-ready dict (``layout`` "records" or "columns")."""
-        targets = {
-            "id": list(self.target_ids),
-            "lat": self.target_lat.tolist(),
-            "lon": self.target_lon.tolist(),
-            "weight": self.target_weight.tolist(),
-        }
-        orbits: dict[str, list[Any]] = {
-            "id": list(self.orbit_ids),
-            "satellite": list(self.orbit_satellite),
-            "start": self.orbit_start.tolist(),
-            "end": self.orbit_end.tolist(),
-        }
-        for k in RESOURCE_KEYS:
-            orbits[k] = getattr(self, k).tolist()
-        opps = {
-            "id": list(self.opp_ids),
-            "target": [self.target_ids[i] for i in self.opp_target],
-            "orbit": [self.orbit_ids[j] for j in self.opp_orbit],
-            "start": self.opp_start.tolist(),
-            "end": self.opp_end.tolist(),
-            "roll": self.opp_roll.tolist(),
-            "roll_min": self.opp_roll_min.tolist(),
-            "roll_max": self.opp_roll_max.tolist(),
-        }
+        targets, orbits, opps = (
+            {k: list(v) if isinstance(v, tuple) else v.tolist() for k, v in cols.items()}
+            for cols in self._columns().values()
+        )
+        opps["target"] = [self.target_ids[i] for i in self.opp_target]
+        opps["orbit"] = [self.orbit_ids[j] for j in self.opp_orbit]
         if layout == "records":
             conv = _to_records
         elif layout == "columns":
@@ -649,22 +643,17 @@ class Instance:
         if not isinstance(meta, dict):
             raise InputError("meta: expected an object", source=source)
 
-        targets = _table(data["targets"], "targets", ("id", "lat", "lon", "weight"), source)
-        orbits = _table(
-            data["orbits"], "orbits", ("id", "satellite", "start", "end", *RESOURCE_KEYS), source
-        )
-        opps = _table(
-            data["opportunities"],
-            "opportunities",
-            ("id", "target", "orbit", "start", "end", "roll", "roll_min", "roll_max"),
-            source,
-        )
-        for key in ("lat", "lon", "weight"):
-            _numbers(targets[key], "targets", key, source)
-        for key in ("start", "end", *RESOURCE_KEYS):
-            _numbers(orbits[key], "orbits", key, source)
-        for key in ("start", "end", "roll", "roll_min", "roll_max"):
-            _numbers(opps[key], "opportunities", key, source)
+        # the JSON tables have the columns of the .npz ones; opportunities name their
+        # target and orbit by id
+        tables = {
+            t: _table(data[t], t, tuple(k for k, _ in spec), source)
+            for t, spec in NPZ_TABLES.items()
+        }
+        for t, spec in NPZ_TABLES.items():
+            for key, kind in spec:
+                if kind != "U" and key not in ("target", "orbit"):
+                    _numbers(tables[t][key], t, key, source)
+        targets, orbits, opps = tables.values()
         for r, v in enumerate(orbits["satellite"]):
             if not isinstance(v, str):
                 raise InputError(f"orbits[{r}].satellite: expected a string", source=source)
@@ -702,27 +691,10 @@ class Instance:
             # meta keys in their order: a .json saved from a loaded .npz is the same file
             NPZ_HEADER: np.array(json.dumps(header, allow_nan=False))
         }
-        columns: dict[str, Any] = {
-            "targets.id": self.target_ids,
-            "targets.lat": self.target_lat,
-            "targets.lon": self.target_lon,
-            "targets.weight": self.target_weight,
-            "orbits.id": self.orbit_ids,
-            "orbits.satellite": self.orbit_satellite,
-            "orbits.start": self.orbit_start,
-            "orbits.end": self.orbit_end,
-            **{f"orbits.{k}": getattr(self, k) for k in RESOURCE_KEYS},
-            "opportunities.id": self.opp_ids,
-            "opportunities.target": self.opp_target,
-            "opportunities.orbit": self.opp_orbit,
-            "opportunities.start": self.opp_start,
-            "opportunities.end": self.opp_end,
-            "opportunities.roll": self.opp_roll,
-            "opportunities.roll_min": self.opp_roll_min,
-            "opportunities.roll_max": self.opp_roll_max,
-        }
-        for key, value in columns.items():
-            out[key] = _str_array(value, key) if isinstance(value, tuple) else value
+        for table, cols in self._columns().items():
+            for key, value in cols.items():
+                name = f"{table}.{key}"
+                out[name] = _str_array(value, name) if isinstance(value, tuple) else value
         return out
 
     def save(self, path: str | os.PathLike[str], layout: str = "auto") -> None:
