@@ -140,10 +140,11 @@ class Campaign:
 
     def size(self) -> int:
         """Number of runs in the grid."""
-        n = 0
-        for m in self.methods:
-            n += len(m.time_limits or self.time_limits) * len(m.seeds or self.seeds)
-        return n * len(self.scenarios)
+        per_scenario = sum(
+            len(m.time_limits or self.time_limits) * len(m.seeds or self.seeds)
+            for m in self.methods
+        )
+        return per_scenario * len(self.scenarios)
 
 
 # --------------------------------------------------------------------------- parsing helpers
