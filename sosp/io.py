@@ -90,14 +90,9 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
         os.fsync(fh.fileno())
 
 
-def dumps_json(data: Any) -> str:
-    """Serialise to JSON text (strict: no NaN or infinity), ending with a newline."""
-    return json.dumps(data, indent=1, allow_nan=False) + "\n"
-
-
 def atomic_write_json(path: str | os.PathLike[str], data: Any) -> None:
-    """Serialise ``data`` as JSON and write it atomically."""
-    atomic_write_text(path, dumps_json(data))
+    """Serialise ``data`` as JSON (strict: no NaN or infinity) and write it atomically."""
+    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
 
 
 def reject_json_constant(name: str) -> float:

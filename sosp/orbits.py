@@ -383,7 +383,8 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     k = 0
     while k < len(lines):
         lineno, name = lines[k]
-        if _looks_like_line1(name):  # a two-line set: no name line
+        # a two-line set (no name line) starts with line 1: "1 NNNNN..." of 69 characters
+        if name.startswith("1 ") and len(name) == TLE_LINE_LENGTH and name[68].isdigit():
             if k + 1 >= len(lines):
                 raise InputError(f"line {lineno}: TLE line 1 lacks its line 2", source=source)
             (n1, l1), (n2, l2) = lines[k], lines[k + 1]
@@ -430,11 +431,6 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     if not sats:
         raise InputError("no satellites found", source=source)
     return sats
-
-
-def _looks_like_line1(line: str) -> bool:
-    """Whether a line is TLE line 1 (not a name): ``1 NNNNN...`` of 69 characters."""
-    return line.startswith("1 ") and len(line) == TLE_LINE_LENGTH and line[68].isdigit()
 
 
 def read_tle(path: str | os.PathLike[str]) -> list[Satellite]:

@@ -128,8 +128,7 @@ class Progress:
             self.callback(snap)
 
 
-_SILENT = Progress()
-_current: list[Progress] = [_SILENT]
+_current: list[Progress] = [Progress()]
 
 
 def current() -> Progress:

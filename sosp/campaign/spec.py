@@ -213,13 +213,6 @@ def parse_time_limits(value: Any, where: str = "time_limits") -> tuple[float, ..
     return tuple(dict.fromkeys(out))
 
 
-def _parse_value(text: str) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
-
 def parse_method(text: str, where: str = "methods") -> MethodSpec:
     """``"name"`` or ``"name:key=value,key=value"`` (values are JSON, else text)."""
     if not isinstance(text, str) or not text.strip():
@@ -232,7 +225,10 @@ def parse_method(text: str, where: str = "methods") -> MethodSpec:
             key = key.strip().replace("-", "_")
             if not eq or not key:
                 raise InputError(f"{where}: expected key=value in {text!r}, got {item!r}")
-            params[key] = _parse_value(val.strip())
+            try:
+                params[key] = json.loads(val.strip())
+            except json.JSONDecodeError:
+                params[key] = val.strip()
     canonical_params(params)
     return MethodSpec(name.strip(), params)
 

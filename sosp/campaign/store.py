@@ -104,10 +104,6 @@ CREATE TABLE IF NOT EXISTS runs (
 """
 
 
-def _locked(exc: sqlite3.OperationalError) -> bool:
-    return "locked" in str(exc) or "busy" in str(exc)
-
-
 #: The side files of a database in WAL mode.
 SIDE_SUFFIXES = ("-wal", "-shm", "-journal")
 
@@ -202,7 +198,9 @@ class Store:
         except sqlite3.DatabaseError as exc:
             with suppress(Exception):  # closing a half-open connection
                 self.conn.close()
-            if isinstance(exc, sqlite3.OperationalError) and _locked(exc):
+            if isinstance(exc, sqlite3.OperationalError) and (
+                "locked" in str(exc) or "busy" in str(exc)
+            ):
                 raise InputError(
                     "database is locked by another process (is another sosp bench writing it?)",
                     source=self.path,
