@@ -132,15 +132,15 @@ class Cell:
 class Summary:
     """Everything the tables and figures need, read from one database."""
 
-    scenarios: list[str]
-    methods: list[str]
-    cells: dict[tuple[str, str], Cell]
-    en: dict[str, int]
-    tn: dict[str, int]
-    bound: dict[str, float]
-    exact: dict[str, tuple[float, int]]
-    best: dict[str, float]
-    notes: list[str]
+    scenarios: list[str] = field(default_factory=list)
+    methods: list[str] = field(default_factory=list)
+    cells: dict[tuple[str, str], Cell] = field(default_factory=dict)
+    en: dict[str, int] = field(default_factory=dict)
+    tn: dict[str, int] = field(default_factory=dict)
+    bound: dict[str, float] = field(default_factory=dict)
+    exact: dict[str, tuple[float, int]] = field(default_factory=dict)
+    best: dict[str, float] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
     #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*).
     method_bound: dict[tuple[str, str], float] = field(default_factory=dict)
     #: Per (scenario, label): the count stored with that least bound (PBA-STC's F*), if any.
@@ -195,14 +195,8 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
     for r in rows:
         tls[short_label(r["method"], r["params"])].add(r["time_limit"])
     multi = {k for k, v in tls.items() if len(v) > 1}
+    sm = Summary()
     cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
-    bound: dict[str, float] = {}
-    exact: dict[str, tuple[float, int]] = {}
-    best: dict[str, float] = {}
-    method_bound: dict[tuple[str, str], float] = {}
-    method_bound_count: dict[tuple[str, str], int] = {}
-    method_exact: dict[tuple[str, str], tuple[float, int]] = {}
-    notes: list[str] = []
     for r in rows:
         s = r["scenario"]
         key = (s, _label(r, multi))
@@ -216,19 +210,19 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         full = bounds_the_problem(r["method"], r["params"])
         if r["bound"] is not None:
             if full:
-                bound[s] = min(bound.get(s, math.inf), float(r["bound"]))
-            if float(r["bound"]) < method_bound.get(key, math.inf):
-                method_bound[key] = float(r["bound"])
+                sm.bound[s] = min(sm.bound.get(s, math.inf), float(r["bound"]))
+            if float(r["bound"]) < sm.method_bound.get(key, math.inf):
+                sm.method_bound[key] = float(r["bound"])
                 if r.get("bound_count") is not None:  # databases of schema 1 have none
-                    method_bound_count[key] = int(r["bound_count"])
+                    sm.method_bound_count[key] = int(r["bound_count"])
                 else:
-                    method_bound_count.pop(key, None)
+                    sm.method_bound_count.pop(key, None)
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
-            best[s] = max(best.get(s, -math.inf), float(r["profit"]))
+            sm.best[s] = max(sm.best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
-            if full and (s not in exact or r["profit"] > exact[s][0]):
-                exact[s] = (float(r["profit"]), int(r["observed"]))
-            method_exact[key] = (float(r["profit"]), int(r["observed"]))
+            if full and (s not in sm.exact or r["profit"] > sm.exact[s][0]):
+                sm.exact[s] = (float(r["profit"]), int(r["observed"]))
+            sm.method_exact[key] = (float(r["profit"]), int(r["observed"]))
         if r["status"] not in COUNTED:
             continue
         cell.profits.append(float(r["profit"]))
@@ -236,31 +230,21 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         cell.runtimes.append(float(r["runtime"]))
         cell.per_energy.append(r["profit"] / r["energy"] if r["energy"] else 0.0)
         cell.per_memory.append(r["profit"] / r["memory"] if r["memory"] else 0.0)
-    en = {i["scenario"]: int(i["en"]) for i in insts}
-    tn = {i["scenario"]: int(i["tn"]) for i in insts}
-    scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
-    methods = sorted({m for _, m in cells})
+    sm.en = {i["scenario"]: int(i["en"]) for i in insts}
+    sm.tn = {i["scenario"]: int(i["tn"]) for i in insts}
+    sm.scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
+    sm.methods = sorted({m for _, m in cells})
+    sm.cells = dict(cells)
     for (s, m), c in sorted(cells.items()):
         if c.failed:
-            notes.append(f"{s} {m}: {c.failed} failed run(s) left out")
+            sm.notes.append(f"{s} {m}: {c.failed} failed run(s) left out")
         if c.infeasible:
-            notes.append(f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out")
-    if len({i["fingerprint"] for i in insts}) > len(en):
-        notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
-    return Summary(
-        scenarios,
-        methods,
-        dict(cells),
-        en,
-        tn,
-        bound,
-        exact,
-        best,
-        notes,
-        method_bound,
-        method_bound_count,
-        method_exact,
-    )
+            sm.notes.append(
+                f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out"
+            )
+    if len({i["fingerprint"] for i in insts}) > len(sm.en):
+        sm.notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
+    return sm
 
 
 # --------------------------------------------------------------------------- tables
