@@ -657,15 +657,12 @@ class Instance:
         for r, v in enumerate(orbits["satellite"]):
             if not isinstance(v, str):
                 raise InputError(f"orbits[{r}].satellite: expected a string", source=source)
-        tids = _ids(targets["id"], "targets", source)
-        oids = _ids(orbits["id"], "orbits", source)
-        t_index = {t: i for i, t in enumerate(tids)}
-        o_index = {o: i for i, o in enumerate(oids)}
-        p_target = _refs(opps["target"], t_index, "opportunities", "target", source)
-        p_orbit = _refs(opps["orbit"], o_index, "opportunities", "orbit", source)
-        return _from_tables(
-            data["epoch"], targets, orbits, opps, tids, oids, p_target, p_orbit, name, meta, source
-        )
+        targets["id"] = _ids(targets["id"], "targets", source)
+        orbits["id"] = _ids(orbits["id"], "orbits", source)
+        for key, table in (("target", targets), ("orbit", orbits)):
+            index = {t: i for i, t in enumerate(table["id"])}
+            opps[key] = _refs(opps[key], index, "opportunities", key, source)
+        return _from_tables(data["epoch"], targets, orbits, opps, name, meta, source)
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
         """The instance as the named arrays of a ``.npz`` file (see :data:`NPZ_TABLES`).
@@ -862,19 +859,7 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
         return {k: cols[f"{name}.{k}"] for k, _ in NPZ_TABLES[name]}
 
     targets, orbits, opps = table("targets"), table("orbits"), table("opportunities")
-    return _from_tables(
-        header["epoch"],
-        targets,
-        orbits,
-        opps,
-        targets["id"].tolist(),
-        orbits["id"].tolist(),
-        opps["target"],
-        opps["orbit"],
-        header["name"],
-        header["meta"],
-        src,
-    )
+    return _from_tables(header["epoch"], targets, orbits, opps, header["name"], header["meta"], src)
 
 
 def _as_list(values: Any) -> Any:
@@ -887,30 +872,26 @@ def _from_tables(
     targets: Mapping[str, Any],
     orbits: Mapping[str, Any],
     opps: Mapping[str, Any],
-    target_ids: Sequence[str],
-    orbit_ids: Sequence[str],
-    opp_target: Any,
-    opp_orbit: Any,
     name: str | None,
     meta: Any,
     source: str | None,
 ) -> Instance:
     """:meth:`Instance.from_arrays` from the three tables as columns (JSON and ``.npz``
-    readers), with the ids and the opportunities' target/orbit rows resolved by the caller."""
+    readers), the opportunities' target and orbit already resolved to rows by the caller."""
     return Instance.from_arrays(
         epoch=epoch,
-        target_ids=target_ids,
+        target_ids=_as_list(targets["id"]),
         target_lat=targets["lat"],
         target_lon=targets["lon"],
         target_weight=targets["weight"],
-        orbit_ids=orbit_ids,
+        orbit_ids=_as_list(orbits["id"]),
         orbit_satellite=_as_list(orbits["satellite"]),
         orbit_start=orbits["start"],
         orbit_end=orbits["end"],
         resources={k: orbits[k] for k in RESOURCE_KEYS},
         opp_ids=_as_list(opps["id"]),
-        opp_target=opp_target,
-        opp_orbit=opp_orbit,
+        opp_target=opps["target"],
+        opp_orbit=opps["orbit"],
         opp_start=opps["start"],
         opp_end=opps["end"],
         opp_roll=opps["roll"],
