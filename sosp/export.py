@@ -525,14 +525,11 @@ def cmd_export(args: argparse.Namespace) -> int:
         "targets": inst.n_targets,
         "paths": fmt != "csv" and instance_satellites(inst) is not None,
     }
-    if args.json:
-        sys.stdout.write(json.dumps(info) + "\n")
-    else:
-        text = (
-            f"wrote {args.output} ({fmt}): {len(sched)} observations, {n} of "
-            f"{inst.n_targets} targets observed"
-        )
-        if fmt != "csv" and not info["paths"]:
-            text += "; no satellite paths (the instance does not record its orbits)"
-        sys.stdout.write(text + "\n")
+    text = (
+        f"wrote {args.output} ({fmt}): {len(sched)} observations, {n} of "
+        f"{inst.n_targets} targets observed"
+    )
+    if fmt != "csv" and not info["paths"]:
+        text += "; no satellite paths (the instance does not record its orbits)"
+    sys.stdout.write((json.dumps(info) if args.json else text) + "\n")
     return 0

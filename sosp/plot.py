@@ -404,13 +404,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
     sched = load_schedule(args.schedule, inst)
     info = plot_schedule(inst, sched, args.output, title=args.title, utc=args.utc)
     info["output"] = args.output
-    if args.json:
-        sys.stdout.write(json.dumps(info) + "\n")
-    else:
-        sys.stdout.write(
-            f"wrote {args.output}: {info['observations']} observations ({info['clusters']} "
-            f"cluster-tasks) on {info['orbits']} orbits, {info['observed']} targets observed"
-            + ("" if info["tracks"] else "; ground tracks unknown for this instance")
-            + "\n"
-        )
+    text = (
+        f"wrote {args.output}: {info['observations']} observations ({info['clusters']} "
+        f"cluster-tasks) on {info['orbits']} orbits, {info['observed']} targets observed"
+        + ("" if info["tracks"] else "; ground tracks unknown for this instance")
+    )
+    sys.stdout.write((json.dumps(info) if args.json else text) + "\n")
     return 0

@@ -725,11 +725,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     """Handler of ``sosp report``."""
     res = write_report(args.db, args.output, target=args.method, baseline=args.baseline)
     res["output"] = args.output
-    if args.json:
-        sys.stdout.write(json.dumps(res) + "\n")
-    else:
-        text = f"wrote {len(res['files'])} files to {args.output}: {', '.join(res['files'])}"
-        for n in res["notes"]:
-            text += f"\nnote: {n}"
-        sys.stdout.write(text + "\n")
+    text = f"wrote {len(res['files'])} files to {args.output}: {', '.join(res['files'])}"
+    text += "".join(f"\nnote: {n}" for n in res["notes"])
+    sys.stdout.write((json.dumps(res) if args.json else text) + "\n")
     return 0
