@@ -535,7 +535,7 @@ class Instance:
             tids = [f"t{i}" for i in range(len(wts))]
         index = {t: i for i, t in enumerate(tids)}
         rows = [tuple(r) for r in opportunities]
-        tgt, orb, st, en, ro, lo, hi = [], [], [], [], [], [], []
+        cols = []
         for r, row in enumerate(rows):
             if len(row) not in (5, 7):
                 raise InputError(f"opportunities[{r}]: expected 5 or 7 fields, got {len(row)}")
@@ -544,17 +544,10 @@ class Instance:
                 if t not in index:
                     raise InputError(f"opportunities[{r}].target: unknown target {t!r}")
                 t = index[t]
-            tgt.append(t)
-            orb.append(row[1])
-            st.append(float(row[2]))
-            en.append(float(row[3]))
-            ro.append(float(row[4]))
-            if len(row) == 7:
-                lo.append(float(row[5]))
-                hi.append(float(row[6]))
-            else:
-                lo.append(max(-33.0, float(row[4]) - 3.0))
-                hi.append(min(33.0, float(row[4]) + 3.0))
+            roll = float(row[4])
+            rng = row[5:] if len(row) == 7 else (max(-33.0, roll - 3.0), min(33.0, roll + 3.0))
+            cols.append((t, row[1], *map(float, row[2:5]), *map(float, rng)))
+        tgt, orb, st, en, ro, lo, hi = map(list, zip(*cols, strict=True)) if cols else [[]] * 7
         m = n_orbits if n_orbits is not None else (max(orb) + 1 if orb else 1)
         length = orbit_length if orbit_length is not None else max([*en, 0.0]) + 1.0
         lo_start = min([*st, 0.0])
