@@ -33,7 +33,6 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.io import (
     atomic_output,
-    atomic_write_json,
     atomic_write_text,
     is_finite_number,
     read_json,
@@ -703,12 +702,12 @@ class Instance:
         big = self.n_opps >= COLUMNS_FROM
         if layout == "auto":
             layout = "columns" if big else "records"
-        if not big:
-            atomic_write_json(path, self.to_dict(layout=layout))
-            return
-        # one line, no indentation: with millions of values the indented text is mostly
+        # big: one line, no indentation: with millions of values the indented text is mostly
         # white space and takes several times longer to write
-        text = json.dumps(self.to_dict(layout=layout), separators=(",", ":"), allow_nan=False)
+        indent, separators = (None, (",", ":")) if big else (1, None)
+        text = json.dumps(
+            self.to_dict(layout), indent=indent, separators=separators, allow_nan=False
+        )
         atomic_write_text(path, text + "\n")
 
 
