@@ -213,17 +213,12 @@ def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -
 
 
 def _style(doc: ET.Element, sid: str, color: str, scale: float, line: bool = False) -> None:
-    st = _sub(doc, "Style", id=sid)
-    if line:
-        ls = _sub(st, "LineStyle")
-        _sub(ls, "color", color)
-        _sub(ls, "width", f"{scale:g}")
-    else:
-        ic = _sub(st, "IconStyle")
-        _sub(ic, "color", color)
-        _sub(ic, "scale", f"{scale:g}")
-        icon = _sub(ic, "Icon")
-        _sub(icon, "href", "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png")
+    style = _sub(_sub(doc, "Style", id=sid), "LineStyle" if line else "IconStyle")
+    _sub(style, "color", color)
+    _sub(style, "width" if line else "scale", f"{scale:g}")
+    if not line:
+        href = "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png"
+        _sub(_sub(style, "Icon"), "href", href)
 
 
 def _split_antimeridian(points: list[tuple[float, float, float]]) -> list[list[tuple]]:
