@@ -21,7 +21,7 @@ import json
 import os
 import sqlite3
 from collections.abc import Iterable, Iterator, Mapping
-from contextlib import contextmanager, suppress
+from contextlib import closing, contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
@@ -132,16 +132,10 @@ def new_database_guard(path: str | os.PathLike[str]) -> Iterator[None]:
         yield
     except BaseException:
         if created and p.exists():
-            try:
-                conn = sqlite3.connect(p.resolve().as_uri() + "?mode=ro", uri=True)
-                try:
-                    runs = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
-                except sqlite3.DatabaseError:
-                    runs = 0
-                finally:
-                    conn.close()
-            except sqlite3.DatabaseError:
-                runs = 0
+            runs = 0  # also when it is no database or has no runs table
+            uri = p.resolve().as_uri() + "?mode=ro"
+            with suppress(sqlite3.DatabaseError), closing(sqlite3.connect(uri, uri=True)) as conn:
+                runs = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
             if runs == 0:
                 for f in (p, *(p.with_name(p.name + s) for s in SIDE_SUFFIXES)):
                     f.unlink(missing_ok=True)
