@@ -484,6 +484,13 @@ def _save_png(fig: Any, path: Path) -> None:
 #: Scenarios a method needs in a panel for its line: one point is not a line.
 MIN_POINTS = 2
 
+#: The y axis of each measure drawn.
+YLABELS = {
+    "mean_profit": "mean profit",
+    "mean_per_memory": "profit / memory",
+    "mean_per_energy": "profit / energy",
+}
+
 #: Panel titles by scenario group.
 PANELS = {"B": "(a) first group", "C": "(b) second group", "": "other scenarios"}
 
@@ -633,30 +640,18 @@ def write_report(
         absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
         notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
     figs = [
-        ("fig2_methods.png", fig2, "mean_profit", "mean profit", "Fig. 2: methods"),
+        ("fig2_methods", fig2, "mean_profit", "Fig. 2: methods"),
         (
-            "fig3_clustering.png",
+            "fig3_clustering",
             clustering,
             "mean_profit",
-            "mean profit",
             "Fig. 3: dynamic vs static vs no task clustering",
         ),
-        (
-            "fig4_profit_memory.png",
-            clustering,
-            "mean_per_memory",
-            "profit / memory",
-            "Fig. 4: profit-memory ratio",
-        ),
-        (
-            "fig5_profit_energy.png",
-            clustering,
-            "mean_per_energy",
-            "profit / energy",
-            "Fig. 5: profit-energy ratio",
-        ),
+        ("fig4_profit_memory", clustering, "mean_per_memory", "Fig. 4: profit-memory ratio"),
+        ("fig5_profit_energy", clustering, "mean_per_energy", "Fig. 5: profit-energy ratio"),
     ]
-    for name, ms, measure, ylabel, title in figs:
+    for stem, ms, measure, title in figs:
+        name = f"{stem}.png"
         panels, fnotes = figure_series(summary, ms, measure)
         short = title.split(":")[0]
         notes += [f"{short}: {n}" for n in fnotes]
@@ -668,7 +663,7 @@ def write_report(
             notes.append(f"{short} ({name}) left out: {why}")
             (out / name).unlink(missing_ok=True)  # no stale figure from an earlier report
             continue
-        _figure(summary, panels, ylabel, title, out / name)
+        _figure(summary, panels, YLABELS[measure], title, out / name)
         files.append(name)
         md += [f"![{title}]({name})", ""]
     if notes:
