@@ -50,6 +50,9 @@ REGIONS: dict[str, tuple[float, float, float, float]] = {
     "C": (30.0, 60.0, 90.0, 120.0),
 }
 
+#: The numbers of a target CSV row and their ranges (:func:`read_targets_csv`).
+CSV_RANGES = (("lat", -90.0, 90.0), ("lon", -180.0, 360.0), ("weight", 0, MAX_WEIGHT))
+
 #: Target weights: integers uniform in [2, 10] (inclusive).
 WEIGHT_RANGE = (2, 10)
 
@@ -375,11 +378,8 @@ def read_targets_csv(
             source=src,
         )
     ix = {c: cols.index(c) for c in ("id", "lat", "lon", "weight")}
-    ids: list[str] = []
-    lat: list[float] = []
-    lon: list[float] = []
-    weight: list[int] = []
-    seen: dict[str, int] = {}
+    seen: dict[str, int] = {}  # the ids, in file order, and their lines
+    rows: list[list[float]] = []
     for lineno, row in numbered[1:]:
         if len(row) != len(cols):
             raise InputError(
@@ -393,12 +393,8 @@ def read_targets_csv(
                 f"line {lineno}: duplicate id {tid!r} (first on line {seen[tid]})", source=src
             )
         seen[tid] = lineno
-        values = {}
-        for key, lo, hi in (
-            ("lat", -90.0, 90.0),
-            ("lon", -180.0, 360.0),
-            ("weight", 0, MAX_WEIGHT),
-        ):
+        values = []
+        for key, lo, hi in CSV_RANGES:
             raw = row[ix[key]].strip()
             try:
                 val = float(raw)
@@ -417,11 +413,9 @@ def read_targets_csv(
                     else f"a finite number in [{lo:g}, {hi:g}]"
                 )
                 raise InputError(f"line {lineno}: {key} must be {what}, got {raw!r}", source=src)
-            values[key] = val
-        ids.append(tid)
-        lat.append(values["lat"])
-        lon.append(values["lon"])
-        weight.append(int(values["weight"]))
-    if not ids:
+            values.append(val)
+        rows.append(values)
+    if not rows:
         raise InputError("no targets after the header", source=src)
-    return ids, np.asarray(lat), np.asarray(lon), np.asarray(weight, dtype=np.int64)
+    lat, lon, weight = (np.array(col) for col in zip(*rows, strict=True))
+    return list(seen), lat, lon, weight.astype(np.int64)
