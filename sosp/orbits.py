@@ -734,22 +734,19 @@ def revolutions(
         shorter than 1 ms, i.e. the horizon starts on a node); the last ends at ``t_end``.
     """
     t0, t1 = horizon
-    ids: list[str] = []
-    sat_idx, number, starts, ends = [], [], [], []
+    rows = []  # (satellite, k, start, end)
     for i, (sat, grid) in enumerate(zip(satellites, grids, strict=True)):
         nodes = ascending_nodes(grid, t0, t1)
         bounds = np.concatenate(([t0], nodes, [t1]))
-        for k in range(len(bounds) - 1):
-            if bounds[k + 1] - bounds[k] < 1e-3:
-                continue
-            ids.append(f"{sat.name}#{k:03d}")
-            sat_idx.append(i)
-            number.append(k)
-            starts.append(bounds[k])
-            ends.append(bounds[k + 1])
+        rows += [
+            (i, k, *bounds[k : k + 2])
+            for k in range(len(nodes) + 1)
+            if not bounds[k + 1] - bounds[k] < 1e-3
+        ]
         log.debug("%s: %d ascending nodes in the horizon", sat.name, len(nodes))
+    sat_idx, number, starts, ends = zip(*rows, strict=True) if rows else [()] * 4
     return Revolutions(
-        ids=tuple(ids),
+        ids=tuple(f"{satellites[i].name}#{k:03d}" for i, k in zip(sat_idx, number, strict=True)),
         satellite=np.asarray(sat_idx, dtype=np.int64),
         number=np.asarray(number, dtype=np.int64),
         start=np.asarray(starts, dtype=float),
