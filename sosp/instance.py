@@ -100,13 +100,13 @@ class Resources:
 #: The resource keys of an orbit record, in file order.
 RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
 
-#: The binary encoding written for a path ending in ``.npz``: its own format name and version
-#: (in the ``header`` entry), so the array layout can change without touching the JSON format.
 #: Largest target weight accepted: every profit, bound and sum of weights stays an integer
 #: that float64 holds exactly (the models and the LP bounds compute in floats) for up to
 #: nine million targets; a weight of 1e20 once wrapped to a negative int64 profit.
 MAX_WEIGHT = 10**9
 
+#: The binary encoding written for a path ending in ``.npz``: its own format name and version
+#: (in the ``header`` entry), so the array layout can change without touching the JSON format.
 NPZ_FORMAT_NAME = "sosp-instance-npz"
 NPZ_FORMAT_VERSION = 1
 
