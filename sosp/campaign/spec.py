@@ -33,6 +33,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +53,9 @@ _CAMPAIGN_KEYS = {
     "workers",
 }
 _METHOD_KEYS = {"name", "params", "time_limits", "time_limit", "seeds"}
+
+#: What identifies a run: the results store's unique key, :attr:`RunSpec.key`.
+KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
 
 
 def canonical_params(params: Mapping[str, Any]) -> str:
@@ -113,15 +117,8 @@ class RunSpec:
 
     @property
     def key(self) -> tuple[str, str, str, str, int, float]:
-        """The store's unique key."""
-        return (
-            self.scenario,
-            self.fingerprint,
-            self.method,
-            self.params,
-            self.seed,
-            self.time_limit,
-        )
+        """The store's unique key (:data:`KEY_COLUMNS`)."""
+        return attrgetter(*KEY_COLUMNS)(self)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from contextlib import closing, contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
+from sosp.campaign.spec import KEY_COLUMNS
 from sosp.errors import InputError
 
 #: Bump when the tables change; older or newer databases are refused, except the versions of
@@ -43,7 +44,6 @@ OPEN_TIMEOUT = 2.0
 #: Seconds to wait for a write lock when storing one run.
 WRITE_TIMEOUT = 60.0
 
-KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
 
 RUN_COLUMNS = (
     *KEY_COLUMNS,
