@@ -30,6 +30,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     import numpy as np
 
     from sosp.instance import Instance
@@ -89,6 +91,24 @@ def covered(instance: Instance, schedule: Schedule) -> list[tuple[int, int]]:
                 seen.add(k)
                 out.append((u, k))
     return out
+
+
+def _observations(
+    instance: Instance, schedule: Schedule, cov: list[tuple[int, int]]
+) -> Iterator[tuple[int, Any, list[int], str, str]]:
+    """Per observation: its index, the observation, the targets it covers (:func:`covered`),
+    its satellite and the description both KML and CZML show."""
+    ks_of: dict[int, list[int]] = {}
+    for u, k in cov:
+        ks_of.setdefault(u, []).append(k)
+    for u, ob in enumerate(schedule.observations):
+        ks = ks_of.get(u, [])
+        desc = (
+            f"{instance.orbit_ids[ob.orbit]}: {len(ks)} target(s) "
+            f"({', '.join(str(instance.target_ids[k]) for k in ks)}), roll {ob.roll:.2f} deg, "
+            f"{ob.end - ob.start:.1f} s"
+        )
+        yield u, ob, ks, instance.orbit_satellite[ob.orbit], desc
 
 
 def instance_satellites(instance: Instance) -> list[Satellite] | None:
@@ -193,17 +213,12 @@ def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -
 
 
 def _style(doc: ET.Element, sid: str, color: str, scale: float, line: bool = False) -> None:
-    st = _sub(doc, "Style", id=sid)
-    if line:
-        ls = _sub(st, "LineStyle")
-        _sub(ls, "color", color)
-        _sub(ls, "width", f"{scale:g}")
-    else:
-        ic = _sub(st, "IconStyle")
-        _sub(ic, "color", color)
-        _sub(ic, "scale", f"{scale:g}")
-        icon = _sub(ic, "Icon")
-        _sub(icon, "href", "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png")
+    style = _sub(_sub(doc, "Style", id=sid), "LineStyle" if line else "IconStyle")
+    _sub(style, "color", color)
+    _sub(style, "width" if line else "scale", f"{scale:g}")
+    if not line:
+        href = "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png"
+        _sub(_sub(style, "Icon"), "href", href)
 
 
 def _split_antimeridian(points: list[tuple[float, float, float]]) -> list[list[tuple]]:
@@ -228,11 +243,7 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
     root = ET.Element("kml", xmlns=KML_NS)
     doc = _sub(root, "Document")
     _sub(doc, "name", f"{instance.name or 'instance'}: {schedule.method or 'schedule'}")
-    _sub(
-        doc,
-        "description",
-        f"epoch {instance.epoch}; {len(schedule)} observations; made by sosp",
-    )
+    _sub(doc, "description", f"epoch {instance.epoch}; {len(schedule)} observations; made by sosp")
     _style(doc, "observed", "ff00c000", 0.9)  # KML colours are aabbggrr
     _style(doc, "unobserved", "ff0000ff", 0.6)
     _style(doc, "path", "9fffffff", 1.5, line=True)
@@ -246,12 +257,8 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
         _sub(pm, "name", str(instance.target_ids[k]))
         _sub(pm, "description", desc)
         _sub(pm, "styleUrl", f"#{style}")
-        pt = _sub(pm, "Point")
-        _sub(
-            pt,
-            "coordinates",
-            f"{_lon180(instance.target_lon[k]):.6f},{float(instance.target_lat[k]):.6f},0",
-        )
+        lon, lat = _lon180(instance.target_lon[k]), float(instance.target_lat[k])
+        _sub(_sub(pm, "Point"), "coordinates", f"{lon:.6f},{lat:.6f},0")
 
     f_obs = _sub(doc, "Folder")
     _sub(f_obs, "name", f"targets observed ({len(cov)})")
@@ -275,18 +282,10 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
 
     f_win = _sub(doc, "Folder")
     _sub(f_win, "name", f"observations ({len(schedule)})")
-    for u, ob in enumerate(schedule.observations):
-        ks = [k for uu, k in cov if uu == u]
-        sat = instance.orbit_satellite[ob.orbit]
+    for _u, ob, ks, sat, desc in _observations(instance, schedule, cov):
         pm = _sub(f_win, "Placemark")
         _sub(pm, "name", f"{sat} {utc_at(instance.epoch, ob.start)}")
-        _sub(
-            pm,
-            "description",
-            f"{instance.orbit_ids[ob.orbit]}: {len(ks)} target(s) "
-            f"({', '.join(str(instance.target_ids[k]) for k in ks)}), roll {ob.roll:.2f} deg, "
-            f"{ob.end - ob.start:.1f} s",
-        )
+        _sub(pm, "description", desc)
         span = _sub(pm, "TimeSpan")
         _sub(span, "begin", utc_at(instance.epoch, ob.start))
         _sub(span, "end", utc_at(instance.epoch, ob.end))
@@ -381,19 +380,12 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
                 ],
             }
         packets.append(pkt)
-    for u, ob in enumerate(schedule.observations):
-        ks = [k for uu, k in cov if uu == u]
-        sat = instance.orbit_satellite[ob.orbit]
-        window = f"{utc_at(instance.epoch, ob.start)}/{utc_at(instance.epoch, ob.end)}"
+    for u, ob, ks, sat, desc in _observations(instance, schedule, cov):
         pkt = {
             "id": f"observation/{u}",
             "name": f"{sat} {utc_at(instance.epoch, ob.start)}",
-            "availability": window,
-            "description": (
-                f"{instance.orbit_ids[ob.orbit]}: {len(ks)} target(s) "
-                f"({', '.join(str(instance.target_ids[k]) for k in ks)}), roll "
-                f"{ob.roll:.2f} deg, {ob.end - ob.start:.1f} s"
-            ),
+            "availability": f"{utc_at(instance.epoch, ob.start)}/{utc_at(instance.epoch, ob.end)}",
+            "description": desc,
             "properties": {
                 "satellite": sat,
                 "orbit": instance.orbit_ids[ob.orbit],
@@ -526,16 +518,13 @@ def cmd_export(args: argparse.Namespace) -> int:
         "observations": len(sched),
         "targets_observed": n,
         "targets": inst.n_targets,
-        "paths": instance_satellites(inst) is not None if fmt != "csv" else False,
+        "paths": fmt != "csv" and instance_satellites(inst) is not None,
     }
-    if args.json:
-        sys.stdout.write(json.dumps(info) + "\n")
-    else:
-        text = (
-            f"wrote {args.output} ({fmt}): {len(sched)} observations, {n} of "
-            f"{inst.n_targets} targets observed"
-        )
-        if fmt != "csv" and not info["paths"]:
-            text += "; no satellite paths (the instance does not record its orbits)"
-        sys.stdout.write(text + "\n")
+    text = (
+        f"wrote {args.output} ({fmt}): {len(sched)} observations, {n} of "
+        f"{inst.n_targets} targets observed"
+    )
+    if fmt != "csv" and not info["paths"]:
+        text += "; no satellite paths (the instance does not record its orbits)"
+    sys.stdout.write((json.dumps(info) if args.json else text) + "\n")
     return 0

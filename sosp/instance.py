@@ -33,7 +33,6 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.io import (
     atomic_output,
-    atomic_write_json,
     atomic_write_text,
     is_finite_number,
     read_json,
@@ -101,13 +100,13 @@ class Resources:
 #: The resource keys of an orbit record, in file order.
 RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
 
-#: The binary encoding written for a path ending in ``.npz``: its own format name and version
-#: (in the ``header`` entry), so the array layout can change without touching the JSON format.
 #: Largest target weight accepted: every profit, bound and sum of weights stays an integer
 #: that float64 holds exactly (the models and the LP bounds compute in floats) for up to
 #: nine million targets; a weight of 1e20 once wrapped to a negative int64 profit.
 MAX_WEIGHT = 10**9
 
+#: The binary encoding written for a path ending in ``.npz``: its own format name and version
+#: (in the ``header`` entry), so the array layout can change without touching the JSON format.
 NPZ_FORMAT_NAME = "sosp-instance-npz"
 NPZ_FORMAT_VERSION = 1
 
@@ -173,12 +172,11 @@ def _check_resource_column(key: str, arr: np.ndarray, source: str | None) -> Non
     else:
         bad = ~np.isfinite(arr) | (arr < 0)
     rows = np.flatnonzero(bad)
-    if rows.size:
+    if rows.size:  # the masks above are _check_resource's tests: it raises
         try:
             _check_resource(key, float(arr[rows[0]]), f"orbits[{rows[0]}]")
         except InputError as exc:
             raise InputError(str(exc), source=source) from None
-        raise InputError(f"orbits[{rows[0]}].{key}: invalid value {arr[rows[0]]}", source=source)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -283,8 +281,7 @@ class Instance:
     def observable_weight(self) -> float:
         """Total weight of the targets with at least one opportunity: the profit (1) of
         observing all of them, so a bound on every schedule's for free."""
-        seen = np.zeros(self.n_targets, dtype=bool)
-        seen[np.asarray(self.opp_target, dtype=np.int64)] = True
+        seen = np.bincount(self.opp_target, minlength=self.n_targets) > 0
         return float(np.asarray(self.target_weight, dtype=float)[seen].sum())
 
     def resources(self, j: int) -> Resources:
@@ -537,7 +534,7 @@ class Instance:
             tids = [f"t{i}" for i in range(len(wts))]
         index = {t: i for i, t in enumerate(tids)}
         rows = [tuple(r) for r in opportunities]
-        tgt, orb, st, en, ro, lo, hi = [], [], [], [], [], [], []
+        cols = []
         for r, row in enumerate(rows):
             if len(row) not in (5, 7):
                 raise InputError(f"opportunities[{r}]: expected 5 or 7 fields, got {len(row)}")
@@ -546,17 +543,10 @@ class Instance:
                 if t not in index:
                     raise InputError(f"opportunities[{r}].target: unknown target {t!r}")
                 t = index[t]
-            tgt.append(t)
-            orb.append(row[1])
-            st.append(float(row[2]))
-            en.append(float(row[3]))
-            ro.append(float(row[4]))
-            if len(row) == 7:
-                lo.append(float(row[5]))
-                hi.append(float(row[6]))
-            else:
-                lo.append(max(-33.0, float(row[4]) - 3.0))
-                hi.append(min(33.0, float(row[4]) + 3.0))
+            roll = float(row[4])
+            rng = row[5:] if len(row) == 7 else (max(-33.0, roll - 3.0), min(33.0, roll + 3.0))
+            cols.append((t, row[1], *map(float, row[2:5]), *map(float, rng)))
+        tgt, orb, st, en, ro, lo, hi = map(list, zip(*cols, strict=True)) if cols else [[]] * 7
         m = n_orbits if n_orbits is not None else (max(orb) + 1 if orb else 1)
         length = orbit_length if orbit_length is not None else max([*en, 0.0]) + 1.0
         lo_start = min([*st, 0.0])
@@ -582,32 +572,28 @@ class Instance:
         )
 
     # ------------------------------------------------------------ (de)serialise
+    def _columns(self) -> dict[str, dict[str, Any]]:
+        """The tables as columns in file order (:data:`NPZ_TABLES`): numpy arrays, and tuples
+        for the ids; the opportunities' ``target`` and ``orbit`` as row indices."""
+        prefix = {"targets": "target_", "orbits": "orbit_", "opportunities": "opp_"}
+        return {
+            table: {
+                k: getattr(
+                    self, k if k in RESOURCE_KEYS else prefix[table] + ("ids" if k == "id" else k)
+                )
+                for k, _ in spec
+            }
+            for table, spec in NPZ_TABLES.items()
+        }
+
     def to_dict(self, layout: str = "records") -> dict[str, Any]:
         """The instance as a JSON-ready dict (``layout`` "records" or "columns")."""
-        targets = {
-            "id": list(self.target_ids),
-            "lat": self.target_lat.tolist(),
-            "lon": self.target_lon.tolist(),
-            "weight": self.target_weight.tolist(),
-        }
-        orbits: dict[str, list[Any]] = {
-            "id": list(self.orbit_ids),
-            "satellite": list(self.orbit_satellite),
-            "start": self.orbit_start.tolist(),
-            "end": self.orbit_end.tolist(),
-        }
-        for k in RESOURCE_KEYS:
-            orbits[k] = getattr(self, k).tolist()
-        opps = {
-            "id": list(self.opp_ids),
-            "target": [self.target_ids[i] for i in self.opp_target],
-            "orbit": [self.orbit_ids[j] for j in self.opp_orbit],
-            "start": self.opp_start.tolist(),
-            "end": self.opp_end.tolist(),
-            "roll": self.opp_roll.tolist(),
-            "roll_min": self.opp_roll_min.tolist(),
-            "roll_max": self.opp_roll_max.tolist(),
-        }
+        targets, orbits, opps = (
+            {k: list(v) if isinstance(v, tuple) else v.tolist() for k, v in cols.items()}
+            for cols in self._columns().values()
+        )
+        opps["target"] = [self.target_ids[i] for i in self.opp_target]
+        opps["orbit"] = [self.orbit_ids[j] for j in self.opp_orbit]
         if layout == "records":
             conv = _to_records
         elif layout == "columns":
@@ -649,34 +635,26 @@ class Instance:
         if not isinstance(meta, dict):
             raise InputError("meta: expected an object", source=source)
 
-        targets = _table(data["targets"], "targets", ("id", "lat", "lon", "weight"), source)
-        orbits = _table(
-            data["orbits"], "orbits", ("id", "satellite", "start", "end", *RESOURCE_KEYS), source
-        )
-        opps = _table(
-            data["opportunities"],
-            "opportunities",
-            ("id", "target", "orbit", "start", "end", "roll", "roll_min", "roll_max"),
-            source,
-        )
-        for key in ("lat", "lon", "weight"):
-            _numbers(targets[key], "targets", key, source)
-        for key in ("start", "end", *RESOURCE_KEYS):
-            _numbers(orbits[key], "orbits", key, source)
-        for key in ("start", "end", "roll", "roll_min", "roll_max"):
-            _numbers(opps[key], "opportunities", key, source)
+        # the JSON tables have the columns of the .npz ones; opportunities name their
+        # target and orbit by id
+        tables = {
+            t: _table(data[t], t, tuple(k for k, _ in spec), source)
+            for t, spec in NPZ_TABLES.items()
+        }
+        for t, spec in NPZ_TABLES.items():
+            for key, kind in spec:
+                if kind != "U" and key not in ("target", "orbit"):
+                    _numbers(tables[t][key], t, key, source)
+        targets, orbits, opps = tables.values()
         for r, v in enumerate(orbits["satellite"]):
             if not isinstance(v, str):
                 raise InputError(f"orbits[{r}].satellite: expected a string", source=source)
-        tids = _ids(targets["id"], "targets", source)
-        oids = _ids(orbits["id"], "orbits", source)
-        t_index = {t: i for i, t in enumerate(tids)}
-        o_index = {o: i for i, o in enumerate(oids)}
-        p_target = _refs(opps["target"], t_index, "opportunities", "target", source)
-        p_orbit = _refs(opps["orbit"], o_index, "opportunities", "orbit", source)
-        return _from_tables(
-            data["epoch"], targets, orbits, opps, tids, oids, p_target, p_orbit, name, meta, source
-        )
+        targets["id"] = _ids(targets["id"], "targets", source)
+        orbits["id"] = _ids(orbits["id"], "orbits", source)
+        for key, table in (("target", targets), ("orbit", orbits)):
+            index = {t: i for i, t in enumerate(table["id"])}
+            opps[key] = _refs(opps[key], index, "opportunities", key, source)
+        return _from_tables(data["epoch"], targets, orbits, opps, name, meta, source)
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
         """The instance as the named arrays of a ``.npz`` file (see :data:`NPZ_TABLES`).
@@ -702,27 +680,10 @@ class Instance:
             # meta keys in their order: a .json saved from a loaded .npz is the same file
             NPZ_HEADER: np.array(json.dumps(header, allow_nan=False))
         }
-        columns: dict[str, Any] = {
-            "targets.id": self.target_ids,
-            "targets.lat": self.target_lat,
-            "targets.lon": self.target_lon,
-            "targets.weight": self.target_weight,
-            "orbits.id": self.orbit_ids,
-            "orbits.satellite": self.orbit_satellite,
-            "orbits.start": self.orbit_start,
-            "orbits.end": self.orbit_end,
-            **{f"orbits.{k}": getattr(self, k) for k in RESOURCE_KEYS},
-            "opportunities.id": self.opp_ids,
-            "opportunities.target": self.opp_target,
-            "opportunities.orbit": self.opp_orbit,
-            "opportunities.start": self.opp_start,
-            "opportunities.end": self.opp_end,
-            "opportunities.roll": self.opp_roll,
-            "opportunities.roll_min": self.opp_roll_min,
-            "opportunities.roll_max": self.opp_roll_max,
-        }
-        for key, value in columns.items():
-            out[key] = _str_array(value, key) if isinstance(value, tuple) else value
+        for table, cols in self._columns().items():
+            for key, value in cols.items():
+                name = f"{table}.{key}"
+                out[name] = _str_array(value, name) if isinstance(value, tuple) else value
         return out
 
     def save(self, path: str | os.PathLike[str], layout: str = "auto") -> None:
@@ -741,12 +702,12 @@ class Instance:
         big = self.n_opps >= COLUMNS_FROM
         if layout == "auto":
             layout = "columns" if big else "records"
-        if not big:
-            atomic_write_json(path, self.to_dict(layout=layout))
-            return
-        # one line, no indentation: with millions of values the indented text is mostly
+        # big: one line, no indentation: with millions of values the indented text is mostly
         # white space and takes several times longer to write
-        text = json.dumps(self.to_dict(layout=layout), separators=(",", ":"), allow_nan=False)
+        indent, separators = (None, (",", ":")) if big else (1, None)
+        text = json.dumps(
+            self.to_dict(layout), indent=indent, separators=separators, allow_nan=False
+        )
         atomic_write_text(path, text + "\n")
 
 
@@ -890,19 +851,7 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
         return {k: cols[f"{name}.{k}"] for k, _ in NPZ_TABLES[name]}
 
     targets, orbits, opps = table("targets"), table("orbits"), table("opportunities")
-    return _from_tables(
-        header["epoch"],
-        targets,
-        orbits,
-        opps,
-        targets["id"].tolist(),
-        orbits["id"].tolist(),
-        opps["target"],
-        opps["orbit"],
-        header["name"],
-        header["meta"],
-        src,
-    )
+    return _from_tables(header["epoch"], targets, orbits, opps, header["name"], header["meta"], src)
 
 
 def _as_list(values: Any) -> Any:
@@ -915,30 +864,26 @@ def _from_tables(
     targets: Mapping[str, Any],
     orbits: Mapping[str, Any],
     opps: Mapping[str, Any],
-    target_ids: Sequence[str],
-    orbit_ids: Sequence[str],
-    opp_target: Any,
-    opp_orbit: Any,
     name: str | None,
     meta: Any,
     source: str | None,
 ) -> Instance:
     """:meth:`Instance.from_arrays` from the three tables as columns (JSON and ``.npz``
-    readers), with the ids and the opportunities' target/orbit rows resolved by the caller."""
+    readers), the opportunities' target and orbit already resolved to rows by the caller."""
     return Instance.from_arrays(
         epoch=epoch,
-        target_ids=target_ids,
+        target_ids=_as_list(targets["id"]),
         target_lat=targets["lat"],
         target_lon=targets["lon"],
         target_weight=targets["weight"],
-        orbit_ids=orbit_ids,
+        orbit_ids=_as_list(orbits["id"]),
         orbit_satellite=_as_list(orbits["satellite"]),
         orbit_start=orbits["start"],
         orbit_end=orbits["end"],
         resources={k: orbits[k] for k in RESOURCE_KEYS},
         opp_ids=_as_list(opps["id"]),
-        opp_target=opp_target,
-        opp_orbit=opp_orbit,
+        opp_target=opps["target"],
+        opp_orbit=opps["orbit"],
         opp_start=opps["start"],
         opp_end=opps["end"],
         opp_roll=opps["roll"],

@@ -38,7 +38,7 @@ def check_output(path: str | os.PathLike[str], option: str = "-o") -> Path:
         raise InputError(f"{option}: empty file name")
     if target.is_dir():
         raise InputError(f"{option}: {path} is a folder; give a file name")
-    folder = target.parent if str(target.parent) else Path(".")
+    folder = target.parent
     if not folder.is_dir():
         raise InputError(f"{option}: folder does not exist: {folder}")
     if not os.access(folder, os.W_OK | os.X_OK):
@@ -57,20 +57,16 @@ def atomic_output(path: str | os.PathLike[str], suffix: str = ".tmp") -> Iterato
     ``0o600``; on any error the temporary file is removed and ``path`` is left untouched.
     """
     target = Path(path)
-    folder = target.parent if str(target.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"output folder does not exist: {folder}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=folder)
+    if not target.parent.is_dir():
+        raise InputError(f"output folder does not exist: {target.parent}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=target.parent)
     os.close(fd)
     try:
         yield Path(tmp)
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, target)
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        Path(tmp).unlink(missing_ok=True)
         raise
 
 
@@ -83,39 +79,20 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     The file gets the permissions of a normal new file (``0o666`` less the umask).
     """
     target = Path(path)
-    folder = target.parent if str(target.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"output folder does not exist: {folder}")
     if target.is_dir():
         raise InputError(f"{path} is a folder, not a file")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-    try:
-        # mkstemp creates 0o600; give the file the mode open() would (umask respected).
-        os.fchmod(fd, 0o666 & ~_umask())
-        data = text.encode("utf-8")
-        if target.name.endswith(".gz"):  # gzip, transparently (mtime 0: same text, same bytes)
-            data = gzip.compress(data, compresslevel=6, mtime=0)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
-def dumps_json(data: Any) -> str:
-    """Serialise to JSON text (strict: no NaN or infinity), ending with a newline."""
-    return json.dumps(data, indent=1, allow_nan=False) + "\n"
+    data = text.encode("utf-8")
+    if target.name.endswith(".gz"):  # gzip, transparently (mtime 0: same text, same bytes)
+        data = gzip.compress(data, compresslevel=6, mtime=0)
+    with atomic_output(target) as tmp, open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def atomic_write_json(path: str | os.PathLike[str], data: Any) -> None:
-    """Serialise ``data`` as JSON and write it atomically."""
-    atomic_write_text(path, dumps_json(data))
+    """Serialise ``data`` as JSON (strict: no NaN or infinity) and write it atomically."""
+    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
 
 
 def reject_json_constant(name: str) -> float:

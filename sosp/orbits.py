@@ -94,6 +94,18 @@ __all__ = [
 STALE_DAYS = 3.0
 
 
+def _datetime(text: Any, where: str = "") -> datetime:
+    """An ISO 8601 time as an aware datetime (a time without a zone is UTC); ``where``
+    prefixes the error messages."""
+    if not isinstance(text, str):
+        raise InputError(f"{where}expected an ISO 8601 string, got {text!r}")
+    try:
+        dt = datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        raise InputError(f"{where}not an ISO 8601 time: {text!r}") from None
+    return dt if dt.tzinfo is not None else dt.replace(tzinfo=UTC)
+
+
 def parse_epoch(epoch: str) -> tuple[float, float]:
     """Split an ISO 8601 UTC time into a Julian date pair ``(jd, fr)`` as sgp4 expects.
 
@@ -108,14 +120,7 @@ def parse_epoch(epoch: str) -> tuple[float, float]:
     jd, fr
         Julian date of the preceding midnight (``x.5``) and the fraction of the day.
     """
-    if not isinstance(epoch, str):
-        raise InputError(f"epoch: expected an ISO 8601 string, got {epoch!r}")
-    try:
-        dt = datetime.fromisoformat(epoch.replace("Z", "+00:00"))
-    except ValueError:
-        raise InputError(f"epoch: not an ISO 8601 time: {epoch!r}") from None
-    if dt.tzinfo is not None:
-        dt = dt.astimezone(UTC)
+    dt = _datetime(epoch, "epoch: ").astimezone(UTC)
     jd, fr = jday(dt.year, dt.month, dt.day, dt.hour, dt.minute, 0.0)
     fr += (dt.second + dt.microsecond * 1e-6) / DAY
     return jd, fr
@@ -181,9 +186,7 @@ def utc_at(epoch: str, seconds: float) -> str:
     which only a damaged file gives, is written as ``epoch +seconds s`` rather than raising
     inside an error message about that file.
     """
-    dt = datetime.fromisoformat(epoch.replace("Z", "+00:00"))
-    if dt.tzinfo is None:
-        dt = dt.replace(tzinfo=UTC)
+    dt = _datetime(epoch)
     try:
         ms = round((dt.astimezone(UTC).timestamp() + float(seconds)) * 1000.0)
         at = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(seconds=ms // 1000)
@@ -201,17 +204,7 @@ def seconds_after(epoch: str, time: str) -> float:
     InputError
         When ``time`` is not an ISO 8601 string.
     """
-
-    def parse(text: str) -> datetime:
-        if not isinstance(text, str):
-            raise InputError(f"expected an ISO 8601 string, got {text!r}")
-        try:
-            dt = datetime.fromisoformat(text.replace("Z", "+00:00"))
-        except ValueError:
-            raise InputError(f"not an ISO 8601 time: {text!r}") from None
-        return dt if dt.tzinfo is not None else dt.replace(tzinfo=UTC)
-
-    return (parse(time) - parse(epoch)).total_seconds()
+    return (_datetime(time) - _datetime(epoch)).total_seconds()
 
 
 def format_epoch(jd: float, fr: float) -> str:
@@ -338,13 +331,7 @@ class Satellite:
 
 def tle_checksum(line: str) -> int:
     """The TLE checksum of a line: digits summed, each ``-`` counts 1, modulo 10 (cols 1-68)."""
-    total = 0
-    for ch in line[:68]:
-        if ch.isdigit():
-            total += int(ch)
-        elif ch == "-":
-            total += 1
-    return total % 10
+    return sum(int(ch) if ch.isdigit() else ch == "-" for ch in line[:68]) % 10
 
 
 def _check_tle_line(line: str, number: str, lineno: int, source: str) -> None:
@@ -396,11 +383,11 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     k = 0
     while k < len(lines):
         lineno, name = lines[k]
-        if _looks_like_line1(name):  # a two-line set: no name line
+        # a two-line set (no name line) starts with line 1: "1 NNNNN..." of 69 characters
+        if name.startswith("1 ") and len(name) == TLE_LINE_LENGTH and name[68].isdigit():
             if k + 1 >= len(lines):
                 raise InputError(f"line {lineno}: TLE line 1 lacks its line 2", source=source)
             (n1, l1), (n2, l2) = lines[k], lines[k + 1]
-            name = ""
             step = 2
         else:
             if k + 2 >= len(lines):
@@ -418,11 +405,8 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
                 f"{l1[2:7].strip()!r}",
                 source=source,
             )
-        display = name.strip()
-        if display.startswith("0 "):
-            display = display[2:].strip()
-        if step == 2:
-            display = l1[2:7].strip()  # the catalogue number names it
+        # a two-line set is named by its catalogue number
+        display = l1[2:7].strip() if step == 2 else name.strip().removeprefix("0 ").strip()
         if not display:
             raise InputError(f"line {lineno}: empty satellite name", source=source)
         if display in names:
@@ -447,11 +431,6 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     if not sats:
         raise InputError("no satellites found", source=source)
     return sats
-
-
-def _looks_like_line1(line: str) -> bool:
-    """Whether a line is TLE line 1 (not a name): ``1 NNNNN...`` of 69 characters."""
-    return line.startswith("1 ") and len(line) == TLE_LINE_LENGTH and line[68].isdigit()
 
 
 def read_tle(path: str | os.PathLike[str]) -> list[Satellite]:
@@ -529,14 +508,6 @@ def from_elements(
     return Satellite(name, sat, int(norad), note)
 
 
-_DATA_FILE = "satellites.json"
-
-
-def _load_data() -> dict[str, Any]:
-    text = importlib_resources.files("sosp").joinpath("data", _DATA_FILE).read_text("utf-8")
-    return json.loads(text)
-
-
 def builtin_satellites(names: list[str] | tuple[str, ...] | None = None) -> list[Satellite]:
     """The paper's four satellites (JB-3A, JB-3C, CBERS-1, CBERS-2) from ``sosp/data``.
 
@@ -548,23 +519,18 @@ def builtin_satellites(names: list[str] | tuple[str, ...] | None = None) -> list
     names
         A subset, by name, in the order wanted; all four by default.
     """
-    data = _load_data()
-    by_name: dict[str, Satellite] = {}
-    for rec in data["satellites"]:
-        el = rec["elements"]
-        by_name[rec["name"]] = from_elements(
+    text = importlib_resources.files("sosp").joinpath("data", "satellites.json").read_text("utf-8")
+    data = json.loads(text)
+    by_name = {
+        rec["name"]: from_elements(
             rec["name"],
             epoch=data["epoch"],
-            inclination=el["inclination"],
-            raan=el["raan"],
-            eccentricity=el["eccentricity"],
-            arg_perigee=el["arg_perigee"],
-            mean_anomaly=el["mean_anomaly"],
-            mean_motion=el["mean_motion"],
-            bstar=el.get("bstar", 0.0),
             norad=rec["norad"],
             note=rec["note"],
+            **rec["elements"],
         )
+        for rec in data["satellites"]
+    }
     if names is None:
         return list(by_name.values())
     out = []
@@ -647,11 +613,6 @@ class EphemerisGrid:
         self.r = np.ascontiguousarray(r)
         self.v = np.ascontiguousarray(v)
         self.n = len(r)
-
-    @property
-    def times(self) -> np.ndarray:
-        """The grid's times."""
-        return self.t0 + self.step * np.arange(self.n)
 
     def state(self, t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Interpolated position, velocity and acceleration at times ``t`` (any shape).
@@ -773,22 +734,19 @@ def revolutions(
         shorter than 1 ms, i.e. the horizon starts on a node); the last ends at ``t_end``.
     """
     t0, t1 = horizon
-    ids: list[str] = []
-    sat_idx, number, starts, ends = [], [], [], []
+    rows = []  # (satellite, k, start, end)
     for i, (sat, grid) in enumerate(zip(satellites, grids, strict=True)):
         nodes = ascending_nodes(grid, t0, t1)
         bounds = np.concatenate(([t0], nodes, [t1]))
-        for k in range(len(bounds) - 1):
-            if bounds[k + 1] - bounds[k] < 1e-3:
-                continue
-            ids.append(f"{sat.name}#{k:03d}")
-            sat_idx.append(i)
-            number.append(k)
-            starts.append(bounds[k])
-            ends.append(bounds[k + 1])
+        rows += [
+            (i, k, *bounds[k : k + 2])
+            for k in range(len(nodes) + 1)
+            if not bounds[k + 1] - bounds[k] < 1e-3
+        ]
         log.debug("%s: %d ascending nodes in the horizon", sat.name, len(nodes))
+    sat_idx, number, starts, ends = zip(*rows, strict=True) if rows else [()] * 4
     return Revolutions(
-        ids=tuple(ids),
+        ids=tuple(f"{satellites[i].name}#{k:03d}" for i, k in zip(sat_idx, number, strict=True)),
         satellite=np.asarray(sat_idx, dtype=np.int64),
         number=np.asarray(number, dtype=np.int64),
         start=np.asarray(starts, dtype=float),

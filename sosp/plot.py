@@ -204,6 +204,7 @@ def schedule_figure(
         layout="constrained",
     )
     # Gantt: x is seconds from the orbit's start, or UTC clock time as matplotlib dates.
+    scale = 86400.0 if utc else 1.0  # seconds per x unit
     if utc:
         from datetime import datetime
 
@@ -211,19 +212,11 @@ def schedule_figure(
 
         day0 = mdates.date2num(datetime.fromisoformat(inst.epoch.replace("Z", "+00:00")))
 
-        def x_of(j: int, t: Any) -> Any:
-            return day0 + np.asarray(t) / 86400.0
+    def x_of(j: int, t: Any) -> Any:
+        return (day0 if utc else -float(inst.orbit_start[j])) + np.asarray(t) / scale
 
-        def dx(d: Any) -> Any:
-            return np.asarray(d) / 86400.0
-
-    else:
-
-        def x_of(j: int, t: Any) -> Any:
-            return np.asarray(t) - float(inst.orbit_start[j])
-
-        def dx(d: Any) -> Any:
-            return np.asarray(d)
+    def dx(d: Any) -> Any:
+        return np.asarray(d) / scale
 
     # opportunities, setup + slew gaps (3), observations
     for j in orbits:
@@ -404,13 +397,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
     sched = load_schedule(args.schedule, inst)
     info = plot_schedule(inst, sched, args.output, title=args.title, utc=args.utc)
     info["output"] = args.output
-    if args.json:
-        sys.stdout.write(json.dumps(info) + "\n")
-    else:
-        sys.stdout.write(
-            f"wrote {args.output}: {info['observations']} observations ({info['clusters']} "
-            f"cluster-tasks) on {info['orbits']} orbits, {info['observed']} targets observed"
-            + ("" if info["tracks"] else "; ground tracks unknown for this instance")
-            + "\n"
-        )
+    text = (
+        f"wrote {args.output}: {info['observations']} observations ({info['clusters']} "
+        f"cluster-tasks) on {info['orbits']} orbits, {info['observed']} targets observed"
+        + ("" if info["tracks"] else "; ground tracks unknown for this instance")
+    )
+    sys.stdout.write((json.dumps(info) if args.json else text) + "\n")
     return 0

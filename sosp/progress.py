@@ -85,15 +85,12 @@ class Progress:
         self.callback = callback
         self.interval = float(interval)
         self.clock = clock
-        self.method = ""
-        self.last: Snapshot | None = None
-        self.t0 = clock()
-        self._next = self.t0 + self.interval
+        self.start("")
 
     def start(self, method: str) -> None:
         """A solve of ``method`` begins: elapsed time counts from now."""
         self.method = method
-        self.last = None
+        self.last: Snapshot | None = None
         self.t0 = self.clock()
         self._next = self.t0 + self.interval
 
@@ -131,8 +128,7 @@ class Progress:
             self.callback(snap)
 
 
-_SILENT = Progress()
-_current: list[Progress] = [_SILENT]
+_current: list[Progress] = [Progress()]
 
 
 def current() -> Progress:
@@ -154,7 +150,7 @@ def reporting(progress: Progress | None) -> Iterator[Progress]:
 # --------------------------------------------------------------------------- the CLI's view
 def format_snapshot(snap: Snapshot) -> str:
     """One status line: method, elapsed, best, bound and gap when known, iterations/s."""
-    parts = [f"{snap.method}" if snap.method else "solving", f"{snap.elapsed:6.1f} s"]
+    parts = [snap.method or "solving", f"{snap.elapsed:6.1f} s"]
     if snap.best is not None:
         parts.append(f"best {snap.best:g}")
     if snap.bound is not None:

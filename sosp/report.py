@@ -93,6 +93,10 @@ def _scenario_order(name: str) -> tuple[int, str, int, str]:
     return (0 if g else 1, g, int(name[1:]) if g else 0, name)
 
 
+def _mean(xs: list[float]) -> float:
+    return sum(xs) / len(xs) if xs else math.nan
+
+
 @dataclass
 class Cell:
     """The runs of one method on one scenario (errors and infeasible schedules left out)."""
@@ -109,29 +113,11 @@ class Cell:
     def n(self) -> int:
         return len(self.profits)
 
-    @staticmethod
-    def _mean(xs: list[float]) -> float:
-        return sum(xs) / len(xs) if xs else math.nan
-
-    @property
-    def mean_profit(self) -> float:
-        return self._mean(self.profits)
-
-    @property
-    def mean_observed(self) -> float:
-        return self._mean(self.observed)
-
-    @property
-    def mean_runtime(self) -> float:
-        return self._mean(self.runtimes)
-
-    @property
-    def mean_per_energy(self) -> float:
-        return self._mean(self.per_energy)
-
-    @property
-    def mean_per_memory(self) -> float:
-        return self._mean(self.per_memory)
+    mean_profit = property(lambda self: _mean(self.profits))
+    mean_observed = property(lambda self: _mean(self.observed))
+    mean_runtime = property(lambda self: _mean(self.runtimes))
+    mean_per_energy = property(lambda self: _mean(self.per_energy))
+    mean_per_memory = property(lambda self: _mean(self.per_memory))
 
     @property
     def sd(self) -> float:
@@ -146,15 +132,15 @@ class Cell:
 class Summary:
     """Everything the tables and figures need, read from one database."""
 
-    scenarios: list[str]
-    methods: list[str]
-    cells: dict[tuple[str, str], Cell]
-    en: dict[str, int]
-    tn: dict[str, int]
-    bound: dict[str, float]
-    exact: dict[str, tuple[float, int]]
-    best: dict[str, float]
-    notes: list[str]
+    scenarios: list[str] = field(default_factory=list)
+    methods: list[str] = field(default_factory=list)
+    cells: dict[tuple[str, str], Cell] = field(default_factory=dict)
+    en: dict[str, int] = field(default_factory=dict)
+    tn: dict[str, int] = field(default_factory=dict)
+    bound: dict[str, float] = field(default_factory=dict)
+    exact: dict[str, tuple[float, int]] = field(default_factory=dict)
+    best: dict[str, float] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
     #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*).
     method_bound: dict[tuple[str, str], float] = field(default_factory=dict)
     #: Per (scenario, label): the count stored with that least bound (PBA-STC's F*), if any.
@@ -209,14 +195,8 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
     for r in rows:
         tls[short_label(r["method"], r["params"])].add(r["time_limit"])
     multi = {k for k, v in tls.items() if len(v) > 1}
+    sm = Summary()
     cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
-    bound: dict[str, float] = {}
-    exact: dict[str, tuple[float, int]] = {}
-    best: dict[str, float] = {}
-    method_bound: dict[tuple[str, str], float] = {}
-    method_bound_count: dict[tuple[str, str], int] = {}
-    method_exact: dict[tuple[str, str], tuple[float, int]] = {}
-    notes: list[str] = []
     for r in rows:
         s = r["scenario"]
         key = (s, _label(r, multi))
@@ -230,19 +210,19 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         full = bounds_the_problem(r["method"], r["params"])
         if r["bound"] is not None:
             if full:
-                bound[s] = min(bound.get(s, math.inf), float(r["bound"]))
-            if float(r["bound"]) < method_bound.get(key, math.inf):
-                method_bound[key] = float(r["bound"])
+                sm.bound[s] = min(sm.bound.get(s, math.inf), float(r["bound"]))
+            if float(r["bound"]) < sm.method_bound.get(key, math.inf):
+                sm.method_bound[key] = float(r["bound"])
                 if r.get("bound_count") is not None:  # databases of schema 1 have none
-                    method_bound_count[key] = int(r["bound_count"])
+                    sm.method_bound_count[key] = int(r["bound_count"])
                 else:
-                    method_bound_count.pop(key, None)
+                    sm.method_bound_count.pop(key, None)
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
-            best[s] = max(best.get(s, -math.inf), float(r["profit"]))
+            sm.best[s] = max(sm.best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
-            if full and (s not in exact or r["profit"] > exact[s][0]):
-                exact[s] = (float(r["profit"]), int(r["observed"]))
-            method_exact[key] = (float(r["profit"]), int(r["observed"]))
+            if full and (s not in sm.exact or r["profit"] > sm.exact[s][0]):
+                sm.exact[s] = (float(r["profit"]), int(r["observed"]))
+            sm.method_exact[key] = (float(r["profit"]), int(r["observed"]))
         if r["status"] not in COUNTED:
             continue
         cell.profits.append(float(r["profit"]))
@@ -250,31 +230,21 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         cell.runtimes.append(float(r["runtime"]))
         cell.per_energy.append(r["profit"] / r["energy"] if r["energy"] else 0.0)
         cell.per_memory.append(r["profit"] / r["memory"] if r["memory"] else 0.0)
-    en = {i["scenario"]: int(i["en"]) for i in insts}
-    tn = {i["scenario"]: int(i["tn"]) for i in insts}
-    scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
-    methods = sorted({m for _, m in cells})
+    sm.en = {i["scenario"]: int(i["en"]) for i in insts}
+    sm.tn = {i["scenario"]: int(i["tn"]) for i in insts}
+    sm.scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
+    sm.methods = sorted({m for _, m in cells})
+    sm.cells = dict(cells)
     for (s, m), c in sorted(cells.items()):
         if c.failed:
-            notes.append(f"{s} {m}: {c.failed} failed run(s) left out")
+            sm.notes.append(f"{s} {m}: {c.failed} failed run(s) left out")
         if c.infeasible:
-            notes.append(f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out")
-    if len({i["fingerprint"] for i in insts}) > len(en):
-        notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
-    return Summary(
-        scenarios,
-        methods,
-        dict(cells),
-        en,
-        tn,
-        bound,
-        exact,
-        best,
-        notes,
-        method_bound=method_bound,
-        method_bound_count=method_bound_count,
-        method_exact=method_exact,
-    )
+            sm.notes.append(
+                f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out"
+            )
+    if len({i["fingerprint"] for i in insts}) > len(sm.en):
+        sm.notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
+    return sm
 
 
 # --------------------------------------------------------------------------- tables
@@ -345,8 +315,7 @@ def build_paper_table(
     ``opt``) and the best known profit of any run. A method without runs loses its columns
     (noted).
     """
-    scen = [s for s in summary.scenarios if scenario_group(s) == group]
-    present = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+    scen, present = _group(summary, group)
     notes: list[str] = []
     cols: dict[str, str] = {}
     for title, cands in PAPER_METHODS.items():
@@ -372,16 +341,10 @@ def build_paper_table(
     for title in ("ACO-LS-STC", "ASA-DTC"):
         if title in cols:
             header += [f"{title} R", f"{title} F", f"{title} SD", f"{title} T (s)"]
-    compare = target in present and baseline in present and target != baseline
+    compare = _compared(target, baseline, present, notes)
     if compare:
         header += ["IMP", "t-test", "p"]
         notes.append(f"IMP and t-test: {target} against {baseline}")
-    else:
-        missing = [x or "?" for x in (target, baseline) if x not in present]
-        notes.append(
-            "IMP and t-test omitted: "
-            + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
-        )
     header += ["sosp bound", "proven", "sosp best"]
     rows: list[list[Any]] = []
     for s in scen:
@@ -399,17 +362,38 @@ def build_paper_table(
             row += [ex[0], ex[1]] if ex else [None, None]
         for title in ("ACO-LS-STC", "ASA-DTC"):
             if title in cols:
-                c = summary.cells.get((s, cols[title]))
-                if c is None or not c.n:
-                    row += [None, None, None, None]
-                else:
-                    row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
+                row += _rfst(summary.cells.get((s, cols[title])))
         if compare:
             row += _imp(summary, s, target, baseline)  # type: ignore[arg-type]
         ex = summary.exact.get(s)
         row += [ex[0] if ex else summary.bound.get(s), "opt" if ex else "", summary.best.get(s)]
         rows.append(row)
     return header, rows, notes
+
+
+def _group(summary: Summary, group: str) -> tuple[list[str], list[str]]:
+    """The scenarios of ``group`` and the method labels with runs on any of them."""
+    scen = [s for s in summary.scenarios if scenario_group(s) == group]
+    return scen, [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+
+
+def _compared(
+    target: str | None, baseline: str | None, present: list[str], notes: list[str]
+) -> bool:
+    """Whether IMP and the t-test can be computed; if not, the reason goes into ``notes``."""
+    if target in present and baseline in present and target != baseline:
+        return True
+    missing = [x or "?" for x in (target, baseline) if x not in present]
+    notes.append(
+        "IMP and t-test omitted: "
+        + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
+    )
+    return False
+
+
+def _rfst(c: Cell | None) -> list[Any]:
+    """A method's R, F, SD, T on one scenario (None without a valid run)."""
+    return [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime] if c and c.n else [None] * 4
 
 
 def _imp(summary: Summary, s: str, target: str, baseline: str) -> list[Any]:
@@ -426,22 +410,15 @@ def build_methods_table(
     summary: Summary, group: str, target: str | None = None, baseline: str | None = None
 ) -> tuple[list[str], list[list[Any]], list[str]]:
     """Every method's R, F, SD, T side by side (the numbers of Fig. 2), IMP and t-test."""
-    scen = [s for s in summary.scenarios if scenario_group(s) == group]
-    methods = [m for m in summary.methods if any((s, m) in summary.cells for s in scen)]
+    scen, methods = _group(summary, group)
     notes: list[str] = []
     target, baseline, _ = comparison(summary, target, baseline, methods)
     header = ["SN", "EN", "TN", "bound", "exact R", "exact F", "best R"]
     for m in methods:
         header += [f"{m} R", f"{m} F", f"{m} SD", f"{m} T (s)"]
-    compare = target in methods and baseline in methods and target != baseline
+    compare = _compared(target, baseline, methods, notes)
     if compare:
         header += [f"IMP ({target} vs {baseline})", "t-test", "p"]
-    else:
-        missing = [x or "?" for x in (target, baseline) if x not in methods]
-        notes.append(
-            "IMP and t-test omitted: "
-            + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
-        )
     rows: list[list[Any]] = []
     for s in scen:
         ex = summary.exact.get(s)
@@ -455,11 +432,7 @@ def build_methods_table(
             summary.best.get(s),
         ]
         for m in methods:
-            c = summary.cells.get((s, m))
-            if c is None or not c.n:
-                row += [None, None, None, None]
-            else:
-                row += [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime]
+            row += _rfst(summary.cells.get((s, m)))
         if compare:
             row += _imp(summary, s, target, baseline)  # type: ignore[arg-type]
         rows.append(row)
@@ -485,12 +458,10 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
         out = []
         for i, v in enumerate(r):
             h = header[i]
-            if h.endswith(" SD") or h == "p":
-                text = _fmt(v, 2) if v is not None else "_"
+            if h.endswith((" SD", "T (s)")) or h == "p":
+                text = _fmt(v, 2)
             elif h.startswith("IMP"):
-                text = _fmt(v, 3) if v is not None else "_"
-            elif h.endswith("T (s)"):
-                text = _fmt(v, 2) if v is not None else "_"
+                text = _fmt(v, 3)
             elif isinstance(v, float):
                 text = _fmt(v, 1) if not float(v).is_integer() else f"{v:.0f}"
             else:
@@ -512,6 +483,13 @@ def _save_png(fig: Any, path: Path) -> None:
 
 #: Scenarios a method needs in a panel for its line: one point is not a line.
 MIN_POINTS = 2
+
+#: The y axis of each measure drawn.
+YLABELS = {
+    "mean_profit": "mean profit",
+    "mean_per_memory": "profit / memory",
+    "mean_per_energy": "profit / energy",
+}
 
 #: Panel titles by scenario group.
 PANELS = {"B": "(a) first group", "C": "(b) second group", "": "other scenarios"}
@@ -657,42 +635,23 @@ def write_report(
         have = {m.split("[")[0].split("@")[0] for m in clustering}
         absent = [m for m in CLUSTERING if m not in have]
         notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
-    fig_methods = clustering
     fig2 = [m for m in (_fig2_label(summary.methods, x) for x in FIG2) if m]
     if len(fig2) < len(FIG2):
         absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
         notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
     figs = [
+        ("fig2_methods", fig2, "mean_profit", "Fig. 2: methods"),
         (
-            "fig2_methods.png",
-            fig2,
+            "fig3_clustering",
+            clustering,
             "mean_profit",
-            "mean profit",
-            "Fig. 2: methods",
-        ),
-        (
-            "fig3_clustering.png",
-            fig_methods,
-            "mean_profit",
-            "mean profit",
             "Fig. 3: dynamic vs static vs no task clustering",
         ),
-        (
-            "fig4_profit_memory.png",
-            fig_methods,
-            "mean_per_memory",
-            "profit / memory",
-            "Fig. 4: profit-memory ratio",
-        ),
-        (
-            "fig5_profit_energy.png",
-            fig_methods,
-            "mean_per_energy",
-            "profit / energy",
-            "Fig. 5: profit-energy ratio",
-        ),
+        ("fig4_profit_memory", clustering, "mean_per_memory", "Fig. 4: profit-memory ratio"),
+        ("fig5_profit_energy", clustering, "mean_per_energy", "Fig. 5: profit-energy ratio"),
     ]
-    for name, ms, measure, ylabel, title in figs:
+    for stem, ms, measure, title in figs:
+        name = f"{stem}.png"
         panels, fnotes = figure_series(summary, ms, measure)
         short = title.split(":")[0]
         notes += [f"{short}: {n}" for n in fnotes]
@@ -704,7 +663,7 @@ def write_report(
             notes.append(f"{short} ({name}) left out: {why}")
             (out / name).unlink(missing_ok=True)  # no stale figure from an earlier report
             continue
-        _figure(summary, panels, ylabel, title, out / name)
+        _figure(summary, panels, YLABELS[measure], title, out / name)
         files.append(name)
         md += [f"![{title}]({name})", ""]
     if notes:
@@ -761,11 +720,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     """Handler of ``sosp report``."""
     res = write_report(args.db, args.output, target=args.method, baseline=args.baseline)
     res["output"] = args.output
-    if args.json:
-        sys.stdout.write(json.dumps(res) + "\n")
-    else:
-        text = f"wrote {len(res['files'])} files to {args.output}: {', '.join(res['files'])}"
-        for n in res["notes"]:
-            text += f"\nnote: {n}"
-        sys.stdout.write(text + "\n")
+    text = f"wrote {len(res['files'])} files to {args.output}: {', '.join(res['files'])}"
+    text += "".join(f"\nnote: {n}" for n in res["notes"])
+    sys.stdout.write((json.dumps(res) if args.json else text) + "\n")
     return 0

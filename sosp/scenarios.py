@@ -17,6 +17,7 @@ import csv
 import logging
 import math
 import os
+import re
 import time
 import zlib
 from collections.abc import Sequence
@@ -49,6 +50,9 @@ REGIONS: dict[str, tuple[float, float, float, float]] = {
     "C": (30.0, 60.0, 90.0, 120.0),
 }
 
+#: The numbers of a target CSV row and their ranges (:func:`read_targets_csv`).
+CSV_RANGES = (("lat", -90.0, 90.0), ("lon", -180.0, 360.0), ("weight", 0, MAX_WEIGHT))
+
 #: Target weights: integers uniform in [2, 10] (inclusive).
 WEIGHT_RANGE = (2, 10)
 
@@ -71,15 +75,9 @@ def scenario_names() -> list[str]:
 
 
 def _parse_name(name: str) -> tuple[str, int]:
-    if not isinstance(name, str) or len(name) < 2 or name[0] not in REGIONS:
+    if not isinstance(name, str) or not re.fullmatch(r"[BC](10|[1-9])", name):
         raise InputError(f"scenario: unknown name {name!r}; expected B1..B10 or C1..C10")
-    try:
-        k = int(name[1:])
-    except ValueError:
-        k = 0
-    if not (1 <= k <= 10) or name[1:] != str(k):
-        raise InputError(f"scenario: unknown name {name!r}; expected B1..B10 or C1..C10")
-    return name[0], k
+    return name[0], int(name[1:])
 
 
 def _rng(name: str, seed: int) -> np.random.Generator:
@@ -171,27 +169,17 @@ def generate_scenario(
         Named ``name``; ``meta`` records the provenance.
     """
     group, k = _parse_name(name)
-    rng = _rng(name, seed)
-    ids, lat, lon, weight = random_targets(100 * k, REGIONS[group], rng)
-    return _build(
-        builtin_satellites(),
-        ids,
-        lat,
-        lon,
-        weight,
-        name=name,
-        start=start,
+    return custom_scenario(
+        region=REGIONS[group],
+        count=100 * k,
+        seed=seed,
+        start=DEFAULT_START if start is None else start,
         hours=hours,
         resources=resources,
         max_roll=max_roll,
         fov=fov,
         min_sun_elevation=min_sun_elevation,
-        meta={
-            "scenario": name,
-            "seed": int(seed),
-            "region": list(REGIONS[group]),
-            "satellite_source": "builtin",
-        },
+        name=name,
     )
 
 
@@ -237,6 +225,7 @@ def custom_scenario(
     """
     if (targets is None) == (region is None):
         raise InputError("custom scenario: give exactly one of targets= or region=")
+    rng = _rng(name, seed)
     meta: dict[str, Any] = {"scenario": name, "seed": int(seed)}
     if targets is not None:
         if count is not None:
@@ -250,7 +239,7 @@ def custom_scenario(
     else:
         if count is None:
             raise InputError("custom scenario: region= needs count=")
-        ids, lat, lon, weight = random_targets(count, region, _rng(name, seed))  # type: ignore[arg-type]
+        ids, lat, lon, weight = random_targets(count, region, rng)  # type: ignore[arg-type]
         meta["region"] = [float(x) for x in region]  # type: ignore[union-attr]
     if satellites is None:
         sats = builtin_satellites()
@@ -274,40 +263,7 @@ def custom_scenario(
         meta["tle"] = [[s.name, *(s.tle or export_tle(s.satrec))] for s in sats]
     if start is None:
         start = max((element_epoch(s) for s in sats), key=lambda e: utc_iso(e))
-    return _build(
-        sats,
-        ids,
-        lat,
-        lon,
-        weight,
-        name=name,
-        start=start,
-        hours=hours,
-        resources=resources,
-        max_roll=max_roll,
-        fov=fov,
-        min_sun_elevation=min_sun_elevation,
-        meta=meta,
-    )
-
-
-def _build(
-    sats: list[Satellite],
-    ids: Sequence[str],
-    lat: Any,
-    lon: Any,
-    weight: Any,
-    *,
-    name: str,
-    start: str | None,
-    hours: float,
-    resources: Resources | None,
-    max_roll: float,
-    fov: float,
-    min_sun_elevation: float | None,
-    meta: dict[str, Any],
-) -> Instance:
-    start = utc_iso(DEFAULT_START if start is None else start, "start")
+    start = utc_iso(start, "start")
     if not (isinstance(hours, int | float) and math.isfinite(hours) and hours > 0):
         raise InputError(f"hours: expected a positive number, got {hours!r}")
     for sat_name, days in stale_elements(sats, start, hours):
@@ -422,11 +378,8 @@ def read_targets_csv(
             source=src,
         )
     ix = {c: cols.index(c) for c in ("id", "lat", "lon", "weight")}
-    ids: list[str] = []
-    lat: list[float] = []
-    lon: list[float] = []
-    weight: list[int] = []
-    seen: dict[str, int] = {}
+    seen: dict[str, int] = {}  # the ids, in file order, and their lines
+    rows: list[list[float]] = []
     for lineno, row in numbered[1:]:
         if len(row) != len(cols):
             raise InputError(
@@ -440,8 +393,8 @@ def read_targets_csv(
                 f"line {lineno}: duplicate id {tid!r} (first on line {seen[tid]})", source=src
             )
         seen[tid] = lineno
-        values = {}
-        for key, lo, hi in (("lat", -90.0, 90.0), ("lon", -180.0, 360.0)):
+        values = []
+        for key, lo, hi in CSV_RANGES:
             raw = row[ix[key]].strip()
             try:
                 val = float(raw)
@@ -449,29 +402,20 @@ def read_targets_csv(
                 raise InputError(
                     f"line {lineno}: {key} is not a number: {raw!r}", source=src
                 ) from None
-            if not math.isfinite(val) or not (lo <= val <= hi):
-                raise InputError(
-                    f"line {lineno}: {key} must be a finite number in [{lo:g}, {hi:g}], "
-                    f"got {raw!r}",
-                    source=src,
+            if (
+                not math.isfinite(val)
+                or not (lo <= val <= hi)
+                or (key == "weight" and val != int(val))
+            ):
+                what = (
+                    f"an integer in [0, {MAX_WEIGHT:.0e}]"
+                    if key == "weight"
+                    else f"a finite number in [{lo:g}, {hi:g}]"
                 )
-            values[key] = val
-        raw = row[ix["weight"]].strip()
-        try:
-            w = float(raw)
-        except ValueError:
-            raise InputError(
-                f"line {lineno}: weight is not a number: {raw!r}", source=src
-            ) from None
-        if not math.isfinite(w) or w < 0 or w > MAX_WEIGHT or w != int(w):
-            raise InputError(
-                f"line {lineno}: weight must be an integer in [0, {MAX_WEIGHT:.0e}], got {raw!r}",
-                source=src,
-            )
-        ids.append(tid)
-        lat.append(values["lat"])
-        lon.append(values["lon"])
-        weight.append(int(w))
-    if not ids:
+                raise InputError(f"line {lineno}: {key} must be {what}, got {raw!r}", source=src)
+            values.append(val)
+        rows.append(values)
+    if not rows:
         raise InputError("no targets after the header", source=src)
-    return ids, np.asarray(lat), np.asarray(lon), np.asarray(weight, dtype=np.int64)
+    lat, lon, weight = (np.array(col) for col in zip(*rows, strict=True))
+    return list(seen), lat, lon, weight.astype(np.int64)

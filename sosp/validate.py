@@ -126,113 +126,92 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
     profit = 0.0
     observations = schedule.observations
 
+    def flag(constraint: str, message: str, **where: Any) -> None:
+        out.append(Violation(constraint, message, **where))
+
     for u, ob in enumerate(observations):
         if not (0 <= ob.orbit < inst.n_orbits):
-            out.append(
-                Violation("structure", f"observation {u}: unknown orbit {ob.orbit}", observation=u)
-            )
+            flag("structure", f"observation {u}: unknown orbit {ob.orbit}", observation=u)
             continue
         oid = inst.orbit_ids[ob.orbit]
         by_orbit[ob.orbit].append(u)
         if not ob.end > ob.start:
-            out.append(
-                Violation(
-                    "structure", f"observation {u}: start must be < end", orbit=oid, observation=u
-                )
-            )
+            flag("structure", f"observation {u}: start must be < end", orbit=oid, observation=u)
         if ob.start < inst.orbit_start[ob.orbit] - TOL or ob.end > inst.orbit_end[ob.orbit] + TOL:
-            out.append(
-                Violation(
-                    "structure",
-                    f"observation {u}: window outside orbit {oid}",
-                    orbit=oid,
-                    observation=u,
-                )
+            flag(
+                "structure",
+                f"observation {u}: window outside orbit {oid}",
+                orbit=oid,
+                observation=u,
             )
         if not ob.opps:
-            out.append(
-                Violation(
-                    "structure", f"observation {u}: covers no opportunity", orbit=oid, observation=u
-                )
-            )
+            flag("structure", f"observation {u}: covers no opportunity", orbit=oid, observation=u)
         # (11) longest continuous observation
         excess = (ob.end - ob.start) - float(inst.max_duration[ob.orbit])
         if excess > TOL:
-            out.append(
-                Violation(
-                    "11",
-                    f"observation {u} on {oid} lasts {ob.end - ob.start:.6g} s"
-                    f" > Delta T {inst.max_duration[ob.orbit]:g} s",
-                    amount=excess,
-                    orbit=oid,
-                    observation=u,
-                )
+            flag(
+                "11",
+                f"observation {u} on {oid} lasts {ob.end - ob.start:.6g} s"
+                f" > Delta T {inst.max_duration[ob.orbit]:g} s",
+                amount=excess,
+                orbit=oid,
+                observation=u,
             )
         for i in ob.opps:
             if not (0 <= i < inst.n_opps):
-                out.append(
-                    Violation(
-                        "structure",
-                        f"observation {u}: unknown opportunity {i}",
-                        orbit=oid,
-                        observation=u,
-                    )
+                flag(
+                    "structure",
+                    f"observation {u}: unknown opportunity {i}",
+                    orbit=oid,
+                    observation=u,
                 )
                 continue
             pid = inst.opp_ids[i]
             k = int(inst.opp_target[i])
             tid = inst.target_ids[k]
             if int(inst.opp_orbit[i]) != ob.orbit:
-                out.append(
-                    Violation(
-                        "structure",
-                        f"observation {u}: opportunity {pid} is not on orbit {oid}",
-                        orbit=oid,
-                        observation=u,
-                        target=tid,
-                    )
+                flag(
+                    "structure",
+                    f"observation {u}: opportunity {pid} is not on orbit {oid}",
+                    orbit=oid,
+                    observation=u,
+                    target=tid,
                 )
             ts, te = float(inst.opp_start[i]), float(inst.opp_end[i])
             if ts < ob.start - TOL or te > ob.end + TOL:
-                out.append(
-                    Violation(
-                        "structure",
-                        f"observation {u}: window [{ob.start:.6g}, "
-                        f"{ob.end:.6g}] does not contain opportunity {pid} "
-                        f"[{ts:.6g}, {te:.6g}]",
-                        amount=max(ob.start - ts, te - ob.end),
-                        orbit=oid,
-                        observation=u,
-                        target=tid,
-                    )
+                flag(
+                    "structure",
+                    f"observation {u}: window [{ob.start:.6g}, "
+                    f"{ob.end:.6g}] does not contain opportunity {pid} "
+                    f"[{ts:.6g}, {te:.6g}]",
+                    amount=max(ob.start - ts, te - ob.end),
+                    orbit=oid,
+                    observation=u,
+                    target=tid,
                 )
             # (7) the stated roll inside every component's roll range
             lo, hi = float(inst.opp_roll_min[i]), float(inst.opp_roll_max[i])
             miss = max(lo - ob.roll, ob.roll - hi)
             if miss > TOL:
-                out.append(
-                    Violation(
-                        "7",
-                        f"observation {u}: roll {ob.roll:.6g} outside the range "
-                        f"[{lo:.6g}, {hi:.6g}] of opportunity {pid}",
-                        amount=miss,
-                        orbit=oid,
-                        observation=u,
-                        target=tid,
-                    )
+                flag(
+                    "7",
+                    f"observation {u}: roll {ob.roll:.6g} outside the range "
+                    f"[{lo:.6g}, {hi:.6g}] of opportunity {pid}",
+                    amount=miss,
+                    orbit=oid,
+                    observation=u,
+                    target=tid,
                 )
             # (2) each target at most once
             if k in seen_target:
-                out.append(
-                    Violation(
-                        "2",
-                        f"target {tid} observed again in observation {u} "
-                        f"(first in observation {seen_target[k]})",
-                        amount=1.0,
-                        orbit=oid,
-                        observation=u,
-                        target=tid,
-                    )
+                flag(
+                    "2",
+                    f"target {tid} observed again in observation {u} "
+                    f"(first in observation {seen_target[k]})",
+                    amount=1.0,
+                    orbit=oid,
+                    observation=u,
+                    target=tid,
                 )
             else:
                 seen_target[k] = u
@@ -257,15 +236,13 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
             # (3) setup and slew time between consecutive observations
             short = (a + turn) - (ob.start - p.end)
             if short > TOL:
-                out.append(
-                    Violation(
-                        "3",
-                        f"observations {seq[n - 1]} and {u} on {oid}: gap "
-                        f"{ob.start - p.end:.6g} s < setup + slew {a + turn:.6g} s",
-                        amount=short,
-                        orbit=oid,
-                        observation=u,
-                    )
+                flag(
+                    "3",
+                    f"observations {seq[n - 1]} and {u} on {oid}: gap "
+                    f"{ob.start - p.end:.6g} s < setup + slew {a + turn:.6g} s",
+                    amount=short,
+                    orbit=oid,
+                    observation=u,
                 )
         energy = (
             float(inst.observe_energy_rate[j]) * observe + float(inst.slew_energy_rate[j]) * slew
@@ -275,40 +252,32 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         total_energy += energy
         total_memory += memory
         if energy - float(inst.energy_capacity[j]) > TOL:  # (4)
-            out.append(
-                Violation(
-                    "4",
-                    f"orbit {oid}: energy {energy:.6g} > capacity {inst.energy_capacity[j]:g}",
-                    amount=energy - float(inst.energy_capacity[j]),
-                    orbit=oid,
-                )
+            flag(
+                "4",
+                f"orbit {oid}: energy {energy:.6g} > capacity {inst.energy_capacity[j]:g}",
+                amount=energy - float(inst.energy_capacity[j]),
+                orbit=oid,
             )
         if memory - float(inst.memory_capacity[j]) > TOL:  # (5)
-            out.append(
-                Violation(
-                    "5",
-                    f"orbit {oid}: memory {memory:.6g} > capacity {inst.memory_capacity[j]:g}",
-                    amount=memory - float(inst.memory_capacity[j]),
-                    orbit=oid,
-                )
+            flag(
+                "5",
+                f"orbit {oid}: memory {memory:.6g} > capacity {inst.memory_capacity[j]:g}",
+                amount=memory - float(inst.memory_capacity[j]),
+                orbit=oid,
             )
         if len(seq) > int(inst.max_openings[j]):  # (6)
-            out.append(
-                Violation(
-                    "6",
-                    f"orbit {oid}: {len(seq)} openings > {inst.max_openings[j]}",
-                    amount=float(len(seq) - int(inst.max_openings[j])),
-                    orbit=oid,
-                )
+            flag(
+                "6",
+                f"orbit {oid}: {len(seq)} openings > {inst.max_openings[j]}",
+                amount=float(len(seq) - int(inst.max_openings[j])),
+                orbit=oid,
             )
 
     if schedule.profit is not None and abs(float(schedule.profit) - profit) > TOL:
-        out.append(
-            Violation(
-                "profit",
-                f"claimed profit {schedule.profit:g} differs from the recomputed profit {profit:g}",
-                amount=abs(float(schedule.profit) - profit),
-            )
+        flag(
+            "profit",
+            f"claimed profit {schedule.profit:g} differs from the recomputed profit {profit:g}",
+            amount=abs(float(schedule.profit) - profit),
         )
     return ValidationReport(
         feasible=not out,

@@ -380,32 +380,20 @@ def find_opportunities(
             )
         log.debug("%s: %d candidate passes refined", satellites[s].name, n_cand)
 
+    dtypes = {"target": np.int64, "orbit": np.int64}
+    dtypes |= dict.fromkeys(("t_cross", "start", "end", "roll_cross", "slant_range"), float)
     cols = {
         key: (np.concatenate([p[key] for p in parts]) if parts else np.empty(0, dtype=dt))
-        for key, dt in (
-            ("target", np.int64),
-            ("orbit", np.int64),
-            ("t_cross", float),
-            ("start", float),
-            ("end", float),
-            ("roll_cross", float),
-            ("slant_range", float),
-        )
+        for key, dt in dtypes.items()
     }
     order = np.lexsort((cols["target"], cols["start"], cols["orbit"]))
     cols = {k: v[order] for k, v in cols.items()}
     theta = cols["roll_cross"]
     opps = Opportunities(
-        target=cols["target"],
-        orbit=cols["orbit"],
-        t_cross=cols["t_cross"],
-        start=cols["start"],
-        end=cols["end"],
+        **cols,
         roll=np.clip(theta, -max_roll, max_roll),
         roll_min=np.maximum(theta - fov / 2.0, -max_roll),
         roll_max=np.minimum(theta + fov / 2.0, max_roll),
-        roll_cross=theta,
-        slant_range=cols["slant_range"],
     )
     log.info(
         "%d targets x %d satellites: %d revolutions, %d opportunities, %d targets observable",

@@ -92,12 +92,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """Run the campaign; exit 0 if every run succeeded, 1 if some failed or were infeasible."""
     from sosp.campaign.progress import Progress
     from sosp.campaign.runner import check_methods, plan, run_campaign
-    from sosp.campaign.store import Store, check_db, new_database_guard
+    from sosp.campaign.store import Store, new_database_guard
+    from sosp.io import check_output
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
     camp, db = build_campaign(args)
-    check_db(db)
+    check_output(db, "--db")
     # Methods and their parameter values are checked before the database is touched: a
     # refused campaign leaves nothing behind.
     check_methods(camp)

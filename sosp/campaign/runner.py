@@ -12,13 +12,12 @@ from __future__ import annotations
 import json
 import logging
 import os
-import threading
 import time
 import traceback
-from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 from sosp.campaign.spec import Campaign, RunSpec, ScenarioSpec, canonical_params
@@ -33,32 +32,19 @@ log = logging.getLogger(__name__)
 
 #: Instances kept per worker process.
 CACHE_SIZE = 4
-_CACHE: OrderedDict[tuple[str, str | None, int], Instance] = OrderedDict()
-_CACHE_LOCK = threading.Lock()  # Dask workers may be threads sharing this cache
 
 
 # --------------------------------------------------------------------------- instances
+@lru_cache(maxsize=CACHE_SIZE)  # thread-safe: Dask workers may be threads sharing it
 def load_scenario(label: str, path: str | None, instance_seed: int) -> Instance:
     """The instance of a scenario: generated (named) or loaded (file), cached per process."""
-    key = (label, path, instance_seed)
-    with _CACHE_LOCK:
-        inst = _CACHE.get(key)
-        if inst is not None:
-            _CACHE.move_to_end(key)
-            return inst
     if path is None:
         from sosp.scenarios import generate_scenario
 
-        inst = generate_scenario(label, seed=instance_seed)
-    else:
-        from sosp.instance import load_instance
+        return generate_scenario(label, seed=instance_seed)
+    from sosp.instance import load_instance
 
-        inst = load_instance(path)
-    with _CACHE_LOCK:
-        _CACHE[key] = inst
-        while len(_CACHE) > CACHE_SIZE:
-            _CACHE.popitem(last=False)
-    return inst
+    return load_instance(path)
 
 
 def instance_info(label: str, inst: Instance) -> dict[str, Any]:

@@ -33,6 +33,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +53,9 @@ _CAMPAIGN_KEYS = {
     "workers",
 }
 _METHOD_KEYS = {"name", "params", "time_limits", "time_limit", "seeds"}
+
+#: What identifies a run: the results store's unique key, :attr:`RunSpec.key`.
+KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
 
 
 def canonical_params(params: Mapping[str, Any]) -> str:
@@ -113,15 +117,8 @@ class RunSpec:
 
     @property
     def key(self) -> tuple[str, str, str, str, int, float]:
-        """The store's unique key."""
-        return (
-            self.scenario,
-            self.fingerprint,
-            self.method,
-            self.params,
-            self.seed,
-            self.time_limit,
-        )
+        """The store's unique key (:data:`KEY_COLUMNS`)."""
+        return attrgetter(*KEY_COLUMNS)(self)
 
 
 @dataclass(frozen=True)
@@ -140,10 +137,11 @@ class Campaign:
 
     def size(self) -> int:
         """Number of runs in the grid."""
-        n = 0
-        for m in self.methods:
-            n += len(m.time_limits or self.time_limits) * len(m.seeds or self.seeds)
-        return n * len(self.scenarios)
+        per_scenario = sum(
+            len(m.time_limits or self.time_limits) * len(m.seeds or self.seeds)
+            for m in self.methods
+        )
+        return per_scenario * len(self.scenarios)
 
 
 # --------------------------------------------------------------------------- parsing helpers
@@ -212,13 +210,6 @@ def parse_time_limits(value: Any, where: str = "time_limits") -> tuple[float, ..
     return tuple(dict.fromkeys(out))
 
 
-def _parse_value(text: str) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
-
 def parse_method(text: str, where: str = "methods") -> MethodSpec:
     """``"name"`` or ``"name:key=value,key=value"`` (values are JSON, else text)."""
     if not isinstance(text, str) or not text.strip():
@@ -231,7 +222,10 @@ def parse_method(text: str, where: str = "methods") -> MethodSpec:
             key = key.strip().replace("-", "_")
             if not eq or not key:
                 raise InputError(f"{where}: expected key=value in {text!r}, got {item!r}")
-            params[key] = _parse_value(val.strip())
+            try:
+                params[key] = json.loads(val.strip())
+            except json.JSONDecodeError:
+                params[key] = val.strip()
     canonical_params(params)
     return MethodSpec(name.strip(), params)
 

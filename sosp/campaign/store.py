@@ -21,10 +21,11 @@ import json
 import os
 import sqlite3
 from collections.abc import Iterable, Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import closing, contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
+from sosp.campaign.spec import KEY_COLUMNS
 from sosp.errors import InputError
 
 #: Bump when the tables change; older or newer databases are refused, except the versions of
@@ -43,7 +44,6 @@ OPEN_TIMEOUT = 2.0
 #: Seconds to wait for a write lock when storing one run.
 WRITE_TIMEOUT = 60.0
 
-KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
 
 RUN_COLUMNS = (
     *KEY_COLUMNS,
@@ -104,19 +104,8 @@ CREATE TABLE IF NOT EXISTS runs (
 """
 
 
-def _locked(exc: sqlite3.OperationalError) -> bool:
-    return "locked" in str(exc) or "busy" in str(exc)
-
-
 #: The side files of a database in WAL mode.
 SIDE_SUFFIXES = ("-wal", "-shm", "-journal")
-
-
-def check_db(path: str | os.PathLike[str]) -> None:
-    """Check a ``--db`` path before any work: not a folder, in a folder this user can write."""
-    from sosp.io import check_output
-
-    check_output(path, "--db")
 
 
 def _in_wal_mode(path: Path) -> bool:
@@ -143,16 +132,10 @@ def new_database_guard(path: str | os.PathLike[str]) -> Iterator[None]:
         yield
     except BaseException:
         if created and p.exists():
-            try:
-                conn = sqlite3.connect(p.resolve().as_uri() + "?mode=ro", uri=True)
-                try:
-                    runs = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
-                except sqlite3.DatabaseError:
-                    runs = 0
-                finally:
-                    conn.close()
-            except sqlite3.DatabaseError:
-                runs = 0
+            runs = 0  # also when it is no database or has no runs table
+            uri = p.resolve().as_uri() + "?mode=ro"
+            with suppress(sqlite3.DatabaseError), closing(sqlite3.connect(uri, uri=True)) as conn:
+                runs = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
             if runs == 0:
                 for f in (p, *(p.with_name(p.name + s) for s in SIDE_SUFFIXES)):
                     f.unlink(missing_ok=True)
@@ -207,19 +190,29 @@ class Store:
             self.conn.row_factory = sqlite3.Row
             self._check_or_init(readonly)
         except sqlite3.DatabaseError as exc:
-            self._close_quietly()
-            if isinstance(exc, sqlite3.OperationalError) and _locked(exc):
+            with suppress(Exception):  # closing a half-open connection
+                self.conn.close()
+            if isinstance(exc, sqlite3.OperationalError) and (
+                "locked" in str(exc) or "busy" in str(exc)
+            ):
                 raise InputError(
                     "database is locked by another process (is another sosp bench writing it?)",
                     source=self.path,
                 ) from None
             raise InputError(f"not a sosp results database ({exc})", source=self.path) from None
 
-    def _close_quietly(self) -> None:
+    @contextmanager
+    def _transaction(self) -> Iterator[sqlite3.Cursor]:
+        """One write transaction: BEGIN IMMEDIATE, COMMIT, or ROLLBACK on any error."""
+        cur = self.conn.cursor()
+        cur.execute("BEGIN IMMEDIATE")
         try:
-            self.conn.close()
-        except Exception:  # noqa: BLE001 - closing a half-open connection
-            pass
+            yield cur
+            cur.execute("COMMIT")
+        except BaseException:
+            if self.conn.in_transaction:
+                cur.execute("ROLLBACK")
+            raise
 
     def _check_or_init(self, readonly: bool) -> None:
         cur = self.conn.cursor()
@@ -249,8 +242,7 @@ class Store:
         cur.execute("PRAGMA synchronous=NORMAL")
         if "meta" not in tables:
             cur.executescript(_SCHEMA)
-        cur.execute("BEGIN IMMEDIATE")
-        try:
+        with self._transaction() as cur:
             while version is not None and version != str(SCHEMA_VERSION):
                 for statement in _UPGRADES[version]:
                     cur.execute(statement)
@@ -263,11 +255,6 @@ class Store:
                     "INSERT OR IGNORE INTO meta(key, value) VALUES (?, ?)",
                     [("schema_version", str(SCHEMA_VERSION)), ("created_by", __version__)],
                 )
-            cur.execute("COMMIT")
-        except BaseException:
-            if self.conn.in_transaction:
-                cur.execute("ROLLBACK")
-            raise
         self.conn.execute(f"PRAGMA busy_timeout={int(WRITE_TIMEOUT * 1000)}")
 
     # ------------------------------------------------------------------ reading
@@ -296,19 +283,12 @@ class Store:
     def put_instances(self, infos: Iterable[Mapping[str, Any]]) -> None:
         """Record the scenarios' sizes (EN, TN, ...) in one transaction (existing rows kept)."""
         cols = ("scenario", "fingerprint", "name", "targets", "en", "tn", "orbits")
-        cur = self.conn.cursor()
-        cur.execute("BEGIN IMMEDIATE")
-        try:
+        with self._transaction() as cur:
             cur.executemany(
                 f"INSERT OR IGNORE INTO instances({', '.join(cols)}) "
                 f"VALUES ({', '.join('?' * len(cols))})",
                 [[info[c] for c in cols] for info in infos],
             )
-            cur.execute("COMMIT")
-        except BaseException:
-            if self.conn.in_transaction:
-                cur.execute("ROLLBACK")
-            raise
 
     def put(self, row: Mapping[str, Any]) -> bool:
         """Store one finished run in one transaction; returns True if a row was written.
@@ -317,9 +297,7 @@ class Store:
         """
         values = [row.get(c) for c in RUN_COLUMNS]
         updates = ", ".join(f"{c}=excluded.{c}" for c in RUN_COLUMNS[len(KEY_COLUMNS) :])
-        cur = self.conn.cursor()
-        cur.execute("BEGIN IMMEDIATE")
-        try:
+        with self._transaction() as cur:
             cur.execute(
                 f"INSERT INTO runs({', '.join(RUN_COLUMNS)}) "
                 f"VALUES ({', '.join('?' * len(RUN_COLUMNS))}) "
@@ -328,22 +306,15 @@ class Store:
                 values,
             )
             written = cur.rowcount > 0
-            cur.execute("COMMIT")
-        except BaseException:
-            if self.conn.in_transaction:
-                cur.execute("ROLLBACK")
-            raise
         return written
 
     def close(self) -> None:
         """Close; a writer first folds the WAL back into the file and leaves WAL mode, so the
         database is one file again (another writer still attached keeps WAL mode)."""
         if not self.readonly:
-            try:
+            with suppress(sqlite3.DatabaseError):  # busy: another connection uses it; keep WAL
                 self.conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
                 self.conn.execute("PRAGMA journal_mode=DELETE")
-            except sqlite3.DatabaseError:  # busy: another connection uses it; keep WAL
-                pass
         self.conn.close()
 
     def __enter__(self) -> Store:
