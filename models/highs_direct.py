@@ -315,20 +315,12 @@ def build_arrays(
         for j in data.energy_orbits
         if slew == "exact" and (exact_orbits is None or j in exact_orbits)
     ]
-    slew_items = (
-        np.concatenate([np.asarray(data.orbit_items[j], dtype=np.int64) for j in exact])
-        if exact
-        else np.zeros(0, dtype=np.int64)
-    )
+    none = [np.zeros(0, dtype=np.int64)]
+    slew_items = np.concatenate(none + [np.asarray(data.orbit_items[j], np.int64) for j in exact])
     ns = len(slew_items)
     m_events = data.n_events if conflicts == "network" else 0
-    off: dict[str, int] = {"x": 0, "z": n}
-    off["f"] = off["z"] + nz
-    off["l"] = off["f"] + ns
-    off["s"] = off["l"] + ns
-    off["r"] = off["s"] + ns
-    off["t"] = off["r"] + ns
-    off["end"] = off["t"] + m_events
+    starts = np.cumsum([0, n, nz, ns, ns, ns, ns, m_events]).tolist()
+    off: dict[str, int] = dict(zip(("x", "z", "f", "l", "s", "r", "t", "end"), starts, strict=True))
     n_cols = off["end"]
 
     cost = np.zeros(n_cols)
@@ -352,19 +344,9 @@ def build_arrays(
         first_target = np.array([t[0] for t in data.targets], dtype=np.int64)
         cost[:n] = data.weight[first_target] if n else 0.0
     a, row_lower, row_upper = rows.matrix(n_cols)
+    zs = none[0] if z_targets is None else z_targets
     return ArrayModel(
-        data=data,
-        matrix=a,
-        cost=cost,
-        col_lower=lower,
-        col_upper=upper,
-        row_lower=row_lower,
-        row_upper=row_upper,
-        integer=integer,
-        z_targets=np.zeros(0, dtype=np.int64) if z_targets is None else z_targets,
-        slew_items=slew_items,
-        offsets=off,
-        conflicts=conflicts,
+        data, a, cost, lower, upper, row_lower, row_upper, integer, zs, slew_items, off, conflicts
     )
 
 
@@ -777,14 +759,9 @@ def _run_here(
     info = h.getInfo()
     feasible = int(info.primal_solution_status) == 2  # kSolutionStatusFeasible
     K = highspy.HighsModelStatus
-    if ms == K.kOptimal:
-        status = "optimal"
-    elif ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
+    status = {K.kOptimal: "optimal", K.kInfeasible: "infeasible"}.get(ms, "other")
+    if ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
         status = "time_limit"
-    elif ms == K.kInfeasible:
-        status = "infeasible"
-    else:
-        status = "other"
     objective = float(info.objective_function_value) if feasible else None
     if mip:
         raw = float(info.mip_dual_bound)
@@ -914,13 +891,6 @@ def _run_guarded(
     if out is not None:
         return out
     objective, x = (None, None) if best is None else best
-    return HighsOutcome(
-        "time_limit",
-        "stopped at the deadline (HiGHS had not returned)",
-        objective,
-        dual,
-        x,
-        0.0,
-        time.perf_counter() - t0,
-        {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True},
-    )
+    why = "stopped at the deadline (HiGHS had not returned)"
+    info = {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True}
+    return HighsOutcome("time_limit", why, objective, dual, x, 0.0, time.perf_counter() - t0, info)
