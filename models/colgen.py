@@ -28,6 +28,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
+from contextlib import closing
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -485,8 +486,7 @@ def colgen_bound(
         lam_c = np.maximum(np.asarray(start[1], dtype=float), 0.0)
         if lam_c.shape != (len(groups), 2):
             raise InputError(f"start: expected lam of shape {(len(groups), 2)}")
-    pool = PlanPool(groups, workers)
-    try:
+    with closing(PlanPool(groups, workers)) as pool:
         root = column_generation(
             p,
             seen,
@@ -499,8 +499,6 @@ def colgen_bound(
             smoothing,
             expect_rounds,
         )
-    finally:
-        pool.close()
     best, mu_c, lam_c = root.best, root.mu, root.lam
     master, master_value, rounds, converged = root.master, root.value, root.rounds, root.converged
     bound = capped_bound(best, cap)
