@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from models.lagrangian import capped_bound
+from models.lagrangian import capped_bound, check_count, seen_weights
 from models.subset_row import CUTS_PER_ROUND, CutPool, cut_levels
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -435,16 +435,12 @@ def colgen_bound(
         and its ``profit`` when it ended on a node with nothing fractional whose plans the
         referee accepts as a schedule (a lower bound; the optimum when it meets ``bound``).
     """
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
-        raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
+    check_count("max_rounds", max_rounds)
     if not 0.0 <= float(smoothing) < 1.0:
         raise InputError(f"smoothing: expected a number in [0, 1), got {smoothing!r}")
-    if cut_rounds is not None and (
-        isinstance(cut_rounds, bool) or not isinstance(cut_rounds, int) or cut_rounds < 0
-    ):
-        raise InputError(f"cut_rounds: expected a non-negative integer, got {cut_rounds!r}")
     if cut_rounds is None:
         cut_rounds = root_cut_rounds(time_limit)
+    check_count("cut_rounds", cut_rounds, 0)
     if branch and cut_rounds:
         cut_levels()  # compiled (or loaded) before the clock starts, as the planner's kernels
     t0 = time.perf_counter()
@@ -453,11 +449,7 @@ def colgen_bound(
     if data is None:
         data = orbit_data(instance, root_budget.deadline, workers=workers)
     groups = data.orbits
-    p = np.zeros(instance.n_targets)
-    seen = np.zeros(instance.n_targets, dtype=bool)
-    for o in groups:
-        seen[o.targets] = True
-    p[seen] = np.asarray(instance.target_weight, dtype=float)[seen]
+    seen, p = seen_weights(instance, groups)
     cap = float(p.sum())
 
     def out(

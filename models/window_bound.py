@@ -37,9 +37,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from models.lagrangian import capped_bound
+from models.lagrangian import capped_bound, check_count
 from sosp.candidates import pairs_within
-from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.parallel import parallelism
 from sosp.planner import PlanPool
@@ -137,8 +136,7 @@ def window_colgen_bound(
     from models.colgen import column_generation
 
     t0 = time.perf_counter()
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
-        raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
+    check_count("max_rounds", max_rounds)
     budget = Budget.of(time_limit)
     if orbits is None:
         orbits = [orbit_opps(instance, j) for j in range(instance.n_orbits)]
