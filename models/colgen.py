@@ -491,18 +491,16 @@ def colgen_bound(
             smoothing,
             expect_rounds,
         )
-    best, mu_c, lam_c = root.best, root.mu, root.lam
-    master, master_value, rounds, converged = root.master, root.value, root.rounds, root.converged
-    bound = capped_bound(best, cap)
+    bound = capped_bound(root.best, cap)
     if report is not None:
         report(bound)
-    result = out(bound, rounds, len(master.columns), master_value, converged)
-    result["plans"] = master.plans()
+    result = out(bound, root.rounds, len(root.master.columns), root.value, root.converged)
+    result["plans"] = root.master.plans()
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
-    if branch and converged and not proven:
+    if branch and root.converged and not proven:
         answer, nodes, final = branch_and_price(
-            p, seen, groups, master.columns, (best, mu_c, lam_c), budget, lower_bound,
-            report=report, cut_rounds=cut_rounds,
+            p, seen, groups, root.master.columns, (root.best, root.mu, root.lam), budget,
+            lower_bound, report=report, cut_rounds=cut_rounds,
             workers=workers if isinstance(workers, int) else 1,
         )  # fmt: skip
         result["nodes"] = nodes

@@ -428,15 +428,8 @@ def _slew_order_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str,
 
     def pair(a: np.ndarray, b: np.ndarray, vb: float, upper: float) -> None:
         """Rows ``a_i + vb * b_i <= upper``, one per i."""
-        k = len(a)
-        rows.add(
-            np.concatenate([np.arange(k), np.arange(k)]),
-            np.concatenate([a, b]),
-            np.concatenate([np.ones(k), np.full(k, vb)]),
-            -np.inf,
-            upper,
-            k,
-        )
+        at = np.arange(len(a))
+        rows.add(np.r_[at, at], np.r_[a, b], np.repeat([1.0, vb], len(a)), -np.inf, upper, len(a))
 
     pair(x, s, -1.0, 0.0)  # prefix_self: s_u >= x_u
     pair(off["s"] + p - 1, s[p], -1.0, 0.0)  # prefix_chain: s_u >= s_prev
