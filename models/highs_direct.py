@@ -47,7 +47,7 @@ import sys
 import time
 from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -146,61 +146,10 @@ def use_threads(threads: int | None) -> None:
 
 
 @dataclass
-class ArrayModel:
-    """One exact model as arrays: max c'y s.t. row_lower <= A y <= row_upper, bounds, integrality.
-
-    Attributes
-    ----------
-    data
-        The model data it was built from.
-    matrix
-        Constraint matrix, CSR, rows x columns.
-    cost, col_lower, col_upper, row_lower, row_upper
-        Objective (1) (maximised) and bounds.
-    integer
-        Columns that are integer (x in the MILP; none in the LP relaxation).
-    z_targets
-        The covered targets, in the order of the z columns.
-    slew_items
-        The items of S, in the order of the f, l, s, r blocks.
-    offsets
-        First column of each block: ``x``, ``z``, ``f``, ``l``, ``s``, ``r``, ``t``, ``end``.
-    conflicts
-        ``"network"`` or ``"clique"``, the form of (3).
-    """
-
-    data: ModelData
-    matrix: sp.csr_matrix
-    cost: np.ndarray
-    col_lower: np.ndarray
-    col_upper: np.ndarray
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    integer: np.ndarray
-    z_targets: np.ndarray
-    slew_items: np.ndarray
-    offsets: dict[str, int]
-    conflicts: str
-    stats: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def n_cols(self) -> int:
-        return int(self.matrix.shape[1])
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.matrix.shape[0])
-
-    @property
-    def n_items(self) -> int:
-        """Number of x columns (the first block)."""
-        return int(self.data.n_items)
-
-
-@dataclass
 class _Lp:
-    """What HiGHS needs of an :class:`ArrayModel`, without its model data: sent to the child
-    process of a guarded solve (:func:`run_highs`)."""
+    """What HiGHS needs of a model: max c'y s.t. row_lower <= A y <= row_upper, bounds,
+    integrality, the first ``n_items`` columns the x block; of an :class:`ArrayModel`, what
+    is sent to the child process of a guarded solve (:func:`run_highs`)."""
 
     matrix: sp.csr_matrix
     cost: np.ndarray
@@ -212,11 +161,50 @@ class _Lp:
     n_items: int
 
     @classmethod
-    def of(cls, am: ArrayModel) -> _Lp:
-        return cls(
-            am.matrix, am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper,
-            am.integer, am.n_items,
-        )  # fmt: skip
+    def of(cls, am: _Lp) -> _Lp:
+        return cls(*(getattr(am, f.name) for f in fields(cls)))
+
+    @property
+    def n_cols(self) -> int:
+        return int(self.matrix.shape[1])
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.matrix.shape[0])
+
+
+@dataclass
+class ArrayModel(_Lp):
+    """One exact model as arrays (:class:`_Lp`) with what it was built from.
+
+    Attributes
+    ----------
+    matrix
+        Constraint matrix, CSR, rows x columns.
+    cost, col_lower, col_upper, row_lower, row_upper
+        Objective (1) (maximised) and bounds.
+    integer
+        Columns that are integer (x in the MILP; none in the LP relaxation).
+    n_items
+        Number of x columns (the first block).
+    data
+        The model data it was built from.
+    z_targets
+        The covered targets, in the order of the z columns.
+    slew_items
+        The items of S, in the order of the f, l, s, r blocks.
+    offsets
+        First column of each block: ``x``, ``z``, ``f``, ``l``, ``s``, ``r``, ``t``, ``end``.
+    conflicts
+        ``"network"`` or ``"clique"``, the form of (3).
+    """
+
+    data: ModelData
+    z_targets: np.ndarray
+    slew_items: np.ndarray
+    offsets: dict[str, int]
+    conflicts: str
+    stats: dict[str, Any] = field(default_factory=dict)
 
 
 class _Rows:
@@ -345,9 +333,8 @@ def build_arrays(
         cost[:n] = data.weight[first_target] if n else 0.0
     a, row_lower, row_upper = rows.matrix(n_cols)
     zs = none[0] if z_targets is None else z_targets
-    return ArrayModel(
-        data, a, cost, lower, upper, row_lower, row_upper, integer, zs, slew_items, off, conflicts
-    )
+    lp = (a, cost, lower, upper, row_lower, row_upper, integer, n)
+    return ArrayModel(*lp, data, zs, slew_items, off, conflicts)
 
 
 def _target_rows(
@@ -661,7 +648,7 @@ def run_highs(
 
 
 def _run_here(
-    am: ArrayModel | _Lp,
+    am: _Lp,
     *,
     time_limit: float | None = None,
     deadline: float | None = None,
