@@ -137,6 +137,12 @@ def _master_highs(lower: np.ndarray | None = None, upper: Any = None, z_cost: An
     return h
 
 
+def _caps(rules: Sequence[OrbitRules]) -> np.ndarray:
+    """Each orbit's energy and memory capacities (orbits x 2)."""
+    caps = [(r.energy_capacity, r.memory_capacity) for r in rules]
+    return np.array(caps, dtype=float).reshape(-1, 2)
+
+
 class _Master:
     """The restricted master LP (minimising ``-sum p_k z_k``, so HiGHS's duals of the ``<=``
     rows are <= 0 and the multipliers are their negatives).
@@ -147,22 +153,15 @@ class _Master:
     ``sum_P M_P y_P <= W_j``. Columns: ``z_k`` in [0, 1], then ``y_P >= 0``.
     """
 
-    def __init__(self, p: np.ndarray, targets: np.ndarray, rules: Sequence[OrbitRules]) -> None:
+    def __init__(self, p: np.ndarray, targets: np.ndarray, caps: np.ndarray) -> None:
         import highspy
 
         self.n_targets = len(targets)
         self.row_of = np.full(len(p), -1, dtype=np.int64)
         self.row_of[targets] = np.arange(len(targets))
-        n_orb = len(rules)
+        n_orb = len(caps)
         self.conv0 = len(targets)
-        upper = np.concatenate(
-            [
-                np.zeros(len(targets)),
-                np.ones(n_orb),
-                [r.energy_capacity for r in rules],
-                [r.memory_capacity for r in rules],
-            ]
-        )
+        upper = np.concatenate([np.zeros(len(targets)), np.ones(n_orb), caps.T.ravel()])
         self.h = _master_highs(np.full(len(upper), -highspy.kHighsInf), upper, -p[targets])
         self.n_orb = n_orb
         self.keys: set[tuple[int, bytes, float, float]] = set()
@@ -275,9 +274,9 @@ def column_generation(
     stays that relaxation's: the bounds come from the pricing alone).
     """
     targets = np.flatnonzero(seen)
-    e_cap = np.array([r.energy_capacity for r in rules], dtype=float)
-    w_cap = np.array([r.memory_capacity for r in rules], dtype=float)
-    master = _Master(p, targets, rules)
+    caps = _caps(rules)
+    e_cap, w_cap = caps.T
+    master = _Master(p, targets, caps)
     for g, covered, energy, memory in columns:
         master.add(g, covered, energy, memory)
     mu_c, lam_c = start
@@ -341,7 +340,7 @@ def column_generation(
         master_value, mu_t, sigma, pi = solved
         mu_m = np.zeros(len(p))
         mu_m[targets] = np.minimum(mu_t, p[targets])
-        lam_m = pi * np.stack([e_cap, w_cap], axis=1)
+        lam_m = pi * caps
         alpha = smoothing
         if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
             converged = True  # the rounded bound cannot fall below the master's optimum
@@ -668,9 +667,7 @@ class _Tree:
 
     @property
     def caps(self) -> np.ndarray:
-        """Each orbit's energy and memory capacities (orbits x 2)."""
-        caps = [(o.rules.energy_capacity, o.rules.memory_capacity) for o in self.groups]
-        return np.array(caps, dtype=float).reshape(-1, 2)
+        return _caps([o.rules for o in self.groups])
 
 
 def _solve_node(
