@@ -910,14 +910,8 @@ class CutPool:
         if key not in self._hits:
             if self._csc[g] is None:
                 self._csc[g] = self.groups[g].incidence.tocsc()
-            a = self._csc[g]
-            parts = [
-                a.indices[a.indptr[t] : a.indptr[t + 1]]
-                for t in self.cuts[c].tolist()
-                if t < a.shape[1]
-            ]
-            pos = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-            self._hits[key] = np.unique(pos, return_counts=True)
+            a, tg = self._csc[g], self.cuts[c]
+            self._hits[key] = np.unique(a[:, tg[tg < a.shape[1]]].indices, return_counts=True)
         return self._hits[key]
 
     def best_path(
