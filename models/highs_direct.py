@@ -474,14 +474,9 @@ def start_vector(am: ArrayModel, values: dict[str, dict[int, float]]) -> np.ndar
     for u, v in values.get("x", {}).items():
         x[int(u)] = v
     y[:n] = x
-    if am.data.coverage:
-        zk = values.get("z", {})
-        y[off["z"] : off["f"]] = [zk.get(int(k), 0.0) for k in am.z_targets]
-    for name in ("f", "l", "s", "r"):
-        vals = values.get(name, {})
-        y[off[name] : off[name] + len(am.slew_items)] = [
-            vals.get(int(u), 0.0) for u in am.slew_items
-        ]
+    for name, keys in [("z", am.z_targets)] + [(b, am.slew_items) for b in "flsr"]:
+        got = values.get(name, {})
+        y[off[name] : off[name] + len(keys)] = [got.get(int(k), 0.0) for k in keys]
     if am.conflicts == "network" and am.data.n_events:
         d = am.data
         taken = np.flatnonzero((x > 0.5) & (d.event_last > d.event_first))
