@@ -177,12 +177,8 @@ class _Master:
             return False
         self.keys.add(key)
         self.columns.append((g, tg, cnt.astype(float), energy, memory))
-        rows = np.concatenate(
-            [
-                self.row_of[tg],
-                [self.conv0 + g, self.conv0 + self.n_orb + g, self.conv0 + 2 * self.n_orb + g],
-            ]
-        ).astype(np.int32)
+        orbit_rows = self.conv0 + g + self.n_orb * np.arange(3)  # convexity, energy, memory
+        rows = np.concatenate([self.row_of[tg], orbit_rows]).astype(np.int32)
         vals = np.concatenate([-cnt.astype(float), [1.0, energy, memory]])
         self.h.addCol(0.0, 0.0, np.inf, len(rows), rows, vals)
         return True
@@ -757,13 +753,10 @@ def _solve_node(
         counts = row_free[tg] >= 0
         if g in banned_on:
             counts &= ~np.isin(tg, banned_on[g])
-        rows = [row_free[tg[counts]]]
-        vals = [-cnt[counts]]
         mine = np.array([forced.get(int(k)) == g for k in tg], dtype=bool) & (row_forced[tg] >= 0)
-        rows.append(row_forced[tg[mine]])
-        vals.append(cnt[mine])
-        rows.append(np.array([base + g, base + n_orb + g, base + 2 * n_orb + g]))
-        vals.append(np.array([1.0, energy, memory]))
+        # its counted covers, its forced targets, its orbit's convexity and knapsack rows
+        rows = [row_free[tg[counts]], row_forced[tg[mine]], base + g + n_orb * np.arange(3)]
+        vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory])]
         if cut_ids:
             coef = cols.coefficients(i, cuts)  # type: ignore[arg-type]
             at = sorted((cut_row[c], v) for c, v in coef.items() if c in cut_row)
