@@ -28,12 +28,13 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
+from contextlib import closing
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from models.lagrangian import capped_bound
+from models.lagrangian import capped_bound, check_count, seen_weights
 from models.subset_row import CUTS_PER_ROUND, CutPool, cut_levels
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -84,8 +85,7 @@ NODE_CUTS = 20
 
 #: Branching candidates evaluated on the restricted master of each node the search branches
 #: on (strong branching, :func:`_strong_pick`; 0: the heaviest fractional pair,
-#: :func:`_branch_pair`). 5 gave lower bounds after 300 s than 0 or 10 (``CHANGELOG.md``,
-#: "Strong branching on the restricted master").
+#: :func:`_candidates`). 5 gave lower bounds after 300 s than 0 or 10.
 STRONG_CANDIDATES = 5
 
 #: HiGHS's primal simplex (``simplex_strategy``), the restricted masters' (:func:`_master_highs`).
@@ -112,9 +112,10 @@ def allow_seconds(h: Any, seconds: float | None) -> None:
         h.setOptionValue("time_limit", float(h.getRunTime()) + max(float(seconds), 1e-3))
 
 
-def _master_highs() -> Any:
+def _master_highs(lower: np.ndarray | None = None, upper: Any = None, z_cost: Any = ()) -> Any:
     """A HiGHS object for a restricted master, which is solved again after every round of
-    new columns.
+    new columns; with rows ``lower`` to ``upper``, and per entry k of ``z_cost`` a column
+    ``z_k`` in [0, 1] of that cost, with coefficient 1 on row k.
 
     Primal simplex, presolve off: new columns leave the last basis primal feasible, so the
     re-solve starts from it (presolve would discard it). HiGHS's default dual simplex spends
@@ -129,7 +130,17 @@ def _master_highs() -> Any:
     h.setOptionValue("presolve", "off")
     h.setOptionValue("solver", "simplex")
     h.setOptionValue("simplex_strategy", _MASTER_SIMPLEX)
+    if lower is not None:
+        h.addRows(len(lower), lower, upper, 0, [], [], [])
+        n, at = len(z_cost), np.arange(len(z_cost), dtype=np.int32)
+        h.addCols(n, z_cost, np.zeros(n), np.ones(n), n, at, at, np.ones(n))
     return h
+
+
+def _caps(rules: Sequence[OrbitRules]) -> np.ndarray:
+    """Each orbit's energy and memory capacities (orbits x 2)."""
+    caps = [(r.energy_capacity, r.memory_capacity) for r in rules]
+    return np.array(caps, dtype=float).reshape(-1, 2)
 
 
 class _Master:
@@ -142,36 +153,16 @@ class _Master:
     ``sum_P M_P y_P <= W_j``. Columns: ``z_k`` in [0, 1], then ``y_P >= 0``.
     """
 
-    def __init__(self, p: np.ndarray, targets: np.ndarray, rules: Sequence[OrbitRules]) -> None:
+    def __init__(self, p: np.ndarray, targets: np.ndarray, caps: np.ndarray) -> None:
         import highspy
 
-        self.h = h = _master_highs()
         self.n_targets = len(targets)
         self.row_of = np.full(len(p), -1, dtype=np.int64)
         self.row_of[targets] = np.arange(len(targets))
-        n_orb = len(rules)
+        n_orb = len(caps)
         self.conv0 = len(targets)
-        upper = np.concatenate(
-            [
-                np.zeros(len(targets)),
-                np.ones(n_orb),
-                [r.energy_capacity for r in rules],
-                [r.memory_capacity for r in rules],
-            ]
-        )
-        inf = highspy.kHighsInf
-        h.addRows(len(upper), np.full(len(upper), -inf), upper, 0, [], [], [])
-        n = len(targets)
-        h.addCols(
-            n,
-            -p[targets],
-            np.zeros(n),
-            np.ones(n),
-            n,
-            np.arange(n, dtype=np.int32),
-            np.arange(n, dtype=np.int32),
-            np.ones(n),
-        )
+        upper = np.concatenate([np.zeros(len(targets)), np.ones(n_orb), caps.T.ravel()])
+        self.h = _master_highs(np.full(len(upper), -highspy.kHighsInf), upper, -p[targets])
         self.n_orb = n_orb
         self.keys: set[tuple[int, bytes, float, float]] = set()
         self.columns: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
@@ -186,12 +177,8 @@ class _Master:
             return False
         self.keys.add(key)
         self.columns.append((g, tg, cnt.astype(float), energy, memory))
-        rows = np.concatenate(
-            [
-                self.row_of[tg],
-                [self.conv0 + g, self.conv0 + self.n_orb + g, self.conv0 + 2 * self.n_orb + g],
-            ]
-        ).astype(np.int32)
+        orbit_rows = self.conv0 + g + self.n_orb * np.arange(3)  # convexity, energy, memory
+        rows = np.concatenate([self.row_of[tg], orbit_rows]).astype(np.int32)
         vals = np.concatenate([-cnt.astype(float), [1.0, energy, memory]])
         self.h.addCol(0.0, 0.0, np.inf, len(rows), rows, vals)
         return True
@@ -212,13 +199,9 @@ class _Master:
             return None
         value = -float(h.getInfo().objective_function_value)
         self.y = np.asarray(h.getSolution().col_value, dtype=float)[self.n_targets :]
-        dual = -np.asarray(h.getSolution().row_dual, dtype=float)
-        dual = np.maximum(dual, 0.0)
+        dual = np.maximum(-np.asarray(h.getSolution().row_dual, dtype=float), 0.0)
         n, m = self.n_targets, self.n_orb
-        mu = dual[:n]
-        sigma = dual[n : n + m]
-        pi = np.stack([dual[n + m : n + 2 * m], dual[n + 2 * m : n + 3 * m]], axis=1)
-        return value, mu, sigma, pi
+        return value, dual[:n], dual[n : n + m], dual[n + m : n + 3 * m].reshape(2, m).T
 
     def plans(self) -> list[tuple[int, np.ndarray, float, float, float]]:
         """The plans positive at the last optimum: ``(orbit, covered targets, value, energy,
@@ -287,9 +270,9 @@ def column_generation(
     stays that relaxation's: the bounds come from the pricing alone).
     """
     targets = np.flatnonzero(seen)
-    e_cap = np.array([r.energy_capacity for r in rules], dtype=float)
-    w_cap = np.array([r.memory_capacity for r in rules], dtype=float)
-    master = _Master(p, targets, rules)
+    caps = _caps(rules)
+    e_cap, w_cap = caps.T
+    master = _Master(p, targets, caps)
     for g, covered, energy, memory in columns:
         master.add(g, covered, energy, memory)
     mu_c, lam_c = start
@@ -353,7 +336,7 @@ def column_generation(
         master_value, mu_t, sigma, pi = solved
         mu_m = np.zeros(len(p))
         mu_m[targets] = np.minimum(mu_t, p[targets])
-        lam_m = pi * np.stack([e_cap, w_cap], axis=1)
+        lam_m = pi * caps
         alpha = smoothing
         if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
             converged = True  # the rounded bound cannot fall below the master's optimum
@@ -447,16 +430,12 @@ def colgen_bound(
         and its ``profit`` when it ended on a node with nothing fractional whose plans the
         referee accepts as a schedule (a lower bound; the optimum when it meets ``bound``).
     """
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
-        raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
+    check_count("max_rounds", max_rounds)
     if not 0.0 <= float(smoothing) < 1.0:
         raise InputError(f"smoothing: expected a number in [0, 1), got {smoothing!r}")
-    if cut_rounds is not None and (
-        isinstance(cut_rounds, bool) or not isinstance(cut_rounds, int) or cut_rounds < 0
-    ):
-        raise InputError(f"cut_rounds: expected a non-negative integer, got {cut_rounds!r}")
     if cut_rounds is None:
         cut_rounds = root_cut_rounds(time_limit)
+    check_count("cut_rounds", cut_rounds, 0)
     if branch and cut_rounds:
         cut_levels()  # compiled (or loaded) before the clock starts, as the planner's kernels
     t0 = time.perf_counter()
@@ -465,11 +444,7 @@ def colgen_bound(
     if data is None:
         data = orbit_data(instance, root_budget.deadline, workers=workers)
     groups = data.orbits
-    p = np.zeros(instance.n_targets)
-    seen = np.zeros(instance.n_targets, dtype=bool)
-    for o in groups:
-        seen[o.targets] = True
-    p[seen] = np.asarray(instance.target_weight, dtype=float)[seen]
+    seen, p = seen_weights(instance, groups)
     cap = float(p.sum())
 
     def out(
@@ -498,8 +473,7 @@ def colgen_bound(
         lam_c = np.maximum(np.asarray(start[1], dtype=float), 0.0)
         if lam_c.shape != (len(groups), 2):
             raise InputError(f"start: expected lam of shape {(len(groups), 2)}")
-    pool = PlanPool(groups, workers)
-    try:
+    with closing(PlanPool(groups, workers)) as pool:
         root = column_generation(
             p,
             seen,
@@ -512,20 +486,16 @@ def colgen_bound(
             smoothing,
             expect_rounds,
         )
-    finally:
-        pool.close()
-    best, mu_c, lam_c = root.best, root.mu, root.lam
-    master, master_value, rounds, converged = root.master, root.value, root.rounds, root.converged
-    bound = capped_bound(best, cap)
+    bound = capped_bound(root.best, cap)
     if report is not None:
         report(bound)
-    result = out(bound, rounds, len(master.columns), master_value, converged)
-    result["plans"] = master.plans()
+    result = out(bound, root.rounds, len(root.master.columns), root.value, root.converged)
+    result["plans"] = root.master.plans()
     proven = lower_bound is not None and bound <= lower_bound + 1e-9
-    if branch and converged and not proven:
+    if branch and root.converged and not proven:
         answer, nodes, final = branch_and_price(
-            p, seen, groups, master.columns, (best, mu_c, lam_c), budget, lower_bound,
-            report=report, cut_rounds=cut_rounds,
+            p, seen, groups, root.master.columns, (root.best, root.mu, root.lam), budget,
+            lower_bound, report=report, cut_rounds=cut_rounds,
             workers=workers if isinstance(workers, int) else 1,
         )  # fmt: skip
         result["nodes"] = nodes
@@ -678,15 +648,28 @@ def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> 
     return price
 
 
+@dataclass(frozen=True, eq=False)
+class _Tree:
+    """What every node of a branch and price shares: the target weights ``p`` (0 for
+    unseen), ``seen`` (the targets some candidate covers), the orbits, the pool of columns,
+    the smoothing weight and the cut pool (None: no cuts)."""
+
+    p: np.ndarray
+    seen: np.ndarray
+    groups: tuple[Any, ...]
+    cols: _Columns
+    smoothing: float
+    cuts: CutPool | None
+
+    @property
+    def caps(self) -> np.ndarray:
+        return _caps([o.rules for o in self.groups])
+
+
 def _solve_node(
     node: _Node,
-    p: np.ndarray,
-    seen: np.ndarray,
-    groups: tuple[Any, ...],
-    cols: _Columns,
+    tree: _Tree,
     budget: Budget,
-    smoothing: float,
-    cuts: CutPool | None = None,
     separate: int = 0,
     cuts_per_round: int = CUTS_PER_ROUND,
     strong: int = 0,
@@ -723,6 +706,9 @@ def _solve_node(
     """
     import highspy
 
+    p, seen, groups, cols, smoothing, cuts = (
+        tree.p, tree.seen, tree.groups, tree.cols, tree.smoothing, tree.cuts
+    )  # fmt: skip
     n_orb = len(groups)
     forced = node.forced
     free = np.flatnonzero(seen & ~np.isin(np.arange(len(p)), list(forced)))
@@ -735,20 +721,15 @@ def _solve_node(
     banned_on: dict[int, np.ndarray] = {}
     for k, j in node.banned:
         banned_on[j] = np.append(banned_on.get(j, np.zeros(0, dtype=np.int64)), k)
-    e_cap = np.array([o.rules.energy_capacity for o in groups], dtype=float)
-    w_cap = np.array([o.rules.memory_capacity for o in groups], dtype=float)
-    h = _master_highs()
+    caps = tree.caps
+    e_cap, w_cap = caps.T
     inf = highspy.kHighsInf
     lower = np.concatenate([np.full(len(free), -inf), np.ones(len(fk)), np.full(3 * n_orb, -inf)])
     upper = np.concatenate(
         [np.zeros(len(free)), np.full(len(fk), inf), np.ones(n_orb), e_cap, w_cap]
     )
-    h.addRows(len(lower), lower, upper, 0, [], [], [])
+    h = _master_highs(lower, upper, -p[free])
     nf = len(free)
-    h.addCols(
-        nf, -p[free], np.zeros(nf), np.ones(nf), nf,
-        np.arange(nf, dtype=np.int32), np.arange(nf, dtype=np.int32), np.ones(nf),
-    )  # fmt: skip
     if len(fk):
         big = float(p.sum()) + 1.0
         h.addCols(
@@ -772,13 +753,10 @@ def _solve_node(
         counts = row_free[tg] >= 0
         if g in banned_on:
             counts &= ~np.isin(tg, banned_on[g])
-        rows = [row_free[tg[counts]]]
-        vals = [-cnt[counts]]
         mine = np.array([forced.get(int(k)) == g for k in tg], dtype=bool) & (row_forced[tg] >= 0)
-        rows.append(row_forced[tg[mine]])
-        vals.append(cnt[mine])
-        rows.append(np.array([base + g, base + n_orb + g, base + 2 * n_orb + g]))
-        vals.append(np.array([1.0, energy, memory]))
+        # its counted covers, its forced targets, its orbit's convexity and knapsack rows
+        rows = [row_free[tg[counts]], row_forced[tg[mine]], base + g + n_orb * np.arange(3)]
+        vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory])]
         if cut_ids:
             coef = cols.coefficients(i, cuts)  # type: ignore[arg-type]
             at = sorted((cut_row[c], v) for c, v in coef.items() if c in cut_row)
@@ -824,7 +802,7 @@ def _solve_node(
             np.array(starts, np.int32), np.array(idx, np.int32), np.array(val, dtype=float),
         )  # fmt: skip
 
-    for i in _start_columns(node, cols, len(groups), e_cap, w_cap):
+    for i in _start_columns(node, tree):
         load(int(i))
     if cuts is not None and len(cuts):
         hold(range(len(cuts)))
@@ -896,13 +874,7 @@ def _solve_node(
         mu_m[free] = np.clip(-dual[:nf], 0.0, p[free])
         beta_m = np.zeros(len(p))
         beta_m[fk] = np.maximum(dual[nf:base], 0.0)
-        lam_m = np.stack(
-            [
-                np.maximum(-dual[base + n_orb : base + 2 * n_orb], 0.0) * e_cap,
-                np.maximum(-dual[base + 2 * n_orb : cut0], 0.0) * w_cap,
-            ],
-            axis=1,
-        )
+        lam_m = np.maximum(-dual[base + n_orb : cut0], 0.0).reshape(2, n_orb).T * caps
         sigma_m = _padded(None, cuts)
         if cut_ids:
             sigma_m[cut_ids] = np.maximum(-dual[cut0 : cut0 + len(cut_ids)], 0.0)
@@ -918,55 +890,50 @@ def _solve_node(
                 alpha = 0.0  # no new plan at the smoothed point: price at the master's duals
                 continue
             done = True  # no plan prices out at the master's duals: solved (to rounding)
-        y = np.asarray(h.getSolution().col_value, dtype=float)
-        if done and separate > 0 and cuts is not None and budget.fits(2 * sep_s):
-            # not started unless twice the last one's time is left (at least a second): its
-            # products before the search read no clock
-            separate -= 1
-            t_sep = time.perf_counter()
-            z = np.zeros(len(p))
-            z[free] = y[:nf]
-            z[fk] = 1.0
+        if done:
+            y = np.asarray(h.getSolution().col_value, dtype=float)
             positive = [
                 (i, float(yi)) for i, yi in zip(in_lp, y[first_y:], strict=True) if yi > 1e-9
             ]
-            plans = [(cols.items[i][1], yi) for i, yi in positive]
-            orbits = [cols.items[i][0] for i, _ in positive]
-            new = cuts.separate(z, plans, cuts_per_round, deadline=budget.deadline, orbits=orbits)
-            sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
-            if new:
-                log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))
-                hold(new)
-                sigma_c = _padded(sigma_c, cuts)
-                # solve the master with them, then price: "no new plan" means nothing
-                # until a pricing round has run at the new master's duals
-                alpha, resolve, n_loaded = 0.0, True, -1
-                continue
-        if done:
+            if separate > 0 and cuts is not None and budget.fits(2 * sep_s):
+                # not started unless twice the last one's time is left (at least a second):
+                # its products before the search read no clock
+                separate -= 1
+                t_sep = time.perf_counter()
+                z = np.zeros(len(p))
+                z[free] = y[:nf]
+                z[fk] = 1.0
+                plans = [(cols.items[i][1], yi) for i, yi in positive]
+                orbits = [cols.items[i][0] for i, _ in positive]
+                new = cuts.separate(z, plans, cuts_per_round, budget.deadline, orbits)
+                sep_s = max(sep_s, time.perf_counter() - t_sep, 0.5)
+                if new:
+                    log.debug("node: %d cuts added (%d in the pool)", len(new), len(cuts))
+                    hold(new)
+                    sigma_c = _padded(sigma_c, cuts)
+                    # solve the master with them, then price: "no new plan" means nothing
+                    # until a pricing round has run at the new master's duals
+                    alpha, resolve, n_loaded = 0.0, True, -1
+                    continue
             cover: dict[tuple[int, int], float] = {}
-            support = []
-            for i, yi in zip(in_lp, y[first_y:], strict=True):
-                if yi > 1e-9:
-                    support.append(i)
-                    g, tg = cols.items[i][0], cols.items[i][1]
-                    for k in tg:
-                        key = (int(k), g)
-                        cover[key] = cover.get(key, 0.0) + float(yi)
+            for i, yi in positive:
+                g = cols.items[i][0]
+                for k in cols.items[i][1].tolist():
+                    cover[(k, g)] = cover.get((k, g), 0.0) + yi
             last = h.getBasis()
             col_status = np.array([int(x) for x in last.col_status], dtype=np.int8)
             row_status = np.array([int(x) for x in last.row_status], dtype=np.int8)
             target_col = np.full(len(p), -1, dtype=np.int8)
-            target_col[free] = col_status[:nf]
-            target_col[fk] = col_status[nf:first_y]
+            target_col[np.concatenate([free, fk])] = col_status[:first_y]
             target_row = np.full(len(p), -1, dtype=np.int8)
-            target_row[free] = row_status[:nf]
-            target_row[fk] = row_status[nf:base]
+            target_row[np.concatenate([free, fk])] = row_status[:base]
             basis = _Basis(
                 target_col, target_row, row_status[base:cut0].copy(),
                 np.array(in_lp, dtype=np.int64), col_status[first_y:].copy(),
                 np.array(cut_ids, dtype=np.int64), row_status[cut0:].copy(),
             )  # fmt: skip
-            node = replace(node, cover=cover, support=tuple(support), basis=basis)
+            support = tuple(i for i, _ in positive)
+            node = replace(node, cover=cover, support=support, basis=basis)
             if strong > 0:
                 node = replace(
                     node, pick=_strong_pick(h, node, p, strong, m_value, pf, row_free,
@@ -1032,22 +999,15 @@ POOL_ALL = 1000
 PER_ORBIT = 20
 
 
-def _start_columns(
-    node: _Node,
-    cols: _Columns,
-    n_orbits: int,
-    e_cap: np.ndarray,
-    w_cap: np.ndarray,
-) -> np.ndarray:
+def _start_columns(node: _Node, tree: _Tree) -> np.ndarray:
     """The pool's columns a node's master starts with (see :data:`POOL_ALL`). Which columns
     the master holds changes its convergence, not the node's bound: that is the least
     Lagrangian bound of its pricing rounds, valid whatever the master."""
-    n = len(cols.items)
+    n = len(tree.cols.items)
     if n <= POOL_ALL:
         return np.arange(n)
-    price = np.stack([_node_prices(node.mu, node.beta, g, node) for g in range(n_orbits)])
-    per_unit = node.lam / np.maximum(np.stack([e_cap, w_cap], axis=1), 1e-12)
-    value, orbit = cols.values(price, per_unit)
+    price = np.stack([_node_prices(node.mu, node.beta, g, node) for g in range(len(tree.groups))])
+    value, orbit = tree.cols.values(price, node.lam / np.maximum(tree.caps, 1e-12))
     by = np.lexsort((-value, orbit))  # by orbit, best first
     first = np.searchsorted(orbit[by], orbit[by], side="left")
     rank = np.arange(n) - first
@@ -1137,13 +1097,6 @@ def _strong_pick(
     return pick
 
 
-def _branch_pair(node: _Node, p: np.ndarray) -> tuple[int, int] | None:
-    """The (target, orbit) pair to branch on: a counted cover strictly between 0 and 1,
-    heaviest ``p_k * min(x, 1 - x)``; None when every counted cover is 0 or 1."""
-    pairs = _candidates(node, p, 1)
-    return pairs[0] if pairs else None
-
-
 #: Seconds a :class:`_Helper` may take past the deadline to return its child (a node cut
 #: short by the deadline comes back at once; this is for a helper that has hung or died).
 HELPER_GRACE_S = 5.0
@@ -1154,22 +1107,12 @@ HELPER_GRACE_S = 5.0
 HELPER_MIN_LEFT_S = 2.0
 
 
-def _helper_child(
-    conn: Any,
-    p: np.ndarray,
-    seen: np.ndarray,
-    groups: tuple[Any, ...],
-    items: list[tuple[int, np.ndarray, np.ndarray, float, float]],
-    cuts: CutPool | None,
-    smoothing: float,
-) -> None:
+def _helper_child(conn: Any, tree: _Tree) -> None:
     """A :class:`_Helper`'s process: solve the nodes it is sent (:func:`_solve_node`), each
     after taking the parent's pool of columns, and send each back with the columns it
     added, until ``("stop",)`` or the parent's end."""
     child_setup()
-    cols = _Columns()
-    for item in items:
-        cols.add(*item)
+    cols = tree.cols  # the parent's pool when it started the helper
     try:
         while True:
             msg = conn.recv()
@@ -1180,10 +1123,7 @@ def _helper_child(
             for item in new:
                 cols.add(*item)
             n0 = len(cols.items)
-            out = _solve_node(
-                node, p, seen, groups, cols, budget, smoothing, cuts, 0, NODE_CUTS,
-                prune=prune,
-            )  # fmt: skip
+            out = _solve_node(node, tree, budget, 0, NODE_CUTS, prune=prune)
             conn.send(("node", out, cols.items[n0:]))
     except (EOFError, OSError):
         pass  # the parent has gone
@@ -1217,33 +1157,23 @@ class _Helper:
     one, and then the search stays in one process.
     """
 
-    def __init__(
-        self,
-        p: np.ndarray,
-        seen: np.ndarray,
-        groups: tuple[Any, ...],
-        cols: _Columns,
-        cuts: CutPool | None,
-        smoothing: float,
-    ) -> None:
-        work = (p, seen, groups, list(cols.items), cuts, smoothing)
-        self._child = Child(_helper_child, (), work, duplex=True)
+    def __init__(self, tree: _Tree) -> None:
+        self._child = Child(_helper_child, (), (tree,), duplex=True)
         self._conn = self._child.conn
         #: The pools of both processes are the same up to this index.
-        self.synced = len(cols.items)
+        self.synced = len(tree.cols.items)
         self._base = self.synced
 
     @classmethod
-    def start(cls, *args: Any) -> _Helper | None:
-        """A helper (the arguments are the constructor's), or None, with the reason logged,
-        where none can start."""
+    def start(cls, tree: _Tree) -> _Helper | None:
+        """A helper, or None, with the reason logged, where none can start."""
         import multiprocessing as mp
 
         if mp.current_process().daemon:
             log.debug("branch and price: one process (a daemonic process starts none)")
             return None
         try:
-            return cls(*args)
+            return cls(tree)
         except ChildStartError as exc:
             log.warning("%s; branch and price in one process", exc)
             return None
@@ -1357,9 +1287,8 @@ def branch_and_price(
     bound0, mu0, lam0 = start
     root = _Node(bound0, frozenset(), {}, mu0, np.zeros(len(p)), lam0, None)
     pool = CutPool(groups) if cut_rounds > 0 else None
-    root = _solve_node(
-        root, p, seen, groups, cols, budget, smoothing, pool, cut_rounds, strong=strong
-    )
+    tree = _Tree(p, seen, groups, cols, smoothing, pool)
+    root = _solve_node(root, tree, budget, cut_rounds, strong=strong)
     if pool is not None:
         log.info("branch and price: root %.4f with %d subset-row cuts", root.bound, len(pool))
         if report is not None:
@@ -1370,10 +1299,7 @@ def branch_and_price(
 
     def solve_child(child: _Node) -> _Node:
         separate = NODE_CUT_ROUNDS if pool is not None else 0
-        return _solve_node(
-            child, p, seen, groups, cols, budget, smoothing, pool, separate, NODE_CUTS,
-            prune=lower_bound,
-        )  # fmt: skip
+        return _solve_node(child, tree, budget, separate, NODE_CUTS, prune=lower_bound)
 
     # a helper needs the cut pool to stay as the root left it; started at the first branching
     helped = workers >= 2 and (pool is None or NODE_CUT_ROUNDS == 0)
@@ -1389,16 +1315,16 @@ def branch_and_price(
                 break
             if top.cover is None:
                 break  # cut short by the deadline: its bound stands
-            pair = top.pick if top.pick is not None else _branch_pair(top, p)
+            # the heaviest fractional pair; None when every counted cover is 0 or 1
+            pair = top.pick if top.pick is not None else next(iter(_candidates(top, p, 1)), None)
             if strong > 0 and top.pick is None and pair is not None:
                 # strong branching only on the nodes the search branches on (most solved nodes
                 # never are): the node's master again, from its own columns and basis, which
                 # converges in a round or two and keeps the bound it had (or lowers it)
                 heapq.heappop(heap)
                 top = _solve_node(
-                    replace(top, cover=None), p, seen, groups, cols, budget, smoothing, pool,
-                    0, NODE_CUTS, strong, prune=lower_bound,
-                )  # fmt: skip
+                    replace(top, cover=None), tree, budget, 0, NODE_CUTS, strong, prune=lower_bound
+                )
                 heapq.heappush(heap, (-top.bound, count, top))
                 count += 1
                 continue
@@ -1414,7 +1340,7 @@ def branch_and_price(
                 replace(top, forced={**top.forced, k: g}, beta=beta, cover=None, pick=None),
             )
             if helped and helper is None and budget.fits(HELPER_MIN_LEFT_S):
-                helper = _Helper.start(p, seen, groups, cols, pool, smoothing)
+                helper = _Helper.start(tree)
                 helped = helper is not None
             # the parent's bound holds for a child (a subset of its schedules) until its own
             # column generation finds a lower one
@@ -1557,16 +1483,13 @@ class SideBound:
         self._stopped = False
 
     def _take(self, msg: tuple[Any, ...]) -> None:
-        if msg[0] == "bound":
-            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
-        elif msg[0] == "done":
-            self._done = True
-            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
-            if msg[2] is not None:
-                self.found = (msg[2], float(msg[3]))
-        else:  # pragma: no cover - see _side_child
-            self._done = True
+        if msg[0] == "error":  # pragma: no cover - see _side_child
             log.warning("side branch and price failed: %s", msg[1])
+        else:
+            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
+            if msg[0] == "done" and msg[2] is not None:
+                self.found = (msg[2], float(msg[3]))
+        self._done = self._done or msg[0] != "bound"
 
     def poll(self) -> float | None:
         """Read what the child has sent so far; its bound (not rounded), None before any."""

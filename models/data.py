@@ -192,12 +192,9 @@ def prepare(
         for block in np.split(order, cuts):
             j = int(orbit[block[0]])
             orbit_items[j] = block
+            rj = orbit_rules(inst, j)
             left, right = orbit_intervals(
-                start[block],
-                end[block],
-                roll[block],
-                float(inst.setup_time[j]),
-                float(inst.slew_rate[j]),
+                start[block], end[block], roll[block], rj.setup_time, rj.slew_rate
             )
             first, last, m = clique_events(left, right)
             event_first[block] = first + n_events
@@ -207,7 +204,6 @@ def prepare(
             dur = float((end[block] - start[block]).sum())
             # Can (4)-(6) bind on this orbit at all? Taking every item, with the slew bounded
             # above (sosp.rules.slew_upper), decides it conservatively.
-            rj = orbit_rules(inst, j)
             slew = rules.slew_upper(float(np.abs(roll[block]).sum()), rj.slew_rate)
             if rj.energy(dur, slew) > rj.energy_capacity:
                 energy_orbits.append(j)

@@ -47,7 +47,7 @@ import sys
 import time
 from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -146,61 +146,10 @@ def use_threads(threads: int | None) -> None:
 
 
 @dataclass
-class ArrayModel:
-    """One exact model as arrays: max c'y s.t. row_lower <= A y <= row_upper, bounds, integrality.
-
-    Attributes
-    ----------
-    data
-        The model data it was built from.
-    matrix
-        Constraint matrix, CSR, rows x columns.
-    cost, col_lower, col_upper, row_lower, row_upper
-        Objective (1) (maximised) and bounds.
-    integer
-        Columns that are integer (x in the MILP; none in the LP relaxation).
-    z_targets
-        The covered targets, in the order of the z columns.
-    slew_items
-        The items of S, in the order of the f, l, s, r blocks.
-    offsets
-        First column of each block: ``x``, ``z``, ``f``, ``l``, ``s``, ``r``, ``t``, ``end``.
-    conflicts
-        ``"network"`` or ``"clique"``, the form of (3).
-    """
-
-    data: ModelData
-    matrix: sp.csr_matrix
-    cost: np.ndarray
-    col_lower: np.ndarray
-    col_upper: np.ndarray
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    integer: np.ndarray
-    z_targets: np.ndarray
-    slew_items: np.ndarray
-    offsets: dict[str, int]
-    conflicts: str
-    stats: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def n_cols(self) -> int:
-        return int(self.matrix.shape[1])
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.matrix.shape[0])
-
-    @property
-    def n_items(self) -> int:
-        """Number of x columns (the first block)."""
-        return int(self.data.n_items)
-
-
-@dataclass
 class _Lp:
-    """What HiGHS needs of an :class:`ArrayModel`, without its model data: sent to the child
-    process of a guarded solve (:func:`run_highs`)."""
+    """What HiGHS needs of a model: max c'y s.t. row_lower <= A y <= row_upper, bounds,
+    integrality, the first ``n_items`` columns the x block; of an :class:`ArrayModel`, what
+    is sent to the child process of a guarded solve (:func:`run_highs`)."""
 
     matrix: sp.csr_matrix
     cost: np.ndarray
@@ -212,11 +161,50 @@ class _Lp:
     n_items: int
 
     @classmethod
-    def of(cls, am: ArrayModel) -> _Lp:
-        return cls(
-            am.matrix, am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper,
-            am.integer, am.n_items,
-        )  # fmt: skip
+    def of(cls, am: _Lp) -> _Lp:
+        return cls(*(getattr(am, f.name) for f in fields(cls)))
+
+    @property
+    def n_cols(self) -> int:
+        return int(self.matrix.shape[1])
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.matrix.shape[0])
+
+
+@dataclass
+class ArrayModel(_Lp):
+    """One exact model as arrays (:class:`_Lp`) with what it was built from.
+
+    Attributes
+    ----------
+    matrix
+        Constraint matrix, CSR, rows x columns.
+    cost, col_lower, col_upper, row_lower, row_upper
+        Objective (1) (maximised) and bounds.
+    integer
+        Columns that are integer (x in the MILP; none in the LP relaxation).
+    n_items
+        Number of x columns (the first block).
+    data
+        The model data it was built from.
+    z_targets
+        The covered targets, in the order of the z columns.
+    slew_items
+        The items of S, in the order of the f, l, s, r blocks.
+    offsets
+        First column of each block: ``x``, ``z``, ``f``, ``l``, ``s``, ``r``, ``t``, ``end``.
+    conflicts
+        ``"network"`` or ``"clique"``, the form of (3).
+    """
+
+    data: ModelData
+    z_targets: np.ndarray
+    slew_items: np.ndarray
+    offsets: dict[str, int]
+    conflicts: str
+    stats: dict[str, Any] = field(default_factory=dict)
 
 
 class _Rows:
@@ -315,20 +303,12 @@ def build_arrays(
         for j in data.energy_orbits
         if slew == "exact" and (exact_orbits is None or j in exact_orbits)
     ]
-    slew_items = (
-        np.concatenate([np.asarray(data.orbit_items[j], dtype=np.int64) for j in exact])
-        if exact
-        else np.zeros(0, dtype=np.int64)
-    )
+    none = [np.zeros(0, dtype=np.int64)]
+    slew_items = np.concatenate(none + [np.asarray(data.orbit_items[j], np.int64) for j in exact])
     ns = len(slew_items)
     m_events = data.n_events if conflicts == "network" else 0
-    off: dict[str, int] = {"x": 0, "z": n}
-    off["f"] = off["z"] + nz
-    off["l"] = off["f"] + ns
-    off["s"] = off["l"] + ns
-    off["r"] = off["s"] + ns
-    off["t"] = off["r"] + ns
-    off["end"] = off["t"] + m_events
+    starts = np.cumsum([0, n, nz, ns, ns, ns, ns, m_events]).tolist()
+    off: dict[str, int] = dict(zip(("x", "z", "f", "l", "s", "r", "t", "end"), starts, strict=True))
     n_cols = off["end"]
 
     cost = np.zeros(n_cols)
@@ -352,20 +332,9 @@ def build_arrays(
         first_target = np.array([t[0] for t in data.targets], dtype=np.int64)
         cost[:n] = data.weight[first_target] if n else 0.0
     a, row_lower, row_upper = rows.matrix(n_cols)
-    return ArrayModel(
-        data=data,
-        matrix=a,
-        cost=cost,
-        col_lower=lower,
-        col_upper=upper,
-        row_lower=row_lower,
-        row_upper=row_upper,
-        integer=integer,
-        z_targets=np.zeros(0, dtype=np.int64) if z_targets is None else z_targets,
-        slew_items=slew_items,
-        offsets=off,
-        conflicts=conflicts,
-    )
+    zs = none[0] if z_targets is None else z_targets
+    lp = (a, cost, lower, upper, row_lower, row_upper, integer, n)
+    return ArrayModel(*lp, data, zs, slew_items, off, conflicts)
 
 
 def _target_rows(
@@ -446,15 +415,8 @@ def _slew_order_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str,
 
     def pair(a: np.ndarray, b: np.ndarray, vb: float, upper: float) -> None:
         """Rows ``a_i + vb * b_i <= upper``, one per i."""
-        k = len(a)
-        rows.add(
-            np.concatenate([np.arange(k), np.arange(k)]),
-            np.concatenate([a, b]),
-            np.concatenate([np.ones(k), np.full(k, vb)]),
-            -np.inf,
-            upper,
-            k,
-        )
+        at = np.arange(len(a))
+        rows.add(np.r_[at, at], np.r_[a, b], np.repeat([1.0, vb], len(a)), -np.inf, upper, len(a))
 
     pair(x, s, -1.0, 0.0)  # prefix_self: s_u >= x_u
     pair(off["s"] + p - 1, s[p], -1.0, 0.0)  # prefix_chain: s_u >= s_prev
@@ -512,14 +474,9 @@ def start_vector(am: ArrayModel, values: dict[str, dict[int, float]]) -> np.ndar
     for u, v in values.get("x", {}).items():
         x[int(u)] = v
     y[:n] = x
-    if am.data.coverage:
-        zk = values.get("z", {})
-        y[off["z"] : off["f"]] = [zk.get(int(k), 0.0) for k in am.z_targets]
-    for name in ("f", "l", "s", "r"):
-        vals = values.get(name, {})
-        y[off[name] : off[name] + len(am.slew_items)] = [
-            vals.get(int(u), 0.0) for u in am.slew_items
-        ]
+    for name, keys in [("z", am.z_targets)] + [(b, am.slew_items) for b in "flsr"]:
+        got = values.get(name, {})
+        y[off[name] : off[name] + len(keys)] = [got.get(int(k), 0.0) for k in keys]
     if am.conflicts == "network" and am.data.n_events:
         d = am.data
         taken = np.flatnonzero((x > 0.5) & (d.event_last > d.event_first))
@@ -686,7 +643,7 @@ def run_highs(
 
 
 def _run_here(
-    am: ArrayModel | _Lp,
+    am: _Lp,
     *,
     time_limit: float | None = None,
     deadline: float | None = None,
@@ -777,14 +734,9 @@ def _run_here(
     info = h.getInfo()
     feasible = int(info.primal_solution_status) == 2  # kSolutionStatusFeasible
     K = highspy.HighsModelStatus
-    if ms == K.kOptimal:
-        status = "optimal"
-    elif ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
+    status = {K.kOptimal: "optimal", K.kInfeasible: "infeasible"}.get(ms, "other")
+    if ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
         status = "time_limit"
-    elif ms == K.kInfeasible:
-        status = "infeasible"
-    else:
-        status = "other"
     objective = float(info.objective_function_value) if feasible else None
     if mip:
         raw = float(info.mip_dual_bound)
@@ -914,13 +866,6 @@ def _run_guarded(
     if out is not None:
         return out
     objective, x = (None, None) if best is None else best
-    return HighsOutcome(
-        "time_limit",
-        "stopped at the deadline (HiGHS had not returned)",
-        objective,
-        dual,
-        x,
-        0.0,
-        time.perf_counter() - t0,
-        {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True},
-    )
+    why = "stopped at the deadline (HiGHS had not returned)"
+    info = {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True}
+    return HighsOutcome("time_limit", why, objective, dual, x, 0.0, time.perf_counter() - t0, info)

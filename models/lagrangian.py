@@ -13,7 +13,8 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from contextlib import closing
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -85,16 +86,10 @@ def lagrangian_bound(
     """
     t0 = time.perf_counter()
     budget = Budget.of(time_limit)
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
+    check_count("iterations", iterations)
     if data is None:
         data = orbit_data(instance, budget.deadline, workers=workers)
-    # a target no candidate covers adds nothing: its weight is left out of the bound
-    p = np.zeros(instance.n_targets)
-    seen = np.zeros(instance.n_targets, dtype=bool)
-    for o in data.orbits:
-        seen[o.targets] = True
-    p[seen] = np.asarray(instance.target_weight, dtype=float)[seen]
+    _, p = seen_weights(instance, data.orbits)
     cap = float(p.sum())
     groups = data.orbits
     if lower_bound is None:
@@ -118,10 +113,8 @@ def lagrangian_bound(
                 grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
         return value, count, grad_lam
 
-    try:
+    with closing(pool):
         best, done = subgradient(p, len(groups), price, 0.5 * p, iterations, lower_bound, budget)
-    finally:
-        pool.close()
     bound = capped_bound(best, cap)
     log.info("lagrangian bound %g after %d steps", bound, done)
     return {
@@ -133,6 +126,23 @@ def lagrangian_bound(
         "candidates": data.n_items,
         "lower_bound": float(lower_bound),
     }
+
+
+def check_count(name: str, value: Any, least: int = 1) -> None:
+    """Refuse ``value`` (an option of a bound) unless it is an integer, not a bool, of at
+    least ``least`` (1 or 0)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < least:
+        kind = "positive" if least == 1 else "non-negative"
+        raise InputError(f"{name}: expected a {kind} integer, got {value!r}")
+
+
+def seen_weights(instance: Instance, orbits: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """The targets some orbit's candidates cover, and the target weights with 0 for the
+    others: a target no candidate covers adds nothing to a bound."""
+    seen = np.zeros(instance.n_targets, dtype=bool)
+    for o in orbits:
+        seen[o.targets] = True
+    return seen, np.where(seen, np.asarray(instance.target_weight, dtype=float), 0.0)
 
 
 def capped_bound(best: float, cap: float) -> float:

@@ -116,13 +116,6 @@ class OrbitCuts:
     inv_slots: int
 
 
-def release_rank(o: OrbitItems) -> np.ndarray:
-    """Each position's place in ``o.by_release`` (the (3) order)."""
-    rank = np.empty(o.size, dtype=np.int64)
-    rank[o.by_release] = np.arange(o.size)
-    return rank
-
-
 @dataclass(frozen=True, eq=False)
 class CutEntries:
     """Cuts' hits on one orbit, independent of their duals (built once per set of cuts).
@@ -156,11 +149,9 @@ def cut_entries(
     n_cuts = len(hits)
     sizes = np.array([len(p) for p, _ in hits], dtype=np.int64)
     cut = np.repeat(np.arange(n_cuts, dtype=np.int64), sizes)
-    if len(cut):
-        pos = np.concatenate([np.asarray(p, dtype=np.int64) for p, _ in hits])
-        a = np.concatenate([np.asarray(x, dtype=np.int64) for _, x in hits])
-    else:
-        pos = a = np.zeros(0, dtype=np.int64)
+    none = [np.zeros(0, dtype=np.int64)]
+    pos = np.concatenate(none + [np.asarray(p, dtype=np.int64) for p, _ in hits])
+    a = np.concatenate(none + [np.asarray(x, dtype=np.int64) for _, x in hits])
     return _entries(n_cuts, cut, pos, a, rank, n_before)
 
 
@@ -233,22 +224,7 @@ def orbit_cuts(
         np.ascontiguousarray(sigma, dtype=float),
         np.ascontiguousarray(flags, dtype=np.bool_),
     )  # fmt: skip
-    ptr, slot, a, hit_sigma, read, carry, keep, close, slot_sigma, direct, exact = out[:11]
-    return OrbitCuts(
-        hit_ptr=ptr,
-        hit_slot=slot,
-        hit_a=a,
-        hit_sigma=hit_sigma,
-        hit_read=read,
-        carry=carry,
-        keep=keep,
-        close=close,
-        slot_sigma=slot_sigma,
-        direct=direct,
-        exact=bool(exact),
-        hit_inv=out[11],
-        inv_slots=int(out[12]),
-    )
+    return OrbitCuts(*out[:10], exact=bool(out[10]), hit_inv=out[11], inv_slots=int(out[12]))
 
 
 def arrange_py(
@@ -684,18 +660,15 @@ def label_best(
     without the cap first, and the levels only when that sweep's best plan has more than
     ``cap`` observations. Otherwise that plan is also the best of at most ``cap`` (the sweep
     bounds every plan, and it is one of them). On C5 the cap bound in 3 % of the calls."""
-    value, path, relaxed = run(
-        g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
-        cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
-        max_labels, 1, cuts.hit_inv, cuts.inv_slots,
-    )  # fmt: skip
-    if len(path) <= cap:
-        return value, path, relaxed
-    return run(
-        g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
-        cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
-        max_labels, 0, cuts.hit_inv, cuts.inv_slots,
-    )  # fmt: skip
+    for sweep in (1, 0):
+        value, path, relaxed = run(
+            g, first, last, order, n_before, cap, cuts.hit_ptr, cuts.hit_slot, cuts.hit_a,
+            cuts.hit_sigma, cuts.hit_read, cuts.carry, cuts.keep, cuts.close, cuts.slot_sigma,
+            max_labels, sweep, cuts.hit_inv, cuts.inv_slots,
+        )  # fmt: skip
+        if len(path) <= cap:
+            break
+    return value, path, relaxed
 
 
 @dataclass(frozen=True)
@@ -937,14 +910,8 @@ class CutPool:
         if key not in self._hits:
             if self._csc[g] is None:
                 self._csc[g] = self.groups[g].incidence.tocsc()
-            a = self._csc[g]
-            parts = [
-                a.indices[a.indptr[t] : a.indptr[t + 1]]
-                for t in self.cuts[c].tolist()
-                if t < a.shape[1]
-            ]
-            pos = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-            self._hits[key] = np.unique(pos, return_counts=True)
+            a, tg = self._csc[g], self.cuts[c]
+            self._hits[key] = np.unique(a[:, tg[tg < a.shape[1]]].indices, return_counts=True)
         return self._hits[key]
 
     def best_path(
@@ -966,7 +933,7 @@ class CutPool:
         # japan-500's search ended at a node of bound 1850 whose plans gave 1836 at most;
         # priced here (20 ms a call on its 120,000 positions) its root proves 1836.
         if self._rank[g] is None:
-            self._rank[g] = release_rank(o)
+            self._rank[g] = np.argsort(o.by_release)  # each position's place in (3) order
         made = self._entries.get(g)
         if made is None or made[0] != len(on):
             hits = [self.orbit_hits(g, c) for c in on.tolist()]
@@ -991,8 +958,7 @@ class CutPool:
         if n_worth < KEEP_SHARE * o.size:
             keep = np.flatnonzero(worth)
             by_release, n_before = restrict(o.by_release, o.n_before, keep)
-            rank = np.empty(len(keep), dtype=np.int64)
-            rank[by_release] = np.arange(len(keep))
+            rank = np.argsort(by_release)
             sub = restrict_entries(ent, keep, o.size, rank, n_before)
             found = _price_with_cuts(
                 o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,

@@ -31,14 +31,14 @@ import logging
 import math
 import time
 from collections.abc import Iterable, Sequence
+from contextlib import closing
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from models.lagrangian import capped_bound
+from models.lagrangian import capped_bound, check_count
 from sosp.candidates import pairs_within
-from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.parallel import parallelism
 from sosp.planner import PlanPool
@@ -133,9 +133,10 @@ def window_colgen_bound(
         :func:`models.colgen.colgen_bound`'s, the relaxed plans' priced targets),
         ``bands`` (the band of each column generation run, in order).
     """
+    from models.colgen import column_generation
+
     t0 = time.perf_counter()
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or max_rounds < 1:
-        raise InputError(f"max_rounds: expected a positive integer, got {max_rounds!r}")
+    check_count("max_rounds", max_rounds)
     budget = Budget.of(time_limit)
     if orbits is None:
         orbits = [orbit_opps(instance, j) for j in range(instance.n_orbits)]
@@ -187,19 +188,20 @@ def window_colgen_bound(
                 log.info("window bound: a round takes about %.0f s, %.0f s left", round_s, left)
         seed: list[tuple[int, np.ndarray, float, float]] = []
         while fits:
-            root = _root(
-                orbits,
-                p,
-                seen,
-                b,
-                start,
-                budget,
-                lower_bound,
-                max_rounds - rounds,
-                None if bands else expect_rounds,
-                workers,
-                seed,
-            )
+            # the relaxation with roll bands of b degrees, priced in ``workers`` processes
+            with closing(PlanPool(orbits, workers, partial(_relaxed_plans, band=b))) as pool:
+                root = column_generation(
+                    p,
+                    seen,
+                    [oo.rules for oo in orbits],
+                    pool.best_paths,
+                    start,
+                    budget,
+                    lower_bound,
+                    max_rounds - rounds,
+                    expect_rounds=None if bands else expect_rounds,
+                    columns=seed,
+                )
             bands.append(b)
             best, rounds = min(best, root.best), rounds + root.rounds
             if root.rounds or len(bands) == 1:  # a refinement cut before its first round
@@ -265,41 +267,6 @@ def _first_band(
     while band / 2 >= MIN_BAND and budget.fits(ROOT_ROUNDS * cost * HALVING_COST):
         band, cost = band / 2, cost * HALVING_COST
     return band, cost, float(sum(v for v, _, _ in plans))
-
-
-def _root(
-    orbits: Sequence[OrbitOpps],
-    p: np.ndarray,
-    seen: np.ndarray,
-    band: float | None,
-    start: tuple[np.ndarray, np.ndarray],
-    budget: Budget,
-    lower_bound: float | None,
-    max_rounds: int,
-    expect_rounds: int | None,
-    workers: Workers,
-    columns: Sequence[tuple[int, np.ndarray, float, float]] = (),
-) -> Any:
-    """:func:`models.colgen.column_generation` over the relaxation with roll bands of
-    ``band`` degrees, priced in ``workers`` processes."""
-    from models.colgen import column_generation
-
-    pool = PlanPool(orbits, workers, partial(_relaxed_plans, band=band))
-    try:
-        return column_generation(
-            p,
-            seen,
-            [oo.rules for oo in orbits],
-            pool.best_paths,
-            start,
-            budget,
-            lower_bound,
-            max_rounds,
-            expect_rounds=expect_rounds,
-            columns=columns,
-        )
-    finally:
-        pool.close()
 
 
 def _replanned(

@@ -576,7 +576,7 @@ def test_no_round_is_started_that_cannot_end_in_time(monkeypatch: pytest.MonkeyP
 
     for first, source in ((1e9, "cap"), (123.4, "round")):
         monkeypatch.setattr(wb, "_first_band", lambda *a, v=first: (a[2], 1e6, v))
-        monkeypatch.setattr(wb, "_root", never)
+        monkeypatch.setattr("models.colgen.column_generation", never)
         t = time.perf_counter()
         out = window_colgen_bound(inst, time_limit=30.0)
         limit_kept(f"no round fits, {source}", time.perf_counter() - t, 10.0)
