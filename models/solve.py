@@ -263,7 +263,7 @@ class MILPParams(Params):
     mip_gap: float | None = param(None, "Relative gap at which HiGHS stops (None: 1e-4).")
     threads: int | None = param(None, "HiGHS threads (None: HiGHS's default).")
     warm_start: Schedule | str | None = param(
-        "auto", "'auto' (the start stage orbit-dp, half the time), 'none' or a schedule."
+        "auto", "'auto' (the start stage orbit-dp, at most half the time), 'none' or a schedule."
     )
     extra_bound: ExtraBound = param("colgen", "Bound computed before the MILP.")
     relax: bool = param(False, "Solve the LP relaxation instead (no schedule).")
@@ -276,14 +276,18 @@ class MILPParams(Params):
 
 def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     """The start stage of ``milp`` with ``params`` (:data:`sosp.pipeline.StartRule`):
-    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model; None for a
-    given schedule, ``"none"``, the LP relaxation, or a restricted model (whose bound can lie
-    below a start's profit, so that start could not be kept beside it)."""
+    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until
+    :data:`WARM_START_STEPS` steps in a row bring nothing (where the MILP proves the optimum
+    in seconds, the start should not take half the time); None for a given schedule,
+    ``"none"``, the LP relaxation, or a restricted model (whose bound can lie below a start's
+    profit, so that start could not be kept beside it)."""
     from sosp.pipeline import Start
 
     auto = params.get("warm_start", MILPParams.warm_start) == "auto"
     cluster = params.get("model", MILPParams.model) == "cluster"
-    return Start("orbit-dp") if auto and cluster and not params.get("relax") else None
+    if not auto or not cluster or params.get("relax"):
+        return None
+    return Start("orbit-dp", params={"no_improve": WARM_START_STEPS})
 
 
 def heuristic_start(
