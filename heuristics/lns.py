@@ -31,7 +31,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar, Literal
 
@@ -42,11 +42,13 @@ from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
+from sosp.pipeline import Start, run_start
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, may_precede, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
 from sosp.stop import (
+    Budget,
     FirstOf,
     Foresight,
     Interrupted,
@@ -63,10 +65,6 @@ _EXACT = ("milp", "milp-lns")
 
 #: Neighbourhoods of a step (see :class:`LNSParams`).
 Neighbourhood = Literal["auto", "orbits", "window"]
-
-#: The start taken when ``start`` runs out of its share of the limit without an answer
-#: (:func:`solve_milp_lns`); it answers at any limit.
-FALLBACK_START = "asa-dtc"
 
 
 @dataclass(frozen=True)
@@ -89,9 +87,10 @@ class LNSParams(Params):
         about 6 100 against ASA-DTC's 5 549; C10: 3 840 against 2 819).
     start_time_limit
         Seconds for the start method (None: its own stopping rule); capped at half of the
-        overall limit. A start that ends at this limit without a schedule (``orbit-dp``
-        when its candidates are not ready: D30 at 30 s) gives way to :data:`FALLBACK_START`
-        with the same share of the time left, and the log says so.
+        overall limit. The start is the pipeline's start stage (:func:`start_stage`,
+        :func:`sosp.pipeline.run_start`): one that ends at this limit without a schedule
+        (``orbit-dp`` when its candidates are not ready) gives way to
+        :data:`sosp.pipeline.FALLBACK_START` with the same share of the time left.
     neighbourhood
         ``"orbits"``: free whole orbits (above). ``"window"``: free the observations of the
         seed orbit inside a time window of ``window`` seconds (the rest of that orbit stays:
@@ -474,6 +473,21 @@ def _shared_targets(instance: Instance) -> np.ndarray:
     return np.rint(inc.T @ inc).astype(np.int64)
 
 
+def start_stage(instance: Instance, params: Mapping[str, Any]) -> Start | None:
+    """The start stage of ``milp-lns`` with ``params`` (:data:`sosp.pipeline.StartRule`):
+    ``start`` with ``start_params`` in at most ``start_time_limit``; None when a
+    ``warm_start`` schedule is given. Explicit candidates that would not fit are refused
+    here, before the start spends half the time."""
+    from sosp.candidates import candidate_mode
+
+    if params.get("warm_start") is not None:
+        return None
+    p = LNSParams.from_kwargs(**{k: v for k, v in params.items() if k != "warm_start"})
+    if p.candidates == "explicit":
+        candidate_mode(instance, p.candidates)
+    return Start(p.start, p.start_time_limit, p.start_params or {})
+
+
 def solve_milp_lns(
     instance: Instance,
     *,
@@ -510,7 +524,6 @@ def solve_milp_lns(
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import warm_start_values
     from sosp.candidates import candidate_mode, cluster_candidates, flatten
-    from sosp.solve import method_function
     from sosp.validate import validate
 
     t0 = time.perf_counter()
@@ -523,44 +536,19 @@ def solve_milp_lns(
     # ---- start
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
-    # explicit candidates for every orbit, or window candidates made per step; decided (and
-    # an explicit request refused) before the start spends half the time (D100 ran its
-    # orbit-dp start for half the limit, then stopped at the memory check)
+    # explicit candidates for every orbit, or window candidates made per step (an explicit
+    # request that would not fit was refused by start_stage, before the start ran)
     windowed = candidate_mode(instance, p.candidates, deadline) == "windows"
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)
         warm_start = None
-    if warm_start is not None:
-        current = list(warm_start.observations)
-        start_name = "warm_start"
-    else:
-
-        def share() -> float | None:  # the start's limit: capped at half of what is left
-            half = None if deadline is None else 0.5 * left()
-            return min((x for x in (p.start_time_limit, half) if x is not None), default=None)
-
-        limit = share()
-        start_name = p.start
-        try:
-            first = method_function(p.start)(
-                instance, rng=rng, time_limit=limit, **(p.start_params or {})
-            )
-        except TimeLimitReached as exc:
-            # orbit-dp refuses to answer when its candidates are not ready by its limit
-            # (D30 at 30 s: their arranging takes 11 s); that limit is the start's share, not
-            # the run's, so the run goes on from ASA-DTC's schedule in the same share of what
-            # is left (it plans over windows where the candidates do not fit: D30 at 10 s
-            # 8790, where the greedy schedule, the first fallback tried, was 2387)
-            if p.start == FALLBACK_START:  # pragma: no cover - ASA-DTC answers at any limit
-                raise
-            log.warning(
-                "milp-lns: no %s start in %.1f s (%s); starting from %s",
-                p.start, limit, str(exc).split(";")[0], FALLBACK_START,
-            )  # fmt: skip
-            first = method_function(FALLBACK_START)(instance, rng=rng, time_limit=share())
-            start_name = FALLBACK_START
-        current = list(first.schedule.observations)
+    start_name = "warm_start"
+    if warm_start is None:  # called directly, not by the pipeline: run the start stage here
+        start = start_stage(instance, params)
+        first, stage = run_start(instance, start, rng, Budget.until(deadline))
+        warm_start, start_name = first.schedule, stage.name
+    current = list(warm_start.observations)
     weight = np.asarray(instance.target_weight, dtype=np.int64)
     profit = _claims_value(instance, current, weight)
     start_profit = profit

@@ -24,7 +24,7 @@ import logging
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
@@ -225,30 +225,26 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     return vals
 
 
-#: Share of ``time_limit`` the default warm start of :func:`solve_milp` may use (an orbit
-#: search over the model's own items, :func:`heuristic_start`).
+#: Share of ``time_limit`` the in-model warm start of a direct :func:`solve_milp` call may
+#: use (``warm_start="auto"``, :func:`heuristic_start`; :func:`sosp.solve.solve` runs the
+#: start stage of :func:`start_stage` instead).
 WARM_START_SHARE = 0.1
 
-#: Perturbation steps without a new best after which :func:`heuristic_start` stops: the
-#: default's warm start takes :data:`WARM_START_STEPS` on models of fewer than
-#: :data:`LARGE_MODEL_ITEMS` items and :data:`WARM_START_STEPS_LARGE` on larger ones. More
-#: steps give better starts everywhere, but where the MILP can prove the optimum in time the
-#: seconds are better spent by the MILP: B9 (5,440 items) is proven in 591 of its 600 s with
-#: 200 steps and not with 1000 (``docs/exact.md``, "The C scenarios at 10 minutes").
+#: Perturbation steps without a new best after which :func:`heuristic_start` stops: on
+#: models of fewer than :data:`LARGE_MODEL_ITEMS` items :data:`WARM_START_STEPS`, on larger
+#: ones :data:`WARM_START_STEPS_LARGE`. More steps give better starts, but where the MILP can
+#: prove the optimum in time the seconds are better spent by the MILP (``docs/exact.md``).
 WARM_START_STEPS = 200
 WARM_START_STEPS_LARGE = 1000
 
-#: From this many items on, the MILP proves none of the paper's scenarios in 10 minutes
-#: (C5-C10, 27,778-176,610 items; C4, 16,926 items, is proven in 250 s), and its answer there
-#: is the warm start or a few units above.
+#: From this many items on, the MILP rarely proves the optimum in minutes and its answer is
+#: its start or a few units above (``docs/exact.md``).
 LARGE_MODEL_ITEMS = 20_000
 
 #: On models of :data:`LARGE_MODEL_ITEMS` or more, HiGHS gives way when, after this share of
 #: the MILP's time, its incumbent is still its start and its bound has not passed below the
 #: side branch and price's (which then has not yielded): the search goes on from the start
-#: for the rest of the time, beside the side process (:func:`_search_on`). On C6-C8, 600 s,
-#: HiGHS's incumbent stayed at its start (2568, 2854, 3156), while 300 s of the search on one
-#: core raised C6's start to 2583 and C8's to 3160.
+#: for the rest of the time, beside the side process (:func:`_search_on`).
 GIVE_WAY_SHARE = 0.2
 
 #: Share of ``time_limit`` for the bound :func:`solve_milp` computes before the MILP (it
@@ -266,7 +262,9 @@ class MILPParams(Params):
     model: str = param("cluster", "'cluster' (the problem), 'task' or 'static'.")
     mip_gap: float | None = param(None, "Relative gap at which HiGHS stops (None: 1e-4).")
     threads: int | None = param(None, "HiGHS threads (None: HiGHS's default).")
-    warm_start: Schedule | str | None = param("auto", "'auto', 'none' or a schedule.")
+    warm_start: Schedule | str | None = param(
+        "auto", "'auto' (the start stage orbit-dp, at most half the time), 'none' or a schedule."
+    )
     extra_bound: ExtraBound = param("colgen", "Bound computed before the MILP.")
     relax: bool = param(False, "Solve the LP relaxation instead (no schedule).")
     backend: str = param("auto", "'pyomo', 'highs' or 'auto' (by size).")
@@ -274,6 +272,22 @@ class MILPParams(Params):
     lp_solver: str = param("choose", "HiGHS LP algorithm: 'choose', 'simplex', 'ipm' or 'pdlp'.")
     slew: str | None = param(None, "Slew term of (4): 'exact', 'lazy', 'auto' or 'relaxed'.")
     probing: str = param("auto", "HiGHS probing in presolve: 'on', 'off' or 'auto'.")
+
+
+def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
+    """The start stage of ``milp`` with ``params`` (:data:`sosp.pipeline.StartRule`):
+    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until
+    :data:`WARM_START_STEPS` steps in a row bring nothing (where the MILP proves the optimum
+    in seconds, the start should not take half the time); None for a given schedule,
+    ``"none"``, the LP relaxation, or a restricted model (whose bound can lie below a start's
+    profit, so that start could not be kept beside it)."""
+    from sosp.pipeline import Start
+
+    auto = params.get("warm_start", MILPParams.warm_start) == "auto"
+    cluster = params.get("model", MILPParams.model) == "cluster"
+    if not auto or not cluster or params.get("relax"):
+        return None
+    return Start("orbit-dp", params={"no_improve": WARM_START_STEPS})
 
 
 def heuristic_start(
@@ -387,10 +401,14 @@ def solve_milp(
     between the steps and while the cluster model's candidates are generated, and HiGHS gets
     only what is left):
 
+    0. under :func:`sosp.solve.solve`, with ``warm_start="auto"`` on the cluster model, the
+       pipeline's start stage (:func:`start_stage`: ``orbit-dp`` in half the limit,
+       :mod:`sosp.pipeline`) runs first and is passed here as the warm start schedule;
     1. the model's items (:func:`model_data`);
-    2. a warm start (``warm_start="auto"``: :func:`heuristic_start`, at most
-       :data:`WARM_START_SHARE` of the limit, :data:`WARM_START_STEPS` or, on large models,
-       :data:`WARM_START_STEPS_LARGE` steps without gain);
+    2. a warm start: the schedule given, or in a direct call with ``"auto"``
+       :func:`heuristic_start` (at most :data:`WARM_START_SHARE` of the limit,
+       :data:`WARM_START_STEPS` or, on large models, :data:`WARM_START_STEPS_LARGE` steps
+       without gain);
     3. an upper bound besides HiGHS's own (``extra_bound``: column generation then branch
        and price over the model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit);
        when it meets the warm start, the start is optimal and no MILP is built;
@@ -426,9 +444,11 @@ def solve_milp(
         HiGHS threads (None: HiGHS's default; HiGHS 1.16 then runs one MIP search worker per
         core).
     warm_start
-        ``"auto"`` (default): :func:`heuristic_start`; ``"none"`` (or None): no start; or a
-        schedule, mapped to the model's variables (ignored with a warning when it does not fit
-        the model or is infeasible).
+        ``"auto"`` (default): the start stage of :func:`start_stage` under
+        :func:`sosp.solve.solve`, :func:`heuristic_start` in a direct call; ``"none"`` (or
+        None): no start; or a schedule (searched on from when HiGHS cannot run), mapped to
+        the model's variables (ignored with a warning when it does not fit the model or is
+        infeasible).
     extra_bound
         ``"colgen"`` (default: :func:`models.colgen.colgen_bound` over the model's items,
         then its branch and price for the rest of the share; a schedule it ends on replaces
@@ -561,7 +581,7 @@ def solve_milp(
     # ---- warm start (never worse than it) and a bound besides HiGHS's
     start: list[int] | None = None
     arranged = None  # the items arranged per orbit for the planner (warm start, Lagrangian)
-    if (warm_start == "auto" or extra_bound in ("colgen", "lagrangian")) and fits(
+    if (warm_start != "none" or extra_bound in ("colgen", "lagrangian")) and fits(
         "arrange", data.n_items, deadline
     ):
         from sosp.planner import with_rolls
@@ -612,7 +632,7 @@ def solve_milp(
         side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
         watch = None if side is None else side.watch
         give: _GiveWay | None = None
-        if side is not None and warm_start == "auto" and data.n_items >= LARGE_MODEL_ITEMS:
+        if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
             watch = give = _GiveWay(side, start_profit, solve_by)
         try:
             with watching_bound(watch):
@@ -627,7 +647,7 @@ def solve_milp(
             # gave way to the search
             idle = stats.get("timed_out") == "building" or stats.get("termination") == "not started"
             idle = (idle and raw_bound is None) or gave_way
-            if idle and warm_start == "auto" and arranged is not None:
+            if idle and warm_start != "none" and arranged is not None:
                 start, start_profit = _search_on(
                     data, rng, arranged, start, start_profit, solve_by, stats, side
                 )
@@ -743,10 +763,7 @@ def _search_on(
     (:data:`GIVE_WAY_SHARE`), :func:`heuristic_start` goes on from the start until
     ``deadline``, or until the ``side`` branch and price's bound proves its best schedule
     optimal (:meth:`models.colgen.SideBound.watch`), and its schedule replaces the start when
-    better.
-
-    ``milp --time-limit 10`` on C10 returned its 1-s warm start after 3.4 s: the build of
-    176,610 items was not foreseen to fit in the 6.6 s left."""
+    better (a start given or found: the MILP's time is not lost when HiGHS cannot use it)."""
     if deadline is None or deadline - time.perf_counter() < SEARCH_ON_MIN_S:
         return start, start_profit
     t1 = time.perf_counter()

@@ -266,12 +266,22 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += ", proven optimal (gap 0)"
     elif result.bound is not None:
         text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+    if len(result.stages) > 1:
+        text += "\nstages: " + ", ".join(_stage_text(st) for st in result.stages)
     if args.output:
         text += f"\nwrote {args.output}"
     if interrupted:
         text += f"\nstopped by {interrupted}: the best schedule found so far"
     _emit(args, data, text)
     return 130 if interrupted else 0
+
+
+def _stage_text(stage: Any) -> str:
+    """One stage that ran (:class:`sosp.result.Stage`) as text."""
+    what = "" if stage.profit is None else f" (profit {stage.profit:g})"
+    if stage.kind == "bound" and stage.bound is not None:
+        what = f" (bound {stage.bound:g})"
+    return f"{stage.kind} {stage.name} {stage.seconds:.2f} s{what}"
 
 
 def _solve_interruptibly(
@@ -323,14 +333,29 @@ def _solve_interruptibly(
 # --------------------------------------------------------------------------- methods
 def cmd_methods(args: argparse.Namespace) -> int:
     from sosp.methods import describe_methods, method_info
-    from sosp.registry import DEFAULT_METHOD
+    from sosp.pipeline import BOUND_SHARE, START_SHARE
+    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, method_start
 
     infos = [method_info(m) for m in args.method] if args.method else describe_methods()
-    data = {"default": DEFAULT_METHOD, "methods": [m.to_dict() for m in infos]}
+    starts = {m.name: method_start(m.name, None, {}) for m in infos}
+    data = {
+        "default": DEFAULT_METHOD,
+        "methods": [
+            {**m.to_dict(), "start": None if starts[m.name] is None else starts[m.name].method}
+            for m in infos
+        ],
+        "pipeline": {
+            "start_share": START_SHARE,
+            "bound_share": BOUND_SHARE,
+            "bounds": list(CERTIFYING_BOUNDS),
+        },
+    }
     lines = []
     for m in infos:
         tag = "  (default)" if m.name == DEFAULT_METHOD else ""
         lines.append(f"{m.name}{tag}: {m.help}")
+        if starts[m.name] is not None:
+            lines.append(f"    start stage: {starts[m.name].method} (by default)")
         if not m.params:
             lines.append("    (no parameters)")
         for prm in m.params:
@@ -340,6 +365,12 @@ def cmd_methods(args: argparse.Namespace) -> int:
                 lines.append(f"        {prm.help}")
         lines.append("")
     lines.append("Give a parameter with sosp solve --param KEY=VALUE (VALUE is JSON or text).")
+    lines.append(
+        f"Stages of a run: a start stage (in at most {START_SHARE:.0%} of the method's time), "
+        "the method warm-started from it (the better schedule is kept), then with --bound "
+        f"one of {', '.join(CERTIFYING_BOUNDS)} in the time left ({BOUND_SHARE:.0%} of "
+        "--time-limit is kept for it); --json lists the stages that ran."
+    )
     _emit(args, data, "\n".join(lines))
     return 0
 

@@ -36,11 +36,16 @@ class Method:
     model
         The model whose optimum the method's own ``Result.bound`` bounds (None: it claims
         none). A method with a ``model`` parameter (``milp``) bounds the model it is given.
+    start
+        ``"module:name"`` of its start rule (:data:`sosp.pipeline.StartRule`): its parameters
+        -> the :class:`sosp.pipeline.Start` stage run before it, whose schedule it is given
+        as ``warm_start`` (None: it takes no start stage).
     """
 
     function: str
     params: str = "sosp.params:NoParams"
     model: str | None = None
+    start: str | None = None
 
 
 @dataclass(frozen=True)
@@ -87,8 +92,17 @@ METHODS: dict[str, Method] = {
     "ga-stc": Method("heuristics.ga:solve_ga_stc", "heuristics.ga:GAParams"),
     "ts-stc": Method("heuristics.tabu_search:solve_ts_stc", "heuristics.tabu_search:TSParams"),
     "pba-stc": Method("heuristics.pba:solve_pba_stc", "heuristics.pba:PBAParams", "static"),
-    "milp": Method("models.solve:solve_milp", "models.solve:MILPParams", PROBLEM_MODEL),
-    "milp-lns": Method("heuristics.lns:solve_milp_lns", "heuristics.lns:LNSParams"),
+    "milp": Method(
+        "models.solve:solve_milp",
+        "models.solve:MILPParams",
+        PROBLEM_MODEL,
+        "models.solve:start_stage",
+    ),  # fmt: skip
+    "milp-lns": Method(
+        "heuristics.lns:solve_milp_lns",
+        "heuristics.lns:LNSParams",
+        start="heuristics.lns:start_stage",
+    ),
     "orbit-dp": Method(
         "heuristics.orbit_search:solve_orbit_dp", "heuristics.orbit_search:OrbitSearchParams"
     ),
@@ -182,6 +196,13 @@ def bounded_model(method: str, params: Mapping[str, Any]) -> str | None:
     """The model whose optimum ``method``'s own bound bounds with ``params`` (None: none)."""
     model = _method(method).model
     return None if model is None else params.get("model") or model
+
+
+def method_start(method: str, instance: Any, params: Mapping[str, Any]) -> Any:
+    """The :class:`sosp.pipeline.Start` ``method`` takes on ``instance`` with ``params``
+    (None: none)."""
+    rule = _method(method).start
+    return None if rule is None else load(rule)(instance, params)
 
 
 def compute_bound(name: str, instance: Any, **kwargs: Any) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from typing import Any
 
@@ -26,6 +26,36 @@ class Status(StrEnum):
     NO_SOLUTION = "no_solution"
     INFEASIBLE = "infeasible"
     INTERRUPTED = "interrupted"
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a solve (:mod:`sosp.pipeline`) that ran.
+
+    Attributes
+    ----------
+    kind
+        ``"start"`` (the schedule the method starts from), ``"method"`` (the improving
+        method) or ``"bound"`` (the certifying bound).
+    name
+        What ran: a method of :data:`sosp.registry.METHODS` or a bound of
+        :data:`sosp.registry.BOUNDS`.
+    seconds
+        Its wall time.
+    profit
+        The profit (1) of its schedule (a start or a method).
+    bound
+        The upper bound it proved (a bound, or a method's own).
+    """
+
+    kind: str
+    name: str
+    seconds: float
+    profit: float | None = None
+    bound: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**asdict(self), "seconds": round(self.seconds, 6)}
 
 
 @dataclass
@@ -52,6 +82,9 @@ class Result:
         Search iterations, for iterative methods.
     stats
         Method-specific statistics (JSON-ready values).
+    stages
+        The stages that ran, in order (:class:`Stage`; :mod:`sosp.pipeline`); a method
+        that ran another in its place (ASA-DTC's large-instance fallback) names it here.
     """
 
     method: str
@@ -63,6 +96,7 @@ class Result:
     bound: float | None = None
     iterations: int | None = None
     stats: dict[str, Any] = field(default_factory=dict)
+    stages: tuple[Stage, ...] = ()
 
     @property
     def gap(self) -> float | None:
@@ -85,4 +119,5 @@ class Result:
             "gap": self.gap,
             "iterations": self.iterations,
             "runtime_s": round(self.runtime_s, 6),
+            "stages": [st.to_dict() for st in self.stages],
         }

@@ -1,7 +1,9 @@
 """The one entry point: :func:`solve` runs any registered method on an instance.
 
 Methods and bounds are registered in :mod:`sosp.registry` and imported lazily, so the CLI
-stays fast and heavy dependencies (Pyomo, HiGHS) load only when used. A method function has
+stays fast and heavy dependencies (Pyomo, HiGHS) load only when used. The stages of a run
+(a start, the method, a certifying bound) and their shares of the time are
+:mod:`sosp.pipeline`'s. A method function has
 the signature::
 
     def solve_xxx(instance: Instance, *, rng: numpy.random.Generator,
@@ -21,18 +23,18 @@ import numpy as np
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance
 from sosp.parallel import Workers, check_workers
+from sosp.pipeline import certify, improve
 from sosp.progress import Progress, reporting
 from sosp.registry import (
     CERTIFYING_BOUNDS,
     DEFAULT_METHOD,
     PROBLEM_MODEL,
     bounded_model,
-    compute_bound,
     method_function,
 )
 from sosp.result import Result, Status
 from sosp.schedule import Schedule
-from sosp.stop import stop_requested
+from sosp.stop import Budget, stop_requested
 from sosp.validate import validate
 
 log = logging.getLogger(__name__)
@@ -88,11 +90,13 @@ def solve(
         far, once :func:`sosp.stop.request_stop` is called (e.g. by a signal handler): the
         status is then ``interrupted`` (unless optimality or infeasibility was proven).
     bound
-        Certify the schedule: one of :data:`sosp.registry.CERTIFYING_BOUNDS` (bounds of the problem
-        itself, the cluster model) computed after the solve, with a time limit of its own equal to
-        ``time_limit``; the result's ``bound`` is then the least of the method's and this one,
-        ``gap`` how far the schedule may be from optimal, and the status ``optimal`` when the
-        bound meets the profit. None (default): the method's own bound only.
+        Certify the schedule: one of :data:`sosp.registry.CERTIFYING_BOUNDS` (bounds of the
+        problem itself, the cluster model) computed after the solve in what is left of
+        ``time_limit`` (the start and the method keep :data:`sosp.pipeline.BOUND_SHARE` of it
+        free: :mod:`sosp.pipeline`); the result's ``bound`` is then the least of the method's
+        and this one, ``gap`` how far the schedule may be from optimal, and the status
+        ``optimal`` when the bound meets the profit. None (default): the method's own bound
+        only.
     bound_workers
         Processes (or a ``distributed.Client``) for the pricing rounds of that bound
         (``auto``, ``colgen``, ``lagrangian``; :func:`models.solve.bound`'s ``workers``): the
@@ -130,12 +134,12 @@ def solve(
         # load for one (about a second in a fresh process)
         result = Result(method, Status.OPTIMAL, Schedule(()), 0.0, 0, bound=0.0)
         result.stats["proven_by"] = "cap"
+        budget = Budget()
     else:
-        deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
-        left = None if deadline is None else deadline - time.perf_counter()
+        budget = Budget.until(kernels_within(t0, time_limit))  # the kernels' load counts
         with reporting(progress) as prog:
             prog.start(method)
-            result = func(instance, rng=rng, time_limit=left, **params)
+            result = improve(instance, method, func, params, rng, budget, bound is not None)
     runtime = time.perf_counter() - t0
     schedule = replace(
         result.schedule,
@@ -171,31 +175,6 @@ def solve(
             # the method's own bound is of a restriction (static, task model): it may lie
             # below the problem's optimum, so it certifies nothing
             result = replace(result, bound=None)
-        result = certify(instance, result, bound, time_limit, bound_workers)
+        result = certify(instance, result, bound, budget.left(), bound_workers)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
     return result
-
-
-def certify(
-    instance: Instance,
-    result: Result,
-    bound: str = "auto",
-    time_limit: float | None = None,
-    workers: Workers = 1,
-) -> Result:
-    """``result`` with the least of its own bound and bound ``bound`` (within ``time_limit``,
-    its pricing rounds on ``workers``).
-
-    The status becomes ``optimal`` when the bound meets the profit (nothing better exists).
-    """
-    out = compute_bound(
-        bound, instance, time_limit=time_limit, lower_bound=result.profit, workers=workers
-    )
-    value = out.get("bound")
-    if value is None:
-        return result
-    best = float(value) if result.bound is None else min(float(value), result.bound)
-    best = max(best, float(result.profit))
-    status = Status.OPTIMAL if best <= result.profit + 1e-6 else result.status
-    stats = {**result.stats, "certified_by": bound, "certify_s": out.get("runtime_s")}
-    return replace(result, bound=best, status=status, stats=stats)

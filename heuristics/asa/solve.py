@@ -7,6 +7,7 @@ other.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -15,16 +16,28 @@ from heuristics.asa.parallel import run_parallel
 from heuristics.asa.params import ASAParams
 from heuristics.asa.search import run_asa
 from sosp.instance import Instance
-from sosp.result import Result
+from sosp.result import Result, Stage
 
 
 def _solve(
     instance: Instance, mode: str, rng: np.random.Generator, time_limit: float | None, **kw: Any
 ) -> Result:
     params = ASAParams.from_kwargs(**kw)
-    if params.workers > 1:
-        return run_parallel(instance, mode, rng=rng, time_limit=time_limit, params=params)
-    return run_asa(instance, mode, rng=rng, time_limit=time_limit, params=params)
+    run = run_parallel if params.workers > 1 else run_asa
+    res = run(instance, mode, rng=rng, time_limit=time_limit, params=params)
+    return replace(res, stages=_stages(res, mode, params))
+
+
+def _stages(res: Result, mode: str, params: ASAParams) -> tuple[Stage, ...]:
+    """What ran (:class:`~sosp.result.Stage`): on an instance ASA-DTC refuses, orbit-dp's
+    search in its place (``stats["fallback"]``); else the initial solution (``init``) and
+    the annealing."""
+    name, profit = f"asa-{mode}", float(res.profit)
+    if res.stats.get("fallback"):
+        return (Stage("method", res.stats["fallback"], res.runtime_s, profit),)
+    init_s = float(res.stats.get("initial_time_s") or 0.0)
+    start = Stage("start", f"{name}:init={params.init}", init_s)
+    return (start, Stage("method", name, max(0.0, res.runtime_s - init_s), profit))
 
 
 def solve_asa_dtc(

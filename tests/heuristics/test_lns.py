@@ -174,7 +174,7 @@ def test_a_tiny_time_limit_returns_the_start() -> None:
 def test_a_start_out_of_its_time_falls_back_to_asa_dtc(monkeypatch: pytest.MonkeyPatch) -> None:
     # orbit-dp refuses to answer when its candidates are not arranged by its limit (D30 at
     # 30 s): that limit is the start's share, so the run goes on from ASA-DTC's schedule
-    ss = sys.modules["sosp.solve"]
+    ss = sys.modules["sosp.pipeline"]
     lookup = ss.method_function
 
     def out_of_time(instance, *, rng, time_limit=None, **params):
@@ -199,7 +199,7 @@ def test_a_start_refused_within_its_time_is_an_error() -> None:
 def test_too_dense_is_refused_before_the_start_runs(monkeypatch: pytest.MonkeyPatch) -> None:
     import sosp.candidates as sc
 
-    ss = sys.modules["sosp.solve"]  # the module (the package exports the function solve)
+    ss = sys.modules["sosp.pipeline"]  # the module (the package exports the function solve)
 
     inst = random_tiny(2)
     monkeypatch.setattr(sc, "MAX_CANDIDATE_BYTES", -1)  # tiny instances estimate 0 bytes
