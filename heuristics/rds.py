@@ -503,6 +503,18 @@ def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
 
 
 # ------------------------------------------------------------------------------- search
+def _entries(
+    instance: Instance, tasks: TaskSet, items: list[int]
+) -> tuple[list[int], list[float], list[tuple], dict[int, OrbitTimeline], list[OrbitTimeline]]:
+    """Per item (by position): its orbit, start, timeline entry ``(start, end, roll,
+    position)``, and its orbit's empty timeline (also given per orbit)."""
+    orb = tasks.orbit[items].tolist()
+    st, en, ro = (a[items].tolist() for a in (tasks.start, tasks.end, tasks.roll))
+    ent = list(zip(st, en, ro, range(len(items)), strict=True))
+    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
+    return orb, st, ent, lines, [lines[j] for j in orb]
+
+
 def rds_component(
     instance: Instance,
     tasks: TaskSet,
@@ -533,15 +545,9 @@ def rds_component(
     t0 = clock()
     m = len(items)
     tw = instance.target_weight
-    orb = [int(tasks.orbit[t]) for t in items]
-    st = [float(tasks.start[t]) for t in items]
-    en = [float(tasks.end[t]) for t in items]
-    ro = [float(tasks.roll[t]) for t in items]
-    ent = [(s, e, r, p) for p, (s, e, r) in enumerate(zip(st, en, ro, strict=True))]
+    orb, _, ent, _, line_of = _entries(instance, tasks, items)
     tg = [tuple(int(k) for k in tasks.targets[t]) for t in items]
     wt = [int(sum(int(tw[k]) for k in ks)) for ks in tg]
-    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
-    line_of = [lines[j] for j in orb]
     cover: dict[int, int] = {k: 0 for ks in tg for k in ks}
     opt = [0] * (m + 1)
     stack: list[int] = []  # positions currently scheduled
@@ -698,11 +704,7 @@ def rds_targets_component(
     wq = [int(tw[k]) for k in tkeys]
     # Tasks become local ids 0..m-1; domains hold local ids, heaviest task first.
     local = {t: i for i, t in enumerate(items)}
-    orb = [int(tasks.orbit[t]) for t in items]
-    st = [float(tasks.start[t]) for t in items]
-    en = [float(tasks.end[t]) for t in items]
-    ro = [float(tasks.roll[t]) for t in items]
-    ent = [(s, e, r, p) for p, (s, e, r) in enumerate(zip(st, en, ro, strict=True))]
+    orb, st, ent, lines, line_of = _entries(instance, tasks, items)
     dom = [
         [
             local[t]
@@ -712,8 +714,6 @@ def rds_targets_component(
         ]
         for k in tkeys
     ]
-    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
-    line_of = [lines[j] for j in orb]
     m = len(items)
     on = [False] * m  # task scheduled
     forbid = [0] * m  # > 0: excluded by a "none" branch above
@@ -1176,7 +1176,11 @@ def russian_doll(
 
 
 # ------------------------------------------------------------------------------ methods
-def _result(method: str, instance: Instance, tasks: TaskSet, out: RdsOutcome) -> Result:
+def _result(
+    method: str, instance: Instance, tasks: TaskSet, time_limit: float | None, **options: Any
+) -> Result:
+    """:func:`russian_doll` over ``tasks`` with ``options``, as the method's result."""
+    out = russian_doll(instance, tasks, time_limit=time_limit, **options)
     schedule = tasks_to_schedule(instance, tasks, out.chosen)
     observed = sum(len(o.opps) for o in schedule.observations)
     sizes = [len(c.items) for c in out.components]
@@ -1259,15 +1263,8 @@ def solve_rds(
     """
     del rng
     tasks = single_tasks(instance)
-    out = russian_doll(
-        instance,
-        tasks,
-        time_limit=time_limit,
-        order=order,
-        decompose=decompose,
-        variables=variables,
-    )
-    return _result("rds", instance, tasks, out)
+    opts = {"order": order, "decompose": decompose, "variables": variables}
+    return _result("rds", instance, tasks, time_limit, **opts)
 
 
 def solve_rds_stc(
@@ -1306,12 +1303,5 @@ def solve_rds_stc(
     """
     del rng
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
-    out = russian_doll(
-        instance,
-        tasks,
-        time_limit=time_limit,
-        order=order,
-        decompose=decompose,
-        variables=variables,
-    )
-    return _result("rds-stc", instance, tasks, out)
+    opts = {"order": order, "decompose": decompose, "variables": variables}
+    return _result("rds-stc", instance, tasks, time_limit, **opts)
