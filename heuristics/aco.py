@@ -57,14 +57,14 @@ from typing import Any, Literal
 
 import numpy as np
 
+from heuristics.hpfs import task_result
 from heuristics.stc import Selection, StcData, check_float, check_int, params_from_kwargs, stc_data
 from sosp import rules
-from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
 from sosp.progress import current as current_progress
-from sosp.result import Result, Status
+from sosp.result import Result
 from sosp.rules import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -543,8 +543,6 @@ def run_aco(
         amount = depositor.profit / best_profit if best_profit > 0 else 1.0
         update_pheromone(graph.tau, graph.arcs(depositor), amount, p.rho, tau_min, tau_max)
     chosen = sorted(best.chosen) if best is not None else []
-    schedule = tasks_to_schedule(instance, data.tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     profit = max(best_profit, 0)
     stats = {
         "tasks": len(data.tasks),
@@ -558,9 +556,7 @@ def run_aco(
     if p.local_search:
         stats["ls_moves"] = ls_moves
     log.info("%s: profit %d after %d iterations (best at %d)", method, profit, it, best_iter)
-    return Result(
-        method, Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
-    )
+    return task_result(method, instance, data.tasks, chosen, profit, iterations=it, stats=stats)
 
 
 def solve_aco_stc(

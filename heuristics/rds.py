@@ -115,10 +115,10 @@ from typing import Any, Literal
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode
+from heuristics.hpfs import insertion_decode, task_result
 from heuristics.timeline import OrbitTimeline, fits_alone
 from sosp import rules
-from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
+from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
@@ -1181,8 +1181,6 @@ def _result(
 ) -> Result:
     """:func:`russian_doll` over ``tasks`` with ``options``, as the method's result."""
     out = russian_doll(instance, tasks, time_limit=time_limit, **options)
-    schedule = tasks_to_schedule(instance, tasks, out.chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     sizes = [len(c.items) for c in out.components]
     stats = {
         "tasks": len(tasks),
@@ -1202,15 +1200,8 @@ def _result(
         stats["largest_component"],
         stats["nodes"],
     )
-    return Result(
-        method,
-        status,
-        schedule,
-        float(out.value),
-        observed,
-        bound=float(out.bound),
-        stats=stats,
-    )
+    chosen, bound = out.chosen, float(out.bound)
+    return task_result(method, instance, tasks, chosen, out.value, status, bound=bound, stats=stats)
 
 
 @dataclass(frozen=True)

@@ -50,14 +50,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode, priority_order
+from heuristics.hpfs import insertion_decode, priority_order, task_result
 from heuristics.timeline import OrbitTimeline, fits_alone
-from sosp.clustering import static_cluster_tasks, tasks_to_schedule
+from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
 from sosp.progress import current as current_progress
-from sosp.result import Result, Status
+from sosp.result import Result
 from sosp.schedule import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -269,8 +269,6 @@ def solve_sa_stc(
     chosen, profit = insertion_decode(instance, tasks, best_perm)
     if profit != best_total:
         log.warning("sa-stc: re-decoded profit %d differs from tracked %d", profit, best_total)
-    schedule = tasks_to_schedule(instance, tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
         "tasks": len(tasks),
         "usable_tasks": n,
@@ -282,6 +280,4 @@ def solve_sa_stc(
         "best_iteration": best_iter,
     }
     log.info("sa-stc: profit %d after %d iterations (best at %d)", profit, it, best_iter)
-    return Result(
-        "sa-stc", Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
-    )
+    return task_result("sa-stc", instance, tasks, chosen, profit, iterations=it, stats=stats)
