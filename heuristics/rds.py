@@ -116,7 +116,7 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, task_result
-from heuristics.timeline import OrbitTimeline, fits_alone
+from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
 from sosp.errors import InputError
@@ -505,14 +505,14 @@ def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
 # ------------------------------------------------------------------------------- search
 def _entries(
     instance: Instance, tasks: TaskSet, items: list[int]
-) -> tuple[list[int], list[float], list[tuple], dict[int, OrbitTimeline], list[OrbitTimeline]]:
-    """Per item (by position): its orbit, start, timeline entry ``(start, end, roll,
-    position)``, and its orbit's empty timeline (also given per orbit)."""
+) -> tuple[list[int], list[tuple], dict[int, OrbitTimeline], list[OrbitTimeline]]:
+    """Per item (by position): its orbit, timeline entry ``(start, end, roll, position)``
+    (:func:`heuristics.timeline.task_entries`) and its orbit's empty timeline (also given per
+    orbit)."""
     orb = tasks.orbit[items].tolist()
-    st, en, ro = (a[items].tolist() for a in (tasks.start, tasks.end, tasks.roll))
-    ent = list(zip(st, en, ro, range(len(items)), strict=True))
+    ent = task_entries(tasks, items)
     lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
-    return orb, st, ent, lines, [lines[j] for j in orb]
+    return orb, ent, lines, [lines[j] for j in orb]
 
 
 def rds_component(
@@ -545,7 +545,7 @@ def rds_component(
     t0 = clock()
     m = len(items)
     tw = instance.target_weight
-    orb, _, ent, _, line_of = _entries(instance, tasks, items)
+    orb, ent, _, line_of = _entries(instance, tasks, items)
     tg = [tuple(int(k) for k in tasks.targets[t]) for t in items]
     wt = [int(sum(int(tw[k]) for k in ks)) for ks in tg]
     cover: dict[int, int] = {k: 0 for ks in tg for k in ks}
@@ -704,7 +704,7 @@ def rds_targets_component(
     wq = [int(tw[k]) for k in tkeys]
     # Tasks become local ids 0..m-1; domains hold local ids, heaviest task first.
     local = {t: i for i, t in enumerate(items)}
-    orb, st, ent, lines, line_of = _entries(instance, tasks, items)
+    orb, ent, lines, line_of = _entries(instance, tasks, items)
     dom = [
         [
             local[t]
@@ -923,7 +923,7 @@ def rds_targets_component(
         # it returns is feasible (built through the timelines) and worth ``goal``.
         for t0 in dom[i]:
             bad = set(conf[t0])
-            sel = sorted((t for t in base if t not in bad), key=lambda t: st[t]) + [t0]
+            sel = sorted((t for t in base if t not in bad), key=lambda t: ent[t][0]) + [t0]
             tl: dict[int, OrbitTimeline] = {}
             ok = True
             for t in sel:

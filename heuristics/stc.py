@@ -27,7 +27,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from heuristics.timeline import InsertCheck, OrbitTimeline, fits_alone
+from heuristics.timeline import InsertCheck, OrbitTimeline, fits_alone, task_entries
 from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
@@ -173,15 +173,7 @@ def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
         position=position,
         targets=tuple(tuple(int(k) for k in ks) for ks in tasks.targets),
         weight=[int(x) for x in instance.target_weight],
-        entries=list(
-            zip(
-                tasks.start.tolist(),
-                tasks.end.tolist(),
-                tasks.roll.tolist(),
-                range(len(tasks)),
-                strict=True,
-            )
-        ),
+        entries=task_entries(tasks),
     )
 
 

@@ -57,7 +57,7 @@ import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
 from heuristics.stc import check_int
-from heuristics.timeline import OrbitTimeline, fits_alone
+from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
@@ -148,9 +148,8 @@ class TabuSearch:
         self.orb = [int(tasks.orbit[t]) for t in usable]
         self.st = [float(tasks.start[t]) for t in usable]
         self.en = [float(tasks.end[t]) for t in usable]
-        self.ro = [float(tasks.roll[t]) for t in usable]
         # timeline entries (start, end, roll, local index), built once
-        self.ent = [(self.st[i], self.en[i], self.ro[i], i) for i in range(n)]
+        self.ent = task_entries(tasks, usable)
         self.tg = [tasks.targets[t] for t in usable]
         self.tw = [int(x) for x in instance.target_weight]
         idx = np.array(usable, dtype=np.int64)

@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 from sosp.instance import Instance
 from sosp.rules import EPS, OrbitRules, alone_ok_mask, orbit_rules
 
-__all__ = ["EPS", "Entry", "InsertCheck", "OrbitTimeline", "fits_alone"]
+__all__ = ["EPS", "Entry", "InsertCheck", "OrbitTimeline", "fits_alone", "task_entries"]
 
 #: ``(start, end, roll, *payload)``: an observation's window [ts, te], its roll, then anything.
 Entry = tuple
@@ -334,6 +334,13 @@ class OrbitTimeline:
     def restore(self, snap: tuple[list[Entry], float, float]) -> None:
         """Go back to a :meth:`snapshot` (which is taken over, not copied)."""
         self.obs, self.observe, self.slew = snap[0], snap[1], snap[2]
+
+
+def task_entries(tasks: Any, items: Any = slice(None)) -> list[Entry]:
+    """Timeline entries ``(start, end, roll, position)`` of the tasks ``items`` (all by
+    default) of ``tasks`` (a :class:`sosp.clustering.TaskSet`), positions counted in ``items``."""
+    cols = (tasks.start[items].tolist(), tasks.end[items].tolist(), tasks.roll[items].tolist())
+    return list(zip(*cols, range(len(cols[0])), strict=True))
 
 
 def fits_alone(instance: Instance, tasks: Any) -> list[bool]:
