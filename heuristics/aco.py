@@ -58,11 +58,11 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, check_float, check_int, params_from_kwargs, stc_data
+from heuristics.stc import Selection, StcData, check_float, check_int, stc_data
 from sosp import rules
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.rules import RollRule
@@ -164,7 +164,7 @@ class ACOParams(Params):
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return params_from_kwargs(cls, "aco-stc", params)
+        return from_kwargs(cls, params, method="aco-stc")
 
 
 @dataclass(frozen=True)
@@ -180,7 +180,7 @@ class ACOLSParams(ACOParams):
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOLSParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return params_from_kwargs(cls, "aco-ls-stc", params)
+        return from_kwargs(cls, params, method="aco-ls-stc")
 
 
 # ----------------------------------------------------------------------------- the graph

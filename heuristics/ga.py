@@ -46,10 +46,10 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, check_int, params_from_kwargs, stc_data
+from heuristics.stc import Selection, StcData, check_int, stc_data
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.rules import RollRule
@@ -101,7 +101,7 @@ class GAParams(Params):
     @classmethod
     def from_kwargs(cls, **params: Any) -> GAParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return params_from_kwargs(cls, "ga-stc", params)
+        return from_kwargs(cls, params, method="ga-stc")
 
 
 def repair(data: StcData, bits: np.ndarray) -> tuple[np.ndarray, int]:

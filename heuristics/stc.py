@@ -12,9 +12,7 @@ methods need:
 * :class:`Selection`: a set of chosen tasks with one :class:`heuristics.timeline.OrbitTimeline`
   per orbit (the rules (3)-(6), (11) are checked there and nowhere else), coverage counts per
   target (a target in tasks of several orbits counts once, ``docs/model.md``) and the profit,
-  all updated by deltas;
-* :func:`params_from_kwargs`: a parameter dataclass from keyword parameters, coercing the
-  command line's strings from the dataclass's type hints.
+  all updated by deltas.
 """
 
 from __future__ import annotations
@@ -23,7 +21,7 @@ import logging
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -32,22 +30,12 @@ from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import from_kwargs
 from sosp.schedule import RollRule
 
 log = logging.getLogger(__name__)
 
-P = TypeVar("P")
-
 
 # ------------------------------------------------------------------------------- parameters
-def params_from_kwargs(cls: type[P], method: str, kwargs: dict[str, Any]) -> P:
-    """Build the frozen parameter dataclass ``cls`` from keyword parameters, CLI strings
-    converted by the fields' type hints (:func:`sosp.params.from_kwargs`); validation is the
-    dataclass's own ``__post_init__``."""
-    return from_kwargs(cls, kwargs, method=method)
-
-
 def check_int(name: str, value: Any, minimum: int, optional: bool = False) -> None:
     """``value`` is an integer >= ``minimum`` (or None when ``optional``), else InputError."""
     if value is None and optional:
