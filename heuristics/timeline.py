@@ -140,12 +140,6 @@ class OrbitTimeline:
         return not (e or m or c) and self.first_conflict() < 0
 
     # -------------------------------------------------------------------------- deltas
-    def insert_pos(self, entry: Entry) -> int:
-        """Where ``entry`` goes: after every entry with (start, end) at most its own."""
-        # The probe's third field (inf) is above every roll, so tuple order never reaches
-        # the payloads and ties in (start, end) go to the right.
-        return bisect_right(self.obs, (entry[0], entry[1], _INF))
-
     def _slew_around(self, pos: int, entry: Entry | None, skip: int) -> float:
         """Slew of the pairs touching position ``pos`` if it held ``entry`` (None: nothing).
 
@@ -166,10 +160,6 @@ class OrbitTimeline:
         if right < len(obs):
             s += turn(roll, obs[right][2])
         return s
-
-    def delta_insert(self, pos: int, entry: Entry) -> float:
-        """Change of the slew seconds (4) of inserting ``entry`` at ``pos``."""
-        return self._slew_around(pos, entry, 0) - self._slew_around(pos, None, 0)
 
     def delta_replace(self, pos: int, entry: Entry | None) -> tuple[float, float]:
         """(d observe, d slew) of replacing the entry at ``pos`` by ``entry`` (None: removing
@@ -193,9 +183,11 @@ class OrbitTimeline:
         n = len(obs)
         if n >= r.max_openings:
             return _NO6
+        # after every entry with (start, end) at most its own: the probe's third field (inf)
+        # is above every roll, so tuple order never reaches the payloads
         pos = bisect_right(obs, (start, end, _INF))
         clash, turn = r.clash, r.turn
-        # the same additions, in the same order, as delta_insert: equal totals to the bit
+        # the same additions, in the same order, as an unchecked insert: equal totals to the bit
         d_slew = 0.0
         if pos > 0:
             u = obs[pos - 1]
@@ -253,8 +245,8 @@ class OrbitTimeline:
         checked: the orbit may become infeasible (ASA repairs it afterwards).
         """
         if check is None:
-            pos = self.insert_pos(entry)
-            d_slew = self.delta_insert(pos, entry)
+            pos = bisect_right(self.obs, (entry[0], entry[1], _INF))
+            d_slew = self._slew_around(pos, entry, 0) - self._slew_around(pos, None, 0)
         elif check.ok:
             pos, d_slew = check.pos, check.d_slew
         else:
