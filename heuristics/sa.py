@@ -156,8 +156,7 @@ def solve_sa_stc(
             cover[k] += 1
 
     def take(t: int) -> None:
-        line = lines[orb[t]]
-        line.remove(line.obs.index(ent[t]))
+        lines[orb[t]].discard(ent[t])
         for k in tg[t]:
             cover[k] -= 1
 

@@ -221,8 +221,7 @@ class Selection:
 
     def remove(self, t: int) -> None:
         """Remove the chosen task ``t`` (never breaks (3)-(6): ``docs/model.md``)."""
-        line = self.lines[int(self.data.tasks.orbit[t])]
-        line.remove(line.obs.index(self.data.entries[t]))
+        self.lines[int(self.data.tasks.orbit[t])].discard(self.data.entries[t])
         cover, w = self.cover, self.data.weight
         for k in self.data.targets[t]:
             cover[k] -= 1

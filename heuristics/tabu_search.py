@@ -191,8 +191,7 @@ class TabuSearch:
 
     def drop(self, i: int) -> None:
         """Take task i out."""
-        line = self.lines[self.orb[i]]
-        line.remove(line.obs.index(self.ent[i]))
+        self.lines[self.orb[i]].discard(self.ent[i])
         for k in self.tg[i]:
             self.cover[k] -= 1
             if self.cover[k] == 0:

@@ -266,6 +266,10 @@ class OrbitTimeline:
             self.observe = self.slew = 0.0
         return entry
 
+    def discard(self, entry: Entry) -> None:
+        """Remove ``entry`` (equal to an entry of the timeline)."""
+        self.remove(self.obs.index(entry))
+
     def replace(self, pos: int, entry: Entry | None) -> None:
         """Replace (or with None remove) the entry at ``pos``, keeping the time order."""
         if entry is None:
