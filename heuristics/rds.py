@@ -563,8 +563,7 @@ def rds_component(
         stack.append(p)
 
     def undo(p: int) -> None:
-        line = line_of[p]
-        line.remove(line.obs.index(ent[p]))
+        line_of[p].discard(ent[p])
         for k in tg[p]:
             cover[k] -= 1
         stack.pop()
@@ -793,8 +792,7 @@ def rds_targets_component(
                 cur["value"] -= wq[p]
         stack.pop()
         on[t] = False
-        line = line_of[t]
-        line.remove(line.obs.index(ent[t]))
+        line_of[t].discard(ent[t])
 
     def ban(t: int) -> None:
         forbid[t] += 1
@@ -921,19 +919,18 @@ def rds_targets_component(
         # into ``base`` (the last optimum), dropping the tasks in (3) conflict with it and
         # covering their lost targets again, fewest options first. Heuristic; any selection
         # it returns is feasible (built through the timelines) and worth ``goal``.
+        def put(tl: dict[int, OrbitTimeline], t: int) -> bool:
+            line = tl.setdefault(orb[t], OrbitTimeline(lines[orb[t]].rules))
+            chk = line.check_insert(ent[t])
+            if chk:
+                line.insert(ent[t], chk)
+            return bool(chk)
+
         for t0 in dom[i]:
             bad = set(conf[t0])
             sel = sorted((t for t in base if t not in bad), key=lambda t: ent[t][0]) + [t0]
             tl: dict[int, OrbitTimeline] = {}
-            ok = True
-            for t in sel:
-                line = tl.setdefault(orb[t], OrbitTimeline(lines[orb[t]].rules))
-                chk = line.check_insert(ent[t])
-                if not chk:
-                    ok = False
-                    break
-                line.insert(ent[t], chk)
-            if not ok:
+            if not all(put(tl, t) for t in sel):
                 continue
             have = {p for t in sel for p in tpos[t] if p >= i}
             lost = sorted(
@@ -944,10 +941,7 @@ def rds_targets_component(
                 if p in have:
                     continue
                 for u in dom[p]:
-                    line = tl.setdefault(orb[u], OrbitTimeline(lines[orb[u]].rules))
-                    chk = line.check_insert(ent[u])
-                    if chk:
-                        line.insert(ent[u], chk)
+                    if put(tl, u):
                         sel.append(u)
                         have.update(p2 for p2 in tpos[u] if p2 >= i)
                         break
