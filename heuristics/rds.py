@@ -121,7 +121,7 @@ from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
@@ -1171,10 +1171,11 @@ def russian_doll(
 
 # ------------------------------------------------------------------------------ methods
 def _result(
-    method: str, instance: Instance, tasks: TaskSet, time_limit: float | None, **options: Any
+    method: str, instance: Instance, tasks: TaskSet, time_limit: float | None, p: RDSParams
 ) -> Result:
-    """:func:`russian_doll` over ``tasks`` with ``options``, as the method's result."""
-    out = russian_doll(instance, tasks, time_limit=time_limit, **options)
+    """:func:`russian_doll` over ``tasks`` with the parameters ``p``, as the method's result."""
+    opts = {"order": p.order, "decompose": p.decompose, "variables": p.variables}
+    out = russian_doll(instance, tasks, time_limit=time_limit, **opts)
     sizes = [len(c.items) for c in out.components]
     stats = {
         "tasks": len(tasks),
@@ -1215,13 +1216,7 @@ class RDSSTCParams(RDSParams):
 
 
 def solve_rds(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    order: Order = RDSParams.order,
-    decompose: bool = RDSParams.decompose,
-    variables: Variables = RDSParams.variables,
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """RDS over single opportunities at their own roll (no clustering): exact for (1)-(6).
 
@@ -1233,12 +1228,11 @@ def solve_rds(
         Unused: the search is deterministic.
     time_limit
         Seconds; on timeout the status is ``time_limit`` with the incumbent and a bound.
-    order
-        Variable order, ``"orbit"`` (by orbit, then time) or ``"weight"``.
-    decompose
-        Solve independent components of the interaction graph separately.
-    variables
-        ``"targets"`` (one variable per target, default) or ``"tasks"`` (0/1 per task).
+    **params
+        Fields of :class:`RDSParams`: ``order``, the variable order, ``"orbit"`` (by orbit,
+        then time) or ``"weight"``; ``decompose``, solve independent components of the
+        interaction graph separately; ``variables``, ``"targets"`` (one variable per target,
+        default) or ``"tasks"`` (0/1 per task).
 
     Returns
     -------
@@ -1247,39 +1241,22 @@ def solve_rds(
         components, the largest one and the search nodes.
     """
     del rng
-    tasks = single_tasks(instance)
-    opts = {"order": order, "decompose": decompose, "variables": variables}
-    return _result("rds", instance, tasks, time_limit, **opts)
+    p = from_kwargs(RDSParams, params, method="rds")
+    return _result("rds", instance, single_tasks(instance), time_limit, p)
 
 
 def solve_rds_stc(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    order: Order = RDSParams.order,
-    decompose: bool = RDSParams.decompose,
-    variables: Variables = RDSParams.variables,
-    roll_rule: RollRule = RDSSTCParams.roll_rule,
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """RDS-STC: RDS over the static cluster-tasks (the paper's exact baseline, Tables 3-4).
 
     Parameters
     ----------
-    instance
-        The problem.
-    rng
-        Unused: the search is deterministic.
-    time_limit
-        Seconds; on timeout the status is ``time_limit`` with the incumbent and a bound.
-    order
-        Variable order, ``"orbit"`` or ``"weight"``.
-    decompose
-        Solve independent components of the interaction graph separately.
-    variables
-        ``"targets"`` (one variable per target, default) or ``"tasks"`` (0/1 per task).
-    roll_rule
-        Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
+    instance, rng, time_limit
+        As :func:`solve_rds`.
+    **params
+        Fields of :class:`RDSSTCParams`: those of :func:`solve_rds`, and ``roll_rule``, the
+        roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
 
     Returns
     -------
@@ -1287,6 +1264,6 @@ def solve_rds_stc(
         As :func:`solve_rds`; optimal means optimal over these fixed cluster-tasks.
     """
     del rng
-    tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
-    opts = {"order": order, "decompose": decompose, "variables": variables}
-    return _result("rds-stc", instance, tasks, time_limit, **opts)
+    p = from_kwargs(RDSSTCParams, params, method="rds-stc")
+    tasks = static_cluster_tasks(instance, roll_rule=p.roll_rule)
+    return _result("rds-stc", instance, tasks, time_limit, p)

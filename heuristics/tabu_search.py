@@ -62,7 +62,7 @@ from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.schedule import RollRule
@@ -362,16 +362,7 @@ def run_tabu_search(
 
 
 def solve_ts_stc(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    iterations: int = TSParams.iterations,
-    tenure_min: int = TSParams.tenure_min,
-    tenure_freq: float = TSParams.tenure_freq,
-    restart_after: int = TSParams.restart_after,
-    perturb: int = TSParams.perturb,
-    roll_rule: RollRule = "midpoint",
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """TS-STC: Vasquez and Hao's tabu search over static cluster-tasks.
 
@@ -383,8 +374,8 @@ def solve_ts_stc(
         The only source of randomness (ties between moves, restarts).
     time_limit
         Wall-time limit in seconds (None: stop after ``iterations``).
-    iterations, tenure_min, tenure_freq, restart_after, perturb, roll_rule
-        See :class:`TSParams`.
+    **params
+        Fields of :class:`TSParams`.
 
     Returns
     -------
@@ -392,8 +383,8 @@ def solve_ts_stc(
         Status ``feasible``; ``stats`` holds the iteration of the best configuration, the
         restarts and the moves allowed by aspiration.
     """
-    params = TSParams(iterations, tenure_min, tenure_freq, restart_after, perturb, roll_rule)
-    tasks, chosen, profit, stats = run_tabu_search(instance, params, rng, time_limit)
+    p = from_kwargs(TSParams, params, method="ts-stc")
+    tasks, chosen, profit, stats = run_tabu_search(instance, p, rng, time_limit)
     it = stats.pop("iterations")
     log.info("ts-stc: profit %d, %d iterations (best at %d)", profit, it, stats["best_iteration"])
     return task_result("ts-stc", instance, tasks, chosen, profit, iterations=it, stats=stats)
