@@ -197,23 +197,20 @@ class Graph:
         self.local = np.full(len(data.tasks), -1, dtype=np.int64)
         self.horizon: dict[int, float] = {}
         self.origin: dict[int, float] = {}
+        self.tau: dict[int, np.ndarray] = {}
+        # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
+        # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
+        self._succ: dict[int, np.ndarray | None] = {}
         self.left = {j: data.left[data.orbit_tasks[j]] for j in self.orbits}
         self.right = {j: data.right[data.orbit_tasks[j]] for j in self.orbits}
         inst = data.instance
         for j in self.orbits:
             idx = data.orbit_tasks[j]
-            self.local[idx] = np.arange(len(idx))
+            m = len(idx)
+            self.local[idx] = np.arange(m)
             self.horizon[j] = max(float(inst.orbit_end[j] - inst.orbit_start[j]), 1e-9)
             self.origin[j] = float(inst.orbit_start[j])
-        self.tau: dict[int, np.ndarray] = {
-            j: np.ones((len(data.orbit_tasks[j]) + 1, len(data.orbit_tasks[j])))
-            for j in self.orbits
-        }
-        # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
-        # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
-        self._succ: dict[int, np.ndarray | None] = {}
-        for j in self.orbits:
-            m = len(data.orbit_tasks[j])
+            self.tau[j] = np.ones((m + 1, m))
             self._succ[j] = self._rows(j, np.arange(m + 1)) if m <= DENSE_TASKS else None
         #: per task, its weight (its gain while no target is covered), as floats
         self.weight = np.asarray(data.tasks.weight, dtype=np.float64)
