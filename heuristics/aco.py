@@ -57,14 +57,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from heuristics.stc import Selection, StcData, check_float, check_int, params_from_kwargs, stc_data
+from heuristics.hpfs import task_result
+from heuristics.stc import Selection, StcData, check_float, check_int, stc_data
 from sosp import rules
-from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
-from sosp.result import Result, Status
+from sosp.result import Result
 from sosp.rules import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -164,7 +164,7 @@ class ACOParams(Params):
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return params_from_kwargs(cls, "aco-stc", params)
+        return from_kwargs(cls, params, method="aco-stc")
 
 
 @dataclass(frozen=True)
@@ -180,7 +180,7 @@ class ACOLSParams(ACOParams):
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOLSParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return params_from_kwargs(cls, "aco-ls-stc", params)
+        return from_kwargs(cls, params, method="aco-ls-stc")
 
 
 # ----------------------------------------------------------------------------- the graph
@@ -197,23 +197,20 @@ class Graph:
         self.local = np.full(len(data.tasks), -1, dtype=np.int64)
         self.horizon: dict[int, float] = {}
         self.origin: dict[int, float] = {}
+        self.tau: dict[int, np.ndarray] = {}
+        # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
+        # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
+        self._succ: dict[int, np.ndarray | None] = {}
         self.left = {j: data.left[data.orbit_tasks[j]] for j in self.orbits}
         self.right = {j: data.right[data.orbit_tasks[j]] for j in self.orbits}
         inst = data.instance
         for j in self.orbits:
             idx = data.orbit_tasks[j]
-            self.local[idx] = np.arange(len(idx))
+            m = len(idx)
+            self.local[idx] = np.arange(m)
             self.horizon[j] = max(float(inst.orbit_end[j] - inst.orbit_start[j]), 1e-9)
             self.origin[j] = float(inst.orbit_start[j])
-        self.tau: dict[int, np.ndarray] = {
-            j: np.ones((len(data.orbit_tasks[j]) + 1, len(data.orbit_tasks[j])))
-            for j in self.orbits
-        }
-        # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
-        # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
-        self._succ: dict[int, np.ndarray | None] = {}
-        for j in self.orbits:
-            m = len(data.orbit_tasks[j])
+            self.tau[j] = np.ones((m + 1, m))
             self._succ[j] = self._rows(j, np.arange(m + 1)) if m <= DENSE_TASKS else None
         #: per task, its weight (its gain while no target is covered), as floats
         self.weight = np.asarray(data.tasks.weight, dtype=np.float64)
@@ -543,8 +540,6 @@ def run_aco(
         amount = depositor.profit / best_profit if best_profit > 0 else 1.0
         update_pheromone(graph.tau, graph.arcs(depositor), amount, p.rho, tau_min, tau_max)
     chosen = sorted(best.chosen) if best is not None else []
-    schedule = tasks_to_schedule(instance, data.tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     profit = max(best_profit, 0)
     stats = {
         "tasks": len(data.tasks),
@@ -558,9 +553,7 @@ def run_aco(
     if p.local_search:
         stats["ls_moves"] = ls_moves
     log.info("%s: profit %d after %d iterations (best at %d)", method, profit, it, best_iter)
-    return Result(
-        method, Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
-    )
+    return task_result(method, instance, data.tasks, chosen, profit, iterations=it, stats=stats)
 
 
 def solve_aco_stc(

@@ -45,13 +45,13 @@ from typing import Any
 
 import numpy as np
 
-from heuristics.stc import Selection, StcData, check_int, params_from_kwargs, stc_data
-from sosp.clustering import tasks_to_schedule
+from heuristics.hpfs import task_result
+from heuristics.stc import Selection, StcData, check_int, stc_data
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
-from sosp.result import Result, Status
+from sosp.result import Result
 from sosp.rules import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -101,7 +101,7 @@ class GAParams(Params):
     @classmethod
     def from_kwargs(cls, **params: Any) -> GAParams:
         """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return params_from_kwargs(cls, "ga-stc", params)
+        return from_kwargs(cls, params, method="ga-stc")
 
 
 def repair(data: StcData, bits: np.ndarray) -> tuple[np.ndarray, int]:
@@ -244,8 +244,6 @@ def solve_ga_stc(
         if f > best_fit:
             best_bits, best_fit, best_child = child, f, children
     chosen = [int(t) for t in data.usable[best_bits]]
-    schedule = tasks_to_schedule(instance, data.tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
         "tasks": len(data.tasks),
         "usable_tasks": len(data.usable),
@@ -255,12 +253,6 @@ def solve_ga_stc(
         "params": asdict(p),
     }
     log.info("ga-stc: profit %d after %d children (best at %d)", best_fit, children, best_child)
-    return Result(
-        "ga-stc",
-        Status.FEASIBLE,
-        schedule,
-        float(best_fit),
-        observed,
-        iterations=children,
-        stats=stats,
+    return task_result(
+        "ga-stc", instance, data.tasks, chosen, best_fit, iterations=children, stats=stats
     )

@@ -36,8 +36,6 @@ def solve_greedy(
     observed = 0
     for k in order:
         opps = instance.target_opps[k]
-        if opps.size == 0:
-            continue
         cand = sorted(opps.tolist(), key=lambda i: -lines[instance.opp_orbit[i]].free_share())
         for i in cand:
             line = lines[int(instance.opp_orbit[i])]

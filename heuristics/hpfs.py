@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -92,6 +93,22 @@ def insertion_decode(
     return chosen, profit
 
 
+def task_result(
+    method: str,
+    instance: Instance,
+    tasks: TaskSet,
+    chosen: list[int],
+    profit: float,
+    status: Status = Status.FEASIBLE,
+    **fields: Any,
+) -> Result:
+    """The tasks ``chosen`` (indices into ``tasks``), worth ``profit``, as ``method``'s result;
+    ``fields`` are the other :class:`sosp.result.Result` fields (``iterations``, ``stats``)."""
+    schedule = tasks_to_schedule(instance, tasks, chosen)
+    observed = sum(len(o.opps) for o in schedule.observations)
+    return Result(method, status, schedule, float(profit), observed, **fields)
+
+
 def priority_order(tasks: TaskSet) -> np.ndarray:
     """Tasks by decreasing weight; ties by task index (that is by orbit, then start)."""
     return np.lexsort((np.arange(len(tasks)), -np.asarray(tasks.weight, dtype=np.int64)))
@@ -134,14 +151,6 @@ def solve_hpfs_stc(
     del rng, time_limit
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
     chosen, profit = insertion_decode(instance, tasks, priority_order(tasks))
-    schedule = tasks_to_schedule(instance, tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     log.debug("hpfs-stc: %d of %d cluster-tasks inserted", len(chosen), len(tasks))
-    return Result(
-        "hpfs-stc",
-        Status.FEASIBLE,
-        schedule,
-        float(profit),
-        observed,
-        stats={"tasks": len(tasks), "inserted": len(chosen)},
-    )
+    stats = {"tasks": len(tasks), "inserted": len(chosen)}
+    return task_result("hpfs-stc", instance, tasks, chosen, profit, stats=stats)

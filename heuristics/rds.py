@@ -115,13 +115,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode
-from heuristics.timeline import OrbitTimeline, fits_alone
+from heuristics.hpfs import insertion_decode, task_result
+from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp import rules
-from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_to_schedule
+from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
@@ -503,6 +503,18 @@ def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
 
 
 # ------------------------------------------------------------------------------- search
+def _entries(
+    instance: Instance, tasks: TaskSet, items: list[int]
+) -> tuple[list[int], list[tuple], dict[int, OrbitTimeline], list[OrbitTimeline]]:
+    """Per item (by position): its orbit, timeline entry ``(start, end, roll, position)``
+    (:func:`heuristics.timeline.task_entries`) and its orbit's empty timeline (also given per
+    orbit)."""
+    orb = tasks.orbit[items].tolist()
+    ent = task_entries(tasks, items)
+    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
+    return orb, ent, lines, [lines[j] for j in orb]
+
+
 def rds_component(
     instance: Instance,
     tasks: TaskSet,
@@ -533,15 +545,9 @@ def rds_component(
     t0 = clock()
     m = len(items)
     tw = instance.target_weight
-    orb = [int(tasks.orbit[t]) for t in items]
-    st = [float(tasks.start[t]) for t in items]
-    en = [float(tasks.end[t]) for t in items]
-    ro = [float(tasks.roll[t]) for t in items]
-    ent = [(s, e, r, p) for p, (s, e, r) in enumerate(zip(st, en, ro, strict=True))]
+    orb, ent, _, line_of = _entries(instance, tasks, items)
     tg = [tuple(int(k) for k in tasks.targets[t]) for t in items]
     wt = [int(sum(int(tw[k]) for k in ks)) for ks in tg]
-    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
-    line_of = [lines[j] for j in orb]
     cover: dict[int, int] = {k: 0 for ks in tg for k in ks}
     opt = [0] * (m + 1)
     stack: list[int] = []  # positions currently scheduled
@@ -557,8 +563,7 @@ def rds_component(
         stack.append(p)
 
     def undo(p: int) -> None:
-        line = line_of[p]
-        line.remove(line.obs.index(ent[p]))
+        line_of[p].discard(ent[p])
         for k in tg[p]:
             cover[k] -= 1
         stack.pop()
@@ -698,11 +703,7 @@ def rds_targets_component(
     wq = [int(tw[k]) for k in tkeys]
     # Tasks become local ids 0..m-1; domains hold local ids, heaviest task first.
     local = {t: i for i, t in enumerate(items)}
-    orb = [int(tasks.orbit[t]) for t in items]
-    st = [float(tasks.start[t]) for t in items]
-    en = [float(tasks.end[t]) for t in items]
-    ro = [float(tasks.roll[t]) for t in items]
-    ent = [(s, e, r, p) for p, (s, e, r) in enumerate(zip(st, en, ro, strict=True))]
+    orb, ent, lines, line_of = _entries(instance, tasks, items)
     dom = [
         [
             local[t]
@@ -712,8 +713,6 @@ def rds_targets_component(
         ]
         for k in tkeys
     ]
-    lines = {j: OrbitTimeline.of(instance, j) for j in set(orb)}
-    line_of = [lines[j] for j in orb]
     m = len(items)
     on = [False] * m  # task scheduled
     forbid = [0] * m  # > 0: excluded by a "none" branch above
@@ -793,8 +792,7 @@ def rds_targets_component(
                 cur["value"] -= wq[p]
         stack.pop()
         on[t] = False
-        line = line_of[t]
-        line.remove(line.obs.index(ent[t]))
+        line_of[t].discard(ent[t])
 
     def ban(t: int) -> None:
         forbid[t] += 1
@@ -921,19 +919,18 @@ def rds_targets_component(
         # into ``base`` (the last optimum), dropping the tasks in (3) conflict with it and
         # covering their lost targets again, fewest options first. Heuristic; any selection
         # it returns is feasible (built through the timelines) and worth ``goal``.
+        def put(tl: dict[int, OrbitTimeline], t: int) -> bool:
+            line = tl.setdefault(orb[t], OrbitTimeline(lines[orb[t]].rules))
+            chk = line.check_insert(ent[t])
+            if chk:
+                line.insert(ent[t], chk)
+            return bool(chk)
+
         for t0 in dom[i]:
             bad = set(conf[t0])
-            sel = sorted((t for t in base if t not in bad), key=lambda t: st[t]) + [t0]
+            sel = sorted((t for t in base if t not in bad), key=lambda t: ent[t][0]) + [t0]
             tl: dict[int, OrbitTimeline] = {}
-            ok = True
-            for t in sel:
-                line = tl.setdefault(orb[t], OrbitTimeline(lines[orb[t]].rules))
-                chk = line.check_insert(ent[t])
-                if not chk:
-                    ok = False
-                    break
-                line.insert(ent[t], chk)
-            if not ok:
+            if not all(put(tl, t) for t in sel):
                 continue
             have = {p for t in sel for p in tpos[t] if p >= i}
             lost = sorted(
@@ -944,10 +941,7 @@ def rds_targets_component(
                 if p in have:
                     continue
                 for u in dom[p]:
-                    line = tl.setdefault(orb[u], OrbitTimeline(lines[orb[u]].rules))
-                    chk = line.check_insert(ent[u])
-                    if chk:
-                        line.insert(ent[u], chk)
+                    if put(tl, u):
                         sel.append(u)
                         have.update(p2 for p2 in tpos[u] if p2 >= i)
                         break
@@ -1176,9 +1170,12 @@ def russian_doll(
 
 
 # ------------------------------------------------------------------------------ methods
-def _result(method: str, instance: Instance, tasks: TaskSet, out: RdsOutcome) -> Result:
-    schedule = tasks_to_schedule(instance, tasks, out.chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
+def _result(
+    method: str, instance: Instance, tasks: TaskSet, time_limit: float | None, p: RDSParams
+) -> Result:
+    """:func:`russian_doll` over ``tasks`` with the parameters ``p``, as the method's result."""
+    opts = {"order": p.order, "decompose": p.decompose, "variables": p.variables}
+    out = russian_doll(instance, tasks, time_limit=time_limit, **opts)
     sizes = [len(c.items) for c in out.components]
     stats = {
         "tasks": len(tasks),
@@ -1198,15 +1195,8 @@ def _result(method: str, instance: Instance, tasks: TaskSet, out: RdsOutcome) ->
         stats["largest_component"],
         stats["nodes"],
     )
-    return Result(
-        method,
-        status,
-        schedule,
-        float(out.value),
-        observed,
-        bound=float(out.bound),
-        stats=stats,
-    )
+    chosen, bound = out.chosen, float(out.bound)
+    return task_result(method, instance, tasks, chosen, out.value, status, bound=bound, stats=stats)
 
 
 @dataclass(frozen=True)
@@ -1226,13 +1216,7 @@ class RDSSTCParams(RDSParams):
 
 
 def solve_rds(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    order: Order = RDSParams.order,
-    decompose: bool = RDSParams.decompose,
-    variables: Variables = RDSParams.variables,
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """RDS over single opportunities at their own roll (no clustering): exact for (1)-(6).
 
@@ -1244,12 +1228,11 @@ def solve_rds(
         Unused: the search is deterministic.
     time_limit
         Seconds; on timeout the status is ``time_limit`` with the incumbent and a bound.
-    order
-        Variable order, ``"orbit"`` (by orbit, then time) or ``"weight"``.
-    decompose
-        Solve independent components of the interaction graph separately.
-    variables
-        ``"targets"`` (one variable per target, default) or ``"tasks"`` (0/1 per task).
+    **params
+        Fields of :class:`RDSParams`: ``order``, the variable order, ``"orbit"`` (by orbit,
+        then time) or ``"weight"``; ``decompose``, solve independent components of the
+        interaction graph separately; ``variables``, ``"targets"`` (one variable per target,
+        default) or ``"tasks"`` (0/1 per task).
 
     Returns
     -------
@@ -1258,46 +1241,22 @@ def solve_rds(
         components, the largest one and the search nodes.
     """
     del rng
-    tasks = single_tasks(instance)
-    out = russian_doll(
-        instance,
-        tasks,
-        time_limit=time_limit,
-        order=order,
-        decompose=decompose,
-        variables=variables,
-    )
-    return _result("rds", instance, tasks, out)
+    p = from_kwargs(RDSParams, params, method="rds")
+    return _result("rds", instance, single_tasks(instance), time_limit, p)
 
 
 def solve_rds_stc(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    order: Order = RDSParams.order,
-    decompose: bool = RDSParams.decompose,
-    variables: Variables = RDSParams.variables,
-    roll_rule: RollRule = RDSSTCParams.roll_rule,
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """RDS-STC: RDS over the static cluster-tasks (the paper's exact baseline, Tables 3-4).
 
     Parameters
     ----------
-    instance
-        The problem.
-    rng
-        Unused: the search is deterministic.
-    time_limit
-        Seconds; on timeout the status is ``time_limit`` with the incumbent and a bound.
-    order
-        Variable order, ``"orbit"`` or ``"weight"``.
-    decompose
-        Solve independent components of the interaction graph separately.
-    variables
-        ``"targets"`` (one variable per target, default) or ``"tasks"`` (0/1 per task).
-    roll_rule
-        Roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
+    instance, rng, time_limit
+        As :func:`solve_rds`.
+    **params
+        Fields of :class:`RDSSTCParams`: those of :func:`solve_rds`, and ``roll_rule``, the
+        roll of multi-opportunity cluster-tasks, ``"midpoint"`` (9) or ``"nadir"``.
 
     Returns
     -------
@@ -1305,13 +1264,6 @@ def solve_rds_stc(
         As :func:`solve_rds`; optimal means optimal over these fixed cluster-tasks.
     """
     del rng
-    tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
-    out = russian_doll(
-        instance,
-        tasks,
-        time_limit=time_limit,
-        order=order,
-        decompose=decompose,
-        variables=variables,
-    )
-    return _result("rds-stc", instance, tasks, out)
+    p = from_kwargs(RDSSTCParams, params, method="rds-stc")
+    tasks = static_cluster_tasks(instance, roll_rule=p.roll_rule)
+    return _result("rds-stc", instance, tasks, time_limit, p)

@@ -50,14 +50,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode, priority_order
-from heuristics.timeline import OrbitTimeline, fits_alone
-from sosp.clustering import static_cluster_tasks, tasks_to_schedule
+from heuristics.hpfs import insertion_decode, priority_order, task_result
+from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
+from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
 from sosp.progress import current as current_progress
-from sosp.result import Result, Status
+from sosp.result import Result
 from sosp.schedule import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
@@ -120,8 +120,6 @@ def solve_sa_stc(
         Status ``feasible``; ``iterations`` moves done; ``stats`` holds temperatures, accepted
         and improving moves and the iteration of the best schedule.
     """
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 0:
-        raise InputError(f"iterations: expected a non-negative integer, got {iterations!r}")
     clock = time.perf_counter
     deadline = None if time_limit is None else clock() + float(time_limit)
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
@@ -140,14 +138,11 @@ def solve_sa_stc(
     t_start = clock()
 
     # Per-task data as Python lists (the inner loops are scalar).
-    orb = [int(x) for x in tasks.orbit]
+    orb = tasks.orbit.tolist()
     # timeline entries (start, end, roll, task), built once
-    ent = [
-        (float(s), float(e), float(r), t)
-        for t, (s, e, r) in enumerate(zip(tasks.start, tasks.end, tasks.roll, strict=True))
-    ]
+    ent = task_entries(tasks)
     tg = [tuple(int(k) for k in ks) for ks in tasks.targets]
-    twl = [int(x) for x in tw]
+    twl = tw.tolist()
     lines = {j: OrbitTimeline.of(instance, j) for j in set(orb[t] for t in usable)}
     cover = [0] * instance.n_targets
 
@@ -161,15 +156,16 @@ def solve_sa_stc(
             cover[k] += 1
 
     def take(t: int) -> None:
-        line = lines[orb[t]]
-        line.remove(line.obs.index(ent[t]))
+        lines[orb[t]].discard(ent[t])
         for k in tg[t]:
             cover[k] -= 1
 
-    # Initial decode (HPFS order) leaves the cursor at n.
-    total = 0
-    for t in perm:
-        g = sum(twl[k] for k in tg[t] if cover[k] == 0)
+    def fit(t: int) -> int:
+        # the decoder's step: insert t if it earns and fits; what it earns (0: not inserted)
+        g = 0
+        for k in tg[t]:
+            if cover[k] == 0:
+                g += twl[k]
         if g > 0:
             line = lines[orb[t]]
             chk = line.check_insert(ent[t])
@@ -177,8 +173,16 @@ def solve_sa_stc(
                 line.insert(ent[t], chk)
                 for k in tg[t]:
                     cover[k] += 1
-                acc[t], gain[t] = True, g
-                total += g
+                return g
+        return 0
+
+    # Initial decode (HPFS order) leaves the cursor at n.
+    total = 0
+    for t in perm:
+        g = fit(t)
+        if g:
+            acc[t], gain[t] = True, g
+            total += g
     cursor = n
     best_total, best_perm, best_iter = total, list(perm), 0
     temperature = t0
@@ -225,21 +229,8 @@ def solve_sa_stc(
         p = i
         while p < n:
             t = perm[p]
-            g = 0
-            for k in tg[t]:
-                if cover[k] == 0:
-                    g += twl[k]
-            ok = False
-            if g > 0:
-                line = lines[orb[t]]
-                chk = line.check_insert(ent[t])
-                if chk:
-                    line.insert(ent[t], chk)
-                    for k in tg[t]:
-                        cover[k] += 1
-                    ok = True
-            if not ok:
-                g = 0
+            g = fit(t)
+            ok = g > 0
             new_acc.append(ok)
             new_gain.append(g)
             if ok != acc[t]:
@@ -269,8 +260,6 @@ def solve_sa_stc(
     chosen, profit = insertion_decode(instance, tasks, best_perm)
     if profit != best_total:
         log.warning("sa-stc: re-decoded profit %d differs from tracked %d", profit, best_total)
-    schedule = tasks_to_schedule(instance, tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
         "tasks": len(tasks),
         "usable_tasks": n,
@@ -282,6 +271,4 @@ def solve_sa_stc(
         "best_iteration": best_iter,
     }
     log.info("sa-stc: profit %d after %d iterations (best at %d)", profit, it, best_iter)
-    return Result(
-        "sa-stc", Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
-    )
+    return task_result("sa-stc", instance, tasks, chosen, profit, iterations=it, stats=stats)

@@ -12,9 +12,7 @@ methods need:
 * :class:`Selection`: a set of chosen tasks with one :class:`heuristics.timeline.OrbitTimeline`
   per orbit (the rules (3)-(6), (11) are checked there and nowhere else), coverage counts per
   target (a target in tasks of several orbits counts once, ``docs/model.md``) and the profit,
-  all updated by deltas;
-* :func:`params_from_kwargs`: a parameter dataclass from keyword parameters, coercing the
-  command line's strings from the dataclass's type hints.
+  all updated by deltas.
 """
 
 from __future__ import annotations
@@ -23,31 +21,21 @@ import logging
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
-from heuristics.timeline import InsertCheck, OrbitTimeline, fits_alone
+from heuristics.timeline import InsertCheck, OrbitTimeline, fits_alone, task_entries
 from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import from_kwargs
 from sosp.schedule import RollRule
 
 log = logging.getLogger(__name__)
 
-P = TypeVar("P")
-
 
 # ------------------------------------------------------------------------------- parameters
-def params_from_kwargs(cls: type[P], method: str, kwargs: dict[str, Any]) -> P:
-    """Build the frozen parameter dataclass ``cls`` from keyword parameters, CLI strings
-    converted by the fields' type hints (:func:`sosp.params.from_kwargs`); validation is the
-    dataclass's own ``__post_init__``."""
-    return from_kwargs(cls, kwargs, method=method)
-
-
 def check_int(name: str, value: Any, minimum: int, optional: bool = False) -> None:
     """``value`` is an integer >= ``minimum`` (or None when ``optional``), else InputError."""
     if value is None and optional:
@@ -173,15 +161,7 @@ def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
         position=position,
         targets=tuple(tuple(int(k) for k in ks) for ks in tasks.targets),
         weight=[int(x) for x in instance.target_weight],
-        entries=list(
-            zip(
-                tasks.start.tolist(),
-                tasks.end.tolist(),
-                tasks.roll.tolist(),
-                range(len(tasks)),
-                strict=True,
-            )
-        ),
+        entries=task_entries(tasks),
     )
 
 
@@ -241,8 +221,7 @@ class Selection:
 
     def remove(self, t: int) -> None:
         """Remove the chosen task ``t`` (never breaks (3)-(6): ``docs/model.md``)."""
-        line = self.lines[int(self.data.tasks.orbit[t])]
-        line.remove(line.obs.index(self.data.entries[t]))
+        self.lines[int(self.data.tasks.orbit[t])].discard(self.data.entries[t])
         cover, w = self.cover, self.data.weight
         for k in self.data.targets[t]:
             cover[k] -= 1

@@ -55,24 +55,20 @@ from typing import Any
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode, priority_order
-from heuristics.timeline import OrbitTimeline, fits_alone
-from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
+from heuristics.hpfs import insertion_decode, priority_order, task_result
+from heuristics.stc import check_int
+from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
+from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
+from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
-from sosp.result import Result, Status
+from sosp.result import Result
 from sosp.schedule import RollRule
 from sosp.stop import FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
-
-
-def _nonneg_int(name: str, value: object, minimum: int = 0) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -103,12 +99,12 @@ class TSParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        _nonneg_int("iterations", self.iterations)
-        _nonneg_int("tenure_min", self.tenure_min)
-        _nonneg_int("restart_after", self.restart_after, 1)
-        _nonneg_int("perturb", self.perturb)
-        tf = self.tenure_freq
-        if isinstance(tf, bool) or not isinstance(tf, int | float) or not 0 <= tf < 1e6:
+        check_int("iterations", self.iterations, 0)
+        check_int("tenure_min", self.tenure_min, 0)
+        check_int("restart_after", self.restart_after, 1)
+        check_int("perturb", self.perturb, 0)
+        tf = self.tenure_freq  # a number (Params.check_types); nan fails the range too
+        if not 0 <= tf < 1e6:
             raise InputError(f"tenure_freq: expected a number in [0, 1e6), got {tf!r}")
 
 
@@ -152,9 +148,8 @@ class TabuSearch:
         self.orb = [int(tasks.orbit[t]) for t in usable]
         self.st = [float(tasks.start[t]) for t in usable]
         self.en = [float(tasks.end[t]) for t in usable]
-        self.ro = [float(tasks.roll[t]) for t in usable]
         # timeline entries (start, end, roll, local index), built once
-        self.ent = [(self.st[i], self.en[i], self.ro[i], i) for i in range(n)]
+        self.ent = task_entries(tasks, usable)
         self.tg = [tasks.targets[t] for t in usable]
         self.tw = [int(x) for x in instance.target_weight]
         idx = np.array(usable, dtype=np.int64)
@@ -196,8 +191,7 @@ class TabuSearch:
 
     def drop(self, i: int) -> None:
         """Take task i out."""
-        line = self.lines[self.orb[i]]
-        line.remove(line.obs.index(self.ent[i]))
+        self.lines[self.orb[i]].discard(self.ent[i])
         for k in self.tg[i]:
             self.cover[k] -= 1
             if self.cover[k] == 0:
@@ -212,7 +206,8 @@ class TabuSearch:
             self.add(i)
         self.gain[:] = -np.inf
         self.plan = [None] * self.n
-        self._evaluate_all()
+        for i in range(self.n):
+            self._refresh(i)
 
     # ------------------------------------------------------------------ moves
     def evaluate(self, i: int) -> tuple[int, tuple[int, ...]] | None:
@@ -258,16 +253,7 @@ class TabuSearch:
 
     def _refresh(self, i: int) -> None:
         ev = self.evaluate(i)
-        if ev is None:
-            self.gain[i] = -np.inf
-            self.plan[i] = None
-        else:
-            self.gain[i] = ev[0]
-            self.plan[i] = ev[1]
-
-    def _evaluate_all(self) -> None:
-        for i in range(self.n):
-            self._refresh(i)
+        self.gain[i], self.plan[i] = (-np.inf, None) if ev is None else ev
 
     def apply(self, i: int, it: int) -> None:
         """Make the move "add task i" (its cached plan) and refresh the affected moves."""
@@ -275,12 +261,17 @@ class TabuSearch:
         assert dropped is not None
         changed: set[int] = set(self.tg[i])
         for h in dropped:
-            self.drop(h)
-            self.drops[h] += 1
-            self.tabu_until[h] = it + tabu_tenure(self.params, self.drops[h])
-            changed.update(self.tg[h])
+            self.ban(h, it, changed)
         self.add(i)
         self.invalidate({self.orb[i]}, changed)
+
+    def ban(self, h: int, it: int, changed: set[int]) -> None:
+        """Take task h out at iteration ``it``, tabu for its tenure; its targets join
+        ``changed`` (for :meth:`invalidate`)."""
+        self.drop(h)
+        self.drops[h] += 1
+        self.tabu_until[h] = it + tabu_tenure(self.params, self.drops[h])
+        changed.update(self.tg[h])
 
     def invalidate(self, orbits: set[int], changed: set[int]) -> None:
         """Re-evaluate the moves that the last change of configuration may affect."""
@@ -357,11 +348,7 @@ def run_tabu_search(
                 out = rng.choice(len(best_set), size=k, replace=False)
                 changed: set[int] = set()
                 for q in sorted(int(x) for x in out):
-                    h = best_set[q]
-                    ts.drop(h)
-                    ts.drops[h] += 1
-                    ts.tabu_until[h] = it + tabu_tenure(params, ts.drops[h])
-                    changed.update(ts.tg[h])
+                    ts.ban(best_set[q], it, changed)
                 ts.invalidate({ts.orb[best_set[int(q)]] for q in out}, changed)
     stats = {
         "tasks": len(tasks),
@@ -375,16 +362,7 @@ def run_tabu_search(
 
 
 def solve_ts_stc(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    iterations: int = TSParams.iterations,
-    tenure_min: int = TSParams.tenure_min,
-    tenure_freq: float = TSParams.tenure_freq,
-    restart_after: int = TSParams.restart_after,
-    perturb: int = TSParams.perturb,
-    roll_rule: RollRule = "midpoint",
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """TS-STC: Vasquez and Hao's tabu search over static cluster-tasks.
 
@@ -396,8 +374,8 @@ def solve_ts_stc(
         The only source of randomness (ties between moves, restarts).
     time_limit
         Wall-time limit in seconds (None: stop after ``iterations``).
-    iterations, tenure_min, tenure_freq, restart_after, perturb, roll_rule
-        See :class:`TSParams`.
+    **params
+        Fields of :class:`TSParams`.
 
     Returns
     -------
@@ -405,12 +383,8 @@ def solve_ts_stc(
         Status ``feasible``; ``stats`` holds the iteration of the best configuration, the
         restarts and the moves allowed by aspiration.
     """
-    params = TSParams(iterations, tenure_min, tenure_freq, restart_after, perturb, roll_rule)
-    tasks, chosen, profit, stats = run_tabu_search(instance, params, rng, time_limit)
-    schedule = tasks_to_schedule(instance, tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
+    p = from_kwargs(TSParams, params, method="ts-stc")
+    tasks, chosen, profit, stats = run_tabu_search(instance, p, rng, time_limit)
     it = stats.pop("iterations")
     log.info("ts-stc: profit %d, %d iterations (best at %d)", profit, it, stats["best_iteration"])
-    return Result(
-        "ts-stc", Status.FEASIBLE, schedule, float(profit), observed, iterations=it, stats=stats
-    )
+    return task_result("ts-stc", instance, tasks, chosen, profit, iterations=it, stats=stats)

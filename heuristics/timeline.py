@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 from sosp.instance import Instance
 from sosp.rules import EPS, OrbitRules, alone_ok_mask, orbit_rules
 
-__all__ = ["EPS", "Entry", "InsertCheck", "OrbitTimeline", "fits_alone"]
+__all__ = ["EPS", "Entry", "InsertCheck", "OrbitTimeline", "fits_alone", "task_entries"]
 
 #: ``(start, end, roll, *payload)``: an observation's window [ts, te], its roll, then anything.
 Entry = tuple
@@ -140,12 +140,6 @@ class OrbitTimeline:
         return not (e or m or c) and self.first_conflict() < 0
 
     # -------------------------------------------------------------------------- deltas
-    def insert_pos(self, entry: Entry) -> int:
-        """Where ``entry`` goes: after every entry with (start, end) at most its own."""
-        # The probe's third field (inf) is above every roll, so tuple order never reaches
-        # the payloads and ties in (start, end) go to the right.
-        return bisect_right(self.obs, (entry[0], entry[1], _INF))
-
     def _slew_around(self, pos: int, entry: Entry | None, skip: int) -> float:
         """Slew of the pairs touching position ``pos`` if it held ``entry`` (None: nothing).
 
@@ -166,10 +160,6 @@ class OrbitTimeline:
         if right < len(obs):
             s += turn(roll, obs[right][2])
         return s
-
-    def delta_insert(self, pos: int, entry: Entry) -> float:
-        """Change of the slew seconds (4) of inserting ``entry`` at ``pos``."""
-        return self._slew_around(pos, entry, 0) - self._slew_around(pos, None, 0)
 
     def delta_replace(self, pos: int, entry: Entry | None) -> tuple[float, float]:
         """(d observe, d slew) of replacing the entry at ``pos`` by ``entry`` (None: removing
@@ -193,9 +183,11 @@ class OrbitTimeline:
         n = len(obs)
         if n >= r.max_openings:
             return _NO6
+        # after every entry with (start, end) at most its own: the probe's third field (inf)
+        # is above every roll, so tuple order never reaches the payloads
         pos = bisect_right(obs, (start, end, _INF))
         clash, turn = r.clash, r.turn
-        # the same additions, in the same order, as delta_insert: equal totals to the bit
+        # the same additions, in the same order, as an unchecked insert: equal totals to the bit
         d_slew = 0.0
         if pos > 0:
             u = obs[pos - 1]
@@ -253,8 +245,8 @@ class OrbitTimeline:
         checked: the orbit may become infeasible (ASA repairs it afterwards).
         """
         if check is None:
-            pos = self.insert_pos(entry)
-            d_slew = self.delta_insert(pos, entry)
+            pos = bisect_right(self.obs, (entry[0], entry[1], _INF))
+            d_slew = self._slew_around(pos, entry, 0) - self._slew_around(pos, None, 0)
         elif check.ok:
             pos, d_slew = check.pos, check.d_slew
         else:
@@ -273,6 +265,10 @@ class OrbitTimeline:
         if not self.obs:  # no drift on an emptied orbit
             self.observe = self.slew = 0.0
         return entry
+
+    def discard(self, entry: Entry) -> None:
+        """Remove ``entry`` (equal to an entry of the timeline)."""
+        self.remove(self.obs.index(entry))
 
     def replace(self, pos: int, entry: Entry | None) -> None:
         """Replace (or with None remove) the entry at ``pos``, keeping the time order."""
@@ -334,6 +330,13 @@ class OrbitTimeline:
     def restore(self, snap: tuple[list[Entry], float, float]) -> None:
         """Go back to a :meth:`snapshot` (which is taken over, not copied)."""
         self.obs, self.observe, self.slew = snap[0], snap[1], snap[2]
+
+
+def task_entries(tasks: Any, items: Any = slice(None)) -> list[Entry]:
+    """Timeline entries ``(start, end, roll, position)`` of the tasks ``items`` (all by
+    default) of ``tasks`` (a :class:`sosp.clustering.TaskSet`), positions counted in ``items``."""
+    cols = (tasks.start[items].tolist(), tasks.end[items].tolist(), tasks.roll[items].tolist())
+    return list(zip(*cols, range(len(cols[0])), strict=True))
 
 
 def fits_alone(instance: Instance, tasks: Any) -> list[bool]:
