@@ -253,6 +253,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if args.bound is None:
             raise InputError("--bound-workers: give it with --bound")
         params["bound_workers"] = args.bound_workers
+    if args.max_memory is not None:
+        from sosp import candidates
+
+        candidates.MAX_MEMORY = args.max_memory  # read by each method's Budget
     result, interrupted = _solve_interruptibly(inst, args, params, t0)
     data = result.summary()
     if args.output:
@@ -272,6 +276,20 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += f"\nstopped by {interrupted}: the best schedule found so far"
     _emit(args, data, text)
     return 130 if interrupted else 0
+
+
+def _bytes(text: str) -> int:
+    """A byte count for ``--max-memory``: a number with an optional K, M, G or T suffix
+    (powers of 1024; a trailing B is allowed)."""
+    t = text.strip().upper().removesuffix("B")
+    unit = "KMGT".find(t[-1:]) + 1 if t[-1:] in ("K", "M", "G", "T") else 0
+    try:
+        value = float(t[: len(t) - (unit > 0)]) * 1024**unit
+    except ValueError:
+        value = 0.0
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive size such as 2G, got {text!r}")
+    return int(value)
 
 
 def _solve_interruptibly(
@@ -566,6 +584,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--iterations", type=positive(int), default=None, help="iteration limit (search methods)"
+    )
+    p.add_argument(
+        "--max-memory",
+        type=_bytes,
+        default=None,
+        metavar="BYTES",
+        help="memory the solve may hold, e.g. 1500M or 2G (default 2G): explicit candidates "
+        "that would not fit in half of it are replaced by pricing over time windows",
     )
     p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
     p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
