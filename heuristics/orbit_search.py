@@ -314,9 +314,7 @@ def solve_orbit_dp(
         if p.candidates != "auto":
             explicit = generate = budget
         try:
-            data = orbit_data(
-                instance, explicit.deadline, workers=p.workers, generate_by=generate.deadline
-            )
+            data = orbit_data(instance, explicit, workers=p.workers, generate_by=generate)
             search = OrbitSearch(data, rng)
         except TimeLimitReached as exc:
             if p.candidates != "auto":

@@ -539,7 +539,6 @@ def cluster_candidates(
     if hit is not None and (max_candidates is None or len(hit[4]) <= max_candidates):
         return hit
     budget = as_budget(deadline)
-    deadline = budget.deadline
     if max_candidates is None:
         estimate = budget.share(ESTIMATE_SHARE)
         if _estimate_late(instance, budget) or _need_by(instance, estimate) is None:
@@ -560,7 +559,7 @@ def cluster_candidates(
     # (an orbit's generation time grows with them, about one start each)
     size = np.diff(instance.orbit_offsets)
     todo = [j for j in range(instance.n_orbits) if j not in store]
-    pace, opps_left = Pace(deadline), int(size[todo].sum())
+    pace, opps_left = Pace(budget.deadline), int(size[todo].sum())
     for j in range(instance.n_orbits):
         left = None if max_candidates is None else max_candidates - total
         generated = j not in store
@@ -570,9 +569,9 @@ def cluster_candidates(
                 raise TimeLimitReached(
                     "time limit foreseen to be reached while generating candidate observations "
                     f"(about {pace.need(opps_left):.1f} s left to generate, "
-                    f"{deadline - now:.1f} s to the deadline); give more time or use asa-dtc"
+                    f"{budget.left():.1f} s to the deadline); give more time or use asa-dtc"
                 )
-        part = orbit_candidates(instance, j, deadline, left)
+        part = orbit_candidates(instance, j, budget.deadline, left)
         if generated:
             pace.end(int(size[j]))
             opps_left -= int(size[j])

@@ -253,10 +253,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if args.bound is None:
             raise InputError("--bound-workers: give it with --bound")
         params["bound_workers"] = args.bound_workers
-    if args.max_memory is not None:
-        from sosp import candidates
-
-        candidates.MAX_MEMORY = args.max_memory  # read by each method's Budget
+    if args.max_memory is not None:  # the memory of each method's Budget
+        importlib.import_module("sosp.candidates").MAX_MEMORY = args.max_memory
     result, interrupted = _solve_interruptibly(inst, args, params, t0)
     data = result.summary()
     if args.output:
