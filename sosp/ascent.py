@@ -84,7 +84,7 @@ class OrbitSearchParams(Params):
         prices and plans over the real observations of the argmax rolls
         (:func:`sosp.windows.window_plan`, a restricted set); ``"auto"`` (default):
         explicit unless they would not fit in the solve's memory
-        (``sosp.candidates.candidate_cap``, half of ``--max-memory``).
+        (``sosp.candidates.candidate_cap``, a third of ``--max-memory``).
     dask
         Plan the orbits of the start's pricing rounds (``lp_start``) on a Dask cluster:
         a scheduler's address, or ``"local"`` (``workers`` processes on this machine, one

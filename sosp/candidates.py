@@ -54,9 +54,9 @@ log = logging.getLogger(__name__)
 MAX_MEMORY = 2 * 2**30
 
 #: Bytes the planner's candidates may take in all (estimated before any is generated, see
-#: :func:`estimate_bytes`), or None: half of the solve's memory (:func:`candidate_cap`).
+#: :func:`estimate_bytes`), or None: a third of the solve's memory (:func:`candidate_cap`).
 #: Beyond it :func:`cluster_candidates` refuses with a one-line error instead of running the
-#: machine out of memory. A search over explicit candidates peaks at about 1.6 times their
+#: machine out of memory. A search over explicit candidates peaks at about three times their
 #: estimate (the planner arranges them per orbit beside the whole-instance columns).
 MAX_CANDIDATE_BYTES: int | None = None
 
@@ -69,8 +69,8 @@ def as_budget(budget: Budget | float | None) -> Budget:
 
 def candidate_cap(memory: int | None = None) -> int:
     """Bytes the candidates may take in a solve that may hold ``memory`` bytes (None:
-    :data:`MAX_MEMORY`): :data:`MAX_CANDIDATE_BYTES` when set, else half of it."""
-    return MAX_CANDIDATE_BYTES if MAX_CANDIDATE_BYTES is not None else (memory or MAX_MEMORY) // 2
+    :data:`MAX_MEMORY`): :data:`MAX_CANDIDATE_BYTES` when set, else a third of it."""
+    return MAX_CANDIDATE_BYTES if MAX_CANDIDATE_BYTES is not None else (memory or MAX_MEMORY) // 3
 
 
 #: Orbits with fewer (first, covered) pairs inside one Delta T than this are not sampled by
@@ -673,7 +673,7 @@ def check_memory(instance: Instance, memory: int | None = None) -> None:
         raise InputError(
             f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
             f"orbit {instance.orbit_ids[_densest(instance)]!r}); more than the "
-            f"{cap / 2**30:.1f} GB allowed (half of --max-memory): too dense for the "
+            f"{cap / 2**30:.1f} GB allowed (a third of --max-memory): too dense for the "
             "clustering-exact candidates (orbit-dp and asa-dtc plan over time windows instead: "
             "--param candidates=auto or windows)"
         )

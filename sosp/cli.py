@@ -589,7 +589,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="BYTES",
         help="memory the solve may hold, e.g. 1500M or 2G (default 2G): explicit candidates "
-        "that would not fit in half of it are replaced by pricing over time windows",
+        "that would not fit in a third of it are replaced by pricing over time windows",
     )
     p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
     p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
