@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import logging
 import sys
-import time
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
@@ -66,7 +65,7 @@ from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.rules import RollRule
-from sosp.stop import FirstOf, Interrupted, SearchStatus
+from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -451,13 +450,13 @@ def exchange(sol: Selection, x: int, rank: np.ndarray) -> bool:
     return False
 
 
-def local_search(sol: Selection, max_passes: int, deadline: float | None = None) -> int:
+def local_search(sol: Selection, max_passes: int, budget: Budget | None = None) -> int:
     """First-improvement local search with :func:`exchange` moves; returns moves kept.
 
     Each pass first adds every task that fits (by decreasing utility), then tries an exchange
     for each unscheduled task that would earn something, by decreasing utility, keeping every
-    improving move. Stops after a pass with no improvement, ``max_passes`` passes, or at
-    ``deadline`` (a ``time.perf_counter`` value).
+    improving move. Stops after a pass with no improvement, ``max_passes`` passes, or once
+    ``budget`` expires (None: no limit).
     """
     data = sol.data
     rank = np.empty(len(data.tasks), dtype=np.int64)
@@ -475,7 +474,7 @@ def local_search(sol: Selection, max_passes: int, deadline: float | None = None)
                 kept += 1
                 improved = True
                 sol.commit()
-            if deadline is not None and time.perf_counter() > deadline:
+            if budget is not None and budget.expired():
                 return kept
         if not improved:
             break
@@ -491,9 +490,7 @@ def run_aco(
     method: str,
 ) -> Result:
     """The MAX-MIN ant colony over static cluster-tasks (module docstring)."""
-    clock = time.perf_counter
-    t0 = clock()
-    deadline = None if time_limit is None else t0 + float(time_limit)
+    budget = Budget.of(time_limit)
     data = stc_data(instance, p.roll_rule)
     graph = Graph(data)
     tau_min, tau_max = tau_bounds(p.rho, p.p_best, 1, p.candidates)
@@ -517,12 +514,12 @@ def run_aco(
                 iter_best = ant
             seen.iteration, seen.since_best = it, since
             seen.best = float(max(best_profit, iter_best.profit))
-            if (deadline is not None and clock() > deadline) or halt(seen):
+            if budget.expired() or halt(seen):
                 stop = True
                 break
         assert iter_best is not None
         if p.local_search and not stop:
-            ls_moves += local_search(iter_best, p.ls_passes, deadline)
+            ls_moves += local_search(iter_best, p.ls_passes, budget)
         if iter_best.profit > best_profit:
             best, best_profit, best_iter, since = iter_best, iter_best.profit, it, 0
             tau_min, tau_max = tau_bounds(p.rho, p.p_best, len(best.chosen), p.candidates)

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import logging
 import sys
-import time
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -53,7 +52,7 @@ from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.rules import RollRule
-from sosp.stop import FirstOf, Interrupted, SearchStatus
+from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -191,8 +190,7 @@ def solve_ga_stc(
         discarded and the child that found the best schedule.
     """
     p = GAParams.from_kwargs(**params)
-    clock = time.perf_counter
-    deadline = None if time_limit is None else clock() + float(time_limit)
+    budget = Budget.of(time_limit)
     data = stc_data(instance, p.roll_rule)
     pop: list[np.ndarray] = []
     fit: list[int] = []
@@ -208,7 +206,7 @@ def solve_ga_stc(
         seen.add(key)
         pop.append(bits)
         fit.append(f)
-        if (deadline is not None and clock() > deadline) or Interrupted()():
+        if budget.expired():
             break
     fitness = np.array(fit, dtype=np.int64)
     best_i = int(np.argmax(fitness))
@@ -221,7 +219,7 @@ def solve_ga_stc(
     else:
         max_children = DEFAULT_ITERATIONS if time_limit is None else sys.maxsize
     while children < max_children and len(pop) >= 2:
-        if deadline is not None and clock() > deadline:
+        if budget.expired():
             break
         if (children & 7) == 0:
             status.iteration, status.since_best = children, children - best_child

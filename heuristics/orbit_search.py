@@ -38,14 +38,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sosp import candidates as sc
 from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
-from sosp.candidates import candidate_mode
 from sosp.errors import TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import workers_for
 from sosp.planner import orbit_data
 from sosp.result import Result, Status
-from sosp.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement
+from sosp.stop import Budget, FirstOf, MaxIterations, MaxRuntime, NoImprovement
 
 if TYPE_CHECKING:
     from sosp.parallel import Workers
@@ -56,17 +56,12 @@ log = logging.getLogger(__name__)
 DEFAULT_NO_IMPROVE = 500
 
 #: Seconds per opportunity foreseen for :func:`hpfs_start` (static clustering and the
-#: insertion, pure Python, one pass each, then the plans set): about twice the most
-#: measured inside ``sosp solve``, 2-core machine, drawn instances of up to 65,416
-#: opportunities (6.3 us on a 10,000-target polar box, 0.39 s; before the static
-#: clustering's loop was tightened, 31-37 us there).
+#: insertion, pure Python, one pass each, then the plans set): about twice the most measured.
 HPFS_S_PER_OPP = 1.5e-5
 
-#: Share of the time left (after the candidates' mode is decided: 2 s of a 5 s limit on a
-#: 10,000-target polar box) that :func:`hpfs_start` may be foreseen to take; past it the
+#: Share of the time left that :func:`hpfs_start` may be foreseen to take; past it the
 #: search starts as ``"lp"`` would. Most of it: on the densest instances the search over
-#: windows from any other start stays far below HPFS-STC's schedule (that box at 5 s:
-#: 6,962 from the LP start, 37,460 from HPFS-STC's 30,276 in 1.35 s).
+#: windows from any other start stays far below HPFS-STC's schedule.
 HPFS_START_SHARE = 0.8
 
 #: Share of the time limit that :func:`lp_start`'s column generation may take; when it has
@@ -83,17 +78,17 @@ LP_START_ROUNDS = 20
 
 def lp_start(
     search: OrbitSearch,
-    deadline: float | None,
+    budget: Budget | float | None,
     workers: Workers = 1,
     keep: bool = False,
-    plan_deadline: float | None = None,
+    plan_budget: Budget | float | None = None,
 ) -> dict[str, Any]:
     """Set each orbit's plan from the fractional schedule of the column-generation root.
 
     The root of :func:`models.colgen.colgen_bound` (the Dantzig-Wolfe master of the cluster
     model over orbit plans, priced by the same planner; for a :class:`WindowSearch`, the
     window relaxation's, :func:`models.window_bound.window_colgen_bound`) is solved until
-    it converges or ``deadline`` passes (or, when its first round shows that
+    it converges or ``budget`` expires (or, when its first round shows that
     :data:`LP_START_ROUNDS` rounds would not fit, not at all: the search then keeps the start
     it had, empty or HPFS-STC's; over windows that is foreseen before the first round,
     :data:`models.window_bound.ROUND_S_PER_PAIR`).
@@ -115,8 +110,8 @@ def lp_start(
     schedule: C1 490 to 552 with all of them, 520 orbit by orbit; C3 1,098 to 1,429 and
     1,216).
 
-    An orbit's re-plan foreseen to end past ``plan_deadline`` (the run's own limit; the
-    root's ``deadline`` is only its share) is not made, and the orbit keeps its plan: over
+    An orbit's re-plan foreseen not to fit in ``plan_budget`` (the run's own; ``budget`` is
+    only the root's share; None: no limit) is not made, and the orbit keeps its plan: over
     windows one re-plan of a dense orbit takes seconds.
 
     Returns the start's figures (rounds, seconds, the master's value, the profit set, and
@@ -124,7 +119,8 @@ def lp_start(
     """
     t0 = time.perf_counter()
     instance = search.data.instance
-    left = None if deadline is None else max(deadline - t0, 1e-3)
+    left = sc.as_budget(budget).left()
+    left = None if left is None else max(left, 1e-3)
     if isinstance(search, WindowSearch):
         from models.window_bound import window_colgen_bound
 
@@ -156,7 +152,7 @@ def lp_start(
             best[g] = (value, targets)
     for g, (_, targets) in sorted(best.items()):
         price = np.zeros(len(search.weight))
-        if search._late(g, plan_deadline):
+        if search._late(g, sc.as_budget(plan_budget)):
             continue
         price[targets] = search.weight[targets]
         search._set(g, search._timed_plan(g, price))
@@ -177,24 +173,22 @@ def lp_start(
     }
 
 
-def hpfs_start(search: WindowSearch, deadline: float | None) -> dict[str, Any]:
+def hpfs_start(search: WindowSearch, budget: Budget | float | None) -> dict[str, Any]:
     """Set each orbit's plan from HPFS-STC's schedule (:func:`heuristics.hpfs.solve_hpfs_stc`:
     static cluster-tasks by decreasing weight, each inserted when feasible), unless it is
-    foreseen (:data:`HPFS_S_PER_OPP`) to take more than :data:`HPFS_START_SHARE` of the
-    time left before ``deadline`` (the run's end).
+    foreseen (:data:`HPFS_S_PER_OPP`) to take more than :data:`HPFS_START_SHARE` of what
+    is left of ``budget`` (the run's).
 
-    Why: over windows one plan of a dense orbit takes seconds (a 10,000-target polar box:
-    up to 6.5 s), so at short limits the ascent from nothing plans a few orbits and leaves
-    the rest empty, while HPFS-STC fills every orbit in under half a second (0.39 s on
-    61,223 opportunities). The ascent then re-plans orbits against that schedule, each only
-    where it gains.
+    Why: over windows one plan of a dense orbit takes seconds, so at short limits the ascent
+    from nothing plans a few orbits and leaves the rest empty, while HPFS-STC fills every
+    orbit in under half a second. The ascent then re-plans orbits against that schedule,
+    each only where it gains.
 
     Returns the start's figures (seconds, the profit set; none when foreseen late).
     """
     t0 = time.perf_counter()
     instance = search.data.instance
-    left = None if deadline is None else max(deadline - t0, 0.0)
-    if left is not None and HPFS_S_PER_OPP * instance.n_opps > HPFS_START_SHARE * left:
+    if not sc.as_budget(budget).share(HPFS_START_SHARE).fits(HPFS_S_PER_OPP * instance.n_opps):
         return {"hpfs_s": 0.0, "hpfs_profit": None}
     from heuristics.hpfs import solve_hpfs_stc
 
@@ -210,7 +204,7 @@ SECOND_ASCENT_SHARE = 0.25
 
 
 def ascend_from_both(
-    search: OrbitSearch, deadline: float | None, started: dict[str, Any] | None = None
+    search: OrbitSearch, budget: Budget | float | None, started: dict[str, Any] | None = None
 ) -> tuple[OrbitSearch, dict[str, Any]]:
     """Ascend from the start already set (HPFS-STC's schedule), then, when it is foreseen to
     fit in :data:`SECOND_ASCENT_SHARE` of the time left, from nothing in a second search over
@@ -224,31 +218,28 @@ def ascend_from_both(
     ASA-DTC's start both call it so.
 
     Why: each ascent ends in a local optimum where no single orbit's re-plan gains, and which
-    one is higher depends on the instance. From HPFS-STC's schedule (static cluster-tasks,
-    inserted by weight) the orbits keep its assignment of targets to orbits; from nothing the
-    first orbits re-planned take whole dense strips. On the drawn instances of 1,200 to
-    5,000 targets where both were made, either ended higher, by instance and seed (world4-4
-    at 5 s: 13,901 from HPFS-STC's and 13,963 from nothing at seed 0, 13,821 and 14,112 at
-    seed 1; world4-3: 6,564 and 6,645, then 6,464 and 6,310); on G100k at 290 s, from nothing
-    585,092 (2026-11-27), from HPFS-STC's alone 578,426. Where a pass does not fit (a
-    10,000-target polar box at 5 s: one plan of its densest orbit takes seconds, the ascent
-    from nothing ends at a fifth of the other) only HPFS-STC's is made.
+    one is higher depends on the instance and the seed. From HPFS-STC's schedule (static
+    cluster-tasks, inserted by weight) the orbits keep its assignment of targets to orbits;
+    from nothing the first orbits re-planned take whole dense strips. Where a pass does not
+    fit (one plan of a dense orbit over windows takes seconds) the ascent from nothing ends
+    far below the other, so only HPFS-STC's is made.
 
     Both searches draw from the one generator in turn, so a seed gives one result. The
     second search takes the first's foresight (its measured planning times).
     """
     if started is not None and (started.get("hpfs_profit") is None or started.get("lp_kept")):
         return search, {}
-    search.ascent(deadline)
+    budget = sc.as_budget(budget)
+    search.ascent(budget)
     first = search.profit
     now = time.perf_counter()
     pass_s = sum(search.foreseen(g) for g in range(len(search.paths)))
     figures: dict[str, Any] = {"hpfs_ascent": first, "empty_ascent": None}
-    if deadline is not None and pass_s > SECOND_ASCENT_SHARE * (deadline - now):
+    if not budget.share(SECOND_ASCENT_SHARE).fits(pass_s):
         return search, figures
     other = type(search)(search.data, search.rng)
     other.plans = search.plans
-    other.ascent(deadline)
+    other.ascent(budget)
     figures["empty_ascent"] = other.profit
     figures["empty_ascent_s"] = round(time.perf_counter() - now, 4)
     if other.profit > first + 1e-9:
@@ -259,16 +250,14 @@ def ascend_from_both(
 
 
 #: With ``candidates="auto"`` and a time limit, the explicit candidates must be generated and
-#: arranged within this share of it, else the search plans over windows in the rest. Where
-#: they take longer, the windows win or the run failed: at 5, 10, 20 s, D30 (3,000 targets)
-#: windows 8842, 8886, 8894 against explicit 8810, exit 2, 8836; walker12-1500 at 5 s
-#: windows 8061 against exit 2 (at 10 and 20 s, where its candidates take 8.7 s, windows
-#: 8144 and 8322 against 8199 and 8363). Where they are quick (B10, C10) explicit is better.
+#: arranged within this share of it, else the search plans over windows in the rest: where
+#: they take longer the windows win (``docs/scenarios.md``); where they are quick (B10,
+#: C10) explicit is better.
 EXPLICIT_SHARE = 0.75
 
-#: ... and generated within this share of it (arranging them takes about as long again:
-#: D30 7.6 s and 8.2 s), so that the generation's foresight gives up early, with most of the
-#: limit left for the windows.
+#: ... and generated within this share of it (arranging them takes about as long again), so
+#: that the generation's foresight gives up early, with most of the limit left for the
+#: windows.
 GENERATE_SHARE = 0.4
 
 
@@ -290,13 +279,12 @@ def solve_orbit_dp(
     time_limit
         Wall-time limit in seconds, candidate generation included (None: stop by
         ``iterations`` / ``no_improve``). With ``candidates="auto"`` (default), the search
-        plans over windows where the candidates would take more than
-        ``sosp.candidates.MAX_CANDIDATE_BYTES`` (estimated before any is generated; 3,000
-        targets in the C region take 0.4 GB) or are not generated within
-        :data:`GENERATE_SHARE` and arranged within :data:`EXPLICIT_SHARE` of the limit
-        (foreseen early:
+        plans over windows where the candidates would not fit in the solve's memory
+        (:func:`sosp.candidates.candidate_cap`, estimated before any is generated) or are
+        not generated within :data:`GENERATE_SHARE` and arranged within
+        :data:`EXPLICIT_SHARE` of the limit (foreseen early:
         :func:`sosp.candidates.cluster_candidates`); with ``candidates="explicit"`` both
-        are :class:`InputError` (C10, the densest reference scenario, needs about 5 s).
+        are :class:`InputError`.
     **params
         Fields of :class:`OrbitSearchParams`.
 
@@ -311,20 +299,22 @@ def solve_orbit_dp(
 
     t0 = time.perf_counter()
     p = OrbitSearchParams.from_kwargs(**params)
-    deadline = None if time_limit is None else t0 + float(time_limit)
+    budget = Budget.of(time_limit, sc.MAX_MEMORY)
+    # the shares of the whole limit, counted from the start
+    lp_budget, explicit, generate = (
+        budget.share(s) for s in (LP_START_SHARE, EXPLICIT_SHARE, GENERATE_SHARE)
+    )
     iterations, no_improve = p.iterations, p.no_improve
     if iterations is None and no_improve is None and time_limit is None:
         no_improve = DEFAULT_NO_IMPROVE
-    mode = candidate_mode(instance, p.candidates, deadline)
+    mode = sc.candidate_mode(instance, p.candidates, budget)
     search: OrbitSearch
     data: Any = None
     if mode == "explicit":
-        until = generate_by = deadline
-        if p.candidates == "auto" and time_limit is not None:
-            until = t0 + EXPLICIT_SHARE * float(time_limit)
-            generate_by = t0 + GENERATE_SHARE * float(time_limit)
+        if p.candidates != "auto":
+            explicit = generate = budget
         try:
-            data = orbit_data(instance, until, workers=p.workers, generate_by=generate_by)
+            data = orbit_data(instance, explicit, workers=p.workers, generate_by=generate)
             search = OrbitSearch(data, rng)
         except TimeLimitReached as exc:
             if p.candidates != "auto":
@@ -343,24 +333,22 @@ def solve_orbit_dp(
         log.warning("orbit-dp: start hpfs needs window candidates; starting from lp")
         start = "lp"
     if start in ("hpfs", "auto") and mode == "windows" and data.orbits:
-        started = hpfs_start(search, deadline)  # type: ignore[arg-type]
+        started = hpfs_start(search, budget)  # type: ignore[arg-type]
         if started["hpfs_profit"] is None:
             start = "lp"
-    until = None if time_limit is None else t0 + LP_START_SHARE * float(time_limit)
     if start == "auto":
         # then the root's plans where its share leaves time for them (they replace HPFS's
         # on their orbits when together they gain: coordinated plans, D100 at 600 s 26,040
         # against 25,716 from nothing); HPFS's stay on the others
         # (explicit candidates: the root, as before)
-        late = until is not None and time.perf_counter() >= until
-        start = "hpfs" if mode == "windows" and late else "lp"
+        start = "hpfs" if mode == "windows" and lp_budget.expired() else "lp"
     if start == "lp" and data.orbits:
         # after HPFS-STC's schedule the root's plans stay only where together they do not
         # lower the profit: the start is never below HPFS-STC's
         keep = started.get("hpfs_profit") is not None
         local = p.workers if p.workers > 1 else None
         with workers_for(p.workers, p.dask, local) as workers:
-            started.update(lp_start(search, until, workers, keep, deadline))
+            started.update(lp_start(search, lp_budget, workers, keep, budget))
     crit: list[Any] = []
     if time_limit is not None:
         crit.append(MaxRuntime(float(time_limit), start=t0))
@@ -369,9 +357,9 @@ def solve_orbit_dp(
     if no_improve is not None:
         crit.append(NoImprovement(no_improve))
     # where HPFS-STC's schedule is the start, from nothing as well when that fits
-    search, ascents = ascend_from_both(search, deadline, started)
+    search, ascents = ascend_from_both(search, budget, started)
     started.update(ascents)
-    run = iterate(search, p, FirstOf(*crit), deadline, t0)
+    run = iterate(search, p, FirstOf(*crit), budget, t0)
     search.paths = run.best_paths
     schedule = search.schedule()
     profit, observed = schedule.coverage_profit(instance)

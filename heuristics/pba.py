@@ -77,6 +77,7 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order
+from sosp.candidates import as_budget
 from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
 from sosp.conflicts import setup_conflict_rows
 from sosp.errors import InputError
@@ -198,7 +199,9 @@ RCM_S_PER_WORK = 85e-9
 RCM_SHARE = 0.25
 
 
-def target_order(pp: PartProblem, order: Order = "rcm", deadline: float | None = None) -> list[int]:
+def target_order(
+    pp: PartProblem, order: Order = "rcm", budget: Budget | float | None = None
+) -> list[int]:
     """The targets in the order the partition cuts (see the module docstring).
 
     ``"rcm"``: reverse Cuthill-McKee over the targets' graph, where a target of a usable
@@ -208,8 +211,8 @@ def target_order(pp: PartProblem, order: Order = "rcm", deadline: float | None =
     made 28.6 million pairs in Python on a 2,500-target instance (3-7 s, twice per run,
     not interruptible: ``pba-stc --time-limit 5`` ran 7-8 s). The products read no clock
     either (a polar box of 10,000 targets: 13.4 s, and a 5 s run went to 14.5 s): with a
-    ``deadline`` (:func:`time.perf_counter`), an order foreseen past :data:`RCM_SHARE` of
-    the time left (:data:`RCM_S_PER_WORK`) is ``"index"`` instead.
+    time-limited ``budget``, an order foreseen past :data:`RCM_SHARE` of the time left
+    (:data:`RCM_S_PER_WORK`) is ``"index"`` instead.
     """
     if order == "index" or len(pp.targets) < 3:
         return list(pp.targets)
@@ -231,10 +234,11 @@ def target_order(pp: PartProblem, order: Order = "rcm", deadline: float | None =
     others = np.fromiter(
         (h for t in keys for h in pp.conflicts[t]), dtype=np.int64, count=int(sizes.sum())
     )
-    if deadline is not None:
+    budget = as_budget(budget)
+    if budget.deadline is not None:
         work = float((counts[keys] ** 2).sum())
         work += float((counts[np.repeat(keys, sizes)] * counts[others]).sum())
-        if not Budget.until(deadline).share(RCM_SHARE).fits(RCM_S_PER_WORK * work):
+        if not budget.share(RCM_SHARE).fits(RCM_S_PER_WORK * work):
             log.info("pba: targets in index order (rcm foreseen at %.1f s)", RCM_S_PER_WORK * work)
             return list(pp.targets)
     usable = np.zeros(n_tasks)
@@ -517,12 +521,13 @@ def partition_dp(
     order: list[int],
     params: PBAParams,
     prices: Prices,
-    deadline: float | None = None,
+    deadline: Budget | float | None = None,
 ) -> dict[str, Any]:
     """The partition of ``order`` into intervals minimising the sum of the parts' optima.
 
     ``B[j] = min over L <= max_part of B[j - L] + opt(j - L, j)`` (module docstring); parts
-    not reached before ``deadline`` or a stop request count their upper values.
+    not reached before the budget ``deadline`` expires (or a stop request) count their upper
+    values.
 
     Returns
     -------
@@ -538,7 +543,7 @@ def partition_dp(
     arg = [0] * (n + 1)
     memo: dict[tuple[int, int], tuple[float, list[int], bool]] = {}
     solved = 0
-    stopped, budget = False, Budget.until(deadline)
+    stopped, budget = False, as_budget(deadline)
     for j in range(1, n + 1):
         for length in range(1, min(lmax, j) + 1):
             i = j - length
@@ -582,7 +587,7 @@ def partition_dp(
 def pba_partition(
     instance: Instance,
     params: PBAParams,
-    deadline: float | None = None,
+    budget: Budget | float | None = None,
     tasks: TaskSet | None = None,
     unit: bool = False,
 ) -> dict[str, Any]:
@@ -591,7 +596,7 @@ def pba_partition(
     With ``params.prices == "lp"`` the partition is computed twice, with the LP's prices
     (:func:`lp_prices`) and, if time is left, without prices (the paper's reading), and R* is
     the lesser of the two bounds (both valid, module docstring); the parts returned are those
-    of the lesser. A stop request or a deadline already passed skips the LP. With ``unit``
+    of the lesser. A stop request or a ``budget`` already spent skips the LP. With ``unit``
     every target weighs 1, so the bound is one on the number of targets a static schedule
     observes (the paper's F*).
 
@@ -608,22 +613,22 @@ def pba_partition(
     if tasks is None:
         tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
     pp = part_problem(instance, tasks, unit)
-    order = target_order(pp, params.order, deadline)
+    budget = as_budget(budget)
+    order = target_order(pp, params.order, budget)
     coverable = sum(pp.weight[k] for k in pp.targets)
     prices = zero_prices(pp)
-    budget = Budget.until(deadline)
     if params.prices == "lp" and not budget.expired():
         # The LP first: if time runs out in the partition, the parts not reached count their
         # upper values, and with the LP's prices these still add up to the LP bound.
         prices = lp_prices(instance, pp, budget.left())
-    out = partition_dp(pp, order, params, prices, deadline)
+    out = partition_dp(pp, order, params, prices, budget)
     solved = out["subproblems"]
     # The optimum is an integer: round down, with a margin far above the float error of these
     # sums (about 1e-12 here), and never above the weight some task covers.
     bound = min(int(math.floor(out["value"] + prices.constant + 1e-6)), coverable)
     unpriced: int | None = bound if prices.lp_value is None else None
     if prices.lp_value is not None and not out["stopped"]:
-        plain = partition_dp(pp, order, params, zero_prices(pp), deadline)
+        plain = partition_dp(pp, order, params, zero_prices(pp), budget)
         solved += plain["subproblems"]
         unpriced = min(int(math.floor(plain["value"] + 1e-6)), coverable)
         if unpriced < bound:
@@ -644,15 +649,15 @@ def pba_partition(
 
 
 def count_bound(
-    instance: Instance, params: PBAParams, tasks: TaskSet, deadline: float | None = None
+    instance: Instance, params: PBAParams, tasks: TaskSet, deadline: Budget | float | None = None
 ) -> int:
     """F*: PBA-STC's upper bound on the number of targets a static schedule observes, the
     bound of :func:`pba_partition` with every weight 1 (the same argument as R*'s: it holds
-    for any non-negative weights). Parts not reached by ``deadline`` count all their
-    targets, so it stays a bound: past the deadline that is every target a usable task
+    for any non-negative weights). Parts not reached in the budget ``deadline`` count all
+    their targets, so it stays a bound: once it is spent that is every target a usable task
     covers, counted here without the partition's set-up (its conflicts and order, seconds
     on thousands of targets)."""
-    if deadline is not None and time.perf_counter() > deadline:
+    if as_budget(deadline).expired():
         opens = np.asarray(instance.max_openings) > 0
         return len({int(k) for t in np.flatnonzero(opens[tasks.orbit]) for k in tasks.targets[t]})
     return int(pba_partition(instance, params, deadline, tasks, unit=True)["bound"])
@@ -679,13 +684,13 @@ def pba_bound(
     """
     t0 = time.perf_counter()
     params = PBAParams(max_part, node_limit, order, roll_rule, prices)
-    deadline = None if time_limit is None else t0 + float(time_limit)
-    out = pba_partition(instance, params, deadline)
+    budget = Budget.of(time_limit)
+    out = pba_partition(instance, params, budget)
     return {
         "bound": out["bound"],
         "model": "static",
         "method": "pba",
-        "targets": count_bound(instance, params, out["tasks"], deadline),
+        "targets": count_bound(instance, params, out["tasks"], budget),
         "parts": len(out["parts"]),
         "inexact_parts": out["inexact_parts"],
         "subproblems": out["subproblems"],
@@ -728,8 +733,8 @@ def solve_pba_stc(
     """
     del rng
     params = PBAParams(max_part, node_limit, order, roll_rule, prices)
-    deadline = None if time_limit is None else time.perf_counter() + float(time_limit)
-    out = pba_partition(instance, params, deadline)
+    budget = Budget.of(time_limit)
+    out = pba_partition(instance, params, budget)
     tasks: TaskSet = out["tasks"]
     lines: dict = {}
     covered = np.zeros(instance.n_targets, dtype=bool)
@@ -751,7 +756,7 @@ def solve_pba_stc(
     schedule = tasks_to_schedule(instance, tasks, chosen)
     observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
-        "bound_targets": count_bound(instance, params, tasks, deadline),
+        "bound_targets": count_bound(instance, params, tasks, budget),
         "parts": len(out["parts"]),
         "inexact_parts": out["inexact_parts"],
         "subproblems": out["subproblems"],

@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,7 +58,7 @@ from sosp.params import Params, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.schedule import RollRule
-from sosp.stop import FirstOf, Interrupted, SearchStatus
+from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -120,8 +119,7 @@ def solve_sa_stc(
         Status ``feasible``; ``iterations`` moves done; ``stats`` holds temperatures, accepted
         and improving moves and the iteration of the best schedule.
     """
-    clock = time.perf_counter
-    deadline = None if time_limit is None else clock() + float(time_limit)
+    budget = Budget.of(time_limit)
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
     tw = instance.target_weight
 
@@ -135,7 +133,6 @@ def solve_sa_stc(
     if not (t0 > 0 and 0 < t_final <= t0):
         raise InputError(f"t0, t_final: need 0 < t_final <= t0, got {t0!r}, {t_final!r}")
     log_ratio = math.log(t_final / t0)
-    t_start = clock()
 
     # Per-task data as Python lists (the inner loops are scalar).
     orb = tasks.orbit.tolist()
@@ -191,7 +188,7 @@ def solve_sa_stc(
     new_acc: list[bool] = []
     new_gain: list[int] = []
 
-    # the limits (iterations, deadline) set the cooling schedule, so they stay in the loop;
+    # the limits (iterations, time) set the cooling schedule, so they stay in the loop;
     # the shared criteria add progress and stop requests, every 16 moves
     stop, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
     while it < iterations and n >= 2:
@@ -199,13 +196,13 @@ def solve_sa_stc(
             seen.iteration, seen.best = it, best_total
             if stop(seen):
                 break
-        if deadline is not None and (it & 15) == 0:
-            now = clock()
-            if now > deadline:
+        if time_limit is not None and (it & 15) == 0:
+            if budget.expired():
                 break
-            share = (now - t_start) / float(time_limit)  # type: ignore[arg-type]
+            # the share of the limit passed, counted as the limit is: fully cooled at its end
+            share = 1.0 - (budget.left() or 0.0) / time_limit
             temperature = t0 * math.exp(log_ratio * max(it / max(iterations, 1), share))
-        elif deadline is None:
+        elif time_limit is None:
             temperature = t0 * math.exp(log_ratio * it / max(iterations, 1))
         it += 1
         dist = int(rng.integers(1, swap_distance(n, temperature, t0) + 1))

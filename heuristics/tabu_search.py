@@ -49,7 +49,6 @@ Stopping
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -66,7 +65,7 @@ from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.schedule import RollRule
-from sosp.stop import FirstOf, Interrupted, SearchStatus
+from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -309,8 +308,7 @@ def run_tabu_search(
     time_limit: float | None = None,
 ) -> tuple[TaskSet, list[int], int, dict[str, int]]:
     """Run the search; returns the tasks, the best ones chosen, their profit and counters."""
-    clock = time.perf_counter
-    deadline = None if time_limit is None else clock() + float(time_limit)
+    budget = Budget.of(time_limit)
     tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
     ts = TabuSearch(instance, tasks, params, rng)
     local = {t: i for i, t in enumerate(ts.usable)}
@@ -322,7 +320,7 @@ def run_tabu_search(
     # the shared criteria: progress reports and stop requests (Ctrl-C keeps the best so far)
     stop, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
     while it < params.iterations and ts.n:
-        if deadline is not None and clock() > deadline:
+        if budget.expired():
             break
         seen.iteration, seen.since_best, seen.best = it, it - best_iter, best
         if stop(seen):

@@ -25,17 +25,20 @@ from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
-from sosp.candidates import CandidateMode, orbit_pairs
+from sosp.candidates import CandidateMode, as_budget, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.planner import OrbitData, best_feasible_path
 from sosp.progress import current as current_progress
 from sosp.schedule import Schedule, items_to_schedule
-from sosp.stop import FirstOf, Foresight, Interrupted, SearchStatus, stop_requested
+from sosp.stop import Budget, FirstOf, Foresight, Interrupted, SearchStatus
 
 if TYPE_CHECKING:
     from sosp.windows import OrbitOpps
+
+#: No time limit (a stop request still ends an ascent).
+UNLIMITED = Budget()
 
 #: Starts of the search (:attr:`OrbitSearchParams.start`).
 StartMode = Literal["auto", "lp", "hpfs", "empty"]
@@ -65,10 +68,10 @@ class OrbitSearchParams(Params):
         re-plans depend on one another and run in one process; the result is the same).
     start
         ``"lp"``: the search starts from the plans of the column-generation root
-        (``lp_start`` of :mod:`heuristics.orbit_search`, at most its ``LP_START_SHARE`` of
-        the time limit; with window candidates, the window relaxation's root); ``"hpfs"``
-        (window candidates only): from HPFS-STC's schedule (``hpfs_start``, when foreseen
-        within ``HPFS_START_SHARE`` of the time left, else as ``"lp"``); ``"empty"``: from
+        (``lp_start`` of :mod:`heuristics.orbit_search`, within a share of the time limit;
+        with window candidates, the window relaxation's root); ``"hpfs"`` (window
+        candidates only): from HPFS-STC's schedule (``hpfs_start``, when foreseen to fit in
+        the time left, else as ``"lp"``); ``"empty"``: from
         the empty schedule; ``"auto"`` (default): ``"lp"`` with explicit candidates; with
         window candidates HPFS-STC's schedule, then the root's plans on their orbits when
         the root's share has time left and they do not lower the profit. When HPFS-STC's
@@ -80,7 +83,8 @@ class OrbitSearchParams(Params):
         ``"windows"``: none made up front, each re-plan prices the orbit's windows at its
         prices and plans over the real observations of the argmax rolls
         (:func:`sosp.windows.window_plan`, a restricted set); ``"auto"`` (default):
-        explicit unless they would take more than ``sosp.candidates.MAX_CANDIDATE_BYTES``.
+        explicit unless they would not fit in the solve's memory
+        (``sosp.candidates.candidate_cap``, a third of ``--max-memory``).
     dask
         Plan the orbits of the start's pricing rounds (``lp_start``) on a Dask cluster:
         a scheduler's address, or ``"local"`` (``workers`` processes on this machine, one
@@ -230,8 +234,8 @@ class OrbitSearch:
         :attr:`PLAN_S_PER_WORK` (:class:`sosp.stop.Foresight`)."""
         return self.plans(g, self._work(g))
 
-    def _late(self, g: int, deadline: float | None) -> bool:
-        return self.plans.late(g, self._work(g), deadline)
+    def _late(self, g: int, budget: Budget) -> bool:
+        return not budget.fits(self.foreseen(g))
 
     def _timed_plan(self, g: int, price: np.ndarray) -> Any:
         t = time.perf_counter()
@@ -251,33 +255,30 @@ class OrbitSearch:
         self.dirty[g] = False
         return False
 
-    def ascent(self, deadline: float | None = None) -> None:
-        """Re-plan dirty orbits in random order until none gains (or the deadline passes, or a
-        stop is requested: :func:`sosp.stop.request_stop`).
+    def ascent(self, budget: Budget = UNLIMITED) -> None:
+        """Re-plan dirty orbits in random order until none gains (or the ``budget`` expires,
+        or a stop is requested: :func:`sosp.stop.request_stop`).
 
         Both are checked before each orbit, not after each pass: one pass over a dense
-        instance's orbits takes seconds (walker12-1500: 0.8 s; worldwide ones: minutes), and
-        a partial ascent leaves a feasible schedule (each re-plan keeps its orbit feasible).
-        An orbit whose plan is foreseen to end past the deadline (:meth:`foreseen`) is
-        skipped: one plan over windows of an orbit of 8,191 opportunities takes seconds, and
-        a 1 s ``orbit-dp`` ran 2.8 s. The ascent ends when a pass plans none.
+        instance's orbits takes seconds, and a partial ascent leaves a feasible schedule
+        (each re-plan keeps its orbit feasible). An orbit whose plan is foreseen not to fit
+        in the budget (:meth:`foreseen`) is skipped: one plan over windows of a dense orbit
+        takes seconds. The ascent ends when a pass plans none.
         """
         while self.dirty.any():
             planned = False
             for g in self.rng.permutation(np.flatnonzero(self.dirty)):
-                if deadline is not None and time.perf_counter() > deadline:
+                if budget.expired():
                     return
-                if stop_requested():
-                    return
-                if self.dirty[g] and not self._late(int(g), deadline):
+                if self.dirty[g] and not self._late(int(g), budget):
                     self.replan(int(g))
                     planned = True
             if not planned:
                 return
 
-    def perturb(self, params: OrbitSearchParams, deadline: float | None = None) -> None:
+    def perturb(self, params: OrbitSearchParams, budget: Budget = UNLIMITED) -> None:
         """Re-plan 1..perturb_orbits random orbits with noisy prices (always applied; an
-        orbit foreseen to end past ``deadline`` is left as it is)."""
+        orbit foreseen not to fit in ``budget`` is left as it is)."""
         n = len(self.data.orbits)
         k = int(self.rng.integers(1, min(params.perturb_orbits, n) + 1))
         for g in self.rng.choice(n, size=k, replace=False):
@@ -285,7 +286,7 @@ class OrbitSearch:
             keep = ~self.elsewhere(g) | (self.rng.random(len(self.weight)) < params.steal)
             noise = self.rng.uniform(1.0 - params.noise, 1.0 + params.noise, len(self.weight))
             price = np.where(keep, self.weight * noise, 0.0)
-            if not self._late(g, deadline):
+            if not self._late(g, budget):
                 self._set(g, self._timed_plan(g, price))
 
     def chosen(self) -> list[int]:
@@ -440,7 +441,7 @@ def iterate(
     search: OrbitSearch,
     p: OrbitSearchParams,
     stop: Callable[[SearchStatus], bool],
-    deadline: float | None,
+    budget: Budget | float | None,
     t0: float,
     *,
     report: bool = True,
@@ -450,8 +451,10 @@ def iterate(
     ``stop`` says so (and, with ``report``, a stop request; the solve's progress is
     reported at each check). The search is left at its last accepted state, the best plans
     are returned. Shared by ``orbit-dp`` (:mod:`heuristics.orbit_search`), ASA-DTC's start
-    (``init="orbit-dp"``) and the exact models' heuristic start (:mod:`models.solve`)."""
-    search.ascent(deadline)
+    (``init="orbit-dp"``) and the exact models' heuristic start (:mod:`models.solve`).
+    ``budget`` bounds the re-plans (:func:`sosp.candidates.as_budget`)."""
+    budget = as_budget(budget)
+    search.ascent(budget)
     first = search.profit
     best_profit, best_paths = search.profit, list(search.paths)
     trace = [(0, round(time.perf_counter() - t0, 4), best_profit)]
@@ -466,8 +469,8 @@ def iterate(
         steps += 1
         since += 1
         mark, before = len(search.journal), search.profit
-        search.perturb(p, deadline)
-        search.ascent(deadline)
+        search.perturb(p, budget)
+        search.ascent(budget)
         if search.profit + 1e-9 >= before:
             accepted += 1
             search.journal.clear()

@@ -48,11 +48,30 @@ from sosp.stop import Budget
 log = logging.getLogger(__name__)
 
 
+#: Bytes a whole solve may hold when its :class:`~sosp.stop.Budget` gives no ``memory``
+#: (``sosp solve --max-memory``, default 2 GB): the candidates' cap derives from it
+#: (:func:`candidate_cap`), so a search plans over windows where they would not fit.
+MAX_MEMORY = 2 * 2**30
+
 #: Bytes the planner's candidates may take in all (estimated before any is generated, see
-#: :func:`estimate_bytes`): beyond it :func:`cluster_candidates` refuses with a one-line error
-#: instead of running the machine out of memory. D30 (3,000 targets in the C region) needs
-#: about 0.4 GB; 10,000 targets there would need tens of GB.
-MAX_CANDIDATE_BYTES = 3 * 2**30
+#: :func:`estimate_bytes`), or None: a third of the solve's memory (:func:`candidate_cap`).
+#: Beyond it :func:`cluster_candidates` refuses with a one-line error instead of running the
+#: machine out of memory. A search over explicit candidates peaks at about three times their
+#: estimate (the planner arranges them per orbit beside the whole-instance columns).
+MAX_CANDIDATE_BYTES: int | None = None
+
+
+def as_budget(budget: Budget | float | None) -> Budget:
+    """``budget``, or one until ``budget`` (a :func:`time.perf_counter` deadline; None: no
+    limit) for the callers that still pass deadlines."""
+    return budget if isinstance(budget, Budget) else Budget.until(budget)
+
+
+def candidate_cap(memory: int | None = None) -> int:
+    """Bytes the candidates may take in a solve that may hold ``memory`` bytes (None:
+    :data:`MAX_MEMORY`): :data:`MAX_CANDIDATE_BYTES` when set, else a third of it."""
+    return MAX_CANDIDATE_BYTES if MAX_CANDIDATE_BYTES is not None else (memory or MAX_MEMORY) // 3
+
 
 #: Orbits with fewer (first, covered) pairs inside one Delta T than this are not sampled by
 #: :func:`estimate_bytes` (their candidates are few: C10's densest orbit has about 10 000).
@@ -487,7 +506,7 @@ class Pace:
 def cluster_candidates(
     instance: Instance,
     max_candidates: int | None = MAX_CANDIDATES,
-    deadline: float | None = None,
+    deadline: Budget | float | None = None,
 ) -> Candidates:
     """All non-dominated candidate observations of every orbit.
 
@@ -499,11 +518,13 @@ def cluster_candidates(
         Raise :class:`~sosp.errors.InputError` (naming the orbit) once more candidates than
         this have been generated (the MILP models' cap); None: no cap.
     deadline
-        A :func:`time.perf_counter` value: raise :class:`~sosp.errors.InputError` when it
-        passes before the candidates are complete, or when they are foreseen not to be
-        (:class:`~sosp.errors.TimeLimitReached`: the orbits left at the rate so far, or,
-        without a cap, their size estimate alone past :data:`ESTIMATE_SHARE` of the time
-        left); None: no limit.
+        A :class:`~sosp.stop.Budget` (or a :func:`time.perf_counter` deadline): raise
+        :class:`~sosp.errors.InputError` when it expires before the candidates are
+        complete, or when they are foreseen not to be (:class:`~sosp.errors.TimeLimitReached`:
+        the orbits left at the rate so far, or, without a cap, their size estimate alone
+        past :data:`ESTIMATE_SHARE` of the time left, or their generation past the time
+        left); without a cap, candidates that would not fit in its memory are refused
+        (:func:`check_memory`). None: no limit.
 
     Returns
     -------
@@ -517,17 +538,16 @@ def cluster_candidates(
     hit = store.get("all")
     if hit is not None and (max_candidates is None or len(hit[4]) <= max_candidates):
         return hit
+    budget = as_budget(deadline)
     if max_candidates is None:
-        if (
-            _estimate_late(instance, deadline)
-            or _need_by(instance, Budget.until(deadline).share(ESTIMATE_SHARE).deadline) is None
-        ):
+        estimate = budget.share(ESTIMATE_SHARE)
+        if _estimate_late(instance, budget) or _need_by(instance, estimate) is None:
             raise TimeLimitReached(
                 "time limit foreseen to be reached while estimating the candidate "
                 "observations' size; give more time or use asa-dtc"
             )
-        check_memory(instance)
-        if _generation_late(instance, deadline):
+        check_memory(instance, budget.memory)
+        if _generation_late(instance, budget):
             raise TimeLimitReached(
                 "time limit foreseen to be reached while generating candidate observations "
                 f"(about {_need(instance) / 2**30:.2f} GB estimated); give more time or use "
@@ -539,7 +559,7 @@ def cluster_candidates(
     # (an orbit's generation time grows with them, about one start each)
     size = np.diff(instance.orbit_offsets)
     todo = [j for j in range(instance.n_orbits) if j not in store]
-    pace, opps_left = Pace(deadline), int(size[todo].sum())
+    pace, opps_left = Pace(budget.deadline), int(size[todo].sum())
     for j in range(instance.n_orbits):
         left = None if max_candidates is None else max_candidates - total
         generated = j not in store
@@ -549,9 +569,9 @@ def cluster_candidates(
                 raise TimeLimitReached(
                     "time limit foreseen to be reached while generating candidate observations "
                     f"(about {pace.need(opps_left):.1f} s left to generate, "
-                    f"{deadline - now:.1f} s to the deadline); give more time or use asa-dtc"
+                    f"{budget.left():.1f} s to the deadline); give more time or use asa-dtc"
                 )
-        part = orbit_candidates(instance, j, deadline, left)
+        part = orbit_candidates(instance, j, budget.deadline, left)
         if generated:
             pace.end(int(size[j]))
             opps_left -= int(size[j])
@@ -606,12 +626,12 @@ def _need(instance: Instance) -> int:
     return need
 
 
-def _need_by(instance: Instance, deadline: float | None) -> int | None:
-    """:func:`_need`, or None when the estimate is not done by ``deadline``
-    (:func:`time.perf_counter`; None: no limit), which is then not kept."""
+def _need_by(instance: Instance, budget: Budget | None) -> int | None:
+    """:func:`_need`, or None when the estimate is not done within ``budget`` (None: no
+    limit), which is then not kept."""
     store = _cache_of(instance)
     if "need" not in store:
-        need = _estimate(instance, deadline)
+        need = _estimate(instance, budget)
         if need is None:
             log.info("candidates: their size estimate not done in its share of the time")
             return None
@@ -619,47 +639,42 @@ def _need_by(instance: Instance, deadline: float | None) -> int | None:
     return int(store["need"])
 
 
-def candidates_fit(instance: Instance) -> bool:
-    """Whether every orbit's candidates fit in :data:`MAX_CANDIDATE_BYTES` (the choice of the
-    searches' ``candidates="auto"``; the estimate is shared with :func:`check_memory`)."""
-    return _need(instance) <= MAX_CANDIDATE_BYTES
-
-
 #: What a search's ``candidates`` parameter takes (``orbit-dp``, ``milp-lns``).
 CandidateMode = Literal["auto", "explicit", "windows"]
 CANDIDATE_MODES = get_args(CandidateMode)
 
 
-def candidate_mode(instance: Instance, requested: str, deadline: float | None = None) -> str:
+def candidate_mode(instance: Instance, requested: str, budget: Budget | float | None = None) -> str:
     """``"explicit"`` or ``"windows"``: the candidates a search uses when ``candidates`` is
     ``requested`` (one of :data:`CANDIDATE_MODES`). ``"auto"`` is explicit where they fit
-    (:func:`candidates_fit`) and, with a ``deadline`` (:func:`time.perf_counter`), where
-    their estimate is not foreseen to take more than :data:`ESTIMATE_SHARE` of the time
-    left; ``"explicit"`` where they do not fit is refused here, before the search spends
-    any time (:func:`check_memory`)."""
+    in the ``budget``'s memory (:func:`candidate_cap`) and, with a time limit, where their
+    estimate is not foreseen to take more than :data:`ESTIMATE_SHARE` of the time left
+    (a :func:`time.perf_counter` deadline is taken as a budget until it); ``"explicit"``
+    where they do not fit is refused here, before the search spends any time
+    (:func:`check_memory`)."""
+    budget = as_budget(budget)
     if requested == "auto":
-        if _estimate_late(instance, deadline):
+        if _estimate_late(instance, budget):
             return "windows"
-        need = _need_by(instance, Budget.until(deadline).share(ESTIMATE_SHARE).deadline)
-        if need is None or need > MAX_CANDIDATE_BYTES or _generation_late(instance, deadline):
+        need = _need_by(instance, budget.share(ESTIMATE_SHARE))
+        if need is None or need > candidate_cap(budget.memory):
             return "windows"
-        return "explicit"
+        return "windows" if _generation_late(instance, budget) else "explicit"
     if requested == "explicit":
-        check_memory(instance)
+        check_memory(instance, budget.memory)
     return requested
 
 
-def check_memory(instance: Instance) -> None:
+def check_memory(instance: Instance, memory: int | None = None) -> None:
     """Refuse with a one-line :class:`~sosp.errors.InputError` when every orbit's candidates
-    would take more than :data:`MAX_CANDIDATE_BYTES` (:func:`candidates_fit`)."""
-    need = _need(instance)
-    if need > MAX_CANDIDATE_BYTES:
+    would take more than :func:`candidate_cap` of ``memory`` bytes (None: the default)."""
+    need, cap = _need(instance), candidate_cap(memory)
+    if need > cap:
         raise InputError(
             f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
             f"orbit {instance.orbit_ids[_densest(instance)]!r}); more than the "
-            f"{MAX_CANDIDATE_BYTES / 2**30:.1f} GB allowed "
-            "(sosp.candidates.MAX_CANDIDATE_BYTES): too dense for the clustering-exact "
-            "candidates (orbit-dp and asa-dtc plan over time windows instead: "
+            f"{cap / 2**30:.1f} GB allowed (a third of --max-memory): too dense for the "
+            "clustering-exact candidates (orbit-dp and asa-dtc plan over time windows instead: "
             "--param candidates=auto or windows)"
         )
 
@@ -715,26 +730,27 @@ def _densest(instance: Instance) -> int:
     return arg
 
 
-def _estimate_late(instance: Instance, deadline: float | None) -> bool:
+def _estimate_late(instance: Instance, budget: Budget) -> bool:
     """Whether :func:`estimate_bytes`, not made yet, is foreseen to take more than
-    :data:`ESTIMATE_SHARE` of the time to ``deadline`` (:func:`time.perf_counter`; None:
-    never): then the candidates could not be generated by it either."""
-    if deadline is None or "need" in _cache_of(instance):
+    :data:`ESTIMATE_SHARE` of what is left of ``budget`` (never without a time limit): then
+    the candidates could not be generated in it either."""
+    if budget.deadline is None or "need" in _cache_of(instance):
         return False
     foreseen = ESTIMATE_S_PER_SAMPLE * sum(len(picks) for _, picks in _samples(instance))
-    if foreseen == 0.0 or foreseen <= ESTIMATE_SHARE * (deadline - time.perf_counter()):
+    if foreseen == 0.0 or budget.share(ESTIMATE_SHARE).fits(foreseen):
         return False  # (no sample: the estimate costs nothing, even past the deadline)
     log.info("candidates: their size estimate alone foreseen at %.1f s", foreseen)
     return True
 
 
-def _generation_late(instance: Instance, deadline: float | None) -> bool:
-    """Whether generating the candidates of the orbits not cached yet is foreseen to end past
-    ``deadline`` (None: never) at :data:`GENERATE_S_PER_BYTE` of their estimate."""
-    if deadline is None:
+def _generation_late(instance: Instance, budget: Budget) -> bool:
+    """Whether generating the candidates of the orbits not cached yet is foreseen not to fit
+    in ``budget`` (never without a time limit) at :data:`GENERATE_S_PER_BYTE` of their
+    estimate."""
+    if budget.deadline is None:
         return False
     foreseen = GENERATE_S_PER_BYTE * max(0, _need(instance) - _cached_bytes(instance))
-    if foreseen == 0.0 or time.perf_counter() + foreseen <= deadline:
+    if foreseen == 0.0 or budget.fits(foreseen):
         return False  # (nothing estimated: no foresight, even past the deadline)
     log.info("candidates: their generation foreseen at %.1f s", foreseen)
     return True
@@ -775,18 +791,17 @@ def estimate_bytes(instance: Instance) -> int:
     return need
 
 
-def _estimate(instance: Instance, deadline: float | None) -> int | None:
-    """:func:`estimate_bytes`, or None once ``deadline`` passes (read before each sample: a
+def _estimate(instance: Instance, budget: Budget | None) -> int | None:
+    """:func:`estimate_bytes`, or None once ``budget`` expires (read before each sample: a
     sample's time varies by orders of magnitude with the orbit's density, which
-    :data:`ESTIMATE_S_PER_SAMPLE` cannot foresee; a drawn 5,000-target instance estimated
-    for 17 s at a 5 s limit, before the counts replaced the members)."""
+    :data:`ESTIMATE_S_PER_SAMPLE` cannot foresee)."""
     total = float(_cached_bytes(instance))
     for j, picks in _samples(instance):
         ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
         n = len(ts)
         size = 0.0
         for i in picks:
-            if deadline is not None and time.perf_counter() > deadline:
+            if budget is not None and budget.expired():
                 return None
             n_cand, n_members = _start_counts(int(i), ts, te, lo, hi, int(stop[i]), limit)
             size += 32.0 * n_cand + 4.0 * n_members

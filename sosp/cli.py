@@ -253,6 +253,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if args.bound is None:
             raise InputError("--bound-workers: give it with --bound")
         params["bound_workers"] = args.bound_workers
+    if args.max_memory is not None:  # the memory of each method's Budget
+        importlib.import_module("sosp.candidates").MAX_MEMORY = args.max_memory
     result, interrupted = _solve_interruptibly(inst, args, params, t0)
     data = result.summary()
     if args.output:
@@ -282,6 +284,20 @@ def _stage_text(stage: Any) -> str:
     if stage.kind == "bound" and stage.bound is not None:
         what = f" (bound {stage.bound:g})"
     return f"{stage.kind} {stage.name} {stage.seconds:.2f} s{what}"
+
+
+def _bytes(text: str) -> int:
+    """A byte count for ``--max-memory``: a number with an optional K, M, G or T suffix
+    (powers of 1024; a trailing B is allowed)."""
+    t = text.strip().upper().removesuffix("B")
+    unit = "KMGT".find(t[-1:]) + 1 if t[-1:] in ("K", "M", "G", "T") else 0
+    try:
+        value = float(t[: len(t) - (unit > 0)]) * 1024**unit
+    except ValueError:
+        value = 0.0
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive size such as 2G, got {text!r}")
+    return int(value)
 
 
 def _solve_interruptibly(
@@ -597,6 +613,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--iterations", type=positive(int), default=None, help="iteration limit (search methods)"
+    )
+    p.add_argument(
+        "--max-memory",
+        type=_bytes,
+        default=None,
+        metavar="BYTES",
+        help="memory the solve may hold, e.g. 1500M or 2G (default 2G): explicit candidates "
+        "that would not fit in a third of it are replaced by pricing over time windows",
     )
     p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
     p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")

@@ -56,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import OppGroups, Pace, cluster_candidates, compile_within, flatten
+from sosp.candidates import OppGroups, Pace, as_budget, cluster_candidates, compile_within, flatten
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import (
@@ -69,6 +69,7 @@ from sosp.parallel import (
 )
 from sosp.recursion import least_penalty_plan, levels, recursion, release_order, restrict
 from sosp.rules import EPS, OrbitRules, may_precede, orbit_rules, sequence_slew_time
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
@@ -236,10 +237,10 @@ class OrbitData:
 
 def orbit_data(
     instance: Instance,
-    deadline: float | None = None,
+    deadline: Budget | float | None = None,
     workers: Workers = 1,
     roll: Callable[[OppGroups], np.ndarray] | None = None,
-    generate_by: float | None = None,
+    generate_by: Budget | float | None = None,
 ) -> OrbitData:
     """Build :class:`OrbitData` from the cluster model's candidates.
 
@@ -252,8 +253,9 @@ def orbit_data(
     instance
         The problem.
     deadline
-        :func:`time.perf_counter` value by which the candidates must be complete (else
-        :class:`~sosp.errors.InputError`, see :func:`sosp.candidates.orbit_candidates`).
+        A :class:`~sosp.stop.Budget` (or a :func:`time.perf_counter` value) in which the
+        candidates must be complete and fit (else :class:`~sosp.errors.InputError`, see
+        :func:`sosp.candidates.cluster_candidates`).
     workers
         Processes generating the orbits' candidates side by side (1: in this process).
     roll
@@ -261,19 +263,19 @@ def orbit_data(
         :func:`with_rolls`, without arranging the candidates twice); None: the nadir-closest
         point of their common range.
     generate_by
-        An earlier deadline for the candidates' generation alone (the arranging keeps
+        A smaller budget for the candidates' generation alone (the arranging keeps
         ``deadline``); None: ``deadline``.
     """
     by = deadline if generate_by is None else generate_by
     if local_processes(workers) > 1:
         from sosp.candidates import generate_in_processes
 
-        generate_in_processes(instance, local_processes(workers), by)
+        generate_in_processes(instance, local_processes(workers), as_budget(by).deadline)
     orbit, start, end, nadir, opps = cluster_candidates(instance, max_candidates=None, deadline=by)
     rolls = nadir if roll is None else np.asarray(roll(opps), dtype=float)
     if rolls.shape != nadir.shape:
         raise ValueError(f"roll: expected {nadir.shape[0]} values, got {rolls.shape}")
-    return _arrange(instance, orbit, start, end, rolls, opps, deadline)
+    return _arrange(instance, orbit, start, end, rolls, opps, as_budget(deadline).deadline)
 
 
 def with_rolls(data: OrbitData, roll: np.ndarray) -> OrbitData:

@@ -35,6 +35,7 @@ from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.schedule import Observation, Schedule
 from sosp.stop import (
+    Budget,
     FirstOf,
     Interrupted,
     MaxIterations,
@@ -95,10 +96,8 @@ def default_stop(
 ) -> Callable[[SearchStatus], bool]:
     """The first of ``params.iterations``, ``time_limit`` (counted from ``t0``) and
     ``params.no_improve``; :data:`DEFAULT_ITERATIONS` when none is given."""
-    seconds = None
-    if time_limit is not None:
-        seconds = max(0.0, time_limit - (time.perf_counter() - t0))
-    return stop_rule(params.iterations, seconds, params.no_improve)
+    left = Budget.until(None if time_limit is None else t0 + time_limit).left()
+    return stop_rule(params.iterations, left, params.no_improve)
 
 
 class Search:
@@ -150,18 +149,22 @@ class Search:
         self.tabu = TabuList(length)
 
         self.moves = list(NEIGHBOURHOODS)
-        deadline = None if time_limit is None else t0 + 0.5 * time_limit
-        self.planner = make_planner(instance, state, params, deadline)
+        run = Budget.until(None if time_limit is None else t0 + time_limit)
+        half = None if time_limit is None else t0 + 0.5 * time_limit
+        self.planner = make_planner(instance, state, params, half)
         if self.planner is not None:
             self.moves[REPLAN] = partial(replan_or_orbit, planner=self.planner)
-            if time_limit is not None:  # no whole-orbit plan foreseen to end past the limit
-                self.planner.deadline = t0 + time_limit
+            self.planner.deadline = run.deadline  # no whole-orbit plan foreseen past it
         self.t_planner = time.perf_counter() - t0
 
         self.init_stats: dict[str, float] = {}
         if params.init in ("orbit-dp", "lp") and self.planner is not None:
             self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
-        initial_solution(state, params, self._completion_deadline(t0, time_limit))
+        # section 5.4's insertion ends at the limit, or after an orbit start at its share
+        # (``init_share``) of the time left: the start leaves it the targets it could not
+        # place, and trying them all could take most of the run
+        insertion = run.share(params.init_share) if self.init_stats else run
+        initial_solution(state, params, insertion.deadline)
         self.t_init = time.perf_counter() - t0
         self.best = state.profit
         self.best_snap = state.snapshot()
@@ -173,18 +176,6 @@ class Search:
         self.trace: list[list[float]] = []
         self.record()
         log.debug("asa-%s: initial profit %g in %.3f s", mode, self.best, self.t_init)
-
-    def _completion_deadline(self, t0: float, time_limit: float | None) -> float | None:
-        """When section 5.4's insertion stops: the limit, or after an orbit start its share
-        (``init_share``) of the time left. That start leaves the insertion the targets it
-        could not place; on a 5,000-target instance it tried 4,112 of them for 14 s of a
-        20 s run and placed none, leaving the annealing nothing."""
-        if time_limit is None:
-            return None
-        if not self.init_stats:
-            return t0 + time_limit
-        now = time.perf_counter()
-        return now + self.params.init_share * (t0 + time_limit - now)
 
     def record(self) -> None:
         """Append a trace row (columns :data:`TRACE_COLUMNS`)."""
