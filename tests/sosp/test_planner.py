@@ -32,6 +32,7 @@ from sosp.result import Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Observation, Schedule
 from sosp.solve import solve
+from sosp.stop import Budget
 from sosp.validate import validate
 from tests.conftest import (
     TINY,
@@ -332,6 +333,7 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     orbit's re-plan, so an ascent whose deadline passes after the second re-plan stops
     there (and leaves a feasible, partly ascended schedule), not at the end of the pass."""
     import sosp.ascent as ascent
+    import sosp.stop
 
     inst = _slack_instance(0)
     assert inst.n_orbits >= 3
@@ -343,7 +345,8 @@ def test_ascent_checks_its_deadline_before_each_orbit(monkeypatch) -> None:
     clock = itertools.count()
     fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
     monkeypatch.setattr(ascent, "time", fake)
-    search.ascent(deadline=3.5)
+    monkeypatch.setattr(sosp.stop, "time", fake)  # the budget reads the same clock
+    search.ascent(Budget.until(3.5))
     assert search.replans == 2
     assert validate(inst, search.schedule()).feasible
 
@@ -361,11 +364,11 @@ def test_ascent_skips_orbits_foreseen_past_the_deadline() -> None:
     assert len(busy) >= 2
     search = OrbitSearch(data, np.random.default_rng(0))
     search.plans.took[busy[0]] = 1e6  # its last plan took "a million seconds"
-    search.ascent(deadline=time.perf_counter() + 60.0)
+    search.ascent(Budget.until(time.perf_counter() + 60.0))
     assert search.plans.took[busy[0]] == 1e6 and len(search.paths[busy[0]]) == 0
     assert all(g in search.plans.took for g in busy[1:])
     assert validate(inst, search.schedule()).feasible
-    search.ascent(deadline=None)  # no deadline: no foresight
+    search.ascent()  # no deadline: no foresight
     assert search.plans.took[busy[0]] < 1e6
 
 

@@ -363,7 +363,7 @@ def test_lp_start_makes_no_replan_foreseen_past_the_runs_limit(c1: Instance) -> 
     search = WindowSearch(WindowData.build(c1), np.random.default_rng(0))
     hpfs = hpfs_start(search, None)["hpfs_profit"]
     plans = [plan.start.tolist() for plan in search.paths]
-    figures = lp_start(search, None, plan_deadline=time.perf_counter())
+    figures = lp_start(search, None, plan_budget=time.perf_counter())
     assert figures["lp_rounds"] >= 1 and search.profit == hpfs
     assert [plan.start.tolist() for plan in search.paths] == plans
     assert lp_start(search, None)["lp_profit"] != hpfs  # with time, the root's plans go in
