@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -225,20 +224,8 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     return vals
 
 
-#: Share of ``time_limit`` the in-model warm start of a direct :func:`solve_milp` call may
-#: use (``warm_start="auto"``, :func:`heuristic_start`; :func:`sosp.solve.solve` runs the
-#: start stage of :func:`start_stage` instead).
-WARM_START_SHARE = 0.1
-
-#: Perturbation steps without a new best after which :func:`heuristic_start` stops: on
-#: models of fewer than :data:`LARGE_MODEL_ITEMS` items :data:`WARM_START_STEPS`, on larger
-#: ones :data:`WARM_START_STEPS_LARGE`. More steps give better starts, but where the MILP can
-#: prove the optimum in time the seconds are better spent by the MILP (``docs/exact.md``).
-WARM_START_STEPS = 200
-WARM_START_STEPS_LARGE = 1000
-
 #: From this many items on, the MILP rarely proves the optimum in minutes and its answer is
-#: its start or a few units above (``docs/exact.md``).
+#: its start or a few units above.
 LARGE_MODEL_ITEMS = 20_000
 
 #: On models of :data:`LARGE_MODEL_ITEMS` or more, HiGHS gives way when, after this share of
@@ -276,61 +263,18 @@ class MILPParams(Params):
 
 def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     """The start stage of ``milp`` with ``params`` (:data:`sosp.pipeline.StartRule`):
-    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until
-    :data:`WARM_START_STEPS` steps in a row bring nothing (where the MILP proves the optimum
-    in seconds, the start should not take half the time); None for a given schedule,
-    ``"none"``, the LP relaxation, or a restricted model (whose bound can lie below a start's
-    profit, so that start could not be kept beside it)."""
+    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until 200
+    steps in a row bring nothing (where the MILP proves the optimum in seconds, the start
+    should not take half the time); None for a given schedule, ``"none"``, the LP
+    relaxation, or a restricted model (whose bound can lie below a start's profit, so that
+    start could not be kept beside it)."""
     from sosp.pipeline import Start
 
     auto = params.get("warm_start", MILPParams.warm_start) == "auto"
     cluster = params.get("model", MILPParams.model) == "cluster"
     if not auto or not cluster or params.get("relax"):
         return None
-    return Start("orbit-dp", params={"no_improve": WARM_START_STEPS})
-
-
-def heuristic_start(
-    data: ModelData,
-    rng: np.random.Generator,
-    deadline: float | None = None,
-    no_improve: int = WARM_START_STEPS,
-    arranged: OrbitData | None = None,
-    initial: list[int] | None = None,
-    stop: Callable[[float], bool] | None = None,
-) -> list[int]:
-    """A fast schedule over the model's items: orbit-dp's search (:mod:`sosp.ascent`).
-
-    Each orbit is re-planned exactly over the model's own items (:mod:`sosp.planner`: (3)-(6)
-    with the exact slew term), then perturbation steps until ``no_improve`` steps in a row
-    bring nothing or ``deadline`` passes. The items are those of the model, so the schedule
-    maps onto the model's variables one to one (a MIP start HiGHS accepts as it is).
-
-    ``arranged`` is ``sosp.planner.with_rolls(data, data.roll)`` when the caller has it;
-    ``initial`` items (a schedule of this search) to go on from instead of the empty plans.
-    ``stop`` is asked after every step with the best profit so far; True ends the search
-    (:func:`_search_on`: a bound has proven that profit optimal).
-
-    Returns
-    -------
-    list of int
-        The chosen items (each target claimed once by :func:`sosp.schedule.items_to_schedule`).
-    """
-    from sosp.ascent import OrbitSearch, OrbitSearchParams, iterate
-    from sosp.planner import with_rolls
-    from sosp.stop import FirstOf, NoImprovement
-
-    search = OrbitSearch(arranged if arranged is not None else with_rolls(data, data.roll), rng)
-    if initial:
-        search.set_chosen(initial)
-    until = FirstOf(
-        NoImprovement(no_improve),
-        lambda _: deadline is not None and time.perf_counter() >= deadline,
-        lambda now: stop is not None and stop(now.best),
-    )
-    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
-    search.paths = run.best_paths
-    return search.chosen()
+    return Start("orbit-dp", params={"no_improve": 200})
 
 
 def _int_bound(raw: float | None) -> float | None:
@@ -401,14 +345,12 @@ def solve_milp(
     between the steps and while the cluster model's candidates are generated, and HiGHS gets
     only what is left):
 
-    0. under :func:`sosp.solve.solve`, with ``warm_start="auto"`` on the cluster model, the
-       pipeline's start stage (:func:`start_stage`: ``orbit-dp`` in half the limit,
-       :mod:`sosp.pipeline`) runs first and is passed here as the warm start schedule;
+    0. with ``warm_start="auto"`` on the cluster model, the start stage (:func:`start_stage`:
+       ``orbit-dp`` in at most half the limit) runs first, through
+       :func:`sosp.pipeline.improve` as under :func:`sosp.solve.solve`, and its schedule is
+       the warm start of the steps below;
     1. the model's items (:func:`model_data`);
-    2. a warm start: the schedule given, or in a direct call with ``"auto"``
-       :func:`heuristic_start` (at most :data:`WARM_START_SHARE` of the limit,
-       :data:`WARM_START_STEPS` or, on large models, :data:`WARM_START_STEPS_LARGE` steps
-       without gain);
+    2. the warm start mapped to the model's items (:func:`start_items`);
     3. an upper bound besides HiGHS's own (``extra_bound``: column generation then branch
        and price over the model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit);
        when it meets the warm start, the start is optimal and no MILP is built;
@@ -422,16 +364,16 @@ def solve_milp(
     The schedule returned is never worse than the warm start, and the bound is the least of
     HiGHS's dual bound, the extra bound and the total weight of the targets the model's items
     cover (never below the profit). When the model's items are not ready by the deadline,
-    the schedule is the given warm start, or with ``"auto"`` :data:`NO_MODEL_METHOD`'s in
-    the time left (:func:`_schedule_without_model`), and the bound the observable weight.
+    the schedule is the warm start (when the validator accepts it) and the bound the
+    observable weight.
 
     Parameters
     ----------
     instance
         The problem.
     rng
-        The generator of the warm start's search (HiGHS itself is deterministic for fixed
-        options); None: ``default_rng(0)``.
+        The generator of the start stage and the search (HiGHS itself is deterministic for
+        fixed options); None: ``default_rng(0)``.
     time_limit
         Wall-time limit in seconds for everything (None: until optimal).
     model
@@ -444,11 +386,10 @@ def solve_milp(
         HiGHS threads (None: HiGHS's default; HiGHS 1.16 then runs one MIP search worker per
         core).
     warm_start
-        ``"auto"`` (default): the start stage of :func:`start_stage` under
-        :func:`sosp.solve.solve`, :func:`heuristic_start` in a direct call; ``"none"`` (or
-        None): no start; or a schedule (searched on from when HiGHS cannot run), mapped to
-        the model's variables (ignored with a warning when it does not fit the model or is
-        infeasible).
+        ``"auto"`` (default): the start stage of :func:`start_stage` (none on a restricted
+        model or the LP relaxation); ``"none"`` (or None): no start; or a schedule (searched
+        on from when HiGHS cannot run), mapped to the model's variables (ignored with a
+        warning when it does not fit the model or is infeasible).
     extra_bound
         ``"colgen"`` (default: :func:`models.colgen.colgen_bound` over the model's items,
         then its branch and price for the rest of the share; a schedule it ends on replaces
@@ -486,7 +427,8 @@ def solve_milp(
         ``status`` optimal (the bound meets the profit) / time_limit / feasible (stopped at
         ``mip_gap``) / no_solution (LP relaxation: no schedule); ``bound`` the best bound
         (never below the profit); ``stats`` the model size, the number of items
-        (``candidates``), the backend, the warm start's and the extra bound's figures.
+        (``candidates``), the backend, the warm start's and the extra bound's figures;
+        with a start stage, ``stages`` and ``stats["start"]`` (:func:`sosp.pipeline.improve`).
     """
     t0 = time.perf_counter()
     time_limit = check_time_limit(time_limit)
@@ -518,6 +460,16 @@ def solve_milp(
             f"extra_bound: expected one of {', '.join(get_args(ExtraBound))}, got {extra_bound!r}"
         )
     rng = np.random.default_rng(0) if rng is None else rng
+    params = {
+        "model": model, "mip_gap": mip_gap, "threads": threads, "warm_start": warm_start,
+        "extra_bound": extra_bound, "relax": relax, "backend": backend, "conflicts": conflicts,
+        "lp_solver": lp_solver, "slew": slew, "probing": probing,
+    }  # fmt: skip
+    if start_stage(instance, params) is not None:  # called directly: the pipeline's start
+        from sosp.pipeline import improve
+        from sosp.stop import Budget
+
+        return improve(instance, "milp", solve_milp, params, rng, Budget.of(time_limit))
     deadline = None if time_limit is None else t0 + time_limit
     method = "milp"
     empty = Schedule(())
@@ -538,7 +490,7 @@ def solve_milp(
         if relax:
             runtime = time.perf_counter() - t0
             return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, upper, None, stats)
-        schedule = _schedule_without_model(instance, warm_start, rng, deadline, time_limit, stats)
+        schedule = _schedule_without_model(instance, warm_start, stats)
         profit, observed = schedule.coverage_profit(instance)
         status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
         runtime = time.perf_counter() - t0
@@ -590,12 +542,6 @@ def solve_milp(
     if isinstance(warm_start, Schedule):
         start = start_items(data, warm_start)
         stats["warm_start"] = start is not None
-    elif warm_start == "auto" and arranged is not None:
-        share = None if deadline is None else time.perf_counter() + WARM_START_SHARE * time_limit
-        steps = WARM_START_STEPS_LARGE if data.n_items >= LARGE_MODEL_ITEMS else WARM_START_STEPS
-        start = heuristic_start(data, rng, share, steps, arranged=arranged)
-        stats["warm_start"] = "auto"
-        stats["warm_start_steps"] = steps
     start_profit = 0.0
     if start is not None:
         start_profit = items_to_schedule(instance, data, start).coverage_profit(instance)[0]
@@ -604,9 +550,7 @@ def solve_milp(
     upper = cap
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
-        # column generation anyway, and on B10 the 10 % share spent branching first (60 s,
-        # 6188 -> 6184) was worth more to the MILP (600 s: 6142 / 6155 with it, 6146 / 6155
-        # without)
+        # column generation anyway, and the share is worth more to the MILP
         side_next = time_limit is not None and _side_possible(
             extra_bound, arranged, deadline, EXTRA_BOUND_SHARE * time_limit
         )
@@ -760,7 +704,8 @@ def _search_on(
 ) -> tuple[list[int] | None, float]:
     """The start and its profit after the time the MILP did not use: when HiGHS was not run
     (its model would not be built, or presolved, in the time left) or gave way
-    (:data:`GIVE_WAY_SHARE`), :func:`heuristic_start` goes on from the start until
+    (:data:`GIVE_WAY_SHARE`), orbit-dp's search (:func:`sosp.ascent.iterate`, each orbit
+    re-planned over the model's own items) goes on from the start until
     ``deadline``, or until the ``side`` branch and price's bound proves its best schedule
     optimal (:meth:`models.colgen.SideBound.watch`), and its schedule replaces the start when
     better (a start given or found: the MILP's time is not lost when HiGHS cannot use it)."""
@@ -768,14 +713,20 @@ def _search_on(
         return start, start_profit
     t1 = time.perf_counter()
 
-    def proven(best: float) -> bool:
-        # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
-        return side is not None and side.watch(math.inf, max(best, start_profit))
+    from sosp.ascent import OrbitSearch, OrbitSearchParams, iterate
 
-    more = heuristic_start(
-        data, rng, deadline, no_improve=sys.maxsize, arranged=arranged, initial=start,
-        stop=proven,
-    )  # fmt: skip
+    def until(now: Any) -> bool:
+        # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
+        if time.perf_counter() >= deadline:
+            return True
+        return side is not None and side.watch(math.inf, max(now.best, start_profit))
+
+    search = OrbitSearch(arranged, rng)
+    if start:
+        search.set_chosen(start)
+    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
+    search.paths = run.best_paths
+    more = search.chosen()
     if side is not None and side.proved_at is not None:
         stats["search_on_stopped"] = "proven"
     profit = items_to_schedule(data.instance, data, more).coverage_profit(data.instance)[0]
@@ -792,43 +743,21 @@ def _search_on(
 #: generated; past it, :func:`_schedule_without_model` has the rest.
 MODEL_SHARE = 0.5
 
-#: The method that gives ``milp`` its schedule when the model cannot be built in time
-#: (:func:`_schedule_without_model`): it answers at any limit and on any instance.
-NO_MODEL_METHOD = "asa-dtc"  # answers on every instance: see heuristics.asa.search.run_asa
-
 
 def _schedule_without_model(
-    instance: Instance,
-    warm_start: Schedule | str,
-    rng: np.random.Generator,
-    deadline: float | None,
-    time_limit: float | None,
-    stats: dict[str, Any],
+    instance: Instance, warm_start: Schedule | str, stats: dict[str, Any]
 ) -> Schedule:
     """The schedule :func:`solve_milp` returns when its model's items are not ready by the
-    deadline: a given warm start (when the validator accepts it), else with ``"auto"``
-    :data:`NO_MODEL_METHOD` in the time left (less the MILP's reserve), else the empty one.
-
-    ``milp --time-limit 5`` on C10 returned the empty schedule after 0.7 s (the model's
-    items, 176,610, were not foreseen to fit in 5 s: :func:`models.data.fits`)."""
+    deadline: the warm start when the validator accepts it, else the empty one."""
     from sosp.validate import validate
 
-    if isinstance(warm_start, Schedule):
-        if validate(instance, warm_start).feasible:
-            stats["returned"] = "warm_start"
-            return warm_start
-        log.warning("warm start ignored: the schedule is infeasible")
+    if not isinstance(warm_start, Schedule):
         return Schedule(())
-    if warm_start != "auto" or deadline is None or time_limit is None:
-        return Schedule(())
-    left = _solve_by(deadline, time_limit) - time.perf_counter()
-    if left <= 0:
-        return Schedule(())
-    from sosp.solve import method_function
-
-    res = method_function(NO_MODEL_METHOD)(instance, rng=rng, time_limit=left)
-    stats["returned"] = NO_MODEL_METHOD
-    return res.schedule
+    if validate(instance, warm_start).feasible:
+        stats["returned"] = "warm_start"
+        return warm_start
+    log.warning("warm start ignored: the schedule is infeasible")
+    return Schedule(())
 
 
 def _extra_bound(
