@@ -314,8 +314,8 @@ def choose_backend(data: ModelData, backend: str = "auto") -> str:
 
     Pyomo is the reference builder; below :data:`AUTO_HIGHS_ITEMS` items its build and load
     take well under a second and it stays the default there (the tests' path). From that size
-    on, building and loading through Pyomo dominates (C5: 44 s before HiGHS starts), and the
-    direct backend, which gives the same optima and LP values, is used.
+    on, building and loading through Pyomo dominates the time, and the direct backend, which
+    gives the same optima and LP values, is used.
     """
     if backend != "auto":
         return backend
@@ -474,9 +474,9 @@ def solve_milp(
     method = "milp"
     empty = Schedule(())
     stats: dict[str, Any] = {"model": model, "relax": bool(relax)}
-    # candidates not ready by half the limit leave the other half to a heuristic's schedule
-    # (a 20,000-target worldwide instance spent the whole limit generating them: the empty
-    # schedule); ready by then, the model goes on with the whole limit
+    # candidates not ready by half the limit leave the warm start as the answer (a large
+    # instance could spend the whole limit generating them); ready by then, the model goes
+    # on with the whole limit
     generate_by = None if deadline is None else t0 + MODEL_SHARE * time_limit
     try:
         data = model_data(instance, model, deadline, generate_by=generate_by)
@@ -496,7 +496,7 @@ def solve_milp(
         runtime = time.perf_counter() - t0
         return Result(method, status, schedule, profit, observed, runtime, upper, None, stats)
     cap = data.covered_weight()
-    if slew is None:  # lazy measured better (docs/exact.md: B6-B8, C1 proven, exact not)
+    if slew is None:  # lazy: proves more (docs/exact.md, "The lazy slew term")
         slew = "exact" if relax else "lazy"
     if slew == "auto" and not relax:
         slew = "lazy"
@@ -611,9 +611,9 @@ def solve_milp(
             if value < float(incumbent) - 1e-4 and (
                 deadline is None or time.perf_counter() < deadline
             ):
-                # Seen with highspy 1.16 when presolve alone finishes a model given a MIP
-                # start: the right optimum (27) read back with the start's solution (25),
-                # on both backends. Solve again without the start (the model was small).
+                # HiGHS can read back the start's solution with the optimum's objective when
+                # presolve alone finishes a model given a MIP start, on both backends: solve
+                # again without the start (the model was small)
                 log.debug("HiGHS returned the start (%g) for objective %g", value, incumbent)
                 stats["resolved_without_start"] = True
                 kind, incumbent, raw_bound, chosen = _solve(
@@ -1233,9 +1233,8 @@ def bound(
     generate_by = None
     if method in ("auto", "lagrangian") and model == "cluster" and time_limit is not None:
         # candidates not ready by then leave the window relaxation its share: a dense orbit
-        # begun just before the foresight could stop it took the time to 7.5-8.5 s of 10,
-        # and the answer was the cap (a 2,500-target drawn instance: 13,177 in one run of
-        # three, 3,706-3,738 in the others)
+        # begun just before the foresight could stop it can take the rest, and the answer
+        # would be the cap
         generate_by = t0 + (1.0 - WINDOWS_AFTER_SHARE) * time_limit
     try:
         data = model_data(instance, model, deadline, generate_by)
@@ -1261,8 +1260,8 @@ def bound(
         try:
             out = _colgen_bound(instance, t0, deadline, lower_bound, workers)
         except InputError:
-            # the planner's candidates would not fit in memory either (10,000 targets in the
-            # C region): the window relaxation needs no candidate list
+            # the planner's candidates would not fit in memory either: the window
+            # relaxation needs no candidate list
             log.info("bound: too dense for the candidates; the window relaxation's bound")
             out = _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
             out["method"] = "auto"
@@ -1399,15 +1398,13 @@ def _window_bound(
 
 
 #: ``bound`` with ``auto`` or ``lagrangian`` answers with the window relaxation's bound when
-#: the candidates are not ready in time and at least this share of the limit is left (they
-#: are foreseen late at once on 20,000 targets: 117991 in the 9.8 s left, where the cap,
-#: the observable weight, is 120065); else with the cap.
+#: the candidates are not ready in time and at least this share of the limit is left (a
+#: bound below the cap, the observable weight); else with the cap.
 WINDOWS_AFTER_SHARE = 0.25
 
 #: ... the share of the limit that must be left for the window relaxation's bound: less than
 #: the :data:`WINDOWS_AFTER_SHARE` the generation leaves, which it passes by milliseconds
-#: when it stops at its time (a drawn 1,200-target instance at 10 s: the cap, 13,185, where
-#: the windows give 3,791 in 2.5 s).
+#: when it stops at its time.
 WINDOWS_MIN_SHARE = 0.2
 
 
@@ -1488,7 +1485,7 @@ def _lagrangian_alone(
 ) -> dict[str, Any]:
     """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
     without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
-    either (10,000 targets in the C region), the window relaxation's bound, which is a
+    either, the window relaxation's bound, which is a
     Lagrangian bound too (:mod:`models.window_bound`)."""
     from models.lagrangian import lagrangian_bound
     from sosp.planner import orbit_data
