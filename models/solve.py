@@ -740,7 +740,7 @@ def _search_on(
 
 
 #: Share of ``milp``'s time limit within which the cluster model's candidates must be
-#: generated; past it, :func:`_schedule_without_model` has the rest.
+#: generated; past it, the warm start is the answer (:func:`_schedule_without_model`).
 MODEL_SHARE = 0.5
 
 
