@@ -231,9 +231,10 @@ def test_milp_on_the_highs_backend_stops_with_its_incumbent(c2) -> None:
     """HiGHS asks its interrupt callback (models.highs_direct) and stops at once when a stop
     was requested; the incumbent (the warm start at least) is returned, ``interrupted``."""
     inst = c2  # a limit of 60 s is reached without a request
+    start = solve(inst, "greedy").schedule  # a start stage would stop on the request at once
     request_stop("test")
     t0 = time.perf_counter()
-    result = solve(inst, "milp", backend="highs", time_limit=60)
+    result = solve(inst, "milp", backend="highs", time_limit=60, warm_start=start)
     limit_kept("milp on HiGHS stopped", time.perf_counter() - t0, 40.0)
     assert result.status is Status.INTERRUPTED
     assert result.stats["termination"] == "Interrupted by user"
