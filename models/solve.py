@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -225,20 +224,8 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     return vals
 
 
-#: Share of ``time_limit`` the in-model warm start of a direct :func:`solve_milp` call may
-#: use (``warm_start="auto"``, :func:`heuristic_start`; :func:`sosp.solve.solve` runs the
-#: start stage of :func:`start_stage` instead).
-WARM_START_SHARE = 0.1
-
-#: Perturbation steps without a new best after which :func:`heuristic_start` stops: on
-#: models of fewer than :data:`LARGE_MODEL_ITEMS` items :data:`WARM_START_STEPS`, on larger
-#: ones :data:`WARM_START_STEPS_LARGE`. More steps give better starts, but where the MILP can
-#: prove the optimum in time the seconds are better spent by the MILP (``docs/exact.md``).
-WARM_START_STEPS = 200
-WARM_START_STEPS_LARGE = 1000
-
 #: From this many items on, the MILP rarely proves the optimum in minutes and its answer is
-#: its start or a few units above (``docs/exact.md``).
+#: its start or a few units above.
 LARGE_MODEL_ITEMS = 20_000
 
 #: On models of :data:`LARGE_MODEL_ITEMS` or more, HiGHS gives way when, after this share of
@@ -276,61 +263,18 @@ class MILPParams(Params):
 
 def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     """The start stage of ``milp`` with ``params`` (:data:`sosp.pipeline.StartRule`):
-    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until
-    :data:`WARM_START_STEPS` steps in a row bring nothing (where the MILP proves the optimum
-    in seconds, the start should not take half the time); None for a given schedule,
-    ``"none"``, the LP relaxation, or a restricted model (whose bound can lie below a start's
-    profit, so that start could not be kept beside it)."""
+    ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until 200
+    steps in a row bring nothing (where the MILP proves the optimum in seconds, the start
+    should not take half the time); None for a given schedule, ``"none"``, the LP
+    relaxation, or a restricted model (whose bound can lie below a start's profit, so that
+    start could not be kept beside it)."""
     from sosp.pipeline import Start
 
     auto = params.get("warm_start", MILPParams.warm_start) == "auto"
     cluster = params.get("model", MILPParams.model) == "cluster"
     if not auto or not cluster or params.get("relax"):
         return None
-    return Start("orbit-dp", params={"no_improve": WARM_START_STEPS})
-
-
-def heuristic_start(
-    data: ModelData,
-    rng: np.random.Generator,
-    deadline: float | None = None,
-    no_improve: int = WARM_START_STEPS,
-    arranged: OrbitData | None = None,
-    initial: list[int] | None = None,
-    stop: Callable[[float], bool] | None = None,
-) -> list[int]:
-    """A fast schedule over the model's items: orbit-dp's search (:mod:`sosp.ascent`).
-
-    Each orbit is re-planned exactly over the model's own items (:mod:`sosp.planner`: (3)-(6)
-    with the exact slew term), then perturbation steps until ``no_improve`` steps in a row
-    bring nothing or ``deadline`` passes. The items are those of the model, so the schedule
-    maps onto the model's variables one to one (a MIP start HiGHS accepts as it is).
-
-    ``arranged`` is ``sosp.planner.with_rolls(data, data.roll)`` when the caller has it;
-    ``initial`` items (a schedule of this search) to go on from instead of the empty plans.
-    ``stop`` is asked after every step with the best profit so far; True ends the search
-    (:func:`_search_on`: a bound has proven that profit optimal).
-
-    Returns
-    -------
-    list of int
-        The chosen items (each target claimed once by :func:`sosp.schedule.items_to_schedule`).
-    """
-    from sosp.ascent import OrbitSearch, OrbitSearchParams, iterate
-    from sosp.planner import with_rolls
-    from sosp.stop import FirstOf, NoImprovement
-
-    search = OrbitSearch(arranged if arranged is not None else with_rolls(data, data.roll), rng)
-    if initial:
-        search.set_chosen(initial)
-    until = FirstOf(
-        NoImprovement(no_improve),
-        lambda _: deadline is not None and time.perf_counter() >= deadline,
-        lambda now: stop is not None and stop(now.best),
-    )
-    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
-    search.paths = run.best_paths
-    return search.chosen()
+    return Start("orbit-dp", params={"no_improve": 200})
 
 
 def _int_bound(raw: float | None) -> float | None:
@@ -370,8 +314,8 @@ def choose_backend(data: ModelData, backend: str = "auto") -> str:
 
     Pyomo is the reference builder; below :data:`AUTO_HIGHS_ITEMS` items its build and load
     take well under a second and it stays the default there (the tests' path). From that size
-    on, building and loading through Pyomo dominates (C5: 44 s before HiGHS starts), and the
-    direct backend, which gives the same optima and LP values, is used.
+    on, building and loading through Pyomo dominates the time, and the direct backend, which
+    gives the same optima and LP values, is used.
     """
     if backend != "auto":
         return backend
@@ -401,14 +345,12 @@ def solve_milp(
     between the steps and while the cluster model's candidates are generated, and HiGHS gets
     only what is left):
 
-    0. under :func:`sosp.solve.solve`, with ``warm_start="auto"`` on the cluster model, the
-       pipeline's start stage (:func:`start_stage`: ``orbit-dp`` in half the limit,
-       :mod:`sosp.pipeline`) runs first and is passed here as the warm start schedule;
+    0. with ``warm_start="auto"`` on the cluster model, the start stage (:func:`start_stage`:
+       ``orbit-dp`` in at most half the limit) runs first, through
+       :func:`sosp.pipeline.improve` as under :func:`sosp.solve.solve`, and its schedule is
+       the warm start of the steps below;
     1. the model's items (:func:`model_data`);
-    2. a warm start: the schedule given, or in a direct call with ``"auto"``
-       :func:`heuristic_start` (at most :data:`WARM_START_SHARE` of the limit,
-       :data:`WARM_START_STEPS` or, on large models, :data:`WARM_START_STEPS_LARGE` steps
-       without gain);
+    2. the warm start mapped to the model's items (:func:`start_items`);
     3. an upper bound besides HiGHS's own (``extra_bound``: column generation then branch
        and price over the model's items, at most :data:`EXTRA_BOUND_SHARE` of the limit);
        when it meets the warm start, the start is optimal and no MILP is built;
@@ -422,16 +364,16 @@ def solve_milp(
     The schedule returned is never worse than the warm start, and the bound is the least of
     HiGHS's dual bound, the extra bound and the total weight of the targets the model's items
     cover (never below the profit). When the model's items are not ready by the deadline,
-    the schedule is the given warm start, or with ``"auto"`` :data:`NO_MODEL_METHOD`'s in
-    the time left (:func:`_schedule_without_model`), and the bound the observable weight.
+    the schedule is the warm start (when the validator accepts it) and the bound the
+    observable weight.
 
     Parameters
     ----------
     instance
         The problem.
     rng
-        The generator of the warm start's search (HiGHS itself is deterministic for fixed
-        options); None: ``default_rng(0)``.
+        The generator of the start stage and the search (HiGHS itself is deterministic for
+        fixed options); None: ``default_rng(0)``.
     time_limit
         Wall-time limit in seconds for everything (None: until optimal).
     model
@@ -444,11 +386,10 @@ def solve_milp(
         HiGHS threads (None: HiGHS's default; HiGHS 1.16 then runs one MIP search worker per
         core).
     warm_start
-        ``"auto"`` (default): the start stage of :func:`start_stage` under
-        :func:`sosp.solve.solve`, :func:`heuristic_start` in a direct call; ``"none"`` (or
-        None): no start; or a schedule (searched on from when HiGHS cannot run), mapped to
-        the model's variables (ignored with a warning when it does not fit the model or is
-        infeasible).
+        ``"auto"`` (default): the start stage of :func:`start_stage` (none on a restricted
+        model or the LP relaxation); ``"none"`` (or None): no start; or a schedule (searched
+        on from when HiGHS cannot run), mapped to the model's variables (ignored with a
+        warning when it does not fit the model or is infeasible).
     extra_bound
         ``"colgen"`` (default: :func:`models.colgen.colgen_bound` over the model's items,
         then its branch and price for the rest of the share; a schedule it ends on replaces
@@ -486,7 +427,8 @@ def solve_milp(
         ``status`` optimal (the bound meets the profit) / time_limit / feasible (stopped at
         ``mip_gap``) / no_solution (LP relaxation: no schedule); ``bound`` the best bound
         (never below the profit); ``stats`` the model size, the number of items
-        (``candidates``), the backend, the warm start's and the extra bound's figures.
+        (``candidates``), the backend, the warm start's and the extra bound's figures;
+        with a start stage, ``stages`` and ``stats["start"]`` (:func:`sosp.pipeline.improve`).
     """
     t0 = time.perf_counter()
     time_limit = check_time_limit(time_limit)
@@ -518,13 +460,23 @@ def solve_milp(
             f"extra_bound: expected one of {', '.join(get_args(ExtraBound))}, got {extra_bound!r}"
         )
     rng = np.random.default_rng(0) if rng is None else rng
+    params = {
+        "model": model, "mip_gap": mip_gap, "threads": threads, "warm_start": warm_start,
+        "extra_bound": extra_bound, "relax": relax, "backend": backend, "conflicts": conflicts,
+        "lp_solver": lp_solver, "slew": slew, "probing": probing,
+    }  # fmt: skip
+    if start_stage(instance, params) is not None:  # called directly: the pipeline's start
+        from sosp.pipeline import improve
+        from sosp.stop import Budget
+
+        return improve(instance, "milp", solve_milp, params, rng, Budget.of(time_limit))
     deadline = None if time_limit is None else t0 + time_limit
     method = "milp"
     empty = Schedule(())
     stats: dict[str, Any] = {"model": model, "relax": bool(relax)}
-    # candidates not ready by half the limit leave the other half to a heuristic's schedule
-    # (a 20,000-target worldwide instance spent the whole limit generating them: the empty
-    # schedule); ready by then, the model goes on with the whole limit
+    # candidates not ready by half the limit leave the warm start as the answer (a large
+    # instance could spend the whole limit generating them); ready by then, the model goes
+    # on with the whole limit
     generate_by = None if deadline is None else t0 + MODEL_SHARE * time_limit
     try:
         data = model_data(instance, model, deadline, generate_by=generate_by)
@@ -538,13 +490,13 @@ def solve_milp(
         if relax:
             runtime = time.perf_counter() - t0
             return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, upper, None, stats)
-        schedule = _schedule_without_model(instance, warm_start, rng, deadline, time_limit, stats)
+        schedule = _schedule_without_model(instance, warm_start, stats)
         profit, observed = schedule.coverage_profit(instance)
         status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
         runtime = time.perf_counter() - t0
         return Result(method, status, schedule, profit, observed, runtime, upper, None, stats)
     cap = data.covered_weight()
-    if slew is None:  # lazy measured better (docs/exact.md: B6-B8, C1 proven, exact not)
+    if slew is None:  # lazy: proves more (docs/exact.md, "The lazy slew term")
         slew = "exact" if relax else "lazy"
     if slew == "auto" and not relax:
         slew = "lazy"
@@ -590,12 +542,6 @@ def solve_milp(
     if isinstance(warm_start, Schedule):
         start = start_items(data, warm_start)
         stats["warm_start"] = start is not None
-    elif warm_start == "auto" and arranged is not None:
-        share = None if deadline is None else time.perf_counter() + WARM_START_SHARE * time_limit
-        steps = WARM_START_STEPS_LARGE if data.n_items >= LARGE_MODEL_ITEMS else WARM_START_STEPS
-        start = heuristic_start(data, rng, share, steps, arranged=arranged)
-        stats["warm_start"] = "auto"
-        stats["warm_start_steps"] = steps
     start_profit = 0.0
     if start is not None:
         start_profit = items_to_schedule(instance, data, start).coverage_profit(instance)[0]
@@ -604,9 +550,7 @@ def solve_milp(
     upper = cap
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
-        # column generation anyway, and on B10 the 10 % share spent branching first (60 s,
-        # 6188 -> 6184) was worth more to the MILP (600 s: 6142 / 6155 with it, 6146 / 6155
-        # without)
+        # column generation anyway, and the share is worth more to the MILP
         side_next = time_limit is not None and _side_possible(
             extra_bound, arranged, deadline, EXTRA_BOUND_SHARE * time_limit
         )
@@ -667,9 +611,9 @@ def solve_milp(
             if value < float(incumbent) - 1e-4 and (
                 deadline is None or time.perf_counter() < deadline
             ):
-                # Seen with highspy 1.16 when presolve alone finishes a model given a MIP
-                # start: the right optimum (27) read back with the start's solution (25),
-                # on both backends. Solve again without the start (the model was small).
+                # HiGHS can read back the start's solution with the optimum's objective when
+                # presolve alone finishes a model given a MIP start, on both backends: solve
+                # again without the start (the model was small)
                 log.debug("HiGHS returned the start (%g) for objective %g", value, incumbent)
                 stats["resolved_without_start"] = True
                 kind, incumbent, raw_bound, chosen = _solve(
@@ -760,7 +704,8 @@ def _search_on(
 ) -> tuple[list[int] | None, float]:
     """The start and its profit after the time the MILP did not use: when HiGHS was not run
     (its model would not be built, or presolved, in the time left) or gave way
-    (:data:`GIVE_WAY_SHARE`), :func:`heuristic_start` goes on from the start until
+    (:data:`GIVE_WAY_SHARE`), orbit-dp's search (:func:`sosp.ascent.iterate`, each orbit
+    re-planned over the model's own items) goes on from the start until
     ``deadline``, or until the ``side`` branch and price's bound proves its best schedule
     optimal (:meth:`models.colgen.SideBound.watch`), and its schedule replaces the start when
     better (a start given or found: the MILP's time is not lost when HiGHS cannot use it)."""
@@ -768,14 +713,20 @@ def _search_on(
         return start, start_profit
     t1 = time.perf_counter()
 
-    def proven(best: float) -> bool:
-        # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
-        return side is not None and side.watch(math.inf, max(best, start_profit))
+    from sosp.ascent import OrbitSearch, OrbitSearchParams, iterate
 
-    more = heuristic_start(
-        data, rng, deadline, no_improve=sys.maxsize, arranged=arranged, initial=start,
-        stop=proven,
-    )  # fmt: skip
+    def until(now: Any) -> bool:
+        # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
+        if time.perf_counter() >= deadline:
+            return True
+        return side is not None and side.watch(math.inf, max(now.best, start_profit))
+
+    search = OrbitSearch(arranged, rng)
+    if start:
+        search.set_chosen(start)
+    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
+    search.paths = run.best_paths
+    more = search.chosen()
     if side is not None and side.proved_at is not None:
         stats["search_on_stopped"] = "proven"
     profit = items_to_schedule(data.instance, data, more).coverage_profit(data.instance)[0]
@@ -789,46 +740,24 @@ def _search_on(
 
 
 #: Share of ``milp``'s time limit within which the cluster model's candidates must be
-#: generated; past it, :func:`_schedule_without_model` has the rest.
+#: generated; past it, the warm start is the answer (:func:`_schedule_without_model`).
 MODEL_SHARE = 0.5
-
-#: The method that gives ``milp`` its schedule when the model cannot be built in time
-#: (:func:`_schedule_without_model`): it answers at any limit and on any instance.
-NO_MODEL_METHOD = "asa-dtc"  # answers on every instance: see heuristics.asa.search.run_asa
 
 
 def _schedule_without_model(
-    instance: Instance,
-    warm_start: Schedule | str,
-    rng: np.random.Generator,
-    deadline: float | None,
-    time_limit: float | None,
-    stats: dict[str, Any],
+    instance: Instance, warm_start: Schedule | str, stats: dict[str, Any]
 ) -> Schedule:
     """The schedule :func:`solve_milp` returns when its model's items are not ready by the
-    deadline: a given warm start (when the validator accepts it), else with ``"auto"``
-    :data:`NO_MODEL_METHOD` in the time left (less the MILP's reserve), else the empty one.
-
-    ``milp --time-limit 5`` on C10 returned the empty schedule after 0.7 s (the model's
-    items, 176,610, were not foreseen to fit in 5 s: :func:`models.data.fits`)."""
+    deadline: the warm start when the validator accepts it, else the empty one."""
     from sosp.validate import validate
 
-    if isinstance(warm_start, Schedule):
-        if validate(instance, warm_start).feasible:
-            stats["returned"] = "warm_start"
-            return warm_start
-        log.warning("warm start ignored: the schedule is infeasible")
+    if not isinstance(warm_start, Schedule):
         return Schedule(())
-    if warm_start != "auto" or deadline is None or time_limit is None:
-        return Schedule(())
-    left = _solve_by(deadline, time_limit) - time.perf_counter()
-    if left <= 0:
-        return Schedule(())
-    from sosp.solve import method_function
-
-    res = method_function(NO_MODEL_METHOD)(instance, rng=rng, time_limit=left)
-    stats["returned"] = NO_MODEL_METHOD
-    return res.schedule
+    if validate(instance, warm_start).feasible:
+        stats["returned"] = "warm_start"
+        return warm_start
+    log.warning("warm start ignored: the schedule is infeasible")
+    return Schedule(())
 
 
 def _extra_bound(
@@ -1304,9 +1233,8 @@ def bound(
     generate_by = None
     if method in ("auto", "lagrangian") and model == "cluster" and time_limit is not None:
         # candidates not ready by then leave the window relaxation its share: a dense orbit
-        # begun just before the foresight could stop it took the time to 7.5-8.5 s of 10,
-        # and the answer was the cap (a 2,500-target drawn instance: 13,177 in one run of
-        # three, 3,706-3,738 in the others)
+        # begun just before the foresight could stop it can take the rest, and the answer
+        # would be the cap
         generate_by = t0 + (1.0 - WINDOWS_AFTER_SHARE) * time_limit
     try:
         data = model_data(instance, model, deadline, generate_by)
@@ -1332,8 +1260,8 @@ def bound(
         try:
             out = _colgen_bound(instance, t0, deadline, lower_bound, workers)
         except InputError:
-            # the planner's candidates would not fit in memory either (10,000 targets in the
-            # C region): the window relaxation needs no candidate list
+            # the planner's candidates would not fit in memory either: the window
+            # relaxation needs no candidate list
             log.info("bound: too dense for the candidates; the window relaxation's bound")
             out = _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
             out["method"] = "auto"
@@ -1470,15 +1398,13 @@ def _window_bound(
 
 
 #: ``bound`` with ``auto`` or ``lagrangian`` answers with the window relaxation's bound when
-#: the candidates are not ready in time and at least this share of the limit is left (they
-#: are foreseen late at once on 20,000 targets: 117991 in the 9.8 s left, where the cap,
-#: the observable weight, is 120065); else with the cap.
+#: the candidates are not ready in time and at least this share of the limit is left (a
+#: bound below the cap, the observable weight); else with the cap.
 WINDOWS_AFTER_SHARE = 0.25
 
 #: ... the share of the limit that must be left for the window relaxation's bound: less than
 #: the :data:`WINDOWS_AFTER_SHARE` the generation leaves, which it passes by milliseconds
-#: when it stops at its time (a drawn 1,200-target instance at 10 s: the cap, 13,185, where
-#: the windows give 3,791 in 2.5 s).
+#: when it stops at its time.
 WINDOWS_MIN_SHARE = 0.2
 
 
@@ -1559,7 +1485,7 @@ def _lagrangian_alone(
 ) -> dict[str, Any]:
     """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
     without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
-    either (10,000 targets in the C region), the window relaxation's bound, which is a
+    either, the window relaxation's bound, which is a
     Lagrangian bound too (:mod:`models.window_bound`)."""
     from models.lagrangian import lagrangian_bound
     from sosp.planner import orbit_data

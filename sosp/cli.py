@@ -632,7 +632,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--warm-start",
         default=None,
         help="milp, milp-lns: schedule file to start from; milp: none (no start) or auto "
-        "(default: a fast orbit search over the model's items)",
+        "(default: the start stage, orbit-dp, on the cluster model)",
     )
     p.add_argument(
         "--bound",

@@ -106,8 +106,7 @@ def improve(
     if start is not None:
         first, stage = run_start(instance, start, rng, own)
         stages.append(stage)
-        if len(first.schedule):  # one that found nothing (stopped at once) leaves the method
-            params["warm_start"] = first.schedule  # to start as it would alone
+        params["warm_start"] = first.schedule  # also empty: the start stage ran, once
     t0 = time.perf_counter()
     result = func(instance, rng=rng, time_limit=own.left(), **params)
     ran = result.stages or (

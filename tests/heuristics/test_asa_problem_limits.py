@@ -41,19 +41,17 @@ def test_asa_dtc_answers_with_its_start_search_when_the_lists_do_not_fit(
     limit_kept("asa-dtc fallback, 2 s", res.runtime_s, 3.0)
 
 
-def test_milp_without_a_model_gets_a_schedule_through_asa_dtc(monkeypatch, c1) -> None:
-    """``milp``'s schedule when its model cannot be built is ASA-DTC's
-    (:data:`models.solve.NO_MODEL_METHOD`), which must answer on every instance."""
-    import time
-
+def test_the_fallback_start_answers_through_asa_dtc(monkeypatch, c1) -> None:
+    """The start a solve falls back to when orbit-dp's candidates are not ready in its share
+    (:data:`sosp.pipeline.FALLBACK_START`, ASA-DTC: then ``milp``'s schedule when its model
+    cannot be built) must answer on every instance."""
     import numpy as np
 
-    from models.solve import _schedule_without_model
+    from sosp.pipeline import FALLBACK_START
+    from sosp.registry import method_function
 
     monkeypatch.setattr(problem, "MAX_CONFLICTS", 5)
-    stats: dict = {}
-    t0 = time.perf_counter()
-    sched = _schedule_without_model(c1, "auto", np.random.default_rng(0), t0 + 3.0, 3.0, stats)
-    assert stats["returned"] == "asa-dtc"
-    report = validate(c1, sched)
+    res = method_function(FALLBACK_START)(c1, rng=np.random.default_rng(0), time_limit=3.0)
+    assert FALLBACK_START == "asa-dtc"
+    report = validate(c1, res.schedule)
     assert report.feasible and report.profit > 0

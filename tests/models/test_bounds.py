@@ -13,11 +13,10 @@ from hypothesis import strategies as st
 
 from models.data import observable_weight
 from models.lagrangian import lagrangian_bound
-from models.solve import bound, heuristic_start, model_data, solve_milp
+from models.solve import bound, solve_milp
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.result import Status
-from sosp.schedule import items_to_schedule
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import tiny_cluster
@@ -73,30 +72,20 @@ def test_milp_and_bounds_against_the_oracle(seed: int) -> None:
     assert res.status is Status.OPTIMAL and res.profit == optimum
 
 
-def test_heuristic_start_is_a_valid_schedule_of_each_model() -> None:
+def test_auto_runs_the_start_stage_of_the_pipeline() -> None:
+    """A direct call with ``warm_start="auto"`` runs the pipeline's start stage (orbit-dp)
+    once and goes on from its schedule: never below it; a restricted model takes none."""
     inst = random_tiny(11)
-    for model in ("task", "cluster", "static"):
-        data = model_data(inst, model)
-        chosen = heuristic_start(data, np.random.default_rng(0))
-        sched = items_to_schedule(inst, data, chosen)
-        rep = validate(inst, sched)
-        assert rep.feasible, (model, rep.violations)
-        assert rep.profit <= brute_force(inst, model).profit
-
-
-def test_warm_start_takes_more_steps_on_large_models(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The default warm start stops after WARM_START_STEPS steps without gain, and after
-    WARM_START_STEPS_LARGE on models of LARGE_MODEL_ITEMS items or more (here every model)."""
-    import models.solve as ms
-
-    inst = random_tiny(11)
-    res = solve_milp(inst)
-    assert res.stats["warm_start_steps"] == ms.WARM_START_STEPS
-    monkeypatch.setattr(ms, "LARGE_MODEL_ITEMS", 0)
-    res = solve_milp(inst)
-    assert res.stats["warm_start_steps"] == ms.WARM_START_STEPS_LARGE > ms.WARM_START_STEPS
-    assert res.profit >= res.stats["start_profit"]
-    assert validate(inst, res.schedule).feasible
+    res = solve_milp(inst, rng=np.random.default_rng(0))
+    assert [(st.kind, st.name) for st in res.stages] == [("start", "orbit-dp"), ("method", "milp")]
+    assert res.stats["start"] == "orbit-dp" and res.stats["warm_start"] is True
+    assert res.profit >= res.stats["start_profit"] >= res.stages[0].profit - 1e-9
+    assert validate(inst, res.schedule).feasible and res.profit <= res.bound
+    for model in ("task", "static"):
+        res = solve_milp(inst, model=model)
+        assert res.stages == () and "start_profit" not in res.stats
+        assert validate(inst, res.schedule).profit == res.profit
+        assert res.profit == brute_force(inst, model).profit
 
 
 def test_warm_start_none_and_bad_values() -> None:

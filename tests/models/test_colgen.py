@@ -601,7 +601,8 @@ def test_highs_gives_way_to_the_search_on_large_models(monkeypatch) -> None:
     # its root is unfinished
     monkeypatch.setattr(hd, "GUARD_NNZ", 0)
     inst = random_dense(2, n=400)  # HiGHS does not finish its root in 6 s
-    res = msolve.solve_milp(inst, time_limit=6.0, backend="highs")
+    start = solve(inst, "orbit-dp", seed=0, no_improve=200).schedule  # the 6 s are the MILP's
+    res = msolve.solve_milp(inst, time_limit=6.0, backend="highs", warm_start=start)
     s = res.stats
     assert s["gave_way_s"] <= res.runtime_s
     limit_kept("gave way, 6 s", res.runtime_s, 6.0 + 1.0)
@@ -620,19 +621,18 @@ def test_search_after_giving_way_stops_when_the_side_proves(monkeypatch) -> None
 
     _side_says(monkeypatch, 1e6)
     searching = []
-    heuristic_start = msolve.heuristic_start
+    search_on = msolve._search_on
 
-    def search(*args, **kwargs):
-        if kwargs.get("stop") is not None:  # the search after giving way
-            searching.append(True)
-        return heuristic_start(*args, **kwargs)
+    def search(*args, **kwargs):  # the search after giving way
+        searching.append(True)
+        return search_on(*args, **kwargs)
 
     def poll(self):
         # no proof while HiGHS runs; the start's profit (the side's lower bound) after
         self.bound = self.lower_bound if searching else 1e6
         return self.bound
 
-    monkeypatch.setattr(msolve, "heuristic_start", search)
+    monkeypatch.setattr(msolve, "_search_on", search)
     monkeypatch.setattr(colgen.SideBound, "poll", poll)
     monkeypatch.setattr(msolve, "LARGE_MODEL_ITEMS", 0)
     monkeypatch.setattr(msolve, "GIVE_WAY_SHARE", 0.0)
