@@ -11,6 +11,7 @@ within the limit. One JSON object per run goes to ``--output``, a Markdown table
 
     python benchmarks/bench_time_limits.py --limits 10 --names w1500 d30 na5000 g20 C10
     python benchmarks/bench_time_limits.py --limits 5 10 20 --names C10 --solve milp
+    python benchmarks/bench_time_limits.py --names C10 --with-bound --bound   # with --bound auto
 
 The instances (``sosp scenario`` commands, written once into ``--dir``):
 
@@ -119,9 +120,12 @@ def instance_file(name: str, folder: Path) -> Path:
     return path
 
 
-def run(kind: str, method: str, path: Path, limit: float) -> dict[str, object]:
-    """One ``sosp solve`` / ``sosp bound`` run and what it reported."""
+def run(
+    kind: str, method: str, path: Path, limit: float, extra: tuple[str, ...] = ()
+) -> dict[str, object]:
+    """One ``sosp solve`` / ``sosp bound`` run (``extra``: more options) and what it reported."""
     cmd = ["sosp", kind, str(path), "--method", method, "--time-limit", str(limit), "--json"]
+    cmd += list(extra)
     if kind == "solve":
         cmd += ["-o", os.devnull]
     t0 = time.perf_counter()
@@ -148,6 +152,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--limits", nargs="+", type=float, default=[10.0])
     ap.add_argument("--solve", nargs="*", default=SOLVE, help="methods of sosp solve")
     ap.add_argument("--bound", nargs="*", default=BOUND, help="methods of sosp bound")
+    ap.add_argument(
+        "--with-bound",
+        action="store_true",
+        help="also each solve with --bound auto (the bound counts in the limit)",
+    )
     ap.add_argument("--dir", default=None, help="where the instances are kept (default: temp)")
     ap.add_argument("--output", default=None, help="JSON lines, one per run")
     args = ap.parse_args(argv)
@@ -162,13 +171,17 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.names:
         path = instance_file(name, folder)
         for limit in args.limits:
-            jobs = [("solve", m) for m in args.solve] + [("bound", m) for m in args.bound]
-            for kind, method in jobs:
-                row = {"instance": name, **run(kind, method, path, limit)}
+            bounded = [("--bound", "auto")] if args.with_bound else []
+            jobs = [("solve", m, e) for m in args.solve for e in [(), *bounded]]
+            jobs += [("bound", m, ()) for m in args.bound]
+            for kind, method, extra in jobs:
+                row = {"instance": name, **run(kind, method, path, limit, extra)}
+                row["extra"] = " ".join(extra)
                 rows.append(row)
                 result = row.get("value", f"exit {row['rc']}: {row.get('error', '')[:60]}")
                 print(
-                    f"| {name} | {kind} {method} | {limit:g} | {row.get('runtime_s', '')} "
+                    f"| {name} | {kind} {method} {row['extra']} | {limit:g} "
+                    f"| {row.get('runtime_s', '')} "
                     f"| {row['wall_s']} | {result} | {'yes' if row['holds'] else '**no**'} |",
                     flush=True,
                 )
