@@ -569,7 +569,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--min-sun-elevation",
         type=float,
-        default=None,
         help="daylight rule: minimum sun elevation at the target, deg (off)",
     )
     from sosp.instance import RESOURCE_KEYS, Resources
@@ -580,7 +579,6 @@ def build_parser() -> argparse.ArgumentParser:
             f"--{key.replace('_', '-')}",
             dest=key,
             type=float,
-            default=None,
             metavar=RESOURCE_UNITS[key][0],
             help=f"per-orbit {key.replace('_', ' ')}, {RESOURCE_UNITS[key][1]} "
             f"({getattr(defaults, key):g})",
@@ -608,7 +606,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--time-limit",
         type=positive(float),
-        default=None,
         help="seconds of wall time from reading the instance to the schedule",
     )
     p.add_argument(
@@ -617,20 +614,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--max-memory",
         type=_bytes,
-        default=None,
         metavar="BYTES",
         help="memory the solve may hold, e.g. 1500M or 2G (default 2G): explicit candidates "
         "that would not fit in a third of it are replaced by pricing over time windows",
     )
-    p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
-    p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
-    p.add_argument("--threads", type=positive(int), default=None, help="milp: solver threads")
+    p.add_argument("--model", help="milp: task, cluster (default) or static")
+    p.add_argument("--mip-gap", type=float, help="milp: relative gap to stop at")
+    p.add_argument("--threads", type=positive(int), help="milp: solver threads")
     p.add_argument(
         "--backend", default=None, help="milp: pyomo, highs or auto (default: by model size)"
     )
     p.add_argument(
         "--warm-start",
-        default=None,
         help="milp, milp-lns: schedule file to start from; milp: none (no start) or auto "
         "(default: a fast orbit search over the model's items)",
     )
@@ -638,7 +633,6 @@ def build_parser() -> argparse.ArgumentParser:
         "--bound",
         nargs="?",
         const="auto",
-        default=None,
         choices=CERTIFYING_BOUNDS,
         help="certify the schedule: compute an upper bound of the problem after the solve "
         "(auto if no value; its own time limit = --time-limit) and report the gap",
@@ -646,7 +640,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--bound-workers",
         type=positive(int),
-        default=None,
         help="--bound: processes for its pricing rounds (auto, colgen, lagrangian; default 1); "
         "they pay on instances with many busy orbits (see docs/scenarios.md)",
     )
