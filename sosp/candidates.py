@@ -137,8 +137,7 @@ class OppGroups(Sequence[tuple[int, ...]]):
         if isinstance(groups, OppGroups):
             return groups
         sizes = np.fromiter((len(g) for g in groups), dtype=np.int64, count=len(groups))
-        ptr = np.zeros(len(groups) + 1, dtype=np.int64)
-        np.cumsum(sizes, out=ptr[1:])
+        ptr = offsets(sizes)
         flat = np.fromiter(chain.from_iterable(groups), dtype=np.int32, count=int(ptr[-1]))
         return cls(ptr, flat)
 
@@ -185,9 +184,15 @@ class OppGroups(Sequence[tuple[int, ...]]):
         """The groups ``rows``, in that order."""
         rows = np.asarray(rows, dtype=np.int64)
         sizes = self.ptr[rows + 1] - self.ptr[rows]
-        ptr = np.zeros(len(rows) + 1, dtype=np.int64)
-        np.cumsum(sizes, out=ptr[1:])
+        ptr = offsets(sizes)
         return OppGroups(ptr, self.flat[ragged_positions(self.ptr[rows], sizes)])
+
+
+def offsets(sizes: np.ndarray) -> np.ndarray:
+    """CSR pointers of groups of ``sizes`` members: 0, then their running sums (int64)."""
+    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=ptr[1:])
+    return ptr
 
 
 def ragged_positions(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -919,8 +924,7 @@ def _pack(
 ) -> OrbitCandidates:
     """One orbit's candidates as read-only columns, windows (10) from the members."""
     sizes = np.concatenate(out_sizes) if out_sizes else np.zeros(0, dtype=np.int64)
-    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=ptr[1:])
+    ptr = offsets(sizes)
     flat = np.concatenate(out_members) if out_members else np.zeros(0, dtype=np.int32)
     roll = np.concatenate(out_roll) if out_roll else np.zeros(0)
     # Windows (10) of all candidates at once: [min ts, max te] over the members.
@@ -966,8 +970,7 @@ def _start_candidates(
     # members: k with the roll in range and te_k <= te_l + EPS, in index order
     cover = inside[:, kt].T & (te_w[None, :] <= te_w[ends[kl]][:, None] + EPS)
     rows, cols = np.nonzero(cover)
-    ptr = np.zeros(len(kt) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=len(kt)), out=ptr[1:])
+    ptr = offsets(np.bincount(rows, minlength=len(kt)))
     return w[ends[kl]], rolls[kt], ptr, w[cols]
 
 
