@@ -64,6 +64,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from sosp.candidates import OppGroups
 from sosp.errors import InputError
@@ -80,15 +81,6 @@ from sosp.rules import (
 )
 
 log = logging.getLogger(__name__)
-
-try:  # numba compiles the sweep; without it the same code runs as (slow) Python
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency
-
-    def njit(*args: Any, **kwargs: Any) -> Any:
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
 
 
 # ------------------------------------------------------------------------ the sweep kernel
@@ -136,14 +128,10 @@ def _range_add(
                 d[rq] += val
         lq >>= 1
         rq >>= 1
-    p = l0 >> 1
-    while p >= 1:
-        _combine(t, at, absp, p, d[p])
-        p >>= 1
-    p = (r0 - 1) >> 1
-    while p >= 1:
-        _combine(t, at, absp, p, d[p])
-        p >>= 1
+    for p in (l0 >> 1, (r0 - 1) >> 1):
+        while p >= 1:
+            _combine(t, at, absp, p, d[p])
+            p >>= 1
 
 
 @njit(cache=True)
