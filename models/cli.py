@@ -100,7 +100,6 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         "possibly weaker bound from a much smaller LP) or auto (default: relaxed from 1000 "
         "items on)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bound)
     return p
 

@@ -313,6 +313,9 @@ def _solve_interruptibly(
     from sosp.solve import solve
     from sosp.stop import handle_signals, stop_reason
 
+    limit = args.time_limit
+    if limit is not None:
+        limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
     line = None if args.quiet else StatusLine(sys.stderr)
     progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
     clear = line.log_filter() if line is not None and line.tty else None
@@ -322,19 +325,7 @@ def _solve_interruptibly(
     with handle_signals():
         try:
             result = solve(
-                inst,
-                args.method,
-                seed=args.seed,
-                time_limit=(
-                    None
-                    if args.time_limit is None
-                    else max(
-                        args.time_limit - (time.perf_counter() - t0),
-                        KERNEL_SHARE_LEFT * args.time_limit,
-                    )
-                ),
-                progress=progress,
-                **params,
+                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
             )
         finally:
             if line is not None:
@@ -414,8 +405,6 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------- demo
 def cmd_demo(args: argparse.Namespace) -> int:
-    import time
-
     from sosp import scenarios
     from sosp.registry import available_methods, compute_bound
     from sosp.solve import solve
