@@ -265,9 +265,9 @@ class OrbitCandidates:
         a = int(np.searchsorted(self.start, t0 - EPS, side="left"))
         b = int(np.searchsorted(self.start, t1 + EPS, side="right"))
         return _within()(
-            _readonly(self.end, np.float64),
-            _readonly(self.opps.ptr, np.int64),
-            _readonly(self.opps.flat, np.int32),
+            readonly(self.end, np.float64),
+            readonly(self.opps.ptr, np.int64),
+            readonly(self.opps.flat, np.int32),
             np.ascontiguousarray(opts, dtype=np.int64),
             n_options,
             a,
@@ -276,8 +276,12 @@ class OrbitCandidates:
         )
 
 
-def _readonly(column: np.ndarray, dtype: Any) -> np.ndarray:
-    """``column`` as a read-only contiguous array of ``dtype`` (itself when it is one)."""
+def readonly(column: np.ndarray, dtype: Any) -> np.ndarray:
+    """``column`` as a read-only contiguous array of ``dtype`` (itself when it is one).
+
+    The compiled kernels' inputs are passed in this one form: numba compiles a kernel once
+    per combination of argument types, read-only and writeable arrays differ, and the callers
+    hold both (an instance's arrays are read-only, their slices and copies not)."""
     if column.dtype != dtype or not column.flags.c_contiguous:
         column = np.ascontiguousarray(column, dtype=dtype)
     if column.flags.writeable:

@@ -66,7 +66,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from sosp.candidates import OppGroups
+from sosp.candidates import OppGroups, readonly
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.recursion import least_penalty_plan, recursion, release_order
@@ -491,17 +491,6 @@ def _no_items() -> WindowItems:
     return WindowItems(z, z, f, f, f, f, f, f)
 
 
-def _frozen(a: np.ndarray, dtype: Any) -> np.ndarray:
-    """``a`` as a contiguous, read-only array of ``dtype`` (a view when it is one already).
-
-    The kernels' inputs are passed in this one form: numba compiles a kernel once per
-    combination of argument types, read-only and writeable arrays differ, and the callers
-    hold both (an instance's arrays are read-only, their slices and copies not)."""
-    v = np.ascontiguousarray(a, dtype=dtype).view()
-    v.flags.writeable = False
-    return v
-
-
 def _window_rows(
     ts: np.ndarray,
     te: np.ndarray,
@@ -525,7 +514,7 @@ def _window_rows(
     last = np.empty(room, dtype=np.int64)
     gain, point = np.empty(room), np.empty(room)
     spans = np.empty((room if span else 0, 3))
-    ts, te, lo, hi, w = (_frozen(c, float) for c in (ts, te, lo, hi, w))
+    ts, te, lo, hi, w = (readonly(c, float) for c in (ts, te, lo, hi, w))
     n = _sweep(ts, te, lo, hi, w, limit, EPS, span, first, last, gain, point, spans)
     return first[:n].copy(), last[:n].copy(), gain[:n].copy(), point[:n].copy(), spans[:n].copy()
 
@@ -628,9 +617,9 @@ def _member_lists(
 ) -> tuple[np.ndarray, np.ndarray]:
     """CSR (ptr, flat local indices) of :func:`_members`; :class:`TooManyMembers` beyond
     :data:`MAX_WINDOW_MEMBERS`, before they are allocated."""
-    cols = (_frozen(c, float) for c in (oo.start, oo.end, oo.roll_min, oo.roll_max, w))
-    first, last = _frozen(first, np.int64), _frozen(last, np.int64)
-    point = _frozen(point, float)
+    cols = (readonly(c, float) for c in (oo.start, oo.end, oo.roll_min, oo.roll_max, w))
+    first, last = readonly(first, np.int64), readonly(last, np.int64)
+    point = readonly(point, float)
     ptr = np.zeros(len(first) + 1, dtype=np.int64)
     # int32, as OppGroups holds them: the first touch of fresh memory is slow on the 2-core
     # machine (280 MB: 0.7 s the first time, 0.03 s after), so the list is made once, in the
