@@ -731,12 +731,7 @@ def orbit_columns(
 
 def _densest(instance: Instance) -> int:
     """The orbit with the most (first, covered) pairs inside one Delta T."""
-    best, arg = -1, 0
-    for j in range(instance.n_orbits):
-        pairs = orbit_pairs(instance, j)
-        if pairs > best:
-            best, arg = pairs, j
-    return arg
+    return max(range(instance.n_orbits), key=lambda j: orbit_pairs(instance, j), default=0)
 
 
 def _estimate_late(instance: Instance, budget: Budget) -> bool:
