@@ -239,10 +239,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         check_output(args.output)
     inst = load_instance(args.instance)
     params = _parse_params(args.param or [])
-    for key in ("iterations", "model", "mip_gap", "threads", "backend"):
-        value = getattr(args, key)
-        if value is not None:
-            params[key] = value
+    given = {k: getattr(args, k) for k in ("iterations", "model", "mip_gap", "threads", "backend")}
+    params.update({k: v for k, v in given.items() if v is not None})
     if args.warm_start in ("none", "auto"):
         params["warm_start"] = args.warm_start
     elif args.warm_start is not None:
@@ -506,8 +504,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     def add(name: str, help_: str) -> argparse.ArgumentParser:
+        """The subcommand ``name``, run by this module's ``cmd_<name>``."""
         p = sub.add_parser(name, help=help_, description=help_)
         p.add_argument("--json", action="store_true", help="print one JSON object")
+        p.set_defaults(func=globals()[f"cmd_{name}"])
         return p
 
     p = add("scenario", "generate an instance from real orbits (named scenario or your own)")
@@ -572,11 +572,9 @@ def build_parser() -> argparse.ArgumentParser:
             help=f"per-orbit {key.replace('_', ' ')}, {RESOURCE_UNITS[key][1]} "
             f"({getattr(defaults, key):g})",
         )
-    p.set_defaults(func=cmd_scenario)
 
     p = add("info", "summarise an instance: targets, EN, TN, orbits, opportunities per orbit")
     p.add_argument("instance")
-    p.set_defaults(func=cmd_info)
 
     from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS
 
@@ -648,16 +646,13 @@ def build_parser() -> argparse.ArgumentParser:
         "a terminal, a line every 10 s otherwise); Ctrl-C or SIGTERM stops the search and "
         "writes the best schedule so far (status interrupted, exit code 130)",
     )
-    p.set_defaults(func=cmd_solve)
 
     p = add("methods", "list every method with its parameters, types, defaults and help")
     p.add_argument("method", nargs="*", help="only these methods (default: all)")
-    p.set_defaults(func=cmd_methods)
 
     p = add("validate", "check a schedule against every constraint; exit 1 if infeasible")
     p.add_argument("instance")
     p.add_argument("schedule")
-    p.set_defaults(func=cmd_validate)
 
     p = add("demo", "generate a built-in scenario, solve, validate and summarise")
     p.add_argument(
@@ -673,7 +668,6 @@ def build_parser() -> argparse.ArgumentParser:
         default=5.0,
         help="seconds for the search methods (5)",
     )
-    p.set_defaults(func=cmd_demo)
 
     for name, target in EXTRA_COMMANDS.items():
         module, func = target.split(":")
