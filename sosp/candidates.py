@@ -1002,19 +1002,7 @@ def _start_kept(
     hi: np.ndarray,
     stop: int,
     limit: float,
-) -> (
-    tuple[
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-    ]
-    | None
-):
+) -> tuple[np.ndarray, ...] | None:
     """The non-dominated (end, roll) pairs of the candidates whose first opportunity is i.
 
     The same candidates, in the same order, as the reference loop of the tests
@@ -1097,10 +1085,8 @@ def _start_kept(
     size = cnt[pair_t, nl]
     cost = np.abs(rolls)
     # rolls of strictly smaller |theta| than t: an interval [lo_t, hi_t] around nadir
-    order_abs = np.searchsorted(rolls, 0.0)
     lo_t = np.searchsorted(rolls, -cost, side="right")
     hi_t = np.searchsorted(rolls, cost, side="left") - 1
-    del order_abs
     qa = np.maximum(lo_t[pair_t], a_l[pair_l])
     qb = np.minimum(hi_t[pair_t], b_l[pair_l])
     dropped = np.zeros(len(pair_t), dtype=bool)
