@@ -884,11 +884,8 @@ def generate(
     n = len(ts)
     if stop is None:
         stop = starts_within(ts, limit)
-    tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
-    if n > 1:
-        same = ts[1:] == ts[:-1]
-        tied[1:] |= same
-        tied[:-1] |= same
+    same = ts[1:] == ts[:-1]
+    tied = np.r_[False, same] | np.r_[same, False]  # a start time shared with a neighbour
     seen: set[tuple[float, bytes]] = set()
     seen_ts = None
     for i in range(n):
