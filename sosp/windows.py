@@ -66,7 +66,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from sosp.candidates import OppGroups, readonly
+from sosp.candidates import OppGroups, offsets, readonly
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.recursion import least_penalty_plan, recursion, release_order
@@ -660,9 +660,7 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
     if not dup.any():
         return ptr, flat
     keep = ~dup
-    new_ptr = np.zeros_like(ptr)
-    np.cumsum(np.bincount(seg[keep], minlength=len(ptr) - 1), out=new_ptr[1:])
-    return new_ptr, flat[keep]
+    return offsets(np.bincount(seg[keep], minlength=len(ptr) - 1)), flat[keep]
 
 
 def compile_window_kernels() -> None:
@@ -801,8 +799,8 @@ def window_candidates(
     check_roll_rule(roll_rule)
     wi = window_items(oo, price)
     if wi.size == 0:
-        z = np.zeros(0)
-        return z, z, z, OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+        e = empty_plan()
+        return e.start, e.end, e.roll, e.opps
     keep, start, end, roll = _observations(oo, wi, roll_rule)
     if ahead is not None:
         ahead(member_scan(oo, wi.first[keep], wi.last[keep]))
