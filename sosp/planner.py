@@ -301,11 +301,11 @@ def _arrange(
 
     With a ``deadline`` (a :func:`time.perf_counter` value), past it, the same one-line error
     as a candidate generation that ran out of time: millions of candidates take seconds to
-    arrange (2.4 million about 3 s), and one dense orbit alone more than a second (D30's
-    densest: 1.5 s), so the clock is read after each orbit and, before each orbit but the
-    first, its time is foreseen at the rate of the orbits arranged so far; an orbit
-    foreseen to end past the deadline is not started, and neither is the rest when it is
-    foreseen to need more than ``sosp.candidates.FORESIGHT_MARGIN`` times the time left.
+    arrange, and one dense orbit alone more than a second, so the clock is read after each
+    orbit and, before each orbit but the first, its time is foreseen at the rate of the
+    orbits arranged so far; an orbit foreseen to end past the deadline is not started, and
+    neither is the rest when it is foreseen to need more than
+    ``sosp.candidates.FORESIGHT_MARGIN`` times the time left.
     ``roll`` must hold one value per candidate (else ValueError)."""
     if roll.shape != start.shape:
         raise ValueError(f"roll: expected {start.shape[0]} values, got {roll.shape}")

@@ -621,10 +621,8 @@ def _member_lists(
     first, last = readonly(first, np.int64), readonly(last, np.int64)
     point = readonly(point, float)
     ptr = np.zeros(len(first) + 1, dtype=np.int64)
-    # int32, as OppGroups holds them: the first touch of fresh memory is slow on the 2-core
-    # machine (280 MB: 0.7 s the first time, 0.03 s after), so the list is made once, in the
-    # smallest type, and made global in place (:func:`_global`). One orbit's 70 million
-    # members took 4.9 s as int64 and a global int32 copy, 1.7-2.1 s so.
+    # int32, as OppGroups holds them: the first touch of fresh memory is slow, so the list is
+    # made once, in the smallest type, and made global in place (:func:`_global`)
     guess = np.zeros(max(8 * len(first), 1), dtype=np.int32)
     args = (*cols, first, last, point, EPS)
     total = _members(*args, ptr, guess)
@@ -649,8 +647,8 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
     """The groups with each target once (its first opportunity kept): a target seen twice
     inside one window is covered once (2)."""
     if len(np.unique(oo.target)) == len(oo.target):
-        # no target twice on the orbit, so none twice in a window: the sort below took 3 s
-        # on 11.6 million members (4,714 opportunities of one orbit, 60 s windows)
+        # no target twice on the orbit, so none twice in a window: no sort (seconds on
+        # millions of members)
         return ptr, flat
     seg = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
     tgt = oo.target[flat]
