@@ -47,7 +47,6 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("instance", help="instance file (JSON)")
     p.add_argument(
         "--model",
-        default=None,
         help=f"{PROBLEM_MODEL} (default: bounds every method), task (no clustering) or static "
         f"(the model of {', '.join(n for n, b in BOUNDS.items() if b.model == 'static')})",
     )
@@ -66,14 +65,12 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--time-limit",
         type=_positive_float,
-        default=None,
         help="seconds of wall time from reading the instance to the bound",
     )
-    p.add_argument("--threads", type=int, default=None, help="HiGHS threads")
+    p.add_argument("--threads", type=int, help="HiGHS threads")
     p.add_argument(
         "--workers",
         type=positive(int),
-        default=None,
         help="processes planning the orbits of each pricing round of colgen, lagrangian and "
         "auto (default 1), and from 2 on solving the two children of each branching of their "
         "branch and price side by side; with --dask local, the local cluster's processes "
@@ -82,7 +79,6 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--dask",
         metavar="ADDRESS",
-        default=None,
         help="plan the orbits of each pricing round on a Dask cluster: a scheduler's address "
         "or 'local' (needs pip install -e '.[dist]'; where it pays: docs/scenarios.md)",
     )
@@ -104,7 +100,6 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         "possibly weaker bound from a much smaller LP) or auto (default: relaxed from 1000 "
         "items on)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bound)
     return p
 

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 
-from sosp.candidates import CandidateMode, as_budget, orbit_pairs
+from sosp.candidates import CandidateMode, as_budget, offsets, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
@@ -339,8 +339,7 @@ class WindowData:
         orb = np.asarray(instance.opp_orbit, dtype=np.int64)
         order = np.lexsort((orb, tgt))
         pairs = np.unique(np.stack((tgt[order], orb[order]), axis=1), axis=0)
-        ptr = np.zeros(instance.n_targets + 1, dtype=np.int64)
-        ptr[1:] = np.cumsum(np.bincount(pairs[:, 0], minlength=instance.n_targets))
+        ptr = offsets(np.bincount(pairs[:, 0], minlength=instance.n_targets))
         return cls(instance, orbits, ptr, pairs[:, 1].copy())
 
     def orbits_seeing(self, targets: np.ndarray) -> np.ndarray:

@@ -137,8 +137,7 @@ class OppGroups(Sequence[tuple[int, ...]]):
         if isinstance(groups, OppGroups):
             return groups
         sizes = np.fromiter((len(g) for g in groups), dtype=np.int64, count=len(groups))
-        ptr = np.zeros(len(groups) + 1, dtype=np.int64)
-        np.cumsum(sizes, out=ptr[1:])
+        ptr = offsets(sizes)
         flat = np.fromiter(chain.from_iterable(groups), dtype=np.int32, count=int(ptr[-1]))
         return cls(ptr, flat)
 
@@ -185,9 +184,15 @@ class OppGroups(Sequence[tuple[int, ...]]):
         """The groups ``rows``, in that order."""
         rows = np.asarray(rows, dtype=np.int64)
         sizes = self.ptr[rows + 1] - self.ptr[rows]
-        ptr = np.zeros(len(rows) + 1, dtype=np.int64)
-        np.cumsum(sizes, out=ptr[1:])
+        ptr = offsets(sizes)
         return OppGroups(ptr, self.flat[ragged_positions(self.ptr[rows], sizes)])
+
+
+def offsets(sizes: np.ndarray) -> np.ndarray:
+    """CSR pointers of groups of ``sizes`` members: 0, then their running sums (int64)."""
+    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=ptr[1:])
+    return ptr
 
 
 def ragged_positions(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -260,9 +265,9 @@ class OrbitCandidates:
         a = int(np.searchsorted(self.start, t0 - EPS, side="left"))
         b = int(np.searchsorted(self.start, t1 + EPS, side="right"))
         return _within()(
-            _readonly(self.end, np.float64),
-            _readonly(self.opps.ptr, np.int64),
-            _readonly(self.opps.flat, np.int32),
+            readonly(self.end, np.float64),
+            readonly(self.opps.ptr, np.int64),
+            readonly(self.opps.flat, np.int32),
             np.ascontiguousarray(opts, dtype=np.int64),
             n_options,
             a,
@@ -271,8 +276,12 @@ class OrbitCandidates:
         )
 
 
-def _readonly(column: np.ndarray, dtype: Any) -> np.ndarray:
-    """``column`` as a read-only contiguous array of ``dtype`` (itself when it is one)."""
+def readonly(column: np.ndarray, dtype: Any) -> np.ndarray:
+    """``column`` as a read-only contiguous array of ``dtype`` (itself when it is one).
+
+    The compiled kernels' inputs are passed in this one form: numba compiles a kernel once
+    per combination of argument types, read-only and writeable arrays differ, and the callers
+    hold both (an instance's arrays are read-only, their slices and copies not)."""
     if column.dtype != dtype or not column.flags.c_contiguous:
         column = np.ascontiguousarray(column, dtype=dtype)
     if column.flags.writeable:
@@ -722,12 +731,7 @@ def orbit_columns(
 
 def _densest(instance: Instance) -> int:
     """The orbit with the most (first, covered) pairs inside one Delta T."""
-    best, arg = -1, 0
-    for j in range(instance.n_orbits):
-        pairs = orbit_pairs(instance, j)
-        if pairs > best:
-            best, arg = pairs, j
-    return arg
+    return max(range(instance.n_orbits), key=lambda j: orbit_pairs(instance, j), default=0)
 
 
 def _estimate_late(instance: Instance, budget: Budget) -> bool:
@@ -880,11 +884,8 @@ def generate(
     n = len(ts)
     if stop is None:
         stop = starts_within(ts, limit)
-    tied = np.zeros(n, dtype=bool)  # a start time shared with a neighbour
-    if n > 1:
-        same = ts[1:] == ts[:-1]
-        tied[1:] |= same
-        tied[:-1] |= same
+    same = ts[1:] == ts[:-1]
+    tied = np.r_[False, same] | np.r_[same, False]  # a start time shared with a neighbour
     seen: set[tuple[float, bytes]] = set()
     seen_ts = None
     for i in range(n):
@@ -919,8 +920,7 @@ def _pack(
 ) -> OrbitCandidates:
     """One orbit's candidates as read-only columns, windows (10) from the members."""
     sizes = np.concatenate(out_sizes) if out_sizes else np.zeros(0, dtype=np.int64)
-    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=ptr[1:])
+    ptr = offsets(sizes)
     flat = np.concatenate(out_members) if out_members else np.zeros(0, dtype=np.int32)
     roll = np.concatenate(out_roll) if out_roll else np.zeros(0)
     # Windows (10) of all candidates at once: [min ts, max te] over the members.
@@ -966,8 +966,7 @@ def _start_candidates(
     # members: k with the roll in range and te_k <= te_l + EPS, in index order
     cover = inside[:, kt].T & (te_w[None, :] <= te_w[ends[kl]][:, None] + EPS)
     rows, cols = np.nonzero(cover)
-    ptr = np.zeros(len(kt) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(rows, minlength=len(kt)), out=ptr[1:])
+    ptr = offsets(np.bincount(rows, minlength=len(kt)))
     return w[ends[kl]], rolls[kt], ptr, w[cols]
 
 
@@ -1000,19 +999,7 @@ def _start_kept(
     hi: np.ndarray,
     stop: int,
     limit: float,
-) -> (
-    tuple[
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-        np.ndarray,
-    ]
-    | None
-):
+) -> tuple[np.ndarray, ...] | None:
     """The non-dominated (end, roll) pairs of the candidates whose first opportunity is i.
 
     The same candidates, in the same order, as the reference loop of the tests
@@ -1095,10 +1082,8 @@ def _start_kept(
     size = cnt[pair_t, nl]
     cost = np.abs(rolls)
     # rolls of strictly smaller |theta| than t: an interval [lo_t, hi_t] around nadir
-    order_abs = np.searchsorted(rolls, 0.0)
     lo_t = np.searchsorted(rolls, -cost, side="right")
     hi_t = np.searchsorted(rolls, cost, side="left") - 1
-    del order_abs
     qa = np.maximum(lo_t[pair_t], a_l[pair_l])
     qb = np.minimum(hi_t[pair_t], b_l[pair_l])
     dropped = np.zeros(len(pair_t), dtype=bool)

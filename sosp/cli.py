@@ -239,10 +239,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         check_output(args.output)
     inst = load_instance(args.instance)
     params = _parse_params(args.param or [])
-    for key in ("iterations", "model", "mip_gap", "threads", "backend"):
-        value = getattr(args, key)
-        if value is not None:
-            params[key] = value
+    given = {k: getattr(args, k) for k in ("iterations", "model", "mip_gap", "threads", "backend")}
+    params.update({k: v for k, v in given.items() if v is not None})
     if args.warm_start in ("none", "auto"):
         params["warm_start"] = args.warm_start
     elif args.warm_start is not None:
@@ -313,6 +311,9 @@ def _solve_interruptibly(
     from sosp.solve import solve
     from sosp.stop import handle_signals, stop_reason
 
+    limit = args.time_limit
+    if limit is not None:
+        limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
     line = None if args.quiet else StatusLine(sys.stderr)
     progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
     clear = line.log_filter() if line is not None and line.tty else None
@@ -322,19 +323,7 @@ def _solve_interruptibly(
     with handle_signals():
         try:
             result = solve(
-                inst,
-                args.method,
-                seed=args.seed,
-                time_limit=(
-                    None
-                    if args.time_limit is None
-                    else max(
-                        args.time_limit - (time.perf_counter() - t0),
-                        KERNEL_SHARE_LEFT * args.time_limit,
-                    )
-                ),
-                progress=progress,
-                **params,
+                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
             )
         finally:
             if line is not None:
@@ -414,8 +403,6 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------- demo
 def cmd_demo(args: argparse.Namespace) -> int:
-    import time
-
     from sosp import scenarios
     from sosp.registry import available_methods, compute_bound
     from sosp.solve import solve
@@ -517,8 +504,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     def add(name: str, help_: str) -> argparse.ArgumentParser:
+        """The subcommand ``name``, run by this module's ``cmd_<name>``."""
         p = sub.add_parser(name, help=help_, description=help_)
         p.add_argument("--json", action="store_true", help="print one JSON object")
+        p.set_defaults(func=globals()[f"cmd_{name}"])
         return p
 
     p = add("scenario", "generate an instance from real orbits (named scenario or your own)")
@@ -569,7 +558,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--min-sun-elevation",
         type=float,
-        default=None,
         help="daylight rule: minimum sun elevation at the target, deg (off)",
     )
     from sosp.instance import RESOURCE_KEYS, Resources
@@ -580,16 +568,13 @@ def build_parser() -> argparse.ArgumentParser:
             f"--{key.replace('_', '-')}",
             dest=key,
             type=float,
-            default=None,
             metavar=RESOURCE_UNITS[key][0],
             help=f"per-orbit {key.replace('_', ' ')}, {RESOURCE_UNITS[key][1]} "
             f"({getattr(defaults, key):g})",
         )
-    p.set_defaults(func=cmd_scenario)
 
     p = add("info", "summarise an instance: targets, EN, TN, orbits, opportunities per orbit")
     p.add_argument("instance")
-    p.set_defaults(func=cmd_info)
 
     from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS
 
@@ -608,7 +593,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--time-limit",
         type=positive(float),
-        default=None,
         help="seconds of wall time from reading the instance to the schedule",
     )
     p.add_argument(
@@ -617,20 +601,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--max-memory",
         type=_bytes,
-        default=None,
         metavar="BYTES",
         help="memory the solve may hold, e.g. 1500M or 2G (default 2G): explicit candidates "
         "that would not fit in a third of it are replaced by pricing over time windows",
     )
-    p.add_argument("--model", default=None, help="milp: task, cluster (default) or static")
-    p.add_argument("--mip-gap", type=float, default=None, help="milp: relative gap to stop at")
-    p.add_argument("--threads", type=positive(int), default=None, help="milp: solver threads")
+    p.add_argument("--model", help="milp: task, cluster (default) or static")
+    p.add_argument("--mip-gap", type=float, help="milp: relative gap to stop at")
+    p.add_argument("--threads", type=positive(int), help="milp: solver threads")
     p.add_argument(
         "--backend", default=None, help="milp: pyomo, highs or auto (default: by model size)"
     )
     p.add_argument(
         "--warm-start",
-        default=None,
         help="milp, milp-lns: schedule file to start from; milp: none (no start) or auto "
         "(default: the start stage, orbit-dp, on the cluster model)",
     )
@@ -638,7 +620,6 @@ def build_parser() -> argparse.ArgumentParser:
         "--bound",
         nargs="?",
         const="auto",
-        default=None,
         choices=CERTIFYING_BOUNDS,
         help="certify the schedule: compute an upper bound of the problem after the solve "
         "(auto if no value; its own time limit = --time-limit) and report the gap",
@@ -646,7 +627,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--bound-workers",
         type=positive(int),
-        default=None,
         help="--bound: processes for its pricing rounds (auto, colgen, lagrangian; default 1); "
         "they pay on instances with many busy orbits (see docs/scenarios.md)",
     )
@@ -666,16 +646,13 @@ def build_parser() -> argparse.ArgumentParser:
         "a terminal, a line every 10 s otherwise); Ctrl-C or SIGTERM stops the search and "
         "writes the best schedule so far (status interrupted, exit code 130)",
     )
-    p.set_defaults(func=cmd_solve)
 
     p = add("methods", "list every method with its parameters, types, defaults and help")
     p.add_argument("method", nargs="*", help="only these methods (default: all)")
-    p.set_defaults(func=cmd_methods)
 
     p = add("validate", "check a schedule against every constraint; exit 1 if infeasible")
     p.add_argument("instance")
     p.add_argument("schedule")
-    p.set_defaults(func=cmd_validate)
 
     p = add("demo", "generate a built-in scenario, solve, validate and summarise")
     p.add_argument(
@@ -691,7 +668,6 @@ def build_parser() -> argparse.ArgumentParser:
         default=5.0,
         help="seconds for the search methods (5)",
     )
-    p.set_defaults(func=cmd_demo)
 
     for name, target in EXTRA_COMMANDS.items():
         module, func = target.split(":")

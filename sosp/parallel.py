@@ -198,13 +198,6 @@ def held_for_fork() -> Iterator[None]:
 _INHERITED: Any = None
 
 
-def can_fork() -> bool:
-    """Whether processes can be forked here (not on Windows; macOS has fork, not as default)."""
-    import multiprocessing as mp
-
-    return "fork" in mp.get_all_start_methods()
-
-
 def inherited() -> Any:
     """In a :func:`fork_pool`'s worker: the ``shared`` object the pool was forked with."""
     return _INHERITED
@@ -212,7 +205,8 @@ def inherited() -> Any:
 
 def fork_pool(processes: int, shared: Any = None) -> Any:
     """A ``multiprocessing`` pool of ``processes`` forked workers, or None where one process
-    is enough (``processes`` <= 1) or processes cannot be forked (the caller works here).
+    is enough (``processes`` <= 1) or processes cannot be forked (not on Windows; macOS has
+    fork, not as default): the caller works here.
 
     The workers find ``shared`` by :func:`inherited`: forked, they share it copy-on-write and
     nothing is pickled but each task's arguments and result. Their signals follow
@@ -221,10 +215,10 @@ def fork_pool(processes: int, shared: Any = None) -> Any:
     ``terminate``).
     """
     global _INHERITED
-    if processes <= 1 or not can_fork():
-        return None
     import multiprocessing as mp
 
+    if processes <= 1 or "fork" not in mp.get_all_start_methods():
+        return None
     _INHERITED = shared
     try:
         with held_for_fork():

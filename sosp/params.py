@@ -88,13 +88,12 @@ def coerce(key: str, value: Any, hint: Any) -> Any:
     text = value.strip()
     if optional and text.lower() in ("none", "null"):
         return None
-    for m in members:
-        if m is bool:
-            if text.lower() in _TRUE:
-                return True
-            if text.lower() in _FALSE:
-                return False
-            raise InputError(f"{key}: expected true or false, got {value!r}")
+    if bool in members:
+        if text.lower() in _TRUE:
+            return True
+        if text.lower() in _FALSE:
+            return False
+        raise InputError(f"{key}: expected true or false, got {value!r}")
     allowed = choices(hint)
     if allowed is not None:
         return text  # checked against the choices by check_choices

@@ -273,8 +273,6 @@ def orbit_data(
         generate_in_processes(instance, local_processes(workers), as_budget(by).deadline)
     orbit, start, end, nadir, opps = cluster_candidates(instance, max_candidates=None, deadline=by)
     rolls = nadir if roll is None else np.asarray(roll(opps), dtype=float)
-    if rolls.shape != nadir.shape:
-        raise ValueError(f"roll: expected {nadir.shape[0]} values, got {rolls.shape}")
     return _arrange(instance, orbit, start, end, rolls, opps, as_budget(deadline).deadline)
 
 
@@ -285,10 +283,9 @@ def with_rolls(data: OrbitData, roll: np.ndarray) -> OrbitData:
     (ASA-DTC's midpoint (9)): each roll must lie in the range of every covered opportunity
     (7), and then the recursion is exact for observations at these rolls.
     """
-    roll = np.asarray(roll, dtype=float)
-    if roll.shape != data.roll.shape:
-        raise ValueError(f"roll: expected {data.roll.shape[0]} values, got {roll.shape}")
-    return _arrange(data.instance, data.orbit, data.start, data.end, roll, data.opps)
+    return _arrange(
+        data.instance, data.orbit, data.start, data.end, np.asarray(roll, dtype=float), data.opps
+    )
 
 
 def _arrange(
@@ -304,11 +301,14 @@ def _arrange(
 
     With a ``deadline`` (a :func:`time.perf_counter` value), past it, the same one-line error
     as a candidate generation that ran out of time: millions of candidates take seconds to
-    arrange (2.4 million about 3 s), and one dense orbit alone more than a second (D30's
-    densest: 1.5 s), so the clock is read after each orbit and, before each orbit but the
-    first, its time is foreseen at the rate of the orbits arranged so far; an orbit
-    foreseen to end past the deadline is not started, and neither is the rest when it is
-    foreseen to need more than ``sosp.candidates.FORESIGHT_MARGIN`` times the time left."""
+    arrange, and one dense orbit alone more than a second, so the clock is read after each
+    orbit and, before each orbit but the first, its time is foreseen at the rate of the
+    orbits arranged so far; an orbit foreseen to end past the deadline is not started, and
+    neither is the rest when it is foreseen to need more than
+    ``sosp.candidates.FORESIGHT_MARGIN`` times the time left.
+    ``roll`` must hold one value per candidate (else ValueError)."""
+    if roll.shape != start.shape:
+        raise ValueError(f"roll: expected {start.shape[0]} values, got {roll.shape}")
     opps = OppGroups.from_groups(opps)
     tgt = instance.opp_target
     groups: list[OrbitItems] = []
@@ -323,11 +323,8 @@ def _arrange(
             now = pace.begin()
             if deadline is not None and pace.done:
                 # this orbit foreseen to end past the deadline, or (as candidate generation
-                # foresees it) the whole rest: given up at once (D30 at 10 s gave up at the
-                # deadline, 5 s after the foresight could)
-                if now + pace.need(len(block)) > deadline:
-                    raise _arrange_time_up(instance, j, len(orbit))
-                if pace.late(len(orbit) - pace.done, now):
+                # foresees it) the whole rest: given up at once
+                if now + pace.need(len(block)) > deadline or pace.late(len(orbit) - pace.done, now):
                     raise _arrange_time_up(instance, j, len(orbit))
             rj = orbit_rules(instance, j)
             slew_s = rj.slew(roll[block])

@@ -64,8 +64,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
-from sosp.candidates import OppGroups
+from sosp.candidates import OppGroups, offsets, readonly
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.recursion import least_penalty_plan, recursion, release_order
@@ -80,15 +81,6 @@ from sosp.rules import (
 )
 
 log = logging.getLogger(__name__)
-
-try:  # numba compiles the sweep; without it the same code runs as (slow) Python
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency
-
-    def njit(*args: Any, **kwargs: Any) -> Any:
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
 
 
 # ------------------------------------------------------------------------ the sweep kernel
@@ -136,14 +128,10 @@ def _range_add(
                 d[rq] += val
         lq >>= 1
         rq >>= 1
-    p = l0 >> 1
-    while p >= 1:
-        _combine(t, at, absp, p, d[p])
-        p >>= 1
-    p = (r0 - 1) >> 1
-    while p >= 1:
-        _combine(t, at, absp, p, d[p])
-        p >>= 1
+    for p in (l0 >> 1, (r0 - 1) >> 1):
+        while p >= 1:
+            _combine(t, at, absp, p, d[p])
+            p >>= 1
 
 
 @njit(cache=True)
@@ -503,17 +491,6 @@ def _no_items() -> WindowItems:
     return WindowItems(z, z, f, f, f, f, f, f)
 
 
-def _frozen(a: np.ndarray, dtype: Any) -> np.ndarray:
-    """``a`` as a contiguous, read-only array of ``dtype`` (a view when it is one already).
-
-    The kernels' inputs are passed in this one form: numba compiles a kernel once per
-    combination of argument types, read-only and writeable arrays differ, and the callers
-    hold both (an instance's arrays are read-only, their slices and copies not)."""
-    v = np.ascontiguousarray(a, dtype=dtype).view()
-    v.flags.writeable = False
-    return v
-
-
 def _window_rows(
     ts: np.ndarray,
     te: np.ndarray,
@@ -537,7 +514,7 @@ def _window_rows(
     last = np.empty(room, dtype=np.int64)
     gain, point = np.empty(room), np.empty(room)
     spans = np.empty((room if span else 0, 3))
-    ts, te, lo, hi, w = (_frozen(c, float) for c in (ts, te, lo, hi, w))
+    ts, te, lo, hi, w = (readonly(c, float) for c in (ts, te, lo, hi, w))
     n = _sweep(ts, te, lo, hi, w, limit, EPS, span, first, last, gain, point, spans)
     return first[:n].copy(), last[:n].copy(), gain[:n].copy(), point[:n].copy(), spans[:n].copy()
 
@@ -640,14 +617,12 @@ def _member_lists(
 ) -> tuple[np.ndarray, np.ndarray]:
     """CSR (ptr, flat local indices) of :func:`_members`; :class:`TooManyMembers` beyond
     :data:`MAX_WINDOW_MEMBERS`, before they are allocated."""
-    cols = (_frozen(c, float) for c in (oo.start, oo.end, oo.roll_min, oo.roll_max, w))
-    first, last = _frozen(first, np.int64), _frozen(last, np.int64)
-    point = _frozen(point, float)
+    cols = (readonly(c, float) for c in (oo.start, oo.end, oo.roll_min, oo.roll_max, w))
+    first, last = readonly(first, np.int64), readonly(last, np.int64)
+    point = readonly(point, float)
     ptr = np.zeros(len(first) + 1, dtype=np.int64)
-    # int32, as OppGroups holds them: the first touch of fresh memory is slow on the 2-core
-    # machine (280 MB: 0.7 s the first time, 0.03 s after), so the list is made once, in the
-    # smallest type, and made global in place (:func:`_global`). One orbit's 70 million
-    # members took 4.9 s as int64 and a global int32 copy, 1.7-2.1 s so.
+    # int32, as OppGroups holds them: the first touch of fresh memory is slow, so the list is
+    # made once, in the smallest type, and made global in place (:func:`_global`)
     guess = np.zeros(max(8 * len(first), 1), dtype=np.int32)
     args = (*cols, first, last, point, EPS)
     total = _members(*args, ptr, guess)
@@ -672,8 +647,8 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
     """The groups with each target once (its first opportunity kept): a target seen twice
     inside one window is covered once (2)."""
     if len(np.unique(oo.target)) == len(oo.target):
-        # no target twice on the orbit, so none twice in a window: the sort below took 3 s
-        # on 11.6 million members (4,714 opportunities of one orbit, 60 s windows)
+        # no target twice on the orbit, so none twice in a window: no sort (seconds on
+        # millions of members)
         return ptr, flat
     seg = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
     tgt = oo.target[flat]
@@ -683,9 +658,7 @@ def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[A
     if not dup.any():
         return ptr, flat
     keep = ~dup
-    new_ptr = np.zeros_like(ptr)
-    np.cumsum(np.bincount(seg[keep], minlength=len(ptr) - 1), out=new_ptr[1:])
-    return new_ptr, flat[keep]
+    return offsets(np.bincount(seg[keep], minlength=len(ptr) - 1)), flat[keep]
 
 
 def compile_window_kernels() -> None:
@@ -824,8 +797,8 @@ def window_candidates(
     check_roll_rule(roll_rule)
     wi = window_items(oo, price)
     if wi.size == 0:
-        z = np.zeros(0)
-        return z, z, z, OppGroups(np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+        e = empty_plan()
+        return e.start, e.end, e.roll, e.opps
     keep, start, end, roll = _observations(oo, wi, roll_rule)
     if ahead is not None:
         ahead(member_scan(oo, wi.first[keep], wi.last[keep]))
