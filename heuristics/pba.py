@@ -84,7 +84,6 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
 from sosp.result import Result, Status
-from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
 from sosp.stop import Budget
 
@@ -122,11 +121,10 @@ class PBAParams(Params):
     prices: PriceRule = param("lp", "'lp': orbits priced across the parts; 'none'.")
 
     def check(self) -> None:
+        # check_types has made both integers and roll_rule one of its choices
         for name in ("max_part", "node_limit"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
-                raise InputError(f"{name}: expected an integer >= 1, got {v!r}")
-        check_roll_rule(self.roll_rule)
+            if getattr(self, name) < 1:
+                raise InputError(f"{name}: expected an integer >= 1, got {getattr(self, name)!r}")
 
 
 @dataclass
