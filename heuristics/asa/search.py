@@ -73,31 +73,20 @@ NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_mov
 NAMES = ("insertion", "migration", "replan")
 
 
-def stop_rule(
-    iterations: int | None, seconds: float | None, no_improve: int | None
-) -> Callable[[SearchStatus], bool]:
-    """The first of: the search's iteration count reaching ``iterations``, ``seconds`` of wall
-    time from now, ``no_improve`` iterations without a new best (None: not a limit);
-    :data:`DEFAULT_ITERATIONS` when none is given."""
-    crit: list[Callable[[SearchStatus], bool]] = []
-    if iterations is not None:
-        crit.append(MaxIterations(iterations))
-    if seconds is not None:
-        crit.append(MaxRuntime(seconds, foresee=True))  # an orbit move can take seconds
-    if no_improve is not None:
-        crit.append(NoImprovement(no_improve))
-    if not crit:
-        crit.append(MaxIterations(DEFAULT_ITERATIONS))
-    return FirstOf(*crit)
-
-
 def default_stop(
     params: ASAParams, time_limit: float | None, t0: float
 ) -> Callable[[SearchStatus], bool]:
     """The first of ``params.iterations``, ``time_limit`` (counted from ``t0``) and
-    ``params.no_improve``; :data:`DEFAULT_ITERATIONS` when none is given."""
+    ``params.no_improve`` (None: not a limit); :data:`DEFAULT_ITERATIONS` when none is given."""
     left = Budget.until(None if time_limit is None else t0 + time_limit).left()
-    return stop_rule(params.iterations, left, params.no_improve)
+    crit: list[Callable[[SearchStatus], bool]] = []
+    if params.iterations is not None:
+        crit.append(MaxIterations(params.iterations))
+    if left is not None:
+        crit.append(MaxRuntime(left, foresee=True))  # an orbit move can take seconds
+    if params.no_improve is not None:
+        crit.append(NoImprovement(params.no_improve))
+    return FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
 
 
 class Search:
