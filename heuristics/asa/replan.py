@@ -239,8 +239,8 @@ def replan_move(
         if made is not None:
             return made and all(repair(state, i) for i in state.touched_orbits())
     pull = params.replan_pull if pb.mode != "stc" else 0.0
-    depth = EJECTION_DEPTH
-    holes = replan_stretch(state, j, window, tabu, pull if depth > 1 else 0.0)
+    depth = EJECTION_DEPTH  # two or more
+    holes = replan_stretch(state, j, window, tabu, pull)
     if holes is None:
         return False
     for level in range(2, depth + 1):
@@ -290,11 +290,13 @@ class _Stretch:
         unit = state.pb.opt_unit
         return {unit[x] for c in self.freed for x in c[MEMBERS]}
 
-    def options(self, state: State, t0: float, t1: float) -> list[int]:
+    def options(self, state: State, window: list[int]) -> list[int]:
         """Options of the orbit strictly between the fixed neighbours whose window lies in
-        ``[t0, t1]`` (by start, as ``orbit_options``)."""
+        the span of ``window`` and the freed cluster-tasks (by start, as ``orbit_options``)."""
         pb = state.pb
         st, en = pb.opt_start, pb.opt_end
+        t0 = min([st[x] for x in window] + [c[START] for c in self.freed])
+        t1 = max([en[x] for x in window] + [c[END] for c in self.freed])
         lo_t = self.left[END] if self.left is not None else -np.inf
         hi_t = self.right[START] if self.right is not None else np.inf
         opts = pb.orbit_options[self.j]
@@ -376,12 +378,9 @@ def replan_stretch(
     stretch = _Stretch(state, j, window)
     freed_units = stretch.units(state)
     sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
-    st, en = pb.opt_start, pb.opt_end
-    t0 = min([st[x] for x in window] + [c[START] for c in stretch.freed])
-    t1 = max([en[x] for x in window] + [c[END] for c in stretch.freed])
     avail = []
     value = {}
-    for x in stretch.options(state, t0, t1):
+    for x in stretch.options(state, window):
         u = unit[x]
         if u in freed_units:
             value[x] = pb.unit_weight[u]
@@ -482,15 +481,11 @@ def replan_pair(
     weight = pb.unit_weight
 
     def usable(stretch: _Stretch, win: list[int]) -> list[int]:
-        st, en = pb.opt_start, pb.opt_end
-        t0 = min([st[x] for x in win] + [c[START] for c in stretch.freed])
-        t1 = max([en[x] for x in win] + [c[END] for c in stretch.freed])
-        out = []
-        for x in stretch.options(state, t0, t1):
-            u = unit[x]
-            if u in freed or (sched[u] < 0 and (tabu is None or u not in tabu)):
-                out.append(x)
-        return out
+        return [
+            x
+            for x in stretch.options(state, win)
+            if (u := unit[x]) in freed or (sched[u] < 0 and (tabu is None or u not in tabu))
+        ]
 
     ca = candidates(state, j, usable(sa, window))
     cb = candidates(state, i, usable(sb, window_i))
