@@ -181,8 +181,7 @@ def _weights_left(
     """Targets the ``fixed`` observations cover, and the weights with those set to 0."""
     covered = {int(instance.opp_target[i]) for ob in fixed for i in ob.opps}
     w_sub = weight.copy()
-    if covered:
-        w_sub[list(covered)] = 0
+    w_sub[list(covered)] = 0
     return covered, w_sub
 
 
