@@ -9,7 +9,7 @@ published, which the paper campaign and the reproduce-paper notebook use (``docs
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 from sosp import params as P
@@ -274,6 +274,3 @@ class ASAParams(Params):
             raise InputError(f"preset: expected one of {', '.join(PRESETS)}, got {preset!r}")
         base = PRESETS[preset] if preset is not None else {}
         return P.from_kwargs(cls, kwargs, method="asa", base=base)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self)}

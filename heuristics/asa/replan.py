@@ -268,19 +268,13 @@ class _Stretch:
         t1 = max(en[x] for x in window)
         line = state.lines[j]
         obs = line.obs
-        first = last = -1
-        for pos, c in enumerate(obs):
-            if c[END] >= t0 and c[START] <= t1:
-                if first < 0:
-                    first = pos
-                last = pos
-        if first >= 0:
-            freed = obs[first : last + 1]
-        else:
+        meets = [pos for pos, c in enumerate(obs) if c[END] >= t0 and c[START] <= t1]
+        if meets:
+            first, last = meets[0], meets[-1]
+        else:  # nothing to free: the chain goes between the last before and the first after
             first = sum(1 for c in obs if c[END] < t0)
             last = first - 1
-            freed = []
-        self.j, self.first, self.freed = j, first, freed
+        self.j, self.first, self.freed = j, first, obs[first : last + 1]
         self.left = obs[first - 1] if first > 0 else None
         self.right = obs[last + 1] if last + 1 < len(obs) else None
         # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).

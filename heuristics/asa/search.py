@@ -7,7 +7,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import asdict, replace
 from functools import partial
 from typing import Any
 
@@ -260,7 +260,7 @@ class Search:
         planner = self.planner
         stats = {
             "mode": self.mode,
-            "params": self.params.as_dict(),
+            "params": asdict(self.params),
             "initial_profit": self.trace[0][2],
             "initial_time_s": round(self.t_init, 6),
             **self.init_stats,

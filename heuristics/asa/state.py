@@ -101,15 +101,12 @@ class State:
         return line
 
     def commit(self) -> list[int]:
-        """End a move, keeping it; returns the units it removed (for the tabu list)."""
-        removed = self.removed_units()
+        """End a move, keeping it; returns the units it removed (for the tabu list): those
+        scheduled before the move and unscheduled after it, in removal order."""
+        removed = list(dict.fromkeys(u for u, old in self._log if old >= 0 and self.sched[u] < 0))
         self._snaps.clear()
         self._log.clear()
         return removed
-
-    def removed_units(self) -> list[int]:
-        """Units scheduled before the move and unscheduled after it, in removal order."""
-        return list(dict.fromkeys(u for u, old in self._log if old >= 0 and self.sched[u] < 0))
 
     def touched_orbits(self) -> list[int]:
         return list(self._snaps)
