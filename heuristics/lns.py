@@ -546,12 +546,9 @@ def solve_milp_lns(
             # for the orbits they free, as where the candidates do not fit in memory
             windowed = True
     c_orbit, c_start, c_end, c_roll, c_opps = candidates
-    by_orbit: dict[int, np.ndarray] = {}
-    if len(c_opps):
-        order = np.argsort(c_orbit, kind="stable")
-        cuts = np.flatnonzero(np.diff(c_orbit[order])) + 1
-        for block in np.split(order, cuts):
-            by_orbit[int(c_orbit[block[0]])] = block
+    order = np.argsort(c_orbit, kind="stable")  # each orbit's candidates, in index order
+    blocks = np.split(order, np.flatnonzero(np.diff(c_orbit[order])) + 1) if len(order) else []
+    by_orbit: dict[int, np.ndarray] = {int(c_orbit[b[0]]): b for b in blocks}
     active = np.array(sorted(by_orbit), dtype=np.int64)
     window_columns = _WindowColumns(instance, left)
     if windowed:

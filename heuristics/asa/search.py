@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import logging
 import os
 import time
@@ -382,13 +381,11 @@ def build_schedule(instance: Instance, problem: Problem, snap: list[list[Cluster
 
 def trace_csv(result: Result) -> str:
     """The trace of a result as CSV text (header :data:`TRACE_COLUMNS`)."""
-    cols = result.stats.get("trace_columns", list(TRACE_COLUMNS))
-    buf = io.StringIO()
-    buf.write(",".join(cols) + "\n")
-    for row in result.stats.get("trace", []):
-        buf.write(",".join(repr(float(v)) if isinstance(v, float) else str(v) for v in row))
-        buf.write("\n")
-    return buf.getvalue()
+    lines = [",".join(result.stats.get("trace_columns", TRACE_COLUMNS))] + [
+        ",".join(repr(float(v)) if isinstance(v, float) else str(v) for v in row)
+        for row in result.stats.get("trace", [])
+    ]
+    return "".join(f"{line}\n" for line in lines)
 
 
 def write_trace_csv(result: Result, path: str | os.PathLike[str]) -> None:
