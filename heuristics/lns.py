@@ -146,36 +146,18 @@ class LNSParams(Params):
     candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
 
     def check(self) -> None:
-        def positive_int(name: str, value: Any, allow_none: bool = False) -> None:
-            if value is None and allow_none:
-                return
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise InputError(f"{name}: expected a positive integer, got {value!r}")
-
-        def positive_seconds(name: str, value: Any, allow_none: bool = False) -> None:
-            if value is None and allow_none:
-                return
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not math.isfinite(value)
-                or value <= 0
-            ):
-                raise InputError(f"{name}: expected a number of seconds > 0, got {value!r}")
-
-        positive_int("orbits", self.orbits)
-        positive_seconds("sub_time_limit", self.sub_time_limit)
-        positive_seconds("start_time_limit", self.start_time_limit, allow_none=True)
-        positive_int("iterations", self.iterations, allow_none=True)
-        positive_int("no_improve", self.no_improve, allow_none=True)
-        positive_int("threads", self.threads)
-        positive_seconds("window", self.window)
-        positive_int("max_items", self.max_items)
+        # check_types has made each int field an integer and each float field a number
+        for name in ("orbits", "iterations", "no_improve", "threads", "max_items"):
+            if (v := getattr(self, name)) is not None and v < 1:
+                raise InputError(f"{name}: expected a positive integer, got {v!r}")
+        for name in ("sub_time_limit", "start_time_limit", "window"):
+            if (v := getattr(self, name)) is not None and not (math.isfinite(v) and v > 0):
+                raise InputError(f"{name}: expected a number of seconds > 0, got {v!r}")
         if self.start_params is not None and not isinstance(self.start_params, dict):
             raise InputError(f"start_params: expected an object, got {self.start_params!r}")
         from sosp.registry import METHODS
 
-        if not isinstance(self.start, str) or self.start not in METHODS or self.start in _EXACT:
+        if self.start not in METHODS or self.start in _EXACT:
             raise InputError(
                 f"start: expected a heuristic method name (e.g. 'hpfs-stc', 'asa-dtc'), "
                 f"got {self.start!r}"
@@ -199,8 +181,7 @@ def _weights_left(
     """Targets the ``fixed`` observations cover, and the weights with those set to 0."""
     covered = {int(instance.opp_target[i]) for ob in fixed for i in ob.opps}
     w_sub = weight.copy()
-    if covered:
-        w_sub[list(covered)] = 0
+    w_sub[list(covered)] = 0
     return covered, w_sub
 
 
@@ -565,12 +546,9 @@ def solve_milp_lns(
             # for the orbits they free, as where the candidates do not fit in memory
             windowed = True
     c_orbit, c_start, c_end, c_roll, c_opps = candidates
-    by_orbit: dict[int, np.ndarray] = {}
-    if len(c_opps):
-        order = np.argsort(c_orbit, kind="stable")
-        cuts = np.flatnonzero(np.diff(c_orbit[order])) + 1
-        for block in np.split(order, cuts):
-            by_orbit[int(c_orbit[block[0]])] = block
+    order = np.argsort(c_orbit, kind="stable")  # each orbit's candidates, in index order
+    blocks = np.split(order, np.flatnonzero(np.diff(c_orbit[order])) + 1) if len(order) else []
+    by_orbit: dict[int, np.ndarray] = {int(c_orbit[b[0]]): b for b in blocks}
     active = np.array(sorted(by_orbit), dtype=np.int64)
     window_columns = _WindowColumns(instance, left)
     if windowed:

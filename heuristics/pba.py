@@ -84,7 +84,6 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
 from sosp.result import Result, Status
-from sosp.rules import check_roll_rule
 from sosp.schedule import RollRule
 from sosp.stop import Budget
 
@@ -122,11 +121,10 @@ class PBAParams(Params):
     prices: PriceRule = param("lp", "'lp': orbits priced across the parts; 'none'.")
 
     def check(self) -> None:
+        # check_types has made both integers and roll_rule one of its choices
         for name in ("max_part", "node_limit"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
-                raise InputError(f"{name}: expected an integer >= 1, got {v!r}")
-        check_roll_rule(self.roll_rule)
+            if getattr(self, name) < 1:
+                raise InputError(f"{name}: expected an integer >= 1, got {getattr(self, name)!r}")
 
 
 @dataclass
@@ -339,40 +337,26 @@ def lp_prices(instance: Instance, pp: PartProblem, time_limit: float | None = No
     usable = sorted(pp.conflicts)
     col = {t: i for i, t in enumerate(usable)}
     nt, nk = len(usable), len(pp.targets)
+    if nk == 0:
+        return zero_prices(pp)
     krow = {k: i for i, k in enumerate(pp.targets)}
-    rows: list[int] = []
-    cols: list[int] = []
-    vals: list[float] = []
-    for k in pp.targets:
-        r = krow[k]
-        rows.append(r)
-        cols.append(nt + r)
-        vals.append(1.0)
-        for t in pp.options[k]:
-            rows.append(r)
-            cols.append(col[t])
-            vals.append(-1.0)
+    entries: list[tuple[int, int, float]] = []  # (row, column, value) of the constraints
+    for r, k in enumerate(pp.targets):
+        entries.append((r, nt + r, 1.0))
+        entries += [(r, col[t], -1.0) for t in pp.options[k]]
     capped, cliques = orbit_cliques(instance, pp)
     rhs = [0.0] * nk
     orbit_row: dict[int, int] = {}
     for j in capped:
         orbit_row[j] = len(rhs)
         rhs.append(float(pp.openings[j]))
-    for t in usable:
-        r = orbit_row.get(int(tk.orbit[t]))
-        if r is not None:
-            rows.append(r)
-            cols.append(col[t])
-            vals.append(1.0)
+    task_row = {t: orbit_row.get(int(tk.orbit[t])) for t in usable}  # its orbit's (6) row
+    entries += [(r, col[t], 1.0) for t, r in task_row.items() if r is not None]
     first_clique = len(rhs)
     for members in cliques:
-        for t in members:
-            rows.append(len(rhs))
-            cols.append(col[t])
-            vals.append(1.0)
+        entries += [(len(rhs), col[t], 1.0) for t in members]
         rhs.append(1.0)
-    if nk == 0:
-        return zero_prices(pp)
+    rows, cols, vals = zip(*entries, strict=True)
     a = coo_matrix((vals, (rows, cols)), shape=(len(rhs), nt + nk)).tocsr()
     cost = np.zeros(nt + nk)
     cost[nt:] = [-float(pp.weight[k]) for k in pp.targets]
@@ -385,11 +369,7 @@ def lp_prices(instance: Instance, pp: PartProblem, time_limit: float | None = No
         return zero_prices(pp)
     # HiGHS's marginals of a minimisation's <= rows are <= 0; any nonnegative value is valid.
     dual = np.maximum(-np.asarray(res.ineqlin.marginals, dtype=float), 0.0)
-    pi = {t: 0.0 for t in usable}
-    for t in usable:
-        r = orbit_row.get(int(tk.orbit[t]))
-        if r is not None:
-            pi[t] += float(dual[r])
+    pi = {t: 0.0 if r is None else float(dual[r]) for t, r in task_row.items()}
     for q, members in enumerate(cliques):
         mu = float(dual[first_clique + q])
         if mu > 0.0:

@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from heuristics.asa.params import ASAParams
+from heuristics.asa.select import roulette
 from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from heuristics.timeline import OrbitTimeline
@@ -303,14 +304,7 @@ def choose_unscheduled(
         return -1
     if len(cand) == 1:
         return cand[0]
-    total = sum(wts)
-    z = rng.random() * total
-    acc = 0.0
-    for u, w in zip(cand, wts, strict=True):
-        acc += w
-        if z < acc:
-            return u
-    return cand[-1]
+    return cand[roulette(wts, rng.random() * sum(wts))]
 
 
 def insertion_move(
@@ -342,13 +336,7 @@ def choose_migrating(state: State, rng: np.random.Generator, pool: int) -> int:
     total = sum(s for s, _ in top)
     if total <= 0:
         return -top[int(rng.integers(len(top)))][1]
-    z = rng.random() * total
-    acc = 0.0
-    for s, mu in top:
-        acc += s
-        if z < acc:
-            return -mu
-    return -top[-1][1]
+    return -top[roulette([s for s, _ in top], rng.random() * total)][1]
 
 
 def try_insert_feasible(state: State, x: int, params: ASAParams) -> bool:

@@ -114,8 +114,6 @@ class OrbitPlanner:
     """
 
     def __init__(self, instance: Instance, state: State, deadline: float | None) -> None:
-        if state.pb.mode != "dtc":
-            raise ValueError("whole-orbit re-planning needs dynamic clustering (asa-dtc)")
         if state.roll_rule == "nadir" and state.nadir_singles:
             data = orbit_data(instance, deadline)
         else:  # the search's rolls, arranged once
@@ -303,8 +301,6 @@ class WindowPlanner(OrbitPlanner):
     """
 
     def __init__(self, instance: Instance, state: State) -> None:
-        if state.pb.mode != "dtc":
-            raise ValueError("whole-orbit re-planning needs dynamic clustering (asa-dtc)")
         from sosp.windows import window_plan  # numba's import only where it is used
 
         self.data = WindowData.build(instance)

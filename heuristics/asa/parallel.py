@@ -57,9 +57,9 @@ def _chain(
     time_limit: float | None,
     params: ASAParams,
     started: float,
-    index: int = 0,
-    shared: Any = None,
-    halt: Any = None,
+    index: int,
+    shared: Any,
+    halt: Any,
 ) -> None:
     """One chain, in its own process: :func:`~heuristics.asa.search.run_asa`, its result sent.
 
@@ -74,10 +74,9 @@ def _chain(
     """
 
     def publish(snap: Snapshot) -> None:
-        if shared is not None:
-            shared[2 * index] = snap.iterations
-            shared[2 * index + 1] = snap.best or 0.0
-        if halt is not None and halt.is_set():
+        shared[2 * index] = snap.iterations
+        shared[2 * index + 1] = snap.best or 0.0
+        if halt.is_set():
             request_stop("parent")
 
     try:

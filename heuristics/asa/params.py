@@ -9,7 +9,7 @@ published, which the paper campaign and the reproduce-paper notebook use (``docs
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 from sosp import params as P
@@ -234,56 +234,33 @@ class ASAParams(Params):
     workers: int = param(1, "Chains run side by side, one process each.")
 
     def check(self) -> None:
-        def positive(name: str, strict: bool = True) -> None:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise InputError(f"{name}: expected a finite number, got {v!r}")
-            if v < 0 or (strict and v == 0):
-                raise InputError(f"{name}: must be {'>' if strict else '>='} 0, got {v!r}")
-
-        def integer(name: str, optional: bool = False, minimum: int = 1) -> None:
-            v = getattr(self, name)
-            if v is None and optional:
-                return
-            if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
-                raise InputError(f"{name}: expected an integer >= {minimum}, got {v!r}")
-
-        def fraction(name: str) -> None:
-            positive(name, strict=False)
-            if getattr(self, name) > 1:
-                raise InputError(f"{name}: must lie in [0, 1], got {getattr(self, name)!r}")
-
-        positive("lambda_min")
-        positive("rho", strict=False)
-        positive("delta")
-        positive("pro1", strict=False)
-        positive("pro2", strict=False)
-        positive("pro3", strict=False)
-        for name in ("replan_pull", "replan_pair", "replan_orbit", "orbit_steal"):
-            fraction(name)
-        positive("init_share")
-        if self.init_share > 1:
-            raise InputError(f"init_share: must lie in (0, 1], got {self.init_share!r}")
-        positive("replan_floor", strict=False)
-        if self.replan_floor >= 1 / 3:
-            raise InputError(f"replan_floor: must be < 1/3, got {self.replan_floor!r}")
-        positive("orbit_noise", strict=False)
-        if self.orbit_noise >= 1:
-            raise InputError(f"orbit_noise: must lie in [0, 1), got {self.orbit_noise!r}")
-        if self.pro1 + self.pro2 + (self.pro3 if self.replan is True else 0.0) <= 0:
+        # check_types has made each int field an integer (or None where allowed) and each
+        # float field a number: what is left are the ranges
+        ranges = (
+            ("lambda_min delta", "> 0", lambda v: v > 0),
+            ("rho pro1 pro2 pro3", ">= 0", lambda v: v >= 0),
+            (
+                "replan_pull replan_pair replan_orbit orbit_steal eta",
+                "in [0, 1]",
+                lambda v: 0 <= v <= 1,
+            ),
+            ("init_share", "in (0, 1]", lambda v: 0 < v <= 1),
+            ("replan_floor", "in [0, 1/3)", lambda v: 0 <= v < 1 / 3),
+            ("orbit_noise", "in [0, 1)", lambda v: 0 <= v < 1),
+            (
+                "itr pool replan_opps no_improve restart trace_every workers",
+                ">= 1",
+                lambda v: v >= 1,
+            ),
+            ("tabu_length orbit_ascent iterations polish", ">= 0", lambda v: v >= 0),
+        )
+        for names, text, ok in ranges:
+            for name in names.split():
+                v = getattr(self, name)
+                if v is not None and not (math.isfinite(v) and ok(v)):
+                    raise InputError(f"{name}: must be {text}, got {v!r}")
+        if self.pro1 + self.pro2 + (self.pro3 if self.replan else 0.0) <= 0:
             raise InputError("pro1, pro2 (pro3 with replan): at least one must be > 0")
-        fraction("eta")
-        integer("itr")
-        integer("tabu_length", optional=True, minimum=0)
-        integer("pool")
-        integer("replan_opps")
-        integer("orbit_ascent", minimum=0)
-        integer("iterations", optional=True, minimum=0)
-        integer("no_improve", optional=True)
-        integer("restart", optional=True)
-        integer("polish", minimum=0)
-        integer("trace_every")
-        integer("workers")
 
     @classmethod
     def from_kwargs(cls, preset: str | None = None, **kwargs: Any) -> ASAParams:
@@ -297,6 +274,3 @@ class ASAParams(Params):
             raise InputError(f"preset: expected one of {', '.join(PRESETS)}, got {preset!r}")
         base = PRESETS[preset] if preset is not None else {}
         return P.from_kwargs(cls, kwargs, method="asa", base=base)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self)}

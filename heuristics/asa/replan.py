@@ -239,8 +239,8 @@ def replan_move(
         if made is not None:
             return made and all(repair(state, i) for i in state.touched_orbits())
     pull = params.replan_pull if pb.mode != "stc" else 0.0
-    depth = EJECTION_DEPTH
-    holes = replan_stretch(state, j, window, tabu, pull if depth > 1 else 0.0)
+    depth = EJECTION_DEPTH  # two or more
+    holes = replan_stretch(state, j, window, tabu, pull)
     if holes is None:
         return False
     for level in range(2, depth + 1):
@@ -268,19 +268,13 @@ class _Stretch:
         t1 = max(en[x] for x in window)
         line = state.lines[j]
         obs = line.obs
-        first = last = -1
-        for pos, c in enumerate(obs):
-            if c[END] >= t0 and c[START] <= t1:
-                if first < 0:
-                    first = pos
-                last = pos
-        if first >= 0:
-            freed = obs[first : last + 1]
-        else:
+        meets = [pos for pos, c in enumerate(obs) if c[END] >= t0 and c[START] <= t1]
+        if meets:
+            first, last = meets[0], meets[-1]
+        else:  # nothing to free: the chain goes between the last before and the first after
             first = sum(1 for c in obs if c[END] < t0)
             last = first - 1
-            freed = []
-        self.j, self.first, self.freed = j, first, freed
+        self.j, self.first, self.freed = j, first, obs[first : last + 1]
         self.left = obs[first - 1] if first > 0 else None
         self.right = obs[last + 1] if last + 1 < len(obs) else None
         # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
@@ -290,11 +284,13 @@ class _Stretch:
         unit = state.pb.opt_unit
         return {unit[x] for c in self.freed for x in c[MEMBERS]}
 
-    def options(self, state: State, t0: float, t1: float) -> list[int]:
+    def options(self, state: State, window: list[int]) -> list[int]:
         """Options of the orbit strictly between the fixed neighbours whose window lies in
-        ``[t0, t1]`` (by start, as ``orbit_options``)."""
+        the span of ``window`` and the freed cluster-tasks (by start, as ``orbit_options``)."""
         pb = state.pb
         st, en = pb.opt_start, pb.opt_end
+        t0 = min([st[x] for x in window] + [c[START] for c in self.freed])
+        t1 = max([en[x] for x in window] + [c[END] for c in self.freed])
         lo_t = self.left[END] if self.left is not None else -np.inf
         hi_t = self.right[START] if self.right is not None else np.inf
         opts = pb.orbit_options[self.j]
@@ -376,12 +372,9 @@ def replan_stretch(
     stretch = _Stretch(state, j, window)
     freed_units = stretch.units(state)
     sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
-    st, en = pb.opt_start, pb.opt_end
-    t0 = min([st[x] for x in window] + [c[START] for c in stretch.freed])
-    t1 = max([en[x] for x in window] + [c[END] for c in stretch.freed])
     avail = []
     value = {}
-    for x in stretch.options(state, t0, t1):
+    for x in stretch.options(state, window):
         u = unit[x]
         if u in freed_units:
             value[x] = pb.unit_weight[u]
@@ -482,15 +475,11 @@ def replan_pair(
     weight = pb.unit_weight
 
     def usable(stretch: _Stretch, win: list[int]) -> list[int]:
-        st, en = pb.opt_start, pb.opt_end
-        t0 = min([st[x] for x in win] + [c[START] for c in stretch.freed])
-        t1 = max([en[x] for x in win] + [c[END] for c in stretch.freed])
-        out = []
-        for x in stretch.options(state, t0, t1):
-            u = unit[x]
-            if u in freed or (sched[u] < 0 and (tabu is None or u not in tabu)):
-                out.append(x)
-        return out
+        return [
+            x
+            for x in stretch.options(state, win)
+            if (u := unit[x]) in freed or (sched[u] < 0 and (tabu is None or u not in tabu))
+        ]
 
     ca = candidates(state, j, usable(sa, window))
     cb = candidates(state, i, usable(sb, window_i))

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import io
 import logging
 import os
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import asdict, replace
 from functools import partial
 from typing import Any
 
@@ -73,31 +72,20 @@ NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_mov
 NAMES = ("insertion", "migration", "replan")
 
 
-def stop_rule(
-    iterations: int | None, seconds: float | None, no_improve: int | None
-) -> Callable[[SearchStatus], bool]:
-    """The first of: the search's iteration count reaching ``iterations``, ``seconds`` of wall
-    time from now, ``no_improve`` iterations without a new best (None: not a limit);
-    :data:`DEFAULT_ITERATIONS` when none is given."""
-    crit: list[Callable[[SearchStatus], bool]] = []
-    if iterations is not None:
-        crit.append(MaxIterations(iterations))
-    if seconds is not None:
-        crit.append(MaxRuntime(seconds, foresee=True))  # an orbit move can take seconds
-    if no_improve is not None:
-        crit.append(NoImprovement(no_improve))
-    if not crit:
-        crit.append(MaxIterations(DEFAULT_ITERATIONS))
-    return FirstOf(*crit)
-
-
 def default_stop(
     params: ASAParams, time_limit: float | None, t0: float
 ) -> Callable[[SearchStatus], bool]:
     """The first of ``params.iterations``, ``time_limit`` (counted from ``t0``) and
-    ``params.no_improve``; :data:`DEFAULT_ITERATIONS` when none is given."""
+    ``params.no_improve`` (None: not a limit); :data:`DEFAULT_ITERATIONS` when none is given."""
     left = Budget.until(None if time_limit is None else t0 + time_limit).left()
-    return stop_rule(params.iterations, left, params.no_improve)
+    crit: list[Callable[[SearchStatus], bool]] = []
+    if params.iterations is not None:
+        crit.append(MaxIterations(params.iterations))
+    if left is not None:
+        crit.append(MaxRuntime(left, foresee=True))  # an orbit move can take seconds
+    if params.no_improve is not None:
+        crit.append(NoImprovement(params.no_improve))
+    return FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
 
 
 class Search:
@@ -271,7 +259,7 @@ class Search:
         planner = self.planner
         stats = {
             "mode": self.mode,
-            "params": self.params.as_dict(),
+            "params": asdict(self.params),
             "initial_profit": self.trace[0][2],
             "initial_time_s": round(self.t_init, 6),
             **self.init_stats,
@@ -393,13 +381,11 @@ def build_schedule(instance: Instance, problem: Problem, snap: list[list[Cluster
 
 def trace_csv(result: Result) -> str:
     """The trace of a result as CSV text (header :data:`TRACE_COLUMNS`)."""
-    cols = result.stats.get("trace_columns", list(TRACE_COLUMNS))
-    buf = io.StringIO()
-    buf.write(",".join(cols) + "\n")
-    for row in result.stats.get("trace", []):
-        buf.write(",".join(repr(float(v)) if isinstance(v, float) else str(v) for v in row))
-        buf.write("\n")
-    return buf.getvalue()
+    lines = [",".join(result.stats.get("trace_columns", TRACE_COLUMNS))] + [
+        ",".join(repr(float(v)) if isinstance(v, float) else str(v) for v in row)
+        for row in result.stats.get("trace", [])
+    ]
+    return "".join(f"{line}\n" for line in lines)
 
 
 def write_trace_csv(result: Result, path: str | os.PathLike[str]) -> None:

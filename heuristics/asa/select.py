@@ -6,9 +6,22 @@ per iteration. The default, :class:`AdaptiveRoulette`, is the paper's (17)-(18).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from heuristics.asa.accept import Outcome
+
+
+def roulette(weights: Sequence[float], z: float) -> int:
+    """The index whose share of the running sum of ``weights`` holds ``z`` (drawn in
+    ``[0, sum)``): the first whose running sum exceeds ``z``, else the last."""
+    acc = 0.0
+    for i, w in enumerate(weights):
+        acc += w
+        if z < acc:
+            return i
+    return len(weights) - 1
 
 
 class AdaptiveRoulette:
@@ -38,13 +51,7 @@ class AdaptiveRoulette:
 
     def choose(self, rng: np.random.Generator) -> int:
         """Roulette wheel by the current probabilities (Algorithm 1, line 8)."""
-        u = rng.random()
-        acc = 0.0
-        for i, p in enumerate(self.probabilities):
-            acc += p
-            if u < acc:
-                return i
-        return len(self.probabilities) - 1
+        return roulette(self.probabilities, rng.random())
 
     def record(self, i: int, outcome: Outcome) -> None:
         """Count a selection and a success; every ``itr`` calls apply (17)-(18)."""

@@ -17,7 +17,7 @@ schedule.
 
 from __future__ import annotations
 
-from bisect import insort
+from bisect import bisect_left, insort
 from functools import cached_property
 from types import SimpleNamespace
 
@@ -101,21 +101,12 @@ class State:
         return line
 
     def commit(self) -> list[int]:
-        """End a move, keeping it; returns the units it removed (for the tabu list)."""
-        removed = self.removed_units()
+        """End a move, keeping it; returns the units it removed (for the tabu list): those
+        scheduled before the move and unscheduled after it, in removal order."""
+        removed = list(dict.fromkeys(u for u, old in self._log if old >= 0 and self.sched[u] < 0))
         self._snaps.clear()
         self._log.clear()
         return removed
-
-    def removed_units(self) -> list[int]:
-        """Units scheduled before the move and unscheduled after it, in removal order."""
-        seen: set[int] = set()
-        out = []
-        for u, old in self._log:
-            if old >= 0 and self.sched[u] < 0 and u not in seen:
-                seen.add(u)
-                out.append(u)
-        return out
 
     def touched_orbits(self) -> list[int]:
         return list(self._snaps)
@@ -155,18 +146,10 @@ class State:
         self.scheduled.discard(u)
 
     def _pool_remove(self, u: int) -> None:
-        r = self.unit_rank[u]
-        pool = self.unscheduled
-        # binary search: the pool is sorted
-        lo, hi = 0, len(pool)
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if pool[mid] < r:
-                lo = mid + 1
-            else:
-                hi = mid
-        if lo < len(pool) and pool[lo] == r:
-            pool.pop(lo)
+        r, pool = self.unit_rank[u], self.unscheduled
+        i = bisect_left(pool, r)  # the pool is sorted
+        if i < len(pool) and pool[i] == r:
+            pool.pop(i)
 
     def assign(self, u: int, x: int) -> None:
         """Schedule unit u at option x (bookkeeping only; the line is changed by the caller)."""
@@ -218,17 +201,10 @@ class State:
     def make_cluster(self, members: tuple[int, ...]) -> Cluster:
         """The cluster-task of ``members`` (sorted by start) by (8)-(10) and (9) or nadir."""
         pb = self.pb
+        st, en, lo_, hi_ = pb.opt_start, pb.opt_end, pb.opt_lo, pb.opt_hi
         if len(members) == 1:
             x = members[0]
-            return (
-                pb.opt_start[x],
-                pb.opt_end[x],
-                self.single_roll[x],
-                pb.opt_lo[x],
-                pb.opt_hi[x],
-                members,
-            )
-        st, en, lo_, hi_ = pb.opt_start, pb.opt_end, pb.opt_lo, pb.opt_hi
+            return (st[x], en[x], self.single_roll[x], lo_[x], hi_[x], members)
         s = min(st[x] for x in members)
         e = max(en[x] for x in members)
         lo = max(lo_[x] for x in members)
