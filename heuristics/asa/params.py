@@ -237,28 +237,28 @@ class ASAParams(Params):
         # check_types has made each int field an integer (or None where allowed) and each
         # float field a number: what is left are the ranges
         ranges = (
-            ("lambda_min delta", "> 0", lambda v: v > 0),
-            ("rho pro1 pro2 pro3", ">= 0", lambda v: v >= 0),
+            ("lambda_min delta", "a number > 0", lambda v: v > 0),
+            ("rho pro1 pro2 pro3", "a number >= 0", lambda v: v >= 0),
             (
                 "replan_pull replan_pair replan_orbit orbit_steal eta",
-                "in [0, 1]",
+                "a number in [0, 1]",
                 lambda v: 0 <= v <= 1,
             ),
-            ("init_share", "in (0, 1]", lambda v: 0 < v <= 1),
-            ("replan_floor", "in [0, 1/3)", lambda v: 0 <= v < 1 / 3),
-            ("orbit_noise", "in [0, 1)", lambda v: 0 <= v < 1),
+            ("init_share", "a number in (0, 1]", lambda v: 0 < v <= 1),
+            ("replan_floor", "a number in [0, 1/3)", lambda v: 0 <= v < 1 / 3),
+            ("orbit_noise", "a number in [0, 1)", lambda v: 0 <= v < 1),
             (
                 "itr pool replan_opps no_improve restart trace_every workers",
-                ">= 1",
+                "an integer >= 1",
                 lambda v: v >= 1,
             ),
-            ("tabu_length orbit_ascent iterations polish", ">= 0", lambda v: v >= 0),
+            ("tabu_length orbit_ascent iterations polish", "an integer >= 0", lambda v: v >= 0),
         )
         for names, text, ok in ranges:
             for name in names.split():
                 v = getattr(self, name)
                 if v is not None and not (math.isfinite(v) and ok(v)):
-                    raise InputError(f"{name}: must be {text}, got {v!r}")
+                    raise InputError(f"{name}: expected {text}, got {v!r}")
         if self.pro1 + self.pro2 + (self.pro3 if self.replan else 0.0) <= 0:
             raise InputError("pro1, pro2 (pro3 with replan): at least one must be > 0")
 
