@@ -158,8 +158,9 @@ def solve(
         # whichever method found this one (and however it was stopped)
         status, upper = Status.OPTIMAL, cap
         stats = {**stats, "proven_by": "cap"}
+    ran = stats.get("fallback", method)  # a result names what ran (the schedule, what was asked)
     result = replace(
-        result, method=method, schedule=schedule, runtime_s=runtime, status=status,
+        result, method=ran, schedule=schedule, runtime_s=runtime, status=status,
         bound=upper, stats=stats,
     )  # fmt: skip
     if check:
