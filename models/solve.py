@@ -25,7 +25,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 import numpy as np
 
@@ -1215,10 +1215,8 @@ def bound(
             backend=backend,
             conflicts=conflicts,
         )
-        out = _bound_out(res.bound, method, model, t0, res.stats)
-        out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
-        out["source"] = "milp"
-        return out
+        return _bound_out(res.bound, method, model, t0, res.stats, profit=res.profit,
+                          status=res.status.value, gap=res.gap, source="milp")  # fmt: skip
     _check_backend(backend, conflicts)
     _check_lp_solver(lp_solver)
     _check_params(None, threads)
@@ -1226,10 +1224,11 @@ def bound(
         raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
     if slew == "relaxed" and backend == "pyomo":
         raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
+    ask = _Ask(instance, t0, deadline, lower_bound or None, iterations, workers)
     if method == "colgen" and model == "cluster":
-        return _colgen_bound(instance, t0, deadline, lower_bound, workers)
+        return _colgen_bound(ask)
     if method == "windows":
-        return _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
+        return _window_bound(ask, model)
     generate_by = None
     if method in ("auto", "lagrangian") and model == "cluster" and time_limit is not None:
         # candidates not ready by then leave the window relaxation its share: a dense orbit
@@ -1240,35 +1239,26 @@ def bound(
         data = model_data(instance, model, deadline, generate_by)
     except TimeUp:
         if method in ("auto", "lagrangian") and model == "cluster":
-            return _cap_or_windows(instance, method, t0, deadline, lower_bound, iterations, workers)
+            return _cap_or_windows(ask, method)
         from models.data import observable_weight
 
-        upper = observable_weight(instance)
-        out = _bound_out(upper, method, model, t0, {"timed_out": "candidates"})
-        out["source"] = "cap"
-        return out
+        return _capped(observable_weight(instance), method, model, t0)
     except InputError:
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
             # planner's candidates, which have no such cap
-            return _lagrangian_alone(instance, t0, deadline, lower_bound, iterations, workers)
+            return _lagrangian_alone(ask)
         if method != "auto" or model != "cluster":
             raise
         # more candidates than the MILPs take (D30): no LP, but the column generation's own
         # candidates have no such cap, so auto is its bound alone, with all the time left
         log.info("bound: the cluster model is too large for the LP; column generation alone")
         try:
-            out = _colgen_bound(instance, t0, deadline, lower_bound, workers)
-        except InputError:
-            # the planner's candidates would not fit in memory either: the window
-            # relaxation needs no candidate list
-            log.info("bound: too dense for the candidates; the window relaxation's bound")
-            out = _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
-            out["method"] = "auto"
-            out["parts"] = {"windows": out["bound"]}
-            return out
+            out = _colgen_bound(ask)
+        except InputError:  # the planner's candidates would not fit in memory either
+            return _windows_instead(ask, "auto", parts=True)
         if out.get("timed_out") == "candidates":  # the planner's were not ready either
-            return _cap_or_windows(instance, "auto", t0, deadline, lower_bound, iterations, workers)
+            return _cap_or_windows(ask, "auto")
         out["method"] = "auto"
         out["parts"] = {"colgen": out["bound"]}
         return out
@@ -1358,24 +1348,32 @@ def bound(
             parts["lp"] = None
     found = [v for v in parts.values() if v is not None]
     upper = min([cap, *found])
-    out = _bound_out(upper, method, model, t0, stats)
     # which computation gave the bound: a method, or the cap when none finished below it
     best = min((k for k, v in parts.items() if v is not None), key=lambda k: parts[k], default=None)
-    out["source"] = best if best is not None and parts[best] <= cap else "cap"
+    source = best if best is not None and parts[best] <= cap else "cap"
+    out = _bound_out(upper, method, model, t0, stats, source=source)
     if method == "auto":
         out["parts"] = parts
     return out
 
 
-def _window_bound(
-    instance: Instance,
-    model: str,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    iterations: int,
-    workers: Workers = 1,
-) -> dict[str, Any]:
+class _Ask(NamedTuple):
+    """What :func:`bound`'s helpers are asked: the instance, the call's start, its deadline, a
+    known schedule's profit (None: none), the rounds and the pricing workers."""
+
+    instance: Instance
+    t0: float
+    deadline: float | None
+    lower_bound: float | None
+    iterations: int
+    workers: Workers
+
+    def left(self) -> float | None:
+        """The seconds left (at least a millisecond), None without a deadline."""
+        return None if self.deadline is None else max(self.deadline - time.perf_counter(), 1e-3)
+
+
+def _window_bound(ask: _Ask, model: str) -> dict[str, Any]:
     """``bound(method="windows")``: :func:`models.window_bound.window_colgen_bound` with
     the time left, at most ``iterations`` pricing rounds and ``workers`` pricing processes
     (cluster model only: it bounds the problem itself)."""
@@ -1383,17 +1381,26 @@ def _window_bound(
 
     if model != "cluster":
         raise InputError(f"method windows: bounds the cluster model only, got model {model!r}")
-    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
     wb = window_colgen_bound(
-        instance,
-        time_limit=left,
-        lower_bound=lower_bound if lower_bound else None,
-        max_rounds=iterations,
-        workers=workers,
+        ask.instance,
+        time_limit=ask.left(),
+        lower_bound=ask.lower_bound,
+        max_rounds=ask.iterations,
+        workers=ask.workers,
     )
     keys = ("rounds", "converged", "cap")
-    out = _bound_out(wb["bound"], "windows", "cluster", t0, {k: wb[k] for k in keys})
-    out["source"] = "windows"
+    return _bound_out(wb["bound"], "windows", "cluster", ask.t0, {k: wb[k] for k in keys},
+                      source="windows")  # fmt: skip
+
+
+def _windows_instead(ask: _Ask, method: str, parts: bool = False) -> dict[str, Any]:
+    """``method``'s bound when the planner's candidates would not fit in memory: the window
+    relaxation's, which needs no candidate list (``parts``: with it as the only part)."""
+    log.info("bound: too dense for the candidates; the window relaxation's bound")
+    out = _window_bound(ask, "cluster")
+    out["method"] = method
+    if parts:
+        out["parts"] = {"windows": out["bound"]}
     return out
 
 
@@ -1408,42 +1415,31 @@ WINDOWS_AFTER_SHARE = 0.25
 WINDOWS_MIN_SHARE = 0.2
 
 
-def _cap_or_windows(
-    instance: Instance,
-    method: str,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    iterations: int,
-    workers: Workers = 1,
-) -> dict[str, Any]:
-    """The bound of ``method`` when the candidates were not ready by ``deadline``: the window
+def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
+    """The bound of ``method`` when the candidates were not ready by the deadline: the window
     relaxation's (:func:`_window_bound`, never above the cap) with the time left when it is
     at least :data:`WINDOWS_MIN_SHARE` of the limit, else the cap (observable weight)."""
     from models.data import observable_weight
 
-    upper = observable_weight(instance)
-    now = time.perf_counter()
-    if deadline is not None and deadline - now >= WINDOWS_MIN_SHARE * (deadline - t0):
+    upper = observable_weight(ask.instance)
+    now, deadline = time.perf_counter(), ask.deadline
+    if deadline is not None and deadline - now >= WINDOWS_MIN_SHARE * (deadline - ask.t0):
         log.info("bound: the candidates are not ready in time; the window relaxation's bound")
-        out = _window_bound(instance, "cluster", t0, deadline, lower_bound, iterations, workers)
+        out = _window_bound(ask, "cluster")
         out.update({"method": method, "timed_out": "candidates"})
         out["parts"] = {"windows": out["bound"]}
         if upper <= out["bound"]:
             out.update({"bound": float(upper), "source": "cap"})
         return out
-    out = _bound_out(upper, method, "cluster", t0, {"timed_out": "candidates"})
-    out["source"] = "cap"
-    return out
+    return _capped(upper, method, "cluster", ask.t0)
 
 
-def _colgen_bound(
-    instance: Instance,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    workers: Workers = 1,
-) -> dict[str, Any]:
+def _capped(upper: float, method: str, model: str, t0: float) -> dict[str, Any]:
+    """The cap ``upper`` as ``method``'s bound, the candidates not ready in time."""
+    return _bound_out(upper, method, model, t0, {"timed_out": "candidates"}, source="cap")
+
+
+def _colgen_bound(ask: _Ask) -> dict[str, Any]:
     """``bound(method="colgen")`` of the cluster model over the planner's candidates: the
     cluster model's, without the cap on their number that :func:`model_data` keeps for the
     MILPs (D30's 3.4 million are priced in seconds a round)."""
@@ -1452,37 +1448,28 @@ def _colgen_bound(
     from sosp.planner import orbit_data
 
     try:
-        data = orbit_data(instance, deadline, workers=workers)
+        data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
         # the candidates' own "time limit reached": nothing but the observable weight holds
-        out = _bound_out(observable_weight(instance), "colgen", "cluster", t0, {})
-        out.update({"source": "cap", "timed_out": "candidates"})
-        return out
-    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+        return _bound_out(observable_weight(ask.instance), "colgen", "cluster", ask.t0, {},
+                          source="cap", timed_out="candidates")  # fmt: skip
     cg = colgen_bound(
-        instance,
-        time_limit=left,
-        lower_bound=lower_bound if lower_bound else None,
+        ask.instance,
+        time_limit=ask.left(),
+        lower_bound=ask.lower_bound,
         data=data,
-        branch=deadline is not None,  # the time left after convergence: branch and price
-        workers=workers,
+        branch=ask.deadline is not None,  # the time left after convergence: branch and price
+        workers=ask.workers,
     )
     keys = ("candidates", "cap", "rounds", "converged", "nodes")
-    out = _bound_out(cg["bound"], "colgen", "cluster", t0, {k: cg[k] for k in keys if k in cg})
-    out["source"] = "colgen" if cg["bound"] < cg["cap"] else "cap"
+    out = _bound_out(cg["bound"], "colgen", "cluster", ask.t0, {k: cg[k] for k in keys if k in cg},
+                     source="colgen" if cg["bound"] < cg["cap"] else "cap")  # fmt: skip
     if "profit" in cg:
         out["profit"] = cg["profit"]  # a validated schedule the branch and price ended on
     return out
 
 
-def _lagrangian_alone(
-    instance: Instance,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    iterations: int,
-    workers: Workers = 1,
-) -> dict[str, Any]:
+def _lagrangian_alone(ask: _Ask) -> dict[str, Any]:
     """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
     without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
     either, the window relaxation's bound, which is a
@@ -1491,45 +1478,43 @@ def _lagrangian_alone(
     from sosp.planner import orbit_data
 
     try:
-        data = orbit_data(instance, deadline, workers=workers)
+        data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
-        return _cap_or_windows(
-            instance, "lagrangian", t0, deadline, lower_bound, iterations, workers
-        )
+        return _cap_or_windows(ask, "lagrangian")
     except InputError:
-        log.info("bound: too dense for the candidates; the window relaxation's bound")
-        out = _window_bound(instance, "cluster", t0, deadline, lower_bound, iterations, workers)
-        out["method"] = "lagrangian"
-        return out
-    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+        return _windows_instead(ask, "lagrangian")
     lag = lagrangian_bound(
-        instance,
-        iterations=iterations,
-        time_limit=left,
-        lower_bound=lower_bound if lower_bound else None,
+        ask.instance,
+        iterations=ask.iterations,
+        time_limit=ask.left(),
+        lower_bound=ask.lower_bound,
         data=data,
-        workers=workers,
+        workers=ask.workers,
     )
     stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
     stats["lower_bound"] = lag["lower_bound"]
-    out = _bound_out(lag["bound"], "lagrangian", "cluster", t0, stats)
-    out["source"] = "lagrangian"
-    return out
+    return _bound_out(lag["bound"], "lagrangian", "cluster", ask.t0, stats, source="lagrangian")
+
+
+#: The keys of a bound's statistics its answer carries, in this order.
+_BOUND_KEYS = (
+    *("candidates", "cliques", "variables", "constraints", "nonzeros", "termination"),
+    *("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound"),
+    *("rounds", "converged", "nodes", "lp_value", "lp_solver", "slew", "timed_out"),
+)
 
 
 def _bound_out(
-    value: float | None, method: str, model: str, t0: float, stats: dict[str, Any]
+    value: float | None, method: str, model: str, t0: float, stats: dict[str, Any], **more: Any
 ) -> dict[str, Any]:
+    """A bound's answer: ``value``, ``method``, ``model``, the runtime from ``t0``, the
+    :data:`_BOUND_KEYS` of ``stats``, then ``more`` in its order."""
     out: dict[str, Any] = {
         "bound": value,
         "method": method,
         "model": model,
         "runtime_s": round(time.perf_counter() - t0, 6),
     }
-    keys = ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination")
-    more = ("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound")
-    more = (*more, "rounds", "converged", "nodes")
-    for key in (*keys, *more, "lp_value", "lp_solver", "slew", "timed_out"):
-        if key in stats:
-            out[key] = stats[key]
+    out.update({k: stats[k] for k in _BOUND_KEYS if k in stats})
+    out.update(more)
     return out
