@@ -1284,7 +1284,7 @@ def bound(
         cg = colgen_bound(
             instance,
             time_limit=limit,
-            lower_bound=lower_bound if lower_bound else None,
+            lower_bound=ask.lower_bound,
             data=with_rolls(data, data.roll),
             branch=deadline is not None and model == "cluster",
             root_time_limit=root,
@@ -1304,15 +1304,11 @@ def bound(
         from models.lagrangian import lagrangian_bound
         from sosp.planner import with_rolls
 
-        limit = None
-        if deadline is not None:
-            share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
-            limit = max(min(share * time_limit, deadline - time.perf_counter()), 1e-3)
         lag = lagrangian_bound(
             instance,
             iterations=iterations,
-            time_limit=limit,
-            lower_bound=lower_bound if lower_bound else None,
+            time_limit=ask.left(),  # all the limit: the method is lagrangian, never auto
+            lower_bound=ask.lower_bound,
             data=with_rolls(data, data.roll),
             workers=workers,
         )
