@@ -100,7 +100,7 @@ def _check_params(mip_gap: Any, threads: Any) -> None:
         raise InputError(f"threads: expected a positive integer, got {threads!r}")
 
 
-def _solver(time_limit: float | None, mip_gap: float | None, threads: int | None) -> Any:
+def _solver(mip_gap: float | None, threads: int | None) -> Any:
     """A fresh HiGHS solver (APPSI interface: it takes MIP starts) with only these options."""
     from pyomo.contrib.appsi.solvers import Highs
 
@@ -110,8 +110,6 @@ def _solver(time_limit: float | None, mip_gap: float | None, threads: int | None
     opt.config.log_level = logging.DEBUG
     opt.config.solver_output_logger = log
     options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
-    if time_limit is not None:
-        opt.config.time_limit = float(time_limit)
     if mip_gap is not None:
         opt.config.mip_gap = float(mip_gap)
     if threads is not None:
@@ -1040,7 +1038,7 @@ def _run_pyomo(
     m = build_model(data, relax=bool(relax))
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
-    opt = _solver(None, mip_gap, threads)
+    opt = _solver(mip_gap, threads)  # its time limit is set after the load
     if relax and lp_solver != "choose":
         opt.highs_options = {**opt.highs_options, "solver": lp_solver}
     if not relax and not probing:
