@@ -24,7 +24,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 import numpy as np
@@ -517,10 +517,8 @@ def solve_milp(
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
 
     if relax:
-        kind, incumbent, _, _ = _solve(
-            data, t0, deadline, None, threads, None, True, conflicts, lp_solver, slew,
-            False, backend, stats,
-        )  # fmt: skip
+        lp = _Run(data, t0, None, threads, conflicts, lp_solver, slew, False, backend, stats)
+        kind, incumbent, _, _ = _solve(lp, deadline, None, True)
         bound = None
         if kind == "optimal" and incumbent is not None:
             stats["lp_bound"] = float(incumbent)
@@ -576,12 +574,11 @@ def solve_milp(
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
             watch = give = _GiveWay(side, start_profit, solve_by)
+        run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend,
+                   stats)  # fmt: skip
         try:
             with watching_bound(watch):
-                kind, incumbent, raw_bound, chosen = _solve(
-                    data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
-                    slew, use_probing, backend, stats,
-                )  # fmt: skip
+                kind, incumbent, raw_bound, chosen = _solve(run, solve_by, start, False)
             gave_way = give is not None and give.gave_at is not None
             if gave_way:
                 stats["gave_way_s"] = round(give.gave_at - t0, 3)
@@ -614,10 +611,7 @@ def solve_milp(
                 # again without the start (the model was small)
                 log.debug("HiGHS returned the start (%g) for objective %g", value, incumbent)
                 stats["resolved_without_start"] = True
-                kind, incumbent, raw_bound, chosen = _solve(
-                    data, t0, solve_by, mip_gap, threads, None, False, conflicts, lp_solver,
-                    slew, use_probing, backend, stats,
-                )  # fmt: skip
+                kind, incumbent, raw_bound, chosen = _solve(run, solve_by, None, False)
     runtime = time.perf_counter() - t0
     if kind == "infeasible":  # cannot happen (the empty schedule is feasible) but map it
         return Result(method, Status.INFEASIBLE, empty, 0.0, 0, runtime, None, None, stats)
@@ -857,29 +851,31 @@ def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> f
     return _int_bound(out.bound) if out.status == "optimal" else None
 
 
-def _solve(
-    data: ModelData,
-    t0: float,
-    deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
-    start: list[int] | None,
-    relax: bool,
-    conflicts: str,
-    lp_solver: str,
-    slew: str,
-    probing: bool,
-    backend: str,
-    stats: dict[str, Any],
-) -> _Outcome:
-    if backend == "highs" and slew == "lazy":
-        return _run_lazy(data, t0, deadline, mip_gap, threads, start, conflicts, probing, stats)
-    if backend == "highs":
-        return _run_direct(
-            data, t0, deadline, mip_gap, threads, start, relax, conflicts, lp_solver, slew,
-            probing, stats,
-        )  # fmt: skip
-    return _run_pyomo(data, t0, deadline, mip_gap, threads, start, relax, lp_solver, probing, stats)
+@dataclass(frozen=True)
+class _Run:
+    """What every HiGHS solve of one :func:`solve_milp` call shares: the model's data, the
+    call's start, the options and the ``stats`` the solves write to."""
+
+    data: ModelData
+    t0: float
+    mip_gap: float | None
+    threads: int | None
+    conflicts: str
+    lp_solver: str
+    slew: str
+    probing: bool
+    backend: str
+    stats: dict[str, Any]
+
+
+def _solve(run: _Run, deadline: float | None, start: list[int] | None, relax: bool) -> _Outcome:
+    """``run`` until ``deadline`` from the items ``start`` (the LP relaxation with ``relax``)
+    on its backend: lazy, direct or Pyomo."""
+    if run.backend == "highs" and run.slew == "lazy":
+        return _run_lazy(run, deadline, start)
+    if run.backend == "highs":
+        return _run_direct(run, deadline, start, relax)
+    return _run_pyomo(run, deadline, start, relax)
 
 
 def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
@@ -905,17 +901,7 @@ def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
     return bad
 
 
-def _run_lazy(
-    data: ModelData,
-    t0: float,
-    deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
-    start: list[int] | None,
-    conflicts: str,
-    probing: bool,
-    stats: dict[str, Any],
-) -> _Outcome:
+def _run_lazy(run: _Run, deadline: float | None, start: list[int] | None) -> _Outcome:
     """The MILP with the exact slew term of (4) added only where a solution needs it.
 
     Round 1 gives every energy-binding orbit the relaxed row of
@@ -926,6 +912,8 @@ def _run_lazy(
     without the observations of the broken orbits, or the warm start). Every round's dual
     bound is valid; the least is returned.
     """
+    data, stats = run.data, run.stats
+    each = replace(run, lp_solver="choose", slew="exact")
     exact: set[int] = set()
     best = list(start) if start is not None else None
     best_value = _items_value(data, best)
@@ -933,10 +921,7 @@ def _run_lazy(
     rounds = 0
     while True:
         rounds += 1
-        kind, incumbent, raw, chosen = _run_direct(
-            data, t0, deadline, mip_gap, threads, best, False, conflicts, "choose", "exact",
-            probing, stats, exact_orbits=exact,
-        )  # fmt: skip
+        kind, incumbent, raw, chosen = _run_direct(each, deadline, best, False, exact)
         if raw is not None:
             dual = raw if dual is None else min(dual, raw)
         stats.update({"lazy_rounds": rounds, "lazy_exact_orbits": len(exact)})
@@ -965,18 +950,10 @@ _Outcome = tuple[str, float | None, float | None, list[int] | None]
 
 
 def _run_direct(
-    data: ModelData,
-    t0: float,
+    run: _Run,
     deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
     start_items_: list[int] | None,
     relax: bool,
-    conflicts: str,
-    lp_solver: str,
-    slew: str,
-    probing: bool,
-    stats: dict[str, Any],
     exact_orbits: set[int] | None = None,
 ) -> _Outcome:
     """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`).
@@ -986,15 +963,16 @@ def _run_direct(
     """
     from models.highs_direct import build_arrays, run_highs, start_vector
 
+    data, stats, slew, lp_solver = run.data, run.stats, run.slew, run.lp_solver
     if not fits("build", data.n_items, deadline):
         stats["timed_out"] = "building"
         return "time_limit", None, None, None
     t1 = time.perf_counter()
     am = build_arrays(
-        data, relax=bool(relax), conflicts=conflicts, slew=slew, exact_orbits=exact_orbits
+        data, relax=bool(relax), conflicts=run.conflicts, slew=slew, exact_orbits=exact_orbits
     )
     stats["slew"] = slew
-    stats["build_s"] = round(time.perf_counter() - t0, 6)  # everything before the arrays too
+    stats["build_s"] = round(time.perf_counter() - run.t0, 6)  # everything before the arrays
     stats["arrays_s"] = round(time.perf_counter() - t1, 6)
     stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
     if deadline is not None and time.perf_counter() >= deadline:
@@ -1006,11 +984,11 @@ def _run_direct(
     out = run_highs(
         am,
         deadline=deadline,
-        mip_gap=mip_gap,
-        threads=threads,
+        mip_gap=run.mip_gap,
+        threads=run.threads,
         start=start,
         lp_solver=None if lp_solver == "choose" else lp_solver,
-        probing=probing,
+        probing=run.probing,
     )
     stats["load_s"] = round(out.load_s, 6)
     stats["solve_s"] = round(out.solve_s, 6)
@@ -1021,27 +999,20 @@ def _run_direct(
 
 
 def _run_pyomo(
-    data: ModelData,
-    t0: float,
-    deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
-    start_items_: list[int] | None,
-    relax: bool,
-    lp_solver: str,
-    probing: bool,
-    stats: dict[str, Any],
+    run: _Run, deadline: float | None, start_items_: list[int] | None, relax: bool
 ) -> _Outcome:
     """Build ``data`` with the reference Pyomo builder and solve it through APPSI."""
     from models.formulation import build_model
 
+    data, t0, stats, threads, lp_solver = run.data, run.t0, run.stats, run.threads, run.lp_solver
+
     m = build_model(data, relax=bool(relax))
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
-    opt = _solver(mip_gap, threads)  # its time limit is set after the load
+    opt = _solver(run.mip_gap, threads)  # its time limit is set after the load
     if relax and lp_solver != "choose":
         opt.highs_options = {**opt.highs_options, "solver": lp_solver}
-    if not relax and not probing:
+    if not relax and not run.probing:
         from models.highs_direct import PROBING_OFF
 
         opt.highs_options = {**opt.highs_options, "presolve_rule_off": PROBING_OFF}
