@@ -1228,8 +1228,7 @@ def bound(
             return _windows_instead(ask, "auto", parts=True)
         if out.get("timed_out") == "candidates":  # the planner's were not ready either
             return _cap_or_windows(ask, "auto")
-        out["method"] = "auto"
-        out["parts"] = {"colgen": out["bound"]}
+        out.update({"method": "auto", "parts": {"colgen": out["bound"]}})
         return out
     cap = data.covered_weight()
     parts: dict[str, float | None] = {}
@@ -1260,14 +1259,12 @@ def bound(
             workers=workers,
         )
         parts["colgen"] = cg["bound"]
-        stats["rounds"] = cg["rounds"]
-        if "nodes" in cg:
-            stats["nodes"] = cg["nodes"]
+        stats.update({k: cg[k] for k in ("rounds", "nodes") if k in cg})
         stats["converged"] = bool(cg["converged"])
         # the argument that the LP cannot be tighter is made for the cluster model's rows
         converged = stats["converged"] and model == "cluster"
-        if lower_bound:
-            stats["lower_bound"] = float(lower_bound)
+        if ask.lower_bound:
+            stats["lower_bound"] = float(ask.lower_bound)
     lagrangian = method == "lagrangian" and data.n_items > 0
     if lagrangian and fits("arrange", data.n_items, deadline):
         from models.lagrangian import lagrangian_bound
@@ -1282,8 +1279,7 @@ def bound(
             workers=workers,
         )
         parts["lagrangian"] = lag["bound"]
-        stats["iterations"] = lag["iterations"]
-        stats["lower_bound"] = lag["lower_bound"]
+        stats.update({k: lag[k] for k in ("iterations", "lower_bound")})
     first = parts.get("lagrangian", parts.get("colgen"))
     proven = first is not None and first <= stats.get("lower_bound", -math.inf) + INT_TOL
     if method == "lp" or (method == "auto" and data.n_items and not proven and not converged):
