@@ -485,12 +485,11 @@ def solve_milp(
 
         stats["timed_out"] = "candidates"
         upper = observable_weight(instance)
-        if relax:
-            runtime = time.perf_counter() - t0
-            return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, upper, None, stats)
-        schedule = _schedule_without_model(instance, warm_start, stats)
-        profit, observed = schedule.coverage_profit(instance)
-        status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
+        schedule, profit, observed, status = empty, 0.0, 0, Status.NO_SOLUTION
+        if not relax:
+            schedule = _schedule_without_model(instance, warm_start, stats)
+            profit, observed = schedule.coverage_profit(instance)
+            status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
         runtime = time.perf_counter() - t0
         return Result(method, status, schedule, profit, observed, runtime, upper, None, stats)
     cap = data.covered_weight()
@@ -566,7 +565,9 @@ def solve_milp(
     elif deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "before the MILP"
     else:
-        solve_by = _solve_by(deadline, time_limit)
+        # when the last stage must end: HiGHS overruns its limit a little and the solution is
+        # read back after it, so a reserve is kept (5 % of the limit, at most 0.5 s)
+        solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
         from models.highs_direct import watching_bound
 
         side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
@@ -669,15 +670,6 @@ class _GiveWay:
             log.info("HiGHS gives way to the search: no better schedule than its start")
             self.gave_at = time.perf_counter()
         return True
-
-
-def _solve_by(deadline: float | None, time_limit: float | None) -> float | None:
-    """When the last stage of :func:`solve_milp` must end: HiGHS overruns its limit a little
-    and the solution is read back after it, so a reserve is kept (5 % of the limit, at most
-    0.5 s)."""
-    if deadline is None or time_limit is None:
-        return None
-    return deadline - min(0.5, 0.05 * time_limit)
 
 
 #: Least time (seconds) :func:`_search_on` needs to be worth starting.
