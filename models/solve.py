@@ -570,7 +570,15 @@ def solve_milp(
         solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
         from models.highs_direct import watching_bound
 
-        side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
+        # a models.colgen.SideBound beside the MILP until solve_by (where _side_possible); it
+        # yields its core to the MILP once the MILP's bound is below its own
+        side: SideBound | None = None
+        if _side_possible(extra_bound, arranged, solve_by):
+            from models.colgen import SideBound
+
+            assert arranged is not None and solve_by is not None
+            left, lower = solve_by - time.perf_counter(), start_profit if start_profit > 0 else None
+            side = SideBound(data.instance, arranged, left, lower)
         watch = None if side is None else side.watch
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
@@ -799,7 +807,7 @@ def _adopt(
 def _side_possible(
     how: str, arranged: OrbitData | None, deadline: float | None, reserve_s: float = 0.0
 ) -> bool:
-    """Whether a side process runs beside the MILP (:func:`_side_bound`): only with
+    """Whether a side process runs beside the MILP (:func:`solve_milp`'s side): only with
     ``extra_bound="colgen"``, a deadline at least :data:`models.colgen.SIDE_MIN_S` away
     after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
     leaves the branching to the side) and a second core."""
@@ -808,25 +816,6 @@ def _side_possible(
     if how != "colgen" or arranged is None or deadline is None:
         return False
     return deadline - time.perf_counter() - reserve_s >= SIDE_MIN_S and side_cores() >= 2
-
-
-def _side_bound(
-    data: ModelData,
-    how: str,
-    arranged: OrbitData | None,
-    lower: float,
-    deadline: float | None,
-) -> Any:
-    """A :class:`models.colgen.SideBound` running until ``deadline`` beside the MILP, or None
-    (:func:`_side_possible`). The side yields its core to the MILP once the MILP's bound is
-    below its own (:meth:`~models.colgen.SideBound.yield_to`)."""
-    from models.colgen import SideBound
-
-    if not _side_possible(how, arranged, deadline):
-        return None
-    assert arranged is not None and deadline is not None
-    left = deadline - time.perf_counter()
-    return SideBound(data.instance, arranged, left, lower if lower > 0 else None)
 
 
 def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
