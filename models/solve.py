@@ -24,8 +24,8 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 import numpy as np
 
@@ -100,7 +100,7 @@ def _check_params(mip_gap: Any, threads: Any) -> None:
         raise InputError(f"threads: expected a positive integer, got {threads!r}")
 
 
-def _solver(time_limit: float | None, mip_gap: float | None, threads: int | None) -> Any:
+def _solver(mip_gap: float | None, threads: int | None) -> Any:
     """A fresh HiGHS solver (APPSI interface: it takes MIP starts) with only these options."""
     from pyomo.contrib.appsi.solvers import Highs
 
@@ -110,8 +110,6 @@ def _solver(time_limit: float | None, mip_gap: float | None, threads: int | None
     opt.config.log_level = logging.DEBUG
     opt.config.solver_output_logger = log
     options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
-    if time_limit is not None:
-        opt.config.time_limit = float(time_limit)
     if mip_gap is not None:
         opt.config.mip_gap = float(mip_gap)
     if threads is not None:
@@ -487,12 +485,11 @@ def solve_milp(
 
         stats["timed_out"] = "candidates"
         upper = observable_weight(instance)
-        if relax:
-            runtime = time.perf_counter() - t0
-            return Result(method, Status.NO_SOLUTION, empty, 0.0, 0, runtime, upper, None, stats)
-        schedule = _schedule_without_model(instance, warm_start, stats)
-        profit, observed = schedule.coverage_profit(instance)
-        status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
+        schedule, profit, observed, status = empty, 0.0, 0, Status.NO_SOLUTION
+        if not relax:
+            schedule = _schedule_without_model(instance, warm_start, stats)
+            profit, observed = schedule.coverage_profit(instance)
+            status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
         runtime = time.perf_counter() - t0
         return Result(method, status, schedule, profit, observed, runtime, upper, None, stats)
     cap = data.covered_weight()
@@ -519,10 +516,8 @@ def solve_milp(
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
 
     if relax:
-        kind, incumbent, _, _ = _solve(
-            data, t0, deadline, None, threads, None, True, conflicts, lp_solver, slew,
-            False, backend, stats,
-        )  # fmt: skip
+        lp = _Run(data, t0, None, threads, conflicts, lp_solver, slew, False, backend, stats)
+        kind, incumbent, _, _ = _solve(lp, deadline, None, True)
         bound = None
         if kind == "optimal" and incumbent is not None:
             stats["lp_bound"] = float(incumbent)
@@ -570,20 +565,29 @@ def solve_milp(
     elif deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "before the MILP"
     else:
-        solve_by = _solve_by(deadline, time_limit)
+        # when the last stage must end: HiGHS overruns its limit a little and the solution is
+        # read back after it, so a reserve is kept (5 % of the limit, at most 0.5 s)
+        solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
         from models.highs_direct import watching_bound
 
-        side = _side_bound(data, extra_bound, arranged, start_profit, solve_by)
+        # a models.colgen.SideBound beside the MILP until solve_by (where _side_possible); it
+        # yields its core to the MILP once the MILP's bound is below its own
+        side: SideBound | None = None
+        if _side_possible(extra_bound, arranged, solve_by):
+            from models.colgen import SideBound
+
+            assert arranged is not None and solve_by is not None
+            left, lower = solve_by - time.perf_counter(), start_profit if start_profit > 0 else None
+            side = SideBound(data.instance, arranged, left, lower)
         watch = None if side is None else side.watch
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
             watch = give = _GiveWay(side, start_profit, solve_by)
+        run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend,
+                   stats)  # fmt: skip
         try:
             with watching_bound(watch):
-                kind, incumbent, raw_bound, chosen = _solve(
-                    data, t0, solve_by, mip_gap, threads, start, False, conflicts, lp_solver,
-                    slew, use_probing, backend, stats,
-                )  # fmt: skip
+                kind, incumbent, raw_bound, chosen = _solve(run, solve_by, start, False)
             gave_way = give is not None and give.gave_at is not None
             if gave_way:
                 stats["gave_way_s"] = round(give.gave_at - t0, 3)
@@ -616,10 +620,7 @@ def solve_milp(
                 # again without the start (the model was small)
                 log.debug("HiGHS returned the start (%g) for objective %g", value, incumbent)
                 stats["resolved_without_start"] = True
-                kind, incumbent, raw_bound, chosen = _solve(
-                    data, t0, solve_by, mip_gap, threads, None, False, conflicts, lp_solver,
-                    slew, use_probing, backend, stats,
-                )  # fmt: skip
+                kind, incumbent, raw_bound, chosen = _solve(run, solve_by, None, False)
     runtime = time.perf_counter() - t0
     if kind == "infeasible":  # cannot happen (the empty schedule is feasible) but map it
         return Result(method, Status.INFEASIBLE, empty, 0.0, 0, runtime, None, None, stats)
@@ -677,15 +678,6 @@ class _GiveWay:
             log.info("HiGHS gives way to the search: no better schedule than its start")
             self.gave_at = time.perf_counter()
         return True
-
-
-def _solve_by(deadline: float | None, time_limit: float | None) -> float | None:
-    """When the last stage of :func:`solve_milp` must end: HiGHS overruns its limit a little
-    and the solution is read back after it, so a reserve is kept (5 % of the limit, at most
-    0.5 s)."""
-    if deadline is None or time_limit is None:
-        return None
-    return deadline - min(0.5, 0.05 * time_limit)
 
 
 #: Least time (seconds) :func:`_search_on` needs to be worth starting.
@@ -815,7 +807,7 @@ def _adopt(
 def _side_possible(
     how: str, arranged: OrbitData | None, deadline: float | None, reserve_s: float = 0.0
 ) -> bool:
-    """Whether a side process runs beside the MILP (:func:`_side_bound`): only with
+    """Whether a side process runs beside the MILP (:func:`solve_milp`'s side): only with
     ``extra_bound="colgen"``, a deadline at least :data:`models.colgen.SIDE_MIN_S` away
     after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
     leaves the branching to the side) and a second core."""
@@ -824,25 +816,6 @@ def _side_possible(
     if how != "colgen" or arranged is None or deadline is None:
         return False
     return deadline - time.perf_counter() - reserve_s >= SIDE_MIN_S and side_cores() >= 2
-
-
-def _side_bound(
-    data: ModelData,
-    how: str,
-    arranged: OrbitData | None,
-    lower: float,
-    deadline: float | None,
-) -> Any:
-    """A :class:`models.colgen.SideBound` running until ``deadline`` beside the MILP, or None
-    (:func:`_side_possible`). The side yields its core to the MILP once the MILP's bound is
-    below its own (:meth:`~models.colgen.SideBound.yield_to`)."""
-    from models.colgen import SideBound
-
-    if not _side_possible(how, arranged, deadline):
-        return None
-    assert arranged is not None and deadline is not None
-    left = deadline - time.perf_counter()
-    return SideBound(data.instance, arranged, left, lower if lower > 0 else None)
 
 
 def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
@@ -859,29 +832,31 @@ def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> f
     return _int_bound(out.bound) if out.status == "optimal" else None
 
 
-def _solve(
-    data: ModelData,
-    t0: float,
-    deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
-    start: list[int] | None,
-    relax: bool,
-    conflicts: str,
-    lp_solver: str,
-    slew: str,
-    probing: bool,
-    backend: str,
-    stats: dict[str, Any],
-) -> _Outcome:
-    if backend == "highs" and slew == "lazy":
-        return _run_lazy(data, t0, deadline, mip_gap, threads, start, conflicts, probing, stats)
-    if backend == "highs":
-        return _run_direct(
-            data, t0, deadline, mip_gap, threads, start, relax, conflicts, lp_solver, slew,
-            probing, stats,
-        )  # fmt: skip
-    return _run_pyomo(data, t0, deadline, mip_gap, threads, start, relax, lp_solver, probing, stats)
+@dataclass(frozen=True)
+class _Run:
+    """What every HiGHS solve of one :func:`solve_milp` call shares: the model's data, the
+    call's start, the options and the ``stats`` the solves write to."""
+
+    data: ModelData
+    t0: float
+    mip_gap: float | None
+    threads: int | None
+    conflicts: str
+    lp_solver: str
+    slew: str
+    probing: bool
+    backend: str
+    stats: dict[str, Any]
+
+
+def _solve(run: _Run, deadline: float | None, start: list[int] | None, relax: bool) -> _Outcome:
+    """``run`` until ``deadline`` from the items ``start`` (the LP relaxation with ``relax``)
+    on its backend: lazy, direct or Pyomo."""
+    if run.backend == "highs" and run.slew == "lazy":
+        return _run_lazy(run, deadline, start)
+    if run.backend == "highs":
+        return _run_direct(run, deadline, start, relax)
+    return _run_pyomo(run, deadline, start, relax)
 
 
 def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
@@ -907,17 +882,7 @@ def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
     return bad
 
 
-def _run_lazy(
-    data: ModelData,
-    t0: float,
-    deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
-    start: list[int] | None,
-    conflicts: str,
-    probing: bool,
-    stats: dict[str, Any],
-) -> _Outcome:
+def _run_lazy(run: _Run, deadline: float | None, start: list[int] | None) -> _Outcome:
     """The MILP with the exact slew term of (4) added only where a solution needs it.
 
     Round 1 gives every energy-binding orbit the relaxed row of
@@ -928,6 +893,8 @@ def _run_lazy(
     without the observations of the broken orbits, or the warm start). Every round's dual
     bound is valid; the least is returned.
     """
+    data, stats = run.data, run.stats
+    each = replace(run, lp_solver="choose", slew="exact")
     exact: set[int] = set()
     best = list(start) if start is not None else None
     best_value = _items_value(data, best)
@@ -935,10 +902,7 @@ def _run_lazy(
     rounds = 0
     while True:
         rounds += 1
-        kind, incumbent, raw, chosen = _run_direct(
-            data, t0, deadline, mip_gap, threads, best, False, conflicts, "choose", "exact",
-            probing, stats, exact_orbits=exact,
-        )  # fmt: skip
+        kind, incumbent, raw, chosen = _run_direct(each, deadline, best, False, exact)
         if raw is not None:
             dual = raw if dual is None else min(dual, raw)
         stats.update({"lazy_rounds": rounds, "lazy_exact_orbits": len(exact)})
@@ -967,18 +931,10 @@ _Outcome = tuple[str, float | None, float | None, list[int] | None]
 
 
 def _run_direct(
-    data: ModelData,
-    t0: float,
+    run: _Run,
     deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
     start_items_: list[int] | None,
     relax: bool,
-    conflicts: str,
-    lp_solver: str,
-    slew: str,
-    probing: bool,
-    stats: dict[str, Any],
     exact_orbits: set[int] | None = None,
 ) -> _Outcome:
     """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`).
@@ -988,15 +944,16 @@ def _run_direct(
     """
     from models.highs_direct import build_arrays, run_highs, start_vector
 
+    data, stats, slew, lp_solver = run.data, run.stats, run.slew, run.lp_solver
     if not fits("build", data.n_items, deadline):
         stats["timed_out"] = "building"
         return "time_limit", None, None, None
     t1 = time.perf_counter()
     am = build_arrays(
-        data, relax=bool(relax), conflicts=conflicts, slew=slew, exact_orbits=exact_orbits
+        data, relax=bool(relax), conflicts=run.conflicts, slew=slew, exact_orbits=exact_orbits
     )
     stats["slew"] = slew
-    stats["build_s"] = round(time.perf_counter() - t0, 6)  # everything before the arrays too
+    stats["build_s"] = round(time.perf_counter() - run.t0, 6)  # everything before the arrays
     stats["arrays_s"] = round(time.perf_counter() - t1, 6)
     stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
     if deadline is not None and time.perf_counter() >= deadline:
@@ -1008,11 +965,11 @@ def _run_direct(
     out = run_highs(
         am,
         deadline=deadline,
-        mip_gap=mip_gap,
-        threads=threads,
+        mip_gap=run.mip_gap,
+        threads=run.threads,
         start=start,
         lp_solver=None if lp_solver == "choose" else lp_solver,
-        probing=probing,
+        probing=run.probing,
     )
     stats["load_s"] = round(out.load_s, 6)
     stats["solve_s"] = round(out.solve_s, 6)
@@ -1023,27 +980,20 @@ def _run_direct(
 
 
 def _run_pyomo(
-    data: ModelData,
-    t0: float,
-    deadline: float | None,
-    mip_gap: float | None,
-    threads: int | None,
-    start_items_: list[int] | None,
-    relax: bool,
-    lp_solver: str,
-    probing: bool,
-    stats: dict[str, Any],
+    run: _Run, deadline: float | None, start_items_: list[int] | None, relax: bool
 ) -> _Outcome:
     """Build ``data`` with the reference Pyomo builder and solve it through APPSI."""
     from models.formulation import build_model
 
+    data, t0, stats, threads, lp_solver = run.data, run.t0, run.stats, run.threads, run.lp_solver
+
     m = build_model(data, relax=bool(relax))
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
-    opt = _solver(None, mip_gap, threads)
+    opt = _solver(run.mip_gap, threads)  # its time limit is set after the load
     if relax and lp_solver != "choose":
         opt.highs_options = {**opt.highs_options, "solver": lp_solver}
-    if not relax and not probing:
+    if not relax and not run.probing:
         from models.highs_direct import PROBING_OFF
 
         opt.highs_options = {**opt.highs_options, "presolve_rule_off": PROBING_OFF}
@@ -1215,10 +1165,8 @@ def bound(
             backend=backend,
             conflicts=conflicts,
         )
-        out = _bound_out(res.bound, method, model, t0, res.stats)
-        out.update({"profit": res.profit, "status": res.status.value, "gap": res.gap})
-        out["source"] = "milp"
-        return out
+        return _bound_out(res.bound, method, model, t0, res.stats, profit=res.profit,
+                          status=res.status.value, gap=res.gap, source="milp")  # fmt: skip
     _check_backend(backend, conflicts)
     _check_lp_solver(lp_solver)
     _check_params(None, threads)
@@ -1226,10 +1174,11 @@ def bound(
         raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
     if slew == "relaxed" and backend == "pyomo":
         raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
+    ask = _Ask(instance, t0, deadline, lower_bound or None, iterations, workers)
     if method == "colgen" and model == "cluster":
-        return _colgen_bound(instance, t0, deadline, lower_bound, workers)
+        return _colgen_bound(ask)
     if method == "windows":
-        return _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
+        return _window_bound(ask, model)
     generate_by = None
     if method in ("auto", "lagrangian") and model == "cluster" and time_limit is not None:
         # candidates not ready by then leave the window relaxation its share: a dense orbit
@@ -1240,37 +1189,27 @@ def bound(
         data = model_data(instance, model, deadline, generate_by)
     except TimeUp:
         if method in ("auto", "lagrangian") and model == "cluster":
-            return _cap_or_windows(instance, method, t0, deadline, lower_bound, iterations, workers)
+            return _cap_or_windows(ask, method)
         from models.data import observable_weight
 
-        upper = observable_weight(instance)
-        out = _bound_out(upper, method, model, t0, {"timed_out": "candidates"})
-        out["source"] = "cap"
-        return out
+        return _capped(observable_weight(instance), method, model, t0)
     except InputError:
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
             # planner's candidates, which have no such cap
-            return _lagrangian_alone(instance, t0, deadline, lower_bound, iterations, workers)
+            return _lagrangian_alone(ask)
         if method != "auto" or model != "cluster":
             raise
         # more candidates than the MILPs take (D30): no LP, but the column generation's own
         # candidates have no such cap, so auto is its bound alone, with all the time left
         log.info("bound: the cluster model is too large for the LP; column generation alone")
         try:
-            out = _colgen_bound(instance, t0, deadline, lower_bound, workers)
-        except InputError:
-            # the planner's candidates would not fit in memory either: the window
-            # relaxation needs no candidate list
-            log.info("bound: too dense for the candidates; the window relaxation's bound")
-            out = _window_bound(instance, model, t0, deadline, lower_bound, iterations, workers)
-            out["method"] = "auto"
-            out["parts"] = {"windows": out["bound"]}
-            return out
+            out = _colgen_bound(ask)
+        except InputError:  # the planner's candidates would not fit in memory either
+            return _windows_instead(ask, "auto", parts=True)
         if out.get("timed_out") == "candidates":  # the planner's were not ready either
-            return _cap_or_windows(instance, "auto", t0, deadline, lower_bound, iterations, workers)
-        out["method"] = "auto"
-        out["parts"] = {"colgen": out["bound"]}
+            return _cap_or_windows(ask, "auto")
+        out.update({"method": "auto", "parts": {"colgen": out["bound"]}})
         return out
     cap = data.covered_weight()
     parts: dict[str, float | None] = {}
@@ -1294,41 +1233,34 @@ def bound(
         cg = colgen_bound(
             instance,
             time_limit=limit,
-            lower_bound=lower_bound if lower_bound else None,
+            lower_bound=ask.lower_bound,
             data=with_rolls(data, data.roll),
             branch=deadline is not None and model == "cluster",
             root_time_limit=root,
             workers=workers,
         )
         parts["colgen"] = cg["bound"]
-        stats["rounds"] = cg["rounds"]
-        if "nodes" in cg:
-            stats["nodes"] = cg["nodes"]
+        stats.update({k: cg[k] for k in ("rounds", "nodes") if k in cg})
         stats["converged"] = bool(cg["converged"])
         # the argument that the LP cannot be tighter is made for the cluster model's rows
         converged = stats["converged"] and model == "cluster"
-        if lower_bound:
-            stats["lower_bound"] = float(lower_bound)
+        if ask.lower_bound:
+            stats["lower_bound"] = float(ask.lower_bound)
     lagrangian = method == "lagrangian" and data.n_items > 0
     if lagrangian and fits("arrange", data.n_items, deadline):
         from models.lagrangian import lagrangian_bound
         from sosp.planner import with_rolls
 
-        limit = None
-        if deadline is not None:
-            share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
-            limit = max(min(share * time_limit, deadline - time.perf_counter()), 1e-3)
         lag = lagrangian_bound(
             instance,
             iterations=iterations,
-            time_limit=limit,
-            lower_bound=lower_bound if lower_bound else None,
+            time_limit=ask.left(),  # all the limit: the method is lagrangian, never auto
+            lower_bound=ask.lower_bound,
             data=with_rolls(data, data.roll),
             workers=workers,
         )
         parts["lagrangian"] = lag["bound"]
-        stats["iterations"] = lag["iterations"]
-        stats["lower_bound"] = lag["lower_bound"]
+        stats.update({k: lag[k] for k in ("iterations", "lower_bound")})
     first = parts.get("lagrangian", parts.get("colgen"))
     proven = first is not None and first <= stats.get("lower_bound", -math.inf) + INT_TOL
     if method == "lp" or (method == "auto" and data.n_items and not proven and not converged):
@@ -1358,24 +1290,32 @@ def bound(
             parts["lp"] = None
     found = [v for v in parts.values() if v is not None]
     upper = min([cap, *found])
-    out = _bound_out(upper, method, model, t0, stats)
     # which computation gave the bound: a method, or the cap when none finished below it
     best = min((k for k, v in parts.items() if v is not None), key=lambda k: parts[k], default=None)
-    out["source"] = best if best is not None and parts[best] <= cap else "cap"
+    source = best if best is not None and parts[best] <= cap else "cap"
+    out = _bound_out(upper, method, model, t0, stats, source=source)
     if method == "auto":
         out["parts"] = parts
     return out
 
 
-def _window_bound(
-    instance: Instance,
-    model: str,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    iterations: int,
-    workers: Workers = 1,
-) -> dict[str, Any]:
+class _Ask(NamedTuple):
+    """What :func:`bound`'s helpers are asked: the instance, the call's start, its deadline, a
+    known schedule's profit (None: none), the rounds and the pricing workers."""
+
+    instance: Instance
+    t0: float
+    deadline: float | None
+    lower_bound: float | None
+    iterations: int
+    workers: Workers
+
+    def left(self) -> float | None:
+        """The seconds left (at least a millisecond), None without a deadline."""
+        return None if self.deadline is None else max(self.deadline - time.perf_counter(), 1e-3)
+
+
+def _window_bound(ask: _Ask, model: str) -> dict[str, Any]:
     """``bound(method="windows")``: :func:`models.window_bound.window_colgen_bound` with
     the time left, at most ``iterations`` pricing rounds and ``workers`` pricing processes
     (cluster model only: it bounds the problem itself)."""
@@ -1383,17 +1323,26 @@ def _window_bound(
 
     if model != "cluster":
         raise InputError(f"method windows: bounds the cluster model only, got model {model!r}")
-    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
     wb = window_colgen_bound(
-        instance,
-        time_limit=left,
-        lower_bound=lower_bound if lower_bound else None,
-        max_rounds=iterations,
-        workers=workers,
+        ask.instance,
+        time_limit=ask.left(),
+        lower_bound=ask.lower_bound,
+        max_rounds=ask.iterations,
+        workers=ask.workers,
     )
     keys = ("rounds", "converged", "cap")
-    out = _bound_out(wb["bound"], "windows", "cluster", t0, {k: wb[k] for k in keys})
-    out["source"] = "windows"
+    return _bound_out(wb["bound"], "windows", "cluster", ask.t0, {k: wb[k] for k in keys},
+                      source="windows")  # fmt: skip
+
+
+def _windows_instead(ask: _Ask, method: str, parts: bool = False) -> dict[str, Any]:
+    """``method``'s bound when the planner's candidates would not fit in memory: the window
+    relaxation's, which needs no candidate list (``parts``: with it as the only part)."""
+    log.info("bound: too dense for the candidates; the window relaxation's bound")
+    out = _window_bound(ask, "cluster")
+    out["method"] = method
+    if parts:
+        out["parts"] = {"windows": out["bound"]}
     return out
 
 
@@ -1408,42 +1357,31 @@ WINDOWS_AFTER_SHARE = 0.25
 WINDOWS_MIN_SHARE = 0.2
 
 
-def _cap_or_windows(
-    instance: Instance,
-    method: str,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    iterations: int,
-    workers: Workers = 1,
-) -> dict[str, Any]:
-    """The bound of ``method`` when the candidates were not ready by ``deadline``: the window
+def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
+    """The bound of ``method`` when the candidates were not ready by the deadline: the window
     relaxation's (:func:`_window_bound`, never above the cap) with the time left when it is
     at least :data:`WINDOWS_MIN_SHARE` of the limit, else the cap (observable weight)."""
     from models.data import observable_weight
 
-    upper = observable_weight(instance)
-    now = time.perf_counter()
-    if deadline is not None and deadline - now >= WINDOWS_MIN_SHARE * (deadline - t0):
+    upper = observable_weight(ask.instance)
+    now, deadline = time.perf_counter(), ask.deadline
+    if deadline is not None and deadline - now >= WINDOWS_MIN_SHARE * (deadline - ask.t0):
         log.info("bound: the candidates are not ready in time; the window relaxation's bound")
-        out = _window_bound(instance, "cluster", t0, deadline, lower_bound, iterations, workers)
+        out = _window_bound(ask, "cluster")
         out.update({"method": method, "timed_out": "candidates"})
         out["parts"] = {"windows": out["bound"]}
         if upper <= out["bound"]:
             out.update({"bound": float(upper), "source": "cap"})
         return out
-    out = _bound_out(upper, method, "cluster", t0, {"timed_out": "candidates"})
-    out["source"] = "cap"
-    return out
+    return _capped(upper, method, "cluster", ask.t0)
 
 
-def _colgen_bound(
-    instance: Instance,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    workers: Workers = 1,
-) -> dict[str, Any]:
+def _capped(upper: float, method: str, model: str, t0: float) -> dict[str, Any]:
+    """The cap ``upper`` as ``method``'s bound, the candidates not ready in time."""
+    return _bound_out(upper, method, model, t0, {"timed_out": "candidates"}, source="cap")
+
+
+def _colgen_bound(ask: _Ask) -> dict[str, Any]:
     """``bound(method="colgen")`` of the cluster model over the planner's candidates: the
     cluster model's, without the cap on their number that :func:`model_data` keeps for the
     MILPs (D30's 3.4 million are priced in seconds a round)."""
@@ -1452,37 +1390,28 @@ def _colgen_bound(
     from sosp.planner import orbit_data
 
     try:
-        data = orbit_data(instance, deadline, workers=workers)
+        data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
         # the candidates' own "time limit reached": nothing but the observable weight holds
-        out = _bound_out(observable_weight(instance), "colgen", "cluster", t0, {})
-        out.update({"source": "cap", "timed_out": "candidates"})
-        return out
-    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+        return _bound_out(observable_weight(ask.instance), "colgen", "cluster", ask.t0, {},
+                          source="cap", timed_out="candidates")  # fmt: skip
     cg = colgen_bound(
-        instance,
-        time_limit=left,
-        lower_bound=lower_bound if lower_bound else None,
+        ask.instance,
+        time_limit=ask.left(),
+        lower_bound=ask.lower_bound,
         data=data,
-        branch=deadline is not None,  # the time left after convergence: branch and price
-        workers=workers,
+        branch=ask.deadline is not None,  # the time left after convergence: branch and price
+        workers=ask.workers,
     )
     keys = ("candidates", "cap", "rounds", "converged", "nodes")
-    out = _bound_out(cg["bound"], "colgen", "cluster", t0, {k: cg[k] for k in keys if k in cg})
-    out["source"] = "colgen" if cg["bound"] < cg["cap"] else "cap"
+    out = _bound_out(cg["bound"], "colgen", "cluster", ask.t0, {k: cg[k] for k in keys if k in cg},
+                     source="colgen" if cg["bound"] < cg["cap"] else "cap")  # fmt: skip
     if "profit" in cg:
         out["profit"] = cg["profit"]  # a validated schedule the branch and price ended on
     return out
 
 
-def _lagrangian_alone(
-    instance: Instance,
-    t0: float,
-    deadline: float | None,
-    lower_bound: float | None,
-    iterations: int,
-    workers: Workers = 1,
-) -> dict[str, Any]:
+def _lagrangian_alone(ask: _Ask) -> dict[str, Any]:
     """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
     without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
     either, the window relaxation's bound, which is a
@@ -1491,45 +1420,43 @@ def _lagrangian_alone(
     from sosp.planner import orbit_data
 
     try:
-        data = orbit_data(instance, deadline, workers=workers)
+        data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
-        return _cap_or_windows(
-            instance, "lagrangian", t0, deadline, lower_bound, iterations, workers
-        )
+        return _cap_or_windows(ask, "lagrangian")
     except InputError:
-        log.info("bound: too dense for the candidates; the window relaxation's bound")
-        out = _window_bound(instance, "cluster", t0, deadline, lower_bound, iterations, workers)
-        out["method"] = "lagrangian"
-        return out
-    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+        return _windows_instead(ask, "lagrangian")
     lag = lagrangian_bound(
-        instance,
-        iterations=iterations,
-        time_limit=left,
-        lower_bound=lower_bound if lower_bound else None,
+        ask.instance,
+        iterations=ask.iterations,
+        time_limit=ask.left(),
+        lower_bound=ask.lower_bound,
         data=data,
-        workers=workers,
+        workers=ask.workers,
     )
     stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
     stats["lower_bound"] = lag["lower_bound"]
-    out = _bound_out(lag["bound"], "lagrangian", "cluster", t0, stats)
-    out["source"] = "lagrangian"
-    return out
+    return _bound_out(lag["bound"], "lagrangian", "cluster", ask.t0, stats, source="lagrangian")
+
+
+#: The keys of a bound's statistics its answer carries, in this order.
+_BOUND_KEYS = (
+    *("candidates", "cliques", "variables", "constraints", "nonzeros", "termination"),
+    *("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound"),
+    *("rounds", "converged", "nodes", "lp_value", "lp_solver", "slew", "timed_out"),
+)
 
 
 def _bound_out(
-    value: float | None, method: str, model: str, t0: float, stats: dict[str, Any]
+    value: float | None, method: str, model: str, t0: float, stats: dict[str, Any], **more: Any
 ) -> dict[str, Any]:
+    """A bound's answer: ``value``, ``method``, ``model``, the runtime from ``t0``, the
+    :data:`_BOUND_KEYS` of ``stats``, then ``more`` in its order."""
     out: dict[str, Any] = {
         "bound": value,
         "method": method,
         "model": model,
         "runtime_s": round(time.perf_counter() - t0, 6),
     }
-    keys = ("candidates", "cliques", "variables", "constraints", "nonzeros", "termination")
-    more = ("backend", "build_s", "load_s", "solve_s", "cap", "iterations", "lower_bound")
-    more = (*more, "rounds", "converged", "nodes")
-    for key in (*keys, *more, "lp_value", "lp_solver", "slew", "timed_out"):
-        if key in stats:
-            out[key] = stats[key]
+    out.update({k: stats[k] for k in _BOUND_KEYS if k in stats})
+    out.update(more)
     return out
