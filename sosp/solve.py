@@ -158,7 +158,9 @@ def solve(
         # whichever method found this one (and however it was stopped)
         status, upper = Status.OPTIMAL, cap
         stats = {**stats, "proven_by": "cap"}
-    ran = stats.get("fallback", method)  # a result names what ran (the schedule, what was asked)
+    # a result names the method stage that ran (ASA-DTC's fallback: orbit-dp); the schedule
+    # keeps what was asked, which reproduces it
+    ran = next((st.name for st in reversed(result.stages) if st.kind == "method"), method)
     result = replace(
         result, method=ran, schedule=schedule, runtime_s=runtime, status=status,
         bound=upper, stats=stats,
