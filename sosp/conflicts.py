@@ -11,7 +11,7 @@ an independent set of the conflict graph.
 
 The sweep sorts each orbit's items by start; item i can only conflict with later items that
 start before ``te_i + a + (|theta_i| + max|theta|) / v``, found by binary search, and the exact
-test is then applied to those candidates in one vectorised pass. No all-pairs test.
+test is then applied to those candidates in one compiled pass. No all-pairs test.
 """
 
 from __future__ import annotations
@@ -22,11 +22,7 @@ import numpy as np
 
 from sosp.instance import Instance
 from sosp.kernels import compiled
-from sosp.rules import EPS, left_end, may_precede, right_end, slew_time
-
-#: Candidate pairs tested at once by :func:`setup_conflict_pairs` (bounds its working memory:
-#: about 100 bytes a candidate).
-CHUNK_PAIRS = 4_000_000
+from sosp.rules import EPS, left_end, right_end, slew_time
 
 if TYPE_CHECKING:
     import networkx as nx
@@ -44,6 +40,8 @@ def setup_conflict_pairs(
 ) -> np.ndarray:
     """All pairs of items that cannot both be scheduled because of (3).
 
+    The upper triangle of :func:`setup_conflict_rows`' adjacency (one compiled sweep).
+
     Parameters
     ----------
     instance
@@ -52,46 +50,17 @@ def setup_conflict_pairs(
         One entry per item (opportunities, cluster-tasks or candidate observations).
     max_pairs
         Raise :class:`TooManyConflicts` as soon as more pairs than this are found (None: no
-        cap). The pairs are tested in chunks of :data:`CHUNK_PAIRS` candidates, so the memory
-        held is the pairs found plus one chunk.
+        cap), before any pair is stored.
 
     Returns
     -------
     numpy.ndarray
         Shape ``(m, 2)``, int64, each row ``(i, h)`` with ``i < h`` (item indices), sorted.
     """
-    n = np.asarray(orbit).size
-    if n < 2:
-        return np.empty((0, 2), dtype=np.int64)
-    order, right, left, hi = _sweep_order(instance, orbit, start, end, roll)
-    counts = _tested(hi)
-    ends = np.cumsum(counts)
-    found: list[np.ndarray] = []
-    n_found = 0
-    lo_item = 0
-    while lo_item < n:
-        # The items whose candidates make the next chunk (at least one item).
-        base = int(ends[lo_item - 1]) if lo_item else 0
-        hi_item = max(int(np.searchsorted(ends, base + CHUNK_PAIRS, side="right")), lo_item + 1)
-        hi_item = min(hi_item, n)
-        c = counts[lo_item:hi_item]
-        total = int(c.sum())
-        if total:
-            idx = np.arange(lo_item, hi_item)
-            first = np.repeat(idx, c)
-            offsets = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
-            second = first + 1 + offsets
-            clash = ~may_precede(right[first], left[second])
-            i, h = order[first[clash]], order[second[clash]]
-            found.append(np.column_stack((np.minimum(i, h), np.maximum(i, h))))
-            n_found += len(i)
-            if max_pairs is not None and n_found > max_pairs:
-                raise TooManyConflicts(n_found, max_pairs, int(ends[-1]))
-        lo_item = hi_item
-    if not n_found:
-        return np.empty((0, 2), dtype=np.int64)
-    pairs = np.concatenate(found)
-    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    indptr, indices = setup_conflict_rows(instance, orbit, start, end, roll, max_pairs=max_pairs)
+    first = np.repeat(np.arange(len(indptr) - 1, dtype=np.int64), np.diff(indptr))
+    later = first < indices
+    return np.column_stack((first[later], indices[later].astype(np.int64)))
 
 
 def _sweep_order(
@@ -131,9 +100,8 @@ def _conflict_rows_py(
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """The (3) adjacency of the kept items as compressed sparse rows, each row ascending,
     from the sweep's columns (:func:`_sweep_order`): a counting pass, then a filling pass,
-    so the memory is the rows' and nothing more. The test is :func:`setup_conflict_pairs`'s
-    on the same ends, ``not may_precede(R_u, L_w)`` (u the earlier), written out for numba.
-    Returns
+    so the memory is the rows' and nothing more. The test is ``not may_precede(R_u, L_w)``
+    (:func:`sosp.rules.may_precede`, u the earlier), written out for numba. Returns
     ``(indptr, indices, pairs)``; with more than ``cap`` pairs, empty rows and the count up
     to the item where it passed ``cap`` (the count stops there)."""
     n = len(order)

@@ -165,7 +165,7 @@ def test_tasks_to_schedule_claims_each_target_once() -> None:
     assert rep.feasible and rep.profit == 9
 
 
-def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch, c3) -> None:
+def test_pairs_are_the_rows_upper_triangle_and_the_cap_raises(c3) -> None:
     import pytest
 
     import sosp.conflicts as conflicts
@@ -173,8 +173,11 @@ def test_chunked_sweep_equals_one_chunk_and_the_cap_raises(monkeypatch, c3) -> N
     inst = c3
     args = (inst, inst.opp_orbit, inst.opp_start, inst.opp_end, inst.opp_roll)
     whole = conflicts.setup_conflict_pairs(*args)
-    monkeypatch.setattr(conflicts, "CHUNK_PAIRS", 7)
-    assert np.array_equal(conflicts.setup_conflict_pairs(*args), whole)
+    assert {(int(a), int(b)) for a, b in whole} == rows_as_pairs(
+        *conflicts.setup_conflict_rows(*args)
+    )
+    assert np.array_equal(whole, np.unique(whole, axis=0))  # sorted, i < h
+    assert (whole[:, 0] < whole[:, 1]).all()
     assert len(whole) > 10
     with pytest.raises(conflicts.TooManyConflicts, match="more than 10 setup conflicts"):
         conflicts.setup_conflict_pairs(*args, max_pairs=10)
