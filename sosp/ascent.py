@@ -16,7 +16,6 @@ re-plan prices the orbit's windows at the re-plan's prices (:mod:`sosp.windows`)
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -103,22 +102,17 @@ class OrbitSearchParams(Params):
     dask: str | None = param(None, "Dask scheduler's address or 'local' (lp start).")
 
     def check(self) -> None:
-        if self.dask is not None and (not isinstance(self.dask, str) or not self.dask):
-            raise InputError(f"dask: expected 'local' or a scheduler address, got {self.dask!r}")
+        # the types are checked already (sosp.params.check_types): the ranges are left
+        if self.dask == "":
+            raise InputError("dask: expected 'local' or a scheduler address, got ''")
         for name in ("perturb_orbits", "iterations", "no_improve", "workers"):
             value = getattr(self, name)
-            if value is None and name not in ("perturb_orbits", "workers"):
-                continue
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+            if value is not None and value < 1:
                 raise InputError(f"{name}: expected a positive integer, got {value!r}")
-        for name, upper_open in (("noise", True), ("steal", False)):
-            value = getattr(self, name)
-            ok = isinstance(value, int | float) and not isinstance(value, bool)
-            ok = ok and math.isfinite(value) and value >= 0
-            ok = ok and (value < 1 if upper_open else value <= 1)
-            if not ok:
-                interval = "[0, 1)" if upper_open else "[0, 1]"
-                raise InputError(f"{name}: expected a number in {interval}, got {value!r}")
+        if not 0 <= self.noise < 1:
+            raise InputError(f"noise: expected a number in [0, 1), got {self.noise!r}")
+        if not 0 <= self.steal <= 1:
+            raise InputError(f"steal: expected a number in [0, 1], got {self.steal!r}")
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> OrbitSearchParams:
@@ -342,12 +336,8 @@ class WindowData:
         ptr = offsets(np.bincount(pairs[:, 0], minlength=instance.n_targets))
         return cls(instance, orbits, ptr, pairs[:, 1].copy())
 
-    def orbits_seeing(self, targets: np.ndarray) -> np.ndarray:
-        """The orbits with an opportunity of any of ``targets``."""
-        if len(targets) == 0:
-            return np.zeros(0, dtype=np.int64)
-        ptr = self.target_orbits_ptr
-        return np.unique(np.concatenate([self.target_orbits[ptr[k] : ptr[k + 1]] for k in targets]))
+    #: The orbits with an opportunity of any of the targets given (the same lists).
+    orbits_seeing = OrbitData.orbits_seeing
 
 
 class WindowSearch(OrbitSearch):
