@@ -4,7 +4,7 @@ Over one orbit's positions (candidate observations, a stretch's, or a window's a
 observations), with (3) given as an order ``by_release`` (the items by ``R``) and, per item,
 how many of them may precede it (``n_before``, :func:`release_order`), :func:`recursion`
 finds the best plan of at most c_j observations: per position the gain net of the (4)-(5)
-penalties (:func:`penalised`, the slew term exact over consecutive pairs), then one sweep
+penalties (the slew term exact over consecutive pairs), then one sweep
 (:func:`levels_py`, compiled by numba) and the levels only when that sweep's plan is longer
 than the cap. :func:`least_penalty_plan` searches the least common penalty whose plan fits
 (4)-(5). :mod:`sosp.planner` (candidates), :mod:`sosp.windows` (windows) and
@@ -54,58 +54,6 @@ def restrict(
     return sub_release, prefix[n_before[keep]]
 
 
-def penalised(
-    slew_s: np.ndarray,
-    duration: np.ndarray,
-    gain: np.ndarray,
-    by_release: np.ndarray | None,
-    r: OrbitRules,
-    pe: float,
-    pw: float,
-    *,
-    openings: int | None = None,
-    left_slew: float | None = None,
-    right_slew: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float]:
-    """The recursion's inputs (:func:`recursion`'s parameters): per position the gain net
-    of the (4)-(5) penalties with each observation's slew counted twice, what the first and
-    the last observation get back, the (3) order, the number of levels and the empty plan's
-    value, as contiguous arrays for the compiled kernels (empty ones when no level is
-    allowed: the callers return the empty plan)."""
-    m = len(gain)
-    es = pe * r.slew_energy_rate
-    cap = min(r.max_openings if openings is None else openings, m)
-    empty = 0.0
-    if left_slew is not None and right_slew is not None:
-        empty = -es * (left_slew + right_slew)
-    if cap <= 0:  # no observation allowed (a local search's stretch with no opening left)
-        none = np.zeros(0)
-        return none, none, none, np.zeros(0, dtype=np.int64), cap, empty
-    # What the first (last) observation gets back: |theta| of the missing turn from (to)
-    # nadir, or minus the fixed neighbour's half of the turn to it.
-    first: Any = 0.0
-    last: Any = 0.0
-    g = gain
-    if pe > 0.0 or pw > 0.0:
-        slew_cost = es * slew_s
-        g = gain - pe * r.observe_energy_rate * duration
-        g -= pw * r.memory_rate * duration
-        g -= 2.0 * slew_cost
-        first = slew_cost if left_slew is None else -es * left_slew
-        last = slew_cost if right_slew is None else -es * right_slew
-    firsts = np.full(m, first) if np.ndim(first) == 0 else first
-    lasts = np.full(m, last) if np.ndim(last) == 0 else last
-    order = np.arange(m) if by_release is None else by_release
-    return (
-        np.ascontiguousarray(g, dtype=np.float64),
-        np.ascontiguousarray(firsts, dtype=np.float64),
-        np.ascontiguousarray(lasts, dtype=np.float64),
-        np.ascontiguousarray(order, dtype=np.int64),
-        cap,
-        empty,
-    )
-
-
 def recursion(
     slew_s: np.ndarray,
     duration: np.ndarray,
@@ -127,29 +75,55 @@ def recursion(
     Level n holds, per position, the best penalised value of a plan of at most n
     observations ending there ((3) through ``by_release``/``n_before``, ``by_release`` None
     when the positions are already in ``R`` order; (6) through the
-    number of levels, at most ``openings``, default c_j). The slew term of (4) runs over
+    number of levels, at most ``openings``, default c_j). The gain of each position is taken
+    net of the (4)-(5) penalties. The slew term of (4) runs over
     consecutive pairs: each observation pays ``2 |theta| / v`` and the first one gets
     ``|theta_first| / v`` back, or, after a fixed neighbour of slew ``left_slew`` (seconds
     ``|theta| / v``), pays that neighbour's half of the turn instead; the same at the end
     with ``right_slew``. ``run(g, first, last, order, n_before, cap)`` replaces the levels
-    (:func:`levels_py`) by another kernel over the same inputs (the subset-row cuts' labels).
+    (:func:`levels_py`) by another kernel over the same inputs (the subset-row cuts' labels),
+    all contiguous arrays.
 
     Returns
     -------
     tuple
         ``(value, path)``: the plan's penalised value and its positions in (3) order; the
         empty plan (value ``-pe * es * (left_slew + right_slew)`` with both neighbours, the
-        turn between them, else 0) when nothing beats it.
+        turn between them, else 0) when nothing beats it (or no observation is allowed: a
+        local search's stretch with no opening left).
     """
-    g, firsts, lasts, order, cap, empty = penalised(
-        slew_s, duration, gain, by_release, r, pe, pw,
-        openings=openings, left_slew=left_slew, right_slew=right_slew,
-    )  # fmt: skip
+    m = len(gain)
+    es = pe * r.slew_energy_rate
+    cap = min(r.max_openings if openings is None else openings, m)
+    empty = 0.0
+    if left_slew is not None and right_slew is not None:
+        empty = -es * (left_slew + right_slew)
     if cap <= 0:
         return empty, np.zeros(0, dtype=np.int64)
-    nb = np.ascontiguousarray(n_before, dtype=np.int64)
+    # What the first (last) observation gets back: |theta| of the missing turn from (to)
+    # nadir, or minus the fixed neighbour's half of the turn to it.
+    first: Any = 0.0
+    last: Any = 0.0
+    g = gain
+    if pe > 0.0 or pw > 0.0:
+        slew_cost = es * slew_s
+        g = gain - pe * r.observe_energy_rate * duration
+        g -= pw * r.memory_rate * duration
+        g -= 2.0 * slew_cost
+        first = slew_cost if left_slew is None else -es * left_slew
+        last = slew_cost if right_slew is None else -es * right_slew
+    firsts = np.full(m, first) if np.ndim(first) == 0 else first
+    lasts = np.full(m, last) if np.ndim(last) == 0 else last
+    order = np.arange(m) if by_release is None else by_release
     kernel = run if run is not None else lambda *args: levels()(*args, 1)  # sweep, then levels
-    value, path = kernel(g, firsts, lasts, order, nb, cap)
+    value, path = kernel(
+        np.ascontiguousarray(g, dtype=np.float64),
+        np.ascontiguousarray(firsts, dtype=np.float64),
+        np.ascontiguousarray(lasts, dtype=np.float64),
+        np.ascontiguousarray(order, dtype=np.int64),
+        np.ascontiguousarray(n_before, dtype=np.int64),
+        cap,
+    )
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)
     return value, path

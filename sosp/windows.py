@@ -637,10 +637,14 @@ def _member_lists(
     return ptr, guess[:total]
 
 
-def _global(oo: OrbitOpps, flat: np.ndarray) -> np.ndarray:
-    """Local member indices (int32, from :func:`_member_lists`) made global in place."""
-    flat += np.int32(oo.first)
-    return flat
+def _observation_opps(oo: OrbitOpps, price: np.ndarray, wi: WindowItems, rows: Any) -> OppGroups:
+    """The members of the observations of rows ``rows`` of ``wi`` (:func:`_member_lists`),
+    each target once (:func:`_one_per_target`), as global opportunity indices."""
+    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
+    ptr, flat = _member_lists(oo, w, wi.first[rows], wi.last[rows], wi.point[rows])
+    ptr, flat = _one_per_target(oo, ptr, flat)
+    flat += np.int32(oo.first)  # in place: the list is made once (:func:`_member_lists`)
+    return OppGroups(ptr, flat)
 
 
 def _one_per_target(oo: OrbitOpps, ptr: np.ndarray, flat: np.ndarray) -> tuple[Any, Any]:
@@ -720,7 +724,6 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     this restricted set when the knapsacks do not bind.
     """
     check_roll_rule(roll_rule)
-    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
     wi = window_items(oo, price)
     if wi.size == 0:
         return empty_plan()
@@ -742,17 +745,9 @@ def window_plan(oo: OrbitOpps, price: np.ndarray, roll_rule: RollRule = "nadir")
     path = least_penalty_plan(plan, fits)
     if len(path) == 0:
         return empty_plan()
-    rows = keep[path]
-    ptr, flat = _member_lists(oo, w, wi.first[rows], wi.last[rows], wi.point[rows])
-    ptr, flat = _one_per_target(oo, ptr, flat)
-    targets = np.unique(oo.target[flat])  # before the members are made global
-    return WindowPlan(
-        start=start[path],
-        end=end[path],
-        roll=roll[path],
-        opps=OppGroups(ptr, _global(oo, flat)),
-        targets=targets,
-    )
+    opps = _observation_opps(oo, price, wi, keep[path])
+    targets = np.unique(oo.target[opps.flat - oo.first])
+    return WindowPlan(start[path], end[path], roll[path], opps, targets)
 
 
 def _observations(
@@ -802,7 +797,4 @@ def window_candidates(
     keep, start, end, roll = _observations(oo, wi, roll_rule)
     if ahead is not None:
         ahead(member_scan(oo, wi.first[keep], wi.last[keep]))
-    w = np.ascontiguousarray(np.asarray(price, dtype=float)[oo.target])
-    ptr, flat = _member_lists(oo, w, wi.first[keep], wi.last[keep], wi.point[keep])
-    ptr, flat = _one_per_target(oo, ptr, flat)
-    return start, end, roll, OppGroups(ptr, _global(oo, flat))
+    return start, end, roll, _observation_opps(oo, price, wi, keep)
