@@ -688,16 +688,13 @@ def best_path_with_cuts(
     cuts: OrbitCuts,
     pe: float = 0.0,
     pw: float = 0.0,
-    kernel: Callable[..., Any] | None = None,
 ) -> CutPrice:
     """The best plan of orbit ``o`` at per-position ``gain`` (target prices summed per
     observation), energy and memory penalties per unit ``pe``, ``pw`` ((4)-(5) as in
     :func:`sosp.planner.best_path`), plus each plan's earning ``sum_S sigma_S ceil(h_SP /
     2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it."""
-    if o.size == 0:
-        return CutPrice(0.0, np.zeros(0, dtype=np.int64), cuts.exact)
     return _price_with_cuts(
-        o.slew_s, o.duration, gain, o.by_release, o.n_before, o.rules, cuts, pe, pw, kernel
+        o.slew_s, o.duration, gain, o.by_release, o.n_before, o.rules, cuts, pe, pw
     )
 
 
@@ -711,14 +708,13 @@ def _price_with_cuts(
     cuts: OrbitCuts,
     pe: float,
     pw: float,
-    kernel: Callable[..., Any] | None = None,
 ) -> CutPrice:
     """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays: the recursion
     (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`)."""
     relaxed = []
 
     def labels(*args: Any) -> tuple[float, np.ndarray]:
-        value, path, over = label_best(cut_levels() if kernel is None else kernel, *args, cuts)
+        value, path, over = label_best(cut_levels(), *args, cuts)
         relaxed.append(over)
         return value, path
 
@@ -955,19 +951,18 @@ class CutPool:
         n_worth = int(np.count_nonzero(worth))
         if n_worth == 0:
             return 0.0, np.zeros(0, dtype=np.int64), True
+        keep, by_release, n_before, rank = slice(None), o.by_release, o.n_before, self._rank[g]
         if n_worth < KEEP_SHARE * o.size:
             keep = np.flatnonzero(worth)
             by_release, n_before = restrict(o.by_release, o.n_before, keep)
             rank = np.argsort(by_release)
-            sub = restrict_entries(ent, keep, o.size, rank, n_before)
-            found = _price_with_cuts(
-                o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
-                orbit_cuts(rank, n_before, sub, s_on, inv=made[2]), pe, pw,
-            )  # fmt: skip
-            return found.value, keep[found.path], found.exact
-        cuts = orbit_cuts(self._rank[g], o.n_before, ent, s_on, inv=made[2])
-        found = best_path_with_cuts(o, gain, cuts, pe, pw)
-        return found.value, found.path, found.exact
+            ent = restrict_entries(ent, keep, o.size, rank, n_before)
+        found = _price_with_cuts(
+            o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
+            orbit_cuts(rank, n_before, ent, s_on, inv=made[2]), pe, pw,
+        )  # fmt: skip
+        path = found.path if isinstance(keep, slice) else keep[found.path]
+        return found.value, path, found.exact
 
     def separate(
         self,

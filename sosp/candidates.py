@@ -80,16 +80,13 @@ _SAMPLE_FROM = 100_000
 #: First opportunities sampled per dense orbit by :func:`estimate_bytes`.
 _SAMPLES = 24
 
-#: Foreseen seconds of one of :func:`estimate_bytes`'s samples (a 5,000-target instance of
-#: 24 satellites: 2,496 samples in 2.4 s on the 2-core machine).
-ESTIMATE_S_PER_SAMPLE = 1e-3
-
 #: :func:`candidate_mode` with ``"auto"`` plans over windows, and :func:`cluster_candidates`
-#: raises :class:`~sosp.errors.TimeLimitReached` at once, when the estimate alone is
-#: foreseen to take more than this share of the time left: generating the candidates takes
-#: one such sample per opportunity of the dense orbits, far more than the estimate's
-#: :data:`_SAMPLES` per orbit, so they could not be ready in time either (``milp-lns`` on
-#: that instance at 3 s spent 2.4 s estimating, then planned over windows anyway).
+#: raises :class:`~sosp.errors.TimeLimitReached`, when the estimate alone is foreseen (its
+#: samples left at the rate of those done) to take more than this share of the time left:
+#: generating the candidates takes one such sample per opportunity of the dense orbits, far
+#: more than the estimate's :data:`_SAMPLES` per orbit, so they could not be ready in time
+#: either (``milp-lns`` on that instance at 3 s spent 2.4 s estimating, then planned over
+#: windows anyway).
 ESTIMATE_SHARE = 0.25
 
 #: Foreseen seconds of generation per byte of :func:`estimate_bytes`'s estimate: with a
@@ -549,8 +546,7 @@ def cluster_candidates(
         return hit
     budget = as_budget(deadline)
     if max_candidates is None:
-        estimate = budget.share(ESTIMATE_SHARE)
-        if _estimate_late(instance, budget) or _need_by(instance, estimate) is None:
+        if _need_by(instance, budget.share(ESTIMATE_SHARE)) is None:
             raise TimeLimitReached(
                 "time limit foreseen to be reached while estimating the candidate "
                 "observations' size; give more time or use asa-dtc"
@@ -559,8 +555,8 @@ def cluster_candidates(
         if _generation_late(instance, budget):
             raise TimeLimitReached(
                 "time limit foreseen to be reached while generating candidate observations "
-                f"(about {_need(instance) / 2**30:.2f} GB estimated); give more time or use "
-                "asa-dtc"
+                f"(about {estimate_bytes(instance) / 2**30:.2f} GB estimated); give more time "
+                "or use asa-dtc"
             )
     parts: list[OrbitCandidates] = []
     total = 0
@@ -628,23 +624,29 @@ def _worker_orbit(args: tuple[int, float | None]) -> OrbitCandidates:
     return _generate_orbit(inherited(), j, deadline, None)
 
 
-def _need(instance: Instance) -> int:
-    """:func:`estimate_bytes`, computed once per instance object (seconds on dense ones)."""
-    need = _need_by(instance, None)
-    assert need is not None  # (no deadline)
-    return need
-
-
 def _need_by(instance: Instance, budget: Budget | None) -> int | None:
-    """:func:`_need`, or None when the estimate is not done within ``budget`` (None: no
-    limit), which is then not kept."""
+    """:func:`estimate_bytes`, or None when the estimate is foreseen not to be done within
+    ``budget`` (None: no limit), which is then not kept: before each sample, the samples
+    left at the rate of those done so far (measured here: a sample's time varies by orders
+    of magnitude with the orbit's density) must fit in it."""
     store = _cache_of(instance)
     if "need" not in store:
-        need = _estimate(instance, budget)
-        if need is None:
-            log.info("candidates: their size estimate not done in its share of the time")
-            return None
-        store["need"] = need
+        total = float(_cached_bytes(instance))
+        samples = _samples(instance)
+        left, done, t0 = sum(len(picks) for _, picks in samples), 0, time.perf_counter()
+        for j, picks in samples:
+            ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
+            size = 0.0
+            for i in picks:
+                rate = (time.perf_counter() - t0) / max(done, 1)
+                if budget is not None and not budget.fits(rate * (left - done)):
+                    log.info("candidates: their size estimate foreseen past its share of the time")
+                    return None
+                n_cand, n_members = _start_counts(int(i), ts, te, lo, hi, int(stop[i]), limit)
+                size += 32.0 * n_cand + 4.0 * n_members
+                done += 1
+            total += size * len(ts) / len(picks)
+        store["need"] = int(total)
     return int(store["need"])
 
 
@@ -663,8 +665,6 @@ def candidate_mode(instance: Instance, requested: str, budget: Budget | float | 
     (:func:`check_memory`)."""
     budget = as_budget(budget)
     if requested == "auto":
-        if _estimate_late(instance, budget):
-            return "windows"
         need = _need_by(instance, budget.share(ESTIMATE_SHARE))
         if need is None or need > candidate_cap(budget.memory):
             return "windows"
@@ -677,7 +677,7 @@ def candidate_mode(instance: Instance, requested: str, budget: Budget | float | 
 def check_memory(instance: Instance, memory: int | None = None) -> None:
     """Refuse with a one-line :class:`~sosp.errors.InputError` when every orbit's candidates
     would take more than :func:`candidate_cap` of ``memory`` bytes (None: the default)."""
-    need, cap = _need(instance), candidate_cap(memory)
+    need, cap = estimate_bytes(instance), candidate_cap(memory)
     if need > cap:
         raise InputError(
             f"about {need / 2**30:.1f} GB of candidate observations estimated (densest "
@@ -734,26 +734,13 @@ def _densest(instance: Instance) -> int:
     return max(range(instance.n_orbits), key=lambda j: orbit_pairs(instance, j), default=0)
 
 
-def _estimate_late(instance: Instance, budget: Budget) -> bool:
-    """Whether :func:`estimate_bytes`, not made yet, is foreseen to take more than
-    :data:`ESTIMATE_SHARE` of what is left of ``budget`` (never without a time limit): then
-    the candidates could not be generated in it either."""
-    if budget.deadline is None or "need" in _cache_of(instance):
-        return False
-    foreseen = ESTIMATE_S_PER_SAMPLE * sum(len(picks) for _, picks in _samples(instance))
-    if foreseen == 0.0 or budget.share(ESTIMATE_SHARE).fits(foreseen):
-        return False  # (no sample: the estimate costs nothing, even past the deadline)
-    log.info("candidates: their size estimate alone foreseen at %.1f s", foreseen)
-    return True
-
-
 def _generation_late(instance: Instance, budget: Budget) -> bool:
     """Whether generating the candidates of the orbits not cached yet is foreseen not to fit
     in ``budget`` (never without a time limit) at :data:`GENERATE_S_PER_BYTE` of their
     estimate."""
     if budget.deadline is None:
         return False
-    foreseen = GENERATE_S_PER_BYTE * max(0, _need(instance) - _cached_bytes(instance))
+    foreseen = GENERATE_S_PER_BYTE * max(0, estimate_bytes(instance) - _cached_bytes(instance))
     if foreseen == 0.0 or budget.fits(foreseen):
         return False  # (nothing estimated: no foresight, even past the deadline)
     log.info("candidates: their generation foreseen at %.1f s", foreseen)
@@ -783,34 +770,17 @@ def _samples(instance: Instance) -> list[tuple[int, np.ndarray]]:
 
 
 def estimate_bytes(instance: Instance) -> int:
-    """Estimated bytes of every orbit's candidates (what :func:`cluster_candidates` would hold).
+    """Estimated bytes of every orbit's candidates (what :func:`cluster_candidates` would hold),
+    computed once per instance object (seconds on dense ones).
 
     Orbits with few (first, covered) pairs inside one Delta T count 0 (their candidates are a
     few megabytes); on the others the candidates of a fixed, evenly spaced sample of first
     opportunities are counted (:func:`_start_counts`) and scaled to the orbit (under a
     second on an orbit with thousands of opportunities). Deterministic.
     """
-    need = _estimate(instance, None)
+    need = _need_by(instance, None)
     assert need is not None  # (no deadline)
     return need
-
-
-def _estimate(instance: Instance, budget: Budget | None) -> int | None:
-    """:func:`estimate_bytes`, or None once ``budget`` expires (read before each sample: a
-    sample's time varies by orders of magnitude with the orbit's density, which
-    :data:`ESTIMATE_S_PER_SAMPLE` cannot foresee)."""
-    total = float(_cached_bytes(instance))
-    for j, picks in _samples(instance):
-        ts, te, lo, hi, limit, stop = orbit_columns(instance, j)
-        n = len(ts)
-        size = 0.0
-        for i in picks:
-            if budget is not None and budget.expired():
-                return None
-            n_cand, n_members = _start_counts(int(i), ts, te, lo, hi, int(stop[i]), limit)
-            size += 32.0 * n_cand + 4.0 * n_members
-        total += size * n / len(picks)
-    return int(total)
 
 
 def _too_many(instance: Instance, j: int, max_candidates: int) -> InputError:

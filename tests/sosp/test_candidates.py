@@ -104,22 +104,41 @@ def test_generation_gives_up_when_the_orbits_left_are_foreseen_past_the_deadline
     assert len(got[0]) > 0 and inst.n_orbits > 2
 
 
+def _slow_samples(monkeypatch, cands, seconds: float) -> list[float]:
+    """Every orbit sampled, each sample taking the list's last value (``seconds`` first);
+    the list grows by one value a sample."""
+    import time
+
+    real, made = cands._start_counts, [seconds]
+
+    def slow(*args):
+        made.append(made[-1])
+        time.sleep(made[-1])
+        return real(*args)
+
+    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)
+    monkeypatch.setattr(cands, "_start_counts", slow)
+    return made
+
+
 def test_auto_plans_over_windows_when_the_estimate_alone_would_not_fit(monkeypatch, c3) -> None:
-    """``auto`` with a deadline: an estimate foreseen to take more than its share of the time
-    left means windows, at once and with nothing estimated; without a deadline, or with
-    room, the estimate decides as before (C3's candidates fit: explicit)."""
+    """``auto`` with a deadline: an estimate foreseen (at the rate of its first sample) to
+    take more than its share of the time left means windows, after that one sample and with
+    nothing estimated; without a deadline, or with room, the estimate decides as before
+    (C3's candidates fit: explicit)."""
     import time
 
     import sosp.candidates as cands
 
     inst = c3
-    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
-    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
-    soon = time.perf_counter() + 60.0
-    assert cands.candidate_mode(inst, "auto", soon) == "windows"
-    assert "need" not in cands._cache_of(inst)
+    made = _slow_samples(monkeypatch, cands, 0.05)
+    assert sum(len(p) for _, p in cands._samples(inst)) * 0.05 > 1.0  # past 2 s / 4
+    assert cands.candidate_mode(inst, "auto", time.perf_counter() + 2.0) == "windows"
+    assert "need" not in cands._cache_of(inst) and len(made) == 2  # one sample
+    made.append(0.0)  # samples at no cost from here
     assert cands.candidate_mode(inst, "auto") == "explicit"
-    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 1e-9)
+    cands._cache_of(inst).pop("need")
+    soon = time.perf_counter() + 600.0
     assert cands.candidate_mode(inst, "auto", soon) == "explicit"
     assert cands.candidate_mode(inst, "explicit", soon) == "explicit"
 
@@ -136,11 +155,10 @@ def test_generation_refuses_at_once_when_the_estimate_alone_would_not_fit(monkey
     from sosp.errors import TimeLimitReached
 
     inst = c3
-    monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)
-    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 10.0)
+    made = _slow_samples(monkeypatch, cands, 0.05)
     with pytest.raises(TimeLimitReached, match="estimating"):
-        cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 60.0)
-    assert "need" not in cands._cache_of(inst)
+        cands.cluster_candidates(inst, None, deadline=time.perf_counter() + 2.0)
+    assert "need" not in cands._cache_of(inst) and len(made) == 2  # one sample
     assert not any(cands.cached_orbit_candidates(inst, j) for j in range(inst.n_orbits))
 
 
@@ -171,8 +189,8 @@ def test_a_generation_foreseen_past_the_deadline_is_not_started(monkeypatch, c3)
 
 
 def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypatch, c3) -> None:
-    """The size estimate reads the clock before each sample: foreseen in time (its rate per
-    sample set to nothing) but not done by its share of the time left, it stops; ``auto``
+    """The size estimate reads the clock before each sample: not done by its share of the
+    time left, it stops; ``auto``
     then plans over windows and the generation refuses, with nothing kept. A drawn
     5,000-target instance spent 17 s of a 5 s limit estimating, and its searches found
     nothing."""
@@ -185,7 +203,6 @@ def test_an_estimate_past_its_share_of_the_time_stops_and_means_windows(monkeypa
 
     inst = c3
     monkeypatch.setattr(cands, "_SAMPLE_FROM", 0)  # every orbit sampled
-    monkeypatch.setattr(cands, "ESTIMATE_S_PER_SAMPLE", 0.0)  # foreseen to take no time
     now = time.perf_counter()
     assert cands.candidate_mode(inst, "auto", now) == "windows"
     assert "need" not in cands._cache_of(inst)
