@@ -56,17 +56,19 @@ from typing import Any
 
 import numpy as np
 
-from sosp.candidates import OppGroups, Pace, as_budget, cluster_candidates, compile_within, flatten
+from sosp.candidates import (
+    OppGroups,
+    Pace,
+    as_budget,
+    cluster_candidates,
+    compile_within,
+    flatten,
+    offsets,
+    ragged_positions,
+)
 from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
-from sosp.parallel import (
-    Workers,
-    cluster_size,
-    fork_pool,
-    inherited,
-    is_client,
-    local_processes,
-)
+from sosp.parallel import Workers, cluster_size, fork_pool, inherited, is_client, local_processes
 from sosp.recursion import least_penalty_plan, levels, recursion, release_order, restrict
 from sosp.rules import EPS, OrbitRules, may_precede, orbit_rules, sequence_slew_time
 from sosp.stop import Budget
@@ -198,10 +200,7 @@ class OrbitItems:
 
     def covered(self, path: np.ndarray) -> np.ndarray:
         """The distinct targets a plan covers."""
-        if len(path) == 0:
-            return np.zeros(0, dtype=np.int64)
-        ptr = self.target_ptr
-        return np.unique(np.concatenate([self.target_flat[ptr[u] : ptr[u + 1]] for u in path]))
+        return np.unique(self.target_flat[flat_positions(self, path)])
 
 
 @dataclass(frozen=True, eq=False)
@@ -334,9 +333,7 @@ def _arrange(
             members = opps.take(block)
             flat, seg = _covered_targets(tgt, members)
             first_t, last_t = _end_targets(instance, members, start[block], end[block])
-            sizes = np.bincount(seg, minlength=len(block))
-            ptr = np.zeros(len(block) + 1, dtype=np.int64)
-            ptr[1:] = np.cumsum(sizes)
+            ptr = offsets(np.bincount(seg, minlength=len(block)))
             targets = np.unique(flat)
             seen_t.append(targets.astype(np.int64))
             seen_g.append(np.full(len(targets), len(groups), dtype=np.int64))
@@ -365,8 +362,7 @@ def _arrange(
     # per target, the orbits (positions in ``groups``, increasing) with a candidate seeing it
     t_all, g_all = np.concatenate(seen_t), np.concatenate(seen_g)
     by_target = np.lexsort((g_all, t_all))
-    tptr = np.zeros(instance.n_targets + 1, dtype=np.int64)
-    tptr[1:] = np.cumsum(np.bincount(t_all, minlength=instance.n_targets))
+    tptr = offsets(np.bincount(t_all, minlength=instance.n_targets))
     return OrbitData(
         instance=instance,
         orbit=orbit,
@@ -752,8 +748,7 @@ def best_feasible_path(o: OrbitItems, price: np.ndarray) -> np.ndarray:
 
 def flat_positions(o: OrbitItems, path: np.ndarray) -> np.ndarray:
     """Indices into ``o.target_flat`` of the targets of the positions in ``path``."""
-    ptr = o.target_ptr
-    return np.concatenate([np.arange(ptr[u], ptr[u + 1]) for u in path])
+    return ragged_positions(o.target_ptr[path], np.diff(o.target_ptr)[path])
 
 
 def _plans_of(
