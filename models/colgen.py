@@ -1133,15 +1133,6 @@ def _helper_child(conn: Any, tree: _Tree) -> None:
         conn.close()
 
 
-def _remapped(node: _Node, index: np.ndarray) -> _Node:
-    """``node`` with its columns (``support``, its basis's ``y``) renumbered by ``index``."""
-    support = tuple(int(index[i]) for i in node.support)
-    basis = node.basis
-    if basis is not None:
-        basis = replace(basis, y=index[basis.y])
-    return replace(node, support=support, basis=basis)
-
-
 class _Helper:
     """A second process for :func:`branch_and_price`: it solves one of the two children of
     each branching while this process solves the other.
@@ -1159,7 +1150,6 @@ class _Helper:
 
     def __init__(self, tree: _Tree) -> None:
         self._child = Child(_helper_child, (), (tree,), duplex=True)
-        self._conn = self._child.conn
         #: The pools of both processes are the same up to this index.
         self.synced = len(tree.cols.items)
         self._base = self.synced
@@ -1183,7 +1173,7 @@ class _Helper:
         the helper has gone (logged)."""
         msg = ("node", self.synced, cols.items[self.synced :], node, budget, prune)
         try:
-            self._conn.send(msg)
+            self._child.conn.send(msg)
         except (OSError, ValueError):
             log.warning("branch and price: the helper process ended")
             return False
@@ -1195,10 +1185,10 @@ class _Helper:
         failed or did not answer within ``budget`` (plus :data:`HELPER_GRACE_S`)."""
         wait = budget.left()
         try:
-            if not self._conn.poll(None if wait is None else wait + HELPER_GRACE_S):
+            if not self._child.conn.poll(None if wait is None else wait + HELPER_GRACE_S):
                 log.warning("branch and price: the helper process did not answer")
                 return None
-            msg = self._conn.recv()
+            msg = self._child.conn.recv()
         except (EOFError, OSError):
             log.warning("branch and price: the helper process ended")
             return None
@@ -1210,7 +1200,9 @@ class _Helper:
         for x, item in enumerate(added):
             index[self._base + x] = cols.add(*item)
         self.synced = self._base
-        return _remapped(node, index)
+        # the node's columns (its support, its basis's) renumbered as this process's pool
+        basis = None if node.basis is None else replace(node.basis, y=index[node.basis.y])
+        return replace(node, support=tuple(int(index[i]) for i in node.support), basis=basis)
 
     def close(self) -> None:
         """Stop the helper (it ends by itself when this process does)."""
@@ -1482,20 +1474,23 @@ class SideBound:
         self._done = self._child is None  # it did not start: nothing to read
         self._stopped = False
 
-    def _take(self, msg: tuple[Any, ...]) -> None:
-        if msg[0] == "error":  # pragma: no cover - see _side_child
-            log.warning("side branch and price failed: %s", msg[1])
-        else:
-            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
-            if msg[0] == "done" and msg[2] is not None:
-                self.found = (msg[2], float(msg[3]))
-        self._done = self._done or msg[0] != "bound"
-
     def poll(self) -> float | None:
         """Read what the child has sent so far; its bound (not rounded), None before any."""
+        return self._read(0.0)
+
+    def _read(self, wait: float) -> float | None:
+        """:meth:`poll`, also waiting up to ``wait`` seconds for the child's last message."""
+        budget = Budget.of(wait)
         try:
-            while not self._done and self._child.conn.poll(0):
-                self._take(self._child.conn.recv())
+            while not self._done and self._child.conn.poll(budget.left()):
+                msg = self._child.conn.recv()
+                if msg[0] == "error":  # pragma: no cover - see _side_child
+                    log.warning("side branch and price failed: %s", msg[1])
+                else:
+                    self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
+                    if msg[0] == "done" and msg[2] is not None:
+                        self.found = (msg[2], float(msg[3]))
+                self._done = msg[0] != "bound"
         except (EOFError, OSError):
             self._done = True
         return self.bound
@@ -1547,28 +1542,15 @@ class SideBound:
             dual_bound, self.bound,
         )  # fmt: skip
         self.yielded_at = time.perf_counter()
-        self._stop(0.0)
+        self.finish(0.0)
         return True
 
     def finish(self, wait: float = 0.5) -> tuple[float | None, tuple[Any, float] | None]:
         """Stop the child (after ``wait`` seconds for its last message) and return its
         bound (not rounded; None if it sent none) and the schedule it ended on with its
         profit (or None)."""
-        if not self._stopped:
-            self._stop(wait)
-        return self.bound, self.found
-
-    def _stop(self, wait: float) -> None:
+        if not self._stopped and self._child is not None:
+            self._read(wait)
+            self._child.stop()
         self._stopped = True
-        budget = Budget.of(wait)
-        try:
-            while not self._done:
-                left = budget.left()
-                if left <= 0 or not self._child.conn.poll(left):
-                    break
-                self._take(self._child.conn.recv())
-        except (EOFError, OSError):
-            pass
-        finally:
-            if self._child is not None:
-                self._child.stop()
+        return self.bound, self.found
