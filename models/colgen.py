@@ -739,10 +739,7 @@ def _solve_node(
     first_y = nf + len(fk)
     in_lp: list[int] = []
     loaded: set[int] = set()
-    cut_ids: list[int] = []  # the pool's cuts this master holds, in row order
-    cut_row: dict[int, int] = {}  # a held cut's place in cut_ids
-    cut_rhs: list[float] = []
-    cut_free: list[np.ndarray] = []  # per held cut, its free targets' rows
+    held: dict[int, tuple[int, float, np.ndarray]] = {}  # per held cut: row, rhs, free rows
     cut0 = base + 3 * n_orb
 
     def load(i: int) -> None:
@@ -757,11 +754,11 @@ def _solve_node(
         # its counted covers, its forced targets, its orbit's convexity and knapsack rows
         rows = [row_free[tg[counts]], row_forced[tg[mine]], base + g + n_orb * np.arange(3)]
         vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory])]
-        if cut_ids:
+        if held:
             coef = cols.coefficients(i, cuts)  # type: ignore[arg-type]
-            at = sorted((cut_row[c], v) for c, v in coef.items() if c in cut_row)
+            at = sorted((held[c][0], v) for c, v in coef.items() if c in held)
             if at:
-                rows.append(np.array([cut0 + x for x, _ in at]))
+                rows.append(np.array([x for x, _ in at]))
                 vals.append(np.array([-float(v) for _, v in at]))
         r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
         h.addCol(0.0, 0.0, inf, len(r), r, v)
@@ -770,37 +767,21 @@ def _solve_node(
     def hold(new: Sequence[int]) -> None:
         """Add rows for the pool's cuts ``new`` that this node keeps."""
         assert cuts is not None
-        kept: dict[int, tuple[float, np.ndarray]] = {}
-        for c in new:
-            members = cuts.cuts[c]
-            rhs = cuts.rhs[c] - int(np.count_nonzero(row_forced[members] >= 0))
-            if rhs >= 0:
-                kept[c] = (float(rhs), row_free[members][row_free[members] >= 0])
-        if not kept:
-            return
         # each cut's y entries, in the master's column order, from the columns' coefficients
-        ys: dict[int, tuple[list[int], list[float]]] = {c: ([], []) for c in kept}
+        ys: dict[int, tuple[list[int], list[float]]] = {c: ([], []) for c in new}
         for x, i in enumerate(in_lp):
             for c, v in cols.coefficients(i, cuts).items():
                 if c in ys:
                     ys[c][0].append(first_y + x)
                     ys[c][1].append(-float(v))
-        starts, idx, val, upper = [], [], [], []
-        for c, (rhs, zs) in kept.items():
-            starts.append(len(idx))
-            idx.extend(zs.tolist())
-            val.extend([1.0] * len(zs))
-            idx.extend(ys[c][0])
-            val.extend(ys[c][1])
-            upper.append(rhs)
-            cut_row[c] = len(cut_ids)
-            cut_ids.append(c)
-            cut_rhs.append(rhs)
-            cut_free.append(zs)
-        h.addRows(
-            len(kept), np.full(len(kept), -inf), np.array(upper), len(idx),
-            np.array(starts, np.int32), np.array(idx, np.int32), np.array(val, dtype=float),
-        )  # fmt: skip
+        for c in new:
+            members = cuts.cuts[c]
+            rhs = float(cuts.rhs[c] - np.count_nonzero(row_forced[members] >= 0))
+            zs = row_free[members][row_free[members] >= 0]
+            if rhs >= 0:
+                held[c] = (cut0 + len(held), rhs, zs)
+                idx = np.concatenate([zs, ys[c][0]]).astype(np.int32)
+                h.addRow(-inf, rhs, len(idx), idx, np.concatenate([np.ones(len(zs)), ys[c][1]]))
 
     for i in _start_columns(node, tree):
         load(int(i))
@@ -829,11 +810,11 @@ def _solve_node(
                 sigma_s = alpha * sigma_c + (1.0 - alpha) * sigma_m
             z_gain = p[free] - mu_s[free]
             value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
-            if cut_ids:
-                held = np.zeros(len(sigma_s), dtype=bool)
-                held[cut_ids] = True
-                sigma_s = np.where(held, sigma_s, 0.0)  # a parent's cut this node dropped
-                for c, rhs, zs in zip(cut_ids, cut_rhs, cut_free, strict=True):
+            if held:
+                kept = np.zeros(len(sigma_s), dtype=bool)
+                kept[list(held)] = True
+                sigma_s = np.where(kept, sigma_s, 0.0)  # a parent's cut this node dropped
+                for c, (_, rhs, zs) in held.items():
                     value += float(sigma_s[c]) * rhs
                     z_gain[zs] -= sigma_s[c]
             value += float(np.maximum(z_gain, 0.0).sum())
@@ -842,7 +823,7 @@ def _solve_node(
                 if budget.expired():
                     return replace(node, cover=None)
                 price = _node_prices(mu_s, beta_s, g, node)
-                if cut_ids:
+                if held:
                     v, path, _ = cuts.best_path(g, price, lam_s[g], sigma_s)
                 else:
                     v, path = best_path(o, price, float(lam_s[g, 0]), float(lam_s[g, 1]))
@@ -859,7 +840,7 @@ def _solve_node(
         resolve = False
         allow_seconds(h, budget.left())
         if warm is not None:
-            _start_basis(h, warm, free, fk, in_lp, cut_ids)
+            _start_basis(h, warm, free, fk, in_lp, list(held))
         h.run()
         if warm is not None and h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             h.clearSolver()  # not expected; then from scratch, as without a parent's basis
@@ -876,8 +857,8 @@ def _solve_node(
         beta_m[fk] = np.maximum(dual[nf:base], 0.0)
         lam_m = np.maximum(-dual[base + n_orb : cut0], 0.0).reshape(2, n_orb).T * caps
         sigma_m = _padded(None, cuts)
-        if cut_ids:
-            sigma_m[cut_ids] = np.maximum(-dual[cut0 : cut0 + len(cut_ids)], 0.0)
+        if held:
+            sigma_m[list(held)] = np.maximum(-dual[cut0 : cut0 + len(held)], 0.0)
         sigma_c = _padded(sigma_c, cuts)
         # the weights are integers, so only the node's bound rounded down matters (the answer
         # is the largest, rounded down): once it equals the master's value rounded down, the
@@ -930,7 +911,7 @@ def _solve_node(
             basis = _Basis(
                 target_col, target_row, row_status[base:cut0].copy(),
                 np.array(in_lp, dtype=np.int64), col_status[first_y:].copy(),
-                np.array(cut_ids, dtype=np.int64), row_status[cut0:].copy(),
+                np.array(list(held), dtype=np.int64), row_status[cut0:].copy(),
             )  # fmt: skip
             support = tuple(i for i, _ in positive)
             node = replace(node, cover=cover, support=support, basis=basis)
