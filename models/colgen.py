@@ -904,9 +904,8 @@ def _solve_node(
             last = h.getBasis()
             col_status = np.array([int(x) for x in last.col_status], dtype=np.int8)
             row_status = np.array([int(x) for x in last.row_status], dtype=np.int8)
-            target_col = np.full(len(p), -1, dtype=np.int8)
+            target_col, target_row = np.full((2, len(p)), -1, dtype=np.int8)
             target_col[np.concatenate([free, fk])] = col_status[:first_y]
-            target_row = np.full(len(p), -1, dtype=np.int8)
             target_row[np.concatenate([free, fk])] = row_status[:base]
             basis = _Basis(
                 target_col, target_row, row_status[base:cut0].copy(),
@@ -948,23 +947,22 @@ def _start_basis(
 
     st = highspy.HighsBasisStatus
     lower, basic, upper = int(st.kLower), int(st.kBasic), int(st.kUpper)
-    z = parent.target_col[free]
-    z = np.where(z == basic, basic, np.where(z == upper, upper, lower))  # z_k in [0, 1]
-    slack = np.where(parent.target_col[forced] == basic, basic, lower)  # in [0, inf)
+
+    def kept(status: Any, bound: int) -> np.ndarray:
+        """Basic stays basic; anything else sits at ``bound``."""
+        return np.where(np.asarray(status, dtype=np.int64) == basic, basic, bound)
+
+    z = parent.target_col[free]  # z_k in [0, 1], a forced slack in [0, inf)
     held = dict(zip(parent.y.tolist(), parent.y_status.tolist(), strict=True))
-    y = np.array([held.get(i, lower) for i in in_lp], dtype=np.int64)
-    y = np.where(y == basic, basic, lower)
-    cover_row = np.where(parent.target_row[free] == basic, basic, upper)  # <= 0
-    forcing_row = np.where(parent.target_row[forced] == basic, basic, lower)  # >= 1
-    orbit_row = np.where(parent.orbit_row == basic, basic, upper)  # <= 1, capacities
     had = dict(zip(parent.cut.tolist(), parent.cut_status.tolist(), strict=True))
-    cut_row = np.array([had.get(c, basic) for c in cut_ids], dtype=np.int64)
-    cut_row = np.where(cut_row == basic, basic, upper)  # <= rhs
+    cols = [np.where(z == upper, upper, kept(z, lower)), kept(parent.target_col[forced], lower)]
+    cols.append(kept([held.get(i, lower) for i in in_lp], lower))
+    # coverage rows <= 0, forcing rows >= 1, orbit rows <= 1 and capacities, cut rows <= rhs
+    rows = [kept(parent.target_row[free], upper), kept(parent.target_row[forced], lower)]
+    rows += [kept(parent.orbit_row, upper), kept([had.get(c, basic) for c in cut_ids], upper)]
     basis = highspy.HighsBasis()
-    basis.col_status = [st(int(x)) for x in np.concatenate([z, slack, y])]
-    basis.row_status = [
-        st(int(x)) for x in np.concatenate([cover_row, forcing_row, orbit_row, cut_row])
-    ]
+    basis.col_status = [st(int(x)) for x in np.concatenate(cols)]
+    basis.row_status = [st(int(x)) for x in np.concatenate(rows)]
     basis.alien = True
     h.setBasis(basis)
 
