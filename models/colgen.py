@@ -214,13 +214,13 @@ class _Master:
         ]
 
 
+#: Every orbit's best plan at multipliers ``(mu, lam)`` before a deadline: per orbit ``(value,
+#: covered targets with repeats, (energy, memory) or None for the empty plan)``, the value as
+#: in the module docstring's bound; None when the deadline passes before all orbits are priced.
 Pricer = Callable[
     [np.ndarray, np.ndarray, float | None],
     list[tuple[float, np.ndarray, tuple[float, float] | None]] | None,
 ]
-"""Every orbit's best plan at multipliers ``(mu, lam)``: per orbit ``(value, covered targets
-with repeats, (energy, memory) or None for the empty plan)``, the value as in the module
-docstring's bound; None when the deadline passes before all orbits are priced."""
 
 
 @dataclass
@@ -997,13 +997,9 @@ def _start_columns(node: _Node, tree: _Tree) -> np.ndarray:
 def _candidates(node: _Node, p: np.ndarray, n: int) -> list[tuple[int, int]]:
     """The ``n`` heaviest pairs of ``node`` by ``p_k * min(x, 1 - x)`` whose counted cover x
     is strictly between 0 and 1 (ties in the cover's order)."""
-    scored = []
-    for (k, g), x in (node.cover or {}).items():
-        if k in node.forced or (k, g) in node.banned:
-            continue
-        score = p[k] * min(x, 1.0 - x)
-        if score > 1e-6:
-            scored.append((score, (k, g)))
+    cover = (node.cover or {}).items()
+    scored = [(p[k] * min(x, 1.0 - x), (k, g)) for (k, g), x in cover if k not in node.forced]
+    scored = [(score, pair) for score, pair in scored if pair not in node.banned and score > 1e-6]
     scored.sort(key=lambda t: -t[0])  # stable: the first of equal scores first
     return [pair for _, pair in scored[:n]]
 

@@ -160,13 +160,10 @@ def window_colgen_bound(
             round_s = ROUND_S_PER_PAIR * sum(_pairs(orbits[g]) for g in busy) / share
             fits = budget.fits(expect_rounds * round_s)
             if not fits:
-                log.info(
-                    "window root given up before its first round: %d rounds of at least "
-                    "%.1f s foreseen, %.1f s left",
-                    expect_rounds,
-                    round_s,
-                    budget.left(),
+                msg = (
+                    "window root given up before its first round: %d rounds of %.1f s, %.1f s left"
                 )
+                log.info(msg, expect_rounds, round_s, budget.left())
         if busy and fits:
             # compile the numba kernels (or load them from their cache) on the smallest
             # orbit before the first round, whose length decides ``expect_rounds``: a fresh
