@@ -1273,9 +1273,7 @@ def branch_and_price(
     helper: _Helper | None = None
     try:
         while heap:
-            if budget.expired():
-                break
-            if max_nodes is not None and nodes >= max_nodes:
+            if budget.expired() or (max_nodes is not None and nodes >= max_nodes):
                 break
             top = heap[0][2]
             if lower_bound is not None and math.floor(top.bound + 1e-6) <= lower_bound + 1e-9:

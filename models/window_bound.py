@@ -204,17 +204,11 @@ def window_colgen_bound(
             if root.rounds or len(bands) == 1:  # a refinement cut before its first round
                 master, converged = root.value, root.converged  # leaves the last band's
                 columns, plans = len(root.master.columns), root.master.plans()
-            if not (
-                refine
-                and converged
-                and b is not None
-                and b / 2 >= MIN_BAND
-                and budget.deadline is not None
-                # the finer band's rounds cost HALVING_COST times as much: one must fit
-                and budget.fits(HALVING_COST * root.round_s)
-                and rounds < max_rounds
-                and (lower_bound is None or math.floor(best + 1e-6) > lower_bound)
-            ):
+            finer = refine and converged and b is not None and b / 2 >= MIN_BAND
+            # the finer band's rounds cost HALVING_COST times as much: one must fit
+            fits = budget.deadline is not None and budget.fits(HALVING_COST * root.round_s)
+            short = lower_bound is not None and math.floor(best + 1e-6) <= lower_bound
+            if not (finer and fits and rounds < max_rounds) or short:
                 break
             # the time left can only lower the bound: every round's value is one, whatever
             # the band; the next band starts from this one's best multipliers, its master
