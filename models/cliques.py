@@ -61,10 +61,11 @@ def orbit_intervals(
 
 
 def maximal_cliques(left: np.ndarray, right: np.ndarray) -> list[np.ndarray]:
-    """Maximal cliques of the interval graph of [left, right) by a sweep over time.
+    """Maximal cliques of the interval graph of [left, right), in the sweep's order.
 
     Two intervals are adjacent when they overlap by more than ``EPS``. Cliques of one item
-    are dropped (they imply nothing beyond ``x <= 1``).
+    are dropped (they imply nothing beyond ``x <= 1``). The sweep of the module docstring,
+    done by array operations (:func:`clique_events`, :func:`cliques_from_events`).
 
     Parameters
     ----------
@@ -74,26 +75,9 @@ def maximal_cliques(left: np.ndarray, right: np.ndarray) -> list[np.ndarray]:
     Returns
     -------
     list of numpy.ndarray
-        Item indices (into ``left``) of each maximal clique of two or more items.
+        Item indices (into ``left``, increasing) of each maximal clique of two or more items.
     """
-    n = len(left)
-    if n < 2:
-        return []
-    order = np.argsort(left, kind="stable")
-    lo = np.asarray(left, dtype=float)[order]
-    hi = np.asarray(right, dtype=float)[order] - EPS
-    out: list[np.ndarray] = []
-    alive: list[int] = []  # positions in ``order`` whose interval contains the sweep point
-    for pos in range(n):
-        p = lo[pos]
-        # An item is alive at p when L <= p < R - EPS (strict: touching is no conflict).
-        alive = [q for q in alive if hi[q] > p]
-        alive.append(pos)
-        nxt = lo[pos + 1] if pos + 1 < n else np.inf
-        # Keep K(p) only if someone leaves before the next left end (else K(p) grows there).
-        if len(alive) >= 2 and min(hi[q] for q in alive) <= nxt:
-            out.append(np.sort(order[np.array(alive)]))
-    return out
+    return cliques_from_events(*clique_events(left, right))
 
 
 def clique_events(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:

@@ -214,13 +214,13 @@ class _Master:
         ]
 
 
+#: Every orbit's best plan at multipliers ``(mu, lam)`` before a deadline: per orbit ``(value,
+#: covered targets with repeats, (energy, memory) or None for the empty plan)``, the value as
+#: in the module docstring's bound; None when the deadline passes before all orbits are priced.
 Pricer = Callable[
     [np.ndarray, np.ndarray, float | None],
     list[tuple[float, np.ndarray, tuple[float, float] | None]] | None,
 ]
-"""Every orbit's best plan at multipliers ``(mu, lam)``: per orbit ``(value, covered targets
-with repeats, (energy, memory) or None for the empty plan)``, the value as in the module
-docstring's bound; None when the deadline passes before all orbits are priced."""
 
 
 @dataclass
@@ -739,10 +739,7 @@ def _solve_node(
     first_y = nf + len(fk)
     in_lp: list[int] = []
     loaded: set[int] = set()
-    cut_ids: list[int] = []  # the pool's cuts this master holds, in row order
-    cut_row: dict[int, int] = {}  # a held cut's place in cut_ids
-    cut_rhs: list[float] = []
-    cut_free: list[np.ndarray] = []  # per held cut, its free targets' rows
+    held: dict[int, tuple[int, float, np.ndarray]] = {}  # per held cut: row, rhs, free rows
     cut0 = base + 3 * n_orb
 
     def load(i: int) -> None:
@@ -757,11 +754,11 @@ def _solve_node(
         # its counted covers, its forced targets, its orbit's convexity and knapsack rows
         rows = [row_free[tg[counts]], row_forced[tg[mine]], base + g + n_orb * np.arange(3)]
         vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory])]
-        if cut_ids:
+        if held:
             coef = cols.coefficients(i, cuts)  # type: ignore[arg-type]
-            at = sorted((cut_row[c], v) for c, v in coef.items() if c in cut_row)
+            at = sorted((held[c][0], v) for c, v in coef.items() if c in held)
             if at:
-                rows.append(np.array([cut0 + x for x, _ in at]))
+                rows.append(np.array([x for x, _ in at]))
                 vals.append(np.array([-float(v) for _, v in at]))
         r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
         h.addCol(0.0, 0.0, inf, len(r), r, v)
@@ -770,37 +767,21 @@ def _solve_node(
     def hold(new: Sequence[int]) -> None:
         """Add rows for the pool's cuts ``new`` that this node keeps."""
         assert cuts is not None
-        kept: dict[int, tuple[float, np.ndarray]] = {}
-        for c in new:
-            members = cuts.cuts[c]
-            rhs = cuts.rhs[c] - int(np.count_nonzero(row_forced[members] >= 0))
-            if rhs >= 0:
-                kept[c] = (float(rhs), row_free[members][row_free[members] >= 0])
-        if not kept:
-            return
         # each cut's y entries, in the master's column order, from the columns' coefficients
-        ys: dict[int, tuple[list[int], list[float]]] = {c: ([], []) for c in kept}
+        ys: dict[int, tuple[list[int], list[float]]] = {c: ([], []) for c in new}
         for x, i in enumerate(in_lp):
             for c, v in cols.coefficients(i, cuts).items():
                 if c in ys:
                     ys[c][0].append(first_y + x)
                     ys[c][1].append(-float(v))
-        starts, idx, val, upper = [], [], [], []
-        for c, (rhs, zs) in kept.items():
-            starts.append(len(idx))
-            idx.extend(zs.tolist())
-            val.extend([1.0] * len(zs))
-            idx.extend(ys[c][0])
-            val.extend(ys[c][1])
-            upper.append(rhs)
-            cut_row[c] = len(cut_ids)
-            cut_ids.append(c)
-            cut_rhs.append(rhs)
-            cut_free.append(zs)
-        h.addRows(
-            len(kept), np.full(len(kept), -inf), np.array(upper), len(idx),
-            np.array(starts, np.int32), np.array(idx, np.int32), np.array(val, dtype=float),
-        )  # fmt: skip
+        for c in new:
+            members = cuts.cuts[c]
+            rhs = float(cuts.rhs[c] - np.count_nonzero(row_forced[members] >= 0))
+            zs = row_free[members][row_free[members] >= 0]
+            if rhs >= 0:
+                held[c] = (cut0 + len(held), rhs, zs)
+                idx = np.concatenate([zs, ys[c][0]]).astype(np.int32)
+                h.addRow(-inf, rhs, len(idx), idx, np.concatenate([np.ones(len(zs)), ys[c][1]]))
 
     for i in _start_columns(node, tree):
         load(int(i))
@@ -829,11 +810,11 @@ def _solve_node(
                 sigma_s = alpha * sigma_c + (1.0 - alpha) * sigma_m
             z_gain = p[free] - mu_s[free]
             value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
-            if cut_ids:
-                held = np.zeros(len(sigma_s), dtype=bool)
-                held[cut_ids] = True
-                sigma_s = np.where(held, sigma_s, 0.0)  # a parent's cut this node dropped
-                for c, rhs, zs in zip(cut_ids, cut_rhs, cut_free, strict=True):
+            if held:
+                kept = np.zeros(len(sigma_s), dtype=bool)
+                kept[list(held)] = True
+                sigma_s = np.where(kept, sigma_s, 0.0)  # a parent's cut this node dropped
+                for c, (_, rhs, zs) in held.items():
                     value += float(sigma_s[c]) * rhs
                     z_gain[zs] -= sigma_s[c]
             value += float(np.maximum(z_gain, 0.0).sum())
@@ -842,7 +823,7 @@ def _solve_node(
                 if budget.expired():
                     return replace(node, cover=None)
                 price = _node_prices(mu_s, beta_s, g, node)
-                if cut_ids:
+                if held:
                     v, path, _ = cuts.best_path(g, price, lam_s[g], sigma_s)
                 else:
                     v, path = best_path(o, price, float(lam_s[g, 0]), float(lam_s[g, 1]))
@@ -859,7 +840,7 @@ def _solve_node(
         resolve = False
         allow_seconds(h, budget.left())
         if warm is not None:
-            _start_basis(h, warm, free, fk, in_lp, cut_ids)
+            _start_basis(h, warm, free, fk, in_lp, list(held))
         h.run()
         if warm is not None and h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             h.clearSolver()  # not expected; then from scratch, as without a parent's basis
@@ -876,8 +857,8 @@ def _solve_node(
         beta_m[fk] = np.maximum(dual[nf:base], 0.0)
         lam_m = np.maximum(-dual[base + n_orb : cut0], 0.0).reshape(2, n_orb).T * caps
         sigma_m = _padded(None, cuts)
-        if cut_ids:
-            sigma_m[cut_ids] = np.maximum(-dual[cut0 : cut0 + len(cut_ids)], 0.0)
+        if held:
+            sigma_m[list(held)] = np.maximum(-dual[cut0 : cut0 + len(held)], 0.0)
         sigma_c = _padded(sigma_c, cuts)
         # the weights are integers, so only the node's bound rounded down matters (the answer
         # is the largest, rounded down): once it equals the master's value rounded down, the
@@ -923,14 +904,13 @@ def _solve_node(
             last = h.getBasis()
             col_status = np.array([int(x) for x in last.col_status], dtype=np.int8)
             row_status = np.array([int(x) for x in last.row_status], dtype=np.int8)
-            target_col = np.full(len(p), -1, dtype=np.int8)
+            target_col, target_row = np.full((2, len(p)), -1, dtype=np.int8)
             target_col[np.concatenate([free, fk])] = col_status[:first_y]
-            target_row = np.full(len(p), -1, dtype=np.int8)
             target_row[np.concatenate([free, fk])] = row_status[:base]
             basis = _Basis(
                 target_col, target_row, row_status[base:cut0].copy(),
                 np.array(in_lp, dtype=np.int64), col_status[first_y:].copy(),
-                np.array(cut_ids, dtype=np.int64), row_status[cut0:].copy(),
+                np.array(list(held), dtype=np.int64), row_status[cut0:].copy(),
             )  # fmt: skip
             support = tuple(i for i, _ in positive)
             node = replace(node, cover=cover, support=support, basis=basis)
@@ -967,23 +947,22 @@ def _start_basis(
 
     st = highspy.HighsBasisStatus
     lower, basic, upper = int(st.kLower), int(st.kBasic), int(st.kUpper)
-    z = parent.target_col[free]
-    z = np.where(z == basic, basic, np.where(z == upper, upper, lower))  # z_k in [0, 1]
-    slack = np.where(parent.target_col[forced] == basic, basic, lower)  # in [0, inf)
+
+    def kept(status: Any, bound: int) -> np.ndarray:
+        """Basic stays basic; anything else sits at ``bound``."""
+        return np.where(np.asarray(status, dtype=np.int64) == basic, basic, bound)
+
+    z = parent.target_col[free]  # z_k in [0, 1], a forced slack in [0, inf)
     held = dict(zip(parent.y.tolist(), parent.y_status.tolist(), strict=True))
-    y = np.array([held.get(i, lower) for i in in_lp], dtype=np.int64)
-    y = np.where(y == basic, basic, lower)
-    cover_row = np.where(parent.target_row[free] == basic, basic, upper)  # <= 0
-    forcing_row = np.where(parent.target_row[forced] == basic, basic, lower)  # >= 1
-    orbit_row = np.where(parent.orbit_row == basic, basic, upper)  # <= 1, capacities
     had = dict(zip(parent.cut.tolist(), parent.cut_status.tolist(), strict=True))
-    cut_row = np.array([had.get(c, basic) for c in cut_ids], dtype=np.int64)
-    cut_row = np.where(cut_row == basic, basic, upper)  # <= rhs
+    cols = [np.where(z == upper, upper, kept(z, lower)), kept(parent.target_col[forced], lower)]
+    cols.append(kept([held.get(i, lower) for i in in_lp], lower))
+    # coverage rows <= 0, forcing rows >= 1, orbit rows <= 1 and capacities, cut rows <= rhs
+    rows = [kept(parent.target_row[free], upper), kept(parent.target_row[forced], lower)]
+    rows += [kept(parent.orbit_row, upper), kept([had.get(c, basic) for c in cut_ids], upper)]
     basis = highspy.HighsBasis()
-    basis.col_status = [st(int(x)) for x in np.concatenate([z, slack, y])]
-    basis.row_status = [
-        st(int(x)) for x in np.concatenate([cover_row, forcing_row, orbit_row, cut_row])
-    ]
+    basis.col_status = [st(int(x)) for x in np.concatenate(cols)]
+    basis.row_status = [st(int(x)) for x in np.concatenate(rows)]
     basis.alien = True
     h.setBasis(basis)
 
@@ -1018,13 +997,9 @@ def _start_columns(node: _Node, tree: _Tree) -> np.ndarray:
 def _candidates(node: _Node, p: np.ndarray, n: int) -> list[tuple[int, int]]:
     """The ``n`` heaviest pairs of ``node`` by ``p_k * min(x, 1 - x)`` whose counted cover x
     is strictly between 0 and 1 (ties in the cover's order)."""
-    scored = []
-    for (k, g), x in (node.cover or {}).items():
-        if k in node.forced or (k, g) in node.banned:
-            continue
-        score = p[k] * min(x, 1.0 - x)
-        if score > 1e-6:
-            scored.append((score, (k, g)))
+    cover = (node.cover or {}).items()
+    scored = [(p[k] * min(x, 1.0 - x), (k, g)) for (k, g), x in cover if k not in node.forced]
+    scored = [(score, pair) for score, pair in scored if pair not in node.banned and score > 1e-6]
     scored.sort(key=lambda t: -t[0])  # stable: the first of equal scores first
     return [pair for _, pair in scored[:n]]
 
@@ -1133,15 +1108,6 @@ def _helper_child(conn: Any, tree: _Tree) -> None:
         conn.close()
 
 
-def _remapped(node: _Node, index: np.ndarray) -> _Node:
-    """``node`` with its columns (``support``, its basis's ``y``) renumbered by ``index``."""
-    support = tuple(int(index[i]) for i in node.support)
-    basis = node.basis
-    if basis is not None:
-        basis = replace(basis, y=index[basis.y])
-    return replace(node, support=support, basis=basis)
-
-
 class _Helper:
     """A second process for :func:`branch_and_price`: it solves one of the two children of
     each branching while this process solves the other.
@@ -1159,7 +1125,6 @@ class _Helper:
 
     def __init__(self, tree: _Tree) -> None:
         self._child = Child(_helper_child, (), (tree,), duplex=True)
-        self._conn = self._child.conn
         #: The pools of both processes are the same up to this index.
         self.synced = len(tree.cols.items)
         self._base = self.synced
@@ -1183,7 +1148,7 @@ class _Helper:
         the helper has gone (logged)."""
         msg = ("node", self.synced, cols.items[self.synced :], node, budget, prune)
         try:
-            self._conn.send(msg)
+            self._child.conn.send(msg)
         except (OSError, ValueError):
             log.warning("branch and price: the helper process ended")
             return False
@@ -1195,10 +1160,10 @@ class _Helper:
         failed or did not answer within ``budget`` (plus :data:`HELPER_GRACE_S`)."""
         wait = budget.left()
         try:
-            if not self._conn.poll(None if wait is None else wait + HELPER_GRACE_S):
+            if not self._child.conn.poll(None if wait is None else wait + HELPER_GRACE_S):
                 log.warning("branch and price: the helper process did not answer")
                 return None
-            msg = self._conn.recv()
+            msg = self._child.conn.recv()
         except (EOFError, OSError):
             log.warning("branch and price: the helper process ended")
             return None
@@ -1210,7 +1175,9 @@ class _Helper:
         for x, item in enumerate(added):
             index[self._base + x] = cols.add(*item)
         self.synced = self._base
-        return _remapped(node, index)
+        # the node's columns (its support, its basis's) renumbered as this process's pool
+        basis = None if node.basis is None else replace(node.basis, y=index[node.basis.y])
+        return replace(node, support=tuple(int(index[i]) for i in node.support), basis=basis)
 
     def close(self) -> None:
         """Stop the helper (it ends by itself when this process does)."""
@@ -1306,9 +1273,7 @@ def branch_and_price(
     helper: _Helper | None = None
     try:
         while heap:
-            if budget.expired():
-                break
-            if max_nodes is not None and nodes >= max_nodes:
+            if budget.expired() or (max_nodes is not None and nodes >= max_nodes):
                 break
             top = heap[0][2]
             if lower_bound is not None and math.floor(top.bound + 1e-6) <= lower_bound + 1e-9:
@@ -1482,20 +1447,23 @@ class SideBound:
         self._done = self._child is None  # it did not start: nothing to read
         self._stopped = False
 
-    def _take(self, msg: tuple[Any, ...]) -> None:
-        if msg[0] == "error":  # pragma: no cover - see _side_child
-            log.warning("side branch and price failed: %s", msg[1])
-        else:
-            self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
-            if msg[0] == "done" and msg[2] is not None:
-                self.found = (msg[2], float(msg[3]))
-        self._done = self._done or msg[0] != "bound"
-
     def poll(self) -> float | None:
         """Read what the child has sent so far; its bound (not rounded), None before any."""
+        return self._read(0.0)
+
+    def _read(self, wait: float) -> float | None:
+        """:meth:`poll`, also waiting up to ``wait`` seconds for the child's last message."""
+        budget = Budget.of(wait)
         try:
-            while not self._done and self._child.conn.poll(0):
-                self._take(self._child.conn.recv())
+            while not self._done and self._child.conn.poll(budget.left()):
+                msg = self._child.conn.recv()
+                if msg[0] == "error":  # pragma: no cover - see _side_child
+                    log.warning("side branch and price failed: %s", msg[1])
+                else:
+                    self.bound = msg[1] if self.bound is None else min(self.bound, msg[1])
+                    if msg[0] == "done" and msg[2] is not None:
+                        self.found = (msg[2], float(msg[3]))
+                self._done = msg[0] != "bound"
         except (EOFError, OSError):
             self._done = True
         return self.bound
@@ -1547,28 +1515,15 @@ class SideBound:
             dual_bound, self.bound,
         )  # fmt: skip
         self.yielded_at = time.perf_counter()
-        self._stop(0.0)
+        self.finish(0.0)
         return True
 
     def finish(self, wait: float = 0.5) -> tuple[float | None, tuple[Any, float] | None]:
         """Stop the child (after ``wait`` seconds for its last message) and return its
         bound (not rounded; None if it sent none) and the schedule it ended on with its
         profit (or None)."""
-        if not self._stopped:
-            self._stop(wait)
-        return self.bound, self.found
-
-    def _stop(self, wait: float) -> None:
+        if not self._stopped and self._child is not None:
+            self._read(wait)
+            self._child.stop()
         self._stopped = True
-        budget = Budget.of(wait)
-        try:
-            while not self._done:
-                left = budget.left()
-                if left <= 0 or not self._child.conn.poll(left):
-                    break
-                self._take(self._child.conn.recv())
-        except (EOFError, OSError):
-            pass
-        finally:
-            if self._child is not None:
-                self._child.stop()
+        return self.bound, self.found

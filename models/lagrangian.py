@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from contextlib import closing
 from typing import TYPE_CHECKING, Any
 
@@ -59,7 +59,9 @@ def lagrangian_bound(
     rule towards ``lower_bound``, the direction deflected by half the previous one, step
     factor halved after 20 steps without progress) lower it; the least value found, rounded
     down (the optimum is an integer) and capped by the total weight of the targets some
-    candidate covers (no schedule observes more), is returned.
+    candidate covers (no schedule observes more), is returned. The subgradient in ``mu_k`` is
+    the number of plans counting k minus ``[mu_k < p_k]``; a step that would not end within
+    the time limit (judged by the last step's time) is not started.
 
     Parameters
     ----------
@@ -96,25 +98,47 @@ def lagrangian_bound(
         from sosp.ascent import ascent_profit
 
         lower_bound = ascent_profit(data)
-    pool = PlanPool(groups, workers)
-
-    def price(mu: np.ndarray, lam: np.ndarray) -> Priced:
-        value = 0.0
-        count = np.zeros(len(p))
-        grad_lam = np.ones((len(groups), 2))
-        plans = pool.best_paths(mu, lam)
-        assert plans is not None  # no timeout given
-        for g, (v, covered, used) in enumerate(plans):
-            value += v + lam[g, 0] + lam[g, 1]
-            if used is not None:
-                np.add.at(count, covered, 1.0)
-                energy, memory = used
-                r = groups[g].rules
-                grad_lam[g] = (1.0 - energy / r.energy_capacity, 1.0 - memory / r.memory_capacity)
-        return value, count, grad_lam
-
-    with closing(pool):
-        best, done = subgradient(p, len(groups), price, 0.5 * p, iterations, lower_bound, budget)
+    mu, lam = 0.5 * p, np.zeros((len(groups), 2))
+    best = math.inf
+    factor, stale, done = 1.0, 0, 0
+    prev_dir: tuple[np.ndarray, np.ndarray] | None = None
+    last_step = 0.0
+    with closing(PlanPool(groups, workers)) as pool:
+        while done < iterations:
+            if done and not budget.fits(last_step):
+                break  # the next step would end after the limit
+            t_step = time.perf_counter()
+            plans = pool.best_paths(mu, lam)
+            assert plans is not None  # no timeout given
+            orbits_value, count = 0.0, np.zeros(len(p))
+            grad_lam = np.ones((len(groups), 2))
+            for g, (v, covered, used) in enumerate(plans):
+                orbits_value += v + lam[g, 0] + lam[g, 1]
+                if used is not None:
+                    np.add.at(count, covered, 1.0)
+                    r = groups[g].rules
+                    grad_lam[g] = 1.0 - np.divide(used, (r.energy_capacity, r.memory_capacity))
+            value = float(np.maximum(p - mu, 0.0).sum()) + orbits_value
+            done += 1
+            last_step = time.perf_counter() - t_step
+            if value < best - 1e-9:
+                best, stale = value, 0
+            else:
+                stale += 1
+                if stale >= 20:
+                    factor, stale = factor / 2.0, 0
+            log.debug("subgradient step %d: %.3f (best %.3f)", done, value, best)
+            grad_mu = count - (mu < p)
+            if prev_dir is not None:  # deflection: part of the last direction damps the zigzag
+                grad_mu = grad_mu + DEFLECTION * prev_dir[0]
+                grad_lam = grad_lam + DEFLECTION * prev_dir[1]
+            prev_dir = (grad_mu, grad_lam)
+            norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
+            if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
+                break  # the plans agree with the multipliers, or the bound meets the target
+            step = factor * (value - lower_bound) / norm
+            mu = np.clip(mu - step * grad_mu, 0.0, p)
+            lam = np.maximum(lam - step * grad_lam, 0.0)
     bound = capped_bound(best, cap)
     log.info("lagrangian bound %g after %d steps", bound, done)
     return {
@@ -151,65 +175,3 @@ def capped_bound(best: float, cap: float) -> float:
     weight of the targets some plan can cover (an unfinished run can end a unit or two above
     it); ``cap`` itself when no value was found."""
     return min(float(math.floor(best + 1e-6)), cap) if math.isfinite(best) else cap
-
-
-#: What a pricing step returns to :func:`subgradient`: the orbits' terms of ``L(mu, lam)``
-#: (each orbit's maximum with its ``lam_ej + lam_wj``), the number of times each target is
-#: counted by the orbits' plans, and the knapsacks' subgradient per orbit (orbits x 2).
-Priced = tuple[float, np.ndarray, np.ndarray]
-
-
-def subgradient(
-    p: np.ndarray,
-    n_orbits: int,
-    price: Callable[[np.ndarray, np.ndarray], Priced],
-    mu: np.ndarray,
-    iterations: int,
-    lower_bound: float,
-    budget: Budget,
-) -> tuple[float, int]:
-    """Subgradient steps on ``L(mu, lam)``; the least value found and the steps made.
-
-    ``L(mu, lam) = sum_k max(0, p_k - mu_k) + (the orbits' terms from price(mu, lam))`` is an
-    upper bound for every ``mu >= 0``, ``lam >= 0``, whatever relaxation ``price`` maximises
-    over (the explicit candidates of :func:`lagrangian_bound`; the window relaxation takes its
-    multipliers from column generation, :mod:`models.window_bound`). The subgradient in
-    ``mu_k`` is the number of plans counting k minus ``[mu_k < p_k]``; the step is Polyak's towards
-    ``lower_bound`` with a factor halved after 20 steps without progress, the direction
-    deflected by :data:`DEFLECTION` times the previous one. ``lam`` starts at 0.
-
-    A step that would not end within ``budget`` (judged by the last step's time) is not
-    started.
-    """
-    lam = np.zeros((n_orbits, 2))
-    best = math.inf
-    factor, stale, done = 1.0, 0, 0
-    prev_dir: tuple[np.ndarray, np.ndarray] | None = None
-    last_step = 0.0
-    while done < iterations:
-        if done and not budget.fits(last_step):
-            break  # the next step would end after the limit
-        t_step = time.perf_counter()
-        orbits_value, count, grad_lam = price(mu, lam)
-        value = float(np.maximum(p - mu, 0.0).sum()) + orbits_value
-        done += 1
-        last_step = time.perf_counter() - t_step
-        if value < best - 1e-9:
-            best, stale = value, 0
-        else:
-            stale += 1
-            if stale >= 20:
-                factor, stale = factor / 2.0, 0
-        log.debug("subgradient step %d: %.3f (best %.3f)", done, value, best)
-        grad_mu = count - (mu < p)
-        if prev_dir is not None:  # deflection: part of the last direction damps the zigzag
-            grad_mu = grad_mu + DEFLECTION * prev_dir[0]
-            grad_lam = grad_lam + DEFLECTION * prev_dir[1]
-        prev_dir = (grad_mu, grad_lam)
-        norm = float((grad_mu**2).sum() + (grad_lam**2).sum())
-        if norm == 0.0 or value - lower_bound <= 1e-9 or factor < 1e-6:
-            break  # the plans agree with the multipliers, or the bound meets the target
-        step = factor * (value - lower_bound) / norm
-        mu = np.clip(mu - step * grad_mu, 0.0, p)
-        lam = np.maximum(lam - step * grad_lam, 0.0)
-    return best, done

@@ -160,13 +160,10 @@ def window_colgen_bound(
             round_s = ROUND_S_PER_PAIR * sum(_pairs(orbits[g]) for g in busy) / share
             fits = budget.fits(expect_rounds * round_s)
             if not fits:
-                log.info(
-                    "window root given up before its first round: %d rounds of at least "
-                    "%.1f s foreseen, %.1f s left",
-                    expect_rounds,
-                    round_s,
-                    budget.left(),
+                msg = (
+                    "window root given up before its first round: %d rounds of %.1f s, %.1f s left"
                 )
+                log.info(msg, expect_rounds, round_s, budget.left())
         if busy and fits:
             # compile the numba kernels (or load them from their cache) on the smallest
             # orbit before the first round, whose length decides ``expect_rounds``: a fresh
@@ -207,17 +204,11 @@ def window_colgen_bound(
             if root.rounds or len(bands) == 1:  # a refinement cut before its first round
                 master, converged = root.value, root.converged  # leaves the last band's
                 columns, plans = len(root.master.columns), root.master.plans()
-            if not (
-                refine
-                and converged
-                and b is not None
-                and b / 2 >= MIN_BAND
-                and budget.deadline is not None
-                # the finer band's rounds cost HALVING_COST times as much: one must fit
-                and budget.fits(HALVING_COST * root.round_s)
-                and rounds < max_rounds
-                and (lower_bound is None or math.floor(best + 1e-6) > lower_bound)
-            ):
+            finer = refine and converged and b is not None and b / 2 >= MIN_BAND
+            # the finer band's rounds cost HALVING_COST times as much: one must fit
+            fits = budget.deadline is not None and budget.fits(HALVING_COST * root.round_s)
+            short = lower_bound is not None and math.floor(best + 1e-6) <= lower_bound
+            if not (finer and fits and rounds < max_rounds) or short:
                 break
             # the time left can only lower the bound: every round's value is one, whatever
             # the band; the next band starts from this one's best multipliers, its master

@@ -29,13 +29,31 @@ from tests.models.instances import random_dense, random_tiny
     st.lists(st.tuples(st.integers(0, 60), st.integers(1, 20)), min_size=0, max_size=30),
 )
 @settings(max_examples=200, deadline=None)
-def test_clique_events_equal_the_sweep(rows) -> None:
-    """The array form of the sweep gives the same cliques, in the same order."""
+def test_clique_events_are_the_maximal_cliques(rows) -> None:
+    """The array form of the sweep gives the maximal cliques of two or more items of the
+    interval graph (overlap by more than EPS), in the order of their sweep points."""
+    from sosp.rules import EPS
+
     left = np.array([float(a) for a, _ in rows])
     right = left + np.array([float(b) for _, b in rows])
     first, last, m = clique_events(left, right)
-    got = [sorted(c.tolist()) for c in cliques_from_events(first, last, m)]
-    assert got == [sorted(c.tolist()) for c in maximal_cliques(left, right)]
+    got = [set(c.tolist()) for c in cliques_from_events(first, last, m)]
+    assert [sorted(c) for c in got] == [c.tolist() for c in maximal_cliques(left, right)]
+    n = len(rows)
+    edges = {
+        (u, w)
+        for u in range(n)
+        for w in range(u + 1, n)
+        if min(right[u], right[w]) - max(left[u], left[w]) > EPS
+    }
+    for c in got:  # cliques, maximal, at increasing sweep points (the largest left end)
+        assert len(c) >= 2 and all((u, w) in edges for u in c for w in c if u < w)
+        assert not any(
+            u not in c and all(tuple(sorted((u, w))) in edges for w in c) for u in range(n)
+        )
+    assert all(any({u, w} <= c for c in got) for u, w in edges)
+    points = [max(left[list(c)]) for c in got]
+    assert points == sorted(points)
 
 
 def test_clique_form_has_the_pyomo_size() -> None:
