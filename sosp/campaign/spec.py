@@ -32,7 +32,7 @@ import os
 import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from operator import attrgetter
 from pathlib import Path
 from typing import Any
@@ -41,18 +41,6 @@ from sosp.errors import InputError
 
 #: Named scenarios of the paper (section 6.1).
 SCENARIO_RE = re.compile(r"^[BC](10|[1-9])$")
-
-_CAMPAIGN_KEYS = {
-    "name",
-    "scenarios",
-    "instance_seed",
-    "seeds",
-    "time_limits",
-    "time_limit",
-    "skip_unavailable",
-    "workers",
-}
-_METHOD_KEYS = {"name", "params", "time_limits", "time_limit", "seeds"}
 
 #: What identifies a run: the results store's unique key, :attr:`RunSpec.key`.
 KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
@@ -142,6 +130,11 @@ class Campaign:
             for m in self.methods
         )
         return per_scenario * len(self.scenarios)
+
+
+#: The keys of a campaign file's tables: their specs' fields (``time_limit`` too, singular).
+_CAMPAIGN_KEYS = {f.name for f in fields(Campaign)} - {"methods", "source"} | {"time_limit"}
+_METHOD_KEYS = {f.name for f in fields(MethodSpec)} | {"time_limit"}
 
 
 # --------------------------------------------------------------------------- parsing helpers
