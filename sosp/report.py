@@ -38,6 +38,7 @@ import json
 import math
 import os
 import re
+import statistics
 import sys
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -122,10 +123,7 @@ class Cell:
     @property
     def sd(self) -> float:
         """Sample standard deviation of the profits (0 for a single run)."""
-        if self.n < 2:
-            return 0.0 if self.n else math.nan
-        m = self.mean_profit
-        return math.sqrt(sum((x - m) ** 2 for x in self.profits) / (self.n - 1))
+        return statistics.stdev(self.profits) if self.n > 1 else (0.0 if self.n else math.nan)
 
 
 @dataclass
@@ -456,16 +454,10 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
         vals = [r[i] for i in r_cols if r[i] is not None]
         best = max(vals) if vals else None
         out = []
-        for i, v in enumerate(r):
-            h = header[i]
-            if h.endswith((" SD", "T (s)")) or h == "p":
-                text = _fmt(v, 2)
-            elif h.startswith("IMP"):
-                text = _fmt(v, 3)
-            elif isinstance(v, float):
-                text = _fmt(v, 1) if not float(v).is_integer() else f"{v:.0f}"
-            else:
-                text = "_" if v is None else str(v)
+        for i, (h, v) in enumerate(zip(header, r, strict=True)):
+            digits = 2 if h.endswith((" SD", "T (s)")) or h == "p" else 1
+            digits = 3 if h.startswith("IMP") else digits
+            text = v if isinstance(v, str) else _fmt(v, digits)
             if i in r_cols and best is not None and v == best:
                 text = f"**{text}**"
             out.append(text)
@@ -474,13 +466,6 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
 
 
 # --------------------------------------------------------------------------- figures
-def _save_png(fig: Any, path: Path) -> None:
-    from sosp.io import atomic_output
-
-    with atomic_output(path, suffix=".png") as tmp:  # atomic, with the user's umask
-        fig.savefig(tmp, dpi=110, format="png")
-
-
 #: Scenarios a method needs in a panel for its line: one point is not a line.
 MIN_POINTS = 2
 
@@ -489,6 +474,15 @@ YLABELS = {
     "mean_profit": "mean profit",
     "mean_per_memory": "profit / memory",
     "mean_per_energy": "profit / energy",
+}
+
+#: The figures: file stem -> (measure drawn, title). Fig. 2 draws the methods of :data:`FIG2`,
+#: the others those of :data:`CLUSTERING`.
+FIGURES = {
+    "fig2_methods": ("mean_profit", "Fig. 2: methods"),
+    "fig3_clustering": ("mean_profit", "Fig. 3: dynamic vs static vs no task clustering"),
+    "fig4_profit_memory": ("mean_per_memory", "Fig. 4: profit-memory ratio"),
+    "fig5_profit_energy": ("mean_per_energy", "Fig. 5: profit-energy ratio"),
 }
 
 #: Panel titles by scenario group.
@@ -513,10 +507,8 @@ def figure_series(
             continue
         lines: dict[str, list[float]] = {}
         for m in methods:
-            ys = []
-            for s in scen:
-                c = summary.cells.get((s, m))
-                ys.append(getattr(c, measure) if c and c.n else math.nan)
+            cells = [summary.cells.get((s, m)) for s in scen]
+            ys = [getattr(c, measure) if c and c.n else math.nan for c in cells]
             points = sum(not math.isnan(y) for y in ys)
             if points >= MIN_POINTS:
                 lines[m] = ys
@@ -543,6 +535,8 @@ def _figure(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from sosp.io import atomic_output
 
     groups = list(panels)
     fig, axes = plt.subplots(
@@ -575,7 +569,8 @@ def _figure(
         frameon=False,
     )
     fig.suptitle(title)
-    _save_png(fig, path)
+    with atomic_output(path, suffix=".png") as tmp:  # atomic, with the user's umask
+        fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -630,27 +625,16 @@ def write_report(
         if f"{name}.md" not in files:
             notes.append(f"{name}: no scenarios of that group in the database")
 
-    clustering = [m for m in summary.methods if m.split("[")[0].split("@")[0] in CLUSTERING]
-    if len(clustering) < len(CLUSTERING):
-        have = {m.split("[")[0].split("@")[0] for m in clustering}
-        absent = [m for m in CLUSTERING if m not in have]
+    bare = {m: m.split("[")[0].split("@")[0] for m in summary.methods}
+    clustering = [m for m in summary.methods if bare[m] in CLUSTERING]
+    if absent := [m for m in CLUSTERING if m not in bare.values()]:
         notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
-    fig2 = [m for m in (_fig2_label(summary.methods, x) for x in FIG2) if m]
-    if len(fig2) < len(FIG2):
-        absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
+    # a method of Fig. 2 in the paper's configuration when both exist
+    fig2 = {x: resolve(summary.methods, f"{x}@paper", x) for x in FIG2}
+    if absent := [x for x, m in fig2.items() if m is None]:
         notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
-    figs = [
-        ("fig2_methods", fig2, "mean_profit", "Fig. 2: methods"),
-        (
-            "fig3_clustering",
-            clustering,
-            "mean_profit",
-            "Fig. 3: dynamic vs static vs no task clustering",
-        ),
-        ("fig4_profit_memory", clustering, "mean_per_memory", "Fig. 4: profit-memory ratio"),
-        ("fig5_profit_energy", clustering, "mean_per_energy", "Fig. 5: profit-energy ratio"),
-    ]
-    for stem, ms, measure, title in figs:
+    for stem, (measure, title) in FIGURES.items():
+        ms = [m for m in fig2.values() if m] if stem == "fig2_methods" else clustering
         name = f"{stem}.png"
         panels, fnotes = figure_series(summary, ms, measure)
         short = title.split(":")[0]
@@ -686,11 +670,6 @@ def write_report(
     return {"files": files, "notes": notes, "methods": summary.methods}
 
 
-def _fig2_label(methods: list[str], name: str) -> str | None:
-    """The label of ``name`` in Fig. 2: the paper's configuration when both exist."""
-    return resolve(methods, f"{name}@paper", name)
-
-
 def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``report`` to the ``sosp`` subcommands."""
     p = subparsers.add_parser(
@@ -703,15 +682,12 @@ def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="report", help="output folder (report)")
     p.add_argument(
         "--method",
-        default=None,
         help="method whose improvement is measured (default asa-dtc@paper, else asa-dtc)",
     )
     p.add_argument(
         "--baseline",
-        default=None,
         help="method it is compared with (default aco-ls-stc, else asa-stc@paper or asa-stc)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_report)
     return p
 
