@@ -31,7 +31,7 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from operator import attrgetter
 from pathlib import Path
@@ -341,28 +341,25 @@ def campaign_from_dict(
         raise InputError("methods: expected a non-empty list ([[methods]] tables or strings)")
     methods = tuple(_method_from_table(m, f"methods[{i}]") for i, m in enumerate(methods_raw))
     tl = camp.get("time_limits", camp.get("time_limit", 0))
-    inst_seed = camp.get("instance_seed", 0)
-    if isinstance(inst_seed, bool) or not isinstance(inst_seed, int) or inst_seed < 0:
-        raise InputError("campaign.instance_seed: expected a non-negative integer")
-    skip = camp.get("skip_unavailable", False)
-    if not isinstance(skip, bool):
-        raise InputError("campaign.skip_unavailable: expected true or false")
-    workers = camp.get("workers")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)):
-        raise InputError("campaign.workers: expected an integer")
-    name = camp.get("name", Path(source).stem if source else "campaign")
-    if not isinstance(name, str):
-        raise InputError("campaign.name: expected a string")
+    stem = Path(source).stem if source else "campaign"
+    # the other keys: (default, whether a value is valid, what is expected)
+    checks: dict[str, tuple[Any, Callable[[Any], bool], str]] = {
+        "instance_seed": (0, lambda v: type(v) is int and v >= 0, "a non-negative integer"),
+        "skip_unavailable": (False, lambda v: isinstance(v, bool), "true or false"),
+        "workers": (None, lambda v: v is None or type(v) is int, "an integer"),
+        "name": (stem, lambda v: isinstance(v, str), "a string"),
+    }
+    given = {key: camp.get(key, default) for key, (default, _, _) in checks.items()}
+    for key, (_, valid, what) in checks.items():
+        if not valid(given[key]):
+            raise InputError(f"campaign.{key}: expected {what}")
     return Campaign(
-        name=name,
         scenarios=parse_scenarios(scen, base, "campaign.scenarios"),
         methods=_unique_methods(methods),
         seeds=parse_seeds(camp["seeds"], "campaign.seeds"),
         time_limits=parse_time_limits(tl, "campaign.time_limits"),
-        instance_seed=inst_seed,
-        skip_unavailable=skip,
-        workers=workers,
         source=source,
+        **given,
     )
 
 

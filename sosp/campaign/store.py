@@ -262,12 +262,11 @@ class Store:
     # ------------------------------------------------------------------ writing
     def put_instances(self, infos: Iterable[Mapping[str, Any]]) -> None:
         """Record the scenarios' sizes (EN, TN, ...) in one transaction (existing rows kept)."""
-        cols = ("scenario", "fingerprint", "name", "targets", "en", "tn", "orbits")
         with self._transaction() as cur:
             cur.executemany(
-                f"INSERT OR IGNORE INTO instances({', '.join(cols)}) "
-                f"VALUES ({', '.join('?' * len(cols))})",
-                [[info[c] for c in cols] for info in infos],
+                "INSERT OR IGNORE INTO instances VALUES "
+                "(:scenario, :fingerprint, :name, :targets, :en, :tn, :orbits)",
+                infos,
             )
 
     def put(self, row: Mapping[str, Any]) -> bool:
