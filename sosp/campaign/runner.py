@@ -15,7 +15,7 @@ import os
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from functools import lru_cache
 from itertools import product
@@ -221,8 +221,7 @@ class Outcome:
     skipped_methods: list[str]
     elapsed_s: float
 
-    def to_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
+    to_dict = asdict
 
 
 def run_campaign(
@@ -275,29 +274,17 @@ def run_campaign(
     stream = completed(execute_run, p.pending, n_workers, dask, _lost)
     if p.pending:
         store.put_instances(p.instances)
-    ran = failed = infeasible = 0
+    out = Outcome(len(p.runs), p.done, 0, 0, 0, p.skipped_methods, 0.0)
     for row in stream:
         store.put(row)
-        ran += 1
+        out.ran += 1
         if row["status"] == "error":
-            failed += 1
-            log.warning(
-                "%s %s seed %d failed: %s",
-                row["scenario"],
-                row["method"],
-                row["seed"],
-                row["message"],
-            )
+            out.failed += 1
+            what = (row["scenario"], row["method"], row["seed"], row["message"])
+            log.warning("%s %s seed %d failed: %s", *what)
         elif not row.get("feasible"):
-            infeasible += 1
+            out.infeasible += 1
         if on_result is not None:
-            on_result(row, ran, len(p.pending))
-    return Outcome(
-        total=len(p.runs),
-        already=p.done,
-        ran=ran,
-        failed=failed,
-        infeasible=infeasible,
-        skipped_methods=p.skipped_methods,
-        elapsed_s=time.perf_counter() - t0,
-    )
+            on_result(row, out.ran, len(p.pending))
+    out.elapsed_s = time.perf_counter() - t0
+    return out

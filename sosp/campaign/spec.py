@@ -146,19 +146,15 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
     InputError
         On anything else, or a negative seed.
     """
-    items: list[int] = []
-    if isinstance(value, bool):
-        raise InputError(f"{where}: expected integers or ranges like 1-10, got {value!r}")
-    if isinstance(value, int):
-        items = [value]
-    elif isinstance(value, str):
-        for part in value.split(","):
-            part = part.strip()
+    if isinstance(value, int) and not isinstance(value, bool):
+        value = [value]
+    if isinstance(value, str):
+        items: list[int] = []
+        for part in (p.strip() for p in value.split(",")):
             m = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
             if not m:
                 raise InputError(f"{where}: expected integers or ranges like 1-10, got {part!r}")
-            lo = int(m.group(1))
-            hi = int(m.group(2)) if m.group(2) else lo
+            lo, hi = int(m[1]), int(m[2] or m[1])
             if hi < lo:
                 raise InputError(f"{where}: empty range {part!r}")
             items.extend(range(lo, hi + 1))
@@ -166,7 +162,7 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
         for v in value:
             if isinstance(v, bool) or not isinstance(v, int):
                 raise InputError(f"{where}: expected integers, got {v!r}")
-            items.append(v)
+        items = value
     else:
         raise InputError(f"{where}: expected integers or ranges like 1-10, got {value!r}")
     if any(s < 0 for s in items):
@@ -178,21 +174,12 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
 
 def parse_time_limits(value: Any, where: str = "time_limits") -> tuple[float, ...]:
     """Time limits in seconds from a number, ``"5,60"`` or a list; 0 or ``"none"``: no limit."""
-    raw: list[Any]
-    if isinstance(value, str):
-        raw = [p.strip() for p in value.split(",")]
-    elif isinstance(value, list):
-        raw = value
-    else:
-        raw = [value]
+    raw = [p.strip() for p in value.split(",")] if isinstance(value, str) else value
     out: list[float] = []
-    for v in raw:
+    for v in raw if isinstance(raw, list) else [raw]:
         if isinstance(v, str):
-            if v.lower() in ("none", "0"):
-                out.append(0.0)
-                continue
             try:
-                v = float(v)
+                v = 0.0 if v.lower() == "none" else float(v)
             except ValueError:
                 raise InputError(f"{where}: expected seconds, got {v!r}") from None
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
