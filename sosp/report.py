@@ -158,14 +158,6 @@ def short_label(method: str, params_json: str) -> str:
     return method_label(method, params_json)
 
 
-def _label(row: dict[str, Any], multi_tl: set[str]) -> str:
-    label = short_label(row["method"], row["params"])
-    if label in multi_tl:
-        tl = row["time_limit"]
-        label += f"@{tl:g}s" if tl else "@nolimit"
-    return label
-
-
 def bounds_the_problem(method: str, params_json: str) -> bool:
     """Whether a run's bound and proven optimum are of sosp's problem (``docs/model.md``).
 
@@ -189,15 +181,17 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         insts = st.instances()
     if not rows:
         raise InputError("no runs stored", source=str(db))
+    labels = [short_label(r["method"], r["params"]) for r in rows]
     tls: dict[str, set[float]] = defaultdict(set)
-    for r in rows:
-        tls[short_label(r["method"], r["params"])].add(r["time_limit"])
-    multi = {k for k, v in tls.items() if len(v) > 1}
+    for label, r in zip(labels, rows, strict=True):
+        tls[label].add(r["time_limit"])
     sm = Summary()
     cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
-    for r in rows:
-        s = r["scenario"]
-        key = (s, _label(r, multi))
+    for label, r in zip(labels, rows, strict=True):
+        s, tl = r["scenario"], r["time_limit"]
+        if len(tls[label]) > 1:  # runs at several time limits: a label for each
+            label += f"@{tl:g}s" if tl else "@nolimit"
+        key = (s, label)
         cell = cells[key]
         if r["status"] == "error":
             cell.failed += 1
