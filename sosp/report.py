@@ -350,8 +350,7 @@ def build_paper_table(
                 f = c.mean_observed if c and c.n else None
             row += [summary.method_bound.get(key), f]
         if "RDS-STC" in cols:
-            ex = summary.method_exact.get((s, cols["RDS-STC"]))
-            row += [ex[0], ex[1]] if ex else [None, None]
+            row += summary.method_exact.get((s, cols["RDS-STC"])) or [None, None]
         for title in ("ACO-LS-STC", "ASA-DTC"):
             if title in cols:
                 row += _rfst(summary.cells.get((s, cols[title])))
@@ -413,16 +412,9 @@ def build_methods_table(
         header += [f"IMP ({target} vs {baseline})", "t-test", "p"]
     rows: list[list[Any]] = []
     for s in scen:
-        ex = summary.exact.get(s)
-        row: list[Any] = [
-            s,
-            summary.en.get(s),
-            summary.tn.get(s),
-            summary.bound.get(s),
-            ex[0] if ex else None,
-            ex[1] if ex else None,
-            summary.best.get(s),
-        ]
+        exact = summary.exact.get(s) or (None, None)
+        bounds = [summary.bound.get(s), *exact, summary.best.get(s)]
+        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s), *bounds]
         for m in methods:
             row += _rfst(summary.cells.get((s, m)))
         if compare:
