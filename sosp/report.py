@@ -283,14 +283,9 @@ def comparison(
     notes: list[str] = []
     ms = summary.methods if methods is None else methods
     t = target if target is not None else resolve(ms, *PAPER_METHODS["ASA-DTC"])
-    if baseline is not None:
-        b = baseline
-    else:
-        b = resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
-        if b is None:
-            b = resolve(ms, *BASELINE_FALLBACK)
-            if b is not None:
-                notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
+    b = baseline if baseline is not None else resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
+    if b is None and (b := resolve(ms, *BASELINE_FALLBACK)) is not None:
+        notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
     return t, b, notes
 
 
