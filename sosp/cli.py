@@ -89,15 +89,8 @@ def _walker_from_args(args: argparse.Namespace):  # -> list[Satellite] | None
         )
     if args.altitude is None:
         raise InputError("--walker: give the altitude with --altitude KM")
-    total, planes, phasing = (int(x) for x in parts)
-    return walker_delta(
-        total,
-        planes,
-        phasing,
-        args.altitude,
-        epoch=args.start or DEFAULT_START,
-        inclination=args.inclination,
-    )
+    start = args.start or DEFAULT_START
+    return walker_delta(*map(int, parts), args.altitude, epoch=start, inclination=args.inclination)
 
 
 def cmd_scenario(args: argparse.Namespace) -> int:
@@ -316,10 +309,10 @@ def _solve_interruptibly(
         limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
     line = None if args.quiet else StatusLine(sys.stderr)
     progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
-    clear = line.log_filter() if line is not None and line.tty else None
-    handlers = logging.getLogger().handlers if clear is not None else []
+    # a log record to the terminal clears the live line first (StatusLine.filter)
+    handlers = logging.getLogger().handlers if line is not None and line.tty else []
     for h in handlers:
-        h.addFilter(clear)
+        h.addFilter(line)
     with handle_signals():
         try:
             result = solve(
@@ -329,7 +322,7 @@ def _solve_interruptibly(
             if line is not None:
                 line.close()
             for h in handlers:
-                h.removeFilter(clear)
+                h.removeFilter(line)
         if args.output:
             result.schedule.save(args.output, inst)
         return result, stop_reason()
@@ -342,13 +335,10 @@ def cmd_methods(args: argparse.Namespace) -> int:
     from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, method_start
 
     infos = [method_info(m) for m in args.method] if args.method else describe_methods()
-    starts = {m.name: method_start(m.name, None, {}) for m in infos}
+    starts = {m.name: getattr(method_start(m.name, None, {}), "method", None) for m in infos}
     data = {
         "default": DEFAULT_METHOD,
-        "methods": [
-            {**m.to_dict(), "start": None if starts[m.name] is None else starts[m.name].method}
-            for m in infos
-        ],
+        "methods": [{**m.to_dict(), "start": starts[m.name]} for m in infos],
         "pipeline": {
             "start_share": START_SHARE,
             "bound_share": BOUND_SHARE,
@@ -360,7 +350,7 @@ def cmd_methods(args: argparse.Namespace) -> int:
         tag = "  (default)" if m.name == DEFAULT_METHOD else ""
         lines.append(f"{m.name}{tag}: {m.help}")
         if starts[m.name] is not None:
-            lines.append(f"    start stage: {starts[m.name].method} (by default)")
+            lines.append(f"    start stage: {starts[m.name]} (by default)")
         if not m.params:
             lines.append("    (no parameters)")
         for prm in m.params:
@@ -595,9 +585,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive(float),
         help="seconds of wall time from reading the instance to the schedule",
     )
-    p.add_argument(
-        "--iterations", type=positive(int), default=None, help="iteration limit (search methods)"
-    )
+    p.add_argument("--iterations", type=positive(int), help="iteration limit (search methods)")
     p.add_argument(
         "--max-memory",
         type=_bytes,
@@ -608,9 +596,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", help="milp: task, cluster (default) or static")
     p.add_argument("--mip-gap", type=float, help="milp: relative gap to stop at")
     p.add_argument("--threads", type=positive(int), help="milp: solver threads")
-    p.add_argument(
-        "--backend", default=None, help="milp: pyomo, highs or auto (default: by model size)"
-    )
+    p.add_argument("--backend", help="milp: pyomo, highs or auto (default: by model size)")
     p.add_argument(
         "--warm-start",
         help="milp, milp-lns: schedule file to start from; milp: none (no start) or auto "
@@ -690,17 +676,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
-    except InputError as exc:
-        sys.stderr.write(f"error: {exc}\n")
-        return 2
-    logging.basicConfig(
-        level=logging.WARNING - 10 * min(args.verbose, 2),
-        format="%(levelname)s %(name)s: %(message)s",
-    )
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
-    try:
+        logging.basicConfig(
+            level=logging.WARNING - 10 * min(args.verbose, 2),
+            format="%(levelname)s %(name)s: %(message)s",
+        )
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
         return int(args.func(args) or 0)
     except InputError as exc:
         sys.stderr.write(f"error: {exc}\n")

@@ -20,6 +20,7 @@ from typing import Any
 from sosp.errors import InputError
 from sosp.params import field_types, from_kwargs
 from sosp.registry import available_methods, method_function, param_class
+from sosp.schedule import jsonable
 
 
 @dataclass(frozen=True)
@@ -64,16 +65,6 @@ def _type_text(hint: Any) -> str:
     return hint.__name__ if isinstance(hint, type) else str(hint).replace("typing.", "")
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, str | int | float | bool) or value is None:
-        return value
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    return str(value)
-
-
 def method_info(method: str) -> MethodInfo:
     """Parameters of ``method`` read from its parameter dataclass.
 
@@ -91,7 +82,7 @@ def method_info(method: str) -> MethodInfo:
             ParamInfo(
                 f.name,
                 _type_text(hints[f.name]),
-                _jsonable(f.default),
+                jsonable(f.default),
                 f.metadata.get("help", ""),
                 f.metadata.get("unit", ""),
             )

@@ -197,18 +197,12 @@ class StatusLine:
             self._printed_at = snap.elapsed
         self.stream.flush()
 
-    def log_filter(self) -> logging.Filter:
-        """A filter for the log handlers writing to the same terminal: it clears the live
-        line before each record, so a log line never lands after the status text (the next
+    def filter(self, record: logging.LogRecord) -> bool:
+        """As a filter of the log handlers writing to the same terminal: clear the live line
+        before each record, so a log line never lands after the status text (the next
         snapshot draws it again)."""
-        line = self
-
-        class ClearLine(logging.Filter):
-            def filter(self, record: logging.LogRecord) -> bool:
-                line.close()
-                return True
-
-        return ClearLine()
+        self.close()
+        return True
 
     def close(self) -> None:
         """Clear the live line (terminal only)."""

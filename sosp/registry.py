@@ -71,11 +71,6 @@ class Bound:
     model: str = PROBLEM_MODEL
     options: Mapping[str, Any] = field(default_factory=dict)
 
-    @property
-    def certifying(self) -> bool:
-        """Whether it bounds the problem itself, so every method's schedule."""
-        return self.model == PROBLEM_MODEL
-
 
 #: Method name -> :class:`Method`, in the order ``sosp methods`` lists them.
 METHODS: dict[str, Method] = {
@@ -147,7 +142,7 @@ BOUNDS: dict[str, Bound] = {
 
 #: Bounds of the problem itself (:data:`PROBLEM_MODEL`): what ``solve(..., bound=...)`` and
 #: ``sosp solve --bound`` accept.
-CERTIFYING_BOUNDS = tuple(name for name, b in BOUNDS.items() if b.certifying)
+CERTIFYING_BOUNDS = tuple(name for name, b in BOUNDS.items() if b.model == PROBLEM_MODEL)
 
 
 def load(target: str) -> Any:

@@ -38,6 +38,7 @@ import json
 import math
 import os
 import re
+import statistics
 import sys
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -122,10 +123,7 @@ class Cell:
     @property
     def sd(self) -> float:
         """Sample standard deviation of the profits (0 for a single run)."""
-        if self.n < 2:
-            return 0.0 if self.n else math.nan
-        m = self.mean_profit
-        return math.sqrt(sum((x - m) ** 2 for x in self.profits) / (self.n - 1))
+        return statistics.stdev(self.profits) if self.n > 1 else (0.0 if self.n else math.nan)
 
 
 @dataclass
@@ -160,14 +158,6 @@ def short_label(method: str, params_json: str) -> str:
     return method_label(method, params_json)
 
 
-def _label(row: dict[str, Any], multi_tl: set[str]) -> str:
-    label = short_label(row["method"], row["params"])
-    if label in multi_tl:
-        tl = row["time_limit"]
-        label += f"@{tl:g}s" if tl else "@nolimit"
-    return label
-
-
 def bounds_the_problem(method: str, params_json: str) -> bool:
     """Whether a run's bound and proven optimum are of sosp's problem (``docs/model.md``).
 
@@ -191,15 +181,17 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         insts = st.instances()
     if not rows:
         raise InputError("no runs stored", source=str(db))
+    labels = [short_label(r["method"], r["params"]) for r in rows]
     tls: dict[str, set[float]] = defaultdict(set)
-    for r in rows:
-        tls[short_label(r["method"], r["params"])].add(r["time_limit"])
-    multi = {k for k, v in tls.items() if len(v) > 1}
+    for label, r in zip(labels, rows, strict=True):
+        tls[label].add(r["time_limit"])
     sm = Summary()
     cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
-    for r in rows:
-        s = r["scenario"]
-        key = (s, _label(r, multi))
+    for label, r in zip(labels, rows, strict=True):
+        s, tl = r["scenario"], r["time_limit"]
+        if len(tls[label]) > 1:  # runs at several time limits: a label for each
+            label += f"@{tl:g}s" if tl else "@nolimit"
+        key = (s, label)
         cell = cells[key]
         if r["status"] == "error":
             cell.failed += 1
@@ -291,14 +283,9 @@ def comparison(
     notes: list[str] = []
     ms = summary.methods if methods is None else methods
     t = target if target is not None else resolve(ms, *PAPER_METHODS["ASA-DTC"])
-    if baseline is not None:
-        b = baseline
-    else:
-        b = resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
-        if b is None:
-            b = resolve(ms, *BASELINE_FALLBACK)
-            if b is not None:
-                notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
+    b = baseline if baseline is not None else resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
+    if b is None and (b := resolve(ms, *BASELINE_FALLBACK)) is not None:
+        notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
     return t, b, notes
 
 
@@ -358,8 +345,7 @@ def build_paper_table(
                 f = c.mean_observed if c and c.n else None
             row += [summary.method_bound.get(key), f]
         if "RDS-STC" in cols:
-            ex = summary.method_exact.get((s, cols["RDS-STC"]))
-            row += [ex[0], ex[1]] if ex else [None, None]
+            row += summary.method_exact.get((s, cols["RDS-STC"])) or [None, None]
         for title in ("ACO-LS-STC", "ASA-DTC"):
             if title in cols:
                 row += _rfst(summary.cells.get((s, cols[title])))
@@ -421,16 +407,9 @@ def build_methods_table(
         header += [f"IMP ({target} vs {baseline})", "t-test", "p"]
     rows: list[list[Any]] = []
     for s in scen:
-        ex = summary.exact.get(s)
-        row: list[Any] = [
-            s,
-            summary.en.get(s),
-            summary.tn.get(s),
-            summary.bound.get(s),
-            ex[0] if ex else None,
-            ex[1] if ex else None,
-            summary.best.get(s),
-        ]
+        exact = summary.exact.get(s) or (None, None)
+        bounds = [summary.bound.get(s), *exact, summary.best.get(s)]
+        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s), *bounds]
         for m in methods:
             row += _rfst(summary.cells.get((s, m)))
         if compare:
@@ -456,16 +435,10 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
         vals = [r[i] for i in r_cols if r[i] is not None]
         best = max(vals) if vals else None
         out = []
-        for i, v in enumerate(r):
-            h = header[i]
-            if h.endswith((" SD", "T (s)")) or h == "p":
-                text = _fmt(v, 2)
-            elif h.startswith("IMP"):
-                text = _fmt(v, 3)
-            elif isinstance(v, float):
-                text = _fmt(v, 1) if not float(v).is_integer() else f"{v:.0f}"
-            else:
-                text = "_" if v is None else str(v)
+        for i, (h, v) in enumerate(zip(header, r, strict=True)):
+            digits = 2 if h.endswith((" SD", "T (s)")) or h == "p" else 1
+            digits = 3 if h.startswith("IMP") else digits
+            text = v if isinstance(v, str) else _fmt(v, digits)
             if i in r_cols and best is not None and v == best:
                 text = f"**{text}**"
             out.append(text)
@@ -474,13 +447,6 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
 
 
 # --------------------------------------------------------------------------- figures
-def _save_png(fig: Any, path: Path) -> None:
-    from sosp.io import atomic_output
-
-    with atomic_output(path, suffix=".png") as tmp:  # atomic, with the user's umask
-        fig.savefig(tmp, dpi=110, format="png")
-
-
 #: Scenarios a method needs in a panel for its line: one point is not a line.
 MIN_POINTS = 2
 
@@ -489,6 +455,15 @@ YLABELS = {
     "mean_profit": "mean profit",
     "mean_per_memory": "profit / memory",
     "mean_per_energy": "profit / energy",
+}
+
+#: The figures: file stem -> (measure drawn, title). Fig. 2 draws the methods of :data:`FIG2`,
+#: the others those of :data:`CLUSTERING`.
+FIGURES = {
+    "fig2_methods": ("mean_profit", "Fig. 2: methods"),
+    "fig3_clustering": ("mean_profit", "Fig. 3: dynamic vs static vs no task clustering"),
+    "fig4_profit_memory": ("mean_per_memory", "Fig. 4: profit-memory ratio"),
+    "fig5_profit_energy": ("mean_per_energy", "Fig. 5: profit-energy ratio"),
 }
 
 #: Panel titles by scenario group.
@@ -513,10 +488,8 @@ def figure_series(
             continue
         lines: dict[str, list[float]] = {}
         for m in methods:
-            ys = []
-            for s in scen:
-                c = summary.cells.get((s, m))
-                ys.append(getattr(c, measure) if c and c.n else math.nan)
+            cells = [summary.cells.get((s, m)) for s in scen]
+            ys = [getattr(c, measure) if c and c.n else math.nan for c in cells]
             points = sum(not math.isnan(y) for y in ys)
             if points >= MIN_POINTS:
                 lines[m] = ys
@@ -543,6 +516,8 @@ def _figure(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from sosp.io import atomic_output
 
     groups = list(panels)
     fig, axes = plt.subplots(
@@ -575,7 +550,8 @@ def _figure(
         frameon=False,
     )
     fig.suptitle(title)
-    _save_png(fig, path)
+    with atomic_output(path, suffix=".png") as tmp:  # atomic, with the user's umask
+        fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -630,27 +606,16 @@ def write_report(
         if f"{name}.md" not in files:
             notes.append(f"{name}: no scenarios of that group in the database")
 
-    clustering = [m for m in summary.methods if m.split("[")[0].split("@")[0] in CLUSTERING]
-    if len(clustering) < len(CLUSTERING):
-        have = {m.split("[")[0].split("@")[0] for m in clustering}
-        absent = [m for m in CLUSTERING if m not in have]
+    bare = {m: m.split("[")[0].split("@")[0] for m in summary.methods}
+    clustering = [m for m in summary.methods if bare[m] in CLUSTERING]
+    if absent := [m for m in CLUSTERING if m not in bare.values()]:
         notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
-    fig2 = [m for m in (_fig2_label(summary.methods, x) for x in FIG2) if m]
-    if len(fig2) < len(FIG2):
-        absent = [x for x in FIG2 if _fig2_label(summary.methods, x) is None]
+    # a method of Fig. 2 in the paper's configuration when both exist
+    fig2 = {x: resolve(summary.methods, f"{x}@paper", x) for x in FIG2}
+    if absent := [x for x, m in fig2.items() if m is None]:
         notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
-    figs = [
-        ("fig2_methods", fig2, "mean_profit", "Fig. 2: methods"),
-        (
-            "fig3_clustering",
-            clustering,
-            "mean_profit",
-            "Fig. 3: dynamic vs static vs no task clustering",
-        ),
-        ("fig4_profit_memory", clustering, "mean_per_memory", "Fig. 4: profit-memory ratio"),
-        ("fig5_profit_energy", clustering, "mean_per_energy", "Fig. 5: profit-energy ratio"),
-    ]
-    for stem, ms, measure, title in figs:
+    for stem, (measure, title) in FIGURES.items():
+        ms = [m for m in fig2.values() if m] if stem == "fig2_methods" else clustering
         name = f"{stem}.png"
         panels, fnotes = figure_series(summary, ms, measure)
         short = title.split(":")[0]
@@ -686,11 +651,6 @@ def write_report(
     return {"files": files, "notes": notes, "methods": summary.methods}
 
 
-def _fig2_label(methods: list[str], name: str) -> str | None:
-    """The label of ``name`` in Fig. 2: the paper's configuration when both exist."""
-    return resolve(methods, f"{name}@paper", name)
-
-
 def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``report`` to the ``sosp`` subcommands."""
     p = subparsers.add_parser(
@@ -703,15 +663,12 @@ def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="report", help="output folder (report)")
     p.add_argument(
         "--method",
-        default=None,
         help="method whose improvement is measured (default asa-dtc@paper, else asa-dtc)",
     )
     p.add_argument(
         "--baseline",
-        default=None,
         help="method it is compared with (default aco-ls-stc, else asa-stc@paper or asa-stc)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_report)
     return p
 

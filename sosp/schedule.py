@@ -139,7 +139,7 @@ class Schedule:
             "version": FORMAT_VERSION,
             "instance": self.fingerprint or instance.fingerprint,
             "method": self.method,
-            "params": _jsonable(dict(self.params)),
+            "params": jsonable(dict(self.params)),
             "seed": self.seed,
             "profit": self.profit,
             "observations": [
@@ -308,12 +308,12 @@ def load_schedule(path: str | os.PathLike[str], instance: Instance) -> Schedule:
     return Schedule.from_dict(read_json(path), instance, source=str(path))
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """Parameters as plain JSON values (numpy scalars, tuples and enums converted)."""
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, str | int | float | bool) or value is None:

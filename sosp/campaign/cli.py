@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -38,51 +39,35 @@ def add_bench_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--retry-failed", action="store_true", help="rerun runs stored as errors")
     p.add_argument("--dry-run", action="store_true", help="only count stored and pending runs")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bench)
     return p
 
 
 def build_campaign(args: argparse.Namespace) -> tuple[Any, Path]:
     """The campaign and database path described by the ``bench`` arguments."""
-    from sosp.campaign.spec import (
-        campaign_from_options,
-        expand_scenario_names,
-        load_campaign,
-        parse_scenarios,
-        parse_seeds,
-        parse_time_limits,
-    )
+    from sosp.campaign.spec import campaign_from_options, load_campaign
 
-    if args.campaign:
-        camp = load_campaign(args.campaign)
-        if args.scenarios:
-            camp = replace(
-                camp,
-                scenarios=parse_scenarios(
-                    expand_scenario_names(args.scenarios), None, "--scenarios"
-                ),
-            )
-        if args.methods:
-            camp = replace(camp, methods=campaign_from_options("B1", args.methods, "1").methods)
-        if args.seeds:
-            camp = replace(camp, seeds=parse_seeds(args.seeds, "--seeds"))
-        if args.time_limit:
-            camp = replace(camp, time_limits=parse_time_limits(args.time_limit, "--time-limit"))
-        if args.instance_seed is not None:
-            camp = replace(camp, instance_seed=args.instance_seed)
+    base = load_campaign(args.campaign) if args.campaign else None
+    if base is None and not (args.scenarios and args.methods):
+        raise InputError("bench: give a campaign file, or --scenarios and --methods")
+    camp = campaign_from_options(
+        args.scenarios or "B1",
+        args.methods or "greedy",
+        args.seeds or "1",
+        args.time_limit or "0",
+        instance_seed=args.instance_seed or 0,
+    )
+    db = Path(args.db or "results.db")
+    if base is not None:  # the options given replace the file's
+        given = {
+            "scenarios": args.scenarios,
+            "methods": args.methods,
+            "seeds": args.seeds,
+            "time_limits": args.time_limit,
+            "instance_seed": args.instance_seed is not None,
+        }
+        camp = replace(base, **{k: getattr(camp, k) for k, v in given.items() if v})
         db = Path(args.db) if args.db else Path(args.campaign).with_suffix(".db")
-    else:
-        if not args.scenarios or not args.methods:
-            raise InputError("bench: give a campaign file, or --scenarios and --methods")
-        camp = campaign_from_options(
-            args.scenarios,
-            args.methods,
-            args.seeds or "1",
-            args.time_limit or "0",
-            instance_seed=args.instance_seed or 0,
-        )
-        db = Path(args.db or "results.db")
     if args.instance_seed is not None and args.instance_seed < 0:
         raise InputError("--instance-seed: must be >= 0")
     return camp, db
@@ -103,11 +88,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     # refused campaign leaves nothing behind.
     check_methods(camp)
     if args.dry_run:  # reads the database if there is one, writes nothing
-        if db.exists():
-            with Store(db, readonly=True, allow_empty=True) as ro:
-                p = plan(camp, ro, retry_failed=args.retry_failed)
-        else:
-            p = plan(camp, None, retry_failed=args.retry_failed)
+        with Store(db, readonly=True, allow_empty=True) if db.exists() else nullcontext() as ro:
+            p = plan(camp, ro, retry_failed=args.retry_failed)
         data = {
             "db": str(db),
             "total": len(p.runs),

@@ -14,14 +14,15 @@ import logging
 import os
 import time
 import traceback
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from functools import lru_cache
+from itertools import product
 from typing import TYPE_CHECKING, Any
 
-from sosp.campaign.spec import Campaign, RunSpec, ScenarioSpec, canonical_params
-from sosp.campaign.store import Store, verdict_json
+from sosp.campaign.spec import KEY_COLUMNS, Campaign, RunSpec, canonical_params
+from sosp.campaign.store import Store
 from sosp.errors import InputError
 from sosp.parallel import completed
 
@@ -69,15 +70,7 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
     """
     from sosp import __version__
 
-    row: dict[str, Any] = {
-        "scenario": spec.scenario,
-        "fingerprint": spec.fingerprint,
-        "method": spec.method,
-        "params": spec.params,
-        "seed": spec.seed,
-        "time_limit": spec.time_limit,
-        "version": __version__,
-    }
+    row: dict[str, Any] = {k: getattr(spec, k) for k in KEY_COLUMNS} | {"version": __version__}
     t0 = time.perf_counter()
     try:
         from sosp.planner import compile_kernels
@@ -102,22 +95,22 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         report = validate(inst, result.schedule)
         verdict = report.to_dict()
         verdict.pop("orbits", None)
+        bound_count = (result.stats or {}).get("bound_targets")  # PBA-STC's F*
+        compact = {"separators": (",", ":"), "allow_nan": False}
         row.update(
             status=str(result.status.value),
             message=None,
             profit=float(report.profit),
             observed=int(report.observed),
             bound=None if result.bound is None else float(result.bound),
-            bound_count=_bound_count(result.stats),
+            bound_count=None if bound_count is None else int(bound_count),
             energy=float(report.energy),
             memory=float(report.memory),
             runtime=float(result.runtime_s),
             iterations=result.iterations,
             feasible=int(report.feasible),
-            verdict=verdict_json(verdict),
-            schedule=json.dumps(
-                result.schedule.to_dict(inst), separators=(",", ":"), allow_nan=False
-            ),
+            verdict=json.dumps(verdict, sort_keys=True, **compact),
+            schedule=json.dumps(result.schedule.to_dict(inst), **compact),
         )
     except Exception as exc:  # noqa: BLE001 - a failing run is data, not a crash
         log.debug("run %s failed:\n%s", spec, traceback.format_exc())
@@ -125,13 +118,6 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         row.update(status="error", message=msg[:2000], runtime=time.perf_counter() - t0)
     row["finished_at"] = datetime.now(UTC).isoformat(timespec="seconds")
     return row
-
-
-def _bound_count(stats: Mapping[str, Any] | None) -> int | None:
-    """The count that goes with a run's bound, when the method reports one (PBA-STC's F*,
-    ``stats["bound_targets"]``)."""
-    value = (stats or {}).get("bound_targets")
-    return None if value is None else int(value)
 
 
 # --------------------------------------------------------------------------- planning
@@ -203,31 +189,16 @@ def plan(campaign: Campaign, store: Store | None, retry_failed: bool = False) ->
     ``store`` None stands for a database that does not exist yet (nothing stored).
     """
     usable, skipped = check_methods(campaign)
-    fingerprints: dict[ScenarioSpec, str] = {}
-    infos = []
+    infos, runs = [], []
     for sc in campaign.scenarios:
         inst = load_scenario(sc.label, sc.path, campaign.instance_seed)
-        fingerprints[sc] = inst.fingerprint
         infos.append(instance_info(sc.label, inst))
-    runs: list[RunSpec] = []
-    for sc in campaign.scenarios:
+        at = (sc.label, sc.path, campaign.instance_seed, inst.fingerprint)
         for m in campaign.methods:
-            if m.label not in usable:
-                continue
-            for tl in m.time_limits or campaign.time_limits:
-                for seed in m.seeds or campaign.seeds:
-                    runs.append(
-                        RunSpec(
-                            scenario=sc.label,
-                            path=sc.path,
-                            instance_seed=campaign.instance_seed,
-                            fingerprint=fingerprints[sc],
-                            method=m.name,
-                            params=canonical_params(m.params),
-                            seed=seed,
-                            time_limit=float(tl),
-                        )
-                    )
+            if m.label in usable:
+                cells = product(m.time_limits or campaign.time_limits, m.seeds or campaign.seeds)
+                params = canonical_params(m.params)
+                runs += [RunSpec(*at, m.name, params, seed, float(tl)) for tl, seed in cells]
     done = set() if store is None else store.done_keys(include_failed=not retry_failed)
     pending = [r for r in runs if r.key not in done]
     return Plan(runs, pending, skipped, infos)
@@ -250,8 +221,7 @@ class Outcome:
     skipped_methods: list[str]
     elapsed_s: float
 
-    def to_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
+    to_dict = asdict
 
 
 def run_campaign(
@@ -304,29 +274,17 @@ def run_campaign(
     stream = completed(execute_run, p.pending, n_workers, dask, _lost)
     if p.pending:
         store.put_instances(p.instances)
-    ran = failed = infeasible = 0
+    out = Outcome(len(p.runs), p.done, 0, 0, 0, p.skipped_methods, 0.0)
     for row in stream:
         store.put(row)
-        ran += 1
+        out.ran += 1
         if row["status"] == "error":
-            failed += 1
-            log.warning(
-                "%s %s seed %d failed: %s",
-                row["scenario"],
-                row["method"],
-                row["seed"],
-                row["message"],
-            )
+            out.failed += 1
+            what = (row["scenario"], row["method"], row["seed"], row["message"])
+            log.warning("%s %s seed %d failed: %s", *what)
         elif not row.get("feasible"):
-            infeasible += 1
+            out.infeasible += 1
         if on_result is not None:
-            on_result(row, ran, len(p.pending))
-    return Outcome(
-        total=len(p.runs),
-        already=p.done,
-        ran=ran,
-        failed=failed,
-        infeasible=infeasible,
-        skipped_methods=p.skipped_methods,
-        elapsed_s=time.perf_counter() - t0,
-    )
+            on_result(row, out.ran, len(p.pending))
+    out.elapsed_s = time.perf_counter() - t0
+    return out

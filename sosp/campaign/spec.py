@@ -31,8 +31,8 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
 from operator import attrgetter
 from pathlib import Path
 from typing import Any
@@ -41,18 +41,6 @@ from sosp.errors import InputError
 
 #: Named scenarios of the paper (section 6.1).
 SCENARIO_RE = re.compile(r"^[BC](10|[1-9])$")
-
-_CAMPAIGN_KEYS = {
-    "name",
-    "scenarios",
-    "instance_seed",
-    "seeds",
-    "time_limits",
-    "time_limit",
-    "skip_unavailable",
-    "workers",
-}
-_METHOD_KEYS = {"name", "params", "time_limits", "time_limit", "seeds"}
 
 #: What identifies a run: the results store's unique key, :attr:`RunSpec.key`.
 KEY_COLUMNS = ("scenario", "fingerprint", "method", "params", "seed", "time_limit")
@@ -144,6 +132,11 @@ class Campaign:
         return per_scenario * len(self.scenarios)
 
 
+#: The keys of a campaign file's tables: their specs' fields (``time_limit`` too, singular).
+_CAMPAIGN_KEYS = {f.name for f in fields(Campaign)} - {"methods", "source"} | {"time_limit"}
+_METHOD_KEYS = {f.name for f in fields(MethodSpec)} | {"time_limit"}
+
+
 # --------------------------------------------------------------------------- parsing helpers
 def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
     """Seeds from ``"1-3,7"``, an integer or a list of integers (duplicates dropped, order kept).
@@ -153,19 +146,15 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
     InputError
         On anything else, or a negative seed.
     """
-    items: list[int] = []
-    if isinstance(value, bool):
-        raise InputError(f"{where}: expected integers or ranges like 1-10, got {value!r}")
-    if isinstance(value, int):
-        items = [value]
-    elif isinstance(value, str):
-        for part in value.split(","):
-            part = part.strip()
+    if isinstance(value, int) and not isinstance(value, bool):
+        value = [value]
+    if isinstance(value, str):
+        items: list[int] = []
+        for part in (p.strip() for p in value.split(",")):
             m = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
             if not m:
                 raise InputError(f"{where}: expected integers or ranges like 1-10, got {part!r}")
-            lo = int(m.group(1))
-            hi = int(m.group(2)) if m.group(2) else lo
+            lo, hi = int(m[1]), int(m[2] or m[1])
             if hi < lo:
                 raise InputError(f"{where}: empty range {part!r}")
             items.extend(range(lo, hi + 1))
@@ -173,7 +162,7 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
         for v in value:
             if isinstance(v, bool) or not isinstance(v, int):
                 raise InputError(f"{where}: expected integers, got {v!r}")
-            items.append(v)
+        items = value
     else:
         raise InputError(f"{where}: expected integers or ranges like 1-10, got {value!r}")
     if any(s < 0 for s in items):
@@ -185,21 +174,12 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
 
 def parse_time_limits(value: Any, where: str = "time_limits") -> tuple[float, ...]:
     """Time limits in seconds from a number, ``"5,60"`` or a list; 0 or ``"none"``: no limit."""
-    raw: list[Any]
-    if isinstance(value, str):
-        raw = [p.strip() for p in value.split(",")]
-    elif isinstance(value, list):
-        raw = value
-    else:
-        raw = [value]
+    raw = [p.strip() for p in value.split(",")] if isinstance(value, str) else value
     out: list[float] = []
-    for v in raw:
+    for v in raw if isinstance(raw, list) else [raw]:
         if isinstance(v, str):
-            if v.lower() in ("none", "0"):
-                out.append(0.0)
-                continue
             try:
-                v = float(v)
+                v = 0.0 if v.lower() == "none" else float(v)
             except ValueError:
                 raise InputError(f"{where}: expected seconds, got {v!r}") from None
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
@@ -348,28 +328,25 @@ def campaign_from_dict(
         raise InputError("methods: expected a non-empty list ([[methods]] tables or strings)")
     methods = tuple(_method_from_table(m, f"methods[{i}]") for i, m in enumerate(methods_raw))
     tl = camp.get("time_limits", camp.get("time_limit", 0))
-    inst_seed = camp.get("instance_seed", 0)
-    if isinstance(inst_seed, bool) or not isinstance(inst_seed, int) or inst_seed < 0:
-        raise InputError("campaign.instance_seed: expected a non-negative integer")
-    skip = camp.get("skip_unavailable", False)
-    if not isinstance(skip, bool):
-        raise InputError("campaign.skip_unavailable: expected true or false")
-    workers = camp.get("workers")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)):
-        raise InputError("campaign.workers: expected an integer")
-    name = camp.get("name", Path(source).stem if source else "campaign")
-    if not isinstance(name, str):
-        raise InputError("campaign.name: expected a string")
+    stem = Path(source).stem if source else "campaign"
+    # the other keys: (default, whether a value is valid, what is expected)
+    checks: dict[str, tuple[Any, Callable[[Any], bool], str]] = {
+        "instance_seed": (0, lambda v: type(v) is int and v >= 0, "a non-negative integer"),
+        "skip_unavailable": (False, lambda v: isinstance(v, bool), "true or false"),
+        "workers": (None, lambda v: v is None or type(v) is int, "an integer"),
+        "name": (stem, lambda v: isinstance(v, str), "a string"),
+    }
+    given = {key: camp.get(key, default) for key, (default, _, _) in checks.items()}
+    for key, (_, valid, what) in checks.items():
+        if not valid(given[key]):
+            raise InputError(f"campaign.{key}: expected {what}")
     return Campaign(
-        name=name,
         scenarios=parse_scenarios(scen, base, "campaign.scenarios"),
         methods=_unique_methods(methods),
         seeds=parse_seeds(camp["seeds"], "campaign.seeds"),
         time_limits=parse_time_limits(tl, "campaign.time_limits"),
-        instance_seed=inst_seed,
-        skip_unavailable=skip,
-        workers=workers,
         source=source,
+        **given,
     )
 
 

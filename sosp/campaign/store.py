@@ -17,7 +17,6 @@ Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``. A database of v
 
 from __future__ import annotations
 
-import json
 import os
 import sqlite3
 from collections.abc import Iterable, Iterator, Mapping
@@ -44,25 +43,6 @@ OPEN_TIMEOUT = 2.0
 #: Seconds to wait for a write lock when storing one run.
 WRITE_TIMEOUT = 60.0
 
-
-RUN_COLUMNS = (
-    *KEY_COLUMNS,
-    "status",
-    "message",
-    "profit",
-    "observed",
-    "bound",
-    "bound_count",
-    "energy",
-    "memory",
-    "runtime",
-    "iterations",
-    "feasible",
-    "verdict",
-    "schedule",
-    "version",
-    "finished_at",
-)
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -282,12 +262,11 @@ class Store:
     # ------------------------------------------------------------------ writing
     def put_instances(self, infos: Iterable[Mapping[str, Any]]) -> None:
         """Record the scenarios' sizes (EN, TN, ...) in one transaction (existing rows kept)."""
-        cols = ("scenario", "fingerprint", "name", "targets", "en", "tn", "orbits")
         with self._transaction() as cur:
             cur.executemany(
-                f"INSERT OR IGNORE INTO instances({', '.join(cols)}) "
-                f"VALUES ({', '.join('?' * len(cols))})",
-                [[info[c] for c in cols] for info in infos],
+                "INSERT OR IGNORE INTO instances VALUES "
+                "(:scenario, :fingerprint, :name, :targets, :en, :tn, :orbits)",
+                infos,
             )
 
     def put(self, row: Mapping[str, Any]) -> bool:
@@ -295,18 +274,16 @@ class Store:
 
         An existing success is kept; an existing failure is replaced.
         """
-        values = [row.get(c) for c in RUN_COLUMNS]
-        updates = ", ".join(f"{c}=excluded.{c}" for c in RUN_COLUMNS[len(KEY_COLUMNS) :])
+        cols = [r[1] for r in self.conn.execute("PRAGMA table_info(runs)") if r[1] != "id"]
+        updates = ", ".join(f"{c}=excluded.{c}" for c in cols if c not in KEY_COLUMNS)
         with self._transaction() as cur:
             cur.execute(
-                f"INSERT INTO runs({', '.join(RUN_COLUMNS)}) "
-                f"VALUES ({', '.join('?' * len(RUN_COLUMNS))}) "
+                f"INSERT INTO runs({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))}) "
                 f"ON CONFLICT({', '.join(KEY_COLUMNS)}) DO UPDATE SET {updates} "
                 "WHERE runs.status = 'error'",
-                values,
+                [row.get(c) for c in cols],
             )
-            written = cur.rowcount > 0
-        return written
+            return cur.rowcount > 0
 
     def close(self) -> None:
         """Close; a writer first folds the WAL back into the file and leaves WAL mode, so the
@@ -322,8 +299,3 @@ class Store:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def verdict_json(verdict: Mapping[str, Any]) -> str:
-    """The validator verdict as compact JSON."""
-    return json.dumps(verdict, sort_keys=True, separators=(",", ":"), allow_nan=False)

@@ -191,7 +191,7 @@ def test_log_records_clear_the_live_line_first() -> None:
     out = io.StringIO()
     line = StatusLine(out, tty=True, delay=0.0)
     handler = logging.StreamHandler(out)
-    handler.addFilter(line.log_filter())
+    handler.addFilter(line)
     logger = logging.getLogger("sosp.test_progress")
     logger.addHandler(handler)
     try:
