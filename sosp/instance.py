@@ -17,6 +17,7 @@ million-opportunity instance takes minutes.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import zipfile
@@ -35,6 +36,7 @@ from sosp.io import (
     atomic_output,
     atomic_write_text,
     is_finite_number,
+    read_bytes,
     read_json,
     reject_json_constant,
 )
@@ -148,35 +150,28 @@ _ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 MAX_OPENINGS = 2**31 - 1
 
 
-def _check_resource(key: str, value: Any, where: str) -> None:
+def _bad_resource(key: str, value: Any) -> Any:
+    """Where a resource value (or a numpy column of them) is out of its range."""
+    if key == "max_openings":
+        return (value < 0) | (value != np.round(value)) | (value > MAX_OPENINGS)
+    return value <= 0 if key in ("slew_rate", "max_duration") else value < 0
+
+
+def _check_resource(key: str, value: Any, where: str, source: str | None = None) -> None:
+    """Check a resource value, or a per-orbit float column of them (``where`` then names
+    its first bad row)."""
+    if isinstance(value, np.ndarray):
+        rows = np.flatnonzero(~np.isfinite(value) | _bad_resource(key, value))
+        if not rows.size:
+            return
+        where, value = f"{where}[{rows[0]}]", float(value[rows[0]])
     if not is_finite_number(value):
-        raise InputError(f"{where}.{key}: expected a finite number, got {value!r}")
-    if key == "max_openings":
-        if float(value) != int(value) or value < 0 or value > MAX_OPENINGS:
-            raise InputError(
-                f"{where}.{key}: expected an integer from 0 to {MAX_OPENINGS}, got {value!r}"
-            )
-    elif key in ("slew_rate", "max_duration"):
-        if value <= 0:
-            raise InputError(f"{where}.{key}: must be > 0, got {value!r}")
-    elif value < 0:
-        raise InputError(f"{where}.{key}: must be >= 0, got {value!r}")
-
-
-def _check_resource_column(key: str, arr: np.ndarray, source: str | None) -> None:
-    """Vectorised :func:`_check_resource` over a per-orbit column (first bad row named)."""
-    if key == "max_openings":
-        bad = ~np.isfinite(arr) | (arr < 0) | (arr != np.round(arr)) | (arr > MAX_OPENINGS)
-    elif key in ("slew_rate", "max_duration"):
-        bad = ~np.isfinite(arr) | (arr <= 0)
-    else:
-        bad = ~np.isfinite(arr) | (arr < 0)
-    rows = np.flatnonzero(bad)
-    if rows.size:  # the masks above are _check_resource's tests: it raises
-        try:
-            _check_resource(key, float(arr[rows[0]]), f"orbits[{rows[0]}]")
-        except InputError as exc:
-            raise InputError(str(exc), source=source) from None
+        raise InputError(f"{where}.{key}: expected a finite number, got {value!r}", source=source)
+    if _bad_resource(key, np.float64(value)):
+        need = {"max_openings": f"expected an integer from 0 to {MAX_OPENINGS}"}.get(
+            key, "must be > 0" if key in ("slew_rate", "max_duration") else "must be >= 0"
+        )
+        raise InputError(f"{where}.{key}: {need}, got {value!r}", source=source)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -415,28 +410,33 @@ class Instance:
                 arr = np.broadcast_to(np.asarray(value, dtype=float), (n_o,)).copy()
             except (TypeError, ValueError):
                 raise InputError(f"orbits.{key}: expected {n_o} numbers", source=source) from None
-            _check_resource_column(key, arr, source)
+            _check_resource(key, arr, "orbits", source)
             if key == "max_openings":
                 arr = arr.astype(np.int64)
             res_cols[key] = arr
 
-        p_target = col(opp_target, "opportunities", "target", n_p, dtype=float)
-        p_orbit = col(opp_orbit, "opportunities", "orbit", n_p, dtype=float)
-        for arr, key, n in ((p_target, "target", n_t), (p_orbit, "orbit", n_o)):
+        opp = {
+            key: col(values, "opportunities", key, n_p)
+            for key, values in (
+                ("target", opp_target),
+                ("orbit", opp_orbit),
+                ("start", opp_start),
+                ("end", opp_end),
+                ("roll", opp_roll),
+                ("roll_min", opp_roll_min),
+                ("roll_max", opp_roll_max),
+            )
+        }
+        for key, n in (("target", n_t), ("orbit", n_o)):
+            arr = opp[key]
             bad = np.flatnonzero((arr < 0) | (arr >= n) | (arr != np.round(arr)))
             if bad.size:
                 raise InputError(
                     f"opportunities[{bad[0]}].{key}: unknown {key} index {arr[bad[0]]:g}",
                     source=source,
                 )
-        # int32 indices: half the memory of int64 on instances with millions of opportunities
-        p_target = p_target.astype(INDEX_DTYPE)
-        p_orbit = p_orbit.astype(INDEX_DTYPE)
-        p_start = col(opp_start, "opportunities", "start", n_p)
-        p_end = col(opp_end, "opportunities", "end", n_p)
-        roll = col(opp_roll, "opportunities", "roll", n_p)
-        rmin = col(opp_roll_min, "opportunities", "roll_min", n_p)
-        rmax = col(opp_roll_max, "opportunities", "roll_max", n_p)
+            # int32 indices: half the memory of int64 on instances with millions of opportunities
+            opp[key] = arr.astype(INDEX_DTYPE)
         pid = _ids(opp_ids, "opportunities", source) if opp_ids is not None else None
         if pid is not None and len(pid) != n_p:
             raise InputError(f"opportunities.id: expected {n_p} values", source=source)
@@ -446,6 +446,8 @@ class Instance:
             if bad.size:
                 raise InputError(f"opportunities[{bad[0]}]: {msg}", source=source)
 
+        p_start, p_end, p_orbit = opp["start"], opp["end"], opp["orbit"]
+        roll, rmin, rmax = opp["roll"], opp["roll_min"], opp["roll_max"]
         first(p_start >= p_end, "start must be < end")
         first(
             (rmin > roll + DATA_TOL) | (roll > rmax + DATA_TOL), "need roll_min <= roll <= roll_max"
@@ -467,7 +469,7 @@ class Instance:
             pid = tuple(f"o{i + 1}" for i in range(n_p))
         elif isinstance(order, np.ndarray):
             pid = tuple(pid[i] for i in order)
-        inst = cls(
+        return cls(
             epoch=epoch,
             target_ids=tid,
             target_lat=_readonly(lat),
@@ -479,17 +481,10 @@ class Instance:
             orbit_end=_readonly(o_end),
             **{k: _readonly(v) for k, v in res_cols.items()},
             opp_ids=pid,
-            opp_target=_readonly(p_target[order]),
-            opp_orbit=_readonly(p_orbit[order]),
-            opp_start=_readonly(p_start[order]),
-            opp_end=_readonly(p_end[order]),
-            opp_roll=_readonly(roll[order]),
-            opp_roll_min=_readonly(rmin[order]),
-            opp_roll_max=_readonly(rmax[order]),
+            **{f"opp_{k}": _readonly(v[order]) for k, v in opp.items()},
             name=str(name),
             meta=dict(meta or {}),
         )
-        return inst
 
     @classmethod
     def build(
@@ -575,14 +570,8 @@ class Instance:
     def _columns(self) -> dict[str, dict[str, Any]]:
         """The tables as columns in file order (:data:`NPZ_TABLES`): numpy arrays, and tuples
         for the ids; the opportunities' ``target`` and ``orbit`` as row indices."""
-        prefix = {"targets": "target_", "orbits": "orbit_", "opportunities": "opp_"}
         return {
-            table: {
-                k: getattr(
-                    self, k if k in RESOURCE_KEYS else prefix[table] + ("ids" if k == "id" else k)
-                )
-                for k, _ in spec
-            }
+            table: {k: getattr(self, _attribute(table, k)) for k, _ in spec}
             for table, spec in NPZ_TABLES.items()
         }
 
@@ -616,24 +605,10 @@ class Instance:
         """Validate a dict read from an instance file and build the instance."""
         if not isinstance(data, dict):
             raise InputError("expected a JSON object at the top level", source=source)
-        fmt = data.get("format", FORMAT_NAME)
-        if fmt != FORMAT_NAME:
-            raise InputError(f"format: expected {FORMAT_NAME!r}, got {fmt!r}", source=source)
-        version = data.get("version", FORMAT_VERSION)
-        if version != FORMAT_VERSION:
-            raise InputError(
-                f"version: this sosp reads version {FORMAT_VERSION}, got {version!r}",
-                source=source,
-            )
-        for key in ("epoch", "targets", "orbits", "opportunities"):
+        _check_header(data, "", source)
+        for key in ("targets", "orbits", "opportunities"):
             if key not in data:
                 raise InputError(f"missing key {key!r}", source=source)
-        name = data.get("name", "")
-        if not isinstance(name, str):
-            raise InputError("name: expected a string", source=source)
-        meta = data.get("meta", {})
-        if not isinstance(meta, dict):
-            raise InputError("meta: expected an object", source=source)
 
         # the JSON tables have the columns of the .npz ones; opportunities name their
         # target and orbit by id
@@ -654,7 +629,7 @@ class Instance:
         for key, table in (("target", targets), ("orbit", orbits)):
             index = {t: i for i, t in enumerate(table["id"])}
             opps[key] = _refs(opps[key], index, "opportunities", key, source)
-        return _from_tables(data["epoch"], targets, orbits, opps, name, meta, source)
+        return _from_tables(data, targets, orbits, opps, source)
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
         """The instance as the named arrays of a ``.npz`` file (see :data:`NPZ_TABLES`).
@@ -779,15 +754,7 @@ def _read_npz(path: str | os.PathLike[str]) -> Instance:
     """Read a ``.npz`` instance (never unpickling) and validate it as :meth:`from_arrays`
     validates any instance; every problem is one :class:`InputError` line naming the array."""
     src = str(path)
-    try:
-        fh = open(path, "rb")  # noqa: SIM115 (closed below, after the arrays are read)
-    except FileNotFoundError:
-        raise InputError("file not found", source=src) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not a file", source=src) from None
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc}", source=src) from None
-    with fh:
+    with io.BytesIO(read_bytes(path)) as fh:
         try:
             is_zip = zipfile.is_zipfile(fh)
             fh.seek(0)
@@ -851,7 +818,7 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
         return {k: cols[f"{name}.{k}"] for k, _ in NPZ_TABLES[name]}
 
     targets, orbits, opps = table("targets"), table("orbits"), table("opportunities")
-    return _from_tables(header["epoch"], targets, orbits, opps, header["name"], header["meta"], src)
+    return _from_tables(header, targets, orbits, opps, src)
 
 
 def _as_list(values: Any) -> Any:
@@ -860,39 +827,38 @@ def _as_list(values: Any) -> Any:
 
 
 def _from_tables(
-    epoch: Any,
+    head: Mapping[str, Any],
     targets: Mapping[str, Any],
     orbits: Mapping[str, Any],
     opps: Mapping[str, Any],
-    name: str | None,
-    meta: Any,
     source: str | None,
 ) -> Instance:
     """:meth:`Instance.from_arrays` from the three tables as columns (JSON and ``.npz``
-    readers), the opportunities' target and orbit already resolved to rows by the caller."""
+    readers), the opportunities' target and orbit already resolved to rows by the caller;
+    ``head`` holds the epoch, name and meta."""
+    cols = {
+        _attribute(table, k): _as_list(v) if k in ("id", "satellite") else v
+        for table, values in zip(NPZ_TABLES, (targets, orbits, opps), strict=True)
+        for k, v in values.items()
+    }
     return Instance.from_arrays(
-        epoch=epoch,
-        target_ids=_as_list(targets["id"]),
-        target_lat=targets["lat"],
-        target_lon=targets["lon"],
-        target_weight=targets["weight"],
-        orbit_ids=_as_list(orbits["id"]),
-        orbit_satellite=_as_list(orbits["satellite"]),
-        orbit_start=orbits["start"],
-        orbit_end=orbits["end"],
-        resources={k: orbits[k] for k in RESOURCE_KEYS},
-        opp_ids=_as_list(opps["id"]),
-        opp_target=opps["target"],
-        opp_orbit=opps["orbit"],
-        opp_start=opps["start"],
-        opp_end=opps["end"],
-        opp_roll=opps["roll"],
-        opp_roll_min=opps["roll_min"],
-        opp_roll_max=opps["roll_max"],
-        name=name,
-        meta=meta,
+        epoch=head["epoch"],
+        resources={k: cols.pop(k) for k in RESOURCE_KEYS},
+        name=head.get("name", ""),
+        meta=head.get("meta", {}),
         source=source,
+        **cols,
     )
+
+
+def _attribute(table: str, key: str) -> str:
+    """The :class:`Instance` attribute of a column of :data:`NPZ_TABLES` (``opp_roll`` for
+    the opportunities' ``roll``, ``target_ids`` for the targets' ``id``; resources as they
+    are)."""
+    if key in RESOURCE_KEYS:
+        return key
+    prefix = {"targets": "target_", "orbits": "orbit_", "opportunities": "opp_"}[table]
+    return prefix + ("ids" if key == "id" else key)
 
 
 def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
@@ -909,27 +875,32 @@ def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
         raise InputError(f"{NPZ_HEADER}: malformed JSON: {exc}", source=src) from None
     if not isinstance(header, dict):
         raise InputError(f"{NPZ_HEADER}: expected a JSON object", source=src)
-    fmt = header.get("format")
-    if fmt != NPZ_FORMAT_NAME:
-        raise InputError(
-            f"{NPZ_HEADER}.format: expected {NPZ_FORMAT_NAME!r}, got {fmt!r}", source=src
-        )
-    version = header.get("version")
-    if version != NPZ_FORMAT_VERSION or isinstance(version, bool):
-        raise InputError(
-            f"{NPZ_HEADER}.version: this sosp reads .npz version {NPZ_FORMAT_VERSION}, "
-            f"got {version!r}",
-            source=src,
-        )
-    if "epoch" not in header:
-        raise InputError(f"{NPZ_HEADER}: missing key 'epoch'", source=src)
-    header.setdefault("name", "")
-    header.setdefault("meta", {})
-    if not isinstance(header["name"], str):
-        raise InputError(f"{NPZ_HEADER}.name: expected a string", source=src)
-    if not isinstance(header["meta"], dict):
-        raise InputError(f"{NPZ_HEADER}.meta: expected an object", source=src)
+    _check_header(header, NPZ_HEADER, src)
     return header
+
+
+def _check_header(data: dict[str, Any], where: str, source: str | None) -> None:
+    """Check the format, version, epoch, name and meta of an instance file's top level
+    (``where`` "") or of a .npz file's header entry (``where`` :data:`NPZ_HEADER`, where the
+    format and version must be given)."""
+    npz = where == NPZ_HEADER
+    fmt, version = (NPZ_FORMAT_NAME, NPZ_FORMAT_VERSION) if npz else (FORMAT_NAME, FORMAT_VERSION)
+    at = f"{where}." if where else ""
+    got = data.get("format", None if npz else fmt)
+    if got != fmt:
+        raise InputError(f"{at}format: expected {fmt!r}, got {got!r}", source=source)
+    got = data.get("version", None if npz else version)
+    if got != version or isinstance(got, bool):
+        raise InputError(
+            f"{at}version: this sosp reads {'.npz ' if npz else ''}version {version}, got {got!r}",
+            source=source,
+        )
+    if "epoch" not in data:
+        raise InputError(f"{where}{': ' if where else ''}missing key 'epoch'", source=source)
+    if not isinstance(data.get("name", ""), str):
+        raise InputError(f"{at}name: expected a string", source=source)
+    if not isinstance(data.get("meta", {}), dict):
+        raise InputError(f"{at}meta: expected an object", source=source)
 
 
 # --------------------------------------------------------------------------- helpers

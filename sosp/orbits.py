@@ -45,6 +45,7 @@ import numpy as np
 from sgp4.api import SGP4_ERRORS, WGS72, Satrec, SatrecArray, jday
 
 from sosp.errors import InputError
+from sosp.io import read_text
 
 log = logging.getLogger(__name__)
 
@@ -435,14 +436,7 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
 
 def read_tle(path: str | os.PathLike[str]) -> list[Satellite]:
     """Read satellites from a two- or three-line element file (see :func:`parse_tle`)."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("file not found", source=str(p)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", source=str(p)) from None
-    return parse_tle(text, source=str(p))
+    return parse_tle(read_text(path), source=str(Path(path)))
 
 
 def from_elements(

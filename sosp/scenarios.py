@@ -28,6 +28,7 @@ import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import MAX_WEIGHT, Instance, Resources
+from sosp.io import read_text
 from sosp.orbits import (
     Satellite,
     builtin_satellites,
@@ -357,15 +358,8 @@ def read_targets_csv(
     InputError
         Naming the file and the line (1-based, the header is line 1) and field at fault.
     """
-    p = Path(path)
-    src = str(p)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError("file not found", source=src) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", source=src) from None
-    rows = list(csv.reader(text.splitlines()))
+    src = str(Path(path))
+    rows = list(csv.reader(read_text(path, encoding="utf-8-sig").splitlines()))
     numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if not numbered:
         raise InputError("empty file: expected the header id,lat,lon,weight", source=src)
