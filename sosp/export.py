@@ -23,7 +23,6 @@ import io
 import json
 import logging
 import math
-import os
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -142,22 +141,29 @@ def satellite_paths(
     """
     import numpy as np
 
-    from sosp.orbits import propagate
-
     sats = instance_satellites(instance)
     if not sats or not instance.n_orbits:
         return None
     t0 = float(instance.orbit_start.min())
     t1 = float(instance.orbit_end.max())
     t = np.append(np.arange(t0, t1, step), t1)
-    r, _ = propagate(sats, instance.epoch, t)
+    return t, subsatellite_points(sats, instance.epoch, t)
+
+
+def subsatellite_points(sats: list[Satellite], epoch: str, t: np.ndarray) -> dict[str, np.ndarray]:
+    """Per satellite, its ``(n, 3)`` geocentric lat, lon (degrees) and spherical altitude (km)
+    at the times ``t`` (seconds from ``epoch``)."""
+    import numpy as np
+
+    from sosp.orbits import propagate
+
     out = {}
-    for s, pos in zip(sats, r, strict=True):
+    for s, pos in zip(sats, propagate(sats, epoch, t)[0], strict=True):
         norm = np.linalg.norm(pos, axis=1)
         lat = np.degrees(np.arcsin(np.clip(pos[:, 2] / norm, -1.0, 1.0)))
         lon = np.degrees(np.arctan2(pos[:, 1], pos[:, 0]))
         out[s.name] = np.column_stack([lat, lon, norm - EARTH_RADIUS_KM])
-    return t, out
+    return out
 
 
 def _position_at(
@@ -442,43 +448,7 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
     return json.dumps(packets, indent=1, allow_nan=False) + "\n"
 
 
-# --------------------------------------------------------------------------- files, CLI
-def export_format(path: str | os.PathLike[str], fmt: str | None = None) -> str:
-    """The export format: ``fmt`` if given, else the file's extension (refused if unknown)."""
-    from sosp.errors import InputError
-
-    if fmt is not None:
-        if fmt not in FORMATS:
-            raise InputError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
-        return fmt
-    ext = Path(path).suffix.lower().lstrip(".")
-    if ext not in FORMATS:
-        raise InputError(
-            f"-o: cannot tell the format from {Path(path).name!r}; give --format "
-            f"({', '.join(FORMATS)}) or a .csv, .kml or .czml file"
-        )
-    return ext
-
-
-def export_text(instance: Instance, schedule: Schedule, fmt: str) -> str:
-    """The export of ``schedule`` in format ``fmt`` (one of :data:`FORMATS`)."""
-    return {"csv": export_csv, "kml": export_kml, "czml": export_czml}[fmt](instance, schedule)
-
-
-def write_export(
-    instance: Instance,
-    schedule: Schedule,
-    path: str | os.PathLike[str],
-    fmt: str | None = None,
-) -> str:
-    """Write the export atomically (:func:`sosp.io.atomic_write_text`); returns the format."""
-    from sosp.io import atomic_write_text
-
-    fmt = export_format(path, fmt)
-    atomic_write_text(path, export_text(instance, schedule, fmt))
-    return fmt
-
-
+# --------------------------------------------------------------------------- CLI
 def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``export`` to the ``sosp`` subcommands."""
     p = subparsers.add_parser(
@@ -502,15 +472,22 @@ def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def cmd_export(args: argparse.Namespace) -> int:
     """Handler of ``sosp export``."""
+    from sosp.errors import InputError
     from sosp.instance import load_instance
-    from sosp.io import check_output
+    from sosp.io import atomic_write_text, check_output
     from sosp.schedule import load_schedule
 
     check_output(args.output)
-    fmt = export_format(args.output, args.format)
+    fmt = args.format or Path(args.output).suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise InputError(
+            f"-o: cannot tell the format from {Path(args.output).name!r}; give --format "
+            f"({', '.join(FORMATS)}) or a .csv, .kml or .czml file"
+        )
     inst = load_instance(args.instance)
     sched = load_schedule(args.schedule, inst)
-    write_export(inst, sched, args.output, fmt)
+    exporter = {"csv": export_csv, "kml": export_kml, "czml": export_czml}[fmt]
+    atomic_write_text(args.output, exporter(inst, sched))
     n = len(covered(inst, sched))
     info = {
         "output": args.output,

@@ -97,25 +97,18 @@ def ground_tracks(instance: Instance) -> dict[str, tuple[np.ndarray, np.ndarray]
     """
     import numpy as np
 
-    meta = dict(instance.meta)
-    if meta.get("satellite_source") != "builtin" or not meta.get("satellites"):
-        return None
-    from sosp.orbits import builtin_satellites, propagate
+    from sosp.export import instance_satellites, subsatellite_points
 
-    try:
-        sats = builtin_satellites(list(meta["satellites"]))
-    except Exception:  # noqa: BLE001 - unknown names: no tracks rather than no plot
+    meta = dict(instance.meta)
+    builtin = meta.get("satellite_source") == "builtin" and meta.get("satellites")
+    sats = instance_satellites(instance) if builtin else None
+    if not sats:
         return None
     t0 = float(instance.orbit_start.min()) if instance.n_orbits else 0.0
     t1 = float(instance.orbit_end.max()) if instance.n_orbits else 0.0
     t = np.arange(t0, t1 + TRACK_STEP, TRACK_STEP)
-    r, _ = propagate(sats, instance.epoch, t)
-    out = {}
-    for s, pos in zip(sats, r, strict=True):
-        lat = np.degrees(np.arctan2(pos[:, 2], np.hypot(pos[:, 0], pos[:, 1])))
-        lon = np.degrees(np.arctan2(pos[:, 1], pos[:, 0]))
-        out[s.name] = (lat, lon)
-    return out
+    points = subsatellite_points(sats, instance.epoch, t)
+    return {name: (p[:, 0], p[:, 1]) for name, p in points.items()}
 
 
 def plot_schedule(
