@@ -70,14 +70,12 @@ __all__ = [
     "format_epoch",
     "from_elements",
     "gmst",
-    "mean_motion_rev_per_day",
     "parse_epoch",
     "parse_tle",
     "propagate",
     "read_tle",
     "revolutions",
     "seconds_after",
-    "seconds_between",
     "stale_elements",
     "sun_direction_ecef",
     "sun_synchronous_inclination",
@@ -144,13 +142,6 @@ def utc_iso(time: str, field: str = "start") -> str:
         ) from None
 
 
-def seconds_between(a: str, b: str) -> float:
-    """Seconds from ISO 8601 time ``a`` to ``b``."""
-    ja, fa = parse_epoch(a)
-    jb, fb = parse_epoch(b)
-    return ((jb - ja) + (fb - fa)) * DAY
-
-
 def element_epoch(sat: Satellite) -> str:
     """The epoch of a satellite's element set, ISO 8601 UTC."""
     return format_epoch(*sat.epoch)
@@ -172,7 +163,7 @@ def stale_elements(
     """
     out = []
     for s in satellites:
-        t0 = seconds_between(element_epoch(s), start)
+        t0 = seconds_after(element_epoch(s), start)
         far = max(abs(t0), abs(t0 + hours * 3600.0)) / DAY
         if far > max_days:
             out.append((s.name, far))
@@ -385,19 +376,13 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     while k < len(lines):
         lineno, name = lines[k]
         # a two-line set (no name line) starts with line 1: "1 NNNNN..." of 69 characters
-        if name.startswith("1 ") and len(name) == TLE_LINE_LENGTH and name[68].isdigit():
-            if k + 1 >= len(lines):
-                raise InputError(f"line {lineno}: TLE line 1 lacks its line 2", source=source)
-            (n1, l1), (n2, l2) = lines[k], lines[k + 1]
-            step = 2
-        else:
-            if k + 2 >= len(lines):
-                raise InputError(
-                    f"line {lineno}: satellite {name.strip()!r} lacks its two element lines",
-                    source=source,
-                )
-            (n1, l1), (n2, l2) = lines[k + 1], lines[k + 2]
-            step = 3
+        two = name.startswith("1 ") and len(name) == TLE_LINE_LENGTH and name[68].isdigit()
+        step = 2 if two else 3
+        if k + step > len(lines):
+            who = "TLE line 1" if two else f"satellite {name.strip()!r}"
+            lacks = "its line 2" if two else "its two element lines"
+            raise InputError(f"line {lineno}: {who} lacks {lacks}", source=source)
+        (n1, l1), (n2, l2) = lines[k + step - 2 : k + step]
         _check_tle_line(l1, "1", n1, source)
         _check_tle_line(l2, "2", n2, source)
         if l1[2:7] != l2[2:7]:
@@ -407,7 +392,7 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
                 source=source,
             )
         # a two-line set is named by its catalogue number
-        display = l1[2:7].strip() if step == 2 else name.strip().removeprefix("0 ").strip()
+        display = l1[2:7].strip() if two else name.strip().removeprefix("0 ").strip()
         if not display:
             raise InputError(f"line {lineno}: empty satellite name", source=source)
         if display in names:
@@ -758,12 +743,6 @@ _J2 = 0.001082616
 _SUN_RATE = 2.0 * math.pi / (365.2421897 * DAY)
 
 
-def mean_motion_rev_per_day(altitude_km: float) -> float:
-    """Two-body mean motion of a circular orbit ``altitude_km`` above the WGS72 equator."""
-    a = _EARTH_RADIUS_KM + altitude_km
-    return math.sqrt(_MU_KM3_S2 / a**3) * DAY / (2.0 * math.pi)
-
-
 def sun_synchronous_inclination(altitude_km: float) -> float:
     """Inclination (deg) of the circular sun-synchronous orbit at ``altitude_km``.
 
@@ -824,7 +803,7 @@ def walker_delta(
         raise InputError(f"walker: altitude must be in [150, 40000] km, got {altitude_km}")
     incl = sun_synchronous_inclination(altitude_km) if inclination is None else inclination
     per_plane = total // planes
-    n = mean_motion_rev_per_day(altitude_km)
+    n = math.sqrt(_MU_KM3_S2 / (_EARTH_RADIUS_KM + altitude_km) ** 3) * DAY / (2.0 * math.pi)
     sats = []
     for p in range(planes):
         for s in range(per_plane):

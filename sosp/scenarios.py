@@ -51,8 +51,13 @@ REGIONS: dict[str, tuple[float, float, float, float]] = {
     "C": (30.0, 60.0, 90.0, 120.0),
 }
 
-#: The numbers of a target CSV row and their ranges (:func:`read_targets_csv`).
-CSV_RANGES = (("lat", -90.0, 90.0), ("lon", -180.0, 360.0), ("weight", 0, MAX_WEIGHT))
+#: The numbers of a target CSV row, their ranges and what the error says they must be
+#: (:func:`read_targets_csv`; a weight must also be an integer).
+CSV_RANGES = (
+    ("lat", -90.0, 90.0, "a finite number in [-90, 90]"),
+    ("lon", -180.0, 360.0, "a finite number in [-180, 360]"),
+    ("weight", 0, MAX_WEIGHT, f"an integer in [0, {MAX_WEIGHT:.0e}]"),
+)
 
 #: Target weights: integers uniform in [2, 10] (inclusive).
 WEIGHT_RANGE = (2, 10)
@@ -317,13 +322,10 @@ def custom_scenario(
         orbit_start=revs.start,
         orbit_end=revs.end,
         resources=resources if resources is not None else Resources(),
-        opp_target=opps.target,
-        opp_orbit=opps.orbit,
-        opp_start=opps.start,
-        opp_end=opps.end,
-        opp_roll=opps.roll,
-        opp_roll_min=opps.roll_min,
-        opp_roll_max=opps.roll_max,
+        **{
+            f"opp_{k}": getattr(opps, k)
+            for k in ("target", "orbit", "start", "end", "roll", "roll_min", "roll_max")
+        },
         opp_ids=opp_ids,
         name=name,
         meta=full_meta,
@@ -388,7 +390,7 @@ def read_targets_csv(
             )
         seen[tid] = lineno
         values = []
-        for key, lo, hi in CSV_RANGES:
+        for key, lo, hi, what in CSV_RANGES:
             raw = row[ix[key]].strip()
             try:
                 val = float(raw)
@@ -396,16 +398,7 @@ def read_targets_csv(
                 raise InputError(
                     f"line {lineno}: {key} is not a number: {raw!r}", source=src
                 ) from None
-            if (
-                not math.isfinite(val)
-                or not (lo <= val <= hi)
-                or (key == "weight" and val != int(val))
-            ):
-                what = (
-                    f"an integer in [0, {MAX_WEIGHT:.0e}]"
-                    if key == "weight"
-                    else f"a finite number in [{lo:g}, {hi:g}]"
-                )
+            if not (lo <= val <= hi and (key != "weight" or val.is_integer())):  # NaN too
                 raise InputError(f"line {lineno}: {key} must be {what}, got {raw!r}", source=src)
             values.append(val)
         rows.append(values)
