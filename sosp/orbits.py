@@ -58,34 +58,6 @@ _JD_J2000 = 2451545.0
 #: TLE line length (columns 1-69).
 TLE_LINE_LENGTH = 69
 
-__all__ = [
-    "DAY",
-    "EphemerisGrid",
-    "Revolutions",
-    "Satellite",
-    "ascending_nodes",
-    "builtin_satellites",
-    "ephemeris_grids",
-    "element_epoch",
-    "format_epoch",
-    "from_elements",
-    "gmst",
-    "parse_epoch",
-    "parse_tle",
-    "propagate",
-    "read_tle",
-    "revolutions",
-    "seconds_after",
-    "stale_elements",
-    "sun_direction_ecef",
-    "sun_synchronous_inclination",
-    "teme_to_ecef",
-    "tle_checksum",
-    "utc_at",
-    "utc_iso",
-    "walker_delta",
-]
-
 
 # --------------------------------------------------------------------------- time
 #: Days of propagation from an element epoch past which a scenario warns

@@ -64,16 +64,6 @@ WEIGHT_RANGE = (2, 10)
 
 GENERATOR = "sosp.scenarios"
 
-__all__ = [
-    "DEFAULT_START",
-    "REGIONS",
-    "custom_scenario",
-    "generate_scenario",
-    "random_targets",
-    "read_targets_csv",
-    "scenario_names",
-]
-
 
 def scenario_names() -> list[str]:
     """``["B1", ..., "B10", "C1", ..., "C10"]``."""

@@ -72,13 +72,6 @@ WGS84_A = 6378.137
 WGS84_F = 1.0 / 298.257223563
 WGS84_B = WGS84_A * (1.0 - WGS84_F)
 
-__all__ = [
-    "Opportunities",
-    "find_opportunities",
-    "geodetic_to_ecef",
-    "geodetic_up",
-]
-
 
 @dataclass(frozen=True)
 class Opportunities:
