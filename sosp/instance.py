@@ -102,6 +102,9 @@ class Resources:
 #: The resource keys of an orbit record, in file order.
 RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
 
+#: The columns of an opportunity besides its id (``opp_<key>`` in :meth:`Instance.from_arrays`).
+OPP_KEYS = ("target", "orbit", "start", "end", "roll", "roll_min", "roll_max")
+
 #: Largest target weight accepted: every profit, bound and sum of weights stays an integer
 #: that float64 holds exactly (the models and the LP bounds compute in floats) for up to
 #: nine million targets; a weight of 1e20 once wrapped to a negative int64 profit.
@@ -129,13 +132,7 @@ NPZ_TABLES: dict[str, tuple[tuple[str, str], ...]] = {
     ),
     "opportunities": (
         ("id", "U"),
-        ("target", "i"),
-        ("orbit", "i"),
-        ("start", "f"),
-        ("end", "f"),
-        ("roll", "f"),
-        ("roll_min", "f"),
-        ("roll_max", "f"),
+        *((k, "i" if k in ("target", "orbit") else "f") for k in OPP_KEYS),
     ),
 }
 
@@ -353,22 +350,21 @@ class Instance:
         _check_epoch(epoch, source)
         n_t, n_o, n_p = len(target_ids), len(orbit_ids), len(opp_target)
 
-        def col(values: Any, table: str, key: str, n: int, dtype: Any = float) -> np.ndarray:
+        def col(values: Any, table: str, key: str, n: int) -> np.ndarray:
             try:
-                arr = np.array(values, dtype=dtype).reshape(-1)
+                arr = np.array(values, dtype=float).reshape(-1)
             except (TypeError, ValueError):
                 raise InputError(f"{table}.{key}: expected numbers", source=source) from None
             if arr.shape != (n,):
                 raise InputError(
                     f"{table}.{key}: expected {n} values, got {arr.size}", source=source
                 )
-            if arr.dtype.kind == "f":
-                bad = np.flatnonzero(~np.isfinite(arr))
-                if bad.size:
-                    raise InputError(
-                        f"{table}[{bad[0]}].{key}: expected a finite number, got {arr[bad[0]]}",
-                        source=source,
-                    )
+            bad = np.flatnonzero(~np.isfinite(arr))
+            if bad.size:
+                raise InputError(
+                    f"{table}[{bad[0]}].{key}: expected a finite number, got {arr[bad[0]]}",
+                    source=source,
+                )
             return arr
 
         tid = _ids(target_ids, "targets", source)
@@ -415,18 +411,8 @@ class Instance:
                 arr = arr.astype(np.int64)
             res_cols[key] = arr
 
-        opp = {
-            key: col(values, "opportunities", key, n_p)
-            for key, values in (
-                ("target", opp_target),
-                ("orbit", opp_orbit),
-                ("start", opp_start),
-                ("end", opp_end),
-                ("roll", opp_roll),
-                ("roll_min", opp_roll_min),
-                ("roll_max", opp_roll_max),
-            )
-        }
+        values = (opp_target, opp_orbit, opp_start, opp_end, opp_roll, opp_roll_min, opp_roll_max)
+        opp = {k: col(v, "opportunities", k, n_p) for k, v in zip(OPP_KEYS, values, strict=True)}
         for key, n in (("target", n_t), ("orbit", n_o)):
             arr = opp[key]
             bad = np.flatnonzero((arr < 0) | (arr >= n) | (arr != np.round(arr)))
@@ -541,7 +527,9 @@ class Instance:
             roll = float(row[4])
             rng = row[5:] if len(row) == 7 else (max(-33.0, roll - 3.0), min(33.0, roll + 3.0))
             cols.append((t, row[1], *map(float, row[2:5]), *map(float, rng)))
-        tgt, orb, st, en, ro, lo, hi = map(list, zip(*cols, strict=True)) if cols else [[]] * 7
+        columns = map(list, zip(*cols, strict=True)) if cols else [[]] * 7
+        opp = dict(zip(OPP_KEYS, columns, strict=True))
+        orb, st, en = opp["orbit"], opp["start"], opp["end"]
         m = n_orbits if n_orbits is not None else (max(orb) + 1 if orb else 1)
         length = orbit_length if orbit_length is not None else max([*en, 0.0]) + 1.0
         lo_start = min([*st, 0.0])
@@ -556,14 +544,8 @@ class Instance:
             orbit_start=np.full(m, lo_start),
             orbit_end=np.full(m, length),
             resources=resources or Resources(),
-            opp_target=tgt,
-            opp_orbit=orb,
-            opp_start=st,
-            opp_end=en,
-            opp_roll=ro,
-            opp_roll_min=lo,
-            opp_roll_max=hi,
             name=name,
+            **{f"opp_{k}": v for k, v in opp.items()},
         )
 
     # ------------------------------------------------------------ (de)serialise

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from sosp.errors import InputError
-from sosp.instance import MAX_WEIGHT, Instance, Resources
+from sosp.instance import MAX_WEIGHT, OPP_KEYS, Instance, Resources
 from sosp.io import read_text
 from sosp.orbits import (
     Satellite,
@@ -312,10 +312,7 @@ def custom_scenario(
         orbit_start=revs.start,
         orbit_end=revs.end,
         resources=resources if resources is not None else Resources(),
-        **{
-            f"opp_{k}": getattr(opps, k)
-            for k in ("target", "orbit", "start", "end", "roll", "roll_min", "roll_max")
-        },
+        **{f"opp_{k}": getattr(opps, k) for k in OPP_KEYS},
         opp_ids=opp_ids,
         name=name,
         meta=full_meta,
