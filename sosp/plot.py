@@ -21,6 +21,7 @@ import argparse
 import json
 import os
 import sys
+from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -144,16 +145,12 @@ def plot_schedule(
     """
     import matplotlib.pyplot as plt
 
-    from sosp.errors import InputError
     from sosp.io import atomic_output
 
-    target = Path(path)
-    fmt = plot_format(target)
-    if not target.parent.is_dir():
-        raise InputError(f"output folder does not exist: {target.parent}")
+    fmt = plot_format(path)
     fig, info = schedule_figure(instance, schedule, title, max_orbits, utc)
     try:
-        with atomic_output(target, suffix=f".{fmt}") as tmp:
+        with atomic_output(path, suffix=f".{fmt}") as tmp:
             fig.savefig(tmp, dpi=110, format=fmt)
     finally:
         plt.close(fig)
@@ -220,32 +217,26 @@ def schedule_figure(
             (row[j] - 0.15, 0.3),
             facecolors="0.75",
         )
-    by_orbit: dict[int, list[Any]] = {}
-    for ob in schedule.observations:
-        by_orbit.setdefault(ob.orbit, []).append(ob)
     n_clusters = 0
-    for j, obs in by_orbit.items():
+    for prev, ob in pairwise((None, *schedule.observations)):  # sorted by (orbit, start)
+        j = ob.orbit
         if j not in row:
             continue
-        obs.sort(key=lambda o: o.start)
-        r = orbit_rules(inst, j)
-        for n, ob in enumerate(obs):
-            if n:
-                need = r.setup_time + r.turn(obs[n - 1].roll, ob.roll)  # (3)
-                ax_g.broken_barh(
-                    [(x_of(j, ob.start - need), dx(need))],
-                    (row[j] - 0.3, 0.6),
-                    facecolors="#f4a6a6",
-                )
-            cluster = len(ob.opps) > 1
-            n_clusters += cluster
+        if prev is not None and prev.orbit == j:
+            r = orbit_rules(inst, j)
+            need = r.setup_time + r.turn(prev.roll, ob.roll)  # (3)
             ax_g.broken_barh(
-                [(x_of(j, ob.start), dx(ob.end - ob.start))],
-                (row[j] - 0.35, 0.7),
-                facecolors="#e8890c" if cluster else "#2b6cb0",
+                [(x_of(j, ob.start - need), dx(need))], (row[j] - 0.3, 0.6), facecolors="#f4a6a6"
             )
-            if cluster:
-                ax_g.text(x_of(j, ob.end), row[j], f" {len(ob.opps)}", va="center", fontsize=6)
+        cluster = len(ob.opps) > 1
+        n_clusters += cluster
+        ax_g.broken_barh(
+            [(x_of(j, ob.start), dx(ob.end - ob.start))],
+            (row[j] - 0.35, 0.7),
+            facecolors="#e8890c" if cluster else "#2b6cb0",
+        )
+        if cluster:
+            ax_g.text(x_of(j, ob.end), row[j], f" {len(ob.opps)}", va="center", fontsize=6)
     labels = [inst.orbit_ids[j] for j in orbits]
     if utc:  # each pass's first opportunity, clock time: the axis spans the whole horizon
         first = [
