@@ -137,6 +137,7 @@ NPZ_TABLES: dict[str, tuple[tuple[str, str], ...]] = {
 }
 
 _NPZ_KIND_NAMES = {"f": "float64", "i": "an integer dtype", "U": "a unicode string dtype"}
+_NPZ_KINDS = {"f": "f", "i": "iu", "U": "U"}
 
 #: The fixed time stamp of every .npz member, so one instance always gives the same bytes.
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)
@@ -557,6 +558,16 @@ class Instance:
             for table, spec in NPZ_TABLES.items()
         }
 
+    def _header(self, fmt: str, version: int) -> dict[str, Any]:
+        """The scalar fields of a file (JSON's top level, the .npz header entry)."""
+        return {
+            "format": fmt,
+            "version": version,
+            "name": self.name,
+            "epoch": self.epoch,
+            "meta": dict(self.meta),
+        }
+
     def to_dict(self, layout: str = "records") -> dict[str, Any]:
         """The instance as a JSON-ready dict (``layout`` "records" or "columns")."""
         targets, orbits, opps = (
@@ -565,18 +576,11 @@ class Instance:
         )
         opps["target"] = [self.target_ids[i] for i in self.opp_target]
         opps["orbit"] = [self.orbit_ids[j] for j in self.opp_orbit]
-        if layout == "records":
-            conv = _to_records
-        elif layout == "columns":
-            conv = dict
-        else:
+        conv = {"records": _to_records, "columns": dict}.get(layout)
+        if conv is None:
             raise InputError(f"layout: expected 'records' or 'columns', got {layout!r}")
         return {
-            "format": FORMAT_NAME,
-            "version": FORMAT_VERSION,
-            "name": self.name,
-            "epoch": self.epoch,
-            "meta": dict(self.meta),
+            **self._header(FORMAT_NAME, FORMAT_VERSION),
             "targets": conv(targets),
             "orbits": conv(orbits),
             "opportunities": conv(opps),
@@ -611,7 +615,7 @@ class Instance:
         for key, table in (("target", targets), ("orbit", orbits)):
             index = {t: i for i, t in enumerate(table["id"])}
             opps[key] = _refs(opps[key], index, "opportunities", key, source)
-        return _from_tables(data, targets, orbits, opps, source)
+        return _from_tables(data, tables, source)
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
         """The instance as the named arrays of a ``.npz`` file (see :data:`NPZ_TABLES`).
@@ -626,13 +630,7 @@ class Instance:
         InputError
             If an id ends with a NUL character, which a numpy unicode array cannot hold.
         """
-        header = {
-            "format": NPZ_FORMAT_NAME,
-            "version": NPZ_FORMAT_VERSION,
-            "name": self.name,
-            "epoch": self.epoch,
-            "meta": dict(self.meta),
-        }
+        header = self._header(NPZ_FORMAT_NAME, NPZ_FORMAT_VERSION)
         out: dict[str, np.ndarray] = {
             # meta keys in their order: a .json saved from a loaded .npz is the same file
             NPZ_HEADER: np.array(json.dumps(header, allow_nan=False))
@@ -770,37 +768,25 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
     extra = sorted(names - expected)
     if extra:
         raise InputError(f"unexpected array {extra[0]!r}", source=src)
-    cols: dict[str, np.ndarray] = {}
+    tables: dict[str, dict[str, np.ndarray]] = {table: {} for table in NPZ_TABLES}
     for table, spec in NPZ_TABLES.items():
-        n = None
         for key, kind in spec:
             full = f"{table}.{key}"
             arr = get(full)
             if arr.ndim != 1:
                 raise InputError(f"{full}: expected a 1-d array, got shape {arr.shape}", source=src)
             dt = arr.dtype
-            ok = (
-                (dt.kind == "f" and dt.itemsize == 8)
-                if kind == "f"
-                else (dt.kind in "iu" if kind == "i" else dt.kind == "U")
-            )
-            if not ok:
+            if dt.kind not in _NPZ_KINDS[kind] or (kind == "f" and dt.itemsize != 8):
                 raise InputError(
                     f"{full}: expected {_NPZ_KIND_NAMES[kind]}, got dtype {dt}", source=src
                 )
-            if n is None:
-                n = len(arr)
-            elif len(arr) != n:
+            n = len(tables[table].get("id", arr))
+            if len(arr) != n:
                 raise InputError(
                     f"{full}: has {len(arr)} values, expected {n} (as {table}.id)", source=src
                 )
-            cols[full] = arr
-
-    def table(name: str) -> dict[str, np.ndarray]:
-        return {k: cols[f"{name}.{k}"] for k, _ in NPZ_TABLES[name]}
-
-    targets, orbits, opps = table("targets"), table("orbits"), table("opportunities")
-    return _from_tables(header, targets, orbits, opps, src)
+            tables[table][key] = arr
+    return _from_tables(header, tables, src)
 
 
 def _as_list(values: Any) -> Any:
@@ -809,18 +795,14 @@ def _as_list(values: Any) -> Any:
 
 
 def _from_tables(
-    head: Mapping[str, Any],
-    targets: Mapping[str, Any],
-    orbits: Mapping[str, Any],
-    opps: Mapping[str, Any],
-    source: str | None,
+    head: Mapping[str, Any], tables: Mapping[str, Mapping[str, Any]], source: str | None
 ) -> Instance:
     """:meth:`Instance.from_arrays` from the three tables as columns (JSON and ``.npz``
     readers), the opportunities' target and orbit already resolved to rows by the caller;
     ``head`` holds the epoch, name and meta."""
     cols = {
         _attribute(table, k): _as_list(v) if k in ("id", "satellite") else v
-        for table, values in zip(NPZ_TABLES, (targets, orbits, opps), strict=True)
+        for table, values in tables.items()
         for k, v in values.items()
     }
     return Instance.from_arrays(
