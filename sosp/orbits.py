@@ -133,13 +133,9 @@ def stale_elements(
         The satellite and the longest propagation its elements need over
         ``[start, start + hours]``, in days.
     """
-    out = []
-    for s in satellites:
-        t0 = seconds_after(element_epoch(s), start)
-        far = max(abs(t0), abs(t0 + hours * 3600.0)) / DAY
-        if far > max_days:
-            out.append((s.name, far))
-    return out
+    offsets = [(s.name, seconds_after(element_epoch(s), start)) for s in satellites]
+    far = [(name, max(abs(t0), abs(t0 + hours * 3600.0)) / DAY) for name, t0 in offsets]
+    return [(name, days) for name, days in far if days > max_days]
 
 
 def utc_at(epoch: str, seconds: float) -> str:
@@ -482,14 +478,10 @@ def builtin_satellites(names: list[str] | tuple[str, ...] | None = None) -> list
         )
         for rec in data["satellites"]
     }
-    if names is None:
-        return list(by_name.values())
-    out = []
-    for n in names:
+    for n in names or ():
         if n not in by_name:
             raise InputError(f"unknown built-in satellite {n!r}; known: {', '.join(by_name)}")
-        out.append(by_name[n])
-    return out
+    return list(by_name.values()) if names is None else [by_name[n] for n in names]
 
 
 # --------------------------------------------------------------------------- propagation
