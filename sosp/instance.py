@@ -23,7 +23,7 @@ import os
 import zipfile
 import zlib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from datetime import datetime
 from functools import cached_property
 from pathlib import Path
@@ -393,18 +393,14 @@ class Instance:
         if bad.size:
             raise InputError(f"orbits[{bad[0]}]: start must be < end", source=source)
 
-        if resources is None:
-            resources = Resources()
+        if not isinstance(resources, Mapping):
+            resources = asdict(resources or Resources())
         res_cols: dict[str, np.ndarray] = {}
         for key in RESOURCE_KEYS:
-            if isinstance(resources, Resources):
-                value: Any = getattr(resources, key)
-            else:
-                if key not in resources:
-                    raise InputError(f"orbits: missing resource key {key!r}", source=source)
-                value = resources[key]
+            if key not in resources:
+                raise InputError(f"orbits: missing resource key {key!r}", source=source)
             try:
-                arr = np.broadcast_to(np.asarray(value, dtype=float), (n_o,)).copy()
+                arr = np.broadcast_to(np.asarray(resources[key], dtype=float), (n_o,)).copy()
             except (TypeError, ValueError):
                 raise InputError(f"orbits.{key}: expected {n_o} numbers", source=source) from None
             _check_resource(key, arr, "orbits", source)
@@ -961,15 +957,13 @@ def _table(
                 cols[k].append(rec[k])
         return cols
     if isinstance(value, dict):
-        n = None
         for k in keys:
             if k not in value:
                 raise InputError(f"{name}: missing column {k!r}", source=source)
             if not isinstance(value[k], list):
                 raise InputError(f"{name}.{k}: expected a list", source=source)
-            if n is None:
-                n = len(value[k])
-            elif len(value[k]) != n:
+            if len(value[k]) != len(value[keys[0]]):  # the first column checked first
+                n = len(value[keys[0]])
                 raise InputError(
                     f"{name}.{k}: has {len(value[k])} values, expected {n}", source=source
                 )
