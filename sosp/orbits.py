@@ -768,22 +768,19 @@ def walker_delta(
     incl = sun_synchronous_inclination(altitude_km) if inclination is None else inclination
     per_plane = total // planes
     n = math.sqrt(_MU_KM3_S2 / (_EARTH_RADIUS_KM + altitude_km) ** 3) * DAY / (2.0 * math.pi)
-    sats = []
-    for p in range(planes):
-        for s in range(per_plane):
-            anomaly = 360.0 * s / per_plane + 360.0 * phasing * p / total
-            sats.append(
-                from_elements(
-                    f"{prefix}{p:02d}-{s:02d}",
-                    epoch=epoch,
-                    inclination=incl,
-                    raan=360.0 * p / planes,
-                    eccentricity=0.0,
-                    arg_perigee=0.0,
-                    mean_anomaly=anomaly % 360.0,
-                    mean_motion=n,
-                    norad=90000 + len(sats),
-                    note=f"Walker-delta {total}/{planes}/{phasing} at {altitude_km:g} km",
-                )
-            )
-    return sats
+    return [
+        from_elements(
+            f"{prefix}{p:02d}-{s:02d}",
+            epoch=epoch,
+            inclination=incl,
+            raan=360.0 * p / planes,
+            eccentricity=0.0,
+            arg_perigee=0.0,
+            mean_anomaly=(360.0 * s / per_plane + 360.0 * phasing * p / total) % 360.0,
+            mean_motion=n,
+            norad=90000 + p * per_plane + s,
+            note=f"Walker-delta {total}/{planes}/{phasing} at {altitude_km:g} km",
+        )
+        for p in range(planes)
+        for s in range(per_plane)
+    ]

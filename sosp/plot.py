@@ -66,13 +66,8 @@ def map_extent(lat: np.ndarray, lon: np.ndarray) -> tuple[float, float, float, f
     mx = max(1.0, MAP_MARGIN * (x1 - x0))
     my = max(1.0, MAP_MARGIN * (y1 - y0))
     lo_min, lo_max = (0.0, 360.0) if wrap else (-180.0, 180.0)
-    return (
-        max(lo_min, x0 - mx),
-        min(lo_max, x1 + mx),
-        max(-90.0, y0 - my),
-        min(90.0, y1 + my),
-        wrap,
-    )
+    x0, x1 = max(lo_min, x0 - mx), min(lo_max, x1 + mx)
+    return x0, x1, max(-90.0, y0 - my), min(90.0, y1 + my), wrap
 
 
 def _clock(epoch: str, t: float) -> str:
@@ -274,22 +269,12 @@ def schedule_figure(
         observed[int(inst.opp_target[i])] = True
     x0, x1, y0, y1, wrap = map_extent(inst.target_lat, inst.target_lon)
     tracks = ground_tracks(inst)
-    if tracks:
-        for name, (lat, lon) in tracks.items():
-            lon = map_lon(lon, wrap)
-            jump = np.flatnonzero(np.abs(np.diff(lon)) > 180) + 1
-            for k, (la, lo) in enumerate(
-                zip(np.split(lat, jump), np.split(lon, jump), strict=True)
-            ):
-                ax_m.plot(
-                    lo,
-                    la,
-                    lw=0.6,
-                    alpha=0.5,
-                    color=TRACK_COLOURS[list(tracks).index(name) % len(TRACK_COLOURS)],
-                    label=name if k == 0 else None,
-                    zorder=1,
-                )
+    for n, (name, (lat, lon)) in enumerate((tracks or {}).items()):
+        lon = map_lon(lon, wrap)
+        jump = np.flatnonzero(np.abs(np.diff(lon)) > 180) + 1
+        style = {"lw": 0.6, "alpha": 0.5, "color": TRACK_COLOURS[n % len(TRACK_COLOURS)]}
+        for k, (la, lo) in enumerate(zip(np.split(lat, jump), np.split(lon, jump), strict=True)):
+            ax_m.plot(lo, la, label=None if k else name, zorder=1, **style)
     lon = map_lon(inst.target_lon, wrap)
     ax_m.scatter(
         lon[observed], inst.target_lat[observed], s=12, c="#2f855a", label="observed", zorder=2
