@@ -895,8 +895,7 @@ def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ..
         unique = set(vals)
         if len(unique) == len(vals) and "" not in unique:
             return tuple(vals)
-    out: list[str] = []
-    seen: set[str] = set()
+    seen: dict[str, None] = {}  # in order
     for r, v in enumerate(vals):
         if isinstance(v, bool) or not isinstance(v, str | int | np.integer):
             raise InputError(f"{table}[{r}].id: expected a string or integer", source=source)
@@ -905,9 +904,8 @@ def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ..
             raise InputError(f"{table}[{r}].id: must not be empty", source=source)
         if s in seen:
             raise InputError(f"{table}[{r}].id: duplicate id {s!r}", source=source)
-        seen.add(s)
-        out.append(s)
-    return tuple(out)
+        seen[s] = None
+    return tuple(seen)
 
 
 def _refs(

@@ -181,12 +181,9 @@ def schedule_figure(
     orbits.sort(key=lambda j: (float(inst.orbit_start[j]), j) if utc else j)
     row = {j: r for r, j in enumerate(orbits)}
 
+    size = (14, max(4.5, 0.22 * len(orbits) + 2.5))
     fig, (ax_g, ax_m) = plt.subplots(
-        1,
-        2,
-        figsize=(14, max(4.5, 0.22 * len(orbits) + 2.5)),
-        width_ratios=[1.3, 1],
-        layout="constrained",
+        1, 2, figsize=size, width_ratios=[1.3, 1], layout="constrained"
     )
     # Gantt: x is seconds from the orbit's start, or UTC clock time as matplotlib dates.
     scale = 86400.0 if utc else 1.0  # seconds per x unit

@@ -119,15 +119,8 @@ def geodetic_to_ecef(lat: np.ndarray, lon: np.ndarray, alt: float | np.ndarray =
     e2 = WGS84_F * (2.0 - WGS84_F)
     sphi = np.sin(phi)
     n = WGS84_A / np.sqrt(1.0 - e2 * sphi * sphi)
-    cphi = np.cos(phi)
-    return np.stack(
-        [
-            (n + alt) * cphi * np.cos(lam),
-            (n + alt) * cphi * np.sin(lam),
-            (n * (1.0 - e2) + alt) * sphi,
-        ],
-        axis=-1,
-    )
+    rho = (n + alt) * np.cos(phi)  # distance from the polar axis
+    return np.stack([rho * np.cos(lam), rho * np.sin(lam), (n * (1.0 - e2) + alt) * sphi], axis=-1)
 
 
 def geodetic_up(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
