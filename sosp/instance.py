@@ -368,6 +368,11 @@ class Instance:
                 )
             return arr
 
+        def first(mask: np.ndarray, msg: str, table: str = "opportunities") -> None:
+            bad = np.flatnonzero(mask)
+            if bad.size:
+                raise InputError(f"{table}[{bad[0]}]: {msg}", source=source)
+
         tid = _ids(target_ids, "targets", source)
         lat = col(target_lat, "targets", "lat", n_t)
         lon = col(target_lon, "targets", "lon", n_t)
@@ -389,9 +394,7 @@ class Instance:
             raise InputError(f"orbits.satellite: expected {n_o} values", source=source)
         o_start = col(orbit_start, "orbits", "start", n_o)
         o_end = col(orbit_end, "orbits", "end", n_o)
-        bad = np.flatnonzero(o_start >= o_end)
-        if bad.size:
-            raise InputError(f"orbits[{bad[0]}]: start must be < end", source=source)
+        first(o_start >= o_end, "start must be < end", "orbits")
 
         if not isinstance(resources, Mapping):
             resources = asdict(resources or Resources())
@@ -423,11 +426,6 @@ class Instance:
         pid = _ids(opp_ids, "opportunities", source) if opp_ids is not None else None
         if pid is not None and len(pid) != n_p:
             raise InputError(f"opportunities.id: expected {n_p} values", source=source)
-
-        def first(mask: np.ndarray, msg: str) -> None:
-            bad = np.flatnonzero(mask)
-            if bad.size:
-                raise InputError(f"opportunities[{bad[0]}]: {msg}", source=source)
 
         p_start, p_end, p_orbit = opp["start"], opp["end"], opp["orbit"]
         roll, rmin, rmax = opp["roll"], opp["roll_min"], opp["roll_max"]

@@ -551,11 +551,8 @@ class EphemerisGrid:
     """
 
     def __init__(self, t0: float, step: float, r: np.ndarray, v: np.ndarray) -> None:
-        self.t0 = float(t0)
-        self.step = float(step)
-        self.r = np.ascontiguousarray(r)
-        self.v = np.ascontiguousarray(v)
-        self.n = len(r)
+        self.t0, self.step, self.n = float(t0), float(step), len(r)
+        self.r, self.v = np.ascontiguousarray(r), np.ascontiguousarray(v)
 
     def state(self, t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Interpolated position, velocity and acceleration at times ``t`` (any shape).
@@ -639,8 +636,7 @@ def ascending_nodes(grid: EphemerisGrid, t_start: float, t_end: float) -> np.nda
     Coarse detection of ``z < 0 <= z_next`` on the grid, then safeguarded Newton iterations on
     the interpolated ``z(t)`` inside each bracketing cell (vectorised over crossings).
     """
-    z = grid.r[:, 2]
-    vz = grid.v[:, 2]
+    z, vz = grid.r[:, 2], grid.v[:, 2]
     cell = np.flatnonzero((z[:-1] < 0) & (z[1:] >= 0))
     if cell.size == 0:
         return np.empty(0)
