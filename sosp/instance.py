@@ -509,16 +509,13 @@ class Instance:
             wts = list(weights)
             tids = [f"t{i}" for i in range(len(wts))]
         index = {t: i for i, t in enumerate(tids)}
-        rows = [tuple(r) for r in opportunities]
         cols = []
-        for r, row in enumerate(rows):
+        for r, row in enumerate(map(tuple, opportunities)):
             if len(row) not in (5, 7):
                 raise InputError(f"opportunities[{r}]: expected 5 or 7 fields, got {len(row)}")
-            t = row[0]
-            if isinstance(t, str):
-                if t not in index:
-                    raise InputError(f"opportunities[{r}].target: unknown target {t!r}")
-                t = index[t]
+            t = index.get(row[0], -1) if isinstance(row[0], str) else row[0]
+            if t == -1:
+                raise InputError(f"opportunities[{r}].target: unknown target {row[0]!r}")
             roll = float(row[4])
             rng = row[5:] if len(row) == 7 else (max(-33.0, roll - 3.0), min(33.0, roll + 3.0))
             cols.append((t, row[1], *map(float, row[2:5]), *map(float, rng)))
