@@ -514,21 +514,20 @@ def propagate(satellites: list[Satellite], epoch: str, t: Any) -> tuple[np.ndarr
     arr = SatrecArray([s.satrec for s in satellites])
     err, r, v = arr.sgp4(jd, fr)
     bad = err != 0
-    if bad.any():
-        for i in np.flatnonzero(bad.any(axis=1)):
-            code = int(err[i][bad[i]][0])
-            log.warning(
-                "sgp4 failed for %s at %d of %d times, the first at %s (error %d: %s); no "
-                "opportunity at those times",
-                satellites[i].name,
-                int(bad[i].sum()),
-                t.size,
-                utc_at(epoch, float(t[bad[i]][0])),
-                code,
-                SGP4_ERRORS.get(code, "unknown"),
-            )
-        r[bad] = np.nan
-        v[bad] = np.nan
+    for i in np.flatnonzero(bad.any(axis=1)):
+        code = int(err[i][bad[i]][0])
+        log.warning(
+            "sgp4 failed for %s at %d of %d times, the first at %s (error %d: %s); no "
+            "opportunity at those times",
+            satellites[i].name,
+            int(bad[i].sum()),
+            t.size,
+            utc_at(epoch, float(t[bad[i]][0])),
+            code,
+            SGP4_ERRORS.get(code, "unknown"),
+        )
+    r[bad] = np.nan
+    v[bad] = np.nan
     return teme_to_ecef(r, v, jd, fr)
 
 
