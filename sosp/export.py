@@ -78,19 +78,12 @@ def covered(instance: Instance, schedule: Schedule) -> list[tuple[int, int]]:
     A target covered by several observations (which the validator refuses) is listed at its
     first.
     """
-    order = sorted(
-        range(len(schedule.observations)),
-        key=lambda u: (schedule.observations[u].start, schedule.observations[u].orbit),
-    )
-    seen: set[int] = set()
-    out = []
-    for u in order:
-        for i in schedule.observations[u].opps:
-            k = int(instance.opp_target[i])
-            if k not in seen:
-                seen.add(k)
-                out.append((u, k))
-    return out
+    obs = schedule.observations
+    first: dict[int, int] = {}  # target: its first observation, in order of discovery
+    for u in sorted(range(len(obs)), key=lambda u: (obs[u].start, obs[u].orbit)):
+        for i in obs[u].opps:
+            first.setdefault(int(instance.opp_target[i]), u)
+    return [(u, k) for k, u in first.items()]
 
 
 def _observations(
