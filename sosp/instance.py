@@ -286,9 +286,7 @@ class Instance:
     @cached_property
     def fingerprint(self) -> str:
         """A hash of the instance's content (name and meta excluded)."""
-        data = self.to_dict(layout="columns")
-        data.pop("name", None)
-        data.pop("meta", None)
+        data = {k: v for k, v in self.to_dict("columns").items() if k not in ("name", "meta")}
         blob = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
         return "sha256:" + hashlib.sha256(blob.encode()).hexdigest()
 

@@ -271,8 +271,7 @@ def custom_scenario(
             days,
             element_epoch(next(s for s in sats if s.name == sat_name)),
         )
-    lat = np.asarray(lat, dtype=float)
-    lon = np.asarray(lon, dtype=float)
+    lat, lon = np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
     if not (len(ids) == lat.size == lon.size == np.size(weight)):
         raise InputError("targets: ids, lat, lon and weight differ in length")
     bad = np.flatnonzero(~np.isfinite(lat) | (np.abs(lat) > 90) | ~np.isfinite(lon))
@@ -289,7 +288,6 @@ def custom_scenario(
         fov=fov,
         min_sun_elevation=min_sun_elevation,
     )
-    orbit_sat = [sats[i].name for i in revs.satellite]
     opp_ids = [f"{ids[k]}@{revs.ids[j]}" for k, j in zip(opps.target, opps.orbit, strict=True)]
     full_meta = {
         "generator": GENERATOR,
@@ -308,7 +306,7 @@ def custom_scenario(
         target_lon=lon,
         target_weight=weight,
         orbit_ids=list(revs.ids),
-        orbit_satellite=orbit_sat,
+        orbit_satellite=[sats[i].name for i in revs.satellite],
         orbit_start=revs.start,
         orbit_end=revs.end,
         resources=resources if resources is not None else Resources(),
