@@ -23,9 +23,9 @@ import io
 import json
 import logging
 import math
-import os
 import sys
 import xml.etree.ElementTree as ET
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -78,19 +78,12 @@ def covered(instance: Instance, schedule: Schedule) -> list[tuple[int, int]]:
     A target covered by several observations (which the validator refuses) is listed at its
     first.
     """
-    order = sorted(
-        range(len(schedule.observations)),
-        key=lambda u: (schedule.observations[u].start, schedule.observations[u].orbit),
-    )
-    seen: set[int] = set()
-    out = []
-    for u in order:
-        for i in schedule.observations[u].opps:
-            k = int(instance.opp_target[i])
-            if k not in seen:
-                seen.add(k)
-                out.append((u, k))
-    return out
+    obs = schedule.observations
+    first: dict[int, int] = {}  # target: its first observation, in order of discovery
+    for u in sorted(range(len(obs)), key=lambda u: (obs[u].start, obs[u].orbit)):
+        for i in obs[u].opps:
+            first.setdefault(int(instance.opp_target[i]), u)
+    return [(u, k) for k, u in first.items()]
 
 
 def _observations(
@@ -142,22 +135,29 @@ def satellite_paths(
     """
     import numpy as np
 
-    from sosp.orbits import propagate
-
     sats = instance_satellites(instance)
     if not sats or not instance.n_orbits:
         return None
     t0 = float(instance.orbit_start.min())
     t1 = float(instance.orbit_end.max())
     t = np.append(np.arange(t0, t1, step), t1)
-    r, _ = propagate(sats, instance.epoch, t)
+    return t, subsatellite_points(sats, instance.epoch, t)
+
+
+def subsatellite_points(sats: list[Satellite], epoch: str, t: np.ndarray) -> dict[str, np.ndarray]:
+    """Per satellite, its ``(n, 3)`` geocentric lat, lon (degrees) and spherical altitude (km)
+    at the times ``t`` (seconds from ``epoch``)."""
+    import numpy as np
+
+    from sosp.orbits import propagate
+
     out = {}
-    for s, pos in zip(sats, r, strict=True):
+    for s, pos in zip(sats, propagate(sats, epoch, t)[0], strict=True):
         norm = np.linalg.norm(pos, axis=1)
         lat = np.degrees(np.arcsin(np.clip(pos[:, 2] / norm, -1.0, 1.0)))
         lon = np.degrees(np.arctan2(pos[:, 1], pos[:, 0]))
         out[s.name] = np.column_stack([lat, lon, norm - EARTH_RADIUS_KM])
-    return t, out
+    return out
 
 
 def _position_at(
@@ -205,20 +205,24 @@ def export_csv(instance: Instance, schedule: Schedule) -> str:
 
 
 # --------------------------------------------------------------------------- KML
-def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -> ET.Element:
-    el = ET.SubElement(parent, tag, attrib)
+def _sub(parent: ET.Element, tag: str, text: str | None = None, **children: str) -> ET.Element:
+    """Add element ``tag`` with ``text`` and, in order, a child element per keyword (its
+    text the value)."""
+    el = ET.SubElement(parent, tag)
     if text is not None:
         el.text = text
+    for child, value in children.items():
+        _sub(el, child, value)
     return el
 
 
 def _style(doc: ET.Element, sid: str, color: str, scale: float, line: bool = False) -> None:
-    style = _sub(_sub(doc, "Style", id=sid), "LineStyle" if line else "IconStyle")
-    _sub(style, "color", color)
-    _sub(style, "width" if line else "scale", f"{scale:g}")
+    size = {"width" if line else "scale": f"{scale:g}"}
+    style = ET.SubElement(doc, "Style", id=sid)
+    style = _sub(style, "LineStyle" if line else "IconStyle", color=color, **size)
     if not line:
         href = "http://maps.google.com/mapfiles/kml/shapes/placemark_circle.png"
-        _sub(_sub(style, "Icon"), "href", href)
+        _sub(style, "Icon", href=href)
 
 
 def _split_antimeridian(points: list[tuple[float, float, float]]) -> list[list[tuple]]:
@@ -241,9 +245,12 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
 
     ET.register_namespace("", KML_NS)
     root = ET.Element("kml", xmlns=KML_NS)
-    doc = _sub(root, "Document")
-    _sub(doc, "name", f"{instance.name or 'instance'}: {schedule.method or 'schedule'}")
-    _sub(doc, "description", f"epoch {instance.epoch}; {len(schedule)} observations; made by sosp")
+    doc = _sub(
+        root,
+        "Document",
+        name=f"{instance.name or 'instance'}: {schedule.method or 'schedule'}",
+        description=f"epoch {instance.epoch}; {len(schedule)} observations; made by sosp",
+    )
     _style(doc, "observed", "ff00c000", 0.9)  # KML colours are aabbggrr
     _style(doc, "unobserved", "ff0000ff", 0.6)
     _style(doc, "path", "9fffffff", 1.5, line=True)
@@ -253,15 +260,12 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
     paths = satellite_paths(instance)
 
     def target_mark(folder: ET.Element, k: int, style: str, desc: str) -> None:
-        pm = _sub(folder, "Placemark")
-        _sub(pm, "name", str(instance.target_ids[k]))
-        _sub(pm, "description", desc)
+        pm = _sub(folder, "Placemark", name=str(instance.target_ids[k]), description=desc)
         _sub(pm, "styleUrl", f"#{style}")
         lon, lat = _lon180(instance.target_lon[k]), float(instance.target_lat[k])
-        _sub(_sub(pm, "Point"), "coordinates", f"{lon:.6f},{lat:.6f},0")
+        _sub(pm, "Point", coordinates=f"{lon:.6f},{lat:.6f},0")
 
-    f_obs = _sub(doc, "Folder")
-    _sub(f_obs, "name", f"targets observed ({len(cov)})")
+    f_obs = _sub(doc, "Folder", name=f"targets observed ({len(cov)})")
     for u, k in cov:
         ob = schedule.observations[u]
         target_mark(
@@ -273,48 +277,34 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
             f"{utc_at(instance.epoch, ob.start)} to {utc_at(instance.epoch, ob.end)}, "
             f"roll {ob.roll:.2f} deg",
         )
-    f_not = _sub(doc, "Folder")
     missed = [k for k in range(instance.n_targets) if k not in by_target]
-    _sub(f_not, "name", f"targets not observed ({len(missed)})")
-    _sub(f_not, "visibility", "1")
+    f_not = _sub(doc, "Folder", name=f"targets not observed ({len(missed)})", visibility="1")
     for k in missed:
         target_mark(f_not, k, "unobserved", f"weight {int(instance.target_weight[k])}")
 
-    f_win = _sub(doc, "Folder")
-    _sub(f_win, "name", f"observations ({len(schedule)})")
+    f_win = _sub(doc, "Folder", name=f"observations ({len(schedule)})")
     for _u, ob, ks, sat, desc in _observations(instance, schedule, cov):
-        pm = _sub(f_win, "Placemark")
-        _sub(pm, "name", f"{sat} {utc_at(instance.epoch, ob.start)}")
-        _sub(pm, "description", desc)
-        span = _sub(pm, "TimeSpan")
-        _sub(span, "begin", utc_at(instance.epoch, ob.start))
-        _sub(span, "end", utc_at(instance.epoch, ob.end))
+        begin, end = utc_at(instance.epoch, ob.start), utc_at(instance.epoch, ob.end)
+        pm = _sub(f_win, "Placemark", name=f"{sat} {begin}", description=desc)
+        _sub(pm, "TimeSpan", begin=begin, end=end)
         _sub(pm, "styleUrl", "#sight")
         geo = _sub(pm, "MultiGeometry")
         at = _position_at(paths, sat, 0.5 * (ob.start + ob.end))
         for k in ks:
             tgt = (float(instance.target_lat[k]), _lon180(instance.target_lon[k]), 0.0)
             if at is not None:  # line of sight from the satellite to the target
-                ls = _sub(geo, "LineString")
-                _sub(ls, "altitudeMode", "absolute")
-                _sub(ls, "coordinates", _coords([(at[0], at[1], at[2] * 1000.0), tgt]))
+                sight = _coords([(at[0], at[1], at[2] * 1000.0), tgt])
+                _sub(geo, "LineString", altitudeMode="absolute", coordinates=sight)
             else:
-                pt = _sub(geo, "Point")
-                _sub(pt, "coordinates", _coords([tgt]))
+                _sub(geo, "Point", coordinates=_coords([tgt]))
 
     if paths is not None:
-        f_path = _sub(doc, "Folder")
-        _sub(f_path, "name", "satellite paths")
+        f_path = _sub(doc, "Folder", name="satellite paths")
         for name, pts in paths[1].items():
-            pm = _sub(f_path, "Placemark")
-            _sub(pm, "name", name)
-            _sub(pm, "styleUrl", "#path")
-            geo = _sub(pm, "MultiGeometry")
+            geo = _sub(_sub(f_path, "Placemark", name=name, styleUrl="#path"), "MultiGeometry")
             finite = [(float(a), float(b), 0.0) for a, b, _ in pts if math.isfinite(a + b)]
             for part in _split_antimeridian(finite):
-                ls = _sub(geo, "LineString")
-                _sub(ls, "tessellate", "1")
-                _sub(ls, "coordinates", _coords(part))
+                _sub(geo, "LineString", tessellate="1", coordinates=_coords(part))
     ET.indent(root, space=" ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
@@ -328,12 +318,13 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
     """A CZML document (a JSON list of packets) replaying the schedule in Cesium."""
     from sosp.orbits import utc_at
 
+    utc = partial(utc_at, instance.epoch)
     cov = covered(instance, schedule)
     by_target = {k: u for u, k in cov}
     paths = satellite_paths(instance)
     t0 = float(instance.orbit_start.min()) if instance.n_orbits else 0.0
     t1 = float(instance.orbit_end.max()) if instance.n_orbits else 0.0
-    horizon = f"{utc_at(instance.epoch, t0)}/{utc_at(instance.epoch, t1)}"
+    horizon = f"{utc(t0)}/{utc(t1)}"
     packets: list[dict[str, Any]] = [
         {
             "id": "document",
@@ -341,7 +332,7 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
             "version": "1.0",
             "clock": {
                 "interval": horizon,
-                "currentTime": utc_at(instance.epoch, t0),
+                "currentTime": utc(t0),
                 "multiplier": 60,
                 "range": "LOOP_STOP",
                 "step": "SYSTEM_CLOCK_MULTIPLIER",
@@ -362,29 +353,26 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
             pkt["point"] = {"pixelSize": 6, "color": _rgba(220, 40, 40)}
         else:
             ob = schedule.observations[u]
-            t_end = utc_at(instance.epoch, ob.end)
+            t_end = utc(ob.end)
             pkt["description"] = (
                 f"weight {int(instance.target_weight[k])}; observed by "
-                f"{instance.orbit_satellite[ob.orbit]} {utc_at(instance.epoch, ob.start)} to "
-                f"{t_end}, roll {ob.roll:.2f} deg"
+                f"{instance.orbit_satellite[ob.orbit]} {utc(ob.start)} to {t_end}, "
+                f"roll {ob.roll:.2f} deg"
             )
             # Yellow until its observation ends, then green.
             pkt["point"] = {
                 "pixelSize": 8,
                 "color": [
-                    {"interval": f"{utc_at(instance.epoch, t0)}/{t_end}", **_rgba(240, 200, 0)},
-                    {
-                        "interval": f"{t_end}/{utc_at(instance.epoch, max(t1, ob.end))}",
-                        **_rgba(0, 190, 0),
-                    },
+                    {"interval": f"{utc(t0)}/{t_end}", **_rgba(240, 200, 0)},
+                    {"interval": f"{t_end}/{utc(max(t1, ob.end))}", **_rgba(0, 190, 0)},
                 ],
             }
         packets.append(pkt)
     for u, ob, ks, sat, desc in _observations(instance, schedule, cov):
         pkt = {
             "id": f"observation/{u}",
-            "name": f"{sat} {utc_at(instance.epoch, ob.start)}",
-            "availability": f"{utc_at(instance.epoch, ob.start)}/{utc_at(instance.epoch, ob.end)}",
+            "name": f"{sat} {utc(ob.start)}",
+            "availability": f"{utc(ob.start)}/{utc(ob.end)}",
             "description": desc,
             "properties": {
                 "satellite": sat,
@@ -442,43 +430,7 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
     return json.dumps(packets, indent=1, allow_nan=False) + "\n"
 
 
-# --------------------------------------------------------------------------- files, CLI
-def export_format(path: str | os.PathLike[str], fmt: str | None = None) -> str:
-    """The export format: ``fmt`` if given, else the file's extension (refused if unknown)."""
-    from sosp.errors import InputError
-
-    if fmt is not None:
-        if fmt not in FORMATS:
-            raise InputError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
-        return fmt
-    ext = Path(path).suffix.lower().lstrip(".")
-    if ext not in FORMATS:
-        raise InputError(
-            f"-o: cannot tell the format from {Path(path).name!r}; give --format "
-            f"({', '.join(FORMATS)}) or a .csv, .kml or .czml file"
-        )
-    return ext
-
-
-def export_text(instance: Instance, schedule: Schedule, fmt: str) -> str:
-    """The export of ``schedule`` in format ``fmt`` (one of :data:`FORMATS`)."""
-    return {"csv": export_csv, "kml": export_kml, "czml": export_czml}[fmt](instance, schedule)
-
-
-def write_export(
-    instance: Instance,
-    schedule: Schedule,
-    path: str | os.PathLike[str],
-    fmt: str | None = None,
-) -> str:
-    """Write the export atomically (:func:`sosp.io.atomic_write_text`); returns the format."""
-    from sosp.io import atomic_write_text
-
-    fmt = export_format(path, fmt)
-    atomic_write_text(path, export_text(instance, schedule, fmt))
-    return fmt
-
-
+# --------------------------------------------------------------------------- CLI
 def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``export`` to the ``sosp`` subcommands."""
     p = subparsers.add_parser(
@@ -502,15 +454,22 @@ def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def cmd_export(args: argparse.Namespace) -> int:
     """Handler of ``sosp export``."""
+    from sosp.errors import InputError
     from sosp.instance import load_instance
-    from sosp.io import check_output
+    from sosp.io import atomic_write_text, check_output
     from sosp.schedule import load_schedule
 
     check_output(args.output)
-    fmt = export_format(args.output, args.format)
+    fmt = args.format or Path(args.output).suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise InputError(
+            f"-o: cannot tell the format from {Path(args.output).name!r}; give --format "
+            f"({', '.join(FORMATS)}) or a .csv, .kml or .czml file"
+        )
     inst = load_instance(args.instance)
     sched = load_schedule(args.schedule, inst)
-    write_export(inst, sched, args.output, fmt)
+    exporter = {"csv": export_csv, "kml": export_kml, "czml": export_czml}[fmt]
+    atomic_write_text(args.output, exporter(inst, sched))
     n = len(covered(inst, sched))
     info = {
         "output": args.output,

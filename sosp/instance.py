@@ -17,12 +17,13 @@ million-opportunity instance takes minutes.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import zipfile
 import zlib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from datetime import datetime
 from functools import cached_property
 from pathlib import Path
@@ -35,6 +36,7 @@ from sosp.io import (
     atomic_output,
     atomic_write_text,
     is_finite_number,
+    read_bytes,
     read_json,
     reject_json_constant,
 )
@@ -100,6 +102,9 @@ class Resources:
 #: The resource keys of an orbit record, in file order.
 RESOURCE_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Resources))
 
+#: The columns of an opportunity besides its id (``opp_<key>`` in :meth:`Instance.from_arrays`).
+OPP_KEYS = ("target", "orbit", "start", "end", "roll", "roll_min", "roll_max")
+
 #: Largest target weight accepted: every profit, bound and sum of weights stays an integer
 #: that float64 holds exactly (the models and the LP bounds compute in floats) for up to
 #: nine million targets; a weight of 1e20 once wrapped to a negative int64 profit.
@@ -127,17 +132,12 @@ NPZ_TABLES: dict[str, tuple[tuple[str, str], ...]] = {
     ),
     "opportunities": (
         ("id", "U"),
-        ("target", "i"),
-        ("orbit", "i"),
-        ("start", "f"),
-        ("end", "f"),
-        ("roll", "f"),
-        ("roll_min", "f"),
-        ("roll_max", "f"),
+        *((k, "i" if k in ("target", "orbit") else "f") for k in OPP_KEYS),
     ),
 }
 
 _NPZ_KIND_NAMES = {"f": "float64", "i": "an integer dtype", "U": "a unicode string dtype"}
+_NPZ_KINDS = {"f": "f", "i": "iu", "U": "U"}
 
 #: The fixed time stamp of every .npz member, so one instance always gives the same bytes.
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)
@@ -148,35 +148,28 @@ _ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 MAX_OPENINGS = 2**31 - 1
 
 
-def _check_resource(key: str, value: Any, where: str) -> None:
+def _bad_resource(key: str, value: Any) -> Any:
+    """Where a resource value (or a numpy column of them) is out of its range."""
+    if key == "max_openings":
+        return (value < 0) | (value != np.round(value)) | (value > MAX_OPENINGS)
+    return value <= 0 if key in ("slew_rate", "max_duration") else value < 0
+
+
+def _check_resource(key: str, value: Any, where: str, source: str | None = None) -> None:
+    """Check a resource value, or a per-orbit float column of them (``where`` then names
+    its first bad row)."""
+    if isinstance(value, np.ndarray):
+        rows = np.flatnonzero(~np.isfinite(value) | _bad_resource(key, value))
+        if not rows.size:
+            return
+        where, value = f"{where}[{rows[0]}]", float(value[rows[0]])
     if not is_finite_number(value):
-        raise InputError(f"{where}.{key}: expected a finite number, got {value!r}")
-    if key == "max_openings":
-        if float(value) != int(value) or value < 0 or value > MAX_OPENINGS:
-            raise InputError(
-                f"{where}.{key}: expected an integer from 0 to {MAX_OPENINGS}, got {value!r}"
-            )
-    elif key in ("slew_rate", "max_duration"):
-        if value <= 0:
-            raise InputError(f"{where}.{key}: must be > 0, got {value!r}")
-    elif value < 0:
-        raise InputError(f"{where}.{key}: must be >= 0, got {value!r}")
-
-
-def _check_resource_column(key: str, arr: np.ndarray, source: str | None) -> None:
-    """Vectorised :func:`_check_resource` over a per-orbit column (first bad row named)."""
-    if key == "max_openings":
-        bad = ~np.isfinite(arr) | (arr < 0) | (arr != np.round(arr)) | (arr > MAX_OPENINGS)
-    elif key in ("slew_rate", "max_duration"):
-        bad = ~np.isfinite(arr) | (arr <= 0)
-    else:
-        bad = ~np.isfinite(arr) | (arr < 0)
-    rows = np.flatnonzero(bad)
-    if rows.size:  # the masks above are _check_resource's tests: it raises
-        try:
-            _check_resource(key, float(arr[rows[0]]), f"orbits[{rows[0]}]")
-        except InputError as exc:
-            raise InputError(str(exc), source=source) from None
+        raise InputError(f"{where}.{key}: expected a finite number, got {value!r}", source=source)
+    if _bad_resource(key, np.float64(value)):
+        need = {"max_openings": f"expected an integer from 0 to {MAX_OPENINGS}"}.get(
+            key, "must be > 0" if key in ("slew_rate", "max_duration") else "must be >= 0"
+        )
+        raise InputError(f"{where}.{key}: {need}, got {value!r}", source=source)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -293,9 +286,7 @@ class Instance:
     @cached_property
     def fingerprint(self) -> str:
         """A hash of the instance's content (name and meta excluded)."""
-        data = self.to_dict(layout="columns")
-        data.pop("name", None)
-        data.pop("meta", None)
+        data = {k: v for k, v in self.to_dict("columns").items() if k not in ("name", "meta")}
         blob = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
         return "sha256:" + hashlib.sha256(blob.encode()).hexdigest()
 
@@ -358,23 +349,27 @@ class Instance:
         _check_epoch(epoch, source)
         n_t, n_o, n_p = len(target_ids), len(orbit_ids), len(opp_target)
 
-        def col(values: Any, table: str, key: str, n: int, dtype: Any = float) -> np.ndarray:
+        def col(values: Any, table: str, key: str, n: int) -> np.ndarray:
             try:
-                arr = np.array(values, dtype=dtype).reshape(-1)
+                arr = np.array(values, dtype=float).reshape(-1)
             except (TypeError, ValueError):
                 raise InputError(f"{table}.{key}: expected numbers", source=source) from None
             if arr.shape != (n,):
                 raise InputError(
                     f"{table}.{key}: expected {n} values, got {arr.size}", source=source
                 )
-            if arr.dtype.kind == "f":
-                bad = np.flatnonzero(~np.isfinite(arr))
-                if bad.size:
-                    raise InputError(
-                        f"{table}[{bad[0]}].{key}: expected a finite number, got {arr[bad[0]]}",
-                        source=source,
-                    )
+            bad = np.flatnonzero(~np.isfinite(arr))
+            if bad.size:
+                raise InputError(
+                    f"{table}[{bad[0]}].{key}: expected a finite number, got {arr[bad[0]]}",
+                    source=source,
+                )
             return arr
+
+        def first(mask: np.ndarray, msg: str, table: str = "opportunities") -> None:
+            bad = np.flatnonzero(mask)
+            if bad.size:
+                raise InputError(f"{table}[{bad[0]}]: {msg}", source=source)
 
         tid = _ids(target_ids, "targets", source)
         lat = col(target_lat, "targets", "lat", n_t)
@@ -397,55 +392,41 @@ class Instance:
             raise InputError(f"orbits.satellite: expected {n_o} values", source=source)
         o_start = col(orbit_start, "orbits", "start", n_o)
         o_end = col(orbit_end, "orbits", "end", n_o)
-        bad = np.flatnonzero(o_start >= o_end)
-        if bad.size:
-            raise InputError(f"orbits[{bad[0]}]: start must be < end", source=source)
+        first(o_start >= o_end, "start must be < end", "orbits")
 
-        if resources is None:
-            resources = Resources()
+        if not isinstance(resources, Mapping):
+            resources = asdict(resources or Resources())
         res_cols: dict[str, np.ndarray] = {}
         for key in RESOURCE_KEYS:
-            if isinstance(resources, Resources):
-                value: Any = getattr(resources, key)
-            else:
-                if key not in resources:
-                    raise InputError(f"orbits: missing resource key {key!r}", source=source)
-                value = resources[key]
+            if key not in resources:
+                raise InputError(f"orbits: missing resource key {key!r}", source=source)
             try:
-                arr = np.broadcast_to(np.asarray(value, dtype=float), (n_o,)).copy()
+                arr = np.broadcast_to(np.asarray(resources[key], dtype=float), (n_o,)).copy()
             except (TypeError, ValueError):
                 raise InputError(f"orbits.{key}: expected {n_o} numbers", source=source) from None
-            _check_resource_column(key, arr, source)
+            _check_resource(key, arr, "orbits", source)
             if key == "max_openings":
                 arr = arr.astype(np.int64)
             res_cols[key] = arr
 
-        p_target = col(opp_target, "opportunities", "target", n_p, dtype=float)
-        p_orbit = col(opp_orbit, "opportunities", "orbit", n_p, dtype=float)
-        for arr, key, n in ((p_target, "target", n_t), (p_orbit, "orbit", n_o)):
+        values = (opp_target, opp_orbit, opp_start, opp_end, opp_roll, opp_roll_min, opp_roll_max)
+        opp = {k: col(v, "opportunities", k, n_p) for k, v in zip(OPP_KEYS, values, strict=True)}
+        for key, n in (("target", n_t), ("orbit", n_o)):
+            arr = opp[key]
             bad = np.flatnonzero((arr < 0) | (arr >= n) | (arr != np.round(arr)))
             if bad.size:
                 raise InputError(
                     f"opportunities[{bad[0]}].{key}: unknown {key} index {arr[bad[0]]:g}",
                     source=source,
                 )
-        # int32 indices: half the memory of int64 on instances with millions of opportunities
-        p_target = p_target.astype(INDEX_DTYPE)
-        p_orbit = p_orbit.astype(INDEX_DTYPE)
-        p_start = col(opp_start, "opportunities", "start", n_p)
-        p_end = col(opp_end, "opportunities", "end", n_p)
-        roll = col(opp_roll, "opportunities", "roll", n_p)
-        rmin = col(opp_roll_min, "opportunities", "roll_min", n_p)
-        rmax = col(opp_roll_max, "opportunities", "roll_max", n_p)
+            # int32 indices: half the memory of int64 on instances with millions of opportunities
+            opp[key] = arr.astype(INDEX_DTYPE)
         pid = _ids(opp_ids, "opportunities", source) if opp_ids is not None else None
         if pid is not None and len(pid) != n_p:
             raise InputError(f"opportunities.id: expected {n_p} values", source=source)
 
-        def first(mask: np.ndarray, msg: str) -> None:
-            bad = np.flatnonzero(mask)
-            if bad.size:
-                raise InputError(f"opportunities[{bad[0]}]: {msg}", source=source)
-
+        p_start, p_end, p_orbit = opp["start"], opp["end"], opp["orbit"]
+        roll, rmin, rmax = opp["roll"], opp["roll_min"], opp["roll_max"]
         first(p_start >= p_end, "start must be < end")
         first(
             (rmin > roll + DATA_TOL) | (roll > rmax + DATA_TOL), "need roll_min <= roll <= roll_max"
@@ -467,7 +448,7 @@ class Instance:
             pid = tuple(f"o{i + 1}" for i in range(n_p))
         elif isinstance(order, np.ndarray):
             pid = tuple(pid[i] for i in order)
-        inst = cls(
+        return cls(
             epoch=epoch,
             target_ids=tid,
             target_lat=_readonly(lat),
@@ -479,17 +460,10 @@ class Instance:
             orbit_end=_readonly(o_end),
             **{k: _readonly(v) for k, v in res_cols.items()},
             opp_ids=pid,
-            opp_target=_readonly(p_target[order]),
-            opp_orbit=_readonly(p_orbit[order]),
-            opp_start=_readonly(p_start[order]),
-            opp_end=_readonly(p_end[order]),
-            opp_roll=_readonly(roll[order]),
-            opp_roll_min=_readonly(rmin[order]),
-            opp_roll_max=_readonly(rmax[order]),
+            **{f"opp_{k}": _readonly(v[order]) for k, v in opp.items()},
             name=str(name),
             meta=dict(meta or {}),
         )
-        return inst
 
     @classmethod
     def build(
@@ -533,20 +507,19 @@ class Instance:
             wts = list(weights)
             tids = [f"t{i}" for i in range(len(wts))]
         index = {t: i for i, t in enumerate(tids)}
-        rows = [tuple(r) for r in opportunities]
         cols = []
-        for r, row in enumerate(rows):
+        for r, row in enumerate(map(tuple, opportunities)):
             if len(row) not in (5, 7):
                 raise InputError(f"opportunities[{r}]: expected 5 or 7 fields, got {len(row)}")
-            t = row[0]
-            if isinstance(t, str):
-                if t not in index:
-                    raise InputError(f"opportunities[{r}].target: unknown target {t!r}")
-                t = index[t]
+            t = index.get(row[0], -1) if isinstance(row[0], str) else row[0]
+            if t == -1:
+                raise InputError(f"opportunities[{r}].target: unknown target {row[0]!r}")
             roll = float(row[4])
             rng = row[5:] if len(row) == 7 else (max(-33.0, roll - 3.0), min(33.0, roll + 3.0))
             cols.append((t, row[1], *map(float, row[2:5]), *map(float, rng)))
-        tgt, orb, st, en, ro, lo, hi = map(list, zip(*cols, strict=True)) if cols else [[]] * 7
+        columns = map(list, zip(*cols, strict=True)) if cols else [[]] * 7
+        opp = dict(zip(OPP_KEYS, columns, strict=True))
+        orb, st, en = opp["orbit"], opp["start"], opp["end"]
         m = n_orbits if n_orbits is not None else (max(orb) + 1 if orb else 1)
         length = orbit_length if orbit_length is not None else max([*en, 0.0]) + 1.0
         lo_start = min([*st, 0.0])
@@ -561,29 +534,27 @@ class Instance:
             orbit_start=np.full(m, lo_start),
             orbit_end=np.full(m, length),
             resources=resources or Resources(),
-            opp_target=tgt,
-            opp_orbit=orb,
-            opp_start=st,
-            opp_end=en,
-            opp_roll=ro,
-            opp_roll_min=lo,
-            opp_roll_max=hi,
             name=name,
+            **{f"opp_{k}": v for k, v in opp.items()},
         )
 
     # ------------------------------------------------------------ (de)serialise
     def _columns(self) -> dict[str, dict[str, Any]]:
         """The tables as columns in file order (:data:`NPZ_TABLES`): numpy arrays, and tuples
         for the ids; the opportunities' ``target`` and ``orbit`` as row indices."""
-        prefix = {"targets": "target_", "orbits": "orbit_", "opportunities": "opp_"}
         return {
-            table: {
-                k: getattr(
-                    self, k if k in RESOURCE_KEYS else prefix[table] + ("ids" if k == "id" else k)
-                )
-                for k, _ in spec
-            }
+            table: {k: getattr(self, _attribute(table, k)) for k, _ in spec}
             for table, spec in NPZ_TABLES.items()
+        }
+
+    def _header(self, fmt: str, version: int) -> dict[str, Any]:
+        """The scalar fields of a file (JSON's top level, the .npz header entry)."""
+        return {
+            "format": fmt,
+            "version": version,
+            "name": self.name,
+            "epoch": self.epoch,
+            "meta": dict(self.meta),
         }
 
     def to_dict(self, layout: str = "records") -> dict[str, Any]:
@@ -594,18 +565,11 @@ class Instance:
         )
         opps["target"] = [self.target_ids[i] for i in self.opp_target]
         opps["orbit"] = [self.orbit_ids[j] for j in self.opp_orbit]
-        if layout == "records":
-            conv = _to_records
-        elif layout == "columns":
-            conv = dict
-        else:
+        conv = {"records": _to_records, "columns": dict}.get(layout)
+        if conv is None:
             raise InputError(f"layout: expected 'records' or 'columns', got {layout!r}")
         return {
-            "format": FORMAT_NAME,
-            "version": FORMAT_VERSION,
-            "name": self.name,
-            "epoch": self.epoch,
-            "meta": dict(self.meta),
+            **self._header(FORMAT_NAME, FORMAT_VERSION),
             "targets": conv(targets),
             "orbits": conv(orbits),
             "opportunities": conv(opps),
@@ -616,24 +580,10 @@ class Instance:
         """Validate a dict read from an instance file and build the instance."""
         if not isinstance(data, dict):
             raise InputError("expected a JSON object at the top level", source=source)
-        fmt = data.get("format", FORMAT_NAME)
-        if fmt != FORMAT_NAME:
-            raise InputError(f"format: expected {FORMAT_NAME!r}, got {fmt!r}", source=source)
-        version = data.get("version", FORMAT_VERSION)
-        if version != FORMAT_VERSION:
-            raise InputError(
-                f"version: this sosp reads version {FORMAT_VERSION}, got {version!r}",
-                source=source,
-            )
-        for key in ("epoch", "targets", "orbits", "opportunities"):
+        _check_header(data, "", source)
+        for key in ("targets", "orbits", "opportunities"):
             if key not in data:
                 raise InputError(f"missing key {key!r}", source=source)
-        name = data.get("name", "")
-        if not isinstance(name, str):
-            raise InputError("name: expected a string", source=source)
-        meta = data.get("meta", {})
-        if not isinstance(meta, dict):
-            raise InputError("meta: expected an object", source=source)
 
         # the JSON tables have the columns of the .npz ones; opportunities name their
         # target and orbit by id
@@ -654,7 +604,7 @@ class Instance:
         for key, table in (("target", targets), ("orbit", orbits)):
             index = {t: i for i, t in enumerate(table["id"])}
             opps[key] = _refs(opps[key], index, "opportunities", key, source)
-        return _from_tables(data["epoch"], targets, orbits, opps, name, meta, source)
+        return _from_tables(data, tables, source)
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
         """The instance as the named arrays of a ``.npz`` file (see :data:`NPZ_TABLES`).
@@ -669,13 +619,7 @@ class Instance:
         InputError
             If an id ends with a NUL character, which a numpy unicode array cannot hold.
         """
-        header = {
-            "format": NPZ_FORMAT_NAME,
-            "version": NPZ_FORMAT_VERSION,
-            "name": self.name,
-            "epoch": self.epoch,
-            "meta": dict(self.meta),
-        }
+        header = self._header(NPZ_FORMAT_NAME, NPZ_FORMAT_VERSION)
         out: dict[str, np.ndarray] = {
             # meta keys in their order: a .json saved from a loaded .npz is the same file
             NPZ_HEADER: np.array(json.dumps(header, allow_nan=False))
@@ -779,15 +723,7 @@ def _read_npz(path: str | os.PathLike[str]) -> Instance:
     """Read a ``.npz`` instance (never unpickling) and validate it as :meth:`from_arrays`
     validates any instance; every problem is one :class:`InputError` line naming the array."""
     src = str(path)
-    try:
-        fh = open(path, "rb")  # noqa: SIM115 (closed below, after the arrays are read)
-    except FileNotFoundError:
-        raise InputError("file not found", source=src) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not a file", source=src) from None
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc}", source=src) from None
-    with fh:
+    with io.BytesIO(read_bytes(path)) as fh:
         try:
             is_zip = zipfile.is_zipfile(fh)
             fh.seek(0)
@@ -821,37 +757,25 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
     extra = sorted(names - expected)
     if extra:
         raise InputError(f"unexpected array {extra[0]!r}", source=src)
-    cols: dict[str, np.ndarray] = {}
+    tables: dict[str, dict[str, np.ndarray]] = {table: {} for table in NPZ_TABLES}
     for table, spec in NPZ_TABLES.items():
-        n = None
         for key, kind in spec:
             full = f"{table}.{key}"
             arr = get(full)
             if arr.ndim != 1:
                 raise InputError(f"{full}: expected a 1-d array, got shape {arr.shape}", source=src)
             dt = arr.dtype
-            ok = (
-                (dt.kind == "f" and dt.itemsize == 8)
-                if kind == "f"
-                else (dt.kind in "iu" if kind == "i" else dt.kind == "U")
-            )
-            if not ok:
+            if dt.kind not in _NPZ_KINDS[kind] or (kind == "f" and dt.itemsize != 8):
                 raise InputError(
                     f"{full}: expected {_NPZ_KIND_NAMES[kind]}, got dtype {dt}", source=src
                 )
-            if n is None:
-                n = len(arr)
-            elif len(arr) != n:
+            n = len(tables[table].get("id", arr))
+            if len(arr) != n:
                 raise InputError(
                     f"{full}: has {len(arr)} values, expected {n} (as {table}.id)", source=src
                 )
-            cols[full] = arr
-
-    def table(name: str) -> dict[str, np.ndarray]:
-        return {k: cols[f"{name}.{k}"] for k, _ in NPZ_TABLES[name]}
-
-    targets, orbits, opps = table("targets"), table("orbits"), table("opportunities")
-    return _from_tables(header["epoch"], targets, orbits, opps, header["name"], header["meta"], src)
+            tables[table][key] = arr
+    return _from_tables(header, tables, src)
 
 
 def _as_list(values: Any) -> Any:
@@ -860,39 +784,34 @@ def _as_list(values: Any) -> Any:
 
 
 def _from_tables(
-    epoch: Any,
-    targets: Mapping[str, Any],
-    orbits: Mapping[str, Any],
-    opps: Mapping[str, Any],
-    name: str | None,
-    meta: Any,
-    source: str | None,
+    head: Mapping[str, Any], tables: Mapping[str, Mapping[str, Any]], source: str | None
 ) -> Instance:
     """:meth:`Instance.from_arrays` from the three tables as columns (JSON and ``.npz``
-    readers), the opportunities' target and orbit already resolved to rows by the caller."""
+    readers), the opportunities' target and orbit already resolved to rows by the caller;
+    ``head`` holds the epoch, name and meta."""
+    cols = {
+        _attribute(table, k): _as_list(v) if k in ("id", "satellite") else v
+        for table, values in tables.items()
+        for k, v in values.items()
+    }
     return Instance.from_arrays(
-        epoch=epoch,
-        target_ids=_as_list(targets["id"]),
-        target_lat=targets["lat"],
-        target_lon=targets["lon"],
-        target_weight=targets["weight"],
-        orbit_ids=_as_list(orbits["id"]),
-        orbit_satellite=_as_list(orbits["satellite"]),
-        orbit_start=orbits["start"],
-        orbit_end=orbits["end"],
-        resources={k: orbits[k] for k in RESOURCE_KEYS},
-        opp_ids=_as_list(opps["id"]),
-        opp_target=opps["target"],
-        opp_orbit=opps["orbit"],
-        opp_start=opps["start"],
-        opp_end=opps["end"],
-        opp_roll=opps["roll"],
-        opp_roll_min=opps["roll_min"],
-        opp_roll_max=opps["roll_max"],
-        name=name,
-        meta=meta,
+        epoch=head["epoch"],
+        resources={k: cols.pop(k) for k in RESOURCE_KEYS},
+        name=head.get("name", ""),
+        meta=head.get("meta", {}),
         source=source,
+        **cols,
     )
+
+
+def _attribute(table: str, key: str) -> str:
+    """The :class:`Instance` attribute of a column of :data:`NPZ_TABLES` (``opp_roll`` for
+    the opportunities' ``roll``, ``target_ids`` for the targets' ``id``; resources as they
+    are)."""
+    if key in RESOURCE_KEYS:
+        return key
+    prefix = {"targets": "target_", "orbits": "orbit_", "opportunities": "opp_"}[table]
+    return prefix + ("ids" if key == "id" else key)
 
 
 def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
@@ -909,27 +828,32 @@ def _npz_header(arr: np.ndarray, src: str) -> dict[str, Any]:
         raise InputError(f"{NPZ_HEADER}: malformed JSON: {exc}", source=src) from None
     if not isinstance(header, dict):
         raise InputError(f"{NPZ_HEADER}: expected a JSON object", source=src)
-    fmt = header.get("format")
-    if fmt != NPZ_FORMAT_NAME:
-        raise InputError(
-            f"{NPZ_HEADER}.format: expected {NPZ_FORMAT_NAME!r}, got {fmt!r}", source=src
-        )
-    version = header.get("version")
-    if version != NPZ_FORMAT_VERSION or isinstance(version, bool):
-        raise InputError(
-            f"{NPZ_HEADER}.version: this sosp reads .npz version {NPZ_FORMAT_VERSION}, "
-            f"got {version!r}",
-            source=src,
-        )
-    if "epoch" not in header:
-        raise InputError(f"{NPZ_HEADER}: missing key 'epoch'", source=src)
-    header.setdefault("name", "")
-    header.setdefault("meta", {})
-    if not isinstance(header["name"], str):
-        raise InputError(f"{NPZ_HEADER}.name: expected a string", source=src)
-    if not isinstance(header["meta"], dict):
-        raise InputError(f"{NPZ_HEADER}.meta: expected an object", source=src)
+    _check_header(header, NPZ_HEADER, src)
     return header
+
+
+def _check_header(data: dict[str, Any], where: str, source: str | None) -> None:
+    """Check the format, version, epoch, name and meta of an instance file's top level
+    (``where`` "") or of a .npz file's header entry (``where`` :data:`NPZ_HEADER`, where the
+    format and version must be given)."""
+    npz = where == NPZ_HEADER
+    fmt, version = (NPZ_FORMAT_NAME, NPZ_FORMAT_VERSION) if npz else (FORMAT_NAME, FORMAT_VERSION)
+    at = f"{where}." if where else ""
+    got = data.get("format", None if npz else fmt)
+    if got != fmt:
+        raise InputError(f"{at}format: expected {fmt!r}, got {got!r}", source=source)
+    got = data.get("version", None if npz else version)
+    if got != version or isinstance(got, bool):
+        raise InputError(
+            f"{at}version: this sosp reads {'.npz ' if npz else ''}version {version}, got {got!r}",
+            source=source,
+        )
+    if "epoch" not in data:
+        raise InputError(f"{where}{': ' if where else ''}missing key 'epoch'", source=source)
+    if not isinstance(data.get("name", ""), str):
+        raise InputError(f"{at}name: expected a string", source=source)
+    if not isinstance(data.get("meta", {}), dict):
+        raise InputError(f"{at}meta: expected an object", source=source)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -964,8 +888,7 @@ def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ..
         unique = set(vals)
         if len(unique) == len(vals) and "" not in unique:
             return tuple(vals)
-    out: list[str] = []
-    seen: set[str] = set()
+    seen: dict[str, None] = {}  # in order
     for r, v in enumerate(vals):
         if isinstance(v, bool) or not isinstance(v, str | int | np.integer):
             raise InputError(f"{table}[{r}].id: expected a string or integer", source=source)
@@ -974,9 +897,8 @@ def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ..
             raise InputError(f"{table}[{r}].id: must not be empty", source=source)
         if s in seen:
             raise InputError(f"{table}[{r}].id: duplicate id {s!r}", source=source)
-        seen.add(s)
-        out.append(s)
-    return tuple(out)
+        seen[s] = None
+    return tuple(seen)
 
 
 def _refs(
@@ -1026,15 +948,13 @@ def _table(
                 cols[k].append(rec[k])
         return cols
     if isinstance(value, dict):
-        n = None
         for k in keys:
             if k not in value:
                 raise InputError(f"{name}: missing column {k!r}", source=source)
             if not isinstance(value[k], list):
                 raise InputError(f"{name}.{k}: expected a list", source=source)
-            if n is None:
-                n = len(value[k])
-            elif len(value[k]) != n:
+            if len(value[k]) != len(value[keys[0]]):  # the first column checked first
+                n = len(value[keys[0]])
                 raise InputError(
                     f"{name}.{k}: has {len(value[k])} values, expected {n}", source=source
                 )

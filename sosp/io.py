@@ -100,31 +100,44 @@ def reject_json_constant(name: str) -> float:
     raise ValueError(f"{name} is not valid JSON")
 
 
+def read_bytes(path: str | os.PathLike[str]) -> bytes:
+    """A file's content; :class:`InputError` names the file when it is missing, a folder or
+    unreadable."""
+    src = str(Path(path))
+    try:
+        return Path(path).read_bytes()
+    except FileNotFoundError:
+        raise InputError("file not found", source=src) from None
+    except IsADirectoryError:
+        raise InputError("is a directory, not a file", source=src) from None
+    except OSError as exc:
+        raise InputError(f"cannot read: {exc}", source=src) from None
+
+
+def read_text(path: str | os.PathLike[str], encoding: str = "utf-8") -> str:
+    """A text file's content, gzip-decompressed first when its name ends in ``.gz``;
+    :class:`InputError` names the file (see :func:`read_bytes`)."""
+    data = read_bytes(path)
+    try:
+        return (gzip.decompress(data) if str(path).endswith(".gz") else data).decode(encoding)
+    except (OSError, UnicodeDecodeError, EOFError) as exc:
+        raise InputError(f"cannot read: {exc}", source=str(Path(path))) from None
+
+
 def read_json(path: str | os.PathLike[str]) -> Any:
     """Read a JSON file, raising :class:`InputError` naming the file and position on failure.
 
     A file whose name ends in ``.gz`` is gzip-decompressed first.
     """
-    p = Path(path)
-    try:
-        if p.name.endswith(".gz"):
-            text = gzip.decompress(p.read_bytes()).decode("utf-8")
-        else:
-            text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("file not found", source=str(p)) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not a file", source=str(p)) from None
-    except (OSError, UnicodeDecodeError, EOFError) as exc:
-        raise InputError(f"cannot read: {exc}", source=str(p)) from None
+    text, src = read_text(path), str(Path(path))
     try:
         return json.loads(text, parse_constant=reject_json_constant)
     except json.JSONDecodeError as exc:
         raise InputError(
-            f"malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=str(p)
+            f"malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", source=src
         ) from None
     except ValueError as exc:
-        raise InputError(f"malformed JSON: {exc}", source=str(p)) from None
+        raise InputError(f"malformed JSON: {exc}", source=src) from None
 
 
 def is_finite_number(value: Any) -> bool:

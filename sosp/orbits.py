@@ -45,6 +45,7 @@ import numpy as np
 from sgp4.api import SGP4_ERRORS, WGS72, Satrec, SatrecArray, jday
 
 from sosp.errors import InputError
+from sosp.io import read_text
 
 log = logging.getLogger(__name__)
 
@@ -56,36 +57,6 @@ _JD_1949 = 2433281.5
 _JD_J2000 = 2451545.0
 #: TLE line length (columns 1-69).
 TLE_LINE_LENGTH = 69
-
-__all__ = [
-    "DAY",
-    "EphemerisGrid",
-    "Revolutions",
-    "Satellite",
-    "ascending_nodes",
-    "builtin_satellites",
-    "ephemeris_grids",
-    "element_epoch",
-    "format_epoch",
-    "from_elements",
-    "gmst",
-    "mean_motion_rev_per_day",
-    "parse_epoch",
-    "parse_tle",
-    "propagate",
-    "read_tle",
-    "revolutions",
-    "seconds_after",
-    "seconds_between",
-    "stale_elements",
-    "sun_direction_ecef",
-    "sun_synchronous_inclination",
-    "teme_to_ecef",
-    "tle_checksum",
-    "utc_at",
-    "utc_iso",
-    "walker_delta",
-]
 
 
 # --------------------------------------------------------------------------- time
@@ -143,13 +114,6 @@ def utc_iso(time: str, field: str = "start") -> str:
         ) from None
 
 
-def seconds_between(a: str, b: str) -> float:
-    """Seconds from ISO 8601 time ``a`` to ``b``."""
-    ja, fa = parse_epoch(a)
-    jb, fb = parse_epoch(b)
-    return ((jb - ja) + (fb - fa)) * DAY
-
-
 def element_epoch(sat: Satellite) -> str:
     """The epoch of a satellite's element set, ISO 8601 UTC."""
     return format_epoch(*sat.epoch)
@@ -169,13 +133,9 @@ def stale_elements(
         The satellite and the longest propagation its elements need over
         ``[start, start + hours]``, in days.
     """
-    out = []
-    for s in satellites:
-        t0 = seconds_between(element_epoch(s), start)
-        far = max(abs(t0), abs(t0 + hours * 3600.0)) / DAY
-        if far > max_days:
-            out.append((s.name, far))
-    return out
+    offsets = [(s.name, seconds_after(element_epoch(s), start)) for s in satellites]
+    far = [(name, max(abs(t0), abs(t0 + hours * 3600.0)) / DAY) for name, t0 in offsets]
+    return [(name, days) for name, days in far if days > max_days]
 
 
 def utc_at(epoch: str, seconds: float) -> str:
@@ -384,19 +344,13 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
     while k < len(lines):
         lineno, name = lines[k]
         # a two-line set (no name line) starts with line 1: "1 NNNNN..." of 69 characters
-        if name.startswith("1 ") and len(name) == TLE_LINE_LENGTH and name[68].isdigit():
-            if k + 1 >= len(lines):
-                raise InputError(f"line {lineno}: TLE line 1 lacks its line 2", source=source)
-            (n1, l1), (n2, l2) = lines[k], lines[k + 1]
-            step = 2
-        else:
-            if k + 2 >= len(lines):
-                raise InputError(
-                    f"line {lineno}: satellite {name.strip()!r} lacks its two element lines",
-                    source=source,
-                )
-            (n1, l1), (n2, l2) = lines[k + 1], lines[k + 2]
-            step = 3
+        two = name.startswith("1 ") and len(name) == TLE_LINE_LENGTH and name[68].isdigit()
+        step = 2 if two else 3
+        if k + step > len(lines):
+            who = "TLE line 1" if two else f"satellite {name.strip()!r}"
+            lacks = "its line 2" if two else "its two element lines"
+            raise InputError(f"line {lineno}: {who} lacks {lacks}", source=source)
+        (n1, l1), (n2, l2) = lines[k + step - 2 : k + step]
         _check_tle_line(l1, "1", n1, source)
         _check_tle_line(l2, "2", n2, source)
         if l1[2:7] != l2[2:7]:
@@ -406,7 +360,7 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
                 source=source,
             )
         # a two-line set is named by its catalogue number
-        display = l1[2:7].strip() if step == 2 else name.strip().removeprefix("0 ").strip()
+        display = l1[2:7].strip() if two else name.strip().removeprefix("0 ").strip()
         if not display:
             raise InputError(f"line {lineno}: empty satellite name", source=source)
         if display in names:
@@ -435,14 +389,7 @@ def parse_tle(text: str, source: str = "<tle>") -> list[Satellite]:
 
 def read_tle(path: str | os.PathLike[str]) -> list[Satellite]:
     """Read satellites from a two- or three-line element file (see :func:`parse_tle`)."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("file not found", source=str(p)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", source=str(p)) from None
-    return parse_tle(text, source=str(p))
+    return parse_tle(read_text(path), source=str(Path(path)))
 
 
 def from_elements(
@@ -531,14 +478,10 @@ def builtin_satellites(names: list[str] | tuple[str, ...] | None = None) -> list
         )
         for rec in data["satellites"]
     }
-    if names is None:
-        return list(by_name.values())
-    out = []
-    for n in names:
+    for n in names or ():
         if n not in by_name:
             raise InputError(f"unknown built-in satellite {n!r}; known: {', '.join(by_name)}")
-        out.append(by_name[n])
-    return out
+    return list(by_name.values()) if names is None else [by_name[n] for n in names]
 
 
 # --------------------------------------------------------------------------- propagation
@@ -571,21 +514,20 @@ def propagate(satellites: list[Satellite], epoch: str, t: Any) -> tuple[np.ndarr
     arr = SatrecArray([s.satrec for s in satellites])
     err, r, v = arr.sgp4(jd, fr)
     bad = err != 0
-    if bad.any():
-        for i in np.flatnonzero(bad.any(axis=1)):
-            code = int(err[i][bad[i]][0])
-            log.warning(
-                "sgp4 failed for %s at %d of %d times, the first at %s (error %d: %s); no "
-                "opportunity at those times",
-                satellites[i].name,
-                int(bad[i].sum()),
-                t.size,
-                utc_at(epoch, float(t[bad[i]][0])),
-                code,
-                SGP4_ERRORS.get(code, "unknown"),
-            )
-        r[bad] = np.nan
-        v[bad] = np.nan
+    for i in np.flatnonzero(bad.any(axis=1)):
+        code = int(err[i][bad[i]][0])
+        log.warning(
+            "sgp4 failed for %s at %d of %d times, the first at %s (error %d: %s); no "
+            "opportunity at those times",
+            satellites[i].name,
+            int(bad[i].sum()),
+            t.size,
+            utc_at(epoch, float(t[bad[i]][0])),
+            code,
+            SGP4_ERRORS.get(code, "unknown"),
+        )
+    r[bad] = np.nan
+    v[bad] = np.nan
     return teme_to_ecef(r, v, jd, fr)
 
 
@@ -608,11 +550,8 @@ class EphemerisGrid:
     """
 
     def __init__(self, t0: float, step: float, r: np.ndarray, v: np.ndarray) -> None:
-        self.t0 = float(t0)
-        self.step = float(step)
-        self.r = np.ascontiguousarray(r)
-        self.v = np.ascontiguousarray(v)
-        self.n = len(r)
+        self.t0, self.step, self.n = float(t0), float(step), len(r)
+        self.r, self.v = np.ascontiguousarray(r), np.ascontiguousarray(v)
 
     def state(self, t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Interpolated position, velocity and acceleration at times ``t`` (any shape).
@@ -696,8 +635,7 @@ def ascending_nodes(grid: EphemerisGrid, t_start: float, t_end: float) -> np.nda
     Coarse detection of ``z < 0 <= z_next`` on the grid, then safeguarded Newton iterations on
     the interpolated ``z(t)`` inside each bracketing cell (vectorised over crossings).
     """
-    z = grid.r[:, 2]
-    vz = grid.v[:, 2]
+    z, vz = grid.r[:, 2], grid.v[:, 2]
     cell = np.flatnonzero((z[:-1] < 0) & (z[1:] >= 0))
     if cell.size == 0:
         return np.empty(0)
@@ -764,12 +702,6 @@ _J2 = 0.001082616
 _SUN_RATE = 2.0 * math.pi / (365.2421897 * DAY)
 
 
-def mean_motion_rev_per_day(altitude_km: float) -> float:
-    """Two-body mean motion of a circular orbit ``altitude_km`` above the WGS72 equator."""
-    a = _EARTH_RADIUS_KM + altitude_km
-    return math.sqrt(_MU_KM3_S2 / a**3) * DAY / (2.0 * math.pi)
-
-
 def sun_synchronous_inclination(altitude_km: float) -> float:
     """Inclination (deg) of the circular sun-synchronous orbit at ``altitude_km``.
 
@@ -830,23 +762,20 @@ def walker_delta(
         raise InputError(f"walker: altitude must be in [150, 40000] km, got {altitude_km}")
     incl = sun_synchronous_inclination(altitude_km) if inclination is None else inclination
     per_plane = total // planes
-    n = mean_motion_rev_per_day(altitude_km)
-    sats = []
-    for p in range(planes):
-        for s in range(per_plane):
-            anomaly = 360.0 * s / per_plane + 360.0 * phasing * p / total
-            sats.append(
-                from_elements(
-                    f"{prefix}{p:02d}-{s:02d}",
-                    epoch=epoch,
-                    inclination=incl,
-                    raan=360.0 * p / planes,
-                    eccentricity=0.0,
-                    arg_perigee=0.0,
-                    mean_anomaly=anomaly % 360.0,
-                    mean_motion=n,
-                    norad=90000 + len(sats),
-                    note=f"Walker-delta {total}/{planes}/{phasing} at {altitude_km:g} km",
-                )
-            )
-    return sats
+    n = math.sqrt(_MU_KM3_S2 / (_EARTH_RADIUS_KM + altitude_km) ** 3) * DAY / (2.0 * math.pi)
+    return [
+        from_elements(
+            f"{prefix}{p:02d}-{s:02d}",
+            epoch=epoch,
+            inclination=incl,
+            raan=360.0 * p / planes,
+            eccentricity=0.0,
+            arg_perigee=0.0,
+            mean_anomaly=(360.0 * s / per_plane + 360.0 * phasing * p / total) % 360.0,
+            mean_motion=n,
+            norad=90000 + p * per_plane + s,
+            note=f"Walker-delta {total}/{planes}/{phasing} at {altitude_km:g} km",
+        )
+        for p in range(planes)
+        for s in range(per_plane)
+    ]

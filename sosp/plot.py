@@ -21,6 +21,7 @@ import argparse
 import json
 import os
 import sys
+from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -65,13 +66,8 @@ def map_extent(lat: np.ndarray, lon: np.ndarray) -> tuple[float, float, float, f
     mx = max(1.0, MAP_MARGIN * (x1 - x0))
     my = max(1.0, MAP_MARGIN * (y1 - y0))
     lo_min, lo_max = (0.0, 360.0) if wrap else (-180.0, 180.0)
-    return (
-        max(lo_min, x0 - mx),
-        min(lo_max, x1 + mx),
-        max(-90.0, y0 - my),
-        min(90.0, y1 + my),
-        wrap,
-    )
+    x0, x1 = max(lo_min, x0 - mx), min(lo_max, x1 + mx)
+    return x0, x1, max(-90.0, y0 - my), min(90.0, y1 + my), wrap
 
 
 def _clock(epoch: str, t: float) -> str:
@@ -97,25 +93,18 @@ def ground_tracks(instance: Instance) -> dict[str, tuple[np.ndarray, np.ndarray]
     """
     import numpy as np
 
-    meta = dict(instance.meta)
-    if meta.get("satellite_source") != "builtin" or not meta.get("satellites"):
-        return None
-    from sosp.orbits import builtin_satellites, propagate
+    from sosp.export import instance_satellites, subsatellite_points
 
-    try:
-        sats = builtin_satellites(list(meta["satellites"]))
-    except Exception:  # noqa: BLE001 - unknown names: no tracks rather than no plot
+    meta = dict(instance.meta)
+    builtin = meta.get("satellite_source") == "builtin" and meta.get("satellites")
+    sats = instance_satellites(instance) if builtin else None
+    if not sats:
         return None
     t0 = float(instance.orbit_start.min()) if instance.n_orbits else 0.0
     t1 = float(instance.orbit_end.max()) if instance.n_orbits else 0.0
     t = np.arange(t0, t1 + TRACK_STEP, TRACK_STEP)
-    r, _ = propagate(sats, instance.epoch, t)
-    out = {}
-    for s, pos in zip(sats, r, strict=True):
-        lat = np.degrees(np.arctan2(pos[:, 2], np.hypot(pos[:, 0], pos[:, 1])))
-        lon = np.degrees(np.arctan2(pos[:, 1], pos[:, 0]))
-        out[s.name] = (lat, lon)
-    return out
+    points = subsatellite_points(sats, instance.epoch, t)
+    return {name: (p[:, 0], p[:, 1]) for name, p in points.items()}
 
 
 def plot_schedule(
@@ -151,16 +140,12 @@ def plot_schedule(
     """
     import matplotlib.pyplot as plt
 
-    from sosp.errors import InputError
     from sosp.io import atomic_output
 
-    target = Path(path)
-    fmt = plot_format(target)
-    if not target.parent.is_dir():
-        raise InputError(f"output folder does not exist: {target.parent}")
+    fmt = plot_format(path)
     fig, info = schedule_figure(instance, schedule, title, max_orbits, utc)
     try:
-        with atomic_output(target, suffix=f".{fmt}") as tmp:
+        with atomic_output(path, suffix=f".{fmt}") as tmp:
             fig.savefig(tmp, dpi=110, format=fmt)
     finally:
         plt.close(fig)
@@ -196,12 +181,9 @@ def schedule_figure(
     orbits.sort(key=lambda j: (float(inst.orbit_start[j]), j) if utc else j)
     row = {j: r for r, j in enumerate(orbits)}
 
+    size = (14, max(4.5, 0.22 * len(orbits) + 2.5))
     fig, (ax_g, ax_m) = plt.subplots(
-        1,
-        2,
-        figsize=(14, max(4.5, 0.22 * len(orbits) + 2.5)),
-        width_ratios=[1.3, 1],
-        layout="constrained",
+        1, 2, figsize=size, width_ratios=[1.3, 1], layout="constrained"
     )
     # Gantt: x is seconds from the orbit's start, or UTC clock time as matplotlib dates.
     scale = 86400.0 if utc else 1.0  # seconds per x unit
@@ -227,32 +209,26 @@ def schedule_figure(
             (row[j] - 0.15, 0.3),
             facecolors="0.75",
         )
-    by_orbit: dict[int, list[Any]] = {}
-    for ob in schedule.observations:
-        by_orbit.setdefault(ob.orbit, []).append(ob)
     n_clusters = 0
-    for j, obs in by_orbit.items():
+    for prev, ob in pairwise((None, *schedule.observations)):  # sorted by (orbit, start)
+        j = ob.orbit
         if j not in row:
             continue
-        obs.sort(key=lambda o: o.start)
-        r = orbit_rules(inst, j)
-        for n, ob in enumerate(obs):
-            if n:
-                need = r.setup_time + r.turn(obs[n - 1].roll, ob.roll)  # (3)
-                ax_g.broken_barh(
-                    [(x_of(j, ob.start - need), dx(need))],
-                    (row[j] - 0.3, 0.6),
-                    facecolors="#f4a6a6",
-                )
-            cluster = len(ob.opps) > 1
-            n_clusters += cluster
+        if prev is not None and prev.orbit == j:
+            r = orbit_rules(inst, j)
+            need = r.setup_time + r.turn(prev.roll, ob.roll)  # (3)
             ax_g.broken_barh(
-                [(x_of(j, ob.start), dx(ob.end - ob.start))],
-                (row[j] - 0.35, 0.7),
-                facecolors="#e8890c" if cluster else "#2b6cb0",
+                [(x_of(j, ob.start - need), dx(need))], (row[j] - 0.3, 0.6), facecolors="#f4a6a6"
             )
-            if cluster:
-                ax_g.text(x_of(j, ob.end), row[j], f" {len(ob.opps)}", va="center", fontsize=6)
+        cluster = len(ob.opps) > 1
+        n_clusters += cluster
+        ax_g.broken_barh(
+            [(x_of(j, ob.start), dx(ob.end - ob.start))],
+            (row[j] - 0.35, 0.7),
+            facecolors="#e8890c" if cluster else "#2b6cb0",
+        )
+        if cluster:
+            ax_g.text(x_of(j, ob.end), row[j], f" {len(ob.opps)}", va="center", fontsize=6)
     labels = [inst.orbit_ids[j] for j in orbits]
     if utc:  # each pass's first opportunity, clock time: the axis spans the whole horizon
         first = [
@@ -290,22 +266,12 @@ def schedule_figure(
         observed[int(inst.opp_target[i])] = True
     x0, x1, y0, y1, wrap = map_extent(inst.target_lat, inst.target_lon)
     tracks = ground_tracks(inst)
-    if tracks:
-        for name, (lat, lon) in tracks.items():
-            lon = map_lon(lon, wrap)
-            jump = np.flatnonzero(np.abs(np.diff(lon)) > 180) + 1
-            for k, (la, lo) in enumerate(
-                zip(np.split(lat, jump), np.split(lon, jump), strict=True)
-            ):
-                ax_m.plot(
-                    lo,
-                    la,
-                    lw=0.6,
-                    alpha=0.5,
-                    color=TRACK_COLOURS[list(tracks).index(name) % len(TRACK_COLOURS)],
-                    label=name if k == 0 else None,
-                    zorder=1,
-                )
+    for n, (name, (lat, lon)) in enumerate((tracks or {}).items()):
+        lon = map_lon(lon, wrap)
+        jump = np.flatnonzero(np.abs(np.diff(lon)) > 180) + 1
+        style = {"lw": 0.6, "alpha": 0.5, "color": TRACK_COLOURS[n % len(TRACK_COLOURS)]}
+        for k, (la, lo) in enumerate(zip(np.split(lat, jump), np.split(lon, jump), strict=True)):
+            ax_m.plot(lo, la, label=None if k else name, zorder=1, **style)
     lon = map_lon(inst.target_lon, wrap)
     ax_m.scatter(
         lon[observed], inst.target_lat[observed], s=12, c="#2f855a", label="observed", zorder=2

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from sosp.errors import InputError
-from sosp.instance import MAX_WEIGHT, Instance, Resources
+from sosp.instance import MAX_WEIGHT, OPP_KEYS, Instance, Resources
+from sosp.io import read_text
 from sosp.orbits import (
     Satellite,
     builtin_satellites,
@@ -50,23 +51,18 @@ REGIONS: dict[str, tuple[float, float, float, float]] = {
     "C": (30.0, 60.0, 90.0, 120.0),
 }
 
-#: The numbers of a target CSV row and their ranges (:func:`read_targets_csv`).
-CSV_RANGES = (("lat", -90.0, 90.0), ("lon", -180.0, 360.0), ("weight", 0, MAX_WEIGHT))
+#: The numbers of a target CSV row, their ranges and what the error says they must be
+#: (:func:`read_targets_csv`; a weight must also be an integer).
+CSV_RANGES = (
+    ("lat", -90.0, 90.0, "a finite number in [-90, 90]"),
+    ("lon", -180.0, 360.0, "a finite number in [-180, 360]"),
+    ("weight", 0, MAX_WEIGHT, f"an integer in [0, {MAX_WEIGHT:.0e}]"),
+)
 
 #: Target weights: integers uniform in [2, 10] (inclusive).
 WEIGHT_RANGE = (2, 10)
 
 GENERATOR = "sosp.scenarios"
-
-__all__ = [
-    "DEFAULT_START",
-    "REGIONS",
-    "custom_scenario",
-    "generate_scenario",
-    "random_targets",
-    "read_targets_csv",
-    "scenario_names",
-]
 
 
 def scenario_names() -> list[str]:
@@ -275,8 +271,7 @@ def custom_scenario(
             days,
             element_epoch(next(s for s in sats if s.name == sat_name)),
         )
-    lat = np.asarray(lat, dtype=float)
-    lon = np.asarray(lon, dtype=float)
+    lat, lon = np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
     if not (len(ids) == lat.size == lon.size == np.size(weight)):
         raise InputError("targets: ids, lat, lon and weight differ in length")
     bad = np.flatnonzero(~np.isfinite(lat) | (np.abs(lat) > 90) | ~np.isfinite(lon))
@@ -293,7 +288,6 @@ def custom_scenario(
         fov=fov,
         min_sun_elevation=min_sun_elevation,
     )
-    orbit_sat = [sats[i].name for i in revs.satellite]
     opp_ids = [f"{ids[k]}@{revs.ids[j]}" for k, j in zip(opps.target, opps.orbit, strict=True)]
     full_meta = {
         "generator": GENERATOR,
@@ -312,17 +306,11 @@ def custom_scenario(
         target_lon=lon,
         target_weight=weight,
         orbit_ids=list(revs.ids),
-        orbit_satellite=orbit_sat,
+        orbit_satellite=[sats[i].name for i in revs.satellite],
         orbit_start=revs.start,
         orbit_end=revs.end,
         resources=resources if resources is not None else Resources(),
-        opp_target=opps.target,
-        opp_orbit=opps.orbit,
-        opp_start=opps.start,
-        opp_end=opps.end,
-        opp_roll=opps.roll,
-        opp_roll_min=opps.roll_min,
-        opp_roll_max=opps.roll_max,
+        **{f"opp_{k}": getattr(opps, k) for k in OPP_KEYS},
         opp_ids=opp_ids,
         name=name,
         meta=full_meta,
@@ -357,15 +345,8 @@ def read_targets_csv(
     InputError
         Naming the file and the line (1-based, the header is line 1) and field at fault.
     """
-    p = Path(path)
-    src = str(p)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError("file not found", source=src) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", source=src) from None
-    rows = list(csv.reader(text.splitlines()))
+    src = str(Path(path))
+    rows = list(csv.reader(read_text(path, encoding="utf-8-sig").splitlines()))
     numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if not numbered:
         raise InputError("empty file: expected the header id,lat,lon,weight", source=src)
@@ -394,7 +375,7 @@ def read_targets_csv(
             )
         seen[tid] = lineno
         values = []
-        for key, lo, hi in CSV_RANGES:
+        for key, lo, hi, what in CSV_RANGES:
             raw = row[ix[key]].strip()
             try:
                 val = float(raw)
@@ -402,16 +383,7 @@ def read_targets_csv(
                 raise InputError(
                     f"line {lineno}: {key} is not a number: {raw!r}", source=src
                 ) from None
-            if (
-                not math.isfinite(val)
-                or not (lo <= val <= hi)
-                or (key == "weight" and val != int(val))
-            ):
-                what = (
-                    f"an integer in [0, {MAX_WEIGHT:.0e}]"
-                    if key == "weight"
-                    else f"a finite number in [{lo:g}, {hi:g}]"
-                )
+            if not (lo <= val <= hi and (key != "weight" or val.is_integer())):  # NaN too
                 raise InputError(f"line {lineno}: {key} must be {what}, got {raw!r}", source=src)
             values.append(val)
         rows.append(values)

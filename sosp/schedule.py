@@ -226,15 +226,8 @@ class Schedule:
                     )
                 opps.append(i)
             # Keep duplicates so that the validator can report them.
-            obs.append(
-                Observation(
-                    orbit,
-                    float(rec["start"]),
-                    float(rec["end"]),
-                    float(rec["roll"]),
-                    tuple(sorted(opps)),
-                )
-            )
+            start, end, roll = (float(rec[key]) for key in ("start", "end", "roll"))
+            obs.append(Observation(orbit, start, end, roll, tuple(sorted(opps))))
         profit = data.get("profit")
         if profit is not None and not is_finite_number(profit):
             raise InputError("profit: expected a number or null", source=source)
@@ -247,14 +240,7 @@ class Schedule:
         method = data.get("method", "")
         if not isinstance(method, str):
             raise InputError("method: expected a string", source=source)
-        return cls(
-            observations=tuple(obs),
-            method=method,
-            params=params,
-            seed=seed,
-            profit=profit,
-            fingerprint=instance.fingerprint,
-        )
+        return cls(tuple(obs), method, params, seed, profit, fingerprint=instance.fingerprint)
 
     def save(self, path: str | os.PathLike[str], instance: Instance) -> None:
         """Write the schedule file atomically."""
@@ -291,15 +277,8 @@ def items_to_schedule(instance: Instance, items: Items, chosen: Iterable[int]) -
                 claimed.add(k)
                 mine.append(i)
         if mine:
-            obs.append(
-                Observation(
-                    int(items.orbit[u]),
-                    float(items.start[u]),
-                    float(items.end[u]),
-                    float(items.roll[u]),
-                    tuple(mine),
-                )
-            )
+            start, end, roll = float(items.start[u]), float(items.end[u]), float(items.roll[u])
+            obs.append(Observation(int(items.orbit[u]), start, end, roll, tuple(mine)))
     return Schedule(tuple(obs))
 
 

@@ -72,13 +72,6 @@ WGS84_A = 6378.137
 WGS84_F = 1.0 / 298.257223563
 WGS84_B = WGS84_A * (1.0 - WGS84_F)
 
-__all__ = [
-    "Opportunities",
-    "find_opportunities",
-    "geodetic_to_ecef",
-    "geodetic_up",
-]
-
 
 @dataclass(frozen=True)
 class Opportunities:
@@ -126,15 +119,8 @@ def geodetic_to_ecef(lat: np.ndarray, lon: np.ndarray, alt: float | np.ndarray =
     e2 = WGS84_F * (2.0 - WGS84_F)
     sphi = np.sin(phi)
     n = WGS84_A / np.sqrt(1.0 - e2 * sphi * sphi)
-    cphi = np.cos(phi)
-    return np.stack(
-        [
-            (n + alt) * cphi * np.cos(lam),
-            (n + alt) * cphi * np.sin(lam),
-            (n * (1.0 - e2) + alt) * sphi,
-        ],
-        axis=-1,
-    )
+    rho = (n + alt) * np.cos(phi)  # distance from the polar axis
+    return np.stack([rho * np.cos(lam), rho * np.sin(lam), (n * (1.0 - e2) + alt) * sphi], axis=-1)
 
 
 def geodetic_up(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
@@ -308,7 +294,8 @@ def find_opportunities(
     up_all = geodetic_up(lat, lon)
     jd0, fr0 = parse_epoch(epoch)
 
-    parts: list[dict[str, np.ndarray]] = []
+    # per block: target, orbit, t_cross, start, end, roll_cross, slant_range (an empty first)
+    parts = [(np.empty(0, np.int64),) * 2 + (np.empty(0),) * 5]
     for s, grid in enumerate(grids):
         rev_rows = np.flatnonzero(revs.satellite == s)
         rev_start = revs.start[rev_rows]
@@ -367,25 +354,11 @@ def find_opportunities(
             orbit = rev_rows[j]
             ts = np.maximum(ts, revs.start[orbit])
             te = np.minimum(te, revs.end[orbit])
-            parts.append(
-                {
-                    "target": kglob.astype(np.int64),
-                    "orbit": orbit.astype(np.int64),
-                    "t_cross": t_c,
-                    "start": ts,
-                    "end": te,
-                    "roll_cross": roll,
-                    "slant_range": dist,
-                }
-            )
+            parts.append((kglob.astype(np.int64), orbit.astype(np.int64), t_c, ts, te, roll, dist))
         log.debug("%s: %d candidate passes refined", satellites[s].name, n_cand)
 
-    dtypes = {"target": np.int64, "orbit": np.int64}
-    dtypes |= dict.fromkeys(("t_cross", "start", "end", "roll_cross", "slant_range"), float)
-    cols = {
-        key: (np.concatenate([p[key] for p in parts]) if parts else np.empty(0, dtype=dt))
-        for key, dt in dtypes.items()
-    }
+    keys = ("target", "orbit", "t_cross", "start", "end", "roll_cross", "slant_range")
+    cols = dict(zip(keys, map(np.concatenate, zip(*parts, strict=True)), strict=True))
     order = np.lexsort((cols["target"], cols["start"], cols["orbit"]))
     cols = {k: v[order] for k, v in cols.items()}
     theta = cols["roll_cross"]
