@@ -76,14 +76,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode, priority_order
+from heuristics.hpfs import insertion_decode, priority_order, task_result
 from sosp.candidates import as_budget
-from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
+from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_rows
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
-from sosp.result import Result, Status
+from sosp.params import Params, from_kwargs, param
+from sosp.result import Result
 from sosp.schedule import RollRule
 from sosp.stop import Budget
 
@@ -178,12 +178,7 @@ def part_problem(instance: Instance, tasks: TaskSet, unit: bool = False) -> Part
             if w[k] > 0:
                 options.setdefault(k, []).append(t)
     return PartProblem(
-        tasks,
-        {k: tuple(v) for k, v in options.items()},
-        conf,
-        c,
-        w,
-        sorted(options),
+        tasks, {k: tuple(v) for k, v in options.items()}, conf, c, w, sorted(options)
     )
 
 
@@ -644,16 +639,10 @@ def count_bound(
 
 
 def pba_bound(
-    instance: Instance,
-    *,
-    time_limit: float | None = None,
-    max_part: int = PBAParams.max_part,
-    node_limit: int = PBAParams.node_limit,
-    order: Order = "rcm",
-    roll_rule: RollRule = "midpoint",
-    prices: PriceRule = "lp",
+    instance: Instance, *, time_limit: float | None = None, **params: Any
 ) -> dict[str, Any]:
-    """``sosp bound --method pba``: PBA-STC's upper bound R* on the static problem.
+    """``sosp bound --method pba``: PBA-STC's upper bound R* on the static problem, with the
+    fields of :class:`PBAParams` as ``params``.
 
     Returns
     -------
@@ -663,7 +652,7 @@ def pba_bound(
         ``runtime_s``.
     """
     t0 = time.perf_counter()
-    params = PBAParams(max_part, node_limit, order, roll_rule, prices)
+    params = from_kwargs(PBAParams, params, method="pba")
     budget = Budget.of(time_limit)
     out = pba_partition(instance, params, budget)
     return {
@@ -681,15 +670,7 @@ def pba_bound(
 
 
 def solve_pba_stc(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    max_part: int = PBAParams.max_part,
-    node_limit: int = PBAParams.node_limit,
-    order: Order = "rcm",
-    roll_rule: RollRule = "midpoint",
-    prices: PriceRule = "lp",
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """PBA-STC as a method: the bound R* and a schedule repaired from the bound's solutions.
 
@@ -701,8 +682,8 @@ def solve_pba_stc(
         Unused (the method is deterministic); accepted for the common signature.
     time_limit
         Seconds for the bound (parts not reached get their upper values).
-    max_part, node_limit, order, roll_rule, prices
-        See :class:`PBAParams`.
+    **params
+        Fields of :class:`PBAParams`.
 
     Returns
     -------
@@ -712,7 +693,7 @@ def solve_pba_stc(
         number of parts and of inexact parts, the LP bound and the bound without prices.
     """
     del rng
-    params = PBAParams(max_part, node_limit, order, roll_rule, prices)
+    params = from_kwargs(PBAParams, params, method="pba-stc")
     budget = Budget.of(time_limit)
     out = pba_partition(instance, params, budget)
     tasks: TaskSet = out["tasks"]
@@ -733,8 +714,6 @@ def solve_pba_stc(
         more, extra = insertion_decode(instance, tasks, priority_order(tasks), lines, covered)
         chosen += more
         profit += extra
-    schedule = tasks_to_schedule(instance, tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
         "bound_targets": count_bound(instance, params, tasks, budget),
         "parts": len(out["parts"]),
@@ -744,12 +723,5 @@ def solve_pba_stc(
         "unpriced_bound": out["unpriced_bound"],
     }
     log.info("pba-stc: bound %d, schedule %d", out["bound"], profit)
-    return Result(
-        "pba-stc",
-        Status.FEASIBLE,
-        schedule,
-        float(profit),
-        observed,
-        bound=float(out["bound"]),
-        stats=stats,
-    )
+    bound = float(out["bound"])
+    return task_result("pba-stc", instance, tasks, chosen, profit, bound=bound, stats=stats)
