@@ -697,19 +697,19 @@ def rds_targets_component(
     ]
     m = len(items)
     on = [False] * m  # task scheduled
-    forbid = [0] * m  # > 0: excluded by a "none" branch above
     opt = [0] * (n + 1)
     stack: list[int] = []
     state: dict[str, Any] = {"best": 0, "sel": None, "ub": 0, "nodes": 0, "prefer_ff": False}
     incumbent: list[int] = []
-    # A task is "open" while it is not forbidden and no scheduled task excludes it by (3)
-    # (:func:`pairwise_conflicts`); ``cnt[p]`` counts the open tasks covering target p (a
+    # A task is "open" while no branch above banned it and no scheduled task excludes it by
+    # (3) (:func:`pairwise_conflicts`); ``shut[t]`` counts what closes it (a ban always ends
+    # after the schedules below it). ``cnt[p]`` counts the open tasks covering target p (a
     # scheduled task is open: scheduled tasks never conflict) and ``covc[p]`` the scheduled
     # ones. A target with ``cnt[p] == 0`` can no longer be covered below the node.
     pos_of = {k: p for p, k in enumerate(tkeys)}
     tpos = [[pos_of[int(k)] for k in tasks.targets[t]] for t in items]
     conf = pairwise_conflicts(instance, tasks, items, budget)
-    blocked = [0] * m
+    shut = [0] * m
     cnt = [len(d) for d in dom]
     covc = [0] * n
     # On an orbit whose resources can bind, a task that no longer fits (4)-(6) next to the
@@ -726,12 +726,16 @@ def rds_targets_component(
     cur = {"i": n, "value": 0}  # the subproblem P_i being solved and the value of the node
 
     def close(t: int) -> None:
-        for p in tpos[t]:
-            cnt[p] -= 1
+        shut[t] += 1
+        if shut[t] == 1:
+            for p in tpos[t]:
+                cnt[p] -= 1
 
     def reopen(t: int) -> None:
-        for p in tpos[t]:
-            cnt[p] += 1
+        shut[t] -= 1
+        if shut[t] == 0:
+            for p in tpos[t]:
+                cnt[p] += 1
 
     def schedule(t: int, chk: Any) -> None:
         line_of[t].insert(ent[t], chk)
@@ -743,30 +747,21 @@ def rds_targets_component(
             if covc[p] == 1 and p >= i:
                 cur["value"] += wq[p]
         for u in conf[t]:
-            blocked[u] += 1
-            if blocked[u] == 1 and not forbid[u]:
-                close(u)
+            close(u)
         gone: list[int] = []
         if tight[orb[t]]:
             line = line_of[t]
             for u in on_orbit[orb[t]]:
-                if not blocked[u] and not on[u]:
-                    if not line.check_insert(ent[u]):
-                        blocked[u] += 1
-                        if not forbid[u]:
-                            close(u)
-                        gone.append(u)
+                if not shut[u] and not on[u] and not line.check_insert(ent[u]):
+                    close(u)
+                    gone.append(u)
         killed.append(gone)
 
     def unschedule(t: int) -> None:
         for u in killed.pop():
-            blocked[u] -= 1
-            if blocked[u] == 0 and not forbid[u]:
-                reopen(u)
+            reopen(u)
         for u in conf[t]:
-            blocked[u] -= 1
-            if blocked[u] == 0 and not forbid[u]:
-                reopen(u)
+            reopen(u)
         i = cur["i"]
         for p in tpos[t]:
             covc[p] -= 1
@@ -775,16 +770,6 @@ def rds_targets_component(
         stack.pop()
         on[t] = False
         line_of[t].discard(ent[t])
-
-    def ban(t: int) -> None:
-        forbid[t] += 1
-        if forbid[t] == 1 and not blocked[t]:
-            close(t)
-
-    def unban(t: int) -> None:
-        forbid[t] -= 1
-        if forbid[t] == 0 and not blocked[t]:
-            reopen(t)
 
     def record(value: int) -> None:
         if value > state["best"]:
@@ -829,7 +814,7 @@ def rds_targets_component(
         banned: list[int] = []
         try:
             for t in dom[pick]:
-                if forbid[t] or blocked[t]:
+                if shut[t]:
                     continue
                 chk = line_of[t].check_insert(ent[t])
                 if chk:
@@ -840,7 +825,7 @@ def rds_targets_component(
                     finally:
                         unschedule(t)
                 # Later branches and "none" exclude t (its solutions were just searched).
-                ban(t)
+                close(t)
                 banned.append(t)
                 if state["best"] > best:
                     best = state["best"]
@@ -848,7 +833,7 @@ def rds_targets_component(
             dfs(i)
         finally:
             for t in banned:
-                unban(t)
+                reopen(t)
 
     def search_pass(i: int, low: int, upper: int) -> bool:
         # Search P_i (target i covered) for a selection worth more than ``low``, with
@@ -876,7 +861,7 @@ def rds_targets_component(
                             dfs(i)
                         finally:
                             unschedule(t)
-                    ban(t)
+                    close(t)
                     banned.append(t)
             except _Done:
                 pass
@@ -888,7 +873,7 @@ def rds_targets_component(
                 continue
             finally:
                 for t in banned:
-                    unban(t)
+                    reopen(t)
             if budget > _FIRST_BUDGET:
                 state["prefer_ff"] = fail_first
             log.debug(
