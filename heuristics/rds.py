@@ -809,11 +809,16 @@ def rds_targets_component(
             bound = s
         if bound <= best:
             return
-        if pick < 0:
-            return  # every coverable target is covered: this is a leaf (already recorded)
+        if pick >= 0:  # else every coverable target is covered: a leaf (already recorded)
+            branch(i, pick, True)
+
+    def branch(i: int, k: int, none: bool) -> None:
+        # The branches of target k at a node of P_i: each open task covering it in turn, then
+        # with ``none`` the branch "k not covered". Later branches exclude a task tried (its
+        # solutions were just searched), so in "none" all of k's tasks are banned.
         banned: list[int] = []
         try:
-            for t in dom[pick]:
+            for t in dom[k]:
                 if shut[t]:
                     continue
                 chk = line_of[t].check_insert(ent[t])
@@ -824,13 +829,10 @@ def rds_targets_component(
                         dfs(i)
                     finally:
                         unschedule(t)
-                # Later branches and "none" exclude t (its solutions were just searched).
                 close(t)
                 banned.append(t)
-                if state["best"] > best:
-                    best = state["best"]
-            # "none" for the picked target: all its tasks are now banned, cnt[pick] == 0.
-            dfs(i)
+            if none:
+                dfs(i)
         finally:
             for t in banned:
                 reopen(t)
@@ -850,19 +852,8 @@ def rds_targets_component(
             # quarter (the order that suits an instance tends to suit all its subproblems).
             own = budget if fail_first == state["prefer_ff"] else max(_FIRST_BUDGET, budget // 4)
             state["limit"] = state["nodes"] + own
-            banned: list[int] = []
             try:
-                for t in dom[i]:
-                    chk = line_of[t].check_insert(ent[t])
-                    if chk:
-                        schedule(t, chk)
-                        try:
-                            record(cur["value"])
-                            dfs(i)
-                        finally:
-                            unschedule(t)
-                    close(t)
-                    banned.append(t)
+                branch(i, i, False)  # target i covered (no task of it is closed up here)
             except _Done:
                 pass
             except _Budget:
@@ -871,9 +862,6 @@ def rds_targets_component(
                     budget *= 2
                 fail_first = not fail_first
                 continue
-            finally:
-                for t in banned:
-                    reopen(t)
             if budget > _FIRST_BUDGET:
                 state["prefer_ff"] = fail_first
             log.debug(
