@@ -270,11 +270,8 @@ def _window_plan(
 
 
 class _Late(Exception):
-    """An orbit's window columns are foreseen to end past the deadline."""
-
-    def __init__(self, orbit: int) -> None:
-        super().__init__(orbit)
-        self.orbit = orbit
+    """An orbit's window columns (its index, the one argument) are foreseen to end past the
+    deadline."""
 
 
 #: Foreseen seconds of an orbit's window sweep (:func:`sosp.windows.window_items`) per
@@ -607,7 +604,7 @@ def solve_milp_lns(
             except _Late as late:
                 # that orbit's columns would not be ready in time, now or later (the time
                 # left only shrinks): the steps go on without it, over the orbits left
-                active = active[active != late.orbit]
+                active = active[active != late.args[0]]
                 k = min(k, len(active))
                 stale += 1
                 continue

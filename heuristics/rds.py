@@ -232,18 +232,16 @@ def orbit_resources_can_bind(instance: Instance, tasks: TaskSet, idx: np.ndarray
     lo, hi, dur, energy = lo[order], hi[order], dur[order], energy[order]
     # prev[k]: how many intervals (in end order) end before interval k starts.
     prev = np.minimum(np.searchsorted(hi, lo + tol, side="right"), np.arange(idx.size))
-    card = [0] * (idx.size + 1)
-    obs = [0.0] * (idx.size + 1)
-    eng = [0.0] * (idx.size + 1)
+    # best[k]: the most members, observing time and energy of a chain of the first k
+    gain = np.stack([np.ones(idx.size), dur, energy], axis=1)
+    best = np.zeros((idx.size + 1, 3))
     for k in range(idx.size):
-        p = int(prev[k])
-        card[k + 1] = max(card[k], card[p] + 1)
-        obs[k + 1] = max(obs[k], obs[p] + float(dur[k]))
-        eng[k + 1] = max(eng[k], eng[p] + float(energy[k]))
-    if card[-1] > r.max_openings:
+        best[k + 1] = np.maximum(best[k], best[prev[k]] + gain[k])
+    card, obs, eng = best[-1].tolist()
+    if card > r.max_openings:
         return True
     # conservative: a total within EPS below a capacity counts as binding
-    return r.memory(obs[-1]) > r.memory_capacity - EPS or eng[-1] > r.energy_capacity - EPS
+    return r.memory(obs) > r.memory_capacity - EPS or eng > r.energy_capacity - EPS
 
 
 def interaction_components(
@@ -552,13 +550,9 @@ def rds_component(
             if value + opt[p] <= state["best"]:
                 return  # the RDS bound: the rest adds at most opt[p]
             state["nodes"] += 1
-            if state["nodes"] % _CLOCK_EVERY == 0:
-                if _halt(budget, state["nodes"]):
-                    raise _Timeout
-            gain = 0
-            for k, w in zip(tg[p], wts[p], strict=True):
-                if cover[k] == 0:
-                    gain += w
+            if state["nodes"] % _CLOCK_EVERY == 0 and _halt(budget, state["nodes"]):
+                raise _Timeout
+            gain = sum(w for k, w in zip(tg[p], wts[p], strict=True) if cover[k] == 0)
             if gain > 0:
                 chk = line_of[p].check_insert(ent[p])
                 if chk:
@@ -786,9 +780,8 @@ def rds_targets_component(
         state["nodes"] += 1
         if state["nodes"] > state["limit"]:
             raise _Budget
-        if state["nodes"] % _CLOCK_EVERY == 0:
-            if _halt(budget, state["nodes"]):
-                raise _Timeout
+        if state["nodes"] % _CLOCK_EVERY == 0 and _halt(budget, state["nodes"]):
+            raise _Timeout
         best = state["best"]
         bound = opt[i + 1] + (wq[i] if cnt[i] else 0)
         s = 0
