@@ -37,6 +37,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from heuristics.orbit_search import limits
 from heuristics.timeline import OrbitTimeline
 from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
@@ -47,16 +48,7 @@ from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, may_precede, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
-from sosp.stop import (
-    Budget,
-    FirstOf,
-    Foresight,
-    Interrupted,
-    MaxIterations,
-    MaxRuntime,
-    NoImprovement,
-    SearchStatus,
-)
+from sosp.stop import Budget, FirstOf, Foresight, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -562,14 +554,9 @@ def solve_milp_lns(
 
     steps = improved = stale = 0
     sizes: list[int] = []
-    crit: list[Any] = [current_progress(), Interrupted()]
-    if time_limit is not None:
-        crit.append(MaxRuntime(time_limit - 0.05, start=t0))  # no step in the last 50 ms
-    if p.iterations is not None:
-        crit.append(MaxIterations(p.iterations))
-    if no_improve is not None:
-        crit.append(NoImprovement(no_improve))
-    stop, now = FirstOf(*crit), SearchStatus()
+    seconds = None if time_limit is None else time_limit - 0.05  # no step in the last 50 ms
+    crit = limits(seconds, t0, p.iterations, no_improve)
+    stop, now = FirstOf(current_progress(), Interrupted(), *crit), SearchStatus()
     prep_s = 0.0  # the last step's time to its model (candidates, data, arrays)
     build = BuildForesight()
     while len(active):
