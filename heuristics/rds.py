@@ -680,15 +680,11 @@ def rds_targets_component(
     # Tasks become local ids 0..m-1; domains hold local ids, heaviest task first.
     local = {t: i for i, t in enumerate(items)}
     orb, ent, lines, line_of = _entries(instance, tasks, items)
-    dom = [
-        [
-            local[t]
-            for t in sorted(
-                by_target[k], key=lambda t: (-int(tasks.weight[t]), tasks.orbit[t], tasks.start[t])
-            )
-        ]
-        for k in tkeys
-    ]
+
+    def heaviest(t: int) -> tuple:
+        return (-int(tasks.weight[t]), tasks.orbit[t], tasks.start[t])
+
+    dom = [[local[t] for t in sorted(by_target[k], key=heaviest)] for k in tkeys]
     m = len(items)
     on = [False] * m  # task scheduled
     opt = [0] * (n + 1)
@@ -1053,10 +1049,8 @@ def russian_doll(
         comps = interaction_components(instance, tasks, usable_arr)
     else:
         comps = [usable] if usable else []
-    limit = sys.getrecursionlimit()
     need = max((len(c) for c in comps), default=0) + 1000
-    if need > limit:
-        sys.setrecursionlimit(need)
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), need))
     outcomes: list[ComponentOutcome] = []
     # the preparation above reads the clock only between its steps (and in its loops over
     # conflict pairs): past the deadline, no search starts
