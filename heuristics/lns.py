@@ -336,14 +336,10 @@ class _WindowColumns:
         self.whole = Foresight(WINDOW_S_PER_PAIR, most=True)  # per orbit, by its pairs
         self.scan = Foresight(WINDOW_S_PER_SCAN, most=True)  # the listings, by their reads
 
-    def pairs(self, j: int) -> int:
-        """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
-        return orbit_pairs(self.instance, j)
-
     def foreseen(self, j: int) -> float:
         """Seconds orbit j's columns are foreseen to take before its sweep (see the class
         docstring)."""
-        return self.whole(j, self.pairs(j))
+        return self.whole(j, orbit_pairs(self.instance, j))
 
     def listing(self, scan: int) -> float:
         """Seconds a members' listing reading ``scan`` opportunities is foreseen to take."""
@@ -376,7 +372,7 @@ class _WindowColumns:
             self.whole.took[j] = math.inf
             raise _Late(j) from None
         end = time.perf_counter()
-        self.whole.record(j, self.pairs(j), end - t)
+        self.whole.record(j, orbit_pairs(self.instance, j), end - t)
         self.scan.record(j, scanned[0], end - scanned[1])
         return np.full(len(st), j, dtype=np.int64), st, en, ro, groups
 

@@ -578,9 +578,11 @@ def pba_partition(
     Returns
     -------
     dict
-        ``bound`` (R*), ``targets`` (the targets covered by the parts' optima), ``parts``
-        (lists of target indices), ``part_tasks`` (the tasks of each part's optimum),
-        ``inexact_parts`` (parts that fell back to their upper values), ``subproblems``,
+        ``bound`` (R*), and :func:`partition_dp`'s figures of the lesser partition:
+        ``targets`` (the targets covered by the parts' optima), ``parts`` (lists of target
+        indices), ``part_tasks`` (the tasks of each part's optimum), ``inexact_parts`` (parts
+        that fell back to their upper values), ``value``, ``stopped``; ``subproblems`` (of
+        both),
         ``unpriced_bound`` (the bound without prices; None if not computed), ``lp_bound``
         (the LP bound the prices come from, or None), ``lp_x`` (the LP's task values, empty
         without an LP), ``tasks``.
@@ -610,11 +612,8 @@ def pba_partition(
             bound, out = unpriced, plain
     log.info("pba: bound %d (without prices %s, LP %s)", bound, unpriced, prices.lp_value)
     return {
+        **out,
         "bound": bound,
-        "targets": out["targets"],
-        "parts": out["parts"],
-        "part_tasks": out["part_tasks"],
-        "inexact_parts": out["inexact_parts"],
         "subproblems": solved,
         "tasks": tasks,
         "unpriced_bound": unpriced,
