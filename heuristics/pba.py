@@ -582,10 +582,9 @@ def pba_partition(
         ``targets`` (the targets covered by the parts' optima), ``parts`` (lists of target
         indices), ``part_tasks`` (the tasks of each part's optimum), ``inexact_parts`` (parts
         that fell back to their upper values), ``value``, ``stopped``; ``subproblems`` (of
-        both),
-        ``unpriced_bound`` (the bound without prices; None if not computed), ``lp_bound``
-        (the LP bound the prices come from, or None), ``lp_x`` (the LP's task values, empty
-        without an LP), ``tasks``.
+        both partitions), ``unpriced_bound`` (the bound without prices; None if not
+        computed), ``lp_bound`` (the LP bound the prices come from, or None), ``lp_x`` (the
+        LP's task values, empty without an LP), ``tasks``.
     """
     if tasks is None:
         tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
