@@ -143,20 +143,17 @@ class ACOParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        check_int("ants", self.ants, 1)
-        check_float("alpha", self.alpha, 0.0, 100.0)
-        check_float("beta", self.beta, 0.0, 100.0)
-        check_float("rho", self.rho, 0.0, 1.0, lo_open=True)
-        check_float("p_best", self.p_best, 0.0, 1.0, lo_open=True)
+        ints = {"ants": 1, "gb_every": 0, "restart": 0, "candidates": 1, "ls_passes": 1}
+        for name, lo in ints.items():
+            check_int(name, getattr(self, name), lo)
+        floats = {"alpha": (0, 100), "beta": (0, 100), "q0": (0, 1), "gap_weight": (0, 1e6)}
+        for name, (lo, hi) in floats.items():
+            check_float(name, getattr(self, name), lo, hi)
+        for name in ("rho", "p_best"):
+            check_float(name, getattr(self, name), 0.0, 1.0, lo_open=True)
         if self.p_best >= 1.0:
             raise InputError(f"p_best: must lie in (0, 1), got {self.p_best!r}")
-        check_int("gb_every", self.gb_every, 0)
-        check_int("restart", self.restart, 0)
-        check_int("candidates", self.candidates, 1)
-        check_float("q0", self.q0, 0.0, 1.0)
-        check_float("gap_weight", self.gap_weight, 0.0, 1e6)
         check_int("iterations", self.iterations, 0, optional=True)
-        check_int("ls_passes", self.ls_passes, 1)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:
