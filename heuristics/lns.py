@@ -699,14 +699,7 @@ def solve_milp_lns(
         "candidate_mode": "windows" if windowed else "explicit",
         "trace": trace,
     }
+    runtime = time.perf_counter() - t0
     return Result(
-        "milp-lns",
-        Status.FEASIBLE,
-        schedule,
-        float(profit),
-        observed,
-        time.perf_counter() - t0,
-        None,
-        steps,
-        stats,
+        "milp-lns", Status.FEASIBLE, schedule, float(profit), observed, runtime, None, steps, stats
     )

@@ -371,22 +371,15 @@ def solve_orbit_dp(
     profit, observed = schedule.coverage_profit(instance)
     # without candidates (none in time) the empty schedule is still a schedule: feasible
     status = Status.FEASIBLE if instance.n_opps else Status.OPTIMAL
-    return Result(
-        method="orbit-dp",
-        status=status,
-        schedule=schedule,
-        profit=profit,
-        observed=observed,
-        runtime_s=time.perf_counter() - t0,
-        iterations=run.steps,
-        stats={
-            "candidates": data.n_items,
-            "candidate_mode": mode,
-            "candidates_s": round(t_data, 4),
-            **started,
-            "ascent_profit": run.ascent_profit,
-            "replans": search.replans,
-            "accepted": run.accepted,
-            "trace": run.trace,
-        },
-    )
+    stats = {
+        "candidates": data.n_items,
+        "candidate_mode": mode,
+        "candidates_s": round(t_data, 4),
+        **started,
+        "ascent_profit": run.ascent_profit,
+        "replans": search.replans,
+        "accepted": run.accepted,
+        "trace": run.trace,
+    }
+    runtime = time.perf_counter() - t0
+    return Result("orbit-dp", status, schedule, profit, observed, runtime, None, run.steps, stats)
