@@ -659,10 +659,7 @@ def pba_bound(
         "method": "pba",
         "targets": count_bound(instance, params, out["tasks"], budget),
         "parts": len(out["parts"]),
-        "inexact_parts": out["inexact_parts"],
-        "subproblems": out["subproblems"],
-        "unpriced_bound": out["unpriced_bound"],
-        "lp_bound": out["lp_bound"],
+        **{k: out[k] for k in ("inexact_parts", "subproblems", "unpriced_bound", "lp_bound")},
         "runtime_s": time.perf_counter() - t0,
     }
 
@@ -715,10 +712,7 @@ def solve_pba_stc(
     stats = {
         "bound_targets": count_bound(instance, params, tasks, budget),
         "parts": len(out["parts"]),
-        "inexact_parts": out["inexact_parts"],
-        "subproblems": out["subproblems"],
-        "lp_bound": out["lp_bound"],
-        "unpriced_bound": out["unpriced_bound"],
+        **{k: out[k] for k in ("inexact_parts", "subproblems", "lp_bound", "unpriced_bound")},
     }
     log.info("pba-stc: bound %d, schedule %d", out["bound"], profit)
     bound = float(out["bound"])
