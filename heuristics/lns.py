@@ -245,18 +245,12 @@ def _window_plan(
     energy, memory, openings = line.budget_between(first, first + len(freed) - 1, ends_paid=True)
     if not ok.any() or openings <= 0 or memory <= 0 or energy <= 0:
         return None
-
-    def with_j(column: np.ndarray, value: float) -> np.ndarray:
-        out = np.array(column, copy=True)
-        out[j] = value
-        return out
-
-    sub = replace(
-        instance,
-        energy_capacity=with_j(instance.energy_capacity, energy),
-        memory_capacity=with_j(instance.memory_capacity, memory),
-        max_openings=with_j(instance.max_openings, openings),
-    )
+    # the instance with orbit j's capacities set to what is left
+    left = {"energy_capacity": energy, "memory_capacity": memory, "max_openings": openings}
+    columns = {name: np.array(getattr(instance, name), copy=True) for name in left}
+    for name, value in left.items():
+        columns[name][j] = value
+    sub = replace(instance, **columns)
     fixed = [ob for ob in current if ob.orbit != j] + kept
     return fixed, freed, items[ok], sub
 
