@@ -50,22 +50,20 @@ Stopping
 from __future__ import annotations
 
 import logging
-import sys
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, check_float, check_int, stc_data
+from heuristics.stc import Selection, StcData, Watch, check_float, check_int, stc_data
 from sosp import rules
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
-from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.rules import RollRule
-from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
@@ -145,20 +143,17 @@ class ACOParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        check_int("ants", self.ants, 1)
-        check_float("alpha", self.alpha, 0.0, 100.0)
-        check_float("beta", self.beta, 0.0, 100.0)
-        check_float("rho", self.rho, 0.0, 1.0, lo_open=True)
-        check_float("p_best", self.p_best, 0.0, 1.0, lo_open=True)
+        ints = {"ants": 1, "gb_every": 0, "restart": 0, "candidates": 1, "ls_passes": 1}
+        for name, lo in ints.items():
+            check_int(name, getattr(self, name), lo)
+        floats = {"alpha": (0, 100), "beta": (0, 100), "q0": (0, 1), "gap_weight": (0, 1e6)}
+        for name, (lo, hi) in floats.items():
+            check_float(name, getattr(self, name), lo, hi)
+        for name in ("rho", "p_best"):
+            check_float(name, getattr(self, name), 0.0, 1.0, lo_open=True)
         if self.p_best >= 1.0:
             raise InputError(f"p_best: must lie in (0, 1), got {self.p_best!r}")
-        check_int("gb_every", self.gb_every, 0)
-        check_int("restart", self.restart, 0)
-        check_int("candidates", self.candidates, 1)
-        check_float("q0", self.q0, 0.0, 1.0)
-        check_float("gap_weight", self.gap_weight, 0.0, 1e6)
         check_int("iterations", self.iterations, 0, optional=True)
-        check_int("ls_passes", self.ls_passes, 1)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:
@@ -490,7 +485,7 @@ def run_aco(
     method: str,
 ) -> Result:
     """The MAX-MIN ant colony over static cluster-tasks (module docstring)."""
-    budget = Budget.of(time_limit)
+    watch = Watch(time_limit)
     data = stc_data(instance, p.roll_rule)
     graph = Graph(data)
     tau_min, tau_max = tau_bounds(p.rho, p.p_best, 1, p.candidates)
@@ -499,12 +494,7 @@ def run_aco(
     best_profit, best_iter, since, restarts, ls_moves = -1, 0, 0, 0, 0
     it = 0
     stop = False
-    # progress and stop requests (sosp.stop), checked after each ant
-    halt, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
-    if p.iterations is not None:
-        max_iterations = p.iterations
-    else:
-        max_iterations = DEFAULT_ITERATIONS if time_limit is None else sys.maxsize
+    max_iterations = watch.limit(p.iterations, DEFAULT_ITERATIONS)
     while it < max_iterations and graph.orbits and not stop:
         it += 1
         iter_best: Selection | None = None
@@ -512,14 +502,12 @@ def run_aco(
             ant = construct(graph, p, rng)
             if iter_best is None or ant.profit > iter_best.profit:
                 iter_best = ant
-            seen.iteration, seen.since_best = it, since
-            seen.best = float(max(best_profit, iter_best.profit))
-            if budget.expired() or halt(seen):
+            if watch(it, float(max(best_profit, iter_best.profit)), since):
                 stop = True
                 break
         assert iter_best is not None
         if p.local_search and not stop:
-            ls_moves += local_search(iter_best, p.ls_passes, budget)
+            ls_moves += local_search(iter_best, p.ls_passes, watch.budget)
         if iter_best.profit > best_profit:
             best, best_profit, best_iter, since = iter_best, iter_best.profit, it, 0
             tau_min, tau_max = tau_bounds(p.rho, p.p_best, len(best.chosen), p.candidates)

@@ -38,21 +38,18 @@ Stopping
 from __future__ import annotations
 
 import logging
-import sys
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, check_int, stc_data
+from heuristics.stc import Selection, StcData, Watch, check_int, stc_data
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
-from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.rules import RollRule
-from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -190,7 +187,7 @@ def solve_ga_stc(
         discarded and the child that found the best schedule.
     """
     p = GAParams.from_kwargs(**params)
-    budget = Budget.of(time_limit)
+    watch = Watch(time_limit)
     data = stc_data(instance, p.roll_rule)
     pop: list[np.ndarray] = []
     fit: list[int] = []
@@ -206,26 +203,16 @@ def solve_ga_stc(
         seen.add(key)
         pop.append(bits)
         fit.append(f)
-        if budget.expired():
+        if watch.budget.expired():
             break
     fitness = np.array(fit, dtype=np.int64)
     best_i = int(np.argmax(fitness))
     best_bits, best_fit, best_child = pop[best_i], int(fitness[best_i]), 0
     children = duplicates = 0
-    # progress and stop requests (sosp.stop), checked before every 8th child
-    halt, status = FirstOf(current_progress(), Interrupted()), SearchStatus()
-    if p.iterations is not None:
-        max_children = p.iterations
-    else:
-        max_children = DEFAULT_ITERATIONS if time_limit is None else sys.maxsize
+    max_children = watch.limit(p.iterations, DEFAULT_ITERATIONS)
     while children < max_children and len(pop) >= 2:
-        if budget.expired():
+        if watch(children, best_fit, children - best_child):
             break
-        if (children & 7) == 0:
-            status.iteration, status.since_best = children, children - best_child
-            status.best = best_fit
-            if halt(status):
-                break
         children += 1
         a = tournament(fitness, p.tournament, rng)
         b = tournament(fitness, p.tournament, rng)

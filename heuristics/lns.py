@@ -37,6 +37,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from heuristics.orbit_search import limits
 from heuristics.timeline import OrbitTimeline
 from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
@@ -47,16 +48,7 @@ from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, may_precede, orbit_rules
 from sosp.schedule import Observation, Schedule, items_to_schedule
-from sosp.stop import (
-    Budget,
-    FirstOf,
-    Foresight,
-    Interrupted,
-    MaxIterations,
-    MaxRuntime,
-    NoImprovement,
-    SearchStatus,
-)
+from sosp.stop import Budget, FirstOf, Foresight, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -253,28 +245,19 @@ def _window_plan(
     energy, memory, openings = line.budget_between(first, first + len(freed) - 1, ends_paid=True)
     if not ok.any() or openings <= 0 or memory <= 0 or energy <= 0:
         return None
-
-    def with_j(column: np.ndarray, value: float) -> np.ndarray:
-        out = np.array(column, copy=True)
-        out[j] = value
-        return out
-
-    sub = replace(
-        instance,
-        energy_capacity=with_j(instance.energy_capacity, energy),
-        memory_capacity=with_j(instance.memory_capacity, memory),
-        max_openings=with_j(instance.max_openings, openings),
-    )
+    # the instance with orbit j's capacities set to what is left
+    left = {"energy_capacity": energy, "memory_capacity": memory, "max_openings": openings}
+    columns = {name: np.array(getattr(instance, name), copy=True) for name in left}
+    for name, value in left.items():
+        columns[name][j] = value
+    sub = replace(instance, **columns)
     fixed = [ob for ob in current if ob.orbit != j] + kept
     return fixed, freed, items[ok], sub
 
 
 class _Late(Exception):
-    """An orbit's window columns are foreseen to end past the deadline."""
-
-    def __init__(self, orbit: int) -> None:
-        super().__init__(orbit)
-        self.orbit = orbit
+    """An orbit's window columns (its index, the one argument) are foreseen to end past the
+    deadline."""
 
 
 #: Foreseen seconds of an orbit's window sweep (:func:`sosp.windows.window_items`) per
@@ -347,14 +330,10 @@ class _WindowColumns:
         self.whole = Foresight(WINDOW_S_PER_PAIR, most=True)  # per orbit, by its pairs
         self.scan = Foresight(WINDOW_S_PER_SCAN, most=True)  # the listings, by their reads
 
-    def pairs(self, j: int) -> int:
-        """Orbit j's (first, covered) pairs of opportunities inside one Delta T."""
-        return orbit_pairs(self.instance, j)
-
     def foreseen(self, j: int) -> float:
         """Seconds orbit j's columns are foreseen to take before its sweep (see the class
         docstring)."""
-        return self.whole(j, self.pairs(j))
+        return self.whole(j, orbit_pairs(self.instance, j))
 
     def listing(self, scan: int) -> float:
         """Seconds a members' listing reading ``scan`` opportunities is foreseen to take."""
@@ -387,7 +366,7 @@ class _WindowColumns:
             self.whole.took[j] = math.inf
             raise _Late(j) from None
         end = time.perf_counter()
-        self.whole.record(j, self.pairs(j), end - t)
+        self.whole.record(j, orbit_pairs(self.instance, j), end - t)
         self.scan.record(j, scanned[0], end - scanned[1])
         return np.full(len(st), j, dtype=np.int64), st, en, ro, groups
 
@@ -565,14 +544,9 @@ def solve_milp_lns(
 
     steps = improved = stale = 0
     sizes: list[int] = []
-    crit: list[Any] = [current_progress(), Interrupted()]
-    if time_limit is not None:
-        crit.append(MaxRuntime(time_limit - 0.05, start=t0))  # no step in the last 50 ms
-    if p.iterations is not None:
-        crit.append(MaxIterations(p.iterations))
-    if no_improve is not None:
-        crit.append(NoImprovement(no_improve))
-    stop, now = FirstOf(*crit), SearchStatus()
+    seconds = None if time_limit is None else time_limit - 0.05  # no step in the last 50 ms
+    crit = limits(seconds, t0, p.iterations, no_improve)
+    stop, now = FirstOf(current_progress(), Interrupted(), *crit), SearchStatus()
     prep_s = 0.0  # the last step's time to its model (candidates, data, arrays)
     build = BuildForesight()
     while len(active):
@@ -607,7 +581,7 @@ def solve_milp_lns(
             except _Late as late:
                 # that orbit's columns would not be ready in time, now or later (the time
                 # left only shrinks): the steps go on without it, over the orbits left
-                active = active[active != late.orbit]
+                active = active[active != late.args[0]]
                 k = min(k, len(active))
                 stale += 1
                 continue
@@ -719,14 +693,7 @@ def solve_milp_lns(
         "candidate_mode": "windows" if windowed else "explicit",
         "trace": trace,
     }
+    runtime = time.perf_counter() - t0
     return Result(
-        "milp-lns",
-        Status.FEASIBLE,
-        schedule,
-        float(profit),
-        observed,
-        time.perf_counter() - t0,
-        None,
-        steps,
-        stats,
+        "milp-lns", Status.FEASIBLE, schedule, float(profit), observed, runtime, None, steps, stats
     )

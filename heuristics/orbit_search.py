@@ -76,6 +76,17 @@ LP_START_SHARE = 0.3
 LP_START_ROUNDS = 20
 
 
+def limits(
+    seconds: float | None, start: float, iterations: int | None, no_improve: int | None
+) -> list[Any]:
+    """The stopping criteria of the limits given (None: not that one): ``seconds`` of wall
+    time from ``start`` (a :func:`time.perf_counter` value), ``iterations`` steps and
+    ``no_improve`` steps in a row without a gain."""
+    crit: list[Any] = [] if seconds is None else [MaxRuntime(seconds, start=start)]
+    crit += [] if iterations is None else [MaxIterations(iterations)]
+    return crit + ([] if no_improve is None else [NoImprovement(no_improve)])
+
+
 def lp_start(
     search: OrbitSearch,
     budget: Budget | float | None,
@@ -349,13 +360,8 @@ def solve_orbit_dp(
         local = p.workers if p.workers > 1 else None
         with workers_for(p.workers, p.dask, local) as workers:
             started.update(lp_start(search, lp_budget, workers, keep, budget))
-    crit: list[Any] = []
-    if time_limit is not None:
-        crit.append(MaxRuntime(float(time_limit), start=t0))
-    if iterations is not None:
-        crit.append(MaxIterations(iterations))
-    if no_improve is not None:
-        crit.append(NoImprovement(no_improve))
+    seconds = None if time_limit is None else float(time_limit)
+    crit = limits(seconds, t0, iterations, no_improve)
     # where HPFS-STC's schedule is the start, from nothing as well when that fits
     search, ascents = ascend_from_both(search, budget, started)
     started.update(ascents)
@@ -365,22 +371,15 @@ def solve_orbit_dp(
     profit, observed = schedule.coverage_profit(instance)
     # without candidates (none in time) the empty schedule is still a schedule: feasible
     status = Status.FEASIBLE if instance.n_opps else Status.OPTIMAL
-    return Result(
-        method="orbit-dp",
-        status=status,
-        schedule=schedule,
-        profit=profit,
-        observed=observed,
-        runtime_s=time.perf_counter() - t0,
-        iterations=run.steps,
-        stats={
-            "candidates": data.n_items,
-            "candidate_mode": mode,
-            "candidates_s": round(t_data, 4),
-            **started,
-            "ascent_profit": run.ascent_profit,
-            "replans": search.replans,
-            "accepted": run.accepted,
-            "trace": run.trace,
-        },
-    )
+    stats = {
+        "candidates": data.n_items,
+        "candidate_mode": mode,
+        "candidates_s": round(t_data, 4),
+        **started,
+        "ascent_profit": run.ascent_profit,
+        "replans": search.replans,
+        "accepted": run.accepted,
+        "trace": run.trace,
+    }
+    runtime = time.perf_counter() - t0
+    return Result("orbit-dp", status, schedule, profit, observed, runtime, None, run.steps, stats)

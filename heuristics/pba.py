@@ -76,14 +76,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from heuristics.hpfs import insertion_decode, priority_order
+from heuristics.hpfs import insertion_decode, priority_order, task_result
 from sosp.candidates import as_budget
-from sosp.clustering import TaskSet, static_cluster_tasks, tasks_to_schedule
+from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_rows
 from sosp.errors import InputError
 from sosp.instance import Instance
-from sosp.params import Params, param
-from sosp.result import Result, Status
+from sosp.params import Params, from_kwargs, param
+from sosp.result import Result
 from sosp.schedule import RollRule
 from sosp.stop import Budget
 
@@ -178,12 +178,7 @@ def part_problem(instance: Instance, tasks: TaskSet, unit: bool = False) -> Part
             if w[k] > 0:
                 options.setdefault(k, []).append(t)
     return PartProblem(
-        tasks,
-        {k: tuple(v) for k, v in options.items()},
-        conf,
-        c,
-        w,
-        sorted(options),
+        tasks, {k: tuple(v) for k, v in options.items()}, conf, c, w, sorted(options)
     )
 
 
@@ -583,12 +578,13 @@ def pba_partition(
     Returns
     -------
     dict
-        ``bound`` (R*), ``targets`` (the targets covered by the parts' optima), ``parts``
-        (lists of target indices), ``part_tasks`` (the tasks of each part's optimum),
-        ``inexact_parts`` (parts that fell back to their upper values), ``subproblems``,
-        ``unpriced_bound`` (the bound without prices; None if not computed), ``lp_bound``
-        (the LP bound the prices come from, or None), ``lp_x`` (the LP's task values, empty
-        without an LP), ``tasks``.
+        ``bound`` (R*), and :func:`partition_dp`'s figures of the lesser partition:
+        ``targets`` (the targets covered by the parts' optima), ``parts`` (lists of target
+        indices), ``part_tasks`` (the tasks of each part's optimum), ``inexact_parts`` (parts
+        that fell back to their upper values), ``value``, ``stopped``; ``subproblems`` (of
+        both partitions), ``unpriced_bound`` (the bound without prices; None if not
+        computed), ``lp_bound`` (the LP bound the prices come from, or None), ``lp_x`` (the
+        LP's task values, empty without an LP), ``tasks``.
     """
     if tasks is None:
         tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
@@ -615,11 +611,8 @@ def pba_partition(
             bound, out = unpriced, plain
     log.info("pba: bound %d (without prices %s, LP %s)", bound, unpriced, prices.lp_value)
     return {
+        **out,
         "bound": bound,
-        "targets": out["targets"],
-        "parts": out["parts"],
-        "part_tasks": out["part_tasks"],
-        "inexact_parts": out["inexact_parts"],
         "subproblems": solved,
         "tasks": tasks,
         "unpriced_bound": unpriced,
@@ -644,16 +637,10 @@ def count_bound(
 
 
 def pba_bound(
-    instance: Instance,
-    *,
-    time_limit: float | None = None,
-    max_part: int = PBAParams.max_part,
-    node_limit: int = PBAParams.node_limit,
-    order: Order = "rcm",
-    roll_rule: RollRule = "midpoint",
-    prices: PriceRule = "lp",
+    instance: Instance, *, time_limit: float | None = None, **params: Any
 ) -> dict[str, Any]:
-    """``sosp bound --method pba``: PBA-STC's upper bound R* on the static problem.
+    """``sosp bound --method pba``: PBA-STC's upper bound R* on the static problem, with the
+    fields of :class:`PBAParams` as ``params``.
 
     Returns
     -------
@@ -663,7 +650,7 @@ def pba_bound(
         ``runtime_s``.
     """
     t0 = time.perf_counter()
-    params = PBAParams(max_part, node_limit, order, roll_rule, prices)
+    params = from_kwargs(PBAParams, params, method="pba")
     budget = Budget.of(time_limit)
     out = pba_partition(instance, params, budget)
     return {
@@ -672,24 +659,13 @@ def pba_bound(
         "method": "pba",
         "targets": count_bound(instance, params, out["tasks"], budget),
         "parts": len(out["parts"]),
-        "inexact_parts": out["inexact_parts"],
-        "subproblems": out["subproblems"],
-        "unpriced_bound": out["unpriced_bound"],
-        "lp_bound": out["lp_bound"],
+        **{k: out[k] for k in ("inexact_parts", "subproblems", "unpriced_bound", "lp_bound")},
         "runtime_s": time.perf_counter() - t0,
     }
 
 
 def solve_pba_stc(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None = None,
-    max_part: int = PBAParams.max_part,
-    node_limit: int = PBAParams.node_limit,
-    order: Order = "rcm",
-    roll_rule: RollRule = "midpoint",
-    prices: PriceRule = "lp",
+    instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
     """PBA-STC as a method: the bound R* and a schedule repaired from the bound's solutions.
 
@@ -701,8 +677,8 @@ def solve_pba_stc(
         Unused (the method is deterministic); accepted for the common signature.
     time_limit
         Seconds for the bound (parts not reached get their upper values).
-    max_part, node_limit, order, roll_rule, prices
-        See :class:`PBAParams`.
+    **params
+        Fields of :class:`PBAParams`.
 
     Returns
     -------
@@ -712,7 +688,7 @@ def solve_pba_stc(
         number of parts and of inexact parts, the LP bound and the bound without prices.
     """
     del rng
-    params = PBAParams(max_part, node_limit, order, roll_rule, prices)
+    params = from_kwargs(PBAParams, params, method="pba-stc")
     budget = Budget.of(time_limit)
     out = pba_partition(instance, params, budget)
     tasks: TaskSet = out["tasks"]
@@ -733,23 +709,11 @@ def solve_pba_stc(
         more, extra = insertion_decode(instance, tasks, priority_order(tasks), lines, covered)
         chosen += more
         profit += extra
-    schedule = tasks_to_schedule(instance, tasks, chosen)
-    observed = sum(len(o.opps) for o in schedule.observations)
     stats = {
         "bound_targets": count_bound(instance, params, tasks, budget),
         "parts": len(out["parts"]),
-        "inexact_parts": out["inexact_parts"],
-        "subproblems": out["subproblems"],
-        "lp_bound": out["lp_bound"],
-        "unpriced_bound": out["unpriced_bound"],
+        **{k: out[k] for k in ("inexact_parts", "subproblems", "lp_bound", "unpriced_bound")},
     }
     log.info("pba-stc: bound %d, schedule %d", out["bound"], profit)
-    return Result(
-        "pba-stc",
-        Status.FEASIBLE,
-        schedule,
-        float(profit),
-        observed,
-        bound=float(out["bound"]),
-        stats=stats,
-    )
+    bound = float(out["bound"])
+    return task_result("pba-stc", instance, tasks, chosen, profit, bound=bound, stats=stats)

@@ -108,8 +108,6 @@ from __future__ import annotations
 
 import logging
 import sys
-import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -126,12 +124,15 @@ from sosp.progress import current as current_progress
 from sosp.result import Result, Status
 from sosp.rules import EPS, orbit_rules
 from sosp.schedule import RollRule
-from sosp.stop import stop_requested
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
 Order = Literal["orbit", "weight"]
 Variables = Literal["targets", "tasks"]
+
+#: The budget of a call without a time limit.
+UNLIMITED = Budget()
 
 #: Node budget of the first run of a search pass (then doubled, see ``search_pass``).
 _FIRST_BUDGET = 1000
@@ -142,14 +143,15 @@ _CLOCK_EVERY = 64
 
 
 class _Timeout(Exception):
-    """Raised inside the search when the deadline passes or a stop is requested."""
+    """Raised when the budget is spent or a stop is requested: inside the search, or while
+    a component's search is being prepared (:func:`pairwise_conflicts`)."""
 
 
-def _halt(deadline: float | None, clock: Callable[[], float], nodes: int) -> bool:
+def _halt(budget: Budget, nodes: int) -> bool:
     """The search's periodic check: report ``nodes`` to the solve's progress; True when the
-    deadline has passed or a stop was requested (:func:`sosp.stop.request_stop`)."""
+    budget is spent or a stop was requested (:func:`sosp.stop.request_stop`)."""
     current_progress().update(nodes, None)
-    return (deadline is not None and clock() > deadline) or stop_requested()
+    return budget.expired()
 
 
 class _Budget(Exception):
@@ -178,8 +180,6 @@ class ComponentOutcome:
         An upper bound on the component's optimum.
     nodes
         Search nodes visited.
-    seconds
-        Wall time spent on the component.
     """
 
     items: list[int]
@@ -188,7 +188,6 @@ class ComponentOutcome:
     proven: bool
     bound: int
     nodes: int = 0
-    seconds: float = 0.0
 
 
 @dataclass
@@ -233,18 +232,16 @@ def orbit_resources_can_bind(instance: Instance, tasks: TaskSet, idx: np.ndarray
     lo, hi, dur, energy = lo[order], hi[order], dur[order], energy[order]
     # prev[k]: how many intervals (in end order) end before interval k starts.
     prev = np.minimum(np.searchsorted(hi, lo + tol, side="right"), np.arange(idx.size))
-    card = [0] * (idx.size + 1)
-    obs = [0.0] * (idx.size + 1)
-    eng = [0.0] * (idx.size + 1)
+    # best[k]: the most members, observing time and energy of a chain of the first k
+    gain = np.stack([np.ones(idx.size), dur, energy], axis=1)
+    best = np.zeros((idx.size + 1, 3))
     for k in range(idx.size):
-        p = int(prev[k])
-        card[k + 1] = max(card[k], card[p] + 1)
-        obs[k + 1] = max(obs[k], obs[p] + float(dur[k]))
-        eng[k + 1] = max(eng[k], eng[p] + float(energy[k]))
-    if card[-1] > r.max_openings:
+        best[k + 1] = np.maximum(best[k], best[prev[k]] + gain[k])
+    card, obs, eng = best[-1].tolist()
+    if card > r.max_openings:
         return True
     # conservative: a total within EPS below a capacity counts as binding
-    return r.memory(obs[-1]) > r.memory_capacity - EPS or eng[-1] > r.energy_capacity - EPS
+    return r.memory(obs) > r.memory_capacity - EPS or eng > r.energy_capacity - EPS
 
 
 def interaction_components(
@@ -323,10 +320,6 @@ def interaction_components(
     return comps
 
 
-class _OutOfTime(Exception):
-    """The deadline passed while a component's search was being prepared."""
-
-
 #: Pairs between two readings of the clock in the loops over (3) conflict pairs.
 PAIRS_PER_CHECK = 1 << 18
 
@@ -341,13 +334,12 @@ def pairwise_conflicts(
     instance: Instance,
     tasks: TaskSet,
     items: list[int],
-    deadline: float | None = None,
-    clock: Callable[[], float] = time.perf_counter,
+    budget: Budget = UNLIMITED,
 ) -> list[list[int]]:
     """For each item (by position in ``items``), the positions of the items it excludes by (3).
 
-    Past ``deadline`` (read before the adjacency and every :data:`PAIRS_PER_CHECK` of its
-    entries: a dense instance has millions) it raises :class:`_OutOfTime`.
+    Once ``budget`` is spent (read before the adjacency and every :data:`PAIRS_PER_CHECK` of
+    its entries: a dense instance has millions) it raises :class:`_Timeout`.
 
     Two tasks u, v of one orbit with ``ts_u <= ts_v`` and ``te_u + a + (|theta_u| +
     |theta_v|)/v > ts_v + EPS`` (:func:`sosp.conflicts.setup_conflict_pairs`) are never both
@@ -360,22 +352,16 @@ def pairwise_conflicts(
     """
     if len(items) < 2:
         return [[] for _ in items]
-    from sosp.conflicts import TooManyConflicts, setup_conflict_rows, setup_pair_candidates
+    from sosp.conflicts import TooManyConflicts, setup_conflict_rows
 
-    def late() -> bool:
-        return deadline is not None and clock() > deadline
-
-    if late():
-        raise _OutOfTime
+    # the sweep reads no clock: foreseen past the deadline it is not started (a polar box of
+    # 10,000 targets, 167 million pairs: 5.7 s, and a 5 s run went to 7.1 s)
+    foreseen = 0.0 if budget.deadline is None else _prep_seconds(instance, tasks, items)
+    if not budget.fits(foreseen):
+        raise _Timeout
     idx = np.asarray(items, dtype=np.int64)
     orbit = tasks.orbit[idx]
     start, end, roll = tasks.start[idx], tasks.end[idx], tasks.roll[idx]
-    if deadline is not None:
-        # the sweep reads no clock: foreseen past the deadline it is not started (a polar
-        # box of 10,000 targets, 167 million pairs: 5.7 s, and a 5 s run went to 7.1 s)
-        tested = setup_pair_candidates(instance, orbit, start, end, roll)
-        if clock() + PREP_S_PER_TASK * len(idx) + PREP_S_PER_PAIR * tested > deadline:
-            raise _OutOfTime
     foot = end - start + instance.setup_time[orbit]
     thin = np.unique(orbit[foot < 4 * EPS])
     # one compiled sweep (12.6 million pairs: 0.4 s, where the sorted pairs took 3.9 s
@@ -387,12 +373,12 @@ def pairwise_conflicts(
     except TooManyConflicts as exc:
         # the lists would take tens of GB (about 80 bytes a pair): no search
         log.warning("rds: %s; no search, the schedule is the fall-back's", exc)
-        raise _OutOfTime from None
+        raise _Timeout from None
     conf: list[list[int]] = []
     row = 0
     while row < len(idx):
-        if late():
-            raise _OutOfTime
+        if budget.expired():
+            raise _Timeout
         # rows up to about PAIRS_PER_CHECK entries (at least one row)
         last = int(np.searchsorted(indptr, indptr[row] + PAIRS_PER_CHECK, side="right")) - 1
         last = min(max(last, row + 1), len(idx))
@@ -406,8 +392,7 @@ def fix_free_tasks(
     instance: Instance,
     tasks: TaskSet,
     usable: list[int],
-    deadline: float | None = None,
-    clock: Callable[[], float] = time.perf_counter,
+    budget: Budget = UNLIMITED,
 ) -> tuple[list[int], list[int]]:
     """Exact reduction: tasks that some optimal selection contains, and the tasks still useful.
 
@@ -420,7 +405,7 @@ def fix_free_tasks(
     task whose targets are all covered then adds nothing and is dropped, which can free other
     tasks; repeated until nothing changes.
 
-    Past ``deadline`` (a dense instance has millions of conflict pairs) it stops with the
+    Once ``budget`` is spent (a dense instance has millions of conflict pairs) it stops with the
     tasks fixed so far, each an exact reduction on its own.
 
     Returns
@@ -430,9 +415,6 @@ def fix_free_tasks(
     """
     from sosp.conflicts import setup_conflict_rows
 
-    def late() -> bool:
-        return deadline is not None and clock() > deadline
-
     if not usable:
         return [], []
     idx = np.asarray(usable, dtype=np.int64)
@@ -440,7 +422,7 @@ def fix_free_tasks(
         int(j): not orbit_resources_can_bind(instance, tasks, idx[tasks.orbit[idx] == j])
         for j in np.unique(tasks.orbit[idx])
     }
-    if late():
+    if budget.expired():
         return [], sorted(int(t) for t in idx)
     # the (3) adjacency by one compiled sweep (positions in ``idx``): a 5,000-target instance
     # of 24 satellites has 12.6 million pairs, which as sorted pairs and Python sets took
@@ -459,10 +441,10 @@ def fix_free_tasks(
         degree[indices[indptr[x] : indptr[x + 1]]] -= 1
 
     changed = True
-    while changed and not late():
+    while changed and not budget.expired():
         changed = False
         for seen, x in enumerate(np.flatnonzero(alive).tolist()):
-            if seen % 4096 == 4095 and late():
+            if seen % 4096 == 4095 and budget.expired():
                 break  # the fixes so far stand
             t = int(idx[x])
             if all(int(k) in covered for k in tasks.targets[t]):
@@ -495,11 +477,9 @@ def _restrict(instance: Instance, tasks: TaskSet, keep: list[int], fixed: list[i
 
 def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
     """The component's items in RDS variable order (see the module docstring)."""
-    if order == "orbit":
-        return sorted(items, key=lambda t: (tasks.orbit[t], tasks.start[t], tasks.end[t], t))
     if order == "weight":
         return sorted(items, key=lambda t: (-tasks.weight[t], tasks.orbit[t], tasks.start[t], t))
-    raise InputError(f"order: expected 'orbit' or 'weight', got {order!r}")
+    return sorted(items, key=lambda t: (tasks.orbit[t], tasks.start[t], tasks.end[t], t))
 
 
 # ------------------------------------------------------------------------------- search
@@ -519,8 +499,7 @@ def rds_component(
     instance: Instance,
     tasks: TaskSet,
     items: list[int],
-    deadline: float | None,
-    clock: Callable[[], float] = time.perf_counter,
+    budget: Budget = UNLIMITED,
 ) -> ComponentOutcome:
     """Russian Doll Search on one component, items already in variable order.
 
@@ -532,17 +511,14 @@ def rds_component(
         All tasks (``items`` index into it).
     items
         The component's tasks in search order x_1..x_m.
-    deadline
-        ``clock()`` value at which to stop (None: no limit).
-    clock
-        The clock compared with ``deadline``.
+    budget
+        The time the search may take.
 
     Returns
     -------
     ComponentOutcome
-        ``proven`` is False when the deadline interrupted the search.
+        ``proven`` is False when the budget interrupted the search.
     """
-    t0 = clock()
     m = len(items)
     tw = instance.target_weight
     orb, ent, _, line_of = _entries(instance, tasks, items)
@@ -574,13 +550,9 @@ def rds_component(
             if value + opt[p] <= state["best"]:
                 return  # the RDS bound: the rest adds at most opt[p]
             state["nodes"] += 1
-            if state["nodes"] % _CLOCK_EVERY == 0:
-                if _halt(deadline, clock, state["nodes"]):
-                    raise _Timeout
-            gain = 0
-            for k, w in zip(tg[p], wts[p], strict=True):
-                if cover[k] == 0:
-                    gain += w
+            if state["nodes"] % _CLOCK_EVERY == 0 and _halt(budget, state["nodes"]):
+                raise _Timeout
+            gain = sum(w for k, w in zip(tg[p], wts[p], strict=True) if cover[k] == 0)
             if gain > 0:
                 chk = line_of[p].check_insert(ent[p])
                 if chk:
@@ -630,24 +602,30 @@ def rds_component(
         # The best of the interrupted P_i is a feasible selection too.
         if state["sel"] is not None:
             incumbent = state["sel"]
+    i = interrupted_at
+    bound = min(sum(int(tw[k]) for k in cover), sum(wt[: i + 1]) + opt[i + 1])
+    return _outcome(instance, tasks, items, incumbent, proven, opt[0], bound, state["nodes"])
+
+
+def _outcome(
+    instance: Instance,
+    tasks: TaskSet,
+    items: list[int],
+    incumbent: list[int],
+    proven: bool,
+    optimum: int,
+    bound: int,
+    nodes: int,
+) -> ComponentOutcome:
+    """A component's outcome: the ``incumbent`` (positions in ``items``), with ``optimum`` as
+    its bound when ``proven`` (the incumbent is then the selection that reached it), else
+    ``bound``."""
     chosen = [items[p] for p in incumbent]
     value = _coverage_value(instance, tasks, chosen)
-    if proven:
-        bound = opt[0]
-    else:
-        i = interrupted_at
-        all_targets = sum(int(tw[k]) for k in cover)
-        bound = min(all_targets, sum(wt[: i + 1]) + opt[i + 1])
-    if proven and value != opt[0]:  # the incumbent is the selection that reached opt[0]
-        raise AssertionError(f"RDS bookkeeping: incumbent {value} != optimum {opt[0]}")
+    if proven and value != optimum:
+        raise AssertionError(f"RDS bookkeeping: incumbent {value} != optimum {optimum}")
     return ComponentOutcome(
-        items=list(items),
-        chosen=chosen,
-        value=value,
-        proven=proven,
-        bound=int(bound),
-        nodes=int(state["nodes"]),
-        seconds=clock() - t0,
+        list(items), chosen, value, proven, int(optimum if proven else bound), nodes
     )
 
 
@@ -656,8 +634,7 @@ def rds_targets_component(
     tasks: TaskSet,
     items: list[int],
     order: Order,
-    deadline: float | None,
-    clock: Callable[[], float] = time.perf_counter,
+    budget: Budget = UNLIMITED,
 ) -> ComponentOutcome:
     """Russian Doll Search on one component with one variable per target (SPOT5 style).
 
@@ -674,7 +651,7 @@ def rds_targets_component(
 
     Parameters
     ----------
-    instance, tasks, items, deadline, clock
+    instance, tasks, items, budget
         As :func:`rds_component`; ``items`` are the component's tasks.
     order
         Target order: ``"orbit"`` by (orbit, start) of the target's earliest task in the
@@ -683,9 +660,8 @@ def rds_targets_component(
     Returns
     -------
     ComponentOutcome
-        ``proven`` is False when the deadline interrupted the search.
+        ``proven`` is False when the budget interrupted the search.
     """
-    t0 = clock()
     tw = instance.target_weight
     by_target: dict[int, list[int]] = {}
     for t in items:
@@ -704,30 +680,26 @@ def rds_targets_component(
     # Tasks become local ids 0..m-1; domains hold local ids, heaviest task first.
     local = {t: i for i, t in enumerate(items)}
     orb, ent, lines, line_of = _entries(instance, tasks, items)
-    dom = [
-        [
-            local[t]
-            for t in sorted(
-                by_target[k], key=lambda t: (-int(tasks.weight[t]), tasks.orbit[t], tasks.start[t])
-            )
-        ]
-        for k in tkeys
-    ]
+
+    def heaviest(t: int) -> tuple:
+        return (-int(tasks.weight[t]), tasks.orbit[t], tasks.start[t])
+
+    dom = [[local[t] for t in sorted(by_target[k], key=heaviest)] for k in tkeys]
     m = len(items)
     on = [False] * m  # task scheduled
-    forbid = [0] * m  # > 0: excluded by a "none" branch above
     opt = [0] * (n + 1)
     stack: list[int] = []
     state: dict[str, Any] = {"best": 0, "sel": None, "ub": 0, "nodes": 0, "prefer_ff": False}
     incumbent: list[int] = []
-    # A task is "open" while it is not forbidden and no scheduled task excludes it by (3)
-    # (:func:`pairwise_conflicts`); ``cnt[p]`` counts the open tasks covering target p (a
+    # A task is "open" while no branch above banned it and no scheduled task excludes it by
+    # (3) (:func:`pairwise_conflicts`); ``shut[t]`` counts what closes it (a ban always ends
+    # after the schedules below it). ``cnt[p]`` counts the open tasks covering target p (a
     # scheduled task is open: scheduled tasks never conflict) and ``covc[p]`` the scheduled
     # ones. A target with ``cnt[p] == 0`` can no longer be covered below the node.
     pos_of = {k: p for p, k in enumerate(tkeys)}
     tpos = [[pos_of[int(k)] for k in tasks.targets[t]] for t in items]
-    conf = pairwise_conflicts(instance, tasks, items, deadline, clock)
-    blocked = [0] * m
+    conf = pairwise_conflicts(instance, tasks, items, budget)
+    shut = [0] * m
     cnt = [len(d) for d in dom]
     covc = [0] * n
     # On an orbit whose resources can bind, a task that no longer fits (4)-(6) next to the
@@ -744,12 +716,16 @@ def rds_targets_component(
     cur = {"i": n, "value": 0}  # the subproblem P_i being solved and the value of the node
 
     def close(t: int) -> None:
-        for p in tpos[t]:
-            cnt[p] -= 1
+        shut[t] += 1
+        if shut[t] == 1:
+            for p in tpos[t]:
+                cnt[p] -= 1
 
     def reopen(t: int) -> None:
-        for p in tpos[t]:
-            cnt[p] += 1
+        shut[t] -= 1
+        if shut[t] == 0:
+            for p in tpos[t]:
+                cnt[p] += 1
 
     def schedule(t: int, chk: Any) -> None:
         line_of[t].insert(ent[t], chk)
@@ -761,30 +737,21 @@ def rds_targets_component(
             if covc[p] == 1 and p >= i:
                 cur["value"] += wq[p]
         for u in conf[t]:
-            blocked[u] += 1
-            if blocked[u] == 1 and not forbid[u]:
-                close(u)
+            close(u)
         gone: list[int] = []
         if tight[orb[t]]:
             line = line_of[t]
             for u in on_orbit[orb[t]]:
-                if not blocked[u] and not on[u]:
-                    if not line.check_insert(ent[u]):
-                        blocked[u] += 1
-                        if not forbid[u]:
-                            close(u)
-                        gone.append(u)
+                if not shut[u] and not on[u] and not line.check_insert(ent[u]):
+                    close(u)
+                    gone.append(u)
         killed.append(gone)
 
     def unschedule(t: int) -> None:
         for u in killed.pop():
-            blocked[u] -= 1
-            if blocked[u] == 0 and not forbid[u]:
-                reopen(u)
+            reopen(u)
         for u in conf[t]:
-            blocked[u] -= 1
-            if blocked[u] == 0 and not forbid[u]:
-                reopen(u)
+            reopen(u)
         i = cur["i"]
         for p in tpos[t]:
             covc[p] -= 1
@@ -793,16 +760,6 @@ def rds_targets_component(
         stack.pop()
         on[t] = False
         line_of[t].discard(ent[t])
-
-    def ban(t: int) -> None:
-        forbid[t] += 1
-        if forbid[t] == 1 and not blocked[t]:
-            close(t)
-
-    def unban(t: int) -> None:
-        forbid[t] -= 1
-        if forbid[t] == 0 and not blocked[t]:
-            reopen(t)
 
     def record(value: int) -> None:
         if value > state["best"]:
@@ -819,9 +776,8 @@ def rds_targets_component(
         state["nodes"] += 1
         if state["nodes"] > state["limit"]:
             raise _Budget
-        if state["nodes"] % _CLOCK_EVERY == 0:
-            if _halt(deadline, clock, state["nodes"]):
-                raise _Timeout
+        if state["nodes"] % _CLOCK_EVERY == 0 and _halt(budget, state["nodes"]):
+            raise _Timeout
         best = state["best"]
         bound = opt[i + 1] + (wq[i] if cnt[i] else 0)
         s = 0
@@ -842,12 +798,17 @@ def rds_targets_component(
             bound = s
         if bound <= best:
             return
-        if pick < 0:
-            return  # every coverable target is covered: this is a leaf (already recorded)
+        if pick >= 0:  # else every coverable target is covered: a leaf (already recorded)
+            branch(i, pick, True)
+
+    def branch(i: int, k: int, none: bool) -> None:
+        # The branches of target k at a node of P_i: each open task covering it in turn, then
+        # with ``none`` the branch "k not covered". Later branches exclude a task tried (its
+        # solutions were just searched), so in "none" all of k's tasks are banned.
         banned: list[int] = []
         try:
-            for t in dom[pick]:
-                if forbid[t] or blocked[t]:
+            for t in dom[k]:
+                if shut[t]:
                     continue
                 chk = line_of[t].check_insert(ent[t])
                 if chk:
@@ -857,16 +818,13 @@ def rds_targets_component(
                         dfs(i)
                     finally:
                         unschedule(t)
-                # Later branches and "none" exclude t (its solutions were just searched).
-                ban(t)
+                close(t)
                 banned.append(t)
-                if state["best"] > best:
-                    best = state["best"]
-            # "none" for the picked target: all its tasks are now banned, cnt[pick] == 0.
-            dfs(i)
+            if none:
+                dfs(i)
         finally:
             for t in banned:
-                unban(t)
+                reopen(t)
 
     def search_pass(i: int, low: int, upper: int) -> bool:
         # Search P_i (target i covered) for a selection worth more than ``low``, with
@@ -883,19 +841,8 @@ def rds_targets_component(
             # quarter (the order that suits an instance tends to suit all its subproblems).
             own = budget if fail_first == state["prefer_ff"] else max(_FIRST_BUDGET, budget // 4)
             state["limit"] = state["nodes"] + own
-            banned: list[int] = []
             try:
-                for t in dom[i]:
-                    chk = line_of[t].check_insert(ent[t])
-                    if chk:
-                        schedule(t, chk)
-                        try:
-                            record(cur["value"])
-                            dfs(i)
-                        finally:
-                            unschedule(t)
-                    ban(t)
-                    banned.append(t)
+                branch(i, i, False)  # target i covered (no task of it is closed up here)
             except _Done:
                 pass
             except _Budget:
@@ -904,9 +851,6 @@ def rds_targets_component(
                     budget *= 2
                 fail_first = not fail_first
                 continue
-            finally:
-                for t in banned:
-                    unban(t)
             if budget > _FIRST_BUDGET:
                 state["prefer_ff"] = fail_first
             log.debug(
@@ -961,7 +905,7 @@ def rds_targets_component(
             # of the search reads it (2,212 targets over a polar box: 1,860 repairs of a
             # 1,300-task selection, 6.8 s past a 5 s limit). Only the clock: a stop request
             # is read by the nodes, so a tiny instance solved by repairs keeps its proof.
-            if deadline is not None and clock() > deadline:
+            if budget.left() == 0:
                 raise _Timeout
             if incumbent:
                 # Value order: the task that covers a target in the last optimum first.
@@ -997,23 +941,8 @@ def rds_targets_component(
         proven = False
         if state["sel"] is not None:
             incumbent = state["sel"]
-    chosen = [items[t] for t in incumbent]
-    value = _coverage_value(instance, tasks, chosen)
-    if proven:
-        if value != opt[0]:
-            raise AssertionError(f"RDS bookkeeping: incumbent {value} != optimum {opt[0]}")
-        bound = opt[0]
-    else:
-        bound = sum(wq[:interrupted_at]) + upper
-    return ComponentOutcome(
-        items=list(items),
-        chosen=chosen,
-        value=value,
-        proven=proven,
-        bound=int(bound),
-        nodes=int(state["nodes"]),
-        seconds=clock() - t0,
-    )
+    bound = sum(wq[:interrupted_at]) + upper
+    return _outcome(instance, tasks, items, incumbent, proven, opt[0], bound, state["nodes"])
 
 
 def _coverage_value(instance: Instance, tasks: TaskSet, chosen: list[int]) -> int:
@@ -1085,8 +1014,7 @@ def russian_doll(
     RdsOutcome
         The best selection, its value, whether it is proven optimal, and an upper bound.
     """
-    clock = time.perf_counter
-    deadline = None if time_limit is None else clock() + float(time_limit)
+    budget = Budget.of(time_limit)
     if order not in ("orbit", "weight"):
         raise InputError(f"order: expected 'orbit' or 'weight', got {order!r}")
     if variables not in ("targets", "tasks"):
@@ -1094,20 +1022,21 @@ def russian_doll(
     # Tasks that can never be scheduled: no weight, or infeasible alone ((4)-(6), (11)).
     alone = fits_alone(instance, tasks)
     usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
-    if deadline is not None:
+    if time_limit is not None:
         # what follows the search when it is not proven (the fall-back decode of every
         # task, the restriction to the tasks left) reads no clock: its time is kept back
         # (20,000 targets, 209,103 tasks: about 1 s, and a 3 s limit ran to 4.04 s)
-        deadline -= min(0.5 * float(time_limit), FALLBACK_S_PER_TASK * len(usable))
+        keep = min(0.5 * float(time_limit), FALLBACK_S_PER_TASK * len(usable))
+        budget = Budget.until(budget.deadline - keep)
     fixed: list[int] = []
     # the reduction and the decomposition are optional and read no clock in their compiled
     # and scipy parts: each is skipped when foreseen to end past the deadline
     prep_s = _prep_seconds(instance, tasks, usable)
-    if reduce and deadline is not None and clock() + prep_s > deadline:
-        log.debug("no reduction: foreseen %.2f s, %.2f s left", prep_s, deadline - clock())
+    if reduce and not budget.fits(prep_s):
+        log.debug("no reduction: foreseen %.2f s, %s s left", prep_s, budget.left())
         reduce = False
     if reduce:
-        fixed, back = fix_free_tasks(instance, tasks, usable, deadline, clock)
+        fixed, back = fix_free_tasks(instance, tasks, usable, budget)
         usable = list(range(len(back)))
         log.debug("fixed %d tasks, %d left", len(fixed), len(back))
     else:
@@ -1116,29 +1045,27 @@ def russian_doll(
     # From here on ``tasks`` are the remaining ones (``back`` maps them to the originals).
     tasks = _restrict(instance, tasks, back, fixed)
     usable_arr = np.asarray(usable, dtype=np.int64)
-    if decompose and (deadline is None or clock() + prep_s < deadline):
+    if decompose and budget.fits(prep_s):
         comps = interaction_components(instance, tasks, usable_arr)
     else:
         comps = [usable] if usable else []
-    limit = sys.getrecursionlimit()
     need = max((len(c) for c in comps), default=0) + 1000
-    if need > limit:
-        sys.setrecursionlimit(need)
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), need))
     outcomes: list[ComponentOutcome] = []
     # the preparation above reads the clock only between its steps (and in its loops over
     # conflict pairs): past the deadline, no search starts
-    timed_out = deadline is not None and clock() > deadline
+    timed_out = budget.expired()
     for comp in comps:
         items = search_order(tasks, comp, order)
         out = None
         if not timed_out:
             try:
                 if variables == "targets":
-                    out = rds_targets_component(instance, tasks, items, order, deadline, clock)
+                    out = rds_targets_component(instance, tasks, items, order, budget)
                 else:
-                    out = rds_component(instance, tasks, items, deadline, clock)
+                    out = rds_component(instance, tasks, items, budget)
                 timed_out = not out.proven
-            except _OutOfTime:
+            except _Timeout:
                 timed_out = True
         if out is None:  # not searched: no selection yet, the coverage of all as its bound
             out = ComponentOutcome(items, [], 0, False, _coverage_value(instance, tasks, items))

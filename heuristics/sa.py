@@ -50,15 +50,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
+from heuristics.stc import Watch
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, param
-from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.schedule import RollRule
-from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -119,7 +118,7 @@ def solve_sa_stc(
         Status ``feasible``; ``iterations`` moves done; ``stats`` holds temperatures, accepted
         and improving moves and the iteration of the best schedule.
     """
-    budget = Budget.of(time_limit)
+    watch = Watch(time_limit)
     tasks = static_cluster_tasks(instance, roll_rule=roll_rule)
     tw = instance.target_weight
 
@@ -188,19 +187,14 @@ def solve_sa_stc(
     new_acc: list[bool] = []
     new_gain: list[int] = []
 
-    # the limits (iterations, time) set the cooling schedule, so they stay in the loop;
-    # the shared criteria add progress and stop requests, every 16 moves
-    stop, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
+    # the limits (iterations, time) set the cooling schedule; progress, the time limit and
+    # stop requests are checked every 16 moves
     while it < iterations and n >= 2:
-        if (it & 15) == 0:
-            seen.iteration, seen.best = it, best_total
-            if stop(seen):
-                break
+        if (it & 15) == 0 and watch(it, best_total):
+            break
         if time_limit is not None and (it & 15) == 0:
-            if budget.expired():
-                break
             # the share of the limit passed, counted as the limit is: fully cooled at its end
-            share = 1.0 - (budget.left() or 0.0) / time_limit
+            share = 1.0 - (watch.budget.left() or 0.0) / time_limit
             temperature = t0 * math.exp(log_ratio * max(it / max(iterations, 1), share))
         elif time_limit is None:
             temperature = t0 * math.exp(log_ratio * it / max(iterations, 1))

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import sys
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -30,7 +31,9 @@ from sosp import rules
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.progress import current as current_progress
 from sosp.schedule import RollRule
+from sosp.stop import Budget, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +54,31 @@ def check_float(name: str, value: Any, lo: float, hi: float, lo_open: bool = Fal
     if value > hi or value < lo or (lo_open and value == lo):
         left = "(" if lo_open else "["
         raise InputError(f"{name}: must lie in {left}{lo:g}, {hi:g}], got {value!r}")
+
+
+# -------------------------------------------------------------------------------- the loop
+class Watch:
+    """A search loop's check: the :class:`~sosp.stop.Budget` of its time limit, stop requests
+    (:func:`sosp.stop.request_stop`) and the solve's progress, reported at each check."""
+
+    def __init__(self, time_limit: float | None) -> None:
+        self.budget = Budget.of(time_limit)
+        self.progress = current_progress()
+        self.status = SearchStatus()
+
+    def __call__(self, iteration: int, best: float, since_best: int = 0) -> bool:
+        """Report the search's state; True when it must stop (its budget spent, or a stop
+        requested)."""
+        self.status.iteration, self.status.since_best = iteration, since_best
+        self.status.best = best
+        self.progress(self.status)
+        return self.budget.expired()
+
+    def limit(self, iterations: int | None, default: int) -> int:
+        """``iterations``; when None, ``default`` without a time limit, else no limit."""
+        if iterations is not None:
+            return iterations
+        return default if self.budget.deadline is None else sys.maxsize
 
 
 # ------------------------------------------------------------------------------------- data

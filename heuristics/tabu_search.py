@@ -55,17 +55,15 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
-from heuristics.stc import check_int
+from heuristics.stc import Watch, check_int
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
-from sosp.progress import current as current_progress
 from sosp.result import Result
 from sosp.schedule import RollRule
-from sosp.stop import Budget, FirstOf, Interrupted, SearchStatus
 
 log = logging.getLogger(__name__)
 
@@ -308,7 +306,7 @@ def run_tabu_search(
     time_limit: float | None = None,
 ) -> tuple[TaskSet, list[int], int, dict[str, int]]:
     """Run the search; returns the tasks, the best ones chosen, their profit and counters."""
-    budget = Budget.of(time_limit)
+    watch = Watch(time_limit)
     tasks = static_cluster_tasks(instance, roll_rule=params.roll_rule)
     ts = TabuSearch(instance, tasks, params, rng)
     local = {t: i for i, t in enumerate(ts.usable)}
@@ -317,13 +315,9 @@ def run_tabu_search(
     ts.load([local[t] for t in start])
     best, best_set, best_iter = ts.value, ts.chosen(), 0
     it = last_best = restarts = idle = aspired = 0
-    # the shared criteria: progress reports and stop requests (Ctrl-C keeps the best so far)
-    stop, seen = FirstOf(current_progress(), Interrupted()), SearchStatus()
+    # progress reports, the limit and stop requests (Ctrl-C keeps the best so far)
     while it < params.iterations and ts.n:
-        if budget.expired():
-            break
-        seen.iteration, seen.since_best, seen.best = it, it - best_iter, best
-        if stop(seen):
+        if watch(it, best, it - best_iter):
             break
         it += 1
         i = ts.choose(it, best)

@@ -15,9 +15,30 @@ from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks, tasks_t
 from sosp.instance import Instance, Resources
 from sosp.result import Status
 from sosp.solve import solve
+from sosp.stop import Budget
 from sosp.validate import validate
 from tests.conftest import scenario, tiny_chain, tiny_cluster, tiny_openings, tiny_two_orbits
 from tests.oracle import brute_force as oracle
+
+
+class Countdown(Budget):
+    """A budget spent from its ``n``-th reading on (each ``fits``, ``expired`` or ``left``
+    is one reading of the clock)."""
+
+    def __init__(self, n: int) -> None:
+        super().__init__(deadline=float("inf"))
+        object.__setattr__(self, "n", n)
+        object.__setattr__(self, "readings", [])
+
+    def _spent(self) -> bool:
+        self.readings.append(1)
+        return len(self.readings) >= self.n
+
+    def fits(self, seconds: float) -> bool:
+        return not self._spent()
+
+    def left(self) -> float:
+        return 0.0 if self._spent() else 1.0
 
 
 def random_tiny(seed: int) -> Instance:
@@ -369,11 +390,10 @@ def test_the_preparation_reads_the_clock(monkeypatch: pytest.MonkeyPatch, b3) ->
     inst = b3
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
-    late = iter([0.0] + [10.0] * 10**6).__next__  # the deadline (1.0) passes after one reading
-    fixed, rest = rds_module.fix_free_tasks(inst, tasks, usable, deadline=1.0, clock=late)
-    assert fixed == [] and rest == usable
-    with pytest.raises(rds_module._OutOfTime):
-        pairwise_conflicts(inst, tasks, usable, deadline=1.0, clock=lambda: 10.0)
+    fixed, rest = rds_module.fix_free_tasks(inst, tasks, usable, Countdown(2))
+    assert fixed == [] and rest == usable  # spent after one reading
+    with pytest.raises(rds_module._Timeout):
+        pairwise_conflicts(inst, tasks, usable, Budget.until(0.0))
     out = russian_doll(inst, tasks, time_limit=1e-9)
     assert not out.proven and out.value > 0 and out.bound >= out.value
     assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
@@ -393,9 +413,9 @@ def test_the_work_after_the_search_has_its_time_kept_back(
     seen: list[float] = []
     real = rds_module.fix_free_tasks
 
-    def spy(instance, tasks, usable, deadline, clock):
-        seen.append(deadline)
-        return real(instance, tasks, usable, deadline, clock)
+    def spy(instance, tasks, usable, budget):
+        seen.append(budget.deadline)
+        return real(instance, tasks, usable, budget)
 
     monkeypatch.setattr(rds_module, "fix_free_tasks", spy)
     for per_task, kept in ((0.0, 0.0), (1.0, 2.0)):  # none; half of the 4 s limit
@@ -413,16 +433,11 @@ def test_subproblems_solved_by_repair_read_the_clock(monkeypatch: pytest.MonkeyP
     inst = Instance.build([1 + k % 5 for k in range(24)], rows)
     tasks = single_tasks(inst)
     items = list(range(len(tasks)))
-    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", None)
+    out = rds_module.rds_targets_component(inst, tasks, items, "orbit")
     assert out.proven and out.nodes == 0  # the repair alone solves it: no node, no clock
-    readings: list[int] = []
-
-    def clock() -> float:  # the deadline (1.0) passes at the 12th reading
-        readings.append(1)
-        return 0.0 if len(readings) < 12 else 10.0
-
-    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", 1.0, clock)
-    assert not out.proven and len(readings) == 13  # (the 13th: the seconds spent)
+    budget = Countdown(12)  # spent at the 12th reading
+    out = rds_module.rds_targets_component(inst, tasks, items, "orbit", budget)
+    assert not out.proven and budget.readings == [1] * 12
     assert out.bound >= out.value > 0
     assert validate(inst, tasks_to_schedule(inst, tasks, out.chosen)).feasible
 
@@ -489,14 +504,14 @@ def test_conflict_lists_foreseen_late_or_too_large_are_not_made(monkeypatch, b1)
     tasks = single_tasks(inst)
     usable = list(range(len(tasks)))
     far = 1e12  # a deadline that never passes
-    assert len(pairwise_conflicts(inst, tasks, usable, deadline=far, clock=lambda: 0.0)) > 0
+    assert len(pairwise_conflicts(inst, tasks, usable, Budget.until(far))) > 0
     monkeypatch.setattr(rds_module, "PREP_S_PER_PAIR", far)
-    with pytest.raises(rds_module._OutOfTime):
-        pairwise_conflicts(inst, tasks, usable, deadline=far, clock=lambda: 0.0)
+    with pytest.raises(rds_module._Timeout):
+        pairwise_conflicts(inst, tasks, usable, Budget.until(far))
     pairwise_conflicts(inst, tasks, usable)  # no deadline: no foresight
     monkeypatch.undo()
     monkeypatch.setattr(rds_module, "MAX_PAIRS", 1)
-    with pytest.raises(rds_module._OutOfTime):
+    with pytest.raises(rds_module._Timeout):
         pairwise_conflicts(inst, tasks, usable)
     out = russian_doll(inst, tasks, decompose=False, reduce=False)
     assert not out.proven and out.bound >= out.value > 0
