@@ -25,7 +25,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -84,20 +84,6 @@ def model_data(
         return prep(instance, deadline=deadline, generate_by=generate_by)
     except TimeLimitReached:
         raise TimeUp("candidate generation") from None
-
-
-def _check_params(mip_gap: Any, threads: Any) -> None:
-    if mip_gap is not None and (
-        isinstance(mip_gap, bool)
-        or not isinstance(mip_gap, int | float)
-        or not math.isfinite(mip_gap)
-        or not 0 <= mip_gap < 1
-    ):
-        raise InputError(f"mip_gap: expected a number in [0, 1), got {mip_gap!r}")
-    if threads is not None and (
-        isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1
-    ):
-        raise InputError(f"threads: expected a positive integer, got {threads!r}")
 
 
 def _solver(mip_gap: float | None, threads: int | None) -> Any:
@@ -242,7 +228,8 @@ ExtraBound = Literal["colgen", "lagrangian", "lp", "none"]
 
 @dataclass(frozen=True)
 class MILPParams(Params):
-    """Parameters of :func:`solve_milp` (the steps they steer are in its docstring)."""
+    """Parameters of :func:`solve_milp` (the steps they steer are in its docstring); built by
+    :func:`solve_milp` and :func:`bound` to check their arguments."""
 
     model: str = param("cluster", "'cluster' (the problem), 'task' or 'static'.")
     mip_gap: float | None = param(None, "Relative gap at which HiGHS stops (None: 1e-4).")
@@ -252,11 +239,30 @@ class MILPParams(Params):
     )
     extra_bound: ExtraBound = param("colgen", "Bound computed before the MILP.")
     relax: bool = param(False, "Solve the LP relaxation instead (no schedule).")
-    backend: str = param("auto", "'pyomo', 'highs' or 'auto' (by size).")
-    conflicts: str = param("network", "Form of (3) in the direct backend: 'network' or 'clique'.")
-    lp_solver: str = param("choose", "HiGHS LP algorithm: 'choose', 'simplex', 'ipm' or 'pdlp'.")
-    slew: str | None = param(None, "Slew term of (4): 'exact', 'lazy', 'auto' or 'relaxed'.")
-    probing: str = param("auto", "HiGHS probing in presolve: 'on', 'off' or 'auto'.")
+    backend: Literal["auto", "pyomo", "highs"] = param("auto", "'pyomo', 'highs' or 'auto'.")
+    conflicts: Literal["network", "clique"] = param("network", "Form of (3) in the direct backend.")
+    lp_solver: Literal["choose", "simplex", "ipm", "pdlp"] = param("choose", "HiGHS LP algorithm.")
+    slew: Literal["exact", "lazy", "relaxed", "auto"] | None = param(
+        None, "Slew term of (4): 'exact', 'lazy', 'auto' or 'relaxed'."
+    )
+    probing: Literal["auto", "on", "off"] = param("auto", "HiGHS probing in presolve.")
+
+    def check(self) -> None:
+        gap, threads, start = self.mip_gap, self.threads, self.warm_start
+        if gap is not None and not (math.isfinite(gap) and 0 <= gap < 1):
+            raise InputError(f"mip_gap: expected a number in [0, 1), got {gap!r}")
+        if threads is not None and threads < 1:
+            raise InputError(f"threads: expected a positive integer, got {threads!r}")
+        if start not in ("auto", "none", None) and not isinstance(start, Schedule):
+            raise InputError(f"warm_start: expected 'auto', 'none' or a schedule, got {start!r}")
+        if self.slew == "lazy" and self.relax:
+            raise InputError("slew: 'lazy' is for MILP solves (an LP takes relaxed or exact)")
+        if self.slew == "relaxed" and not self.relax:
+            raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
+        if self.slew == "relaxed" and self.backend == "pyomo":
+            raise InputError(
+                "slew: 'relaxed' is built by the direct backend (backend highs or auto)"
+            )
 
 
 def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
@@ -282,29 +288,8 @@ def _int_bound(raw: float | None) -> float | None:
     return float(math.floor(float(raw) + INT_TOL))
 
 
-#: Backends of :func:`solve_milp` and :func:`bound`.
-BACKENDS = ("auto", "pyomo", "highs")
-
 #: ``backend="auto"`` uses the direct HiGHS backend from this many items on (Pyomo below).
 AUTO_HIGHS_ITEMS = 1000
-
-
-def _check_backend(backend: Any, conflicts: Any) -> None:
-    from models.highs_direct import CONFLICT_FORMS
-
-    if backend not in BACKENDS:
-        raise InputError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
-    if conflicts not in CONFLICT_FORMS:
-        raise InputError(
-            f"conflicts: expected one of {', '.join(CONFLICT_FORMS)}, got {conflicts!r}"
-        )
-
-
-def _check_lp_solver(lp_solver: Any) -> None:
-    from models.highs_direct import LP_SOLVERS
-
-    if lp_solver not in LP_SOLVERS:
-        raise InputError(f"lp_solver: expected one of {', '.join(LP_SOLVERS)}, got {lp_solver!r}")
 
 
 def choose_backend(data: ModelData, backend: str = "auto") -> str:
@@ -430,39 +415,15 @@ def solve_milp(
     """
     t0 = time.perf_counter()
     time_limit = check_time_limit(time_limit)
-    _check_params(mip_gap, threads)
-    _check_backend(backend, conflicts)
-    _check_lp_solver(lp_solver)
-    if probing not in ("auto", "on", "off"):
-        raise InputError(f"probing: expected one of auto, on, off, got {probing!r}")
-    use_probing = probing == "on" or (probing == "auto" and time_limit is None)
-    if slew not in (None, "exact", "relaxed", "auto", "lazy"):  # "conservative": milp-lns
-        raise InputError(f"slew: expected one of exact, lazy, relaxed, auto, got {slew!r}")
-    if slew == "lazy" and relax:
-        raise InputError("slew: 'lazy' is for MILP solves (an LP takes relaxed or exact)")
-    if slew == "relaxed" and not relax:
-        raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
-    if slew == "relaxed" and backend == "pyomo":
-        raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
-    if warm_start is None:
-        warm_start = "none"
-    if isinstance(warm_start, str):
-        if warm_start not in ("auto", "none"):
-            raise InputError(
-                f"warm_start: expected 'auto', 'none' or a schedule, got {warm_start!r}"
-            )
-    elif not isinstance(warm_start, Schedule):
-        raise InputError("warm_start: expected 'auto', 'none' or a Schedule")
-    if extra_bound not in get_args(ExtraBound):
-        raise InputError(
-            f"extra_bound: expected one of {', '.join(get_args(ExtraBound))}, got {extra_bound!r}"
-        )
-    rng = np.random.default_rng(0) if rng is None else rng
     params = {
         "model": model, "mip_gap": mip_gap, "threads": threads, "warm_start": warm_start,
         "extra_bound": extra_bound, "relax": relax, "backend": backend, "conflicts": conflicts,
         "lp_solver": lp_solver, "slew": slew, "probing": probing,
     }  # fmt: skip
+    MILPParams(**params)
+    use_probing = probing == "on" or (probing == "auto" and time_limit is None)
+    warm_start = "none" if warm_start is None else warm_start
+    rng = np.random.default_rng(0) if rng is None else rng
     if start_stage(instance, params) is not None:  # called directly: the pipeline's start
         from sosp.pipeline import improve
         from sosp.stop import Budget
@@ -1167,13 +1128,8 @@ def bound(
         )
         return _bound_out(res.bound, method, model, t0, res.stats, profit=res.profit,
                           status=res.status.value, gap=res.gap, source="milp")  # fmt: skip
-    _check_backend(backend, conflicts)
-    _check_lp_solver(lp_solver)
-    _check_params(None, threads)
-    if slew not in ("exact", "relaxed", "auto"):
-        raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
-    if slew == "relaxed" and backend == "pyomo":
-        raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
+    MILPParams(threads=threads, relax=True, backend=backend, conflicts=conflicts,
+               lp_solver=lp_solver, slew=slew)  # fmt: skip
     ask = _Ask(instance, t0, deadline, lower_bound or None, iterations, workers)
     if method == "colgen" and model == "cluster":
         return _colgen_bound(ask)
