@@ -672,34 +672,19 @@ def _run_here(
         h.setOptionValue("mip_rel_gap", float(mip_gap))
     if threads is not None:
         h.setOptionValue("threads", int(threads))
-    if lp_solver is not None and not am.integer.any():
-        h.setOptionValue("solver", str(lp_solver))
-    if not probing and am.integer.any():
-        h.setOptionValue("presolve_rule_off", PROBING_OFF)
-    lp = highspy.HighsLp()
-    n_rows, n_cols = (int(n) for n in am.matrix.shape)
-    lp.num_col_ = n_cols
-    lp.num_row_ = n_rows
-    lp.col_cost_ = am.cost
-    lp.col_lower_ = am.col_lower
-    lp.col_upper_ = am.col_upper
-    lp.row_lower_ = am.row_lower
-    lp.row_upper_ = am.row_upper
-    lp.sense_ = highspy.ObjSense.kMaximize
-    a = am.matrix
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_ = n_cols
-    lp.a_matrix_.num_row_ = n_rows
-    lp.a_matrix_.start_ = a.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = a.indices.astype(np.int32)
-    lp.a_matrix_.value_ = a.data.astype(float)
     mip = bool(am.integer.any())
-    if mip:
-        lp.integrality_ = [
-            highspy.HighsVarType.kInteger if b else highspy.HighsVarType.kContinuous
-            for b in am.integer
-        ]
-    h.passModel(lp)
+    if lp_solver is not None and not mip:
+        h.setOptionValue("solver", str(lp_solver))
+    if not probing and mip:
+        h.setOptionValue("presolve_rule_off", PROBING_OFF)
+    a = am.matrix
+    bounds = (am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper)
+    csr = (a.indptr.astype(np.int32), a.indices.astype(np.int32), a.data.astype(float))
+    rowwise, maximize = int(highspy.MatrixFormat.kRowwise), int(highspy.ObjSense.kMaximize)
+    # integrality: 1 (kInteger) for the x of a MILP, 0 (kContinuous) elsewhere
+    h.passModel(
+        *a.shape[::-1], a.nnz, rowwise, maximize, 0.0, *bounds, *csr, am.integer.astype(np.int32)
+    )
     if start is not None and mip:
         sol = highspy.HighsSolution()
         sol.col_value = np.asarray(start, dtype=float).tolist()

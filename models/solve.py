@@ -961,18 +961,8 @@ def _run_pyomo(
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
-    for flag in (
-        "check_for_new_or_removed_constraints",
-        "check_for_new_or_removed_vars",
-        "check_for_new_or_removed_params",
-        "check_for_new_objective",
-        "update_constraints",
-        "update_vars",
-        "update_params",
-        "update_named_expressions",
-        "update_objective",
-    ):
-        if hasattr(opt.update_config, flag):
+    for flag in opt.update_config:
+        if flag.startswith(("check_for_new", "update_")):
             setattr(opt.update_config, flag, False)
     stats["load_s"] = round(time.perf_counter() - t0 - build_s, 6)
     if deadline is not None:
