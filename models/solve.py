@@ -104,18 +104,9 @@ def _solver(mip_gap: float | None, threads: int | None) -> Any:
     return opt
 
 
-def _model_size(opt: Any, m: pyo.ConcreteModel) -> dict[str, int]:
-    h = getattr(opt, "_solver_model", None)
-    if h is not None:
-        try:
-            return {
-                "variables": int(h.getNumCol()),
-                "constraints": int(h.getNumRow()),
-                "nonzeros": int(h.getNumNz()),
-            }
-        except AttributeError:  # pragma: no cover - older highspy
-            pass
-    return {"variables": m.nvariables(), "constraints": m.nconstraints(), "nonzeros": -1}
+def _model_size(opt: Any) -> dict[str, int]:
+    h = opt._solver_model
+    return {"variables": h.getNumCol(), "constraints": h.getNumRow(), "nonzeros": h.getNumNz()}
 
 
 def start_items(data: ModelData, schedule: Schedule) -> list[int] | None:
@@ -192,15 +183,10 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     f, l_, s, r = {}, {}, {}, {}
     for j in data.energy_orbits:
         seq = [int(u) for u in data.orbit_items[j]]
+        xs = np.array([x[u] for u in seq])
+        s.update(zip(seq, np.maximum.accumulate(xs).tolist(), strict=True))
+        r.update(zip(seq, np.maximum.accumulate(xs[::-1])[::-1].tolist(), strict=True))
         taken = [u for u in seq if x[u]]
-        seen = 0.0
-        for u in seq:
-            seen = max(seen, x[u])
-            s[u] = seen
-        seen = 0.0
-        for u in reversed(seq):
-            seen = max(seen, x[u])
-            r[u] = seen
         for u in seq:
             f[u] = 1.0 if taken and u == taken[0] else 0.0
             l_[u] = 1.0 if taken and u == taken[-1] else 0.0
@@ -982,7 +968,7 @@ def _run_pyomo(
 
     use_threads(threads)
     res = opt.solve(m)
-    stats.update(_model_size(opt, m))
+    stats.update(_model_size(opt))
     tc = res.termination_condition
     stats["termination"] = tc.name
     stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
@@ -997,19 +983,14 @@ def _run_pyomo(
     incumbent = res.best_feasible_objective
     chosen = None
     if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
-        chosen = _pyomo_chosen(opt, m, res)
+        chosen = _pyomo_chosen(opt, m)
     return kind, incumbent, res.best_objective_bound, chosen
 
 
-def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel, res: Any) -> list[int]:
+def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel) -> list[int]:
     """The scheduled items of APPSI's HiGHS solution (HiGHS's solution vector)."""
-    h = getattr(opt, "_solver_model", None)
-    index = getattr(opt, "_pyomo_var_to_solver_var_map", None)
-    if h is not None and index is not None:
-        col = h.getSolution().col_value
-        return [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
-    res.solution_loader.load_vars()  # pragma: no cover - other APPSI versions
-    return [int(u) for u in m.U if (m.x[u].value or 0.0) > 0.5]
+    col, index = opt._solver_model.getSolution().col_value, opt._pyomo_var_to_solver_var_map
+    return [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
 
 
 #: Methods of :func:`bound`: the registered bounds of the problem (every model's bound here).
