@@ -39,6 +39,7 @@ from sosp.result import Result, Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
 from sosp.solve import check_time_limit
+from sosp.stop import Budget
 
 if TYPE_CHECKING:
     import pyomo.environ as pyo
@@ -412,10 +413,10 @@ def solve_milp(
     rng = np.random.default_rng(0) if rng is None else rng
     if start_stage(instance, params) is not None:  # called directly: the pipeline's start
         from sosp.pipeline import improve
-        from sosp.stop import Budget
 
         return improve(instance, "milp", solve_milp, params, rng, Budget.of(time_limit))
-    deadline = None if time_limit is None else t0 + time_limit
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
+    deadline = budget.deadline
     method = "milp"
     empty = Schedule(())
     stats: dict[str, Any] = {"model": model, "relax": bool(relax)}
@@ -493,13 +494,11 @@ def solve_milp(
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
         # column generation anyway, and the share is worth more to the MILP
-        side_next = time_limit is not None and _side_possible(
-            extra_bound, arranged, deadline, EXTRA_BOUND_SHARE * time_limit
-        )
+        share = budget.child(None if time_limit is None else EXTRA_BOUND_SHARE * time_limit)
+        side_next = _side_possible(extra_bound, arranged, budget, share.left() or 0.0)
         extra, found = _extra_bound(
-            data, extra_bound, start_profit, deadline, time_limit, threads, arranged,
-            branch=not side_next,
-        )  # fmt: skip
+            data, extra_bound, start_profit, share, threads, arranged, branch=not side_next
+        )
         if extra is not None:
             stats["extra_bound"] = extra
             upper = min(upper, extra)
@@ -509,27 +508,27 @@ def solve_milp(
     kind, incumbent, raw_bound, chosen = "not_run", None, None, None
     if start_profit >= upper - INT_TOL:
         stats["proven_by"] = "extra_bound" if upper < cap else "cap"
-    elif deadline is not None and time.perf_counter() >= deadline:
+    elif budget.expired():
         stats["timed_out"] = "before the MILP"
     else:
         # when the last stage must end: HiGHS overruns its limit a little and the solution is
         # read back after it, so a reserve is kept (5 % of the limit, at most 0.5 s)
         solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
+        by = Budget.until(solve_by)
         from models.highs_direct import watching_bound
 
         # a models.colgen.SideBound beside the MILP until solve_by (where _side_possible); it
         # yields its core to the MILP once the MILP's bound is below its own
         side: SideBound | None = None
-        if _side_possible(extra_bound, arranged, solve_by):
+        if _side_possible(extra_bound, arranged, by):
             from models.colgen import SideBound
 
-            assert arranged is not None and solve_by is not None
-            left, lower = solve_by - time.perf_counter(), start_profit if start_profit > 0 else None
-            side = SideBound(data.instance, arranged, left, lower)
+            lower = start_profit if start_profit > 0 else None
+            side = SideBound(data.instance, arranged, by.left(), lower)
         watch = None if side is None else side.watch
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
-            watch = give = _GiveWay(side, start_profit, solve_by)
+            watch = give = _GiveWay(side, start_profit, by)
         run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend,
                    stats)  # fmt: skip
         try:
@@ -559,9 +558,7 @@ def solve_milp(
                 start, start_profit = _adopt(data, found, start, start_profit, stats)
         if start is not None and chosen is not None and incumbent is not None:
             value = items_to_schedule(instance, data, chosen).coverage_profit(instance)[0]
-            if value < float(incumbent) - 1e-4 and (
-                deadline is None or time.perf_counter() < deadline
-            ):
+            if value < float(incumbent) - 1e-4 and not budget.expired():
                 # HiGHS can read back the start's solution with the optimum's objective when
                 # presolve alone finishes a model given a MIP start, on both backends: solve
                 # again without the start (the model was small)
@@ -606,12 +603,9 @@ class _GiveWay:
     HiGHS's incumbent at most ``start_profit`` and the side not yielded to HiGHS's bound.
     ``gave_at``: :func:`time.perf_counter` when it first did (else None)."""
 
-    def __init__(self, side: Any, start_profit: float, solve_by: float | None) -> None:
+    def __init__(self, side: Any, start_profit: float, solve_by: Budget) -> None:
         self.side, self.start_profit = side, start_profit
-        self.at: float | None = None
-        if solve_by is not None:
-            now = time.perf_counter()
-            self.at = now + GIVE_WAY_SHARE * (solve_by - now)
+        self.at = solve_by.share(GIVE_WAY_SHARE).deadline
         self.gave_at: float | None = None
 
     def __call__(self, dual_bound: float, incumbent: float) -> bool:
@@ -703,20 +697,17 @@ def _extra_bound(
     data: ModelData,
     how: str,
     lower: float,
-    deadline: float | None,
-    time_limit: float | None,
+    budget: Budget,
     threads: int | None,
     arranged: OrbitData | None,
     branch: bool = True,
 ) -> tuple[float | None, tuple[Schedule, float] | None]:
-    """The bound ``how`` of ``data``'s model within its share of the limit, and the schedule
-    (with its profit) the branch and price ended on, if any (``colgen``: the branching only
-    with ``branch``)."""
-    limit = None
-    if deadline is not None and time_limit is not None:
-        limit = min(EXTRA_BOUND_SHARE * time_limit, deadline - time.perf_counter())
-        if limit <= 0:
-            return None, None
+    """The bound ``how`` of ``data``'s model within ``budget`` (its share of the limit), and
+    the schedule (with its profit) the branch and price ended on, if any (``colgen``: the
+    branching only with ``branch``)."""
+    if budget.expired():
+        return None, None
+    limit = budget.left()
     common = {"time_limit": limit, "lower_bound": lower if lower > 0 else None, "data": arranged}
     if how == "colgen":
         from models.colgen import colgen_bound
@@ -729,8 +720,7 @@ def _extra_bound(
         from models.lagrangian import lagrangian_bound
 
         return float(lagrangian_bound(data.instance, **common)["bound"]), None
-    until = None if limit is None else time.perf_counter() + limit
-    return _lp_bound(data, until, threads), None
+    return _lp_bound(data, budget.deadline, threads), None
 
 
 def _adopt(
@@ -752,17 +742,17 @@ def _adopt(
 
 
 def _side_possible(
-    how: str, arranged: OrbitData | None, deadline: float | None, reserve_s: float = 0.0
+    how: str, arranged: OrbitData | None, budget: Budget, reserve_s: float = 0.0
 ) -> bool:
     """Whether a side process runs beside the MILP (:func:`solve_milp`'s side): only with
-    ``extra_bound="colgen"``, a deadline at least :data:`models.colgen.SIDE_MIN_S` away
-    after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
+    ``extra_bound="colgen"``, a ``budget`` with at least :data:`models.colgen.SIDE_MIN_S`
+    left after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
     leaves the branching to the side) and a second core."""
     from models.colgen import SIDE_MIN_S, side_cores
 
-    if how != "colgen" or arranged is None or deadline is None:
+    if how != "colgen" or arranged is None or budget.deadline is None:
         return False
-    return deadline - time.perf_counter() - reserve_s >= SIDE_MIN_S and side_cores() >= 2
+    return budget.fits(reserve_s + SIDE_MIN_S) and side_cores() >= 2
 
 
 def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
