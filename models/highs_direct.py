@@ -530,13 +530,13 @@ BOUND_WATCH_S = 0.5
 BoundListener = Callable[[float, float], bool]
 
 
+@dataclass
 class _BoundWatch:
     """A :func:`watching_bound` listener and when it may be called next."""
 
-    def __init__(self, listener: BoundListener) -> None:
-        self.listener = listener
-        self.next = 0.0
-        self.stop = False
+    listener: BoundListener
+    next: float = 0.0
+    stop: bool = False
 
     def offer(self, dual_bound: float, primal: float) -> bool:
         now = time.perf_counter()
@@ -691,13 +691,9 @@ def _run_here(
         sol.value_valid = True
         h.setSolution(sol)
     load_s = time.perf_counter() - t0
-    left = None
-    if deadline is not None:
-        left = max(deadline - time.perf_counter(), 0.01)
-    elif time_limit is not None:
-        left = float(time_limit)
+    left = time_limit if deadline is None else max(deadline - time.perf_counter(), 0.01)
     if left is not None:
-        h.setOptionValue("time_limit", left)
+        h.setOptionValue("time_limit", float(left))
     if mip and left is not None and left < PRESOLVE_S_PER_NONZERO * am.matrix.nnz:
         # presolve would not end in time and reads the clock rarely (C10: 13.4 s with 12 s
         # left); without it HiGHS's MIP set-up was worse (90 s with 10 s left): not started
@@ -772,13 +768,11 @@ def _guarded_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict[str,
     parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
     ``("error", text)``."""
     child_setup()
-
-    def report(kind: str, *values: Any) -> None:
-        conn.send((kind, *values))
-
     try:
         deadline = time.perf_counter() + left
-        out = _run_here(lp, deadline=deadline, report=report, halt=halt, **kwargs)
+        out = _run_here(
+            lp, deadline=deadline, report=lambda *msg: conn.send(msg), halt=halt, **kwargs
+        )
         conn.send(("done", out))
     except Exception as exc:  # pragma: no cover - HiGHS or pickling failures
         conn.send(("error", f"{type(exc).__name__}: {exc}"))

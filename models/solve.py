@@ -42,8 +42,6 @@ from sosp.solve import check_time_limit
 from sosp.stop import Budget
 
 if TYPE_CHECKING:
-    import pyomo.environ as pyo
-
     from models.colgen import SideBound
     from sosp.parallel import Workers
     from sosp.planner import OrbitData
@@ -85,29 +83,6 @@ def model_data(
         return prep(instance, deadline=deadline, generate_by=generate_by)
     except TimeLimitReached:
         raise TimeUp("candidate generation") from None
-
-
-def _solver(mip_gap: float | None, threads: int | None) -> Any:
-    """A fresh HiGHS solver (APPSI interface: it takes MIP starts) with only these options."""
-    from pyomo.contrib.appsi.solvers import Highs
-
-    opt = Highs()
-    opt.config.load_solution = False
-    opt.config.stream_solver = False
-    opt.config.log_level = logging.DEBUG
-    opt.config.solver_output_logger = log
-    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
-    if mip_gap is not None:
-        opt.config.mip_gap = float(mip_gap)
-    if threads is not None:
-        options["threads"] = int(threads)
-    opt.highs_options = options
-    return opt
-
-
-def _model_size(opt: Any) -> dict[str, int]:
-    h = opt._solver_model
-    return {"variables": h.getNumCol(), "constraints": h.getNumRow(), "nonzeros": h.getNumNz()}
 
 
 def start_items(data: ModelData, schedule: Schedule) -> list[int] | None:
@@ -919,21 +894,32 @@ def _run_direct(
 def _run_pyomo(
     run: _Run, deadline: float | None, start_items_: list[int] | None, relax: bool
 ) -> _Outcome:
-    """Build ``data`` with the reference Pyomo builder and solve it through APPSI."""
+    """Build ``data`` with the reference Pyomo builder and solve it through APPSI's HiGHS (it
+    takes MIP starts): a fresh solver object with only this run's options, its log to this
+    module's logger, and no solution loaded unless there is one."""
+    from pyomo.contrib.appsi.base import TerminationCondition as TC
+    from pyomo.contrib.appsi.solvers import Highs
+
     from models.formulation import build_model
+    from models.highs_direct import PROBING_OFF, use_threads
 
     data, t0, stats, threads, lp_solver = run.data, run.t0, run.stats, run.threads, run.lp_solver
-
     m = build_model(data, relax=bool(relax))
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
-    opt = _solver(run.mip_gap, threads)  # its time limit is set after the load
+    opt = Highs()  # its time limit is set after the load
+    opt.config.load_solution = opt.config.stream_solver = False
+    opt.config.log_level, opt.config.solver_output_logger = logging.DEBUG, log
+    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
+    if run.mip_gap is not None:
+        opt.config.mip_gap = float(run.mip_gap)
+    if threads is not None:
+        options["threads"] = int(threads)
     if relax and lp_solver != "choose":
-        opt.highs_options = {**opt.highs_options, "solver": lp_solver}
+        options["solver"] = lp_solver
     if not relax and not run.probing:
-        from models.highs_direct import PROBING_OFF
-
-        opt.highs_options = {**opt.highs_options, "presolve_rule_off": PROBING_OFF}
+        options["presolve_rule_off"] = PROBING_OFF
+    opt.highs_options = options
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
@@ -952,35 +938,25 @@ def _run_pyomo(
             for key, val in values.items():
                 var[key].set_value(val)
         opt.config.warmstart = True
-    from pyomo.contrib.appsi.base import TerminationCondition as TC
-
-    from models.highs_direct import use_threads
-
     use_threads(threads)
     res = opt.solve(m)
-    stats.update(_model_size(opt))
+    h = opt._solver_model
+    stats.update(
+        {"variables": h.getNumCol(), "constraints": h.getNumRow(), "nonzeros": h.getNumNz()}
+    )
     tc = res.termination_condition
     stats["termination"] = tc.name
     stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
-    if tc == TC.optimal:
-        kind = "optimal"
-    elif tc in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
+    kind = {TC.optimal: "optimal", TC.infeasible: "infeasible"}.get(tc, "other")
+    if tc in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
         kind = "time_limit"
-    elif tc == TC.infeasible:
-        kind = "infeasible"
-    else:
-        kind = "other"
     incumbent = res.best_feasible_objective
     chosen = None
     if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
-        chosen = _pyomo_chosen(opt, m)
+        # the scheduled items, read from HiGHS's solution vector
+        col, index = h.getSolution().col_value, opt._pyomo_var_to_solver_var_map
+        chosen = [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
     return kind, incumbent, res.best_objective_bound, chosen
-
-
-def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel) -> list[int]:
-    """The scheduled items of APPSI's HiGHS solution (HiGHS's solution vector)."""
-    col, index = opt._solver_model.getSolution().col_value, opt._pyomo_var_to_solver_var_map
-    return [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
 
 
 #: Methods of :func:`bound`: the registered bounds of the problem (every model's bound here).
@@ -1109,7 +1085,7 @@ def bound(
             return _cap_or_windows(ask, method)
         from models.data import observable_weight
 
-        return _capped(observable_weight(instance), method, model, t0)
+        return _bound_out(observable_weight(instance), method, model, t0, TIMED_OUT, source="cap")
     except InputError:
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
@@ -1290,12 +1266,7 @@ def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
         if upper <= out["bound"]:
             out.update({"bound": float(upper), "source": "cap"})
         return out
-    return _capped(upper, method, "cluster", ask.t0)
-
-
-def _capped(upper: float, method: str, model: str, t0: float) -> dict[str, Any]:
-    """The cap ``upper`` as ``method``'s bound, the candidates not ready in time."""
-    return _bound_out(upper, method, model, t0, {"timed_out": "candidates"}, source="cap")
+    return _bound_out(upper, method, "cluster", ask.t0, TIMED_OUT, source="cap")
 
 
 def _colgen_bound(ask: _Ask) -> dict[str, Any]:
@@ -1354,6 +1325,9 @@ def _lagrangian_alone(ask: _Ask) -> dict[str, Any]:
     stats["lower_bound"] = lag["lower_bound"]
     return _bound_out(lag["bound"], "lagrangian", "cluster", ask.t0, stats, source="lagrangian")
 
+
+#: The statistics of a bound that is the cap, the candidates not ready in time.
+TIMED_OUT = {"timed_out": "candidates"}
 
 #: The keys of a bound's statistics its answer carries, in this order.
 _BOUND_KEYS = (
