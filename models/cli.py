@@ -15,18 +15,6 @@ from typing import Any
 from sosp.parallel import workers_for
 
 
-def _positive_float(text: str) -> float:
-    from sosp.errors import InputError
-
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"--time-limit: expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise InputError(f"--time-limit: must be a finite number of seconds > 0, got {text}")
-    return value
-
-
 def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``bound`` subcommand to the ``sosp`` CLI's subparsers."""
     from sosp.params import positive
@@ -64,7 +52,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--time-limit",
-        type=_positive_float,
+        type=positive(float),
         help="seconds of wall time from reading the instance to the bound",
     )
     p.add_argument("--threads", type=int, help="HiGHS threads")
@@ -172,6 +160,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
 
 def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
     """A bound of one model only (``pba``: the static model's partition-based bound)."""
+    from sosp.cli import _emit
     from sosp.errors import InputError
     from sosp.registry import BOUNDS, compute_bound
 
@@ -182,11 +171,8 @@ def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
         )
     out = compute_bound(args.method, inst, time_limit=args.time_limit)
     out["instance"] = inst.name or str(args.instance)
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
-        return 0
     text = f"{model} model, {args.method} bound: {out['bound']:g} ({out['runtime_s']:.2f} s"
     if "parts" in out:
         text += f"; {out['parts']} parts, {out['targets']} targets covered by the parts' optima"
-    sys.stdout.write(text + ")\n")
+    _emit(args, out, text + ")")
     return 0

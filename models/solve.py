@@ -518,7 +518,7 @@ def solve_milp(
             idle = (idle and raw_bound is None) or gave_way
             if idle and warm_start != "none" and arranged is not None:
                 start, start_profit = _search_on(
-                    data, rng, arranged, start, start_profit, solve_by, stats, side
+                    data, rng, arranged, start, start_profit, by, stats, side
                 )
         finally:
             if side is not None:
@@ -606,7 +606,7 @@ def _search_on(
     arranged: OrbitData,
     start: list[int] | None,
     start_profit: float,
-    deadline: float | None,
+    budget: Budget,
     stats: dict[str, Any],
     side: SideBound | None = None,
 ) -> tuple[list[int] | None, float]:
@@ -614,10 +614,10 @@ def _search_on(
     (its model would not be built, or presolved, in the time left) or gave way
     (:data:`GIVE_WAY_SHARE`), orbit-dp's search (:func:`sosp.ascent.iterate`, each orbit
     re-planned over the model's own items) goes on from the start until
-    ``deadline``, or until the ``side`` branch and price's bound proves its best schedule
+    ``budget`` ends, or until the ``side`` branch and price's bound proves its best schedule
     optimal (:meth:`models.colgen.SideBound.watch`), and its schedule replaces the start when
     better (a start given or found: the MILP's time is not lost when HiGHS cannot use it)."""
-    if deadline is None or deadline - time.perf_counter() < SEARCH_ON_MIN_S:
+    if budget.deadline is None or not budget.fits(SEARCH_ON_MIN_S):
         return start, start_profit
     t1 = time.perf_counter()
 
@@ -625,14 +625,14 @@ def _search_on(
 
     def until(now: Any) -> bool:
         # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
-        if time.perf_counter() >= deadline:
+        if budget.expired():
             return True
         return side is not None and side.watch(math.inf, max(now.best, start_profit))
 
     search = OrbitSearch(arranged, rng)
     if start:
         search.set_chosen(start)
-    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
+    run = iterate(search, OrbitSearchParams(), until, budget.deadline, 0.0, report=False)
     search.paths = run.best_paths
     more = search.chosen()
     if side is not None and side.proved_at is not None:
