@@ -7,8 +7,6 @@ HiGHS load inside :func:`cmd_bound` only.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
 from typing import Any
 
@@ -95,6 +93,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
 def cmd_bound(args: argparse.Namespace) -> int:
     """Run ``sosp bound``; returns the exit code (bad input raises ``InputError``)."""
     from models.solve import bound
+    from sosp.cli import _emit
     from sosp.instance import load_instance
     from sosp.registry import BOUNDS, PROBLEM_MODEL
 
@@ -125,9 +124,6 @@ def cmd_bound(args: argparse.Namespace) -> int:
             workers=workers,
         )
     out["instance"] = inst.name or str(args.instance)
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
-        return 0
     # what was computed: no item count where none was generated (the windows bound needs
     # none; a run can stop before its candidates)
     items = out.get("candidates", out.get("items"))
@@ -154,7 +150,7 @@ def cmd_bound(args: argparse.Namespace) -> int:
             "\nthe LP was not solved within the time limit: only the total observable weight "
             "holds; --method auto or colgen bounds large instances faster"
         )
-    sys.stdout.write(text + "\n")
+    _emit(args, out, text)
     return 0
 
 

@@ -56,8 +56,7 @@ def build_model(data: ModelData, relax: bool = False) -> pyo.ConcreteModel:
     _clique_constraints(m, data)
     _slew_order_constraints(m, data)
     _energy_constraints(m, data)
-    _memory_constraints(m, data)
-    _opening_constraints(m, data)
+    _resource_constraints(m, data)
     _objective(m, data)
     return m
 
@@ -156,10 +155,9 @@ def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
         return observe + slew <= float(inst.energy_capacity[j])
 
 
-def _memory_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
-    """(5) memory."""
-    inst = d.instance
-    dur = d.duration
+def _resource_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(5) memory and (6) sensor openings."""
+    inst, dur = d.instance, d.duration
 
     @m.Constraint(list(d.memory_orbits))
     def memory(m, j):
@@ -167,11 +165,6 @@ def _memory_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
         return sum(w * float(dur[u]) * m.x[u] for u in d.orbit_items[j]) <= float(
             inst.memory_capacity[j]
         )
-
-
-def _opening_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
-    """(6) sensor openings."""
-    inst = d.instance
 
     @m.Constraint(list(d.opening_orbits))
     def openings(m, j):

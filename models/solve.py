@@ -433,7 +433,7 @@ def solve_milp(
     if not relax:
         stats["probing"] = use_probing
     if data.n_items == 0:
-        stats.update({"build_s": round(time.perf_counter() - t0, 6)})
+        stats["build_s"] = round(time.perf_counter() - t0, 6)
         stats.update({"variables": 0, "constraints": 0, "nonzeros": 0})
         status = Status.NO_SOLUTION if relax else Status.OPTIMAL
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
@@ -1040,8 +1040,10 @@ def bound(
         bound, None when it did not finish); ``"milp"``: the incumbent ``profit``,
         ``status`` and ``gap``.
     """
+    from models.colgen import colgen_bound
+    from models.lagrangian import lagrangian_bound
     from models.subset_row import cut_levels
-    from sosp.planner import kernels_within
+    from sosp.planner import kernels_within, with_rolls
 
     t0 = time.perf_counter()
     if method not in BOUND_METHODS:
@@ -1113,9 +1115,6 @@ def bound(
         and data.n_items > 0
         and fits("arrange", data.n_items, deadline)
     ):
-        from models.colgen import colgen_bound
-        from sosp.planner import with_rolls
-
         limit = root = None
         if deadline is not None:
             share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
@@ -1141,9 +1140,6 @@ def bound(
             stats["lower_bound"] = float(ask.lower_bound)
     lagrangian = method == "lagrangian" and data.n_items > 0
     if lagrangian and fits("arrange", data.n_items, deadline):
-        from models.lagrangian import lagrangian_bound
-        from sosp.planner import with_rolls
-
         lag = lagrangian_bound(
             instance,
             iterations=iterations,
