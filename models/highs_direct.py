@@ -805,7 +805,7 @@ def _run_guarded(
         return _run_here(lp, deadline=deadline, **kwargs)
     recv = guard.conn
     progress = current_progress()
-    best: tuple[float, np.ndarray] | None = None
+    best: tuple[float, np.ndarray | None] = (-np.inf, None)  # the best incumbent and its x
     dual: float | None = None
     nodes = 0
     out: HighsOutcome | None = None
@@ -813,8 +813,7 @@ def _run_guarded(
         while out is None:
             # a watcher is asked also while HiGHS reports nothing (parts of its presolve):
             # a side bound that proves the start must be able to stop it then too
-            primal = -np.inf if best is None else best[0]
-            watched = _offer_bound(np.inf if dual is None else dual, primal)
+            watched = _offer_bound(np.inf if dual is None else dual, best[0])
             if (watched or stop_requested()) and not halt.is_set():
                 halt.set()  # the child stops as at its time limit, with what it has ...
                 deadline = min(deadline, time.perf_counter())  # ... or is stopped
@@ -830,7 +829,7 @@ def _run_guarded(
                 raise RuntimeError(f"HiGHS's process ended (exit code {code})") from None
             kind = msg[0]
             if kind == "incumbent":
-                if best is None or msg[1] > best[0]:
+                if msg[1] > best[0]:
                     best = (msg[1], msg[2])
             elif kind == "progress":
                 nodes = msg[1]
@@ -844,7 +843,7 @@ def _run_guarded(
         guard.stop()
     if out is not None:
         return out
-    objective, x = (None, None) if best is None else best
+    objective, x = (None, None) if best[1] is None else best
     why = "stopped at the deadline (HiGHS had not returned)"
     info = {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True}
     return HighsOutcome("time_limit", why, objective, dual, x, 0.0, time.perf_counter() - t0, info)

@@ -34,7 +34,7 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import check_workers
 from sosp.params import Params, param
-from sosp.registry import BOUNDS, PROBLEM_MODEL
+from sosp.registry import BOUNDS, PROBLEM_MODEL, load
 from sosp.result import Result, Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
@@ -71,12 +71,9 @@ def model_data(
     generation stops when it passes (or ``generate_by``, when given and earlier), raising
     :class:`TimeUp`.
     """
-    import importlib
-
     if not isinstance(model, str) or model not in MODELS:
         raise InputError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
-    module, func = MODELS[model].split(":")
-    prep: Callable[..., ModelData] = getattr(importlib.import_module(module), func)
+    prep: Callable[..., ModelData] = load(MODELS[model])
     if model != "cluster" or deadline is None:
         return prep(instance)
     try:
