@@ -7,24 +7,10 @@ HiGHS load inside :func:`cmd_bound` only.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
 from typing import Any
 
 from sosp.parallel import workers_for
-
-
-def _positive_float(text: str) -> float:
-    from sosp.errors import InputError
-
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"--time-limit: expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise InputError(f"--time-limit: must be a finite number of seconds > 0, got {text}")
-    return value
 
 
 def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -64,7 +50,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--time-limit",
-        type=_positive_float,
+        type=positive(float),
         help="seconds of wall time from reading the instance to the bound",
     )
     p.add_argument("--threads", type=int, help="HiGHS threads")
@@ -107,6 +93,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
 def cmd_bound(args: argparse.Namespace) -> int:
     """Run ``sosp bound``; returns the exit code (bad input raises ``InputError``)."""
     from models.solve import bound
+    from sosp.cli import _emit
     from sosp.instance import load_instance
     from sosp.registry import BOUNDS, PROBLEM_MODEL
 
@@ -137,9 +124,6 @@ def cmd_bound(args: argparse.Namespace) -> int:
             workers=workers,
         )
     out["instance"] = inst.name or str(args.instance)
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
-        return 0
     # what was computed: no item count where none was generated (the windows bound needs
     # none; a run can stop before its candidates)
     items = out.get("candidates", out.get("items"))
@@ -166,12 +150,13 @@ def cmd_bound(args: argparse.Namespace) -> int:
             "\nthe LP was not solved within the time limit: only the total observable weight "
             "holds; --method auto or colgen bounds large instances faster"
         )
-    sys.stdout.write(text + "\n")
+    _emit(args, out, text)
     return 0
 
 
 def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
     """A bound of one model only (``pba``: the static model's partition-based bound)."""
+    from sosp.cli import _emit
     from sosp.errors import InputError
     from sosp.registry import BOUNDS, compute_bound
 
@@ -182,11 +167,8 @@ def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
         )
     out = compute_bound(args.method, inst, time_limit=args.time_limit)
     out["instance"] = inst.name or str(args.instance)
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out, allow_nan=False) + "\n")
-        return 0
     text = f"{model} model, {args.method} bound: {out['bound']:g} ({out['runtime_s']:.2f} s"
     if "parts" in out:
         text += f"; {out['parts']} parts, {out['targets']} targets covered by the parts' optima"
-    sys.stdout.write(text + ")\n")
+    _emit(args, out, text + ")")
     return 0

@@ -56,8 +56,7 @@ def build_model(data: ModelData, relax: bool = False) -> pyo.ConcreteModel:
     _clique_constraints(m, data)
     _slew_order_constraints(m, data)
     _energy_constraints(m, data)
-    _memory_constraints(m, data)
-    _opening_constraints(m, data)
+    _resource_constraints(m, data)
     _objective(m, data)
     return m
 
@@ -121,43 +120,23 @@ def _clique_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
 
 
 def _slew_order_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
-    """First/last indicators of the exact slew term of (4), via prefix/suffix variables."""
-
-    @m.Constraint(m.S)
-    def prefix_self(m, u):
-        return m.s[u] >= m.x[u]
-
-    @m.Constraint(m.S)
-    def prefix_chain(m, u):
-        p = m._prev[u]
-        return pyo.Constraint.Skip if p is None else m.s[u] >= m.s[p]
-
-    @m.Constraint(m.S)
-    def suffix_self(m, u):
-        return m.r[u] >= m.x[u]
-
-    @m.Constraint(m.S)
-    def suffix_chain(m, u):
-        n = m._next[u]
-        return pyo.Constraint.Skip if n is None else m.r[u] >= m.r[n]
-
-    @m.Constraint(m.S)
-    def first_taken(m, u):
-        return m.f[u] <= m.x[u]
-
-    @m.Constraint(m.S)
-    def first_nothing_before(m, u):
-        p = m._prev[u]
-        return pyo.Constraint.Skip if p is None else m.f[u] <= 1 - m.s[p]
-
-    @m.Constraint(m.S)
-    def last_taken(m, u):
-        return m.l[u] <= m.x[u]
-
-    @m.Constraint(m.S)
-    def last_nothing_after(m, u):
-        n = m._next[u]
-        return pyo.Constraint.Skip if n is None else m.l[u] <= 1 - m.r[n]
+    """First/last indicators of the exact slew term of (4), via prefix/suffix variables (a
+    chain row is skipped at the orbit's end where its neighbour is None)."""
+    skip, prev, nxt = pyo.Constraint.Skip, m._prev, m._next
+    rules = {
+        "prefix_self": lambda m, u: m.s[u] >= m.x[u],
+        "prefix_chain": lambda m, u: skip if prev[u] is None else m.s[u] >= m.s[prev[u]],
+        "suffix_self": lambda m, u: m.r[u] >= m.x[u],
+        "suffix_chain": lambda m, u: skip if nxt[u] is None else m.r[u] >= m.r[nxt[u]],
+        "first_taken": lambda m, u: m.f[u] <= m.x[u],
+        "first_nothing_before": lambda m, u: (
+            skip if prev[u] is None else m.f[u] <= 1 - m.s[prev[u]]
+        ),
+        "last_taken": lambda m, u: m.l[u] <= m.x[u],
+        "last_nothing_after": lambda m, u: skip if nxt[u] is None else m.l[u] <= 1 - m.r[nxt[u]],
+    }
+    for name, rule in rules.items():
+        m.add_component(name, pyo.Constraint(m.S, rule=rule))
 
 
 def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
@@ -176,10 +155,9 @@ def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
         return observe + slew <= float(inst.energy_capacity[j])
 
 
-def _memory_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
-    """(5) memory."""
-    inst = d.instance
-    dur = d.duration
+def _resource_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
+    """(5) memory and (6) sensor openings."""
+    inst, dur = d.instance, d.duration
 
     @m.Constraint(list(d.memory_orbits))
     def memory(m, j):
@@ -187,11 +165,6 @@ def _memory_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
         return sum(w * float(dur[u]) * m.x[u] for u in d.orbit_items[j]) <= float(
             inst.memory_capacity[j]
         )
-
-
-def _opening_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
-    """(6) sensor openings."""
-    inst = d.instance
 
     @m.Constraint(list(d.opening_orbits))
     def openings(m, j):

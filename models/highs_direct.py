@@ -530,13 +530,13 @@ BOUND_WATCH_S = 0.5
 BoundListener = Callable[[float, float], bool]
 
 
+@dataclass
 class _BoundWatch:
     """A :func:`watching_bound` listener and when it may be called next."""
 
-    def __init__(self, listener: BoundListener) -> None:
-        self.listener = listener
-        self.next = 0.0
-        self.stop = False
+    listener: BoundListener
+    next: float = 0.0
+    stop: bool = False
 
     def offer(self, dual_bound: float, primal: float) -> bool:
         now = time.perf_counter()
@@ -672,47 +672,28 @@ def _run_here(
         h.setOptionValue("mip_rel_gap", float(mip_gap))
     if threads is not None:
         h.setOptionValue("threads", int(threads))
-    if lp_solver is not None and not am.integer.any():
-        h.setOptionValue("solver", str(lp_solver))
-    if not probing and am.integer.any():
-        h.setOptionValue("presolve_rule_off", PROBING_OFF)
-    lp = highspy.HighsLp()
-    n_rows, n_cols = (int(n) for n in am.matrix.shape)
-    lp.num_col_ = n_cols
-    lp.num_row_ = n_rows
-    lp.col_cost_ = am.cost
-    lp.col_lower_ = am.col_lower
-    lp.col_upper_ = am.col_upper
-    lp.row_lower_ = am.row_lower
-    lp.row_upper_ = am.row_upper
-    lp.sense_ = highspy.ObjSense.kMaximize
-    a = am.matrix
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_ = n_cols
-    lp.a_matrix_.num_row_ = n_rows
-    lp.a_matrix_.start_ = a.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = a.indices.astype(np.int32)
-    lp.a_matrix_.value_ = a.data.astype(float)
     mip = bool(am.integer.any())
-    if mip:
-        lp.integrality_ = [
-            highspy.HighsVarType.kInteger if b else highspy.HighsVarType.kContinuous
-            for b in am.integer
-        ]
-    h.passModel(lp)
+    if lp_solver is not None and not mip:
+        h.setOptionValue("solver", str(lp_solver))
+    if not probing and mip:
+        h.setOptionValue("presolve_rule_off", PROBING_OFF)
+    a = am.matrix
+    bounds = (am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper)
+    csr = (a.indptr.astype(np.int32), a.indices.astype(np.int32), a.data.astype(float))
+    rowwise, maximize = int(highspy.MatrixFormat.kRowwise), int(highspy.ObjSense.kMaximize)
+    # integrality: 1 (kInteger) for the x of a MILP, 0 (kContinuous) elsewhere
+    h.passModel(
+        *a.shape[::-1], a.nnz, rowwise, maximize, 0.0, *bounds, *csr, am.integer.astype(np.int32)
+    )
     if start is not None and mip:
         sol = highspy.HighsSolution()
         sol.col_value = np.asarray(start, dtype=float).tolist()
         sol.value_valid = True
         h.setSolution(sol)
     load_s = time.perf_counter() - t0
-    left = None
-    if deadline is not None:
-        left = max(deadline - time.perf_counter(), 0.01)
-    elif time_limit is not None:
-        left = float(time_limit)
+    left = time_limit if deadline is None else max(deadline - time.perf_counter(), 0.01)
     if left is not None:
-        h.setOptionValue("time_limit", left)
+        h.setOptionValue("time_limit", float(left))
     if mip and left is not None and left < PRESOLVE_S_PER_NONZERO * am.matrix.nnz:
         # presolve would not end in time and reads the clock rarely (C10: 13.4 s with 12 s
         # left); without it HiGHS's MIP set-up was worse (90 s with 10 s left): not started
@@ -787,13 +768,11 @@ def _guarded_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict[str,
     parent through ``conn``; the last message is ``("done", HighsOutcome)`` or
     ``("error", text)``."""
     child_setup()
-
-    def report(kind: str, *values: Any) -> None:
-        conn.send((kind, *values))
-
     try:
         deadline = time.perf_counter() + left
-        out = _run_here(lp, deadline=deadline, report=report, halt=halt, **kwargs)
+        out = _run_here(
+            lp, deadline=deadline, report=lambda *msg: conn.send(msg), halt=halt, **kwargs
+        )
         conn.send(("done", out))
     except Exception as exc:  # pragma: no cover - HiGHS or pickling failures
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
@@ -826,7 +805,7 @@ def _run_guarded(
         return _run_here(lp, deadline=deadline, **kwargs)
     recv = guard.conn
     progress = current_progress()
-    best: tuple[float, np.ndarray] | None = None
+    best: tuple[float, np.ndarray | None] = (-np.inf, None)  # the best incumbent and its x
     dual: float | None = None
     nodes = 0
     out: HighsOutcome | None = None
@@ -834,8 +813,7 @@ def _run_guarded(
         while out is None:
             # a watcher is asked also while HiGHS reports nothing (parts of its presolve):
             # a side bound that proves the start must be able to stop it then too
-            primal = -np.inf if best is None else best[0]
-            watched = _offer_bound(np.inf if dual is None else dual, primal)
+            watched = _offer_bound(np.inf if dual is None else dual, best[0])
             if (watched or stop_requested()) and not halt.is_set():
                 halt.set()  # the child stops as at its time limit, with what it has ...
                 deadline = min(deadline, time.perf_counter())  # ... or is stopped
@@ -851,7 +829,7 @@ def _run_guarded(
                 raise RuntimeError(f"HiGHS's process ended (exit code {code})") from None
             kind = msg[0]
             if kind == "incumbent":
-                if best is None or msg[1] > best[0]:
+                if msg[1] > best[0]:
                     best = (msg[1], msg[2])
             elif kind == "progress":
                 nodes = msg[1]
@@ -865,7 +843,7 @@ def _run_guarded(
         guard.stop()
     if out is not None:
         return out
-    objective, x = (None, None) if best is None else best
+    objective, x = (None, None) if best[1] is None else best
     why = "stopped at the deadline (HiGHS had not returned)"
     info = {"mip_node_count": nodes, "simplex_iteration_count": 0, "guard_stopped": True}
     return HighsOutcome("time_limit", why, objective, dual, x, 0.0, time.perf_counter() - t0, info)

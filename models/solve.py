@@ -25,7 +25,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -34,15 +34,14 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import check_workers
 from sosp.params import Params, param
-from sosp.registry import BOUNDS, PROBLEM_MODEL
+from sosp.registry import BOUNDS, PROBLEM_MODEL, load
 from sosp.result import Result, Status
 from sosp.rules import orbit_rules
 from sosp.schedule import Schedule, items_to_schedule
 from sosp.solve import check_time_limit
+from sosp.stop import Budget
 
 if TYPE_CHECKING:
-    import pyomo.environ as pyo
-
     from models.colgen import SideBound
     from sosp.parallel import Workers
     from sosp.planner import OrbitData
@@ -72,64 +71,15 @@ def model_data(
     generation stops when it passes (or ``generate_by``, when given and earlier), raising
     :class:`TimeUp`.
     """
-    import importlib
-
     if not isinstance(model, str) or model not in MODELS:
         raise InputError(f"model: expected one of {', '.join(MODELS)}, got {model!r}")
-    module, func = MODELS[model].split(":")
-    prep: Callable[..., ModelData] = getattr(importlib.import_module(module), func)
+    prep: Callable[..., ModelData] = load(MODELS[model])
     if model != "cluster" or deadline is None:
         return prep(instance)
     try:
         return prep(instance, deadline=deadline, generate_by=generate_by)
     except TimeLimitReached:
         raise TimeUp("candidate generation") from None
-
-
-def _check_params(mip_gap: Any, threads: Any) -> None:
-    if mip_gap is not None and (
-        isinstance(mip_gap, bool)
-        or not isinstance(mip_gap, int | float)
-        or not math.isfinite(mip_gap)
-        or not 0 <= mip_gap < 1
-    ):
-        raise InputError(f"mip_gap: expected a number in [0, 1), got {mip_gap!r}")
-    if threads is not None and (
-        isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1
-    ):
-        raise InputError(f"threads: expected a positive integer, got {threads!r}")
-
-
-def _solver(mip_gap: float | None, threads: int | None) -> Any:
-    """A fresh HiGHS solver (APPSI interface: it takes MIP starts) with only these options."""
-    from pyomo.contrib.appsi.solvers import Highs
-
-    opt = Highs()
-    opt.config.load_solution = False
-    opt.config.stream_solver = False
-    opt.config.log_level = logging.DEBUG
-    opt.config.solver_output_logger = log
-    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
-    if mip_gap is not None:
-        opt.config.mip_gap = float(mip_gap)
-    if threads is not None:
-        options["threads"] = int(threads)
-    opt.highs_options = options
-    return opt
-
-
-def _model_size(opt: Any, m: pyo.ConcreteModel) -> dict[str, int]:
-    h = getattr(opt, "_solver_model", None)
-    if h is not None:
-        try:
-            return {
-                "variables": int(h.getNumCol()),
-                "constraints": int(h.getNumRow()),
-                "nonzeros": int(h.getNumNz()),
-            }
-        except AttributeError:  # pragma: no cover - older highspy
-            pass
-    return {"variables": m.nvariables(), "constraints": m.nconstraints(), "nonzeros": -1}
 
 
 def start_items(data: ModelData, schedule: Schedule) -> list[int] | None:
@@ -206,15 +156,10 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     f, l_, s, r = {}, {}, {}, {}
     for j in data.energy_orbits:
         seq = [int(u) for u in data.orbit_items[j]]
+        xs = np.array([x[u] for u in seq])
+        s.update(zip(seq, np.maximum.accumulate(xs).tolist(), strict=True))
+        r.update(zip(seq, np.maximum.accumulate(xs[::-1])[::-1].tolist(), strict=True))
         taken = [u for u in seq if x[u]]
-        seen = 0.0
-        for u in seq:
-            seen = max(seen, x[u])
-            s[u] = seen
-        seen = 0.0
-        for u in reversed(seq):
-            seen = max(seen, x[u])
-            r[u] = seen
         for u in seq:
             f[u] = 1.0 if taken and u == taken[0] else 0.0
             l_[u] = 1.0 if taken and u == taken[-1] else 0.0
@@ -242,7 +187,8 @@ ExtraBound = Literal["colgen", "lagrangian", "lp", "none"]
 
 @dataclass(frozen=True)
 class MILPParams(Params):
-    """Parameters of :func:`solve_milp` (the steps they steer are in its docstring)."""
+    """Parameters of :func:`solve_milp` (the steps they steer are in its docstring); built by
+    :func:`solve_milp` and :func:`bound` to check their arguments."""
 
     model: str = param("cluster", "'cluster' (the problem), 'task' or 'static'.")
     mip_gap: float | None = param(None, "Relative gap at which HiGHS stops (None: 1e-4).")
@@ -252,11 +198,30 @@ class MILPParams(Params):
     )
     extra_bound: ExtraBound = param("colgen", "Bound computed before the MILP.")
     relax: bool = param(False, "Solve the LP relaxation instead (no schedule).")
-    backend: str = param("auto", "'pyomo', 'highs' or 'auto' (by size).")
-    conflicts: str = param("network", "Form of (3) in the direct backend: 'network' or 'clique'.")
-    lp_solver: str = param("choose", "HiGHS LP algorithm: 'choose', 'simplex', 'ipm' or 'pdlp'.")
-    slew: str | None = param(None, "Slew term of (4): 'exact', 'lazy', 'auto' or 'relaxed'.")
-    probing: str = param("auto", "HiGHS probing in presolve: 'on', 'off' or 'auto'.")
+    backend: Literal["auto", "pyomo", "highs"] = param("auto", "'pyomo', 'highs' or 'auto'.")
+    conflicts: Literal["network", "clique"] = param("network", "Form of (3) in the direct backend.")
+    lp_solver: Literal["choose", "simplex", "ipm", "pdlp"] = param("choose", "HiGHS LP algorithm.")
+    slew: Literal["exact", "lazy", "relaxed", "auto"] | None = param(
+        None, "Slew term of (4): 'exact', 'lazy', 'auto' or 'relaxed'."
+    )
+    probing: Literal["auto", "on", "off"] = param("auto", "HiGHS probing in presolve.")
+
+    def check(self) -> None:
+        gap, threads, start = self.mip_gap, self.threads, self.warm_start
+        if gap is not None and not (math.isfinite(gap) and 0 <= gap < 1):
+            raise InputError(f"mip_gap: expected a number in [0, 1), got {gap!r}")
+        if threads is not None and threads < 1:
+            raise InputError(f"threads: expected a positive integer, got {threads!r}")
+        if start not in ("auto", "none", None) and not isinstance(start, Schedule):
+            raise InputError(f"warm_start: expected 'auto', 'none' or a schedule, got {start!r}")
+        if self.slew == "lazy" and self.relax:
+            raise InputError("slew: 'lazy' is for MILP solves (an LP takes relaxed or exact)")
+        if self.slew == "relaxed" and not self.relax:
+            raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
+        if self.slew == "relaxed" and self.backend == "pyomo":
+            raise InputError(
+                "slew: 'relaxed' is built by the direct backend (backend highs or auto)"
+            )
 
 
 def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
@@ -282,29 +247,8 @@ def _int_bound(raw: float | None) -> float | None:
     return float(math.floor(float(raw) + INT_TOL))
 
 
-#: Backends of :func:`solve_milp` and :func:`bound`.
-BACKENDS = ("auto", "pyomo", "highs")
-
 #: ``backend="auto"`` uses the direct HiGHS backend from this many items on (Pyomo below).
 AUTO_HIGHS_ITEMS = 1000
-
-
-def _check_backend(backend: Any, conflicts: Any) -> None:
-    from models.highs_direct import CONFLICT_FORMS
-
-    if backend not in BACKENDS:
-        raise InputError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
-    if conflicts not in CONFLICT_FORMS:
-        raise InputError(
-            f"conflicts: expected one of {', '.join(CONFLICT_FORMS)}, got {conflicts!r}"
-        )
-
-
-def _check_lp_solver(lp_solver: Any) -> None:
-    from models.highs_direct import LP_SOLVERS
-
-    if lp_solver not in LP_SOLVERS:
-        raise InputError(f"lp_solver: expected one of {', '.join(LP_SOLVERS)}, got {lp_solver!r}")
 
 
 def choose_backend(data: ModelData, backend: str = "auto") -> str:
@@ -430,45 +374,21 @@ def solve_milp(
     """
     t0 = time.perf_counter()
     time_limit = check_time_limit(time_limit)
-    _check_params(mip_gap, threads)
-    _check_backend(backend, conflicts)
-    _check_lp_solver(lp_solver)
-    if probing not in ("auto", "on", "off"):
-        raise InputError(f"probing: expected one of auto, on, off, got {probing!r}")
-    use_probing = probing == "on" or (probing == "auto" and time_limit is None)
-    if slew not in (None, "exact", "relaxed", "auto", "lazy"):  # "conservative": milp-lns
-        raise InputError(f"slew: expected one of exact, lazy, relaxed, auto, got {slew!r}")
-    if slew == "lazy" and relax:
-        raise InputError("slew: 'lazy' is for MILP solves (an LP takes relaxed or exact)")
-    if slew == "relaxed" and not relax:
-        raise InputError("slew: 'relaxed' gives bounds only (the LP relaxation), not schedules")
-    if slew == "relaxed" and backend == "pyomo":
-        raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
-    if warm_start is None:
-        warm_start = "none"
-    if isinstance(warm_start, str):
-        if warm_start not in ("auto", "none"):
-            raise InputError(
-                f"warm_start: expected 'auto', 'none' or a schedule, got {warm_start!r}"
-            )
-    elif not isinstance(warm_start, Schedule):
-        raise InputError("warm_start: expected 'auto', 'none' or a Schedule")
-    if extra_bound not in get_args(ExtraBound):
-        raise InputError(
-            f"extra_bound: expected one of {', '.join(get_args(ExtraBound))}, got {extra_bound!r}"
-        )
-    rng = np.random.default_rng(0) if rng is None else rng
     params = {
         "model": model, "mip_gap": mip_gap, "threads": threads, "warm_start": warm_start,
         "extra_bound": extra_bound, "relax": relax, "backend": backend, "conflicts": conflicts,
         "lp_solver": lp_solver, "slew": slew, "probing": probing,
     }  # fmt: skip
+    MILPParams(**params)
+    use_probing = probing == "on" or (probing == "auto" and time_limit is None)
+    warm_start = "none" if warm_start is None else warm_start
+    rng = np.random.default_rng(0) if rng is None else rng
     if start_stage(instance, params) is not None:  # called directly: the pipeline's start
         from sosp.pipeline import improve
-        from sosp.stop import Budget
 
         return improve(instance, "milp", solve_milp, params, rng, Budget.of(time_limit))
-    deadline = None if time_limit is None else t0 + time_limit
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
+    deadline = budget.deadline
     method = "milp"
     empty = Schedule(())
     stats: dict[str, Any] = {"model": model, "relax": bool(relax)}
@@ -510,7 +430,7 @@ def solve_milp(
     if not relax:
         stats["probing"] = use_probing
     if data.n_items == 0:
-        stats.update({"build_s": round(time.perf_counter() - t0, 6)})
+        stats["build_s"] = round(time.perf_counter() - t0, 6)
         stats.update({"variables": 0, "constraints": 0, "nonzeros": 0})
         status = Status.NO_SOLUTION if relax else Status.OPTIMAL
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
@@ -546,13 +466,11 @@ def solve_milp(
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
         # column generation anyway, and the share is worth more to the MILP
-        side_next = time_limit is not None and _side_possible(
-            extra_bound, arranged, deadline, EXTRA_BOUND_SHARE * time_limit
-        )
+        share = budget.child(None if time_limit is None else EXTRA_BOUND_SHARE * time_limit)
+        side_next = _side_possible(extra_bound, arranged, budget, share.left() or 0.0)
         extra, found = _extra_bound(
-            data, extra_bound, start_profit, deadline, time_limit, threads, arranged,
-            branch=not side_next,
-        )  # fmt: skip
+            data, extra_bound, start_profit, share, threads, arranged, branch=not side_next
+        )
         if extra is not None:
             stats["extra_bound"] = extra
             upper = min(upper, extra)
@@ -562,27 +480,27 @@ def solve_milp(
     kind, incumbent, raw_bound, chosen = "not_run", None, None, None
     if start_profit >= upper - INT_TOL:
         stats["proven_by"] = "extra_bound" if upper < cap else "cap"
-    elif deadline is not None and time.perf_counter() >= deadline:
+    elif budget.expired():
         stats["timed_out"] = "before the MILP"
     else:
         # when the last stage must end: HiGHS overruns its limit a little and the solution is
         # read back after it, so a reserve is kept (5 % of the limit, at most 0.5 s)
         solve_by = None if deadline is None else deadline - min(0.5, 0.05 * time_limit)
+        by = Budget.until(solve_by)
         from models.highs_direct import watching_bound
 
         # a models.colgen.SideBound beside the MILP until solve_by (where _side_possible); it
         # yields its core to the MILP once the MILP's bound is below its own
         side: SideBound | None = None
-        if _side_possible(extra_bound, arranged, solve_by):
+        if _side_possible(extra_bound, arranged, by):
             from models.colgen import SideBound
 
-            assert arranged is not None and solve_by is not None
-            left, lower = solve_by - time.perf_counter(), start_profit if start_profit > 0 else None
-            side = SideBound(data.instance, arranged, left, lower)
+            lower = start_profit if start_profit > 0 else None
+            side = SideBound(data.instance, arranged, by.left(), lower)
         watch = None if side is None else side.watch
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
-            watch = give = _GiveWay(side, start_profit, solve_by)
+            watch = give = _GiveWay(side, start_profit, by)
         run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend,
                    stats)  # fmt: skip
         try:
@@ -597,7 +515,7 @@ def solve_milp(
             idle = (idle and raw_bound is None) or gave_way
             if idle and warm_start != "none" and arranged is not None:
                 start, start_profit = _search_on(
-                    data, rng, arranged, start, start_profit, solve_by, stats, side
+                    data, rng, arranged, start, start_profit, by, stats, side
                 )
         finally:
             if side is not None:
@@ -612,9 +530,7 @@ def solve_milp(
                 start, start_profit = _adopt(data, found, start, start_profit, stats)
         if start is not None and chosen is not None and incumbent is not None:
             value = items_to_schedule(instance, data, chosen).coverage_profit(instance)[0]
-            if value < float(incumbent) - 1e-4 and (
-                deadline is None or time.perf_counter() < deadline
-            ):
+            if value < float(incumbent) - 1e-4 and not budget.expired():
                 # HiGHS can read back the start's solution with the optimum's objective when
                 # presolve alone finishes a model given a MIP start, on both backends: solve
                 # again without the start (the model was small)
@@ -659,12 +575,9 @@ class _GiveWay:
     HiGHS's incumbent at most ``start_profit`` and the side not yielded to HiGHS's bound.
     ``gave_at``: :func:`time.perf_counter` when it first did (else None)."""
 
-    def __init__(self, side: Any, start_profit: float, solve_by: float | None) -> None:
+    def __init__(self, side: Any, start_profit: float, solve_by: Budget) -> None:
         self.side, self.start_profit = side, start_profit
-        self.at: float | None = None
-        if solve_by is not None:
-            now = time.perf_counter()
-            self.at = now + GIVE_WAY_SHARE * (solve_by - now)
+        self.at = solve_by.share(GIVE_WAY_SHARE).deadline
         self.gave_at: float | None = None
 
     def __call__(self, dual_bound: float, incumbent: float) -> bool:
@@ -690,7 +603,7 @@ def _search_on(
     arranged: OrbitData,
     start: list[int] | None,
     start_profit: float,
-    deadline: float | None,
+    budget: Budget,
     stats: dict[str, Any],
     side: SideBound | None = None,
 ) -> tuple[list[int] | None, float]:
@@ -698,10 +611,10 @@ def _search_on(
     (its model would not be built, or presolved, in the time left) or gave way
     (:data:`GIVE_WAY_SHARE`), orbit-dp's search (:func:`sosp.ascent.iterate`, each orbit
     re-planned over the model's own items) goes on from the start until
-    ``deadline``, or until the ``side`` branch and price's bound proves its best schedule
+    ``budget`` ends, or until the ``side`` branch and price's bound proves its best schedule
     optimal (:meth:`models.colgen.SideBound.watch`), and its schedule replaces the start when
     better (a start given or found: the MILP's time is not lost when HiGHS cannot use it)."""
-    if deadline is None or deadline - time.perf_counter() < SEARCH_ON_MIN_S:
+    if budget.deadline is None or not budget.fits(SEARCH_ON_MIN_S):
         return start, start_profit
     t1 = time.perf_counter()
 
@@ -709,14 +622,14 @@ def _search_on(
 
     def until(now: Any) -> bool:
         # HiGHS no longer runs: with no dual bound (inf) the side only checks for a proof
-        if time.perf_counter() >= deadline:
+        if budget.expired():
             return True
         return side is not None and side.watch(math.inf, max(now.best, start_profit))
 
     search = OrbitSearch(arranged, rng)
     if start:
         search.set_chosen(start)
-    run = iterate(search, OrbitSearchParams(), until, deadline, 0.0, report=False)
+    run = iterate(search, OrbitSearchParams(), until, budget.deadline, 0.0, report=False)
     search.paths = run.best_paths
     more = search.chosen()
     if side is not None and side.proved_at is not None:
@@ -756,20 +669,17 @@ def _extra_bound(
     data: ModelData,
     how: str,
     lower: float,
-    deadline: float | None,
-    time_limit: float | None,
+    budget: Budget,
     threads: int | None,
     arranged: OrbitData | None,
     branch: bool = True,
 ) -> tuple[float | None, tuple[Schedule, float] | None]:
-    """The bound ``how`` of ``data``'s model within its share of the limit, and the schedule
-    (with its profit) the branch and price ended on, if any (``colgen``: the branching only
-    with ``branch``)."""
-    limit = None
-    if deadline is not None and time_limit is not None:
-        limit = min(EXTRA_BOUND_SHARE * time_limit, deadline - time.perf_counter())
-        if limit <= 0:
-            return None, None
+    """The bound ``how`` of ``data``'s model within ``budget`` (its share of the limit), and
+    the schedule (with its profit) the branch and price ended on, if any (``colgen``: the
+    branching only with ``branch``)."""
+    if budget.expired():
+        return None, None
+    limit = budget.left()
     common = {"time_limit": limit, "lower_bound": lower if lower > 0 else None, "data": arranged}
     if how == "colgen":
         from models.colgen import colgen_bound
@@ -782,8 +692,7 @@ def _extra_bound(
         from models.lagrangian import lagrangian_bound
 
         return float(lagrangian_bound(data.instance, **common)["bound"]), None
-    until = None if limit is None else time.perf_counter() + limit
-    return _lp_bound(data, until, threads), None
+    return _lp_bound(data, budget.deadline, threads), None
 
 
 def _adopt(
@@ -805,17 +714,17 @@ def _adopt(
 
 
 def _side_possible(
-    how: str, arranged: OrbitData | None, deadline: float | None, reserve_s: float = 0.0
+    how: str, arranged: OrbitData | None, budget: Budget, reserve_s: float = 0.0
 ) -> bool:
     """Whether a side process runs beside the MILP (:func:`solve_milp`'s side): only with
-    ``extra_bound="colgen"``, a deadline at least :data:`models.colgen.SIDE_MIN_S` away
-    after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
+    ``extra_bound="colgen"``, a ``budget`` with at least :data:`models.colgen.SIDE_MIN_S`
+    left after ``reserve_s`` seconds more (asked before the bound before the MILP, which then
     leaves the branching to the side) and a second core."""
     from models.colgen import SIDE_MIN_S, side_cores
 
-    if how != "colgen" or arranged is None or deadline is None:
+    if how != "colgen" or arranged is None or budget.deadline is None:
         return False
-    return deadline - time.perf_counter() - reserve_s >= SIDE_MIN_S and side_cores() >= 2
+    return budget.fits(reserve_s + SIDE_MIN_S) and side_cores() >= 2
 
 
 def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
@@ -982,36 +891,37 @@ def _run_direct(
 def _run_pyomo(
     run: _Run, deadline: float | None, start_items_: list[int] | None, relax: bool
 ) -> _Outcome:
-    """Build ``data`` with the reference Pyomo builder and solve it through APPSI."""
+    """Build ``data`` with the reference Pyomo builder and solve it through APPSI's HiGHS (it
+    takes MIP starts): a fresh solver object with only this run's options, its log to this
+    module's logger, and no solution loaded unless there is one."""
+    from pyomo.contrib.appsi.base import TerminationCondition as TC
+    from pyomo.contrib.appsi.solvers import Highs
+
     from models.formulation import build_model
+    from models.highs_direct import PROBING_OFF, use_threads
 
     data, t0, stats, threads, lp_solver = run.data, run.t0, run.stats, run.threads, run.lp_solver
-
     m = build_model(data, relax=bool(relax))
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
-    opt = _solver(run.mip_gap, threads)  # its time limit is set after the load
+    opt = Highs()  # its time limit is set after the load
+    opt.config.load_solution = opt.config.stream_solver = False
+    opt.config.log_level, opt.config.solver_output_logger = logging.DEBUG, log
+    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
+    if run.mip_gap is not None:
+        opt.config.mip_gap = float(run.mip_gap)
+    if threads is not None:
+        options["threads"] = int(threads)
     if relax and lp_solver != "choose":
-        opt.highs_options = {**opt.highs_options, "solver": lp_solver}
+        options["solver"] = lp_solver
     if not relax and not run.probing:
-        from models.highs_direct import PROBING_OFF
-
-        opt.highs_options = {**opt.highs_options, "presolve_rule_off": PROBING_OFF}
+        options["presolve_rule_off"] = PROBING_OFF
+    opt.highs_options = options
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
-    for flag in (
-        "check_for_new_or_removed_constraints",
-        "check_for_new_or_removed_vars",
-        "check_for_new_or_removed_params",
-        "check_for_new_objective",
-        "update_constraints",
-        "update_vars",
-        "update_params",
-        "update_named_expressions",
-        "update_objective",
-    ):
-        if hasattr(opt.update_config, flag):
+    for flag in opt.update_config:
+        if flag.startswith(("check_for_new", "update_")):
             setattr(opt.update_config, flag, False)
     stats["load_s"] = round(time.perf_counter() - t0 - build_s, 6)
     if deadline is not None:
@@ -1025,40 +935,25 @@ def _run_pyomo(
             for key, val in values.items():
                 var[key].set_value(val)
         opt.config.warmstart = True
-    from pyomo.contrib.appsi.base import TerminationCondition as TC
-
-    from models.highs_direct import use_threads
-
     use_threads(threads)
     res = opt.solve(m)
-    stats.update(_model_size(opt, m))
+    h = opt._solver_model
+    stats.update(
+        {"variables": h.getNumCol(), "constraints": h.getNumRow(), "nonzeros": h.getNumNz()}
+    )
     tc = res.termination_condition
     stats["termination"] = tc.name
     stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
-    if tc == TC.optimal:
-        kind = "optimal"
-    elif tc in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
+    kind = {TC.optimal: "optimal", TC.infeasible: "infeasible"}.get(tc, "other")
+    if tc in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
         kind = "time_limit"
-    elif tc == TC.infeasible:
-        kind = "infeasible"
-    else:
-        kind = "other"
     incumbent = res.best_feasible_objective
     chosen = None
     if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
-        chosen = _pyomo_chosen(opt, m, res)
+        # the scheduled items, read from HiGHS's solution vector
+        col, index = h.getSolution().col_value, opt._pyomo_var_to_solver_var_map
+        chosen = [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
     return kind, incumbent, res.best_objective_bound, chosen
-
-
-def _pyomo_chosen(opt: Any, m: pyo.ConcreteModel, res: Any) -> list[int]:
-    """The scheduled items of APPSI's HiGHS solution (HiGHS's solution vector)."""
-    h = getattr(opt, "_solver_model", None)
-    index = getattr(opt, "_pyomo_var_to_solver_var_map", None)
-    if h is not None and index is not None:
-        col = h.getSolution().col_value
-        return [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
-    res.solution_loader.load_vars()  # pragma: no cover - other APPSI versions
-    return [int(u) for u in m.U if (m.x[u].value or 0.0) > 0.5]
 
 
 #: Methods of :func:`bound`: the registered bounds of the problem (every model's bound here).
@@ -1142,8 +1037,10 @@ def bound(
         bound, None when it did not finish); ``"milp"``: the incumbent ``profit``,
         ``status`` and ``gap``.
     """
+    from models.colgen import colgen_bound
+    from models.lagrangian import lagrangian_bound
     from models.subset_row import cut_levels
-    from sosp.planner import kernels_within
+    from sosp.planner import kernels_within, with_rolls
 
     t0 = time.perf_counter()
     if method not in BOUND_METHODS:
@@ -1167,13 +1064,8 @@ def bound(
         )
         return _bound_out(res.bound, method, model, t0, res.stats, profit=res.profit,
                           status=res.status.value, gap=res.gap, source="milp")  # fmt: skip
-    _check_backend(backend, conflicts)
-    _check_lp_solver(lp_solver)
-    _check_params(None, threads)
-    if slew not in ("exact", "relaxed", "auto"):
-        raise InputError(f"slew: expected one of exact, relaxed, auto, got {slew!r}")
-    if slew == "relaxed" and backend == "pyomo":
-        raise InputError("slew: 'relaxed' is built by the direct backend (backend highs or auto)")
+    MILPParams(threads=threads, relax=True, backend=backend, conflicts=conflicts,
+               lp_solver=lp_solver, slew=slew)  # fmt: skip
     ask = _Ask(instance, t0, deadline, lower_bound or None, iterations, workers)
     if method == "colgen" and model == "cluster":
         return _colgen_bound(ask)
@@ -1192,7 +1084,7 @@ def bound(
             return _cap_or_windows(ask, method)
         from models.data import observable_weight
 
-        return _capped(observable_weight(instance), method, model, t0)
+        return _bound_out(observable_weight(instance), method, model, t0, TIMED_OUT, source="cap")
     except InputError:
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
@@ -1220,9 +1112,6 @@ def bound(
         and data.n_items > 0
         and fits("arrange", data.n_items, deadline)
     ):
-        from models.colgen import colgen_bound
-        from sosp.planner import with_rolls
-
         limit = root = None
         if deadline is not None:
             share = AUTO_LAGRANGIAN_SHARE if method == "auto" else 1.0
@@ -1248,9 +1137,6 @@ def bound(
             stats["lower_bound"] = float(ask.lower_bound)
     lagrangian = method == "lagrangian" and data.n_items > 0
     if lagrangian and fits("arrange", data.n_items, deadline):
-        from models.lagrangian import lagrangian_bound
-        from sosp.planner import with_rolls
-
         lag = lagrangian_bound(
             instance,
             iterations=iterations,
@@ -1373,12 +1259,7 @@ def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
         if upper <= out["bound"]:
             out.update({"bound": float(upper), "source": "cap"})
         return out
-    return _capped(upper, method, "cluster", ask.t0)
-
-
-def _capped(upper: float, method: str, model: str, t0: float) -> dict[str, Any]:
-    """The cap ``upper`` as ``method``'s bound, the candidates not ready in time."""
-    return _bound_out(upper, method, model, t0, {"timed_out": "candidates"}, source="cap")
+    return _bound_out(upper, method, "cluster", ask.t0, TIMED_OUT, source="cap")
 
 
 def _colgen_bound(ask: _Ask) -> dict[str, Any]:
@@ -1437,6 +1318,9 @@ def _lagrangian_alone(ask: _Ask) -> dict[str, Any]:
     stats["lower_bound"] = lag["lower_bound"]
     return _bound_out(lag["bound"], "lagrangian", "cluster", ask.t0, stats, source="lagrangian")
 
+
+#: The statistics of a bound that is the cap, the candidates not ready in time.
+TIMED_OUT = {"timed_out": "candidates"}
 
 #: The keys of a bound's statistics its answer carries, in this order.
 _BOUND_KEYS = (

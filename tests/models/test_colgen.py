@@ -660,6 +660,7 @@ def test_give_way_rule() -> None:
     # proof first; then only after the share, while the side has not yielded and HiGHS has
     # nothing above its start
     from models.solve import GIVE_WAY_SHARE, _GiveWay
+    from sosp.stop import Budget
 
     class Side:
         yielded_at = None
@@ -670,9 +671,9 @@ def test_give_way_rule() -> None:
 
     side = Side()
     now = time.perf_counter()
-    late = _GiveWay(side, 100.0, now + 0.2 / max(GIVE_WAY_SHARE, 1e-9))
+    late = _GiveWay(side, 100.0, Budget.until(now + 0.2 / max(GIVE_WAY_SHARE, 1e-9)))
     assert not late(np.inf, 100.0) and late.gave_at is None  # before its share
-    soon = _GiveWay(side, 100.0, time.perf_counter())
+    soon = _GiveWay(side, 100.0, Budget.until(time.perf_counter()))
     assert not soon(200.0, 101.0) and soon.gave_at is None  # HiGHS found better than its start
     side.yielded_at = 1.0
     assert not soon(150.0, 100.0) and soon.gave_at is None  # HiGHS holds the better bound
