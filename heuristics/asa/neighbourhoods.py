@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import heapq
 import logging
-import time
 
 import numpy as np
 
@@ -18,7 +17,9 @@ from heuristics.asa.select import roulette
 from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from heuristics.timeline import OrbitTimeline
+from sosp.ascent import UNLIMITED
 from sosp.rules import range_empty
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
@@ -412,17 +413,17 @@ def migration_move(
 
 
 # --------------------------------------------------------------------------- initial (5.4)
-def initial_solution(state: State, params: ASAParams, deadline: float | None = None) -> None:
+def initial_solution(state: State, params: ASAParams, budget: Budget = UNLIMITED) -> None:
     """Section 5.4: every task in decreasing weight goes through the insertion neighbourhood;
     the partial solution is kept only when it improves.
 
-    At ``deadline`` (a :func:`time.perf_counter` value; None: none) the tasks left are not
-    tried: the solution so far is feasible, and on 20,000 targets the pass takes seconds."""
+    Once ``budget`` expires (or a stop is requested) the tasks left are not tried: the
+    solution so far is feasible, and on 20,000 targets the pass takes seconds."""
     pb = state.pb
     for u in list(state.rank_unit):
         if state.sched[u] >= 0 or state.gain(u) <= 0:
             continue
-        if deadline is not None and time.perf_counter() > deadline:
+        if budget.expired():
             log.info("asa: initial solution stopped at the time limit")
             break
         before = state.profit

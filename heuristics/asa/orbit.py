@@ -68,7 +68,7 @@ from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
 from heuristics.orbit_search import ascend_from_both, hpfs_start, lp_start
-from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
+from sosp.ascent import UNLIMITED, OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
 from sosp.candidates import flatten, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -103,47 +103,47 @@ class OrbitPlanner:
         The problem.
     state
         The search state (DTC: a unit is a target and an option an opportunity).
-    deadline
-        :func:`time.perf_counter` value by which the candidates must be complete.
+    budget
+        The time by which the candidates must be complete (:func:`sosp.planner.orbit_data`).
 
     Raises
     ------
     InputError
-        The candidates are not complete by ``deadline`` or too many (the caller runs without
+        The candidates are not complete within ``budget`` or too many (the caller runs without
         this move then).
     """
 
-    def __init__(self, instance: Instance, state: State, deadline: float | None) -> None:
+    #: ``orbit-dp``'s search over the same candidates (:meth:`start_search`), whose
+    #: foreseen seconds of a plan per unit of :meth:`_work` (before one was timed) and least
+    #: work that sets a rate this planner's :attr:`foresight` takes.
+    SEARCH: type[OrbitSearch] = OrbitSearch
+
+    def __init__(self, instance: Instance, state: State, budget: Budget = UNLIMITED) -> None:
         if state.roll_rule == "nadir" and state.nadir_singles:
-            data = orbit_data(instance, deadline)
+            data = orbit_data(instance, budget)
         else:  # the search's rolls, arranged once
-            data = orbit_data(instance, deadline, roll=lambda opps: _rolls_of(opps, state))
+            data = orbit_data(instance, budget, roll=lambda opps: _rolls_of(opps, state))
         self.data = data
         self.orbit_items: dict[int, OrbitItems] = {o.orbit: o for o in data.orbits}
         self.orbits = sorted(self.orbit_items)
-        self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._orbit_of = np.array([o.orbit for o in data.orbits], dtype=np.int64)
-        self._init_foresight()
+        self._init(state)
 
-    #: Foreseen seconds of a plan per unit of :meth:`_work` before one was timed, and the
-    #: least work whose plan sets a rate: as ``orbit-dp``'s (:class:`OrbitSearch`).
-    PLAN_S_PER_WORK = OrbitSearch.PLAN_S_PER_WORK
-    RATE_FROM_WORK = OrbitSearch.RATE_FROM_WORK
-
-    def _init_foresight(self) -> None:
-        #: :func:`time.perf_counter` value no plan should end past (the search's limit;
-        #: None: none). A plan over windows of a dense orbit reads no clock and takes
-        #: seconds: an orbit move that started at 4.5 s of a 5 s run ended at 5.9 s.
-        self.deadline: float | None = None
-        self.foresight = Foresight(self.PLAN_S_PER_WORK, min_work=self.RATE_FROM_WORK)
+    def _init(self, state: State) -> None:
+        self.weight = np.asarray(state.pb.target_weight, dtype=float)
+        #: The time no plan should end past (the search's limit; unlimited: none). A plan over
+        #: windows of a dense orbit reads no clock and takes seconds: an orbit move that
+        #: started at 4.5 s of a 5 s run ended at 5.9 s.
+        self.budget = UNLIMITED
+        self.foresight = Foresight(self.SEARCH.PLAN_S_PER_WORK, min_work=self.SEARCH.RATE_FROM_WORK)
 
     def _work(self, j: int) -> float:
         """The size orbit j's planning time grows with (:class:`sosp.stop.Foresight`)."""
         return float(len(self.orbit_items[j].items))
 
     def late(self, j: int) -> bool:
-        """Whether a plan of orbit j is foreseen to end past :attr:`deadline`."""
-        return self.foresight.late(j, self._work(j), self.deadline)
+        """Whether a plan of orbit j is foreseen to end past :attr:`budget`."""
+        return not self.budget.fits(self.foresight(j, self._work(j)))
 
     def seeing(self, targets: list[int]) -> list[int]:
         """The orbits with a candidate covering any of ``targets``, in index order."""
@@ -187,7 +187,7 @@ class OrbitPlanner:
     ) -> tuple[list[tuple[int, ...]], float] | None:
         """Step 3: the best plan of orbit j (covered options per observation, time order) and
         its value at ``price``; None when it is worth no more than the current plan, or
-        foreseen to end past :attr:`deadline` (:meth:`late`: not made)."""
+        foreseen to end past :attr:`budget` (:meth:`late`: not made)."""
         if self.late(j):
             return None
         t = time.perf_counter()
@@ -214,7 +214,7 @@ class OrbitPlanner:
 
     def start_search(self, rng: np.random.Generator) -> OrbitSearch:
         """``orbit-dp``'s search over this planner's candidates (for :func:`orbit_search_start`)."""
-        return OrbitSearch(self.data, rng)
+        return self.SEARCH(self.data, rng)
 
     def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
         """(orbit, options per observation) of each non-empty plan of :meth:`start_search`'s
@@ -307,13 +307,11 @@ class WindowPlanner(OrbitPlanner):
         self._window_plan = window_plan
         self._rule: RollRule = state.roll_rule
         self.orbits = [o.orbit for o in self.data.orbits if o.size]
-        self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}
-        self._init_foresight()
+        self._init(state)
 
-    #: As ``orbit-dp``'s over windows (:class:`WindowSearch`): per (first, covered) pair.
-    PLAN_S_PER_WORK = WindowSearch.PLAN_S_PER_WORK
-    RATE_FROM_WORK = WindowSearch.RATE_FROM_WORK
+    #: As ``orbit-dp``'s over windows: its foresight per (first, covered) pair.
+    SEARCH = WindowSearch
 
     def _work(self, j: int) -> float:
         return float(orbit_pairs(self.data.instance, j))
@@ -330,17 +328,10 @@ class WindowPlanner(OrbitPlanner):
     def targets_of(self, j: int) -> np.ndarray:
         return self._targets[j]
 
-    def start_search(self, rng: np.random.Generator) -> OrbitSearch:
-        return WindowSearch(self.data, rng)
-
     def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
         for j, wp in enumerate(paths):
             if wp.size:
                 yield j, _window_groups(wp)
-
-    @property
-    def n_candidates(self) -> int:
-        return 0
 
 
 def _window_groups(wp: Any) -> list[tuple[int, ...]]:
@@ -458,28 +449,28 @@ def orbit_search_start(
     rng: np.random.Generator,
     params: ASAParams,
     planner: OrbitPlanner,
+    run: Budget,
     t0: float,
-    time_limit: float | None,
 ) -> dict[str, Any]:
     """Start the search from ``orbit-dp``'s iterated local search (``init="orbit-dp"``).
 
     The search runs on the planner's candidates (the rolls of the search's rule, so every
     plan is a set of cluster-tasks the state can hold) with the whole-orbit move's noise and
-    steal probability, until ``init_share`` of ``time_limit`` has passed since ``t0`` (or
-    :data:`INIT_NO_IMPROVE` steps without a gain when there is no limit). Its best plans are
-    then applied orbit by orbit through step 4 (:meth:`OrbitPlanner.apply`), each target
-    placed by the first orbit whose plan covers it, and each orbit repaired. Returns the
-    start's figures for the statistics.
+    steal probability, until ``init_share`` of the run's limit (``run``, counted from ``t0``)
+    has passed (or :data:`INIT_NO_IMPROVE` steps without a gain when there is no limit). Its
+    best plans are then applied orbit by orbit through step 4 (:meth:`OrbitPlanner.apply`),
+    each target placed by the first orbit whose plan covers it, and each orbit repaired.
+    Returns the start's figures for the statistics.
     """
     search = planner.start_search(rng)
     p = OrbitSearchParams(noise=params.orbit_noise, steal=params.orbit_steal)
-    run = Budget.until(None if time_limit is None else t0 + time_limit)
     # its share of the limit, candidates included; but at least its share of what the
     # candidates left (where the window planner's set-up took past the share, the start
     # got no step and the greedy insertion was left to make the schedule)
     share, stop = run, NoImprovement(INIT_NO_IMPROVE)
-    if time_limit is not None:
-        end = max(t0 + params.init_share * time_limit, run.share(params.init_share).deadline or 0)
+    if run.deadline is not None:
+        end = t0 + params.init_share * (run.deadline - t0)
+        end = max(end, run.share(params.init_share).deadline or end)
         share, stop = Budget.until(end), MaxRuntime(end - t0, start=t0)
     started: dict[str, Any] = {}
     root = params.init == "lp"
@@ -514,29 +505,32 @@ def orbit_search_start(
 
 
 def make_planner(
-    instance: Instance, state: State, params: ASAParams, deadline: float | None
+    instance: Instance, state: State, params: ASAParams, run: Budget = UNLIMITED
 ) -> OrbitPlanner | None:
-    """The planner when the search uses whole-orbit re-planning, else None.
+    """The planner when the search uses whole-orbit re-planning, else None; no plan of it is
+    foreseen to end past ``run`` (the search's time, :meth:`OrbitPlanner.late`).
 
     Used by ASA-DTC with ``replan`` and ``replan_orbit > 0``. When the candidates would not
-    fit in memory (``sosp.candidates.candidate_cap``) or cannot be generated by
-    ``deadline`` (thousands of opportunities on an orbit), the move plans over windows
+    fit in memory (``sosp.candidates.candidate_cap``) or cannot be generated in half the time
+    ``run`` has left (thousands of opportunities on an orbit), the move plans over windows
     instead (:class:`WindowPlanner`) and the log says so.
     """
     if not (params.replan and params.replan_orbit > 0 and state.pb.mode == "dtc"):
         return None
-    if params.candidates == "windows":
-        return WindowPlanner(instance, state)
-    try:
-        return OrbitPlanner(instance, state, deadline)
-    except InputError as exc:
-        # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
-        cause = str(exc).split(";")[0]
-        if params.candidates == "explicit":
-            log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
-            return None
-        log.info("asa-dtc: whole-orbit re-planning over windows (%s)", cause)
-        return WindowPlanner(instance, state)
+    planner = None
+    if params.candidates != "windows":
+        try:
+            planner = OrbitPlanner(instance, state, run.share(0.5))
+        except InputError as exc:
+            # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
+            cause = str(exc).split(";")[0]
+            if params.candidates == "explicit":
+                log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
+                return None
+            log.info("asa-dtc: whole-orbit re-planning over windows (%s)", cause)
+    planner = planner or WindowPlanner(instance, state)
+    planner.budget = run
+    return planner
 
 
 def replan_or_orbit(

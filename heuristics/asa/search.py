@@ -101,7 +101,8 @@ class Search:
         As :func:`run_asa`.
     time_limit
         Wall time of the whole search, seconds: the candidates of whole-orbit re-planning
-        must be complete within half of it (else the search runs without that move).
+        must be complete within half of what is left of it (else the move plans over windows,
+        :func:`~heuristics.asa.orbit.make_planner`).
     t0
         :func:`time.perf_counter` value the run's times count from (default: now).
     """
@@ -138,21 +139,19 @@ class Search:
 
         self.moves = list(NEIGHBOURHOODS)
         run = Budget.until(None if time_limit is None else t0 + time_limit)
-        half = None if time_limit is None else t0 + 0.5 * time_limit
-        self.planner = make_planner(instance, state, params, half)
+        self.planner = make_planner(instance, state, params, run)
         if self.planner is not None:
             self.moves[REPLAN] = partial(replan_or_orbit, planner=self.planner)
-            self.planner.deadline = run.deadline  # no whole-orbit plan foreseen past it
         self.t_planner = time.perf_counter() - t0
 
         self.init_stats: dict[str, float] = {}
         if params.init in ("orbit-dp", "lp") and self.planner is not None:
-            self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
+            self.init_stats = orbit_search_start(state, rng, params, self.planner, run, t0)
         # section 5.4's insertion ends at the limit, or after an orbit start at its share
         # (``init_share``) of the time left: the start leaves it the targets it could not
         # place, and trying them all could take most of the run
         insertion = run.share(params.init_share) if self.init_stats else run
-        initial_solution(state, params, insertion.deadline)
+        initial_solution(state, params, insertion)
         self.t_init = time.perf_counter() - t0
         self.best = state.profit
         self.best_snap = state.snapshot()
