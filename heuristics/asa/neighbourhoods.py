@@ -78,10 +78,7 @@ def clustering_gain(
     alpha = line.energy / p.energy_capacity if p.energy_capacity > 0 else 0.0
     beta = line.memory / p.memory_capacity if p.memory_capacity > 0 else 0.0
     openings = (
-        params.rule16_openings
-        and p.max_openings > 0
-        and p.energy_capacity > 0
-        and p.memory_capacity > 0
+        params.rule16_openings and min(p.max_openings, p.energy_capacity, p.memory_capacity) > 0
     )
     gamma = max(len(line.obs), 1) / p.max_openings if openings else 0.0
 
@@ -108,17 +105,13 @@ def clustering_gain(
         separable = not p.clash(c[END], c[ROLL], pb.opt_start[x], state.single_roll[x])
     else:
         separable = not p.clash(pb.opt_end[x], state.single_roll[x], c[START], c[ROLL])
+    # an orbit that has consumed nothing is read with capacities (decision 2), as are the
+    # tasks (16) does not judge when it is off
     degenerate = alpha == 0.0 and beta == 0.0
-    if not separable:
-        return saving_of(capacity=degenerate), new
-    if not params.rule16:
-        return saving_of(capacity=True), new
-    if degenerate:
-        # an orbit that has consumed nothing: the capacity reading (decision 2)
-        saving = saving_of(capacity=True)
-        return (saving, new) if saving > 0 else None
-    saving = saving_of(capacity=False)
-    return (saving, new) if saving > 0 else None
+    saving = saving_of(capacity=degenerate or (separable and not params.rule16))
+    if separable and params.rule16 and not saving > 0:
+        return None
+    return saving, new
 
 
 # ------------------------------------------------------------------------------ insertion

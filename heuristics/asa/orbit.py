@@ -69,7 +69,7 @@ from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
 from heuristics.orbit_search import ascend_from_both, hpfs_start, lp_start
 from sosp.ascent import UNLIMITED, OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
-from sosp.candidates import flatten, orbit_pairs
+from sosp.candidates import flatten, offsets, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitItems, best_feasible_path, orbit_data
@@ -89,9 +89,7 @@ def _rolls_of(opps: Sequence[Sequence[int]], state: State) -> np.ndarray:
     if len(opps) == 0:
         return np.zeros(0)
     sizes, flat = flatten(opps)
-    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=ptr[1:])
-    return state.group_rolls(ptr, flat)
+    return state.group_rolls(offsets(sizes), flat)
 
 
 class OrbitPlanner:

@@ -42,12 +42,14 @@ import numpy as np
 from heuristics.asa.neighbourhoods import remove_member, repair
 from heuristics.asa.params import ASAParams
 from heuristics.asa.problem import Problem
+from heuristics.asa.select import roulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from sosp.candidates import (
     OrbitCandidates,
     cached_orbit_candidates,
     generate,
+    offsets,
     orbit_candidates,
     orbit_pairs,
 )
@@ -131,21 +133,12 @@ def candidates(state: State, j: int, opts: list[int]) -> Cands:
     source = _orbit_source(pb, j)
     if source is None:
         cols = state.arrays
-        sizes, members = [], []
-        for _, size, pos in generate(
-            cols.start[flat],
-            cols.end[flat],
-            cols.lo[flat],
-            cols.hi[flat],
-            pb.orbits[j].max_duration,
-        ):
-            sizes.append(size)
-            members.append(flat[pos])
-        if not sizes:
+        args = [col[flat] for col in (cols.start, cols.end, cols.lo, cols.hi)]
+        got = [(size, pos) for _, size, pos in generate(*args, pb.orbits[j].max_duration)]
+        if not got:
             return Cands(state, np.zeros(1, dtype=np.int64), flat[:0])
-        ptr = np.zeros(sum(len(x) for x in sizes) + 1, dtype=np.int64)
-        np.cumsum(np.concatenate(sizes), out=ptr[1:])
-        return Cands(state, ptr, np.concatenate(members))
+        sizes, pos = zip(*got, strict=True)
+        return Cands(state, offsets(np.concatenate(sizes)), flat[np.concatenate(pos)])
     t0, t1 = pb.opt_start[opts[0]], max(pb.opt_end[x] for x in opts)
     ptr, cut = source.within(flat, len(pb.opt_start), t0, t1)
     return Cands(state, ptr, cut)
@@ -259,7 +252,7 @@ class _Stretch:
     """A stretch of orbit j about to be re-planned: the freed cluster-tasks, the fixed
     neighbours, the budgets of (4)-(6) they leave, and the options that may be used."""
 
-    __slots__ = ("j", "first", "freed", "left", "right", "energy", "memory", "openings")
+    __slots__ = ("j", "first", "freed", "around")
 
     def __init__(self, state: State, j: int, window: list[int]) -> None:
         pb = state.pb
@@ -275,10 +268,11 @@ class _Stretch:
             first = sum(1 for c in obs if c[END] < t0)
             last = first - 1
         self.j, self.first, self.freed = j, first, obs[first : last + 1]
-        self.left = obs[first - 1] if first > 0 else None
-        self.right = obs[last + 1] if last + 1 < len(obs) else None
-        # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
-        self.energy, self.memory, self.openings = line.budget_between(first, last)
+        left = obs[first - 1] if first > 0 else None
+        right = obs[last + 1] if last + 1 < len(obs) else None
+        # The fixed neighbours and the budgets (4)-(6) the other cluster-tasks leave (the pair
+        # left-right is the chain's to pay): :func:`best_chain`'s arguments after the gains.
+        self.around = (left, right, *line.budget_between(first, last))
 
     def units(self, state: State) -> set[int]:
         unit = state.pb.opt_unit
@@ -291,8 +285,9 @@ class _Stretch:
         st, en = pb.opt_start, pb.opt_end
         t0 = min([st[x] for x in window] + [c[START] for c in self.freed])
         t1 = max([en[x] for x in window] + [c[END] for c in self.freed])
-        lo_t = self.left[END] if self.left is not None else -np.inf
-        hi_t = self.right[START] if self.right is not None else np.inf
+        left, right = self.around[:2]
+        lo_t = left[END] if left is not None else -np.inf
+        hi_t = right[START] if right is not None else np.inf
         opts = pb.orbit_options[self.j]
         out = []
         for a in range(bisect_left(opts, t0, key=st.__getitem__), len(opts)):
@@ -304,17 +299,7 @@ class _Stretch:
         return out
 
     def best(self, state: State, cands: Cands, gains: np.ndarray) -> tuple[float, list[int]]:
-        return best_chain(
-            state,
-            self.j,
-            cands,
-            gains,
-            self.left,
-            self.right,
-            self.energy,
-            self.memory,
-            self.openings,
-        )
+        return best_chain(state, self.j, cands, gains, *self.around)
 
     def free(self, state: State) -> None:
         line = state.touch(self.j)
@@ -461,11 +446,8 @@ def replan_pair(
         i = partner
     else:  # roulette by the number of shared options
         partners = sorted(count)
-        z = rng.random() * sum(count.values())
-        for i in partners:
-            z -= count[i]
-            if z < 0:
-                break
+        weights = [count[i] for i in partners]
+        i = partners[roulette(weights, rng.random() * sum(weights))]
     opts_i = pb.orbit_options[i]
     shared = sorted(opts_i.index(y) for x in window for y in pb.alternatives[x] if orbit[y] == i)
     window_i = _around(opts_i, shared[len(shared) // 2], m)

@@ -49,21 +49,10 @@ log = logging.getLogger(__name__)
 DEFAULT_ITERATIONS = 20_000
 
 #: Columns of the trace (``Result.stats["trace"]``), in CSV order.
-TRACE_COLUMNS = (
-    "iteration",
-    "time_s",
-    "best",
-    "current",
-    "temperature",
-    "pro_insertion",
-    "pro_migration",
-    "accepted_insertion",
-    "rejected_insertion",
-    "accepted_migration",
-    "rejected_migration",
-    "pro_replan",
-    "accepted_replan",
-    "rejected_replan",
+TRACE_COLUMNS = tuple(
+    "iteration time_s best current temperature pro_insertion pro_migration accepted_insertion"
+    " rejected_insertion accepted_migration rejected_migration pro_replan accepted_replan"
+    " rejected_replan".split()
 )
 
 #: The neighbourhoods by index (:data:`INSERTION`, :data:`MIGRATION`, :data:`REPLAN`); the
@@ -166,26 +155,11 @@ class Search:
 
     def record(self) -> None:
         """Append a trace row (columns :data:`TRACE_COLUMNS`)."""
-        pr = self.selector.probabilities
-        acc, rej = self.accepted, self.rejected
-        self.trace.append(
-            [
-                self.status.iteration,
-                round(time.perf_counter() - self.t0, 6),
-                self.best,
-                self.state.profit,
-                self.acceptance.temperature,
-                pr[INSERTION],
-                pr[MIGRATION],
-                acc[0],
-                rej[0],
-                acc[1],
-                rej[1],
-                pr[REPLAN] if len(pr) > REPLAN else 0.0,
-                acc[2],
-                rej[2],
-            ]
-        )
+        pr, acc, rej = self.selector.probabilities, self.accepted, self.rejected
+        replan = [pr[REPLAN] if len(pr) > REPLAN else 0.0, acc[2], rej[2]]
+        row = [self.status.iteration, round(time.perf_counter() - self.t0, 6), self.best]
+        row += [self.state.profit, self.acceptance.temperature, pr[INSERTION], pr[MIGRATION]]
+        self.trace.append([*row, acc[0], rej[0], acc[1], rej[1], *replan])
 
     def run(self, stop: Callable[[SearchStatus], bool]) -> None:
         """Iterate Algorithm 1 (with sosp's restarts) until ``stop`` says so or a stop is
