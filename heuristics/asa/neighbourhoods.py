@@ -115,6 +115,23 @@ def clustering_gain(
 
 
 # ------------------------------------------------------------------------------ insertion
+def _best_join(
+    state: State, line: OrbitTimeline, x: int, params: ASAParams, check: bool
+) -> tuple[bool, float, int, Cluster] | None:
+    """The cluster-task of ``line`` that option ``x`` joins best by (7), (11), (16) (DTC):
+    ``(fits, saving, position, new cluster-task)``, where with ``check`` those that keep
+    (3)-(6) (``fits``) rank first; None when it joins none."""
+    found = None
+    if state.pb.clustering:
+        for pos, c in enumerate(line.obs):
+            g = clustering_gain(state, line, c, x, params)
+            if g is not None:
+                cand = (check and line.check_replace(pos, g[1]), g[0], pos, g[1])
+                if found is None or cand[:2] > found[:2]:
+                    found = cand
+    return found
+
+
 def insert_options(
     state: State, options: list[int], params: ASAParams, protect: bool = True
 ) -> int:
@@ -136,24 +153,11 @@ def insert_options(
     for idx, x in enumerate(options):
         line = lines[pb.opt_orbit[x]]
         share = line.free_share()
-        found = None
-        if pb.clustering and line.obs:
-            for pos, c in enumerate(line.obs):
-                g = clustering_gain(state, line, c, x, params)
-                if g is None:
-                    continue
-                fits = feasible_first and line.check_replace(pos, g[1])
-                cand = (fits, g[0], pos, g[1])
-                if found is None or cand[:2] > found[:2]:
-                    found = cand
-        if found is not None:
-            # Clustering insertion (steps 3-5) ranks before isolated insertion (step 6).
-            key = (found[0], 1, share, -idx)
-            item = (key, x, found[2], found[3])
-        else:
+        found = _best_join(state, line, x, params, feasible_first)
+        if found is None:  # isolated insertion (step 6) ranks after clustering (steps 3-5)
             fits = feasible_first and line.check_insert(state.make_cluster((x,))).ok
-            key = (fits, 0, share, -idx)
-            item = (key, x, -1, None)
+            found = (fits, None, -1, None)
+        item = ((found[0], found[1] is not None, share, -idx), x, found[2], found[3])
         if best is None or item[0] > best[0]:
             best = item
     if best is None:
@@ -338,17 +342,11 @@ def try_insert_feasible(state: State, x: int, params: ASAParams) -> bool:
     pb = state.pb
     j = pb.opt_orbit[x]
     line = state.lines[j]
-    if pb.clustering and line.obs:
-        best = None
-        for pos, c in enumerate(line.obs):
-            g = clustering_gain(state, line, c, x, params)
-            if g is not None and line.check_replace(pos, g[1]):
-                if best is None or g[0] > best[0]:
-                    best = (g[0], pos, g[1])
-        if best is not None:
-            state.touch(j).replace(best[1], best[2])
-            state.assign(pb.opt_unit[x], x)
-            return True
+    found = _best_join(state, line, x, params, True)
+    if found is not None and found[0]:
+        state.touch(j).replace(found[2], found[3])
+        state.assign(pb.opt_unit[x], x)
+        return True
     single = state.make_cluster((x,))
     chk = line.check_insert(single)
     if chk:

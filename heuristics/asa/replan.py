@@ -36,6 +36,7 @@ when the search restarts from its best solution (``ASAParams.restart``).
 from __future__ import annotations
 
 from bisect import bisect_left
+from collections import Counter
 
 import numpy as np
 
@@ -232,18 +233,14 @@ def replan_move(
         if made is not None:
             return made and all(repair(state, i) for i in state.touched_orbits())
     pull = params.replan_pull if pb.mode != "stc" else 0.0
-    depth = EJECTION_DEPTH  # two or more
     holes = replan_stretch(state, j, window, tabu, pull)
     if holes is None:
         return False
-    for level in range(2, depth + 1):
-        nxt: list[tuple[int, int]] = []
+    for level in range(2, EJECTION_DEPTH + 1):  # the last level pulls nothing
+        pull, nxt = (pull if level < EJECTION_DEPTH else 0.0), []
         for i, x in holes:
             opts = pb.orbit_options[i]
-            more = replan_stretch(
-                state, i, _around(opts, opts.index(x), m), tabu, pull if level < depth else 0.0
-            )
-            nxt.extend(more or ())
+            nxt += replan_stretch(state, i, _around(opts, opts.index(x), m), tabu, pull) or []
         holes = nxt
     return all(repair(state, i) for i in state.touched_orbits())
 
@@ -357,21 +354,15 @@ def replan_stretch(
     stretch = _Stretch(state, j, window)
     freed_units = stretch.units(state)
     sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
-    avail = []
-    value = {}
+    value = {}  # each usable option's worth
     for x in stretch.options(state, window):
         u = unit[x]
         if u in freed_units:
             value[x] = pb.unit_weight[u]
-        elif tabu is not None and u in tabu:
-            continue
-        elif sched[u] < 0:
-            value[x] = pb.unit_weight[u]
-        elif pull > 0 and orbit[sched[u]] != j:
-            value[x] = pull * pb.unit_weight[u]
-        else:
-            continue
-        avail.append(x)
+        elif tabu is None or u not in tabu:
+            if sched[u] < 0 or (pull > 0 and orbit[sched[u]] != j):
+                value[x] = (1.0 if sched[u] < 0 else pull) * pb.unit_weight[u]
+    avail = list(value)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
         tw, cover, targets = pb.target_weight, state.cover, pb.unit_targets
         held: dict[int, int] = {}
@@ -435,11 +426,7 @@ def replan_pair(
     """
     pb = state.pb
     unit, orbit = pb.opt_unit, pb.opt_orbit
-    count: dict[int, int] = {}
-    for x in window:
-        for y in pb.alternatives[x]:
-            if orbit[y] != j:
-                count[orbit[y]] = count.get(orbit[y], 0) + 1
+    count = Counter(orbit[y] for x in window for y in pb.alternatives[x] if orbit[y] != j)
     if not count or (partner >= 0 and partner not in count):
         return None
     if partner >= 0:
@@ -537,11 +524,8 @@ def polish(state: State, rng: np.random.Generator, params: ASAParams, tabu: Tabu
         before = state.profit
         state.begin()
         made = replan_pair(state, rng, j, window, m, tabu, partner=i)
-        if (
-            made
-            and all(repair(state, h) for h in state.touched_orbits())
-            and (state.profit >= before - 1e-9)
-        ):
+        made = made and all(repair(state, h) for h in state.touched_orbits())
+        if made and state.profit >= before - 1e-9:
             state.commit()
             kept += 1
         else:
