@@ -124,10 +124,12 @@ class OrbitPlanner:
         self.data = data
         self.orbit_items: dict[int, OrbitItems] = {o.orbit: o for o in data.orbits}
         self.orbits = sorted(self.orbit_items)
-        self._orbit_of = np.array([o.orbit for o in data.orbits], dtype=np.int64)
-        self._init(state)
+        self._targets = {o.orbit: o.targets for o in data.orbits}
+        self._init(state, [o.orbit for o in data.orbits])
 
-    def _init(self, state: State) -> None:
+    def _init(self, state: State, orbit_of: list[int]) -> None:
+        #: Per position in ``data.orbits``, its orbit.
+        self._orbit_of = np.array(orbit_of, dtype=np.int64)
         self.weight = np.asarray(state.pb.target_weight, dtype=float)
         #: The time no plan should end past (the search's limit; unlimited: none). A plan over
         #: windows of a dense orbit reads no clock and takes seconds: an orbit move that
@@ -208,7 +210,7 @@ class OrbitPlanner:
 
     def targets_of(self, j: int) -> np.ndarray:
         """The targets orbit j can observe."""
-        return self.orbit_items[j].targets
+        return self._targets[j]
 
     def start_search(self, rng: np.random.Generator) -> OrbitSearch:
         """``orbit-dp``'s search over this planner's candidates (for :func:`orbit_search_start`)."""
@@ -306,7 +308,7 @@ class WindowPlanner(OrbitPlanner):
         self._rule: RollRule = state.roll_rule
         self.orbits = [o.orbit for o in self.data.orbits if o.size]
         self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}
-        self._init(state)
+        self._init(state, [o.orbit for o in self.data.orbits])
 
     #: As ``orbit-dp``'s over windows: its foresight per (first, covered) pair.
     SEARCH = WindowSearch
@@ -314,17 +316,9 @@ class WindowPlanner(OrbitPlanner):
     def _work(self, j: int) -> float:
         return float(orbit_pairs(self.data.instance, j))
 
-    def seeing(self, targets: list[int]) -> list[int]:
-        if not targets:
-            return []
-        return self.data.orbits_seeing(np.asarray(targets, dtype=np.int64)).tolist()
-
     def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
         wp = self._window_plan(self.data.orbits[j], price, self._rule)
         return _window_groups(wp), wp.targets
-
-    def targets_of(self, j: int) -> np.ndarray:
-        return self._targets[j]
 
     def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
         for j, wp in enumerate(paths):

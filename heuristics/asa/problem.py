@@ -196,23 +196,15 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         unit_options = [part.tolist() for part in np.split(by_unit, np.cumsum(counts)[:-1])]
     tw = instance.target_weight.astype(float).tolist()
     unit_weight = [float(sum(tw[k] for k in ks)) for ks in unit_targets]
+    cols = (tasks.orbit, tasks.start, tasks.end, tasks.roll)
     try:
-        conflicts = ConflictLists(
-            *setup_conflict_rows(
-                instance,
-                tasks.orbit,
-                tasks.start,
-                tasks.end,
-                tasks.roll,
-                keep=usable_mask,
-                max_pairs=MAX_CONFLICTS,
-            )
-        )
+        rows = setup_conflict_rows(instance, *cols, keep=usable_mask, max_pairs=MAX_CONFLICTS)
     except TooManyConflicts as exc:
         raise TooLargeForASA(
             f"instance: {exc}: too large for ASA's conflict lists (use orbit-dp, greedy or "
             "hpfs-stc)"
         ) from None
+    conflicts = ConflictLists(*rows)
     alternatives: Sequence[list[int]]
     if mode == "stc":
         stc_alternatives: list[list[int]] = [[] for _ in range(n)]

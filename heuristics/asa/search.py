@@ -122,9 +122,7 @@ class Search:
         floor = params.replan_floor if params.replan else 0.0
         self.selector = selector or AdaptiveRoulette(self.probs, params.eta, params.itr, floor)
         length = params.tabu_length
-        if length is None:
-            length = max(1, self.problem.n_observable // 50)
-        self.tabu = TabuList(length)
+        self.tabu = TabuList(max(1, self.problem.n_observable // 50) if length is None else length)
 
         self.moves = list(NEIGHBOURHOODS)
         run = Budget.until(None if time_limit is None else t0 + time_limit)

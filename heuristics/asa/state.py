@@ -60,10 +60,7 @@ class State:
                 min(max(0.0, lo), hi) for lo, hi in zip(problem.opt_lo, problem.opt_hi, strict=True)
             ]
         self.lines = [OrbitTimeline(p) for p in problem.orbits]
-        self.sched = [-1] * problem.n_units  # option of each unit, -1 when unscheduled
-        self.cover = [0] * len(problem.target_weight)
-        self.profit = 0.0
-        # Unscheduled units with options, as ranks (weight order) kept sorted.
+        # Units with options by weight: an unscheduled unit is held by its rank, kept sorted.
         order = sorted(
             (u for u in range(problem.n_units) if problem.unit_options[u]),
             key=lambda u: (-problem.unit_weight[u], u),
@@ -72,12 +69,19 @@ class State:
         self.unit_rank = [-1] * problem.n_units
         for r, u in enumerate(order):
             self.unit_rank[u] = r
-        self.unscheduled = list(range(len(order)))
-        self.scheduled: set[int] = set()
         # journal
         self._snaps: dict[int, tuple[list[Cluster], float, float]] = {}
         self._log: list[tuple[int, int]] = []
         self._profit0 = 0.0
+        self._empty()
+
+    def _empty(self) -> None:
+        """Nothing scheduled: no unit assigned, no target covered, every unit unscheduled."""
+        self.sched = [-1] * self.pb.n_units  # option of each unit, -1 when unscheduled
+        self.cover = [0] * len(self.pb.target_weight)
+        self.profit = 0.0
+        self.unscheduled = list(range(len(self.rank_unit)))
+        self.scheduled: set[int] = set()
 
     # -------------------------------------------------------------- journal
     def begin(self) -> None:
@@ -239,11 +243,7 @@ class State:
         """Make a snapshot (:meth:`snapshot`) the current solution, rebuilding the totals and
         the assignment from it (used to restart from the best; never inside a move)."""
         pb = self.pb
-        self.sched = [-1] * pb.n_units
-        self.cover = [0] * len(pb.target_weight)
-        self.profit = 0.0
-        self.unscheduled = list(range(len(self.rank_unit)))
-        self.scheduled = set()
+        self._empty()
         for line, obs in zip(self.lines, snap, strict=True):
             line.load(obs)
             for c in obs:
