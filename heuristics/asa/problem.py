@@ -165,29 +165,20 @@ class Alternatives(Sequence[list[int]]):
 
 def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") -> Problem:
     """Flatten ``instance`` for the search in ``mode`` (``"dtc"``, ``"stc"``, ``"nontc"``)."""
-    if mode == "stc":
-        tasks = static_cluster_tasks(instance, roll_rule=roll_rule)  # type: ignore[arg-type]
-    else:
-        tasks = single_tasks(instance)
+    stc = mode == "stc"
+    tasks = static_cluster_tasks(instance, roll_rule=roll_rule) if stc else single_tasks(instance)  # type: ignore[arg-type]
     orbits = list(all_orbit_rules(instance))
-    n = len(tasks)
-    orbit = tasks.orbit.tolist()
-    start = tasks.start.tolist()
-    end = tasks.end.tolist()
     roll = tasks.roll.tolist()
-    if mode == "stc":
-        # Static tasks are atomic: their roll is fixed, so their "range" is the roll itself.
-        lo, hi = list(roll), list(roll)
-    else:
-        lo = instance.opp_roll_min.tolist()
-        hi = instance.opp_roll_max.tolist()
     usable_mask = alone_ok_mask(instance, tasks.orbit, tasks.start, tasks.end)
     usable_ids = np.flatnonzero(usable_mask)
-    if mode == "stc":
-        unit_of = list(range(n))
+    if stc:
+        # Static tasks are atomic: their roll is fixed, so their "range" is the roll itself.
+        lo, hi = list(roll), list(roll)
+        unit_of = list(range(len(tasks)))
         unit_targets = [tuple(t) for t in tasks.targets]
         unit_options = [[x] if ok else [] for x, ok in enumerate(usable_mask.tolist())]
     else:
+        lo, hi = instance.opp_roll_min.tolist(), instance.opp_roll_max.tolist()
         unit_of = instance.opp_target.tolist()
         unit_targets = [(k,) for k in range(instance.n_targets)]
         # each target's usable opportunities in index order: a stable sort by target
@@ -206,8 +197,8 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         ) from None
     conflicts = ConflictLists(*rows)
     alternatives: Sequence[list[int]]
-    if mode == "stc":
-        stc_alternatives: list[list[int]] = [[] for _ in range(n)]
+    if stc:
+        stc_alternatives: list[list[int]] = [[] for _ in range(len(tasks))]
         usable = usable_mask.tolist()
         for x in usable_ids.tolist():
             alt = set()
@@ -229,9 +220,9 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         mode=mode,
         clustering=mode == "dtc",
         orbits=orbits,
-        opt_orbit=orbit,
-        opt_start=start,
-        opt_end=end,
+        opt_orbit=tasks.orbit.tolist(),
+        opt_start=tasks.start.tolist(),
+        opt_end=tasks.end.tolist(),
         opt_roll=roll,
         opt_lo=lo,
         opt_hi=hi,

@@ -35,7 +35,7 @@ when the search restarts from its best solution (``ASAParams.restart``).
 
 from __future__ import annotations
 
-from bisect import bisect_left
+from bisect import bisect_left, bisect_right
 from collections import Counter
 
 import numpy as np
@@ -286,14 +286,9 @@ class _Stretch:
         lo_t = left[END] if left is not None else -np.inf
         hi_t = right[START] if right is not None else np.inf
         opts = pb.orbit_options[self.j]
-        out = []
-        for a in range(bisect_left(opts, t0, key=st.__getitem__), len(opts)):
-            x = opts[a]
-            if st[x] > t1:
-                break
-            if lo_t < st[x] and en[x] < hi_t and en[x] <= t1:
-                out.append(x)
-        return out
+        a = bisect_left(opts, t0, key=st.__getitem__)
+        b = bisect_right(opts, t1, key=st.__getitem__)  # by start, as ``orbit_options``
+        return [x for x in opts[a:b] if lo_t < st[x] and en[x] < hi_t and en[x] <= t1]
 
     def best(self, state: State, cands: Cands, gains: np.ndarray) -> tuple[float, list[int]]:
         return best_chain(state, self.j, cands, gains, *self.around)
@@ -321,10 +316,8 @@ class _Stretch:
                 u = unit[x]
                 if u in units:
                     continue  # a task twice in one cluster-task: once
-                if sched[u] >= 0:
-                    y = sched[u]
-                    i = orbit[y]
-                    if i == j:
+                if (y := sched[u]) >= 0:
+                    if (i := orbit[y]) == j:
                         continue  # a task twice in the stretch: once
                     remove_member(state, i, state.find(i, y), y)
                     holes.append((i, y))
@@ -365,10 +358,7 @@ def replan_stretch(
     avail = list(value)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
         tw, cover, targets = pb.target_weight, state.cover, pb.unit_targets
-        held: dict[int, int] = {}
-        for u in freed_units:
-            for k in targets[u]:
-                held[k] = held.get(k, 0) + 1
+        held = Counter(k for u in freed_units for k in targets[u])
         # a target covered now is worth its weight only when freed tasks alone cover it
         back = {k: tw[k] for k, n in held.items() if cover[k] == n}
         freed_profit = sum(back.values())
@@ -472,13 +462,13 @@ def replan_pair(
         _, ch_a = sa.best(state, ca, gains(ca, ua))
         _, ch_b = sb.best(state, cb, gains(cb, ub))
         ta, tb = taken(ca, ua, ch_a), taken(cb, ub, ch_b)
-        for first_a in (True, False):
-            if first_a:
-                g2, ch2 = sb.best(state, cb, gains(cb, ub, ta))
-                item = (sum(weight[u] for u in ta) + g2, ch_a, ch2)
-            else:
-                g2, ch2 = sa.best(state, ca, gains(ca, ua, tb))
-                item = (sum(weight[u] for u in tb) + g2, ch2, ch_b)
+        # one orbit's chain, then the other's best without its tasks; and the reverse
+        g_b, after_a = sb.best(state, cb, gains(cb, ub, ta))
+        g_a, after_b = sa.best(state, ca, gains(ca, ua, tb))
+        for item in (
+            (sum(weight[u] for u in ta) + g_b, ch_a, after_a),
+            (sum(weight[u] for u in tb) + g_a, after_b, ch_b),
+        ):
             if item[0] > best[0] + 1e-9:
                 best = item
         step = 0.5 / (1 + r)
