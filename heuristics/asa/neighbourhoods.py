@@ -191,8 +191,12 @@ def remove_member(state: State, j: int, pos: int, x: int) -> None:
     state.unassign(state.pb.opt_unit[x])
 
 
-def _removal_score(state: State, line: OrbitTimeline, pos: int, x: int) -> tuple[float, float, int]:
-    """(resource use freed, profit lost, openings freed) if x leaves the cluster at pos."""
+def _removal_score(
+    state: State, line: OrbitTimeline, pos: int, x: int, cap: int = 0
+) -> tuple[float, float, int]:
+    """(resource use freed per profit lost (inf: none lost), resource use freed, openings
+    freed) if x leaves the cluster at pos; with ``cap`` > 0 the use counts an opening freed
+    as ``1 / cap``."""
     c = line.obs[pos]
     new = state.cluster_without(c, x)
     if new is not None and not (
@@ -208,7 +212,10 @@ def _removal_score(state: State, line: OrbitTimeline, pos: int, x: int) -> tuple
     e_cap, m_cap = p.energy_capacity, p.memory_capacity
     d_e, d_w = -p.energy(d_obs, d_slew), -p.memory(d_obs)
     use = (d_e / e_cap if e_cap > 0 else 0.0) + (d_w / m_cap if m_cap > 0 else 0.0)
-    return use, state.loss(state.pb.opt_unit[x]), 1 if new is None else 0
+    lost, opened = state.loss(state.pb.opt_unit[x]), 1 if new is None else 0
+    if cap > 0:
+        use += opened / cap
+    return use / lost if lost > 0 else float("inf"), use, opened
 
 
 def repair(state: State, j: int, protect: int = -1) -> bool:
@@ -237,10 +244,8 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
             elif protect in right[MEMBERS]:
                 choice = (p, lx)
             else:
-                sl = _removal_score(state, line, p, lx)
-                sr = _removal_score(state, line, p + 1, rx)
-                kl = sl[0] / sl[1] if sl[1] > 0 else float("inf")
-                kr = sr[0] / sr[1] if sr[1] > 0 else float("inf")
+                kl = _removal_score(state, line, p, lx)[0]
+                kr = _removal_score(state, line, p + 1, rx)[0]
                 choice = (p, lx) if kl >= kr else (p + 1, rx)
             if choice[1] == protect:
                 return False
@@ -249,17 +254,13 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
         over_e, over_w, over_c = line.over()
         if not (over_e or over_w or over_c):
             return True
-        best = None
-        fallback = None
-        cap = line.rules.max_openings
+        best = fallback = None
+        cap = line.rules.max_openings if over_c else 0
         for pos, c in enumerate(line.obs):
             for x in _ends(c, pb):
                 if x == protect:
                     continue
-                use, lost, opened = _removal_score(state, line, pos, x)
-                if over_c and cap > 0:
-                    use += opened / cap
-                key = use / lost if lost > 0 else float("inf")
+                key, use, opened = _removal_score(state, line, pos, x, cap)
                 frees = (over_e or over_w) and use > 0 or (over_c and opened)
                 item = (key, -pos, -x, pos, x)
                 if frees and (best is None or item > best):
@@ -388,11 +389,9 @@ def migration_move(
         return False
     # Step 3: the freed resources go to u's unscheduled setup-time conflicting tasks.
     sched, unit = state.sched, pb.opt_unit
-    if pb.mode == "stc":
-        gains = {y: state.gain(unit[y]) for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
-    else:  # a unit is one target: its gain is its weight while unscheduled
-        w = pb.unit_weight
-        gains = {y: w[unit[y]] for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
+    # a DTC or NONTC unit is one target: its gain is its weight while unscheduled
+    gain = state.gain if pb.mode == "stc" else pb.unit_weight.__getitem__
+    gains = {y: gain(unit[y]) for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
     cands = [y for y, g in gains.items() if g > 0 and (tabu is None or unit[y] not in tabu)]
     cands.sort(key=lambda y: (-gains[y], y))
     for y in cands:

@@ -170,13 +170,11 @@ class OrbitPlanner:
         targets = self.targets_of(j)
         draws = rng.random(len(targets)) if steal > 0 else None
         for n, k in enumerate(targets.tolist()):
-            x = sched[k]
-            if x < 0:
-                if tabu is None or k not in tabu:
-                    price[k] = w[k]
-            elif orbit[x] == j:
-                price[k] = w[k]
-            elif draws is not None and draws[n] < steal:
+            if (x := sched[k]) < 0:
+                free = tabu is None or k not in tabu
+            else:
+                free = orbit[x] == j or (draws is not None and draws[n] < steal)
+            if free:
                 price[k] = w[k]
         if noise > 0:
             price[targets] *= rng.uniform(1.0 - noise, 1.0 + noise, len(targets))
@@ -205,8 +203,11 @@ class OrbitPlanner:
         it covers."""
         o = self.orbit_items[j]
         path = best_feasible_path(o, price)
-        opps = self.data.opps
-        return [opps[int(o.items[u])] for u in path], o.covered(path)
+        return self._groups(o, path), o.covered(path)
+
+    def _groups(self, o: Any, path: Any) -> list[tuple[int, ...]]:
+        """The options of each observation of plan ``path`` of orbit ``o`` (of ``data``)."""
+        return [self.data.opps[int(o.items[u])] for u in path]
 
     def targets_of(self, j: int) -> np.ndarray:
         """The targets orbit j can observe."""
@@ -219,10 +220,9 @@ class OrbitPlanner:
     def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
         """(orbit, options per observation) of each non-empty plan of :meth:`start_search`'s
         search."""
-        opps = self.data.opps
         for o, path in zip(self.data.orbits, paths, strict=True):
-            if len(path):
-                yield o.orbit, [opps[int(o.items[u])] for u in path]
+            if groups := self._groups(o, path):
+                yield o.orbit, groups
 
     @property
     def n_candidates(self) -> int:
@@ -270,17 +270,15 @@ class OrbitPlanner:
             key = frozenset(line.obs[pos][MEMBERS])
             if key in wanted:
                 kept.add(key)
-                continue
-            c = line.remove(pos)
-            for x in c[MEMBERS]:
-                state.unassign(unit[x])
+            else:
+                for x in line.remove(pos)[MEMBERS]:
+                    state.unassign(unit[x])
         losers: set[int] = set()
         for members in planned:
             if frozenset(members) in kept:
                 continue
             for x in members:
-                y = sched[unit[x]]
-                if y >= 0:
+                if (y := sched[unit[x]]) >= 0:
                     # Not on j: j's tasks are in kept cluster-tasks or were unassigned above.
                     i = orbit[y]
                     remove_member(state, i, state.find(i, y), y)
@@ -318,17 +316,11 @@ class WindowPlanner(OrbitPlanner):
 
     def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
         wp = self._window_plan(self.data.orbits[j], price, self._rule)
-        return _window_groups(wp), wp.targets
+        return self._groups(None, wp), wp.targets
 
-    def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
-        for j, wp in enumerate(paths):
-            if wp.size:
-                yield j, _window_groups(wp)
-
-
-def _window_groups(wp: Any) -> list[tuple[int, ...]]:
-    """The options (global opportunity indices) of each observation of a window plan."""
-    return [tuple(int(x) for x in group) for group in wp.opps]
+    def _groups(self, o: Any, path: Any) -> list[tuple[int, ...]]:
+        # a window plan holds its observations' options (global opportunity indices)
+        return [tuple(int(x) for x in group) for group in path.opps]
 
 
 def orbit_move(
@@ -354,7 +346,7 @@ def orbit_move(
     # Tasks the drawn orbit covers for free while another orbit has them (orbit_share).
     shared: dict[int, tuple[int, int, tuple[int, ...]]] = {}
     drawn = True
-    while True:
+    while found is not None:
         before = [state.pb.opt_unit[x] for c in state.lines[j].obs for x in c[MEMBERS]]
         keep = shared if drawn and params.orbit_share else None
         losers = planner.apply(state, j, found[0], price, keep)
@@ -380,12 +372,8 @@ def orbit_move(
             # cascade only gains, and barring the tasks the drawn orbit let go from the orbits
             # that could take them measured worse (docs/asa.md).
             price = planner.prices(state, j, None, rng)
-            for u in shared:
-                if sched[u] >= 0 and orbit[sched[u]] == j:
-                    price[u] = 0.0
+            price[[u for u in shared if sched[u] >= 0 and orbit[sched[u]] == j]] = 0.0
             found = planner.plan(state, j, price)
-        if found is None:
-            break
     return all(repair(state, i) for i in state.touched_orbits())
 
 

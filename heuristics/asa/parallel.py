@@ -28,6 +28,7 @@ import logging
 import multiprocessing as mp
 import signal
 import time
+from contextlib import suppress
 from dataclasses import replace
 from multiprocessing.connection import Connection
 from typing import Any
@@ -87,10 +88,8 @@ def _chain(
         return
     except Exception as exc:
         log.debug("asa chain failed", exc_info=True)
-        try:
+        with suppress(OSError):  # the parent may be gone
             conn.send(("error", f"{type(exc).__name__}: {exc}"))
-        except OSError:  # pragma: no cover - the parent is gone
-            pass
 
 
 def run_parallel(

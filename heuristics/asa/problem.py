@@ -158,9 +158,8 @@ class Alternatives(Sequence[list[int]]):
 
     def __getitem__(self, x: int) -> list[int]:  # type: ignore[override]
         opts = self.unit_options[self.opt_unit[x]]
-        if x not in opts:  # an unusable option has no alternatives
-            return []
-        return [y for y in opts if y != x]
+        # an unusable option has no alternatives
+        return [y for y in opts if y != x] if x in opts else []
 
 
 def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") -> Problem:
@@ -201,9 +200,9 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         stc_alternatives: list[list[int]] = [[] for _ in range(len(tasks))]
         usable = usable_mask.tolist()
         for x in usable_ids.tolist():
-            alt = set()
-            for k in unit_targets[x]:
-                alt.update(t for t in tasks.target_tasks[k] if t != x and usable[t])
+            alt = {
+                t for k in unit_targets[x] for t in tasks.target_tasks[k] if t != x and usable[t]
+            }
             stc_alternatives[x] = sorted(alt, key=lambda t: (-unit_weight[t], t))
         alternatives = stc_alternatives
         migrates = np.array([bool(a) for a in stc_alternatives], dtype=bool)

@@ -310,33 +310,22 @@ def run_asa(
     except TooLargeForASA as exc:
         if mode != "dtc":
             raise  # a variant stands for itself in a comparison: refused, not replaced
-        return _orbit_search_instead(instance, exc, rng, time_limit, t0)
+        # ASA-DTC on an instance whose conflict lists it refuses (MAX_CONFLICTS): the search
+        # its default start runs (orbit-dp's iterated local search; init="lp" or "orbit-dp")
+        # for the whole time, reported under the name of what ran (method orbit-dp,
+        # stats["fallback"]) with a warning. ASA-DTC is the default method and milp's
+        # schedule when its model cannot be built, so it answers on every instance; a
+        # 2,500-target box near a pole under 8 satellites (35 million (3) pairs) was refused
+        # with exit 2 by both.
+        from heuristics.orbit_search import solve_orbit_dp
+
+        log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
+        left = Budget.until(None if time_limit is None else t0 + time_limit).left()
+        res = solve_orbit_dp(instance, rng=rng, time_limit=left)
+        stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
+        return replace(res, runtime_s=time.perf_counter() - t0, stats=stats)  # method: orbit-dp
     search.run(stop if stop is not None else default_stop(params, time_limit, t0))
     return search.result()
-
-
-def _orbit_search_instead(
-    instance: Instance,
-    exc: TooLargeForASA,
-    rng: np.random.Generator,
-    time_limit: float | None,
-    t0: float,
-) -> Result:
-    """ASA-DTC on an instance whose conflict lists it refuses (:data:`MAX_CONFLICTS`): the
-    search its default start runs (``orbit-dp``'s iterated local search,
-    :mod:`heuristics.orbit_search`; ``init="lp"`` or ``"orbit-dp"``) for the whole time,
-    reported under the name of what ran (``method`` ``orbit-dp``, ``stats["fallback"]``) with
-    a warning. ASA-DTC is
-    the default method and ``milp``'s schedule when its model cannot be built, so it answers
-    on every instance; a 2,500-target box near a pole under 8 satellites (35 million (3)
-    pairs) was refused with exit 2 by both."""
-    from heuristics.orbit_search import solve_orbit_dp
-
-    log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
-    left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
-    res = solve_orbit_dp(instance, rng=rng, time_limit=left)
-    stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
-    return replace(res, runtime_s=time.perf_counter() - t0, stats=stats)  # method: orbit-dp
 
 
 def build_schedule(instance: Instance, problem: Problem, snap: list[list[Cluster]]) -> Schedule:

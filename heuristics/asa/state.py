@@ -230,9 +230,7 @@ class State:
     def cluster_without(self, c: Cluster, x: int) -> Cluster | None:
         """``c`` without option ``x``, recomputed by (8)-(10); None if nothing is left."""
         members = tuple(y for y in c[MEMBERS] if y != x)
-        if not members:
-            return None
-        return self.make_cluster(members)
+        return self.make_cluster(members) if members else None
 
     # ------------------------------------------------------------ snapshot
     def snapshot(self) -> list[list[Cluster]]:
