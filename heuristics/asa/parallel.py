@@ -144,8 +144,7 @@ def run_parallel(
     finally:
         for chain in chains:
             chain.stop(wait=1.0)
-    best = max(range(n), key=lambda i: (results[i].profit, -i))
-    out = results[best]
+    out = results[max(range(n), key=lambda i: (results[i].profit, -i))]  # ties: the first
     out.stats["chains"] = [{"best": r.profit, "iterations": r.iterations} for r in results]
     out.stats["workers"] = n
     out.iterations = sum(r.iterations or 0 for r in results)

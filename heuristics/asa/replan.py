@@ -183,18 +183,11 @@ def best_chain(
     use = np.flatnonzero(gains > 0.0)
     if not len(use):
         return 0.0, []
-    gain, chain = plan_sequence(
-        cands.start[use],
-        cands.end[use],
-        cands.roll[use],
-        gains[use],
-        state.lines[j].rules,
-        left=None if left is None else (left[END], left[ROLL]),
-        right=None if right is None else (right[START], right[ROLL]),
-        energy=energy,
-        memory=memory,
-        openings=openings,
-    )
+    cols = (cands.start[use], cands.end[use], cands.roll[use], gains[use], state.lines[j].rules)
+    fixed_l = None if left is None else (left[END], left[ROLL])
+    fixed_r = None if right is None else (right[START], right[ROLL])
+    budgets = {"energy": energy, "memory": memory, "openings": openings}
+    gain, chain = plan_sequence(*cols, left=fixed_l, right=fixed_r, **budgets)
     return gain, use[chain].tolist()
 
 

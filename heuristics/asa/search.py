@@ -177,23 +177,17 @@ class Search:
             made = moves[i](state, rng, params, tabu)
             delta = state.profit - before if made else 0.0
             if made and acceptance(delta, rng):
-                removed = state.commit()
-                tabu.add(removed)
+                tabu.add(state.commit())
                 accepted[i] += 1
+                outcome = Outcome.BETTER if delta > 0 else Outcome.ACCEPTED
                 if state.profit > self.best + 1e-9:
-                    self.best = state.profit
-                    self.best_snap = state.snapshot()
+                    self.best, self.best_snap = state.profit, state.snapshot()
                     outcome = Outcome.BEST
-                elif delta > 0:
-                    outcome = Outcome.BETTER
-                else:
-                    outcome = Outcome.ACCEPTED
-                acceptance.update(delta, True)
             else:
                 state.rollback()
                 rejected[i] += 1
                 outcome = Outcome.REJECTED
-                acceptance.update(delta, False)
+            acceptance.update(delta, outcome is not Outcome.REJECTED)
             selector.record(i, outcome)
             counts[outcome.name.lower()][i] += 1
             status.iteration = g
@@ -206,8 +200,7 @@ class Search:
                 else:
                     polished = params.polish > 0 and polish(state, rng, params, tabu) > 0
                 if polished and state.profit > self.best + 1e-9:
-                    self.best = state.profit
-                    self.best_snap = state.snapshot()
+                    self.best, self.best_snap = state.profit, state.snapshot()
                     outcome = Outcome.BEST
             if outcome is Outcome.BEST:
                 status.since_best = 0
