@@ -418,8 +418,7 @@ def initial_solution(state: State, params: ASAParams, budget: Budget = UNLIMITED
             break
         before = state.profit
         state.begin()
-        x = insert_options(state, pb.unit_options[u], params)
-        if x >= 0 and state.profit > before + 1e-12:
+        if insert_options(state, pb.unit_options[u], params) >= 0 and state.profit > before + 1e-12:
             state.commit()
         else:
             state.rollback()

@@ -58,6 +58,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Iterator, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -117,11 +118,9 @@ class OrbitPlanner:
     SEARCH: type[OrbitSearch] = OrbitSearch
 
     def __init__(self, instance: Instance, state: State, budget: Budget = UNLIMITED) -> None:
-        if state.roll_rule == "nadir" and state.nadir_singles:
-            data = orbit_data(instance, budget)
-        else:  # the search's rolls, arranged once
-            data = orbit_data(instance, budget, roll=lambda opps: _rolls_of(opps, state))
-        self.data = data
+        own = state.roll_rule == "nadir" and state.nadir_singles  # orbit_data's own rolls
+        roll = None if own else partial(_rolls_of, state=state)  # the search's, arranged once
+        self.data = data = orbit_data(instance, budget, roll=roll)
         self.orbit_items: dict[int, OrbitItems] = {o.orbit: o for o in data.orbits}
         self.orbits = sorted(self.orbit_items)
         self._targets = {o.orbit: o.targets for o in data.orbits}
@@ -167,7 +166,7 @@ class OrbitPlanner:
         pb = state.pb
         sched, orbit, w = state.sched, pb.opt_orbit, self.weight
         price = np.zeros(len(w))
-        targets = self.targets_of(j)
+        targets = self._targets[j]  # those orbit j can observe
         draws = rng.random(len(targets)) if steal > 0 else None
         for n, k in enumerate(targets.tolist()):
             if (x := sched[k]) < 0:
@@ -208,10 +207,6 @@ class OrbitPlanner:
     def _groups(self, o: Any, path: Any) -> list[tuple[int, ...]]:
         """The options of each observation of plan ``path`` of orbit ``o`` (of ``data``)."""
         return [self.data.opps[int(o.items[u])] for u in path]
-
-    def targets_of(self, j: int) -> np.ndarray:
-        """The targets orbit j can observe."""
-        return self._targets[j]
 
     def start_search(self, rng: np.random.Generator) -> OrbitSearch:
         """``orbit-dp``'s search over this planner's candidates (for :func:`orbit_search_start`)."""
@@ -345,14 +340,13 @@ def orbit_move(
     orbit = state.pb.opt_orbit
     # Tasks the drawn orbit covers for free while another orbit has them (orbit_share).
     shared: dict[int, tuple[int, int, tuple[int, ...]]] = {}
-    drawn = True
     while found is not None:
+        drawn = left == params.orbit_ascent  # nothing re-planned since the drawn orbit yet
         before = [state.pb.opt_unit[x] for c in state.lines[j].obs for x in c[MEMBERS]]
         keep = shared if drawn and params.orbit_share else None
         losers = planner.apply(state, j, found[0], price, keep)
         repair(state, j)
         if drawn:
-            drawn = False
             # The orbits holding a shared task are re-planned with it worth nothing.
             losers |= {orbit[sched[u]] for u in shared}
         elif shared:
@@ -403,10 +397,9 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
     so this ends. Used when the search restarts from its best solution. Returns the number
     of re-plans kept.
     """
-    kept = 0
-    gained = True
-    while gained:
-        gained = False
+    kept, last = 0, -1
+    while kept > last:  # the last pass kept a re-plan
+        last = kept
         for j in rng.permutation(planner.orbits).tolist():
             price = planner.prices(state, j, None, rng)
             found = planner.plan(state, j, price)
@@ -418,7 +411,6 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
             if repair(state, j) and state.profit > before + 1e-9:
                 state.commit()
                 kept += 1
-                gained = True
             else:
                 state.rollback()
     return kept

@@ -74,8 +74,7 @@ def _chain(
     """
 
     def publish(snap: Snapshot) -> None:
-        shared[2 * index] = snap.iterations
-        shared[2 * index + 1] = snap.best or 0.0
+        shared[2 * index : 2 * index + 2] = [snap.iterations, snap.best or 0.0]
         if halt.is_set():
             request_stop("parent")
 

@@ -42,12 +42,10 @@ import numpy as np
 
 from heuristics.asa.neighbourhoods import remove_member, repair
 from heuristics.asa.params import ASAParams
-from heuristics.asa.problem import Problem
 from heuristics.asa.select import roulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from sosp.candidates import (
-    OrbitCandidates,
     cached_orbit_candidates,
     generate,
     offsets,
@@ -131,7 +129,11 @@ def candidates(state: State, j: int, opts: list[int]) -> Cands:
     flat = np.asarray(opts, dtype=np.int64)
     if not pb.clustering or len(opts) < 2:
         return Cands(state, np.arange(len(opts) + 1, dtype=np.int64), flat)
-    source = _orbit_source(pb, j)
+    # orbit j's candidate observations when at hand or cheap to make (LAZY_PAIRS)
+    inst = pb.instance
+    source = None if inst is None else cached_orbit_candidates(inst, j)
+    if inst is not None and source is None and orbit_pairs(inst, j) < LAZY_PAIRS:
+        source = orbit_candidates(inst, j)
     if source is None:
         cols = state.arrays
         args = [col[flat] for col in (cols.start, cols.end, cols.lo, cols.hi)]
@@ -143,17 +145,6 @@ def candidates(state: State, j: int, opts: list[int]) -> Cands:
     t0, t1 = pb.opt_start[opts[0]], max(pb.opt_end[x] for x in opts)
     ptr, cut = source.within(flat, len(pb.opt_start), t0, t1)
     return Cands(state, ptr, cut)
-
-
-def _orbit_source(pb: Problem, j: int) -> OrbitCandidates | None:
-    """Orbit j's candidate observations when at hand or cheap to make (:data:`LAZY_PAIRS`)."""
-    inst = pb.instance
-    if inst is None:
-        return None
-    got = cached_orbit_candidates(inst, j)
-    if got is None and orbit_pairs(inst, j) < LAZY_PAIRS:
-        got = orbit_candidates(inst, j)
-    return got
 
 
 def best_chain(
@@ -202,10 +193,9 @@ def replan_move(
 ) -> bool:
     """Orbit re-planning (steps 1-5 of the module docstring). False: no move.
 
-    The stretch is, with probability ``params.replan_target``, the ``replan_opps`` options
-    around an option of an unscheduled task drawn as in step 1 of the insertion neighbourhood
-    (roulette by weight among the ``pool`` heaviest non-tabu ones); otherwise a random stretch
-    of a random orbit.
+    The stretch is the ``replan_opps`` options around a random option of a random orbit; with
+    probability ``params.replan_pair`` (DTC and NONTC) it is re-planned together with a
+    stretch of another orbit (:func:`replan_pair`).
 
     With ``params.replan_pull > 0`` (DTC and NONTC) the stretch may also take tasks observed
     on other orbits, each worth ``replan_pull`` times its weight; they leave their orbit, and
@@ -290,8 +280,7 @@ class _Stretch:
         line = state.touch(self.j)
         unit = state.pb.opt_unit
         for _ in self.freed:
-            c = line.remove(self.first)
-            for x in c[MEMBERS]:
+            for x in line.remove(self.first)[MEMBERS]:
                 state.unassign(unit[x])
 
     def build(self, state: State, chain: list[Cluster]) -> list[tuple[int, int]]:
@@ -358,19 +347,17 @@ def replan_stretch(
         get = back.get
         # the candidates are the options alone (:func:`candidates`); only those worth
         # something can be in a best chain, so only they are made
-        worth, gains_l = [], []
-        for x in avail:
-            w = sum([get(k, 0.0) if cover[k] else tw[k] for k in targets[unit[x]]])
-            if w > 0:
-                worth.append(x)
-                gains_l.append(w)
+        worth_of = {
+            x: sum([get(k, 0.0) if cover[k] else tw[k] for k in targets[unit[x]]]) for x in avail
+        }
+        worth = [x for x in avail if worth_of[x] > 0]
         if sorted(worth) == sorted(c[MEMBERS][0] for c in stretch.freed):
             # Nothing but the freed tasks is worth anything here, each of them is, and they
             # keep (3)-(6) where they stand: they are the best chain, and the stretch is
             # already it (see below).
             return []
         cands = candidates(state, j, worth)
-        gains = np.asarray(gains_l, dtype=float)
+        gains = np.asarray([worth_of[x] for x in worth], dtype=float)
     else:
         cands = candidates(state, j, avail)
         gains = cands.sums(np.array([value[x] for x in cands.flat.tolist()], dtype=float))

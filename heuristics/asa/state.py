@@ -61,13 +61,12 @@ class State:
             ]
         self.lines = [OrbitTimeline(p) for p in problem.orbits]
         # Units with options by weight: an unscheduled unit is held by its rank, kept sorted.
-        order = sorted(
+        self.rank_unit = sorted(
             (u for u in range(problem.n_units) if problem.unit_options[u]),
             key=lambda u: (-problem.unit_weight[u], u),
         )
-        self.rank_unit = order
         self.unit_rank = [-1] * problem.n_units
-        for r, u in enumerate(order):
+        for r, u in enumerate(self.rank_unit):
             self.unit_rank[u] = r
         # journal
         self._snaps: dict[int, tuple[list[Cluster], float, float]] = {}
@@ -136,7 +135,10 @@ class State:
             if cover[k] == 0:
                 self.profit += tw[k]
             cover[k] += 1
-        self._pool_remove(u)
+        r, pool = self.unit_rank[u], self.unscheduled
+        i = bisect_left(pool, r)  # the pool is sorted
+        if i < len(pool) and pool[i] == r:
+            pool.pop(i)
         self.scheduled.add(u)
 
     def _unset(self, u: int) -> None:
@@ -148,12 +150,6 @@ class State:
                 self.profit -= tw[k]
         insort(self.unscheduled, self.unit_rank[u])
         self.scheduled.discard(u)
-
-    def _pool_remove(self, u: int) -> None:
-        r, pool = self.unit_rank[u], self.unscheduled
-        i = bisect_left(pool, r)  # the pool is sorted
-        if i < len(pool) and pool[i] == r:
-            pool.pop(i)
 
     def assign(self, u: int, x: int) -> None:
         """Schedule unit u at option x (bookkeeping only; the line is changed by the caller)."""
@@ -213,8 +209,7 @@ class State:
         e = max(en[x] for x in members)
         lo = max(lo_[x] for x in members)
         hi = min(hi_[x] for x in members)
-        roll = choose_roll(lo, hi, self.roll_rule)
-        return (s, e, roll, lo, hi, members)
+        return (s, e, choose_roll(lo, hi, self.roll_rule), lo, hi, members)
 
     def cluster_with(self, c: Cluster, x: int) -> Cluster:
         """``c`` with option ``x`` added (window (10), range (8), roll (9))."""
@@ -224,8 +219,7 @@ class State:
         e = max(c[END], pb.opt_end[x])
         lo = max(c[LO], pb.opt_lo[x])
         hi = min(c[HI], pb.opt_hi[x])
-        roll = choose_roll(lo, hi, self.roll_rule)
-        return (s, e, roll, lo, hi, members)
+        return (s, e, choose_roll(lo, hi, self.roll_rule), lo, hi, members)
 
     def cluster_without(self, c: Cluster, x: int) -> Cluster | None:
         """``c`` without option ``x``, recomputed by (8)-(10); None if nothing is left."""
