@@ -109,9 +109,7 @@ def clustering_gain(
     # tasks (16) does not judge when it is off
     degenerate = alpha == 0.0 and beta == 0.0
     saving = saving_of(capacity=degenerate or (separable and not params.rule16))
-    if separable and params.rule16 and not saving > 0:
-        return None
-    return saving, new
+    return None if separable and params.rule16 and not saving > 0 else (saving, new)
 
 
 # ------------------------------------------------------------------------------ insertion

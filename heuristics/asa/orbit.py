@@ -193,9 +193,7 @@ class OrbitPlanner:
         value = float(price[covered].sum()) if len(covered) else 0.0
         unit = state.pb.opt_unit
         current = {unit[x] for c in state.lines[j].obs for x in c[MEMBERS]}
-        if value <= float(price[list(current)].sum()) + 1e-9:
-            return None
-        return plan, value
+        return None if value <= float(price[list(current)].sum()) + 1e-9 else (plan, value)
 
     def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
         """The best plan of orbit j at ``price`` (options per observation) and the targets

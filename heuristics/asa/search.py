@@ -61,22 +61,6 @@ NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_mov
 NAMES = ("insertion", "migration", "replan")
 
 
-def default_stop(
-    params: ASAParams, time_limit: float | None, t0: float
-) -> Callable[[SearchStatus], bool]:
-    """The first of ``params.iterations``, ``time_limit`` (counted from ``t0``) and
-    ``params.no_improve`` (None: not a limit); :data:`DEFAULT_ITERATIONS` when none is given."""
-    left = Budget.until(None if time_limit is None else t0 + time_limit).left()
-    crit: list[Callable[[SearchStatus], bool]] = []
-    if params.iterations is not None:
-        crit.append(MaxIterations(params.iterations))
-    if left is not None:
-        crit.append(MaxRuntime(left, foresee=True))  # an orbit move can take seconds
-    if params.no_improve is not None:
-        crit.append(NoImprovement(params.no_improve))
-    return FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
-
-
 class Search:
     """Algorithm 1 as a resumable object: build, :meth:`run` until a stop, :meth:`result`.
 
@@ -289,6 +273,7 @@ def run_asa(
     """
     t0 = time.perf_counter()
     params = params or ASAParams()
+    run = Budget.until(None if time_limit is None else t0 + time_limit)
     try:
         search = Search(
             instance,
@@ -313,11 +298,19 @@ def run_asa(
         from heuristics.orbit_search import solve_orbit_dp
 
         log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
-        left = Budget.until(None if time_limit is None else t0 + time_limit).left()
-        res = solve_orbit_dp(instance, rng=rng, time_limit=left)
+        res = solve_orbit_dp(instance, rng=rng, time_limit=run.left())
         stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
         return replace(res, runtime_s=time.perf_counter() - t0, stats=stats)  # method: orbit-dp
-    search.run(stop if stop is not None else default_stop(params, time_limit, t0))
+    if stop is None:  # the first of iterations, the time left and no_improve (None: none)
+        crit: list[Callable[[SearchStatus], bool]] = []
+        if params.iterations is not None:
+            crit.append(MaxIterations(params.iterations))
+        if run.deadline is not None:  # an orbit move can take seconds: foreseen
+            crit.append(MaxRuntime(run.left() or 0.0, foresee=True))
+        if params.no_improve is not None:
+            crit.append(NoImprovement(params.no_improve))
+        stop = FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
+    search.run(stop)
     return search.result()
 
 
