@@ -77,9 +77,8 @@ def clustering_gain(
     wc = p.memory(span)
     alpha = line.energy / p.energy_capacity if p.energy_capacity > 0 else 0.0
     beta = line.memory / p.memory_capacity if p.memory_capacity > 0 else 0.0
-    openings = (
-        params.rule16_openings and min(p.max_openings, p.energy_capacity, p.memory_capacity) > 0
-    )
+    openings = params.rule16_openings and p.max_openings > 0
+    openings = openings and p.energy_capacity > 0 and p.memory_capacity > 0
     gamma = max(len(line.obs), 1) / p.max_openings if openings else 0.0
 
     def saving_of(capacity: bool) -> float:
