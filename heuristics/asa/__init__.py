@@ -9,8 +9,8 @@ from heuristics.asa.params import PRESETS, ASAParams
 from heuristics.asa.search import TRACE_COLUMNS, run_asa, trace_csv, write_trace_csv
 from heuristics.asa.select import AdaptiveRoulette, FixedRoulette
 from heuristics.asa.solve import solve_asa_dtc, solve_asa_nontc, solve_asa_stc
-from heuristics.asa.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
 from heuristics.asa.tabu import TabuList
+from sosp.stop import FirstOf, MaxIterations, MaxRuntime, NoImprovement, SearchStatus
 
 __all__ = [
     "ASAParams",

@@ -55,9 +55,6 @@ class AdaptiveTemperature:
         self.r = 0
         self.temperature = lambda_min
 
-    def _set_temperature(self) -> None:
-        self.temperature = self.lambda_min + self.rho * math.log1p(self.r / self.delta)
-
     def __call__(self, delta: float, rng: np.random.Generator) -> bool:
         if delta > 0:
             return True
@@ -71,7 +68,7 @@ class AdaptiveTemperature:
             self.r = 0
         elif delta < 0:
             self.r += 1
-        self._set_temperature()
+        self.temperature = self.lambda_min + self.rho * math.log1p(self.r / self.delta)
 
 
 class HillClimbing:

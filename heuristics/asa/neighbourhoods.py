@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import heapq
 import logging
-import time
 
 import numpy as np
 
@@ -18,7 +17,9 @@ from heuristics.asa.select import roulette
 from heuristics.asa.state import END, HI, LO, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from heuristics.timeline import OrbitTimeline
+from sosp.ascent import UNLIMITED
 from sosp.rules import range_empty
+from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
 
@@ -76,12 +77,8 @@ def clustering_gain(
     wc = p.memory(span)
     alpha = line.energy / p.energy_capacity if p.energy_capacity > 0 else 0.0
     beta = line.memory / p.memory_capacity if p.memory_capacity > 0 else 0.0
-    openings = (
-        params.rule16_openings
-        and p.max_openings > 0
-        and p.energy_capacity > 0
-        and p.memory_capacity > 0
-    )
+    openings = params.rule16_openings and p.max_openings > 0
+    openings = openings and p.energy_capacity > 0 and p.memory_capacity > 0
     gamma = max(len(line.obs), 1) / p.max_openings if openings else 0.0
 
     def saving_of(capacity: bool) -> float:
@@ -107,20 +104,31 @@ def clustering_gain(
         separable = not p.clash(c[END], c[ROLL], pb.opt_start[x], state.single_roll[x])
     else:
         separable = not p.clash(pb.opt_end[x], state.single_roll[x], c[START], c[ROLL])
+    # an orbit that has consumed nothing is read with capacities (decision 2), as are the
+    # tasks (16) does not judge when it is off
     degenerate = alpha == 0.0 and beta == 0.0
-    if not separable:
-        return saving_of(capacity=degenerate), new
-    if not params.rule16:
-        return saving_of(capacity=True), new
-    if degenerate:
-        # an orbit that has consumed nothing: the capacity reading (decision 2)
-        saving = saving_of(capacity=True)
-        return (saving, new) if saving > 0 else None
-    saving = saving_of(capacity=False)
-    return (saving, new) if saving > 0 else None
+    saving = saving_of(capacity=degenerate or (separable and not params.rule16))
+    return None if separable and params.rule16 and not saving > 0 else (saving, new)
 
 
 # ------------------------------------------------------------------------------ insertion
+def _best_join(
+    state: State, line: OrbitTimeline, x: int, params: ASAParams, check: bool
+) -> tuple[bool, float, int, Cluster] | None:
+    """The cluster-task of ``line`` that option ``x`` joins best by (7), (11), (16) (DTC):
+    ``(fits, saving, position, new cluster-task)``, where with ``check`` those that keep
+    (3)-(6) (``fits``) rank first; None when it joins none."""
+    found = None
+    if state.pb.clustering:
+        for pos, c in enumerate(line.obs):
+            g = clustering_gain(state, line, c, x, params)
+            if g is not None:
+                cand = (check and line.check_replace(pos, g[1]), g[0], pos, g[1])
+                if found is None or cand[:2] > found[:2]:
+                    found = cand
+    return found
+
+
 def insert_options(
     state: State, options: list[int], params: ASAParams, protect: bool = True
 ) -> int:
@@ -142,24 +150,11 @@ def insert_options(
     for idx, x in enumerate(options):
         line = lines[pb.opt_orbit[x]]
         share = line.free_share()
-        found = None
-        if pb.clustering and line.obs:
-            for pos, c in enumerate(line.obs):
-                g = clustering_gain(state, line, c, x, params)
-                if g is None:
-                    continue
-                fits = feasible_first and line.check_replace(pos, g[1])
-                cand = (fits, g[0], pos, g[1])
-                if found is None or cand[:2] > found[:2]:
-                    found = cand
-        if found is not None:
-            # Clustering insertion (steps 3-5) ranks before isolated insertion (step 6).
-            key = (found[0], 1, share, -idx)
-            item = (key, x, found[2], found[3])
-        else:
+        found = _best_join(state, line, x, params, feasible_first)
+        if found is None:  # isolated insertion (step 6) ranks after clustering (steps 3-5)
             fits = feasible_first and line.check_insert(state.make_cluster((x,))).ok
-            key = (fits, 0, share, -idx)
-            item = (key, x, -1, None)
+            found = (fits, None, -1, None)
+        item = ((found[0], found[1] is not None, share, -idx), x, found[2], found[3])
         if best is None or item[0] > best[0]:
             best = item
     if best is None:
@@ -193,8 +188,12 @@ def remove_member(state: State, j: int, pos: int, x: int) -> None:
     state.unassign(state.pb.opt_unit[x])
 
 
-def _removal_score(state: State, line: OrbitTimeline, pos: int, x: int) -> tuple[float, float, int]:
-    """(resource use freed, profit lost, openings freed) if x leaves the cluster at pos."""
+def _removal_score(
+    state: State, line: OrbitTimeline, pos: int, x: int, cap: int = 0
+) -> tuple[float, float, int]:
+    """(resource use freed per profit lost (inf: none lost), resource use freed, openings
+    freed) if x leaves the cluster at pos; with ``cap`` > 0 the use counts an opening freed
+    as ``1 / cap``."""
     c = line.obs[pos]
     new = state.cluster_without(c, x)
     if new is not None and not (
@@ -210,7 +209,10 @@ def _removal_score(state: State, line: OrbitTimeline, pos: int, x: int) -> tuple
     e_cap, m_cap = p.energy_capacity, p.memory_capacity
     d_e, d_w = -p.energy(d_obs, d_slew), -p.memory(d_obs)
     use = (d_e / e_cap if e_cap > 0 else 0.0) + (d_w / m_cap if m_cap > 0 else 0.0)
-    return use, state.loss(state.pb.opt_unit[x]), 1 if new is None else 0
+    lost, opened = state.loss(state.pb.opt_unit[x]), 1 if new is None else 0
+    if cap > 0:
+        use += opened / cap
+    return use / lost if lost > 0 else float("inf"), use, opened
 
 
 def repair(state: State, j: int, protect: int = -1) -> bool:
@@ -239,10 +241,8 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
             elif protect in right[MEMBERS]:
                 choice = (p, lx)
             else:
-                sl = _removal_score(state, line, p, lx)
-                sr = _removal_score(state, line, p + 1, rx)
-                kl = sl[0] / sl[1] if sl[1] > 0 else float("inf")
-                kr = sr[0] / sr[1] if sr[1] > 0 else float("inf")
+                kl = _removal_score(state, line, p, lx)[0]
+                kr = _removal_score(state, line, p + 1, rx)[0]
                 choice = (p, lx) if kl >= kr else (p + 1, rx)
             if choice[1] == protect:
                 return False
@@ -251,17 +251,13 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
         over_e, over_w, over_c = line.over()
         if not (over_e or over_w or over_c):
             return True
-        best = None
-        fallback = None
-        cap = line.rules.max_openings
+        best = fallback = None
+        cap = line.rules.max_openings if over_c else 0
         for pos, c in enumerate(line.obs):
             for x in _ends(c, pb):
                 if x == protect:
                     continue
-                use, lost, opened = _removal_score(state, line, pos, x)
-                if over_c and cap > 0:
-                    use += opened / cap
-                key = use / lost if lost > 0 else float("inf")
+                key, use, opened = _removal_score(state, line, pos, x, cap)
                 frees = (over_e or over_w) and use > 0 or (over_c and opened)
                 item = (key, -pos, -x, pos, x)
                 if frees and (best is None or item > best):
@@ -344,17 +340,11 @@ def try_insert_feasible(state: State, x: int, params: ASAParams) -> bool:
     pb = state.pb
     j = pb.opt_orbit[x]
     line = state.lines[j]
-    if pb.clustering and line.obs:
-        best = None
-        for pos, c in enumerate(line.obs):
-            g = clustering_gain(state, line, c, x, params)
-            if g is not None and line.check_replace(pos, g[1]):
-                if best is None or g[0] > best[0]:
-                    best = (g[0], pos, g[1])
-        if best is not None:
-            state.touch(j).replace(best[1], best[2])
-            state.assign(pb.opt_unit[x], x)
-            return True
+    found = _best_join(state, line, x, params, True)
+    if found is not None and found[0]:
+        state.touch(j).replace(found[2], found[3])
+        state.assign(pb.opt_unit[x], x)
+        return True
     single = state.make_cluster((x,))
     chk = line.check_insert(single)
     if chk:
@@ -396,11 +386,9 @@ def migration_move(
         return False
     # Step 3: the freed resources go to u's unscheduled setup-time conflicting tasks.
     sched, unit = state.sched, pb.opt_unit
-    if pb.mode == "stc":
-        gains = {y: state.gain(unit[y]) for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
-    else:  # a unit is one target: its gain is its weight while unscheduled
-        w = pb.unit_weight
-        gains = {y: w[unit[y]] for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
+    # a DTC or NONTC unit is one target: its gain is its weight while unscheduled
+    gain = state.gain if pb.mode == "stc" else pb.unit_weight.__getitem__
+    gains = {y: gain(unit[y]) for y in pb.conflicts[x_old] if sched[unit[y]] < 0}
     cands = [y for y, g in gains.items() if g > 0 and (tabu is None or unit[y] not in tabu)]
     cands.sort(key=lambda y: (-gains[y], y))
     for y in cands:
@@ -412,23 +400,22 @@ def migration_move(
 
 
 # --------------------------------------------------------------------------- initial (5.4)
-def initial_solution(state: State, params: ASAParams, deadline: float | None = None) -> None:
+def initial_solution(state: State, params: ASAParams, budget: Budget = UNLIMITED) -> None:
     """Section 5.4: every task in decreasing weight goes through the insertion neighbourhood;
     the partial solution is kept only when it improves.
 
-    At ``deadline`` (a :func:`time.perf_counter` value; None: none) the tasks left are not
-    tried: the solution so far is feasible, and on 20,000 targets the pass takes seconds."""
+    Once ``budget`` expires (or a stop is requested) the tasks left are not tried: the
+    solution so far is feasible, and on 20,000 targets the pass takes seconds."""
     pb = state.pb
     for u in list(state.rank_unit):
         if state.sched[u] >= 0 or state.gain(u) <= 0:
             continue
-        if deadline is not None and time.perf_counter() > deadline:
+        if budget.expired():
             log.info("asa: initial solution stopped at the time limit")
             break
         before = state.profit
         state.begin()
-        x = insert_options(state, pb.unit_options[u], params)
-        if x >= 0 and state.profit > before + 1e-12:
+        if insert_options(state, pb.unit_options[u], params) >= 0 and state.profit > before + 1e-12:
             state.commit()
         else:
             state.rollback()

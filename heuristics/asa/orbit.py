@@ -58,6 +58,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Iterator, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -68,8 +69,8 @@ from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
 from heuristics.asa.tabu import TabuList
 from heuristics.orbit_search import ascend_from_both, hpfs_start, lp_start
-from sosp.ascent import OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
-from sosp.candidates import flatten, orbit_pairs
+from sosp.ascent import UNLIMITED, OrbitSearch, OrbitSearchParams, WindowData, WindowSearch, iterate
+from sosp.candidates import flatten, offsets, orbit_pairs
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.planner import OrbitItems, best_feasible_path, orbit_data
@@ -89,9 +90,7 @@ def _rolls_of(opps: Sequence[Sequence[int]], state: State) -> np.ndarray:
     if len(opps) == 0:
         return np.zeros(0)
     sizes, flat = flatten(opps)
-    ptr = np.zeros(len(sizes) + 1, dtype=np.int64)
-    np.cumsum(sizes, out=ptr[1:])
-    return state.group_rolls(ptr, flat)
+    return state.group_rolls(offsets(sizes), flat)
 
 
 class OrbitPlanner:
@@ -103,47 +102,47 @@ class OrbitPlanner:
         The problem.
     state
         The search state (DTC: a unit is a target and an option an opportunity).
-    deadline
-        :func:`time.perf_counter` value by which the candidates must be complete.
+    budget
+        The time by which the candidates must be complete (:func:`sosp.planner.orbit_data`).
 
     Raises
     ------
     InputError
-        The candidates are not complete by ``deadline`` or too many (the caller runs without
+        The candidates are not complete within ``budget`` or too many (the caller runs without
         this move then).
     """
 
-    def __init__(self, instance: Instance, state: State, deadline: float | None) -> None:
-        if state.roll_rule == "nadir" and state.nadir_singles:
-            data = orbit_data(instance, deadline)
-        else:  # the search's rolls, arranged once
-            data = orbit_data(instance, deadline, roll=lambda opps: _rolls_of(opps, state))
-        self.data = data
+    #: ``orbit-dp``'s search over the same candidates (:meth:`start_search`), whose
+    #: foreseen seconds of a plan per unit of :meth:`_work` (before one was timed) and least
+    #: work that sets a rate this planner's :attr:`foresight` takes.
+    SEARCH: type[OrbitSearch] = OrbitSearch
+
+    def __init__(self, instance: Instance, state: State, budget: Budget = UNLIMITED) -> None:
+        own = state.roll_rule == "nadir" and state.nadir_singles  # orbit_data's own rolls
+        roll = None if own else partial(_rolls_of, state=state)  # the search's, arranged once
+        self.data = data = orbit_data(instance, budget, roll=roll)
         self.orbit_items: dict[int, OrbitItems] = {o.orbit: o for o in data.orbits}
         self.orbits = sorted(self.orbit_items)
+        self._targets = {o.orbit: o.targets for o in data.orbits}
+        self._init(state, [o.orbit for o in data.orbits])
+
+    def _init(self, state: State, orbit_of: list[int]) -> None:
+        #: Per position in ``data.orbits``, its orbit.
+        self._orbit_of = np.array(orbit_of, dtype=np.int64)
         self.weight = np.asarray(state.pb.target_weight, dtype=float)
-        self._orbit_of = np.array([o.orbit for o in data.orbits], dtype=np.int64)
-        self._init_foresight()
-
-    #: Foreseen seconds of a plan per unit of :meth:`_work` before one was timed, and the
-    #: least work whose plan sets a rate: as ``orbit-dp``'s (:class:`OrbitSearch`).
-    PLAN_S_PER_WORK = OrbitSearch.PLAN_S_PER_WORK
-    RATE_FROM_WORK = OrbitSearch.RATE_FROM_WORK
-
-    def _init_foresight(self) -> None:
-        #: :func:`time.perf_counter` value no plan should end past (the search's limit;
-        #: None: none). A plan over windows of a dense orbit reads no clock and takes
-        #: seconds: an orbit move that started at 4.5 s of a 5 s run ended at 5.9 s.
-        self.deadline: float | None = None
-        self.foresight = Foresight(self.PLAN_S_PER_WORK, min_work=self.RATE_FROM_WORK)
+        #: The time no plan should end past (the search's limit; unlimited: none). A plan over
+        #: windows of a dense orbit reads no clock and takes seconds: an orbit move that
+        #: started at 4.5 s of a 5 s run ended at 5.9 s.
+        self.budget = UNLIMITED
+        self.foresight = Foresight(self.SEARCH.PLAN_S_PER_WORK, min_work=self.SEARCH.RATE_FROM_WORK)
 
     def _work(self, j: int) -> float:
         """The size orbit j's planning time grows with (:class:`sosp.stop.Foresight`)."""
         return float(len(self.orbit_items[j].items))
 
     def late(self, j: int) -> bool:
-        """Whether a plan of orbit j is foreseen to end past :attr:`deadline`."""
-        return self.foresight.late(j, self._work(j), self.deadline)
+        """Whether a plan of orbit j is foreseen to end past :attr:`budget`."""
+        return not self.budget.fits(self.foresight(j, self._work(j)))
 
     def seeing(self, targets: list[int]) -> list[int]:
         """The orbits with a candidate covering any of ``targets``, in index order."""
@@ -167,16 +166,14 @@ class OrbitPlanner:
         pb = state.pb
         sched, orbit, w = state.sched, pb.opt_orbit, self.weight
         price = np.zeros(len(w))
-        targets = self.targets_of(j)
+        targets = self._targets[j]  # those orbit j can observe
         draws = rng.random(len(targets)) if steal > 0 else None
         for n, k in enumerate(targets.tolist()):
-            x = sched[k]
-            if x < 0:
-                if tabu is None or k not in tabu:
-                    price[k] = w[k]
-            elif orbit[x] == j:
-                price[k] = w[k]
-            elif draws is not None and draws[n] < steal:
+            if (x := sched[k]) < 0:
+                free = tabu is None or k not in tabu
+            else:
+                free = orbit[x] == j or (draws is not None and draws[n] < steal)
+            if free:
                 price[k] = w[k]
         if noise > 0:
             price[targets] *= rng.uniform(1.0 - noise, 1.0 + noise, len(targets))
@@ -187,7 +184,7 @@ class OrbitPlanner:
     ) -> tuple[list[tuple[int, ...]], float] | None:
         """Step 3: the best plan of orbit j (covered options per observation, time order) and
         its value at ``price``; None when it is worth no more than the current plan, or
-        foreseen to end past :attr:`deadline` (:meth:`late`: not made)."""
+        foreseen to end past :attr:`budget` (:meth:`late`: not made)."""
         if self.late(j):
             return None
         t = time.perf_counter()
@@ -196,33 +193,29 @@ class OrbitPlanner:
         value = float(price[covered].sum()) if len(covered) else 0.0
         unit = state.pb.opt_unit
         current = {unit[x] for c in state.lines[j].obs for x in c[MEMBERS]}
-        if value <= float(price[list(current)].sum()) + 1e-9:
-            return None
-        return plan, value
+        return None if value <= float(price[list(current)].sum()) + 1e-9 else (plan, value)
 
     def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
         """The best plan of orbit j at ``price`` (options per observation) and the targets
         it covers."""
         o = self.orbit_items[j]
         path = best_feasible_path(o, price)
-        opps = self.data.opps
-        return [opps[int(o.items[u])] for u in path], o.covered(path)
+        return self._groups(o, path), o.covered(path)
 
-    def targets_of(self, j: int) -> np.ndarray:
-        """The targets orbit j can observe."""
-        return self.orbit_items[j].targets
+    def _groups(self, o: Any, path: Any) -> list[tuple[int, ...]]:
+        """The options of each observation of plan ``path`` of orbit ``o`` (of ``data``)."""
+        return [self.data.opps[int(o.items[u])] for u in path]
 
     def start_search(self, rng: np.random.Generator) -> OrbitSearch:
         """``orbit-dp``'s search over this planner's candidates (for :func:`orbit_search_start`)."""
-        return OrbitSearch(self.data, rng)
+        return self.SEARCH(self.data, rng)
 
     def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
         """(orbit, options per observation) of each non-empty plan of :meth:`start_search`'s
         search."""
-        opps = self.data.opps
         for o, path in zip(self.data.orbits, paths, strict=True):
-            if len(path):
-                yield o.orbit, [opps[int(o.items[u])] for u in path]
+            if groups := self._groups(o, path):
+                yield o.orbit, groups
 
     @property
     def n_candidates(self) -> int:
@@ -270,17 +263,15 @@ class OrbitPlanner:
             key = frozenset(line.obs[pos][MEMBERS])
             if key in wanted:
                 kept.add(key)
-                continue
-            c = line.remove(pos)
-            for x in c[MEMBERS]:
-                state.unassign(unit[x])
+            else:
+                for x in line.remove(pos)[MEMBERS]:
+                    state.unassign(unit[x])
         losers: set[int] = set()
         for members in planned:
             if frozenset(members) in kept:
                 continue
             for x in members:
-                y = sched[unit[x]]
-                if y >= 0:
+                if (y := sched[unit[x]]) >= 0:
                     # Not on j: j's tasks are in kept cluster-tasks or were unassigned above.
                     i = orbit[y]
                     remove_member(state, i, state.find(i, y), y)
@@ -307,45 +298,22 @@ class WindowPlanner(OrbitPlanner):
         self._window_plan = window_plan
         self._rule: RollRule = state.roll_rule
         self.orbits = [o.orbit for o in self.data.orbits if o.size]
-        self.weight = np.asarray(state.pb.target_weight, dtype=float)
         self._targets = {o.orbit: np.unique(o.target) for o in self.data.orbits}
-        self._init_foresight()
+        self._init(state, [o.orbit for o in self.data.orbits])
 
-    #: As ``orbit-dp``'s over windows (:class:`WindowSearch`): per (first, covered) pair.
-    PLAN_S_PER_WORK = WindowSearch.PLAN_S_PER_WORK
-    RATE_FROM_WORK = WindowSearch.RATE_FROM_WORK
+    #: As ``orbit-dp``'s over windows: its foresight per (first, covered) pair.
+    SEARCH = WindowSearch
 
     def _work(self, j: int) -> float:
         return float(orbit_pairs(self.data.instance, j))
 
-    def seeing(self, targets: list[int]) -> list[int]:
-        if not targets:
-            return []
-        return self.data.orbits_seeing(np.asarray(targets, dtype=np.int64)).tolist()
-
     def _best(self, j: int, price: np.ndarray) -> tuple[list[tuple[int, ...]], np.ndarray]:
         wp = self._window_plan(self.data.orbits[j], price, self._rule)
-        return _window_groups(wp), wp.targets
+        return self._groups(None, wp), wp.targets
 
-    def targets_of(self, j: int) -> np.ndarray:
-        return self._targets[j]
-
-    def start_search(self, rng: np.random.Generator) -> OrbitSearch:
-        return WindowSearch(self.data, rng)
-
-    def plans(self, paths: list[Any]) -> Iterator[tuple[int, list[tuple[int, ...]]]]:
-        for j, wp in enumerate(paths):
-            if wp.size:
-                yield j, _window_groups(wp)
-
-    @property
-    def n_candidates(self) -> int:
-        return 0
-
-
-def _window_groups(wp: Any) -> list[tuple[int, ...]]:
-    """The options (global opportunity indices) of each observation of a window plan."""
-    return [tuple(int(x) for x in group) for group in wp.opps]
+    def _groups(self, o: Any, path: Any) -> list[tuple[int, ...]]:
+        # a window plan holds its observations' options (global opportunity indices)
+        return [tuple(int(x) for x in group) for group in path.opps]
 
 
 def orbit_move(
@@ -370,14 +338,13 @@ def orbit_move(
     orbit = state.pb.opt_orbit
     # Tasks the drawn orbit covers for free while another orbit has them (orbit_share).
     shared: dict[int, tuple[int, int, tuple[int, ...]]] = {}
-    drawn = True
-    while True:
+    while found is not None:
+        drawn = left == params.orbit_ascent  # nothing re-planned since the drawn orbit yet
         before = [state.pb.opt_unit[x] for c in state.lines[j].obs for x in c[MEMBERS]]
         keep = shared if drawn and params.orbit_share else None
         losers = planner.apply(state, j, found[0], price, keep)
         repair(state, j)
         if drawn:
-            drawn = False
             # The orbits holding a shared task are re-planned with it worth nothing.
             losers |= {orbit[sched[u]] for u in shared}
         elif shared:
@@ -397,12 +364,8 @@ def orbit_move(
             # cascade only gains, and barring the tasks the drawn orbit let go from the orbits
             # that could take them measured worse (docs/asa.md).
             price = planner.prices(state, j, None, rng)
-            for u in shared:
-                if sched[u] >= 0 and orbit[sched[u]] == j:
-                    price[u] = 0.0
+            price[[u for u in shared if sched[u] >= 0 and orbit[sched[u]] == j]] = 0.0
             found = planner.plan(state, j, price)
-        if found is None:
-            break
     return all(repair(state, i) for i in state.touched_orbits())
 
 
@@ -432,10 +395,9 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
     so this ends. Used when the search restarts from its best solution. Returns the number
     of re-plans kept.
     """
-    kept = 0
-    gained = True
-    while gained:
-        gained = False
+    kept, last = 0, -1
+    while kept > last:  # the last pass kept a re-plan
+        last = kept
         for j in rng.permutation(planner.orbits).tolist():
             price = planner.prices(state, j, None, rng)
             found = planner.plan(state, j, price)
@@ -447,7 +409,6 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
             if repair(state, j) and state.profit > before + 1e-9:
                 state.commit()
                 kept += 1
-                gained = True
             else:
                 state.rollback()
     return kept
@@ -458,28 +419,28 @@ def orbit_search_start(
     rng: np.random.Generator,
     params: ASAParams,
     planner: OrbitPlanner,
+    run: Budget,
     t0: float,
-    time_limit: float | None,
 ) -> dict[str, Any]:
     """Start the search from ``orbit-dp``'s iterated local search (``init="orbit-dp"``).
 
     The search runs on the planner's candidates (the rolls of the search's rule, so every
     plan is a set of cluster-tasks the state can hold) with the whole-orbit move's noise and
-    steal probability, until ``init_share`` of ``time_limit`` has passed since ``t0`` (or
-    :data:`INIT_NO_IMPROVE` steps without a gain when there is no limit). Its best plans are
-    then applied orbit by orbit through step 4 (:meth:`OrbitPlanner.apply`), each target
-    placed by the first orbit whose plan covers it, and each orbit repaired. Returns the
-    start's figures for the statistics.
+    steal probability, until ``init_share`` of the run's limit (``run``, counted from ``t0``)
+    has passed (or :data:`INIT_NO_IMPROVE` steps without a gain when there is no limit). Its
+    best plans are then applied orbit by orbit through step 4 (:meth:`OrbitPlanner.apply`),
+    each target placed by the first orbit whose plan covers it, and each orbit repaired.
+    Returns the start's figures for the statistics.
     """
     search = planner.start_search(rng)
     p = OrbitSearchParams(noise=params.orbit_noise, steal=params.orbit_steal)
-    run = Budget.until(None if time_limit is None else t0 + time_limit)
     # its share of the limit, candidates included; but at least its share of what the
     # candidates left (where the window planner's set-up took past the share, the start
     # got no step and the greedy insertion was left to make the schedule)
     share, stop = run, NoImprovement(INIT_NO_IMPROVE)
-    if time_limit is not None:
-        end = max(t0 + params.init_share * time_limit, run.share(params.init_share).deadline or 0)
+    if run.deadline is not None:
+        end = t0 + params.init_share * (run.deadline - t0)
+        end = max(end, run.share(params.init_share).deadline or end)
         share, stop = Budget.until(end), MaxRuntime(end - t0, start=t0)
     started: dict[str, Any] = {}
     root = params.init == "lp"
@@ -514,29 +475,32 @@ def orbit_search_start(
 
 
 def make_planner(
-    instance: Instance, state: State, params: ASAParams, deadline: float | None
+    instance: Instance, state: State, params: ASAParams, run: Budget = UNLIMITED
 ) -> OrbitPlanner | None:
-    """The planner when the search uses whole-orbit re-planning, else None.
+    """The planner when the search uses whole-orbit re-planning, else None; no plan of it is
+    foreseen to end past ``run`` (the search's time, :meth:`OrbitPlanner.late`).
 
     Used by ASA-DTC with ``replan`` and ``replan_orbit > 0``. When the candidates would not
-    fit in memory (``sosp.candidates.candidate_cap``) or cannot be generated by
-    ``deadline`` (thousands of opportunities on an orbit), the move plans over windows
+    fit in memory (``sosp.candidates.candidate_cap``) or cannot be generated in half the time
+    ``run`` has left (thousands of opportunities on an orbit), the move plans over windows
     instead (:class:`WindowPlanner`) and the log says so.
     """
     if not (params.replan and params.replan_orbit > 0 and state.pb.mode == "dtc"):
         return None
-    if params.candidates == "windows":
-        return WindowPlanner(instance, state)
-    try:
-        return OrbitPlanner(instance, state, deadline)
-    except InputError as exc:
-        # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
-        cause = str(exc).split(";")[0]
-        if params.candidates == "explicit":
-            log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
-            return None
-        log.info("asa-dtc: whole-orbit re-planning over windows (%s)", cause)
-        return WindowPlanner(instance, state)
+    planner = None
+    if params.candidates != "windows":
+        try:
+            planner = OrbitPlanner(instance, state, run.share(0.5))
+        except InputError as exc:
+            # The message's advice (after ";") is orbit-dp's; the cause is what matters here.
+            cause = str(exc).split(";")[0]
+            if params.candidates == "explicit":
+                log.warning("asa-dtc: whole-orbit re-planning off, stretch moves only (%s)", cause)
+                return None
+            log.info("asa-dtc: whole-orbit re-planning over windows (%s)", cause)
+    planner = planner or WindowPlanner(instance, state)
+    planner.budget = run
+    return planner
 
 
 def replan_or_orbit(

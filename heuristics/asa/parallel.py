@@ -28,6 +28,7 @@ import logging
 import multiprocessing as mp
 import signal
 import time
+from contextlib import suppress
 from dataclasses import replace
 from multiprocessing.connection import Connection
 from typing import Any
@@ -41,7 +42,7 @@ from sosp.parallel import Child
 from sosp.progress import Progress, Snapshot, reporting
 from sosp.progress import current as current_progress
 from sosp.result import Result
-from sosp.stop import request_stop, stop_requested
+from sosp.stop import Budget, request_stop, stop_requested
 
 #: Seconds between two looks of a waiting parent at the stop flag and the chains' progress.
 POLL_S = 0.2
@@ -54,17 +55,16 @@ def _chain(
     instance: Instance,
     mode: str,
     rng: np.random.Generator,
-    time_limit: float | None,
+    run: Budget,
     params: ASAParams,
-    started: float,
     index: int,
     shared: Any,
     halt: Any,
 ) -> None:
     """One chain, in its own process: :func:`~heuristics.asa.search.run_asa`, its result sent.
 
-    ``started`` is the parent's :func:`time.time` at the start of the run: ``time_limit``
-    counts from it, so starting the process does not lengthen the run.
+    ``run`` is the parent's time (:class:`sosp.stop.Budget`, whose end holds across the
+    processes of a machine), so starting the process does not lengthen the run.
 
     ``shared`` (a shared array of doubles, two per chain) receives the chain's iterations and
     best at each progress report; once ``halt`` (a shared event) is set, the chain stops its
@@ -74,83 +74,21 @@ def _chain(
     """
 
     def publish(snap: Snapshot) -> None:
-        shared[2 * index] = snap.iterations
-        shared[2 * index + 1] = snap.best or 0.0
+        shared[2 * index : 2 * index + 2] = [snap.iterations, snap.best or 0.0]
         if halt.is_set():
             request_stop("parent")
 
     try:
         signal.signal(signal.SIGINT, lambda signum, frame: request_stop("SIGINT"))
         with reporting(Progress(publish, interval=POLL_S)):
-            if time_limit is not None:  # the parent's limit, counted from its start
-                time_limit = max(0.0, time_limit - (time.time() - started))
-            conn.send(
-                ("ok", run_asa(instance, mode, rng=rng, time_limit=time_limit, params=params))
-            )
+            res = run_asa(instance, mode, rng=rng, time_limit=run.left(), params=params)
+            conn.send(("ok", res))
     except (KeyboardInterrupt, EOFError):  # the parent is gone or interrupted
         return
     except Exception as exc:
         log.debug("asa chain failed", exc_info=True)
-        try:
+        with suppress(OSError):  # the parent may be gone
             conn.send(("error", f"{type(exc).__name__}: {exc}"))
-        except OSError:  # pragma: no cover - the parent is gone
-            pass
-
-
-class _Chains:
-    """The parent's handles on the chain processes (:class:`sosp.parallel.Child`)."""
-
-    def __init__(
-        self,
-        instance: Instance,
-        mode: str,
-        rngs: list[np.random.Generator],
-        time_limit: float | None,
-        params: ASAParams,
-    ) -> None:
-        ctx = mp.get_context()
-        started = time.time()
-        self.shared = ctx.RawArray("d", 2 * len(rngs))
-        self.halt = ctx.Event()
-        self.progress = current_progress()
-        self.chains: list[Child] = []
-        for i, rng in enumerate(rngs):
-            args = (instance, mode, rng, time_limit, params, started, i, self.shared, self.halt)
-            # the platform's start method; everything goes with the start (the shared
-            # array and event must be inherited)
-            self.chains.append(Child(_chain, args, method=None))
-
-    def results(self) -> list[Result]:
-        """Each chain's result, in order; a chain's error is raised here."""
-        out = []
-        for i, chain in enumerate(self.chains):
-            while not chain.conn.poll(POLL_S):
-                self.tick()
-            try:
-                kind, value = chain.conn.recv()
-            except EOFError:
-                chain.proc.join(timeout=1.0)
-                code = chain.proc.exitcode
-                raise RuntimeError(
-                    f"asa chain {i} ended without answering (exit code {code})"
-                ) from None
-            if kind == "error":
-                raise RuntimeError(f"asa chain {i}: {value}")
-            out.append(value)
-        return out
-
-    def tick(self) -> None:
-        """While waiting: pass a stop request on to the chains, report their progress."""
-        if stop_requested() and not self.halt.is_set():
-            self.halt.set()
-        n = len(self.chains)
-        iterations = sum(int(self.shared[2 * i]) for i in range(n))
-        best = max(self.shared[2 * i + 1] for i in range(n))
-        self.progress.update(iterations, best or None)  # None: the chains are still building
-
-    def close(self) -> None:
-        for chain in self.chains:
-            chain.stop(wait=1.0)
 
 
 def run_parallel(
@@ -177,15 +115,35 @@ def run_parallel(
         The best chain's result; ``iterations`` is the sum over the chains, ``stats["chains"]``
         holds each chain's best and iterations.
     """
-    t0 = time.perf_counter()
-    n = params.workers
-    chains = _Chains(instance, mode, rng.spawn(n), time_limit, replace(params, workers=1))
+    t0, run = time.perf_counter(), Budget.of(time_limit)
+    n, ctx, progress = params.workers, mp.get_context(), current_progress()
+    shared, halt, one = ctx.RawArray("d", 2 * n), ctx.Event(), replace(params, workers=1)
+    # the platform's start method (sosp.parallel.Child); everything goes with the start (the
+    # shared array and event must be inherited)
+    chains = [
+        Child(_chain, (instance, mode, r, run, one, i, shared, halt), method=None)
+        for i, r in enumerate(rng.spawn(n))
+    ]
+    results: list[Result] = []
     try:
-        results = chains.results()
+        for i, chain in enumerate(chains):
+            while not chain.conn.poll(POLL_S):  # pass a stop on, report the chains' progress
+                if stop_requested():
+                    halt.set()
+                # best None: the chains are still building
+                progress.update(int(sum(shared[::2])), max(shared[1::2]) or None)
+            try:
+                kind, value = chain.conn.recv()
+            except EOFError:
+                chain.proc.join(timeout=1.0)
+                kind, value = "error", f"no answer (exit code {chain.proc.exitcode})"
+            if kind == "error":
+                raise RuntimeError(f"asa chain {i}: {value}")
+            results.append(value)
     finally:
-        chains.close()
-    best = max(range(n), key=lambda i: (results[i].profit, -i))
-    out = results[best]
+        for chain in chains:
+            chain.stop(wait=1.0)
+    out = results[max(range(n), key=lambda i: (results[i].profit, -i))]  # ties: the first
     out.stats["chains"] = [{"best": r.profit, "iterations": r.iterations} for r in results]
     out.stats["workers"] = n
     out.iterations = sum(r.iterations or 0 for r in results)

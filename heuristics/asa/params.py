@@ -239,19 +239,13 @@ class ASAParams(Params):
         ranges = (
             ("lambda_min delta", "a number > 0", lambda v: v > 0),
             ("rho pro1 pro2 pro3", "a number >= 0", lambda v: v >= 0),
-            (
-                "replan_pull replan_pair replan_orbit orbit_steal eta",
-                "a number in [0, 1]",
-                lambda v: 0 <= v <= 1,
-            ),
+            ("replan_pull replan_pair replan_orbit", "a number in [0, 1]", lambda v: 0 <= v <= 1),
+            ("orbit_steal eta", "a number in [0, 1]", lambda v: 0 <= v <= 1),
             ("init_share", "a number in (0, 1]", lambda v: 0 < v <= 1),
             ("replan_floor", "a number in [0, 1/3)", lambda v: 0 <= v < 1 / 3),
             ("orbit_noise", "a number in [0, 1)", lambda v: 0 <= v < 1),
-            (
-                "itr pool replan_opps no_improve restart trace_every workers",
-                "an integer >= 1",
-                lambda v: v >= 1,
-            ),
+            ("itr pool replan_opps no_improve", "an integer >= 1", lambda v: v >= 1),
+            ("restart trace_every workers", "an integer >= 1", lambda v: v >= 1),
             ("tabu_length orbit_ascent iterations polish", "an integer >= 0", lambda v: v >= 0),
         )
         for names, text, ok in ranges:

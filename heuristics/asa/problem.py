@@ -158,36 +158,26 @@ class Alternatives(Sequence[list[int]]):
 
     def __getitem__(self, x: int) -> list[int]:  # type: ignore[override]
         opts = self.unit_options[self.opt_unit[x]]
-        if x not in opts:  # an unusable option has no alternatives
-            return []
-        return [y for y in opts if y != x]
+        # an unusable option has no alternatives
+        return [y for y in opts if y != x] if x in opts else []
 
 
 def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") -> Problem:
     """Flatten ``instance`` for the search in ``mode`` (``"dtc"``, ``"stc"``, ``"nontc"``)."""
-    if mode == "stc":
-        tasks = static_cluster_tasks(instance, roll_rule=roll_rule)  # type: ignore[arg-type]
-    else:
-        tasks = single_tasks(instance)
+    stc = mode == "stc"
+    tasks = static_cluster_tasks(instance, roll_rule=roll_rule) if stc else single_tasks(instance)  # type: ignore[arg-type]
     orbits = list(all_orbit_rules(instance))
-    n = len(tasks)
-    orbit = tasks.orbit.tolist()
-    start = tasks.start.tolist()
-    end = tasks.end.tolist()
     roll = tasks.roll.tolist()
-    if mode == "stc":
-        # Static tasks are atomic: their roll is fixed, so their "range" is the roll itself.
-        lo, hi = list(roll), list(roll)
-    else:
-        lo = instance.opp_roll_min.tolist()
-        hi = instance.opp_roll_max.tolist()
     usable_mask = alone_ok_mask(instance, tasks.orbit, tasks.start, tasks.end)
     usable_ids = np.flatnonzero(usable_mask)
-    if mode == "stc":
-        unit_of = list(range(n))
+    if stc:
+        # Static tasks are atomic: their roll is fixed, so their "range" is the roll itself.
+        lo, hi = list(roll), list(roll)
+        unit_of = list(range(len(tasks)))
         unit_targets = [tuple(t) for t in tasks.targets]
         unit_options = [[x] if ok else [] for x, ok in enumerate(usable_mask.tolist())]
     else:
+        lo, hi = instance.opp_roll_min.tolist(), instance.opp_roll_max.tolist()
         unit_of = instance.opp_target.tolist()
         unit_targets = [(k,) for k in range(instance.n_targets)]
         # each target's usable opportunities in index order: a stable sort by target
@@ -196,31 +186,23 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         unit_options = [part.tolist() for part in np.split(by_unit, np.cumsum(counts)[:-1])]
     tw = instance.target_weight.astype(float).tolist()
     unit_weight = [float(sum(tw[k] for k in ks)) for ks in unit_targets]
+    cols = (tasks.orbit, tasks.start, tasks.end, tasks.roll)
     try:
-        conflicts = ConflictLists(
-            *setup_conflict_rows(
-                instance,
-                tasks.orbit,
-                tasks.start,
-                tasks.end,
-                tasks.roll,
-                keep=usable_mask,
-                max_pairs=MAX_CONFLICTS,
-            )
-        )
+        rows = setup_conflict_rows(instance, *cols, keep=usable_mask, max_pairs=MAX_CONFLICTS)
     except TooManyConflicts as exc:
         raise TooLargeForASA(
             f"instance: {exc}: too large for ASA's conflict lists (use orbit-dp, greedy or "
             "hpfs-stc)"
         ) from None
+    conflicts = ConflictLists(*rows)
     alternatives: Sequence[list[int]]
-    if mode == "stc":
-        stc_alternatives: list[list[int]] = [[] for _ in range(n)]
+    if stc:
+        stc_alternatives: list[list[int]] = [[] for _ in range(len(tasks))]
         usable = usable_mask.tolist()
         for x in usable_ids.tolist():
-            alt = set()
-            for k in unit_targets[x]:
-                alt.update(t for t in tasks.target_tasks[k] if t != x and usable[t])
+            alt = {
+                t for k in unit_targets[x] for t in tasks.target_tasks[k] if t != x and usable[t]
+            }
             stc_alternatives[x] = sorted(alt, key=lambda t: (-unit_weight[t], t))
         alternatives = stc_alternatives
         migrates = np.array([bool(a) for a in stc_alternatives], dtype=bool)
@@ -237,9 +219,9 @@ def build_problem(instance: Instance, mode: str, roll_rule: str = "midpoint") ->
         mode=mode,
         clustering=mode == "dtc",
         orbits=orbits,
-        opt_orbit=orbit,
-        opt_start=start,
-        opt_end=end,
+        opt_orbit=tasks.orbit.tolist(),
+        opt_start=tasks.start.tolist(),
+        opt_end=tasks.end.tolist(),
         opt_roll=roll,
         opt_lo=lo,
         opt_hi=hi,

@@ -35,19 +35,20 @@ when the search restarts from its best solution (``ASAParams.restart``).
 
 from __future__ import annotations
 
-from bisect import bisect_left
+from bisect import bisect_left, bisect_right
+from collections import Counter
 
 import numpy as np
 
 from heuristics.asa.neighbourhoods import remove_member, repair
 from heuristics.asa.params import ASAParams
-from heuristics.asa.problem import Problem
+from heuristics.asa.select import roulette
 from heuristics.asa.state import END, MEMBERS, ROLL, START, Cluster, State
 from heuristics.asa.tabu import TabuList
 from sosp.candidates import (
-    OrbitCandidates,
     cached_orbit_candidates,
     generate,
+    offsets,
     orbit_candidates,
     orbit_pairs,
 )
@@ -128,38 +129,22 @@ def candidates(state: State, j: int, opts: list[int]) -> Cands:
     flat = np.asarray(opts, dtype=np.int64)
     if not pb.clustering or len(opts) < 2:
         return Cands(state, np.arange(len(opts) + 1, dtype=np.int64), flat)
-    source = _orbit_source(pb, j)
+    # orbit j's candidate observations when at hand or cheap to make (LAZY_PAIRS)
+    inst = pb.instance
+    source = None if inst is None else cached_orbit_candidates(inst, j)
+    if inst is not None and source is None and orbit_pairs(inst, j) < LAZY_PAIRS:
+        source = orbit_candidates(inst, j)
     if source is None:
         cols = state.arrays
-        sizes, members = [], []
-        for _, size, pos in generate(
-            cols.start[flat],
-            cols.end[flat],
-            cols.lo[flat],
-            cols.hi[flat],
-            pb.orbits[j].max_duration,
-        ):
-            sizes.append(size)
-            members.append(flat[pos])
-        if not sizes:
+        args = [col[flat] for col in (cols.start, cols.end, cols.lo, cols.hi)]
+        got = [(size, pos) for _, size, pos in generate(*args, pb.orbits[j].max_duration)]
+        if not got:
             return Cands(state, np.zeros(1, dtype=np.int64), flat[:0])
-        ptr = np.zeros(sum(len(x) for x in sizes) + 1, dtype=np.int64)
-        np.cumsum(np.concatenate(sizes), out=ptr[1:])
-        return Cands(state, ptr, np.concatenate(members))
+        sizes, pos = zip(*got, strict=True)
+        return Cands(state, offsets(np.concatenate(sizes)), flat[np.concatenate(pos)])
     t0, t1 = pb.opt_start[opts[0]], max(pb.opt_end[x] for x in opts)
     ptr, cut = source.within(flat, len(pb.opt_start), t0, t1)
     return Cands(state, ptr, cut)
-
-
-def _orbit_source(pb: Problem, j: int) -> OrbitCandidates | None:
-    """Orbit j's candidate observations when at hand or cheap to make (:data:`LAZY_PAIRS`)."""
-    inst = pb.instance
-    if inst is None:
-        return None
-    got = cached_orbit_candidates(inst, j)
-    if got is None and orbit_pairs(inst, j) < LAZY_PAIRS:
-        got = orbit_candidates(inst, j)
-    return got
 
 
 def best_chain(
@@ -189,18 +174,11 @@ def best_chain(
     use = np.flatnonzero(gains > 0.0)
     if not len(use):
         return 0.0, []
-    gain, chain = plan_sequence(
-        cands.start[use],
-        cands.end[use],
-        cands.roll[use],
-        gains[use],
-        state.lines[j].rules,
-        left=None if left is None else (left[END], left[ROLL]),
-        right=None if right is None else (right[START], right[ROLL]),
-        energy=energy,
-        memory=memory,
-        openings=openings,
-    )
+    cols = (cands.start[use], cands.end[use], cands.roll[use], gains[use], state.lines[j].rules)
+    fixed_l = None if left is None else (left[END], left[ROLL])
+    fixed_r = None if right is None else (right[START], right[ROLL])
+    budgets = {"energy": energy, "memory": memory, "openings": openings}
+    gain, chain = plan_sequence(*cols, left=fixed_l, right=fixed_r, **budgets)
     return gain, use[chain].tolist()
 
 
@@ -215,10 +193,9 @@ def replan_move(
 ) -> bool:
     """Orbit re-planning (steps 1-5 of the module docstring). False: no move.
 
-    The stretch is, with probability ``params.replan_target``, the ``replan_opps`` options
-    around an option of an unscheduled task drawn as in step 1 of the insertion neighbourhood
-    (roulette by weight among the ``pool`` heaviest non-tabu ones); otherwise a random stretch
-    of a random orbit.
+    The stretch is the ``replan_opps`` options around a random option of a random orbit; with
+    probability ``params.replan_pair`` (DTC and NONTC) it is re-planned together with a
+    stretch of another orbit (:func:`replan_pair`).
 
     With ``params.replan_pull > 0`` (DTC and NONTC) the stretch may also take tasks observed
     on other orbits, each worth ``replan_pull`` times its weight; they leave their orbit, and
@@ -239,18 +216,14 @@ def replan_move(
         if made is not None:
             return made and all(repair(state, i) for i in state.touched_orbits())
     pull = params.replan_pull if pb.mode != "stc" else 0.0
-    depth = EJECTION_DEPTH  # two or more
     holes = replan_stretch(state, j, window, tabu, pull)
     if holes is None:
         return False
-    for level in range(2, depth + 1):
-        nxt: list[tuple[int, int]] = []
+    for level in range(2, EJECTION_DEPTH + 1):  # the last level pulls nothing
+        pull, nxt = (pull if level < EJECTION_DEPTH else 0.0), []
         for i, x in holes:
             opts = pb.orbit_options[i]
-            more = replan_stretch(
-                state, i, _around(opts, opts.index(x), m), tabu, pull if level < depth else 0.0
-            )
-            nxt.extend(more or ())
+            nxt += replan_stretch(state, i, _around(opts, opts.index(x), m), tabu, pull) or []
         holes = nxt
     return all(repair(state, i) for i in state.touched_orbits())
 
@@ -259,7 +232,7 @@ class _Stretch:
     """A stretch of orbit j about to be re-planned: the freed cluster-tasks, the fixed
     neighbours, the budgets of (4)-(6) they leave, and the options that may be used."""
 
-    __slots__ = ("j", "first", "freed", "left", "right", "energy", "memory", "openings")
+    __slots__ = ("j", "first", "freed", "around")
 
     def __init__(self, state: State, j: int, window: list[int]) -> None:
         pb = state.pb
@@ -275,10 +248,11 @@ class _Stretch:
             first = sum(1 for c in obs if c[END] < t0)
             last = first - 1
         self.j, self.first, self.freed = j, first, obs[first : last + 1]
-        self.left = obs[first - 1] if first > 0 else None
-        self.right = obs[last + 1] if last + 1 < len(obs) else None
-        # Budgets left by the fixed cluster-tasks (the pair left-right is the chain's to pay).
-        self.energy, self.memory, self.openings = line.budget_between(first, last)
+        left = obs[first - 1] if first > 0 else None
+        right = obs[last + 1] if last + 1 < len(obs) else None
+        # The fixed neighbours and the budgets (4)-(6) the other cluster-tasks leave (the pair
+        # left-right is the chain's to pay): :func:`best_chain`'s arguments after the gains.
+        self.around = (left, right, *line.budget_between(first, last))
 
     def units(self, state: State) -> set[int]:
         unit = state.pb.opt_unit
@@ -291,37 +265,22 @@ class _Stretch:
         st, en = pb.opt_start, pb.opt_end
         t0 = min([st[x] for x in window] + [c[START] for c in self.freed])
         t1 = max([en[x] for x in window] + [c[END] for c in self.freed])
-        lo_t = self.left[END] if self.left is not None else -np.inf
-        hi_t = self.right[START] if self.right is not None else np.inf
+        left, right = self.around[:2]
+        lo_t = left[END] if left is not None else -np.inf
+        hi_t = right[START] if right is not None else np.inf
         opts = pb.orbit_options[self.j]
-        out = []
-        for a in range(bisect_left(opts, t0, key=st.__getitem__), len(opts)):
-            x = opts[a]
-            if st[x] > t1:
-                break
-            if lo_t < st[x] and en[x] < hi_t and en[x] <= t1:
-                out.append(x)
-        return out
+        a = bisect_left(opts, t0, key=st.__getitem__)
+        b = bisect_right(opts, t1, key=st.__getitem__)  # by start, as ``orbit_options``
+        return [x for x in opts[a:b] if lo_t < st[x] and en[x] < hi_t and en[x] <= t1]
 
     def best(self, state: State, cands: Cands, gains: np.ndarray) -> tuple[float, list[int]]:
-        return best_chain(
-            state,
-            self.j,
-            cands,
-            gains,
-            self.left,
-            self.right,
-            self.energy,
-            self.memory,
-            self.openings,
-        )
+        return best_chain(state, self.j, cands, gains, *self.around)
 
     def free(self, state: State) -> None:
         line = state.touch(self.j)
         unit = state.pb.opt_unit
         for _ in self.freed:
-            c = line.remove(self.first)
-            for x in c[MEMBERS]:
+            for x in line.remove(self.first)[MEMBERS]:
                 state.unassign(unit[x])
 
     def build(self, state: State, chain: list[Cluster]) -> list[tuple[int, int]]:
@@ -339,10 +298,8 @@ class _Stretch:
                 u = unit[x]
                 if u in units:
                     continue  # a task twice in one cluster-task: once
-                if sched[u] >= 0:
-                    y = sched[u]
-                    i = orbit[y]
-                    if i == j:
+                if (y := sched[u]) >= 0:
+                    if (i := orbit[y]) == j:
                         continue  # a task twice in the stretch: once
                     remove_member(state, i, state.find(i, y), y)
                     holes.append((i, y))
@@ -372,46 +329,35 @@ def replan_stretch(
     stretch = _Stretch(state, j, window)
     freed_units = stretch.units(state)
     sched, unit, orbit = state.sched, pb.opt_unit, pb.opt_orbit
-    avail = []
-    value = {}
+    value = {}  # each usable option's worth
     for x in stretch.options(state, window):
         u = unit[x]
         if u in freed_units:
             value[x] = pb.unit_weight[u]
-        elif tabu is not None and u in tabu:
-            continue
-        elif sched[u] < 0:
-            value[x] = pb.unit_weight[u]
-        elif pull > 0 and orbit[sched[u]] != j:
-            value[x] = pull * pb.unit_weight[u]
-        else:
-            continue
-        avail.append(x)
+        elif tabu is None or u not in tabu:
+            if sched[u] < 0 or (pull > 0 and orbit[sched[u]] != j):
+                value[x] = (1.0 if sched[u] < 0 else pull) * pb.unit_weight[u]
+    avail = list(value)
     if pb.mode == "stc":  # coverage semantics: a static task is worth its targets left
         tw, cover, targets = pb.target_weight, state.cover, pb.unit_targets
-        held: dict[int, int] = {}
-        for u in freed_units:
-            for k in targets[u]:
-                held[k] = held.get(k, 0) + 1
+        held = Counter(k for u in freed_units for k in targets[u])
         # a target covered now is worth its weight only when freed tasks alone cover it
         back = {k: tw[k] for k, n in held.items() if cover[k] == n}
         freed_profit = sum(back.values())
         get = back.get
         # the candidates are the options alone (:func:`candidates`); only those worth
         # something can be in a best chain, so only they are made
-        worth, gains_l = [], []
-        for x in avail:
-            w = sum([get(k, 0.0) if cover[k] else tw[k] for k in targets[unit[x]]])
-            if w > 0:
-                worth.append(x)
-                gains_l.append(w)
+        worth_of = {
+            x: sum([get(k, 0.0) if cover[k] else tw[k] for k in targets[unit[x]]]) for x in avail
+        }
+        worth = [x for x in avail if worth_of[x] > 0]
         if sorted(worth) == sorted(c[MEMBERS][0] for c in stretch.freed):
             # Nothing but the freed tasks is worth anything here, each of them is, and they
             # keep (3)-(6) where they stand: they are the best chain, and the stretch is
             # already it (see below).
             return []
         cands = candidates(state, j, worth)
-        gains = np.asarray(gains_l, dtype=float)
+        gains = np.asarray([worth_of[x] for x in worth], dtype=float)
     else:
         cands = candidates(state, j, avail)
         gains = cands.sums(np.array([value[x] for x in cands.flat.tolist()], dtype=float))
@@ -450,22 +396,15 @@ def replan_pair(
     """
     pb = state.pb
     unit, orbit = pb.opt_unit, pb.opt_orbit
-    count: dict[int, int] = {}
-    for x in window:
-        for y in pb.alternatives[x]:
-            if orbit[y] != j:
-                count[orbit[y]] = count.get(orbit[y], 0) + 1
+    count = Counter(orbit[y] for x in window for y in pb.alternatives[x] if orbit[y] != j)
     if not count or (partner >= 0 and partner not in count):
         return None
     if partner >= 0:
         i = partner
     else:  # roulette by the number of shared options
         partners = sorted(count)
-        z = rng.random() * sum(count.values())
-        for i in partners:
-            z -= count[i]
-            if z < 0:
-                break
+        weights = [count[i] for i in partners]
+        i = partners[roulette(weights, rng.random() * sum(weights))]
     opts_i = pb.orbit_options[i]
     shared = sorted(opts_i.index(y) for x in window for y in pb.alternatives[x] if orbit[y] == i)
     window_i = _around(opts_i, shared[len(shared) // 2], m)
@@ -503,13 +442,13 @@ def replan_pair(
         _, ch_a = sa.best(state, ca, gains(ca, ua))
         _, ch_b = sb.best(state, cb, gains(cb, ub))
         ta, tb = taken(ca, ua, ch_a), taken(cb, ub, ch_b)
-        for first_a in (True, False):
-            if first_a:
-                g2, ch2 = sb.best(state, cb, gains(cb, ub, ta))
-                item = (sum(weight[u] for u in ta) + g2, ch_a, ch2)
-            else:
-                g2, ch2 = sa.best(state, ca, gains(ca, ua, tb))
-                item = (sum(weight[u] for u in tb) + g2, ch2, ch_b)
+        # one orbit's chain, then the other's best without its tasks; and the reverse
+        g_b, after_a = sb.best(state, cb, gains(cb, ub, ta))
+        g_a, after_b = sa.best(state, ca, gains(ca, ua, tb))
+        for item in (
+            (sum(weight[u] for u in ta) + g_b, ch_a, after_a),
+            (sum(weight[u] for u in tb) + g_a, after_b, ch_b),
+        ):
             if item[0] > best[0] + 1e-9:
                 best = item
         step = 0.5 / (1 + r)
@@ -555,11 +494,8 @@ def polish(state: State, rng: np.random.Generator, params: ASAParams, tabu: Tabu
         before = state.profit
         state.begin()
         made = replan_pair(state, rng, j, window, m, tabu, partner=i)
-        if (
-            made
-            and all(repair(state, h) for h in state.touched_orbits())
-            and (state.profit >= before - 1e-9)
-        ):
+        made = made and all(repair(state, h) for h in state.touched_orbits())
+        if made and state.profit >= before - 1e-9:
             state.commit()
             kept += 1
         else:

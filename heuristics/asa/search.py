@@ -49,43 +49,16 @@ log = logging.getLogger(__name__)
 DEFAULT_ITERATIONS = 20_000
 
 #: Columns of the trace (``Result.stats["trace"]``), in CSV order.
-TRACE_COLUMNS = (
-    "iteration",
-    "time_s",
-    "best",
-    "current",
-    "temperature",
-    "pro_insertion",
-    "pro_migration",
-    "accepted_insertion",
-    "rejected_insertion",
-    "accepted_migration",
-    "rejected_migration",
-    "pro_replan",
-    "accepted_replan",
-    "rejected_replan",
+TRACE_COLUMNS = tuple(
+    "iteration time_s best current temperature pro_insertion pro_migration accepted_insertion"
+    " rejected_insertion accepted_migration rejected_migration pro_replan accepted_replan"
+    " rejected_replan".split()
 )
 
 #: The neighbourhoods by index (:data:`INSERTION`, :data:`MIGRATION`, :data:`REPLAN`); the
 #: third only with ``ASAParams.replan``.
 NEIGHBOURHOODS: tuple[Callable[..., bool], ...] = (insertion_move, migration_move, replan_move)
 NAMES = ("insertion", "migration", "replan")
-
-
-def default_stop(
-    params: ASAParams, time_limit: float | None, t0: float
-) -> Callable[[SearchStatus], bool]:
-    """The first of ``params.iterations``, ``time_limit`` (counted from ``t0``) and
-    ``params.no_improve`` (None: not a limit); :data:`DEFAULT_ITERATIONS` when none is given."""
-    left = Budget.until(None if time_limit is None else t0 + time_limit).left()
-    crit: list[Callable[[SearchStatus], bool]] = []
-    if params.iterations is not None:
-        crit.append(MaxIterations(params.iterations))
-    if left is not None:
-        crit.append(MaxRuntime(left, foresee=True))  # an orbit move can take seconds
-    if params.no_improve is not None:
-        crit.append(NoImprovement(params.no_improve))
-    return FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
 
 
 class Search:
@@ -101,7 +74,8 @@ class Search:
         As :func:`run_asa`.
     time_limit
         Wall time of the whole search, seconds: the candidates of whole-orbit re-planning
-        must be complete within half of it (else the search runs without that move).
+        must be complete within half of what is left of it (else the move plans over windows,
+        :func:`~heuristics.asa.orbit.make_planner`).
     t0
         :func:`time.perf_counter` value the run's times count from (default: now).
     """
@@ -132,27 +106,23 @@ class Search:
         floor = params.replan_floor if params.replan else 0.0
         self.selector = selector or AdaptiveRoulette(self.probs, params.eta, params.itr, floor)
         length = params.tabu_length
-        if length is None:
-            length = max(1, self.problem.n_observable // 50)
-        self.tabu = TabuList(length)
+        self.tabu = TabuList(max(1, self.problem.n_observable // 50) if length is None else length)
 
         self.moves = list(NEIGHBOURHOODS)
         run = Budget.until(None if time_limit is None else t0 + time_limit)
-        half = None if time_limit is None else t0 + 0.5 * time_limit
-        self.planner = make_planner(instance, state, params, half)
+        self.planner = make_planner(instance, state, params, run)
         if self.planner is not None:
             self.moves[REPLAN] = partial(replan_or_orbit, planner=self.planner)
-            self.planner.deadline = run.deadline  # no whole-orbit plan foreseen past it
         self.t_planner = time.perf_counter() - t0
 
         self.init_stats: dict[str, float] = {}
         if params.init in ("orbit-dp", "lp") and self.planner is not None:
-            self.init_stats = orbit_search_start(state, rng, params, self.planner, t0, time_limit)
+            self.init_stats = orbit_search_start(state, rng, params, self.planner, run, t0)
         # section 5.4's insertion ends at the limit, or after an orbit start at its share
         # (``init_share``) of the time left: the start leaves it the targets it could not
         # place, and trying them all could take most of the run
         insertion = run.share(params.init_share) if self.init_stats else run
-        initial_solution(state, params, insertion.deadline)
+        initial_solution(state, params, insertion)
         self.t_init = time.perf_counter() - t0
         self.best = state.profit
         self.best_snap = state.snapshot()
@@ -167,26 +137,11 @@ class Search:
 
     def record(self) -> None:
         """Append a trace row (columns :data:`TRACE_COLUMNS`)."""
-        pr = self.selector.probabilities
-        acc, rej = self.accepted, self.rejected
-        self.trace.append(
-            [
-                self.status.iteration,
-                round(time.perf_counter() - self.t0, 6),
-                self.best,
-                self.state.profit,
-                self.acceptance.temperature,
-                pr[INSERTION],
-                pr[MIGRATION],
-                acc[0],
-                rej[0],
-                acc[1],
-                rej[1],
-                pr[REPLAN] if len(pr) > REPLAN else 0.0,
-                acc[2],
-                rej[2],
-            ]
-        )
+        pr, acc, rej = self.selector.probabilities, self.accepted, self.rejected
+        replan = [pr[REPLAN] if len(pr) > REPLAN else 0.0, acc[2], rej[2]]
+        row = [self.status.iteration, round(time.perf_counter() - self.t0, 6), self.best]
+        row += [self.state.profit, self.acceptance.temperature, pr[INSERTION], pr[MIGRATION]]
+        self.trace.append([*row, acc[0], rej[0], acc[1], rej[1], *replan])
 
     def run(self, stop: Callable[[SearchStatus], bool]) -> None:
         """Iterate Algorithm 1 (with sosp's restarts) until ``stop`` says so or a stop is
@@ -206,23 +161,17 @@ class Search:
             made = moves[i](state, rng, params, tabu)
             delta = state.profit - before if made else 0.0
             if made and acceptance(delta, rng):
-                removed = state.commit()
-                tabu.add(removed)
+                tabu.add(state.commit())
                 accepted[i] += 1
+                outcome = Outcome.BETTER if delta > 0 else Outcome.ACCEPTED
                 if state.profit > self.best + 1e-9:
-                    self.best = state.profit
-                    self.best_snap = state.snapshot()
+                    self.best, self.best_snap = state.profit, state.snapshot()
                     outcome = Outcome.BEST
-                elif delta > 0:
-                    outcome = Outcome.BETTER
-                else:
-                    outcome = Outcome.ACCEPTED
-                acceptance.update(delta, True)
             else:
                 state.rollback()
                 rejected[i] += 1
                 outcome = Outcome.REJECTED
-                acceptance.update(delta, False)
+            acceptance.update(delta, outcome is not Outcome.REJECTED)
             selector.record(i, outcome)
             counts[outcome.name.lower()][i] += 1
             status.iteration = g
@@ -235,8 +184,7 @@ class Search:
                 else:
                     polished = params.polish > 0 and polish(state, rng, params, tabu) > 0
                 if polished and state.profit > self.best + 1e-9:
-                    self.best = state.profit
-                    self.best_snap = state.snapshot()
+                    self.best, self.best_snap = state.profit, state.snapshot()
                     outcome = Outcome.BEST
             if outcome is Outcome.BEST:
                 status.since_best = 0
@@ -325,6 +273,7 @@ def run_asa(
     """
     t0 = time.perf_counter()
     params = params or ASAParams()
+    run = Budget.until(None if time_limit is None else t0 + time_limit)
     try:
         search = Search(
             instance,
@@ -339,33 +288,30 @@ def run_asa(
     except TooLargeForASA as exc:
         if mode != "dtc":
             raise  # a variant stands for itself in a comparison: refused, not replaced
-        return _orbit_search_instead(instance, exc, rng, time_limit, t0)
-    search.run(stop if stop is not None else default_stop(params, time_limit, t0))
+        # ASA-DTC on an instance whose conflict lists it refuses (MAX_CONFLICTS): the search
+        # its default start runs (orbit-dp's iterated local search; init="lp" or "orbit-dp")
+        # for the whole time, reported under the name of what ran (method orbit-dp,
+        # stats["fallback"]) with a warning. ASA-DTC is the default method and milp's
+        # schedule when its model cannot be built, so it answers on every instance; a
+        # 2,500-target box near a pole under 8 satellites (35 million (3) pairs) was refused
+        # with exit 2 by both.
+        from heuristics.orbit_search import solve_orbit_dp
+
+        log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
+        res = solve_orbit_dp(instance, rng=rng, time_limit=run.left())
+        stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
+        return replace(res, runtime_s=time.perf_counter() - t0, stats=stats)  # method: orbit-dp
+    if stop is None:  # the first of iterations, the time left and no_improve (None: none)
+        crit: list[Callable[[SearchStatus], bool]] = []
+        if params.iterations is not None:
+            crit.append(MaxIterations(params.iterations))
+        if run.deadline is not None:  # an orbit move can take seconds: foreseen
+            crit.append(MaxRuntime(run.left() or 0.0, foresee=True))
+        if params.no_improve is not None:
+            crit.append(NoImprovement(params.no_improve))
+        stop = FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
+    search.run(stop)
     return search.result()
-
-
-def _orbit_search_instead(
-    instance: Instance,
-    exc: TooLargeForASA,
-    rng: np.random.Generator,
-    time_limit: float | None,
-    t0: float,
-) -> Result:
-    """ASA-DTC on an instance whose conflict lists it refuses (:data:`MAX_CONFLICTS`): the
-    search its default start runs (``orbit-dp``'s iterated local search,
-    :mod:`heuristics.orbit_search`; ``init="lp"`` or ``"orbit-dp"``) for the whole time,
-    reported under the name of what ran (``method`` ``orbit-dp``, ``stats["fallback"]``) with
-    a warning. ASA-DTC is
-    the default method and ``milp``'s schedule when its model cannot be built, so it answers
-    on every instance; a 2,500-target box near a pole under 8 satellites (35 million (3)
-    pairs) was refused with exit 2 by both."""
-    from heuristics.orbit_search import solve_orbit_dp
-
-    log.warning("asa-dtc: %s; the schedule is orbit-dp's search, ASA-DTC's start", exc)
-    left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
-    res = solve_orbit_dp(instance, rng=rng, time_limit=left)
-    stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
-    return replace(res, runtime_s=time.perf_counter() - t0, stats=stats)  # method: orbit-dp
 
 
 def build_schedule(instance: Instance, problem: Problem, snap: list[list[Cluster]]) -> Schedule:

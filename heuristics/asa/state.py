@@ -60,24 +60,27 @@ class State:
                 min(max(0.0, lo), hi) for lo, hi in zip(problem.opt_lo, problem.opt_hi, strict=True)
             ]
         self.lines = [OrbitTimeline(p) for p in problem.orbits]
-        self.sched = [-1] * problem.n_units  # option of each unit, -1 when unscheduled
-        self.cover = [0] * len(problem.target_weight)
-        self.profit = 0.0
-        # Unscheduled units with options, as ranks (weight order) kept sorted.
-        order = sorted(
+        # Units with options by weight: an unscheduled unit is held by its rank, kept sorted.
+        self.rank_unit = sorted(
             (u for u in range(problem.n_units) if problem.unit_options[u]),
             key=lambda u: (-problem.unit_weight[u], u),
         )
-        self.rank_unit = order
         self.unit_rank = [-1] * problem.n_units
-        for r, u in enumerate(order):
+        for r, u in enumerate(self.rank_unit):
             self.unit_rank[u] = r
-        self.unscheduled = list(range(len(order)))
-        self.scheduled: set[int] = set()
         # journal
         self._snaps: dict[int, tuple[list[Cluster], float, float]] = {}
         self._log: list[tuple[int, int]] = []
         self._profit0 = 0.0
+        self._empty()
+
+    def _empty(self) -> None:
+        """Nothing scheduled: no unit assigned, no target covered, every unit unscheduled."""
+        self.sched = [-1] * self.pb.n_units  # option of each unit, -1 when unscheduled
+        self.cover = [0] * len(self.pb.target_weight)
+        self.profit = 0.0
+        self.unscheduled = list(range(len(self.rank_unit)))
+        self.scheduled: set[int] = set()
 
     # -------------------------------------------------------------- journal
     def begin(self) -> None:
@@ -132,7 +135,10 @@ class State:
             if cover[k] == 0:
                 self.profit += tw[k]
             cover[k] += 1
-        self._pool_remove(u)
+        r, pool = self.unit_rank[u], self.unscheduled
+        i = bisect_left(pool, r)  # the pool is sorted
+        if i < len(pool) and pool[i] == r:
+            pool.pop(i)
         self.scheduled.add(u)
 
     def _unset(self, u: int) -> None:
@@ -144,12 +150,6 @@ class State:
                 self.profit -= tw[k]
         insort(self.unscheduled, self.unit_rank[u])
         self.scheduled.discard(u)
-
-    def _pool_remove(self, u: int) -> None:
-        r, pool = self.unit_rank[u], self.unscheduled
-        i = bisect_left(pool, r)  # the pool is sorted
-        if i < len(pool) and pool[i] == r:
-            pool.pop(i)
 
     def assign(self, u: int, x: int) -> None:
         """Schedule unit u at option x (bookkeeping only; the line is changed by the caller)."""
@@ -209,8 +209,7 @@ class State:
         e = max(en[x] for x in members)
         lo = max(lo_[x] for x in members)
         hi = min(hi_[x] for x in members)
-        roll = choose_roll(lo, hi, self.roll_rule)
-        return (s, e, roll, lo, hi, members)
+        return (s, e, choose_roll(lo, hi, self.roll_rule), lo, hi, members)
 
     def cluster_with(self, c: Cluster, x: int) -> Cluster:
         """``c`` with option ``x`` added (window (10), range (8), roll (9))."""
@@ -220,15 +219,12 @@ class State:
         e = max(c[END], pb.opt_end[x])
         lo = max(c[LO], pb.opt_lo[x])
         hi = min(c[HI], pb.opt_hi[x])
-        roll = choose_roll(lo, hi, self.roll_rule)
-        return (s, e, roll, lo, hi, members)
+        return (s, e, choose_roll(lo, hi, self.roll_rule), lo, hi, members)
 
     def cluster_without(self, c: Cluster, x: int) -> Cluster | None:
         """``c`` without option ``x``, recomputed by (8)-(10); None if nothing is left."""
         members = tuple(y for y in c[MEMBERS] if y != x)
-        if not members:
-            return None
-        return self.make_cluster(members)
+        return self.make_cluster(members) if members else None
 
     # ------------------------------------------------------------ snapshot
     def snapshot(self) -> list[list[Cluster]]:
@@ -239,11 +235,7 @@ class State:
         """Make a snapshot (:meth:`snapshot`) the current solution, rebuilding the totals and
         the assignment from it (used to restart from the best; never inside a move)."""
         pb = self.pb
-        self.sched = [-1] * pb.n_units
-        self.cover = [0] * len(pb.target_weight)
-        self.profit = 0.0
-        self.unscheduled = list(range(len(self.rank_unit)))
-        self.scheduled = set()
+        self._empty()
         for line, obs in zip(self.lines, snap, strict=True):
             line.load(obs)
             for c in obs:

@@ -39,10 +39,8 @@ class TabuList:
             cnt[t] = cnt.get(t, 0) + 1
             if len(q) > self.length:
                 old = q.popleft()
-                c = cnt[old] - 1
-                if c:
-                    cnt[old] = c
-                else:
+                cnt[old] -= 1
+                if not cnt[old]:
                     del cnt[old]
 
     def items(self) -> list[int]:

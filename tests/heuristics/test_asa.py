@@ -33,6 +33,7 @@ from heuristics.asa.state import MEMBERS, State
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.solve import solve
+from sosp.stop import Budget
 from sosp.validate import validate
 from tests.conftest import (
     scenario,
@@ -311,9 +312,9 @@ def test_initial_solution_stops_at_its_deadline() -> None:
     """Past its deadline the pass tries no task: the (empty) solution so far is kept."""
     inst = tiny_chain()
     state, params = _state(inst)
-    initial_solution(state, params, deadline=time.perf_counter() - 1.0)
+    initial_solution(state, params, Budget.until(time.perf_counter() - 1.0))
     assert _scheduled(state, inst) == set() and state.profit == 0
-    initial_solution(state, params, deadline=time.perf_counter() + 60.0)
+    initial_solution(state, params, Budget.of(60.0))
     assert _scheduled(state, inst) == {"a", "c"}
 
 

@@ -27,6 +27,7 @@ from heuristics.asa.state import MEMBERS, ROLL, State
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
 from sosp.solve import solve
+from sosp.stop import Budget
 from sosp.validate import validate
 from tests.conftest import small_instances
 from tests.heuristics.test_asa import commit_or_rollback
@@ -43,7 +44,7 @@ def _planner(inst: Instance, **kw) -> tuple[State, ASAParams, OrbitPlanner]:
     params = ASAParams(**{**PAPER_ROLLS, **kw})
     pb = build_problem(inst, "dtc", params.roll_rule)
     state = State(pb, params.roll_rule, params.nadir_singles)
-    return state, params, OrbitPlanner(inst, state, None)
+    return state, params, OrbitPlanner(inst, state)
 
 
 class _Draw:
@@ -271,18 +272,16 @@ def test_no_candidates_in_time_plans_over_windows(caplog: pytest.LogCaptureFixtu
     params = ASAParams()
     state = State(build_problem(inst, "dtc"), "midpoint")
     with caplog.at_level(logging.INFO):
-        planner = make_planner(inst, state, params, time.perf_counter() - 1.0)
+        planner = make_planner(inst, state, params, Budget.until(time.perf_counter() - 1.0))
     assert isinstance(planner, WindowPlanner) and planner.n_candidates == 0
-    late = time.perf_counter() - 1.0  # explicit only: no move then
+    late = Budget.until(time.perf_counter() - 1.0)  # explicit only: no move then
     assert make_planner(inst, state, ASAParams(candidates="explicit"), late) is None
     assert "re-planning over windows" in caplog.text
-    assert make_planner(inst, state, ASAParams(replan_orbit=0.0), None) is None
+    assert make_planner(inst, state, ASAParams(replan_orbit=0.0)) is None
     stc = State(build_problem(inst, "stc"), "midpoint")
-    assert make_planner(inst, stc, params, None) is None
-    assert make_planner(inst, state, params, None) is not None
-    assert isinstance(
-        make_planner(inst, state, ASAParams(candidates="windows"), None), WindowPlanner
-    )
+    assert make_planner(inst, stc, params) is None
+    assert make_planner(inst, state, params) is not None
+    assert isinstance(make_planner(inst, state, ASAParams(candidates="windows")), WindowPlanner)
 
 
 def test_whole_orbit_moves_are_counted_and_deterministic(tiny: Instance) -> None:
@@ -303,8 +302,8 @@ def test_orbit_dp_start_loads_the_searchs_best_plans(rule: str, init: str, c1) -
     inst = c1
     params = ASAParams(roll_rule=rule, init=init)
     state = State(build_problem(inst, "dtc", rule), rule, params.nadir_singles)
-    planner = OrbitPlanner(inst, state, None)
-    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, 0.0, None)
+    planner = OrbitPlanner(inst, state)
+    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, Budget(), 0.0)
     assert figures["init_steps"] >= 1
     # the LP start runs the column generation first, and only with init="lp"
     assert ("lp_rounds" in figures) == (init == "lp")
@@ -324,9 +323,9 @@ def test_the_lp_start_over_windows_begins_from_hpfs(c1) -> None:
     hpfs = solve_hpfs_stc(inst, rng=np.random.default_rng(0)).profit
     params = ASAParams(init="lp", candidates="windows")
     state = State(build_problem(inst, "dtc", "nadir"), "nadir", params.nadir_singles)
-    planner = make_planner(inst, state, params, None)
+    planner = make_planner(inst, state, params)
     assert isinstance(planner, WindowPlanner)
-    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, 0.0, None)
+    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, Budget(), 0.0)
     assert figures["hpfs_profit"] == hpfs > 0 and figures["lp_rounds"] >= 1
     assert state.profit == pytest.approx(figures["init_profit"])
     rep = validate(inst, build_schedule(inst, state.pb, state.snapshot()))
@@ -335,9 +334,11 @@ def test_the_lp_start_over_windows_begins_from_hpfs(c1) -> None:
     assert "hpfs_s" not in explicit.stats and explicit.stats["lp_rounds"] >= 1
     late = ASAParams(init="lp", candidates="windows")
     state = State(build_problem(inst, "dtc", "nadir"), "nadir", late.nadir_singles)
-    planner = make_planner(inst, state, late, None)
+    planner = make_planner(inst, state, late)
     t0 = time.perf_counter() - 10.0  # the limit has passed: no HPFS, the root as before
-    figures = orbit_search_start(state, np.random.default_rng(3), late, planner, t0, 10.0)
+    figures = orbit_search_start(
+        state, np.random.default_rng(3), late, planner, Budget.until(t0 + 10.0), t0
+    )
     assert figures["hpfs_profit"] is None and "lp_rounds" in figures
 
 
@@ -406,11 +407,13 @@ def test_the_start_keeps_its_share_of_what_the_set_up_left(c1) -> None:
     inst = c1
     params = ASAParams(init="orbit-dp")
     state = State(build_problem(inst, "dtc", "nadir"), "nadir", params.nadir_singles)
-    planner = OrbitPlanner(inst, state, None)
+    planner = OrbitPlanner(inst, state)
     limit = 4.0
     t0 = time.perf_counter() - 0.5 * limit  # half the limit gone: past its 0.3 share
     t = time.perf_counter()
-    figures = orbit_search_start(state, np.random.default_rng(3), params, planner, t0, limit)
+    figures = orbit_search_start(
+        state, np.random.default_rng(3), params, planner, Budget.until(t0 + limit), t0
+    )
     took = time.perf_counter() - t
     assert figures["init_steps"] >= 1 and figures["init_profit"] > 0
     limit_kept("start, its share of 2 s", took, params.init_share * 0.5 * limit + 0.5)
@@ -424,9 +427,9 @@ def test_insertion_after_an_orbit_start_has_its_share_of_the_time_left(monkeypat
     seen: list[float] = []
     real = search_mod.initial_solution
 
-    def spy(state, params, deadline=None):
-        seen.append(deadline - time.perf_counter())
-        return real(state, params, deadline)
+    def spy(state, params, budget):
+        seen.append(budget.left())
+        return real(state, params, budget)
 
     monkeypatch.setattr(search_mod, "initial_solution", spy)
     inst = c1
@@ -447,8 +450,8 @@ def test_a_plan_foreseen_past_the_deadline_is_not_made(
     move is none; without a deadline nothing is foreseen."""
     inst = _abc()
     state = State(build_problem(inst, "dtc"), "midpoint")
-    planner = make_planner(inst, state, ASAParams(candidates=candidates), None)
-    assert planner is not None and planner.deadline is None
+    planner = make_planner(inst, state, ASAParams(candidates=candidates))
+    assert planner is not None and planner.budget.deadline is None
     rng = np.random.default_rng(0)
     j = planner.orbits[0]
     price = planner.prices(state, j, None, rng)
@@ -457,10 +460,10 @@ def test_a_plan_foreseen_past_the_deadline_is_not_made(
     made: list[int] = []
     real = planner._best
     monkeypatch.setattr(planner, "_best", lambda j, p: made.append(j) or real(j, p))
-    planner.deadline = time.perf_counter() + 3600.0
+    planner.budget = Budget.of(3600.0)
     planner.foresight.took[j] = 7200.0  # "its last plan took two hours"
     assert planner.late(j) and planner.plan(state, j, price) is None and made == []
-    planner.deadline = None
+    planner.budget = Budget()
     assert planner.plan(state, j, price) is not None and made == [j]
 
 
@@ -472,4 +475,4 @@ def test_asa_sets_the_planners_deadline() -> None:
     # 2 s, not 60: the start search (orbit_search_start) runs for its share of the limit
     for limit, has in ((2.0, True), (None, False)):
         s = Search(inst, "dtc", rng=np.random.default_rng(0), time_limit=limit)
-        assert s.planner is not None and (s.planner.deadline is not None) == has
+        assert s.planner is not None and (s.planner.budget.deadline is not None) == has
