@@ -56,7 +56,7 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, Watch, check_float, check_int, stc_data
+from heuristics.stc import Selection, StcData, Watch, at_least, check_float, stc_data
 from sosp import rules
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -143,9 +143,7 @@ class ACOParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        ints = {"ants": 1, "gb_every": 0, "restart": 0, "candidates": 1, "ls_passes": 1}
-        for name, lo in ints.items():
-            check_int(name, getattr(self, name), lo)
+        at_least(self, ants=1, gb_every=0, restart=0, candidates=1, ls_passes=1, iterations=0)
         floats = {"alpha": (0, 100), "beta": (0, 100), "q0": (0, 1), "gap_weight": (0, 1e6)}
         for name, (lo, hi) in floats.items():
             check_float(name, getattr(self, name), lo, hi)
@@ -153,7 +151,6 @@ class ACOParams(Params):
             check_float(name, getattr(self, name), 0.0, 1.0, lo_open=True)
         if self.p_best >= 1.0:
             raise InputError(f"p_best: must lie in (0, 1), got {self.p_best!r}")
-        check_int("iterations", self.iterations, 0, optional=True)
 
     @classmethod
     def from_kwargs(cls, **params: Any) -> ACOParams:

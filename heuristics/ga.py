@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, Watch, check_int, stc_data
+from heuristics.stc import Selection, StcData, Watch, at_least, stc_data
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
@@ -84,10 +84,7 @@ class GAParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        check_int("population", self.population, 2)
-        check_int("tournament", self.tournament, 1)
-        check_int("mutation_bits", self.mutation_bits, 0)
-        check_int("iterations", self.iterations, 0, optional=True)
+        at_least(self, population=2, tournament=1, mutation_bits=0, iterations=0)
         if self.tournament > self.population:
             raise InputError(
                 f"tournament: must not exceed population ({self.population}), "

@@ -38,6 +38,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from heuristics.orbit_search import limits
+from heuristics.stc import at_least
 from heuristics.timeline import OrbitTimeline
 from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
@@ -138,10 +139,7 @@ class LNSParams(Params):
     candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
 
     def check(self) -> None:
-        # check_types has made each int field an integer and each float field a number
-        for name in ("orbits", "iterations", "no_improve", "threads", "max_items"):
-            if (v := getattr(self, name)) is not None and v < 1:
-                raise InputError(f"{name}: expected a positive integer, got {v!r}")
+        at_least(self, orbits=1, iterations=1, no_improve=1, threads=1, max_items=1)
         for name in ("sub_time_limit", "start_time_limit", "window"):
             if (v := getattr(self, name)) is not None and not (math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: expected a number of seconds > 0, got {v!r}")

@@ -77,10 +77,10 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
+from heuristics.stc import at_least
 from sosp.candidates import as_budget
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_rows
-from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.result import Result
@@ -121,10 +121,7 @@ class PBAParams(Params):
     prices: PriceRule = param("lp", "'lp': orbits priced across the parts; 'none'.")
 
     def check(self) -> None:
-        # check_types has made both integers and roll_rule one of its choices
-        for name in ("max_part", "node_limit"):
-            if getattr(self, name) < 1:
-                raise InputError(f"{name}: expected an integer >= 1, got {getattr(self, name)!r}")
+        at_least(self, max_part=1, node_limit=1)
 
 
 @dataclass

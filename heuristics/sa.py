@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
-from heuristics.stc import Watch
+from heuristics.stc import Watch, at_least
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
@@ -79,10 +79,7 @@ class SAParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        if self.iterations < 0:
-            raise InputError(
-                f"iterations: expected a non-negative integer, got {self.iterations!r}"
-            )
+        at_least(self, iterations=0)
 
 
 def solve_sa_stc(

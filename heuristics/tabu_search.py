@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
-from heuristics.stc import Watch, check_int
+from heuristics.stc import Watch, at_least
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_pairs
@@ -96,10 +96,7 @@ class TSParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        check_int("iterations", self.iterations, 0)
-        check_int("tenure_min", self.tenure_min, 0)
-        check_int("restart_after", self.restart_after, 1)
-        check_int("perturb", self.perturb, 0)
+        at_least(self, iterations=0, tenure_min=0, restart_after=1, perturb=0)
         tf = self.tenure_freq  # a number (Params.check_types); nan fails the range too
         if not 0 <= tf < 1e6:
             raise InputError(f"tenure_freq: expected a number in [0, 1e6), got {tf!r}")
