@@ -31,7 +31,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar, Literal
 
@@ -320,9 +320,9 @@ class _WindowColumns:
       went to 8.0 s; per opportunity read, 7-12 ns.
     """
 
-    def __init__(self, instance: Instance, left: Callable[[], float]) -> None:
+    def __init__(self, instance: Instance, budget: Budget) -> None:
         self.instance = instance
-        self.left = left
+        self.budget = budget
         self.n_opps = np.diff(instance.orbit_offsets)
         self.opps_of: dict[int, Any] = {}  # each orbit's opportunity arrays, made once
         self.whole = Foresight(WINDOW_S_PER_PAIR, most=True)  # per orbit, by its pairs
@@ -342,7 +342,7 @@ class _WindowColumns:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
         from sosp.windows import TooManyMembers, orbit_opps, window_candidates
 
-        if self.foreseen(j) > self.left():
+        if not self.budget.fits(self.foreseen(j)):
             raise _Late(j)
         t = time.perf_counter()
         if j not in self.opps_of:
@@ -351,7 +351,7 @@ class _WindowColumns:
 
         def ahead(scan: int) -> None:
             scanned[:] = [scan, time.perf_counter()]
-            if self.listing(scan) > self.left():
+            if not self.budget.fits(self.listing(scan)):
                 # not made, now or later: its time so far plus the listing, for foreseen(j)
                 self.whole.took[j] = scanned[1] - t + self.listing(scan)
                 raise _Late(j)
@@ -486,17 +486,13 @@ def solve_milp_lns(
 
     t0 = time.perf_counter()
     p = LNSParams.from_kwargs(**params)
-    deadline = None if time_limit is None else t0 + time_limit
-
-    def left() -> float:
-        return math.inf if deadline is None else deadline - time.perf_counter()
-
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
     # ---- start
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
     # explicit candidates for every orbit, or window candidates made per step (an explicit
     # request that would not fit was refused by start_stage, before the start ran)
-    windowed = candidate_mode(instance, p.candidates, deadline) == "windows"
+    windowed = candidate_mode(instance, p.candidates, budget.deadline) == "windows"
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)
@@ -504,7 +500,7 @@ def solve_milp_lns(
     start_name = "warm_start"
     if warm_start is None:  # called directly, not by the pipeline: run the start stage here
         start = start_stage(instance, params)
-        first, stage = run_start(instance, start, rng, Budget.until(deadline))
+        first, stage = run_start(instance, start, rng, budget)
         warm_start, start_name = first.schedule, stage.name
     current = list(warm_start.observations)
     weight = np.asarray(instance.target_weight, dtype=np.int64)
@@ -515,9 +511,9 @@ def solve_milp_lns(
     # ---- candidates once, shared with an orbit-dp start (cached per instance by
     # sosp.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
     candidates: Any = (np.zeros(0),) * 4 + ((),)  # none when the start used the whole limit
-    if left() > 0.05 and not windowed:
+    if budget.fits(0.05) and not windowed:
         try:  # the limit holds while generating them too (they stop at the deadline)
-            candidates = cluster_candidates(instance, max_candidates=None, deadline=deadline)
+            candidates = cluster_candidates(instance, max_candidates=None, deadline=budget.deadline)
         except TimeLimitReached:
             # not ready by the deadline (foreseen: at once): the steps make window candidates
             # for the orbits they free, as where the candidates do not fit in memory
@@ -527,7 +523,7 @@ def solve_milp_lns(
     blocks = np.split(order, np.flatnonzero(np.diff(c_orbit[order])) + 1) if len(order) else []
     by_orbit: dict[int, np.ndarray] = {int(c_orbit[b[0]]): b for b in blocks}
     active = np.array(sorted(by_orbit), dtype=np.int64)
-    window_columns = _WindowColumns(instance, left)
+    window_columns = _WindowColumns(instance, budget)
     if windowed:
         active = np.flatnonzero(np.diff(instance.orbit_offsets) > 0).astype(np.int64)
     # candidates' opportunities and targets as flat arrays (CSR), to filter them per step
@@ -537,7 +533,7 @@ def solve_milp_lns(
     shared = _shared_targets(instance).astype(float)
     k = min(p.orbits, len(active))
     no_improve = p.no_improve
-    if no_improve is None and p.iterations is None and deadline is None:
+    if no_improve is None and p.iterations is None and budget.deadline is None:
         no_improve = max(1, 2 * math.ceil(len(active) / max(k, 1)))
 
     steps = improved = stale = 0
@@ -551,7 +547,7 @@ def solve_milp_lns(
         now.iteration, now.since_best, now.best = steps, stale, float(profit)
         if stop(now):
             break
-        if left() < prep_s:
+        if not budget.fits(prep_s):
             break  # not even this step's model would be built in time (windows: seconds)
         step_t0 = time.perf_counter()
         steps += 1
@@ -623,7 +619,7 @@ def solve_milp_lns(
         # 5 s run went to 7.4 s): a model foreseen past the deadline is not built
         members = int(np.diff(c_opps.ptr)[sel].sum())
         foreseen = build.seconds(members)
-        if foreseen > left():
+        if not budget.fits(foreseen):
             # this neighbourhood is skipped, not the search: the next step draws another,
             # often smaller; the time to this decision is what the next step must fit
             prep_s = time.perf_counter() - step_t0
@@ -652,7 +648,7 @@ def solve_milp_lns(
                 x0 = start_vector(am, vals)
         out = run_highs(
             am,
-            time_limit=max(min(p.sub_time_limit, left()), 0.01),
+            time_limit=max(budget.child(p.sub_time_limit).left(), 0.01),
             threads=p.threads,
             start=x0,
             probing=False,  # probing checks HiGHS's clock rarely: 43 s under a 4.9 s limit
