@@ -185,24 +185,22 @@ class Graph:
     def __init__(self, data: StcData) -> None:
         self.data = data
         self.orbits = sorted(data.orbit_tasks)
+        inst, tasks_of = data.instance, data.orbit_tasks
         self.local = np.full(len(data.tasks), -1, dtype=np.int64)
-        self.horizon: dict[int, float] = {}
-        self.origin: dict[int, float] = {}
-        self.tau: dict[int, np.ndarray] = {}
+        for j in self.orbits:
+            self.local[tasks_of[j]] = np.arange(len(tasks_of[j]))
+        span = {j: float(inst.orbit_end[j] - inst.orbit_start[j]) for j in self.orbits}
+        self.horizon = {j: max(s, 1e-9) for j, s in span.items()}
+        self.origin = {j: float(inst.orbit_start[j]) for j in self.orbits}
+        self.tau = {j: np.ones((len(tasks_of[j]) + 1, len(tasks_of[j]))) for j in self.orbits}
+        self.left = {j: data.left[tasks_of[j]] for j in self.orbits}
+        self.right = {j: data.right[tasks_of[j]] for j in self.orbits}
         # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
         # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
-        self._succ: dict[int, np.ndarray | None] = {}
-        self.left = {j: data.left[data.orbit_tasks[j]] for j in self.orbits}
-        self.right = {j: data.right[data.orbit_tasks[j]] for j in self.orbits}
-        inst = data.instance
-        for j in self.orbits:
-            idx = data.orbit_tasks[j]
-            m = len(idx)
-            self.local[idx] = np.arange(m)
-            self.horizon[j] = max(float(inst.orbit_end[j] - inst.orbit_start[j]), 1e-9)
-            self.origin[j] = float(inst.orbit_start[j])
-            self.tau[j] = np.ones((m + 1, m))
-            self._succ[j] = self._rows(j, np.arange(m + 1)) if m <= DENSE_TASKS else None
+        self._succ = {
+            j: self._rows(j, np.arange(len(t))) if len(t) - 1 <= DENSE_TASKS else None
+            for j, t in self.tau.items()
+        }
         #: per task, its weight (its gain while no target is covered), as floats
         self.weight = np.asarray(data.tasks.weight, dtype=np.float64)
         covering = data.target_tasks

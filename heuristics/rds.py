@@ -464,15 +464,9 @@ def _restrict(instance: Instance, tasks: TaskSet, keep: list[int], fixed: list[i
     tw = instance.target_weight
     targets = tuple(tuple(k for k in tasks.targets[t] if int(k) not in covered) for t in keep)
     sel = np.asarray(keep, dtype=np.int64)
-    return TaskSet(
-        orbit=tasks.orbit[sel],
-        start=tasks.start[sel],
-        end=tasks.end[sel],
-        roll=tasks.roll[sel],
-        weight=np.asarray([sum(int(tw[k]) for k in ks) for ks in targets], dtype=np.int64),
-        opps=tuple(tasks.opps[t] for t in keep),
-        targets=targets,
-    )
+    weight = np.asarray([sum(int(tw[k]) for k in ks) for ks in targets], dtype=np.int64)
+    times = (tasks.orbit[sel], tasks.start[sel], tasks.end[sel], tasks.roll[sel])
+    return TaskSet(*times, weight, tuple(tasks.opps[t] for t in keep), targets)
 
 
 def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
@@ -1112,16 +1106,7 @@ def _result(
         "nodes": sum(c.nodes for c in out.components),
     }
     status = Status.OPTIMAL if out.proven else Status.TIME_LIMIT
-    log.info(
-        "%s: %s, profit %d, bound %d, %d components (largest %d), %d nodes",
-        method,
-        status.value,
-        out.value,
-        out.bound,
-        stats["components"],
-        stats["largest_component"],
-        stats["nodes"],
-    )
+    log.info("%s: %s, profit %d, bound %d, %s", method, status.value, out.value, out.bound, stats)
     chosen, bound = out.chosen, float(out.bound)
     return task_result(method, instance, tasks, chosen, out.value, status, bound=bound, stats=stats)
 
