@@ -116,16 +116,12 @@ def repair(data: StcData, bits: np.ndarray) -> tuple[np.ndarray, int]:
     sol = Selection(data)
     on = set(int(t) for t in data.usable[bits])
     out = np.zeros(len(data.usable), dtype=bool)
-    # DROP: keep the selected tasks by decreasing utility while they earn and fit.
-    for t in data.by_utility:
-        t = int(t)
-        if t in on and sol.gain(t) > 0 and sol.try_add(t):
-            out[pos[t]] = True
-    # ADD: then every other task by decreasing utility.
-    for t in data.by_utility:
-        t = int(t)
-        if not out[pos[t]] and sol.gain(t) > 0 and sol.try_add(t):
-            out[pos[t]] = True
+    # DROP: keep the selected tasks by decreasing utility while they earn and fit; ADD: then
+    # every other task by decreasing utility (a task kept earns nothing more)
+    for only in (on, None):
+        for t in data.by_utility.tolist():
+            if (only is None or t in only) and sol.gain(t) > 0 and sol.try_add(t):
+                out[pos[t]] = True
     return out, sol.profit
 
 
