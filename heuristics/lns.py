@@ -551,6 +551,7 @@ def solve_milp_lns(
             break  # not even this step's model would be built in time (windows: seconds)
         step_t0 = time.perf_counter()
         steps += 1
+        stale += 1  # until this step gains
         seed = int(active[rng.integers(len(active))])
         score = shared[seed, active] + 0.5 * rng.random(len(active))
         score[active == seed] = math.inf
@@ -577,7 +578,6 @@ def solve_milp_lns(
                 # left only shrinks): the steps go on without it, over the orbits left
                 active = active[active != late.args[0]]
                 k = min(k, len(active))
-                stale += 1
                 continue
             if len(made) > 1:
                 everything = _stack_columns([made[j] for j in sorted(chosen)], freed)
@@ -601,7 +601,6 @@ def solve_milp_lns(
                 cand = (c_start, c_end, c_roll)
                 plan = _window_plan(instance, current, seed, seed_items, cand, rng, p.window)
             if plan is None:
-                stale += 1
                 continue
             fixed, freed, sel, sub_instance = plan
             slew = "conservative"
@@ -613,7 +612,6 @@ def solve_milp_lns(
         old_value = _claims_value(instance, freed, w_sub)
         sel = sel[useful]
         if not len(sel):
-            stale += 1
             continue
         # the model's data and arrays read no clock either (3 million members: 1.7 s, and a
         # 5 s run went to 7.4 s): a model foreseen past the deadline is not built
@@ -623,7 +621,6 @@ def solve_milp_lns(
             # this neighbourhood is skipped, not the search: the next step draws another,
             # often smaller; the time to this decision is what the next step must fit
             prep_s = time.perf_counter() - step_t0
-            stale += 1
             continue
         build_t0 = time.perf_counter()
         data = prepare(
@@ -653,7 +650,6 @@ def solve_milp_lns(
             start=x0,
             probing=False,  # probing checks HiGHS's clock rarely: 43 s under a 4.9 s limit
         )
-        stale += 1
         if out.x is None:
             continue
         sub = items_to_schedule(instance, data, [int(u) for u in np.flatnonzero(out.x > 0.5)])
