@@ -117,7 +117,6 @@ from heuristics.hpfs import insertion_decode, task_result
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
-from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
@@ -1009,10 +1008,6 @@ def russian_doll(
         The best selection, its value, whether it is proven optimal, and an upper bound.
     """
     budget = Budget.of(time_limit)
-    if order not in ("orbit", "weight"):
-        raise InputError(f"order: expected 'orbit' or 'weight', got {order!r}")
-    if variables not in ("targets", "tasks"):
-        raise InputError(f"variables: expected 'targets' or 'tasks', got {variables!r}")
     # Tasks that can never be scheduled: no weight, or infeasible alone ((4)-(6), (11)).
     alone = fits_alone(instance, tasks)
     usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
