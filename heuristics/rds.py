@@ -1079,9 +1079,7 @@ def russian_doll(
     chosen = sorted(fixed + [back[t] for o in outcomes for t in o.chosen])
     value = fixed_value + sum(o.value for o in outcomes)
     proven = all(o.proven for o in outcomes)
-    bound = fixed_value + sum(o.bound for o in outcomes)
-    if proven:
-        bound = value
+    bound = value if proven else fixed_value + sum(o.bound for o in outcomes)
     return RdsOutcome(chosen, value, proven, bound, outcomes)
 
 
