@@ -152,11 +152,6 @@ class ACOParams(Params):
         if self.p_best >= 1.0:
             raise InputError(f"p_best: must lie in (0, 1), got {self.p_best!r}")
 
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> ACOParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="aco-stc")
-
 
 @dataclass(frozen=True)
 class ACOLSParams(ACOParams):
@@ -167,11 +162,6 @@ class ACOLSParams(ACOParams):
     rho: float = param(0.2, "Evaporation rate (MMAS with local search: 0.2).")
     q0: float = param(0.0, "Probability of taking the best-rated candidate.")
     local_search: bool = param(True, "Apply local_search to the iteration-best ant.")
-
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> ACOLSParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="aco-ls-stc")
 
 
 # ----------------------------------------------------------------------------- the graph
@@ -558,7 +548,8 @@ def solve_aco_stc(
         Status ``feasible``; ``iterations`` colony iterations done; ``stats`` holds the
         iteration of the best schedule, restarts and the trail limits.
     """
-    return run_aco(instance, ACOParams.from_kwargs(**params), rng, time_limit, "aco-stc")
+    p = from_kwargs(ACOParams, params, method="aco-stc")
+    return run_aco(instance, p, rng, time_limit, "aco-stc")
 
 
 def solve_aco_ls_stc(
@@ -582,4 +573,5 @@ def solve_aco_ls_stc(
     Result
         As :func:`solve_aco_stc`, with ``stats["ls_moves"]``, the improving moves kept.
     """
-    return run_aco(instance, ACOLSParams.from_kwargs(**params), rng, time_limit, "aco-ls-stc")
+    p = from_kwargs(ACOLSParams, params, method="aco-ls-stc")
+    return run_aco(instance, p, rng, time_limit, "aco-ls-stc")

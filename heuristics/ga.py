@@ -91,11 +91,6 @@ class GAParams(Params):
                 f"got {self.tournament!r}"
             )
 
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> GAParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="ga-stc")
-
 
 def repair(data: StcData, bits: np.ndarray) -> tuple[np.ndarray, int]:
     """DROP then ADD (module docstring): a feasible, maximal chromosome and its fitness.
@@ -179,7 +174,7 @@ def solve_ga_stc(
         Status ``feasible``; ``iterations`` children generated; ``stats`` holds the duplicates
         discarded and the child that found the best schedule.
     """
-    p = GAParams.from_kwargs(**params)
+    p = from_kwargs(GAParams, params, method="ga-stc")
     watch = Watch(time_limit)
     data = stc_data(instance, p.roll_rule)
     pop: list[np.ndarray] = []

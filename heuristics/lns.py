@@ -153,11 +153,6 @@ class LNSParams(Params):
                 f"got {self.start!r}"
             )
 
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> LNSParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="milp-lns")
-
 
 def _claims_value(instance: Instance, observations: list[Observation], weight: np.ndarray) -> int:
     """Total ``weight`` of the distinct targets the observations list."""
@@ -440,7 +435,8 @@ def start_stage(instance: Instance, params: Mapping[str, Any]) -> Start | None:
 
     if params.get("warm_start") is not None:
         return None
-    p = LNSParams.from_kwargs(**{k: v for k, v in params.items() if k != "warm_start"})
+    kwargs = {k: v for k, v in params.items() if k != "warm_start"}
+    p = from_kwargs(LNSParams, kwargs, method="milp-lns")
     if p.candidates == "explicit":
         candidate_mode(instance, p.candidates)
     return Start(p.start, p.start_time_limit, p.start_params or {})
@@ -485,7 +481,7 @@ def solve_milp_lns(
     from sosp.validate import validate
 
     t0 = time.perf_counter()
-    p = LNSParams.from_kwargs(**params)
+    p = from_kwargs(LNSParams, params, method="milp-lns")
     budget = Budget.until(None if time_limit is None else t0 + time_limit)
     # ---- start
     if warm_start is not None and not isinstance(warm_start, Schedule):
