@@ -398,14 +398,9 @@ def _stack_columns(
     """``parts`` one after another, then the ``freed`` observations (the warm start maps onto
     them, so the sub-MILP never returns less than it freed). The opportunities stay where
     they are (:class:`_Stacked`): a dense orbit has tens of thousands of candidates."""
-    mine = (
-        np.array([ob.orbit for ob in freed], dtype=np.int64),
-        np.array([ob.start for ob in freed], dtype=float),
-        np.array([ob.end for ob in freed], dtype=float),
-        np.array([ob.roll for ob in freed], dtype=float),
-        OppGroups.from_groups([ob.opps for ob in freed]),
-    )
-    parts = [*parts, mine]
+    kinds = {"orbit": np.int64, "start": float, "end": float, "roll": float}
+    mine = [np.array([getattr(ob, f) for ob in freed], dtype=d) for f, d in kinds.items()]
+    parts = [*parts, (*mine, OppGroups.from_groups([ob.opps for ob in freed]))]
     cols = (np.concatenate([part[c] for part in parts]) for c in range(4))
     return (*cols, _Stacked([part[4] for part in parts]))  # type: ignore[return-value]
 
