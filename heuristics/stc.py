@@ -165,9 +165,8 @@ def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
     alone = fits_alone(instance, tasks)
     usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
     usable_arr = np.array(usable, dtype=np.int64)
-    orbit_tasks: dict[int, np.ndarray] = {}
-    for j in np.unique(tasks.orbit[usable_arr]) if len(usable_arr) else []:
-        orbit_tasks[int(j)] = usable_arr[tasks.orbit[usable_arr] == j]
+    on = tasks.orbit[usable_arr]
+    orbit_tasks = {int(j): usable_arr[on == j] for j in np.unique(on)}
     j = tasks.orbit
     cost = resource_cost(instance, tasks) if len(tasks) else np.zeros(0)
     utility = np.asarray(tasks.weight, dtype=float) / cost if len(tasks) else np.zeros(0)
