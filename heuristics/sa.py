@@ -159,15 +159,13 @@ def solve_sa_stc(
         for k in tg[t]:
             if cover[k] == 0:
                 g += twl[k]
-        if g > 0:
-            line = lines[orb[t]]
-            chk = line.check_insert(ent[t])
-            if chk:
-                line.insert(ent[t], chk)
-                for k in tg[t]:
-                    cover[k] += 1
-                return g
-        return 0
+        chk = lines[orb[t]].check_insert(ent[t]) if g > 0 else None
+        if not chk:
+            return 0
+        lines[orb[t]].insert(ent[t], chk)
+        for k in tg[t]:
+            cover[k] += 1
+        return g
 
     # Initial decode (HPFS order) leaves the cursor at n.
     total = 0
