@@ -56,7 +56,7 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, Watch, check_float, check_int, stc_data
+from heuristics.stc import Selection, StcData, Watch, at_least, check_float, stc_data
 from sosp import rules
 from sosp.errors import InputError
 from sosp.instance import Instance
@@ -143,9 +143,7 @@ class ACOParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        ints = {"ants": 1, "gb_every": 0, "restart": 0, "candidates": 1, "ls_passes": 1}
-        for name, lo in ints.items():
-            check_int(name, getattr(self, name), lo)
+        at_least(self, ants=1, gb_every=0, restart=0, candidates=1, ls_passes=1, iterations=0)
         floats = {"alpha": (0, 100), "beta": (0, 100), "q0": (0, 1), "gap_weight": (0, 1e6)}
         for name, (lo, hi) in floats.items():
             check_float(name, getattr(self, name), lo, hi)
@@ -153,12 +151,6 @@ class ACOParams(Params):
             check_float(name, getattr(self, name), 0.0, 1.0, lo_open=True)
         if self.p_best >= 1.0:
             raise InputError(f"p_best: must lie in (0, 1), got {self.p_best!r}")
-        check_int("iterations", self.iterations, 0, optional=True)
-
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> ACOParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="aco-stc")
 
 
 @dataclass(frozen=True)
@@ -170,11 +162,6 @@ class ACOLSParams(ACOParams):
     rho: float = param(0.2, "Evaporation rate (MMAS with local search: 0.2).")
     q0: float = param(0.0, "Probability of taking the best-rated candidate.")
     local_search: bool = param(True, "Apply local_search to the iteration-best ant.")
-
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> ACOLSParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="aco-ls-stc")
 
 
 # ----------------------------------------------------------------------------- the graph
@@ -188,24 +175,22 @@ class Graph:
     def __init__(self, data: StcData) -> None:
         self.data = data
         self.orbits = sorted(data.orbit_tasks)
+        inst, tasks_of = data.instance, data.orbit_tasks
         self.local = np.full(len(data.tasks), -1, dtype=np.int64)
-        self.horizon: dict[int, float] = {}
-        self.origin: dict[int, float] = {}
-        self.tau: dict[int, np.ndarray] = {}
+        for j in self.orbits:
+            self.local[tasks_of[j]] = np.arange(len(tasks_of[j]))
+        span = {j: float(inst.orbit_end[j] - inst.orbit_start[j]) for j in self.orbits}
+        self.horizon = {j: max(s, 1e-9) for j, s in span.items()}
+        self.origin = {j: float(inst.orbit_start[j]) for j in self.orbits}
+        self.tau = {j: np.ones((len(tasks_of[j]) + 1, len(tasks_of[j]))) for j in self.orbits}
+        self.left = {j: data.left[tasks_of[j]] for j in self.orbits}
+        self.right = {j: data.right[tasks_of[j]] for j in self.orbits}
         # per orbit, the successor matrix of its graph (row 0 the source, row v + 1 task v),
         # kept when small enough (:data:`DENSE_TASKS`), else rows are computed when asked
-        self._succ: dict[int, np.ndarray | None] = {}
-        self.left = {j: data.left[data.orbit_tasks[j]] for j in self.orbits}
-        self.right = {j: data.right[data.orbit_tasks[j]] for j in self.orbits}
-        inst = data.instance
-        for j in self.orbits:
-            idx = data.orbit_tasks[j]
-            m = len(idx)
-            self.local[idx] = np.arange(m)
-            self.horizon[j] = max(float(inst.orbit_end[j] - inst.orbit_start[j]), 1e-9)
-            self.origin[j] = float(inst.orbit_start[j])
-            self.tau[j] = np.ones((m + 1, m))
-            self._succ[j] = self._rows(j, np.arange(m + 1)) if m <= DENSE_TASKS else None
+        self._succ = {
+            j: self._rows(j, np.arange(len(t))) if len(t) - 1 <= DENSE_TASKS else None
+            for j, t in self.tau.items()
+        }
         #: per task, its weight (its gain while no target is covered), as floats
         self.weight = np.asarray(data.tasks.weight, dtype=np.float64)
         covering = data.target_tasks
@@ -563,7 +548,8 @@ def solve_aco_stc(
         Status ``feasible``; ``iterations`` colony iterations done; ``stats`` holds the
         iteration of the best schedule, restarts and the trail limits.
     """
-    return run_aco(instance, ACOParams.from_kwargs(**params), rng, time_limit, "aco-stc")
+    p = from_kwargs(ACOParams, params, method="aco-stc")
+    return run_aco(instance, p, rng, time_limit, "aco-stc")
 
 
 def solve_aco_ls_stc(
@@ -587,4 +573,5 @@ def solve_aco_ls_stc(
     Result
         As :func:`solve_aco_stc`, with ``stats["ls_moves"]``, the improving moves kept.
     """
-    return run_aco(instance, ACOLSParams.from_kwargs(**params), rng, time_limit, "aco-ls-stc")
+    p = from_kwargs(ACOLSParams, params, method="aco-ls-stc")
+    return run_aco(instance, p, rng, time_limit, "aco-ls-stc")

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import task_result
-from heuristics.stc import Selection, StcData, Watch, check_int, stc_data
+from heuristics.stc import Selection, StcData, Watch, at_least, stc_data
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
@@ -84,20 +84,12 @@ class GAParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        check_int("population", self.population, 2)
-        check_int("tournament", self.tournament, 1)
-        check_int("mutation_bits", self.mutation_bits, 0)
-        check_int("iterations", self.iterations, 0, optional=True)
+        at_least(self, population=2, tournament=1, mutation_bits=0, iterations=0)
         if self.tournament > self.population:
             raise InputError(
                 f"tournament: must not exceed population ({self.population}), "
                 f"got {self.tournament!r}"
             )
-
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> GAParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="ga-stc")
 
 
 def repair(data: StcData, bits: np.ndarray) -> tuple[np.ndarray, int]:
@@ -119,16 +111,12 @@ def repair(data: StcData, bits: np.ndarray) -> tuple[np.ndarray, int]:
     sol = Selection(data)
     on = set(int(t) for t in data.usable[bits])
     out = np.zeros(len(data.usable), dtype=bool)
-    # DROP: keep the selected tasks by decreasing utility while they earn and fit.
-    for t in data.by_utility:
-        t = int(t)
-        if t in on and sol.gain(t) > 0 and sol.try_add(t):
-            out[pos[t]] = True
-    # ADD: then every other task by decreasing utility.
-    for t in data.by_utility:
-        t = int(t)
-        if not out[pos[t]] and sol.gain(t) > 0 and sol.try_add(t):
-            out[pos[t]] = True
+    # DROP: keep the selected tasks by decreasing utility while they earn and fit; ADD: then
+    # every other task by decreasing utility (a task kept earns nothing more)
+    for only in (on, None):
+        for t in data.by_utility.tolist():
+            if (only is None or t in only) and sol.gain(t) > 0 and sol.try_add(t):
+                out[pos[t]] = True
     return out, sol.profit
 
 
@@ -186,7 +174,7 @@ def solve_ga_stc(
         Status ``feasible``; ``iterations`` children generated; ``stats`` holds the duplicates
         discarded and the child that found the best schedule.
     """
-    p = GAParams.from_kwargs(**params)
+    p = from_kwargs(GAParams, params, method="ga-stc")
     watch = Watch(time_limit)
     data = stc_data(instance, p.roll_rule)
     pop: list[np.ndarray] = []

@@ -31,13 +31,14 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 
 from heuristics.orbit_search import limits
+from heuristics.stc import at_least
 from heuristics.timeline import OrbitTimeline
 from sosp.candidates import CandidateMode, OppGroups, orbit_pairs
 from sosp.errors import InputError, TimeLimitReached
@@ -138,10 +139,7 @@ class LNSParams(Params):
     candidates: CandidateMode = param("auto", "Candidates: made up front or priced per window.")
 
     def check(self) -> None:
-        # check_types has made each int field an integer and each float field a number
-        for name in ("orbits", "iterations", "no_improve", "threads", "max_items"):
-            if (v := getattr(self, name)) is not None and v < 1:
-                raise InputError(f"{name}: expected a positive integer, got {v!r}")
+        at_least(self, orbits=1, iterations=1, no_improve=1, threads=1, max_items=1)
         for name in ("sub_time_limit", "start_time_limit", "window"):
             if (v := getattr(self, name)) is not None and not (math.isfinite(v) and v > 0):
                 raise InputError(f"{name}: expected a number of seconds > 0, got {v!r}")
@@ -154,11 +152,6 @@ class LNSParams(Params):
                 f"start: expected a heuristic method name (e.g. 'hpfs-stc', 'asa-dtc'), "
                 f"got {self.start!r}"
             )
-
-    @classmethod
-    def from_kwargs(cls, **params: Any) -> LNSParams:
-        """Build from keyword parameters (CLI strings coerced from the type hints)."""
-        return from_kwargs(cls, params, method="milp-lns")
 
 
 def _claims_value(instance: Instance, observations: list[Observation], weight: np.ndarray) -> int:
@@ -322,9 +315,9 @@ class _WindowColumns:
       went to 8.0 s; per opportunity read, 7-12 ns.
     """
 
-    def __init__(self, instance: Instance, left: Callable[[], float]) -> None:
+    def __init__(self, instance: Instance, budget: Budget) -> None:
         self.instance = instance
-        self.left = left
+        self.budget = budget
         self.n_opps = np.diff(instance.orbit_offsets)
         self.opps_of: dict[int, Any] = {}  # each orbit's opportunity arrays, made once
         self.whole = Foresight(WINDOW_S_PER_PAIR, most=True)  # per orbit, by its pairs
@@ -344,7 +337,7 @@ class _WindowColumns:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, OppGroups]:
         from sosp.windows import TooManyMembers, orbit_opps, window_candidates
 
-        if self.foreseen(j) > self.left():
+        if not self.budget.fits(self.foreseen(j)):
             raise _Late(j)
         t = time.perf_counter()
         if j not in self.opps_of:
@@ -353,7 +346,7 @@ class _WindowColumns:
 
         def ahead(scan: int) -> None:
             scanned[:] = [scan, time.perf_counter()]
-            if self.listing(scan) > self.left():
+            if not self.budget.fits(self.listing(scan)):
                 # not made, now or later: its time so far plus the listing, for foreseen(j)
                 self.whole.took[j] = scanned[1] - t + self.listing(scan)
                 raise _Late(j)
@@ -405,14 +398,9 @@ def _stack_columns(
     """``parts`` one after another, then the ``freed`` observations (the warm start maps onto
     them, so the sub-MILP never returns less than it freed). The opportunities stay where
     they are (:class:`_Stacked`): a dense orbit has tens of thousands of candidates."""
-    mine = (
-        np.array([ob.orbit for ob in freed], dtype=np.int64),
-        np.array([ob.start for ob in freed], dtype=float),
-        np.array([ob.end for ob in freed], dtype=float),
-        np.array([ob.roll for ob in freed], dtype=float),
-        OppGroups.from_groups([ob.opps for ob in freed]),
-    )
-    parts = [*parts, mine]
+    kinds = {"orbit": np.int64, "start": float, "end": float, "roll": float}
+    mine = [np.array([getattr(ob, f) for ob in freed], dtype=d) for f, d in kinds.items()]
+    parts = [*parts, (*mine, OppGroups.from_groups([ob.opps for ob in freed]))]
     cols = (np.concatenate([part[c] for part in parts]) for c in range(4))
     return (*cols, _Stacked([part[4] for part in parts]))  # type: ignore[return-value]
 
@@ -442,7 +430,8 @@ def start_stage(instance: Instance, params: Mapping[str, Any]) -> Start | None:
 
     if params.get("warm_start") is not None:
         return None
-    p = LNSParams.from_kwargs(**{k: v for k, v in params.items() if k != "warm_start"})
+    kwargs = {k: v for k, v in params.items() if k != "warm_start"}
+    p = from_kwargs(LNSParams, kwargs, method="milp-lns")
     if p.candidates == "explicit":
         candidate_mode(instance, p.candidates)
     return Start(p.start, p.start_time_limit, p.start_params or {})
@@ -487,18 +476,14 @@ def solve_milp_lns(
     from sosp.validate import validate
 
     t0 = time.perf_counter()
-    p = LNSParams.from_kwargs(**params)
-    deadline = None if time_limit is None else t0 + time_limit
-
-    def left() -> float:
-        return math.inf if deadline is None else deadline - time.perf_counter()
-
+    p = from_kwargs(LNSParams, params, method="milp-lns")
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
     # ---- start
     if warm_start is not None and not isinstance(warm_start, Schedule):
         raise InputError("warm_start: expected a Schedule")
     # explicit candidates for every orbit, or window candidates made per step (an explicit
     # request that would not fit was refused by start_stage, before the start ran)
-    windowed = candidate_mode(instance, p.candidates, deadline) == "windows"
+    windowed = candidate_mode(instance, p.candidates, budget.deadline) == "windows"
     if warm_start is not None and not validate(instance, warm_start).feasible:
         # as for ``milp``: an unusable start is ignored, not fatal
         log.warning("warm start ignored: the schedule is infeasible; starting from %s", p.start)
@@ -506,7 +491,7 @@ def solve_milp_lns(
     start_name = "warm_start"
     if warm_start is None:  # called directly, not by the pipeline: run the start stage here
         start = start_stage(instance, params)
-        first, stage = run_start(instance, start, rng, Budget.until(deadline))
+        first, stage = run_start(instance, start, rng, budget)
         warm_start, start_name = first.schedule, stage.name
     current = list(warm_start.observations)
     weight = np.asarray(instance.target_weight, dtype=np.int64)
@@ -517,9 +502,9 @@ def solve_milp_lns(
     # ---- candidates once, shared with an orbit-dp start (cached per instance by
     # sosp.candidates; not interruptible: C10 about 2.5 s); per step only a subset is used
     candidates: Any = (np.zeros(0),) * 4 + ((),)  # none when the start used the whole limit
-    if left() > 0.05 and not windowed:
+    if budget.fits(0.05) and not windowed:
         try:  # the limit holds while generating them too (they stop at the deadline)
-            candidates = cluster_candidates(instance, max_candidates=None, deadline=deadline)
+            candidates = cluster_candidates(instance, max_candidates=None, deadline=budget.deadline)
         except TimeLimitReached:
             # not ready by the deadline (foreseen: at once): the steps make window candidates
             # for the orbits they free, as where the candidates do not fit in memory
@@ -529,7 +514,7 @@ def solve_milp_lns(
     blocks = np.split(order, np.flatnonzero(np.diff(c_orbit[order])) + 1) if len(order) else []
     by_orbit: dict[int, np.ndarray] = {int(c_orbit[b[0]]): b for b in blocks}
     active = np.array(sorted(by_orbit), dtype=np.int64)
-    window_columns = _WindowColumns(instance, left)
+    window_columns = _WindowColumns(instance, budget)
     if windowed:
         active = np.flatnonzero(np.diff(instance.orbit_offsets) > 0).astype(np.int64)
     # candidates' opportunities and targets as flat arrays (CSR), to filter them per step
@@ -539,7 +524,7 @@ def solve_milp_lns(
     shared = _shared_targets(instance).astype(float)
     k = min(p.orbits, len(active))
     no_improve = p.no_improve
-    if no_improve is None and p.iterations is None and deadline is None:
+    if no_improve is None and p.iterations is None and budget.deadline is None:
         no_improve = max(1, 2 * math.ceil(len(active) / max(k, 1)))
 
     steps = improved = stale = 0
@@ -553,10 +538,11 @@ def solve_milp_lns(
         now.iteration, now.since_best, now.best = steps, stale, float(profit)
         if stop(now):
             break
-        if left() < prep_s:
+        if not budget.fits(prep_s):
             break  # not even this step's model would be built in time (windows: seconds)
         step_t0 = time.perf_counter()
         steps += 1
+        stale += 1  # until this step gains
         seed = int(active[rng.integers(len(active))])
         score = shared[seed, active] + 0.5 * rng.random(len(active))
         score[active == seed] = math.inf
@@ -583,7 +569,6 @@ def solve_milp_lns(
                 # left only shrinks): the steps go on without it, over the orbits left
                 active = active[active != late.args[0]]
                 k = min(k, len(active))
-                stale += 1
                 continue
             if len(made) > 1:
                 everything = _stack_columns([made[j] for j in sorted(chosen)], freed)
@@ -607,7 +592,6 @@ def solve_milp_lns(
                 cand = (c_start, c_end, c_roll)
                 plan = _window_plan(instance, current, seed, seed_items, cand, rng, p.window)
             if plan is None:
-                stale += 1
                 continue
             fixed, freed, sel, sub_instance = plan
             slew = "conservative"
@@ -619,17 +603,15 @@ def solve_milp_lns(
         old_value = _claims_value(instance, freed, w_sub)
         sel = sel[useful]
         if not len(sel):
-            stale += 1
             continue
         # the model's data and arrays read no clock either (3 million members: 1.7 s, and a
         # 5 s run went to 7.4 s): a model foreseen past the deadline is not built
         members = int(np.diff(c_opps.ptr)[sel].sum())
         foreseen = build.seconds(members)
-        if foreseen > left():
+        if not budget.fits(foreseen):
             # this neighbourhood is skipped, not the search: the next step draws another,
             # often smaller; the time to this decision is what the next step must fit
             prep_s = time.perf_counter() - step_t0
-            stale += 1
             continue
         build_t0 = time.perf_counter()
         data = prepare(
@@ -654,12 +636,11 @@ def solve_milp_lns(
                 x0 = start_vector(am, vals)
         out = run_highs(
             am,
-            time_limit=max(min(p.sub_time_limit, left()), 0.01),
+            time_limit=max(budget.child(p.sub_time_limit).left(), 0.01),
             threads=p.threads,
             start=x0,
             probing=False,  # probing checks HiGHS's clock rarely: 43 s under a 4.9 s limit
         )
-        stale += 1
         if out.x is None:
             continue
         sub = items_to_schedule(instance, data, [int(u) for u in np.flatnonzero(out.x > 0.5)])

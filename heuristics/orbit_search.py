@@ -133,29 +133,17 @@ def lp_start(
     left = sc.as_budget(budget).left()
     left = None if left is None else max(left, 1e-3)
     if isinstance(search, WindowSearch):
-        from models.window_bound import window_colgen_bound
+        from models.window_bound import window_colgen_bound as bound
 
-        root = window_colgen_bound(
-            instance,
-            time_limit=left,
-            expect_rounds=LP_START_ROUNDS,
-            orbits=search.data.orbits,
-            workers=workers,
-            # unbanded: a banded round is 3-4 times longer (D100: 16 s against 5 s), and
-            # LP_START_ROUNDS of them do not fit in the start's share; the start's plans are
-            # re-planned by the search anyway, only their coordination counts
-            band=None,
-        )
+        # unbanded: a banded round is 3-4 times longer (D100: 16 s against 5 s), and
+        # LP_START_ROUNDS of them do not fit in the start's share; the start's plans are
+        # re-planned by the search anyway, only their coordination counts
+        data: dict[str, Any] = {"orbits": search.data.orbits, "band": None}
     else:
-        from models.colgen import colgen_bound
+        from models.colgen import colgen_bound as bound  # type: ignore[assignment]
 
-        root = colgen_bound(
-            instance,
-            time_limit=left,
-            data=search.data,
-            workers=workers,
-            expect_rounds=LP_START_ROUNDS,
-        )
+        data = {"data": search.data}
+    root = bound(instance, time_limit=left, expect_rounds=LP_START_ROUNDS, workers=workers, **data)
     best: dict[int, tuple[float, np.ndarray]] = {}
     mark, before = len(search.journal), search.profit
     for g, targets, value, _, _ in root.get("plans", []):

@@ -77,10 +77,10 @@ from typing import Any, Literal
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
+from heuristics.stc import at_least
 from sosp.candidates import as_budget
 from sosp.clustering import TaskSet, static_cluster_tasks
 from sosp.conflicts import setup_conflict_rows
-from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.result import Result
@@ -121,10 +121,7 @@ class PBAParams(Params):
     prices: PriceRule = param("lp", "'lp': orbits priced across the parts; 'none'.")
 
     def check(self) -> None:
-        # check_types has made both integers and roll_rule one of its choices
-        for name in ("max_part", "node_limit"):
-            if getattr(self, name) < 1:
-                raise InputError(f"{name}: expected an integer >= 1, got {getattr(self, name)!r}")
+        at_least(self, max_part=1, node_limit=1)
 
 
 @dataclass
@@ -340,24 +337,18 @@ def lp_prices(instance: Instance, pp: PartProblem, time_limit: float | None = No
         entries.append((r, nt + r, 1.0))
         entries += [(r, col[t], -1.0) for t in pp.options[k]]
     capped, cliques = orbit_cliques(instance, pp)
-    rhs = [0.0] * nk
-    orbit_row: dict[int, int] = {}
-    for j in capped:
-        orbit_row[j] = len(rhs)
-        rhs.append(float(pp.openings[j]))
+    orbit_row = {j: nk + i for i, j in enumerate(capped)}
+    rhs = [0.0] * nk + [float(pp.openings[j]) for j in capped]
     task_row = {t: orbit_row.get(int(tk.orbit[t])) for t in usable}  # its orbit's (6) row
     entries += [(r, col[t], 1.0) for t, r in task_row.items() if r is not None]
     first_clique = len(rhs)
-    for members in cliques:
-        entries += [(len(rhs), col[t], 1.0) for t in members]
-        rhs.append(1.0)
+    entries += [(first_clique + q, col[t], 1.0) for q, ts in enumerate(cliques) for t in ts]
+    rhs += [1.0] * len(cliques)
     rows, cols, vals = zip(*entries, strict=True)
     a = coo_matrix((vals, (rows, cols)), shape=(len(rhs), nt + nk)).tocsr()
     cost = np.zeros(nt + nk)
     cost[nt:] = [-float(pp.weight[k]) for k in pp.targets]
-    options: dict[str, Any] = {}
-    if time_limit is not None:
-        options["time_limit"] = max(float(time_limit), 0.0)
+    options = {} if time_limit is None else {"time_limit": max(float(time_limit), 0.0)}
     res = linprog(cost, A_ub=a, b_ub=rhs, bounds=(0.0, 1.0), method="highs", options=options)
     if res.status != 0 or res.ineqlin is None:
         log.warning("pba: LP not solved (%s); parts without prices", res.message)

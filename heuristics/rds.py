@@ -117,7 +117,6 @@ from heuristics.hpfs import insertion_decode, task_result
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp import rules
 from sosp.clustering import TaskSet, single_tasks, static_cluster_tasks
-from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.progress import current as current_progress
@@ -464,15 +463,9 @@ def _restrict(instance: Instance, tasks: TaskSet, keep: list[int], fixed: list[i
     tw = instance.target_weight
     targets = tuple(tuple(k for k in tasks.targets[t] if int(k) not in covered) for t in keep)
     sel = np.asarray(keep, dtype=np.int64)
-    return TaskSet(
-        orbit=tasks.orbit[sel],
-        start=tasks.start[sel],
-        end=tasks.end[sel],
-        roll=tasks.roll[sel],
-        weight=np.asarray([sum(int(tw[k]) for k in ks) for ks in targets], dtype=np.int64),
-        opps=tuple(tasks.opps[t] for t in keep),
-        targets=targets,
-    )
+    weight = np.asarray([sum(int(tw[k]) for k in ks) for ks in targets], dtype=np.int64)
+    times = (tasks.orbit[sel], tasks.start[sel], tasks.end[sel], tasks.roll[sel])
+    return TaskSet(*times, weight, tuple(tasks.opps[t] for t in keep), targets)
 
 
 def search_order(tasks: TaskSet, items: list[int], order: Order) -> list[int]:
@@ -1015,10 +1008,6 @@ def russian_doll(
         The best selection, its value, whether it is proven optimal, and an upper bound.
     """
     budget = Budget.of(time_limit)
-    if order not in ("orbit", "weight"):
-        raise InputError(f"order: expected 'orbit' or 'weight', got {order!r}")
-    if variables not in ("targets", "tasks"):
-        raise InputError(f"variables: expected 'targets' or 'tasks', got {variables!r}")
     # Tasks that can never be scheduled: no weight, or infeasible alone ((4)-(6), (11)).
     alone = fits_alone(instance, tasks)
     usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
@@ -1090,9 +1079,7 @@ def russian_doll(
     chosen = sorted(fixed + [back[t] for o in outcomes for t in o.chosen])
     value = fixed_value + sum(o.value for o in outcomes)
     proven = all(o.proven for o in outcomes)
-    bound = fixed_value + sum(o.bound for o in outcomes)
-    if proven:
-        bound = value
+    bound = value if proven else fixed_value + sum(o.bound for o in outcomes)
     return RdsOutcome(chosen, value, proven, bound, outcomes)
 
 
@@ -1112,16 +1099,7 @@ def _result(
         "nodes": sum(c.nodes for c in out.components),
     }
     status = Status.OPTIMAL if out.proven else Status.TIME_LIMIT
-    log.info(
-        "%s: %s, profit %d, bound %d, %d components (largest %d), %d nodes",
-        method,
-        status.value,
-        out.value,
-        out.bound,
-        stats["components"],
-        stats["largest_component"],
-        stats["nodes"],
-    )
+    log.info("%s: %s, profit %d, bound %d, %s", method, status.value, out.value, out.bound, stats)
     chosen, bound = out.chosen, float(out.bound)
     return task_result(method, instance, tasks, chosen, out.value, status, bound=bound, stats=stats)
 

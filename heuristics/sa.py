@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
-from heuristics.stc import Watch
+from heuristics.stc import Watch, at_least
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import static_cluster_tasks
 from sosp.errors import InputError
@@ -79,10 +79,7 @@ class SAParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        if self.iterations < 0:
-            raise InputError(
-                f"iterations: expected a non-negative integer, got {self.iterations!r}"
-            )
+        at_least(self, iterations=0)
 
 
 def solve_sa_stc(
@@ -162,15 +159,13 @@ def solve_sa_stc(
         for k in tg[t]:
             if cover[k] == 0:
                 g += twl[k]
-        if g > 0:
-            line = lines[orb[t]]
-            chk = line.check_insert(ent[t])
-            if chk:
-                line.insert(ent[t], chk)
-                for k in tg[t]:
-                    cover[k] += 1
-                return g
-        return 0
+        chk = lines[orb[t]].check_insert(ent[t]) if g > 0 else None
+        if not chk:
+            return 0
+        lines[orb[t]].insert(ent[t], chk)
+        for k in tg[t]:
+            cover[k] += 1
+        return g
 
     # Initial decode (HPFS order) leaves the cursor at n.
     total = 0

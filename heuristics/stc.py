@@ -18,7 +18,6 @@ methods need:
 from __future__ import annotations
 
 import logging
-import math
 import sys
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -39,19 +38,18 @@ log = logging.getLogger(__name__)
 
 
 # ------------------------------------------------------------------------------- parameters
-def check_int(name: str, value: Any, minimum: int, optional: bool = False) -> None:
-    """``value`` is an integer >= ``minimum`` (or None when ``optional``), else InputError."""
-    if value is None and optional:
-        return
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
+def at_least(params: Any, **minimum: int) -> None:
+    """Each named field of ``params`` (an integer or None, as
+    :func:`sosp.params.check_types` made it) is None or at least its ``minimum``."""
+    for name, lo in minimum.items():
+        if (value := getattr(params, name)) is not None and value < lo:
+            raise InputError(f"{name}: expected an integer >= {lo}, got {value!r}")
 
 
 def check_float(name: str, value: Any, lo: float, hi: float, lo_open: bool = False) -> None:
-    """``value`` is a finite number in [lo, hi] (``(lo, hi]`` with ``lo_open``)."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise InputError(f"{name}: expected a finite number, got {value!r}")
-    if value > hi or value < lo or (lo_open and value == lo):
+    """``value`` (a number, as :func:`sosp.params.check_types` made it) lies in [lo, hi]
+    (``(lo, hi]`` with ``lo_open``); NaN and infinities never do."""
+    if not (lo < value <= hi if lo_open else lo <= value <= hi):
         left = "(" if lo_open else "["
         raise InputError(f"{name}: must lie in {left}{lo:g}, {hi:g}], got {value!r}")
 
@@ -167,9 +165,8 @@ def stc_data(instance: Instance, roll_rule: RollRule = "midpoint") -> StcData:
     alone = fits_alone(instance, tasks)
     usable = [t for t in range(len(tasks)) if tasks.weight[t] > 0 and alone[t]]
     usable_arr = np.array(usable, dtype=np.int64)
-    orbit_tasks: dict[int, np.ndarray] = {}
-    for j in np.unique(tasks.orbit[usable_arr]) if len(usable_arr) else []:
-        orbit_tasks[int(j)] = usable_arr[tasks.orbit[usable_arr] == j]
+    on = tasks.orbit[usable_arr]
+    orbit_tasks = {int(j): usable_arr[on == j] for j in np.unique(on)}
     j = tasks.orbit
     cost = resource_cost(instance, tasks) if len(tasks) else np.zeros(0)
     utility = np.asarray(tasks.weight, dtype=float) / cost if len(tasks) else np.zeros(0)

@@ -12,7 +12,7 @@ the search uses a dynamic tabu tenure, aspiration, intensification and diversifi
 The formulation here (``docs/baselines.md``, section TS-STC, states every choice)
     one 0/1 variable per usable static cluster-task
     (:func:`sosp.clustering.static_cluster_tasks`); binary constraints: the setup-time
-    conflicts (3) between tasks of one orbit (:func:`sosp.conflicts.setup_conflict_pairs`,
+    conflicts (3) between tasks of one orbit (:func:`sosp.conflicts.setup_conflict_rows`,
     exact pairwise, ``docs/model.md``); knapsacks per orbit: memory (5), energy (4) with its
     consecutive slew term, openings (6), all checked by
     :class:`heuristics.timeline.OrbitTimeline`. No ternary constraints (the paper's
@@ -55,10 +55,10 @@ from typing import Any
 import numpy as np
 
 from heuristics.hpfs import insertion_decode, priority_order, task_result
-from heuristics.stc import Watch, check_int
+from heuristics.stc import Watch, at_least
 from heuristics.timeline import OrbitTimeline, fits_alone, task_entries
 from sosp.clustering import TaskSet, static_cluster_tasks
-from sosp.conflicts import setup_conflict_pairs
+from sosp.conflicts import setup_conflict_rows
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
@@ -96,10 +96,7 @@ class TSParams(Params):
     roll_rule: RollRule = param("midpoint", "Roll of cluster-tasks: 'midpoint' (9) or 'nadir'.")
 
     def check(self) -> None:
-        check_int("iterations", self.iterations, 0)
-        check_int("tenure_min", self.tenure_min, 0)
-        check_int("restart_after", self.restart_after, 1)
-        check_int("perturb", self.perturb, 0)
+        at_least(self, iterations=0, tenure_min=0, restart_after=1, perturb=0)
         tf = self.tenure_freq  # a number (Params.check_types); nan fails the range too
         if not 0 <= tf < 1e6:
             raise InputError(f"tenure_freq: expected a number in [0, 1e6), got {tf!r}")
@@ -150,13 +147,10 @@ class TabuSearch:
         self.tg = [tasks.targets[t] for t in usable]
         self.tw = [int(x) for x in instance.target_weight]
         idx = np.array(usable, dtype=np.int64)
-        pairs = setup_conflict_pairs(
+        indptr, indices = setup_conflict_rows(
             instance, tasks.orbit[idx], tasks.start[idx], tasks.end[idx], tasks.roll[idx]
         )
-        self.conf: list[list[int]] = [[] for _ in range(n)]
-        for a, b in pairs.tolist():
-            self.conf[a].append(b)
-            self.conf[b].append(a)
+        self.conf = [part.tolist() for part in np.split(indices, indptr[1:-1])]
         self.orbit_tasks: dict[int, list[int]] = {}
         self.target_tasks: dict[int, list[int]] = {}
         for i in range(n):

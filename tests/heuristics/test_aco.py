@@ -23,6 +23,7 @@ from heuristics.aco import (
 from heuristics.stc import Selection, stc_data
 from sosp.errors import InputError
 from sosp.instance import Instance, Resources
+from sosp.params import from_kwargs
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import scenario, small_instances
@@ -252,10 +253,14 @@ def test_local_search_climbs_to_a_local_optimum() -> None:
 
 # ------------------------------------------------------------------------------- parameters
 def test_params_from_command_line_strings() -> None:
-    p = ACOParams.from_kwargs(ants="5", rho="0.5", local_search="false", alpha=2)
+    p = from_kwargs(
+        ACOParams,
+        {"ants": "5", "rho": "0.5", "local_search": "false", "alpha": 2},
+        method="aco-stc",
+    )
     assert (p.ants, p.rho, p.local_search, p.alpha) == (5, 0.5, False, 2.0)
     assert isinstance(p.alpha, float)
-    q = ACOLSParams.from_kwargs()
+    q = from_kwargs(ACOLSParams, {}, method="aco-ls-stc")
     assert (q.ants, q.rho, q.q0, q.local_search) == (10, 0.2, 0.0, True)
 
 
@@ -276,7 +281,7 @@ def test_params_from_command_line_strings() -> None:
 )
 def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
     with pytest.raises(InputError, match=field):
-        ACOParams.from_kwargs(**kwargs)
+        from_kwargs(ACOParams, kwargs, method="aco-stc")
 
 
 @pytest.mark.parametrize("method", METHODS)

@@ -13,6 +13,7 @@ from heuristics.stc import stc_data
 from sosp.clustering import tasks_to_schedule
 from sosp.errors import InputError
 from sosp.instance import Instance
+from sosp.params import from_kwargs
 from sosp.solve import solve
 from sosp.validate import validate
 from tests.conftest import small_instances
@@ -131,7 +132,9 @@ def test_tournament_returns_the_fittest_drawn() -> None:
 
 # ------------------------------------------------------------------------------- parameters
 def test_params_from_command_line_strings() -> None:
-    p = GAParams.from_kwargs(population="50", mutation_bits="0", roll_rule="nadir")
+    p = from_kwargs(
+        GAParams, {"population": "50", "mutation_bits": "0", "roll_rule": "nadir"}, method="ga-stc"
+    )
     assert (p.population, p.mutation_bits, p.roll_rule) == (50, 0, "nadir")
 
 
@@ -150,7 +153,7 @@ def test_params_from_command_line_strings() -> None:
 )
 def test_bad_params_name_the_field(kwargs: dict, field: str) -> None:
     with pytest.raises(InputError, match=field):
-        GAParams.from_kwargs(**kwargs)
+        from_kwargs(GAParams, kwargs, method="ga-stc")
 
 
 def test_a_stop_request_ends_the_ga_with_its_best(c1) -> None:

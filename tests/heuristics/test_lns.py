@@ -16,6 +16,7 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.result import Status
 from sosp.schedule import Schedule
 from sosp.solve import solve
+from sosp.stop import Budget
 from sosp.validate import validate
 from tests.conftest import TINY, tiny_two_orbits
 from tests.heuristics.test_asa import small_instances
@@ -358,27 +359,26 @@ def test_window_columns_are_not_started_when_foreseen_late() -> None:
 
     inst = tiny_two_orbits()
     price = np.asarray(inst.target_weight, dtype=float)
-    time_left = [0.0]
-    cols = _WindowColumns(inst, lambda: time_left[0])
+    cols = _WindowColumns(inst, Budget.of(0.0))
     busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
     assert cols.foreseen(busy[0]) == WINDOW_S_PER_PAIR * orbit_pairs(inst, busy[0]) > 0
     with pytest.raises(_Late) as late:
         cols(busy[0], price)  # nothing timed yet: foreseen at the prior rate, not made
     assert late.value.args[0] == busy[0] and not cols.whole.took
-    time_left[0] = 10.0
+    cols.budget = Budget.of(10.0)
     orbit, *_ = cols(busy[0], price)
     assert set(orbit.tolist()) <= {busy[0]} and cols.whole.rate >= WINDOW_S_PER_PAIR
     cols.whole.took[busy[0]] = 5.0
-    time_left[0] = 4.0
+    cols.budget = Budget.of(4.0)
     with pytest.raises(_Late):
         cols(busy[0], price)  # its own last time does not fit
-    fresh = _WindowColumns(inst, lambda: 1e9)
+    fresh = _WindowColumns(inst, Budget())
     fresh.whole.record("other", 1e12, 1e-3)  # a rate below the prior: the prior stands
     assert fresh.foreseen(busy[-1]) == WINDOW_S_PER_PAIR * orbit_pairs(inst, busy[-1])
     cols.whole.record("other", 1, 10.0)  # 10 s per pair: the other orbit is foreseen late
     with pytest.raises(_Late):
         cols(busy[-1], price)
-    time_left[0] = 1e9
+    cols.budget = Budget()
     cols(busy[-1], price)
 
 
@@ -398,14 +398,14 @@ def test_window_members_are_not_listed_when_foreseen_late(monkeypatch) -> None:
     real = sw._member_lists
     monkeypatch.setattr(sw, "_member_lists", lambda *a: listed.append(1) or real(*a))
     monkeypatch.setattr(lns, "WINDOW_S_PER_SCAN", 1e3)  # 1,000 s an opportunity read
-    cols = lns._WindowColumns(inst, lambda: 100.0)
+    cols = lns._WindowColumns(inst, Budget.of(100.0))
     busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
     assert cols.foreseen(busy[0]) < 100.0  # the sweep is in time
     with pytest.raises(lns._Late):
         cols(busy[0], price)
     assert listed == [] and cols.whole.took[busy[0]] > 100.0 and not cols.scan.took
     monkeypatch.setattr(lns, "WINDOW_S_PER_SCAN", 1e-12)
-    cols = lns._WindowColumns(inst, lambda: 100.0)
+    cols = lns._WindowColumns(inst, Budget.of(100.0))
     cols(busy[-1], price)
     assert listed == [1] and cols.scan.rate > 1e-12
     assert cols.listing(10**6) == pytest.approx(cols.scan.rate * 10**6)
@@ -546,7 +546,7 @@ def test_window_columns_beyond_the_members_cap_leave_the_orbit_out(monkeypatch) 
 
     inst = tiny_two_orbits()
     price = np.asarray(inst.target_weight, dtype=float)
-    cols = _WindowColumns(inst, lambda: 1e9)
+    cols = _WindowColumns(inst, Budget())
     busy = [j for j in range(inst.n_orbits) if cols.n_opps[j]]
     monkeypatch.setattr(sw, "MAX_WINDOW_MEMBERS", 0)
     with pytest.raises(sw.TooManyMembers):
