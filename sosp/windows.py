@@ -389,15 +389,13 @@ class OrbitOpps:
 def orbit_opps(instance: Instance, j: int) -> OrbitOpps:
     """The :class:`OrbitOpps` of orbit ``j``."""
     sl = instance.orbit_opps(j)
+    cols = (getattr(instance, f"opp_{k}")[sl] for k in ("start", "end", "roll_min", "roll_max"))
     return OrbitOpps(
-        orbit=j,
-        first=int(sl.start),
-        start=np.ascontiguousarray(instance.opp_start[sl], dtype=float),
-        end=np.ascontiguousarray(instance.opp_end[sl], dtype=float),
-        roll_min=np.ascontiguousarray(instance.opp_roll_min[sl], dtype=float),
-        roll_max=np.ascontiguousarray(instance.opp_roll_max[sl], dtype=float),
-        target=np.asarray(instance.opp_target[sl], dtype=np.int64),
-        rules=orbit_rules(instance, j),
+        j,
+        int(sl.start),
+        *(np.ascontiguousarray(c, dtype=float) for c in cols),
+        np.asarray(instance.opp_target[sl], dtype=np.int64),
+        orbit_rules(instance, j),
     )
 
 
