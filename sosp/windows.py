@@ -211,11 +211,10 @@ def _sweep(
     n = len(ts)
     n_out = 0
     first_same = 0
-    # scratch, grown to the largest window
-    cap = 16
-    idx = np.empty(cap, dtype=np.int64)
-    a_of = np.empty(cap)
-    b_of = np.empty(cap)
+    # scratch for one window (at most every opportunity)
+    idx = np.empty(n, dtype=np.int64)
+    a_of = np.empty(n)
+    b_of = np.empty(n)
     for i in range(n):
         if i > 0 and ts[i] != ts[i - 1]:
             first_same = i
@@ -232,15 +231,6 @@ def _sweep(
                 a = max(lo[j], lo_i)
                 b = min(hi[j], hi_i)
                 if a <= b + eps:
-                    if m == cap:
-                        cap *= 2
-                        idx2 = np.empty(cap, dtype=np.int64)
-                        a2 = np.empty(cap)
-                        b2 = np.empty(cap)
-                        idx2[:m] = idx[:m]
-                        a2[:m] = a_of[:m]
-                        b2[:m] = b_of[:m]
-                        idx, a_of, b_of = idx2, a2, b2
                     idx[m] = j
                     a_of[m] = a
                     b_of[m] = b if b >= a else a
