@@ -382,14 +382,10 @@ class WindowSearch(OrbitSearch):
         for g, obs in sorted(by_orbit.items()):
             obs.sort(key=lambda ob: ob.start)
             opps = OppGroups.from_groups([ob.opps for ob in obs])
-            plan = WindowPlan(
-                start=np.array([ob.start for ob in obs], dtype=float),
-                end=np.array([ob.end for ob in obs], dtype=float),
-                roll=np.array([ob.roll for ob in obs], dtype=float),
-                opps=opps,
-                targets=np.unique(target[opps.flat]),
+            cols = (
+                np.array([getattr(ob, k) for ob in obs], float) for k in ("start", "end", "roll")
             )
-            self._set(g, plan)
+            self._set(g, WindowPlan(*cols, opps, np.unique(target[opps.flat])))
         self.journal.clear()
         # a plan set from outside is no optimum at the search's prices (_set assumed so): the
         # ascent must re-plan every orbit, each only where it gains (left clean, HPFS-STC's

@@ -585,18 +585,16 @@ def cluster_candidates(
     del part
     # Copy the orbits' columns into whole-instance ones, freeing each orbit's as it is copied
     # (peak: the whole plus one orbit), then make the orbits' entries views of the whole.
-    n_items = total
-    n_flat = sum(len(p.opps.flat) for p in parts)
-    orbit = np.empty(n_items, dtype=np.int64)
-    start, end, roll = np.empty(n_items), np.empty(n_items), np.empty(n_items)
-    ptr = np.zeros(n_items + 1, dtype=np.int64)
-    flat = np.empty(n_flat, dtype=np.int32)
+    orbit = np.empty(total, dtype=np.int64)
+    start, end, roll = np.empty(total), np.empty(total), np.empty(total)
+    ptr = np.zeros(total + 1, dtype=np.int64)
+    flat = np.empty(sum(len(p.opps.flat) for p in parts), dtype=np.int32)
     spans = []
-    at = at_flat = 0
+    b = 0
     for k in range(len(parts)):
         p = parts[k]
-        a, b = at, at + p.size
-        fa, fb = at_flat, at_flat + len(p.opps.flat)
+        a, b = b, b + p.size
+        fa, fb = ptr[a], ptr[a] + len(p.opps.flat)
         orbit[a:b] = p.orbit
         start[a:b], end[a:b], roll[a:b] = p.start, p.end, p.roll
         ptr[a + 1 : b + 1] = p.opps.ptr[1:] + fa
@@ -605,7 +603,6 @@ def cluster_candidates(
         parts[k] = None  # type: ignore[call-overload]
         store.pop(p.orbit, None)
         del p
-        at, at_flat = b, fb
     opps = OppGroups(ptr, flat)
     for column in (orbit, start, end, roll, opps.ptr, opps.flat):
         column.flags.writeable = False

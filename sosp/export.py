@@ -44,17 +44,8 @@ log = logging.getLogger(__name__)
 FORMATS = ("csv", "kml", "czml")
 
 #: Columns of the CSV export.
-CSV_COLUMNS = (
-    "observation",
-    "satellite",
-    "orbit",
-    "start_utc",
-    "end_utc",
-    "roll_deg",
-    "target",
-    "lat",
-    "lon",
-    "weight",
+CSV_COLUMNS = tuple(
+    "observation satellite orbit start_utc end_utc roll_deg target lat lon weight".split()
 )
 
 #: Seconds between points of a satellite path.

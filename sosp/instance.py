@@ -358,32 +358,31 @@ class Instance:
                 raise InputError(
                     f"{table}.{key}: expected {n} values, got {arr.size}", source=source
                 )
-            bad = np.flatnonzero(~np.isfinite(arr))
-            if bad.size:
-                raise InputError(
-                    f"{table}[{bad[0]}].{key}: expected a finite number, got {arr[bad[0]]}",
-                    source=source,
-                )
+            first(~np.isfinite(arr), f".{key}: expected a finite number, got %s", table, arr)
             return arr
 
-        def first(mask: np.ndarray, msg: str, table: str = "opportunities") -> None:
+        def first(
+            mask: np.ndarray, msg: str, table: str = "opportunities", got: Any = None
+        ) -> None:
+            """Refuse the first row of ``table`` where ``mask`` holds: ``msg`` after
+            ``table[row]``, with ``%`` the row's entry of ``got`` when given."""
             bad = np.flatnonzero(mask)
             if bad.size:
-                raise InputError(f"{table}[{bad[0]}]: {msg}", source=source)
+                text = msg if got is None else msg % got[bad[0]]
+                raise InputError(f"{table}[{bad[0]}]{text}", source=source)
 
         tid = _ids(target_ids, "targets", source)
         lat = col(target_lat, "targets", "lat", n_t)
         lon = col(target_lon, "targets", "lon", n_t)
         w_raw = col(target_weight, "targets", "weight", n_t)
-        _range_check(lat, -90.0, 90.0, "targets", "lat", source)
-        _range_check(lon, -180.0, 360.0, "targets", "lon", source)
-        bad = np.flatnonzero((w_raw < 0) | (w_raw > MAX_WEIGHT) | (w_raw != np.round(w_raw)))
-        if bad.size:
-            raise InputError(
-                f"targets[{bad[0]}].weight: expected an integer in [0, {MAX_WEIGHT:.0e}], "
-                f"got {w_raw[bad[0]]:g}",
-                source=source,
-            )
+        for key, a, lo, hi in (("lat", lat, -90.0, 90.0), ("lon", lon, -180.0, 360.0)):
+            first((a < lo) | (a > hi), f".{key}: %g is outside [{lo:g}, {hi:g}]", "targets", a)
+        first(
+            (w_raw < 0) | (w_raw > MAX_WEIGHT) | (w_raw != np.round(w_raw)),
+            f".weight: expected an integer in [0, {MAX_WEIGHT:.0e}], got %g",
+            "targets",
+            w_raw,
+        )
         weight = w_raw.astype(np.int64)
 
         oid = _ids(orbit_ids, "orbits", source)
@@ -392,7 +391,7 @@ class Instance:
             raise InputError(f"orbits.satellite: expected {n_o} values", source=source)
         o_start = col(orbit_start, "orbits", "start", n_o)
         o_end = col(orbit_end, "orbits", "end", n_o)
-        first(o_start >= o_end, "start must be < end", "orbits")
+        first(o_start >= o_end, ": start must be < end", "orbits")
 
         if not isinstance(resources, Mapping):
             resources = asdict(resources or Resources())
@@ -413,12 +412,8 @@ class Instance:
         opp = {k: col(v, "opportunities", k, n_p) for k, v in zip(OPP_KEYS, values, strict=True)}
         for key, n in (("target", n_t), ("orbit", n_o)):
             arr = opp[key]
-            bad = np.flatnonzero((arr < 0) | (arr >= n) | (arr != np.round(arr)))
-            if bad.size:
-                raise InputError(
-                    f"opportunities[{bad[0]}].{key}: unknown {key} index {arr[bad[0]]:g}",
-                    source=source,
-                )
+            bad = (arr < 0) | (arr >= n) | (arr != np.round(arr))
+            first(bad, f".{key}: unknown {key} index %g", "opportunities", arr)
             # int32 indices: half the memory of int64 on instances with millions of opportunities
             opp[key] = arr.astype(INDEX_DTYPE)
         pid = _ids(opp_ids, "opportunities", source) if opp_ids is not None else None
@@ -427,15 +422,16 @@ class Instance:
 
         p_start, p_end, p_orbit = opp["start"], opp["end"], opp["orbit"]
         roll, rmin, rmax = opp["roll"], opp["roll_min"], opp["roll_max"]
-        first(p_start >= p_end, "start must be < end")
+        first(p_start >= p_end, ": start must be < end")
         first(
-            (rmin > roll + DATA_TOL) | (roll > rmax + DATA_TOL), "need roll_min <= roll <= roll_max"
+            (rmin > roll + DATA_TOL) | (roll > rmax + DATA_TOL),
+            ": need roll_min <= roll <= roll_max",
         )
-        first((np.abs(rmin) > 90) | (np.abs(rmax) > 90), "roll range must lie in [-90, 90] deg")
+        first((np.abs(rmin) > 90) | (np.abs(rmax) > 90), ": roll range must lie in [-90, 90] deg")
         if n_p:
             first(
                 (p_start < o_start[p_orbit] - DATA_TOL) | (p_end > o_end[p_orbit] + DATA_TOL),
-                "window must lie inside its orbit's [start, end]",
+                ": window must lie inside its orbit's [start, end]",
             )
 
         order: np.ndarray | slice
@@ -921,16 +917,6 @@ def _numbers(values: list[Any], table: str, key: str, source: str | None) -> Non
             raise InputError(
                 f"{table}[{r}].{key}: expected a finite number, got {v!r}", source=source
             )
-
-
-def _range_check(
-    a: np.ndarray, lo: float, hi: float, table: str, key: str, source: str | None
-) -> None:
-    bad = np.flatnonzero((a < lo) | (a > hi))
-    if bad.size:
-        raise InputError(
-            f"{table}[{bad[0]}].{key}: {a[bad[0]]:g} is outside [{lo:g}, {hi:g}]", source=source
-        )
 
 
 def _table(

@@ -435,21 +435,10 @@ def from_elements(
         raise InputError(f"{name}: inclination must be in [0, 180] deg, got {inclination}")
     jd, fr = parse_epoch(epoch)
     sat = Satrec()
-    sat.sgp4init(
-        WGS72,
-        "i",
-        int(norad),
-        (jd - _JD_1949) + fr,
-        float(bstar),
-        0.0,
-        0.0,
-        float(eccentricity),
-        math.radians(arg_perigee),
-        math.radians(inclination),
-        math.radians(mean_anomaly),
-        mean_motion * 2.0 * math.pi / 1440.0,
-        math.radians(raan % 360.0),
-    )
+    no_kozai = mean_motion * 2.0 * math.pi / 1440.0  # radians per minute
+    angles = map(math.radians, (arg_perigee, inclination, mean_anomaly))
+    elements = (float(eccentricity), *angles, no_kozai, math.radians(raan % 360.0))
+    sat.sgp4init(WGS72, "i", int(norad), (jd - _JD_1949) + fr, float(bstar), 0.0, 0.0, *elements)
     if sat.error:
         raise InputError(f"{name}: sgp4init rejects the elements (error {sat.error})")
     return Satellite(name, sat, int(norad), note)

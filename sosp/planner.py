@@ -363,17 +363,7 @@ def _arrange(
     t_all, g_all = np.concatenate(seen_t), np.concatenate(seen_g)
     by_target = np.lexsort((g_all, t_all))
     tptr = offsets(np.bincount(t_all, minlength=instance.n_targets))
-    return OrbitData(
-        instance=instance,
-        orbit=orbit,
-        start=start,
-        end=end,
-        roll=roll,
-        opps=opps,
-        orbits=tuple(groups),
-        target_orbits_ptr=tptr,
-        target_orbits=g_all[by_target],
-    )
+    return OrbitData(instance, orbit, start, end, roll, opps, tuple(groups), tptr, g_all[by_target])
 
 
 def _arrange_time_up(instance: Instance, j: int, n_items: int) -> TimeLimitReached:

@@ -116,14 +116,9 @@ def recursion(
     lasts = np.full(m, last) if np.ndim(last) == 0 else last
     order = np.arange(m) if by_release is None else by_release
     kernel = run if run is not None else lambda *args: levels()(*args, 1)  # sweep, then levels
-    value, path = kernel(
-        np.ascontiguousarray(g, dtype=np.float64),
-        np.ascontiguousarray(firsts, dtype=np.float64),
-        np.ascontiguousarray(lasts, dtype=np.float64),
-        np.ascontiguousarray(order, dtype=np.int64),
-        np.ascontiguousarray(n_before, dtype=np.int64),
-        cap,
-    )
+    f8, i8 = np.float64, np.int64
+    columns = ((g, f8), (firsts, f8), (lasts, f8), (order, i8), (n_before, i8))
+    value, path = kernel(*(np.ascontiguousarray(c, dtype=t) for c, t in columns), cap)
     if not value > empty:
         return empty, np.zeros(0, dtype=np.int64)
     return value, path

@@ -211,11 +211,10 @@ def _sweep(
     n = len(ts)
     n_out = 0
     first_same = 0
-    # scratch, grown to the largest window
-    cap = 16
-    idx = np.empty(cap, dtype=np.int64)
-    a_of = np.empty(cap)
-    b_of = np.empty(cap)
+    # scratch for one window (at most every opportunity)
+    idx = np.empty(n, dtype=np.int64)
+    a_of = np.empty(n)
+    b_of = np.empty(n)
     for i in range(n):
         if i > 0 and ts[i] != ts[i - 1]:
             first_same = i
@@ -232,15 +231,6 @@ def _sweep(
                 a = max(lo[j], lo_i)
                 b = min(hi[j], hi_i)
                 if a <= b + eps:
-                    if m == cap:
-                        cap *= 2
-                        idx2 = np.empty(cap, dtype=np.int64)
-                        a2 = np.empty(cap)
-                        b2 = np.empty(cap)
-                        idx2[:m] = idx[:m]
-                        a2[:m] = a_of[:m]
-                        b2[:m] = b_of[:m]
-                        idx, a_of, b_of = idx2, a2, b2
                     idx[m] = j
                     a_of[m] = a
                     b_of[m] = b if b >= a else a
@@ -389,15 +379,13 @@ class OrbitOpps:
 def orbit_opps(instance: Instance, j: int) -> OrbitOpps:
     """The :class:`OrbitOpps` of orbit ``j``."""
     sl = instance.orbit_opps(j)
+    cols = (getattr(instance, f"opp_{k}")[sl] for k in ("start", "end", "roll_min", "roll_max"))
     return OrbitOpps(
-        orbit=j,
-        first=int(sl.start),
-        start=np.ascontiguousarray(instance.opp_start[sl], dtype=float),
-        end=np.ascontiguousarray(instance.opp_end[sl], dtype=float),
-        roll_min=np.ascontiguousarray(instance.opp_roll_min[sl], dtype=float),
-        roll_max=np.ascontiguousarray(instance.opp_roll_max[sl], dtype=float),
-        target=np.asarray(instance.opp_target[sl], dtype=np.int64),
-        rules=orbit_rules(instance, j),
+        j,
+        int(sl.start),
+        *(np.ascontiguousarray(c, dtype=float) for c in cols),
+        np.asarray(instance.opp_target[sl], dtype=np.int64),
+        orbit_rules(instance, j),
     )
 
 
