@@ -94,36 +94,33 @@ def _scenario_order(name: str) -> tuple[int, str, int, str]:
     return (0 if g else 1, g, int(name[1:]) if g else 0, name)
 
 
-def _mean(xs: list[float]) -> float:
-    return sum(xs) / len(xs) if xs else math.nan
+#: What a :class:`Cell` keeps of each counted run: its profit, observed targets, run time and
+#: profit per unit of energy and of memory.
+MEASURES = ("profit", "observed", "runtime", "per_energy", "per_memory")
 
 
 @dataclass
 class Cell:
-    """The runs of one method on one scenario (errors and infeasible schedules left out)."""
+    """The runs of one method on one scenario (errors and infeasible schedules left out):
+    each of :data:`MEASURES` per run."""
 
-    profits: list[float] = field(default_factory=list)
-    observed: list[float] = field(default_factory=list)
-    runtimes: list[float] = field(default_factory=list)
-    per_energy: list[float] = field(default_factory=list)
-    per_memory: list[float] = field(default_factory=list)
+    runs: dict[str, list[float]] = field(default_factory=lambda: {m: [] for m in MEASURES})
     failed: int = 0
     infeasible: int = 0
 
     @property
     def n(self) -> int:
-        return len(self.profits)
+        return len(self.runs["profit"])
 
-    mean_profit = property(lambda self: _mean(self.profits))
-    mean_observed = property(lambda self: _mean(self.observed))
-    mean_runtime = property(lambda self: _mean(self.runtimes))
-    mean_per_energy = property(lambda self: _mean(self.per_energy))
-    mean_per_memory = property(lambda self: _mean(self.per_memory))
+    def mean(self, measure: str) -> float:
+        """The mean of ``measure`` (one of :data:`MEASURES`) over the runs (NaN without)."""
+        return sum(self.runs[measure]) / self.n if self.n else math.nan
 
     @property
     def sd(self) -> float:
         """Sample standard deviation of the profits (0 for a single run)."""
-        return statistics.stdev(self.profits) if self.n > 1 else (0.0 if self.n else math.nan)
+        profits = self.runs["profit"]
+        return statistics.stdev(profits) if self.n > 1 else (0.0 if self.n else math.nan)
 
 
 @dataclass
@@ -139,10 +136,9 @@ class Summary:
     exact: dict[str, tuple[float, int]] = field(default_factory=dict)
     best: dict[str, float] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*).
-    method_bound: dict[tuple[str, str], float] = field(default_factory=dict)
-    #: Per (scenario, label): the count stored with that least bound (PBA-STC's F*), if any.
-    method_bound_count: dict[tuple[str, str], int] = field(default_factory=dict)
+    #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*) and the
+    #: count stored with it (PBA-STC's F*; None in databases of schema 1).
+    method_bound: dict[tuple[str, str], tuple[float, int | None]] = field(default_factory=dict)
     #: Per (scenario, label): the profit and count of a run that proved optimality (RDS-STC).
     method_exact: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
 
@@ -203,12 +199,8 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         if r["bound"] is not None:
             if full:
                 sm.bound[s] = min(sm.bound.get(s, math.inf), float(r["bound"]))
-            if float(r["bound"]) < sm.method_bound.get(key, math.inf):
-                sm.method_bound[key] = float(r["bound"])
-                if r.get("bound_count") is not None:  # databases of schema 1 have none
-                    sm.method_bound_count[key] = int(r["bound_count"])
-                else:
-                    sm.method_bound_count.pop(key, None)
+            if float(r["bound"]) < sm.method_bound.get(key, (math.inf,))[0]:
+                sm.method_bound[key] = (float(r["bound"]), r.get("bound_count"))
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
             sm.best[s] = max(sm.best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
@@ -217,11 +209,10 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             sm.method_exact[key] = (float(r["profit"]), int(r["observed"]))
         if r["status"] not in COUNTED:
             continue
-        cell.profits.append(float(r["profit"]))
-        cell.observed.append(float(r["observed"]))
-        cell.runtimes.append(float(r["runtime"]))
-        cell.per_energy.append(r["profit"] / r["energy"] if r["energy"] else 0.0)
-        cell.per_memory.append(r["profit"] / r["memory"] if r["memory"] else 0.0)
+        for x in ("energy", "memory"):
+            r[f"per_{x}"] = r["profit"] / r[x] if r[x] else 0.0
+        for m in MEASURES:
+            cell.runs[m].append(float(r[m]))
     sm.en = {i["scenario"]: int(i["en"]) for i in insts}
     sm.tn = {i["scenario"]: int(i["tn"]) for i in insts}
     sm.scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
@@ -314,12 +305,10 @@ def build_paper_table(
     target, baseline, cnotes = comparison(summary, target, baseline, present)
     notes += cnotes
     header = ["SN", "EN", "TN"]
-    star = "PBA-STC" in cols and all(
-        (s, cols["PBA-STC"]) in summary.method_bound_count
-        for s in scen
-        if (s, cols["PBA-STC"]) in summary.method_bound
-    )
-    if "PBA-STC" in cols:
+    pba = cols.get("PBA-STC")
+    bounds = [summary.method_bound.get((s, pba)) for s in scen]
+    star = pba is not None and all(b[1] is not None for b in bounds if b)
+    if pba is not None:
         header += ["PBA-STC R*", "PBA-STC F*" if star else "PBA-STC F"]
         if not star:
             notes.append("PBA-STC F: targets of its schedule (runs stored without F*)")
@@ -336,14 +325,10 @@ def build_paper_table(
     rows: list[list[Any]] = []
     for s in scen:
         row: list[Any] = [s, summary.en.get(s), summary.tn.get(s)]
-        if "PBA-STC" in cols:
-            key = (s, cols["PBA-STC"])
-            c = summary.cells.get(key)
-            if star:
-                f: Any = summary.method_bound_count.get(key)
-            else:
-                f = c.mean_observed if c and c.n else None
-            row += [summary.method_bound.get(key), f]
+        if pba is not None:  # R*, and F* or the mean targets of its schedules
+            r_star, f_star = summary.method_bound.get((s, pba), (None, None))
+            c = summary.cells.get((s, pba))
+            row += [r_star, f_star if star else c and c.mean("observed")]
         if "RDS-STC" in cols:
             row += summary.method_exact.get((s, cols["RDS-STC"])) or [None, None]
         for title in ("ACO-LS-STC", "ASA-DTC"):
@@ -379,15 +364,17 @@ def _compared(
 
 def _rfst(c: Cell | None) -> list[Any]:
     """A method's R, F, SD, T on one scenario (None without a valid run)."""
-    return [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime] if c and c.n else [None] * 4
+    return (
+        [c.mean("profit"), c.mean("observed"), c.sd, c.mean("runtime")] if c and c.n else [None] * 4
+    )
 
 
 def _imp(summary: Summary, s: str, target: str, baseline: str) -> list[Any]:
     """IMP, t-test sign and p-value of one scenario (paper Tables 3-4, last columns)."""
     t, b = summary.cells.get((s, target)), summary.cells.get((s, baseline))
-    if t and b and t.n and b.n and b.mean_profit:
-        imp = (t.mean_profit - b.mean_profit) / b.mean_profit
-        p = welch_greater(t.profits, b.profits)
+    if t and b and t.n and b.n and b.mean("profit"):
+        imp = (t.mean("profit") - b.mean("profit")) / b.mean("profit")
+        p = welch_greater(t.runs["profit"], b.runs["profit"])
         return [imp, "+" if p < ALPHA else "", p]
     return [None, "", None]
 
@@ -452,18 +439,18 @@ MIN_POINTS = 2
 
 #: The y axis of each measure drawn.
 YLABELS = {
-    "mean_profit": "mean profit",
-    "mean_per_memory": "profit / memory",
-    "mean_per_energy": "profit / energy",
+    "profit": "mean profit",
+    "per_memory": "profit / memory",
+    "per_energy": "profit / energy",
 }
 
 #: The figures: file stem -> (measure drawn, title). Fig. 2 draws the methods of :data:`FIG2`,
 #: the others those of :data:`CLUSTERING`.
 FIGURES = {
-    "fig2_methods": ("mean_profit", "Fig. 2: methods"),
-    "fig3_clustering": ("mean_profit", "Fig. 3: dynamic vs static vs no task clustering"),
-    "fig4_profit_memory": ("mean_per_memory", "Fig. 4: profit-memory ratio"),
-    "fig5_profit_energy": ("mean_per_energy", "Fig. 5: profit-energy ratio"),
+    "fig2_methods": ("profit", "Fig. 2: methods"),
+    "fig3_clustering": ("profit", "Fig. 3: dynamic vs static vs no task clustering"),
+    "fig4_profit_memory": ("per_memory", "Fig. 4: profit-memory ratio"),
+    "fig5_profit_energy": ("per_energy", "Fig. 5: profit-energy ratio"),
 }
 
 #: Panel titles by scenario group.
@@ -489,7 +476,7 @@ def figure_series(
         lines: dict[str, list[float]] = {}
         for m in methods:
             cells = [summary.cells.get((s, m)) for s in scen]
-            ys = [getattr(c, measure) if c and c.n else math.nan for c in cells]
+            ys = [c.mean(measure) if c and c.n else math.nan for c in cells]
             points = sum(not math.isnan(y) for y in ys)
             if points >= MIN_POINTS:
                 lines[m] = ys
@@ -520,13 +507,8 @@ def _figure(
     from sosp.io import atomic_output
 
     groups = list(panels)
-    fig, axes = plt.subplots(
-        1,
-        len(groups),
-        figsize=(6.0 * len(groups), 4.6),
-        squeeze=False,
-        layout="constrained",
-    )
+    n = len(groups)
+    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, 4.6), squeeze=False, layout="constrained")
     handles: dict[str, Any] = {}
     methods = [m for g in groups for m in panels[g]]
     colour = {m: f"C{i}" for i, m in enumerate(dict.fromkeys(methods))}
@@ -590,18 +572,18 @@ def write_report(
         if not any(scenario_group(s) == g for s in summary.scenarios):
             continue
         header, rows, tnotes = build_paper_table(summary, g, target, baseline)
-        table_md = _markdown(header, rows, ["RDS-STC", "ACO-LS-STC", "ASA-DTC"])
-        atomic_write_text(out / f"{stem}.md", f"## {title}\n\n{table_md}")
-        atomic_write_text(out / f"{stem}.csv", _csv_text(header, rows))
         mheader, mrows, _ = build_methods_table(summary, g, target, baseline)
-        methods = [m for m in summary.methods if f"{m} R" in mheader]
-        methods_md = _markdown(mheader, mrows, methods)
-        mtitle = f"{title.split(':')[0]}, every method"
-        atomic_write_text(out / f"{stem}_methods.md", f"## {mtitle}\n\n{methods_md}")
-        atomic_write_text(out / f"{stem}_methods.csv", _csv_text(mheader, mrows))
-        files += [f"{stem}.md", f"{stem}.csv", f"{stem}_methods.md", f"{stem}_methods.csv"]
-        md += [f"## {title}", "", table_md, f"## {mtitle}", "", methods_md]
-        notes += [f"{title.split(':')[0]}: {n}" for n in tnotes]
+        short = title.split(":")[0]
+        for name, head, theader, trows, bold in (  # each table in Markdown and CSV
+            (stem, title, header, rows, ["RDS-STC", "ACO-LS-STC", "ASA-DTC"]),
+            (f"{stem}_methods", f"{short}, every method", mheader, mrows, summary.methods),
+        ):
+            text = _markdown(theader, trows, bold)
+            atomic_write_text(out / f"{name}.md", f"## {head}\n\n{text}")
+            atomic_write_text(out / f"{name}.csv", _csv_text(theader, trows))
+            files += [f"{name}.md", f"{name}.csv"]
+            md += [f"## {head}", "", text]
+        notes += [f"{short}: {n}" for n in tnotes]
     for name in ("table3", "table4"):
         if f"{name}.md" not in files:
             notes.append(f"{name}: no scenarios of that group in the database")
