@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from sosp.errors import InputError
-from sosp.params import positive
+from sosp.params import key_values, positive
 
 log = logging.getLogger("sosp")
 
@@ -208,20 +208,6 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- solve
-def _parse_params(items: Sequence[str]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, raw = item.partition("=")
-        if not sep or not key:
-            raise InputError(f"--param: expected KEY=VALUE, got {item!r}")
-        try:
-            value: Any = json.loads(raw)
-        except json.JSONDecodeError:
-            value = raw
-        out[key.strip().replace("-", "_")] = value
-    return out
-
-
 def cmd_solve(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
     from sosp.io import check_output
@@ -231,7 +217,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.output:
         check_output(args.output)
     inst = load_instance(args.instance)
-    params = _parse_params(args.param or [])
+    params = key_values(args.param or [], "--param: expected KEY=VALUE")
     given = {k: getattr(args, k) for k in ("iterations", "model", "mip_gap", "threads", "backend")}
     params.update({k: v for k, v in given.items() if v is not None})
     if args.warm_start in ("none", "auto"):

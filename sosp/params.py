@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import types
 import typing
+from collections.abc import Iterable
 from numbers import Integral
 from typing import Any, ClassVar, Literal, TypeVar, get_args, get_origin
 
@@ -183,3 +185,20 @@ def positive(kind: type) -> Any:
 
     parse.__name__ = f"positive {kind.__name__}"
     return parse
+
+
+def key_values(items: Iterable[str], malformed: str) -> dict[str, Any]:
+    """``KEY=VALUE`` items as keyword parameters: VALUE is JSON, else text (stripped), and a
+    ``-`` in KEY reads ``_``. An item without ``=`` or key raises :class:`InputError`
+    ``"<malformed>, got <item>"``."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, eq, value = item.partition("=")
+        key = key.strip().replace("-", "_")
+        if not eq or not key:
+            raise InputError(f"{malformed}, got {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value.strip()
+    return out

@@ -20,8 +20,8 @@ A campaign comes from command-line options or from a TOML file (parsed with :mod
     name = "asa-dtc"
 
 ``methods`` may also be a list of strings such as ``"milp:model=cluster,mip_gap=0.01"``.
-This module imports only the standard library and :mod:`sosp.errors`, so ``sosp --help``
-stays fast.
+This module imports only the standard library, :mod:`sosp.errors` and :mod:`sosp.params`, so
+``sosp --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from sosp.errors import InputError
+from sosp.params import key_values
 
 #: Named scenarios of the paper (section 6.1).
 SCENARIO_RE = re.compile(r"^[BC](10|[1-9])$")
@@ -195,17 +196,8 @@ def parse_method(text: str, where: str = "methods") -> MethodSpec:
     if not isinstance(text, str) or not text.strip():
         raise InputError(f"{where}: expected a method name, got {text!r}")
     name, _, rest = text.strip().partition(":")
-    params: dict[str, Any] = {}
-    if rest:
-        for item in rest.split(","):
-            key, eq, val = item.partition("=")
-            key = key.strip().replace("-", "_")
-            if not eq or not key:
-                raise InputError(f"{where}: expected key=value in {text!r}, got {item!r}")
-            try:
-                params[key] = json.loads(val.strip())
-            except json.JSONDecodeError:
-                params[key] = val.strip()
+    malformed = f"{where}: expected key=value in {text!r}"
+    params = key_values(rest.split(",") if rest else [], malformed)
     canonical_params(params)
     return MethodSpec(name.strip(), params)
 
