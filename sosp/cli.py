@@ -148,26 +148,25 @@ def cmd_scenario(args: argparse.Namespace) -> int:
             **common,
         )
     inst.save(args.output)
-    data = _info_dict(inst)
-    data["output"] = args.output
-    _emit(args, data, f"wrote {args.output}\n" + _info_text(inst))
+    data, text = _info(inst)
+    _emit(args, {**data, "output": args.output}, f"wrote {args.output}\n{text}")
     return 0
 
 
 # --------------------------------------------------------------------------- info
-def _info_dict(inst: Any) -> dict[str, Any]:
+def _info(inst: Any) -> tuple[dict[str, Any], str]:
+    """An instance's summary: for ``--json``, and as text."""
     import numpy as np
 
     per_orbit = np.diff(inst.orbit_offsets)
-    sats = sorted(set(inst.orbit_satellite))
-    return {
+    d = {
         "name": inst.name,
         "epoch": inst.epoch,
         "fingerprint": inst.fingerprint,
         "targets": inst.n_targets,
         "EN": inst.observable_targets,
         "TN": inst.n_opps,
-        "satellites": len(sats),
+        "satellites": len(set(inst.orbit_satellite)),
         "orbits": inst.n_orbits,
         "horizon_s": float(inst.orbit_end.max() - inst.orbit_start.min()) if inst.n_orbits else 0,
         "total_weight": int(inst.target_weight.sum()),
@@ -175,14 +174,7 @@ def _info_dict(inst: Any) -> dict[str, Any]:
             oid: int(c) for oid, c in zip(inst.orbit_ids, per_orbit, strict=True)
         },
     }
-
-
-def _info_text(inst: Any) -> str:
-    import numpy as np
-
-    d = _info_dict(inst)
-    per = np.diff(inst.orbit_offsets)
-    used = per[per > 0]
+    used = per_orbit[per_orbit > 0]
     lines = [
         f"instance      {d['name'] or '(unnamed)'}  ({d['fingerprint'][:19]}...)",
         f"epoch         {d['epoch']}",
@@ -196,14 +188,14 @@ def _info_text(inst: Any) -> str:
             f"per orbit     {used.size} orbits with opportunities: min {used.min()}, "
             f"mean {used.mean():.1f}, max {used.max()}"
         )
-    return "\n".join(lines)
+    return d, "\n".join(lines)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
 
     inst = load_instance(args.instance)
-    _emit(args, _info_dict(inst), _info_text(inst))
+    _emit(args, *_info(inst))
     return 0
 
 
@@ -388,14 +380,14 @@ def cmd_demo(args: argparse.Namespace) -> int:
     name = args.scenario
     inst = scenarios.generate_scenario(name, args.seed)
     t_gen = time.perf_counter() - t0
+    info, info_text = _info(inst)
     wanted = ("greedy", "hpfs-stc", "asa-dtc", "orbit-dp")
     methods = [m for m in wanted if m in available_methods()]
     rows = []
     for m in methods:
         limit = args.time_limit if m in ("asa-dtc", "orbit-dp") else None
         res = solve(inst, m, seed=args.seed, time_limit=limit)
-        rep = validate(inst, res.schedule)
-        rows.append((m, res, rep))
+        rows.append((m, res, validate(inst, res.schedule)))
     upper = None
     if "orbit-dp" in methods:
         best = max(res.profit for _, res, _ in rows)
@@ -403,7 +395,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     data = {
         "scenario": name,
         "generate_s": t_gen,
-        "instance": _info_dict(inst),
+        "instance": info,
         "upper_bound": upper,
         "results": [
             {**res.summary(), "feasible": rep.feasible, "energy": rep.energy, "memory": rep.memory}
@@ -413,7 +405,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     lines = [
         f"sosp demo: scenario {name} (seed {args.seed}) generated from real orbits "
         f"in {t_gen:.2f} s",
-        _info_text(inst),
+        info_text,
         "",
         f"{'method':<10} {'status':<9} {'profit':>7} {'targets':>7} {'obs':>5} "
         f"{'energy':>8} {'memory':>8} {'time':>7}  valid",
@@ -650,10 +642,9 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # that part of sosp is not installed
             raise
         getattr(mod, func)(sub)
-        if name in sub.choices and not any(a.dest == "json" for a in sub.choices[name]._actions):
-            sub.choices[name].add_argument(
-                "--json", action="store_true", help="print one JSON object"
-            )
+        p = sub.choices.get(name)
+        if p is not None and not any(a.dest == "json" for a in p._actions):
+            p.add_argument("--json", action="store_true", help="print one JSON object")
     return parser
 
 
