@@ -207,8 +207,7 @@ def _method_from_table(rec: Any, where: str) -> MethodSpec:
         return parse_method(rec, where)
     if not isinstance(rec, dict):
         raise InputError(f"{where}: expected a string or a table")
-    unknown = set(rec) - _METHOD_KEYS
-    if unknown:
+    if unknown := set(rec) - _METHOD_KEYS:
         raise InputError(f"{where}: unknown key {sorted(unknown)[0]!r}")
     name = rec.get("name")
     if not isinstance(name, str) or not name:
@@ -217,11 +216,8 @@ def _method_from_table(rec: Any, where: str) -> MethodSpec:
     if not isinstance(params, dict):
         raise InputError(f"{where}.params: expected a table")
     canonical_params(params)
-    tl = None
-    if "time_limits" in rec or "time_limit" in rec:
-        tl = parse_time_limits(
-            rec.get("time_limits", rec.get("time_limit")), f"{where}.time_limits"
-        )
+    tl = rec.get("time_limits", rec.get("time_limit"))  # TOML has no null: None is absent
+    tl = None if tl is None else parse_time_limits(tl, f"{where}.time_limits")
     seeds = parse_seeds(rec["seeds"], f"{where}.seeds") if "seeds" in rec else None
     return MethodSpec(name, dict(params), tl, seeds)
 
@@ -238,9 +234,7 @@ def parse_scenarios(
         if SCENARIO_RE.match(s):
             out.append(ScenarioSpec(s))
             continue
-        p = Path(s)
-        if not p.is_absolute() and base is not None:
-            p = base / p
+        p = Path(s) if base is None else base / s  # an absolute path stays as it is
         if s.endswith((".json", ".json.gz", ".npz")) or os.sep in s or "/" in s:
             if not p.is_file():
                 raise InputError(f"{where}: instance file not found: {s}")
@@ -264,10 +258,8 @@ def expand_scenario_names(text: str) -> list[str]:
         if part.lower() == "all":
             out.extend(f"{g}{k}" for g in "BC" for k in range(1, 11))
             continue
-        m = re.fullmatch(r"([BC])(\d+)-\1?(\d+)", part)
-        if m:
-            lo, hi = int(m.group(2)), int(m.group(3))
-            out.extend(f"{m.group(1)}{k}" for k in range(lo, hi + 1))
+        if m := re.fullmatch(r"([BC])(\d+)-\1?(\d+)", part):
+            out.extend(f"{m[1]}{k}" for k in range(int(m[2]), int(m[3]) + 1))
         elif part:
             out.append(part)
     return out
@@ -298,14 +290,12 @@ def campaign_from_dict(
     data: Mapping[str, Any], base: Path | None = None, source: str | None = None
 ) -> Campaign:
     """Build a :class:`Campaign` from parsed TOML (tables ``campaign`` and ``methods``)."""
-    unknown = set(data) - {"campaign", "methods"}
-    if unknown:
+    if unknown := set(data) - {"campaign", "methods"}:
         raise InputError(f"unknown table {sorted(unknown)[0]!r} (expected campaign, methods)")
     camp = data.get("campaign")
     if not isinstance(camp, dict):
         raise InputError("missing table [campaign]")
-    unknown = set(camp) - _CAMPAIGN_KEYS
-    if unknown:
+    if unknown := set(camp) - _CAMPAIGN_KEYS:
         raise InputError(f"campaign: unknown key {sorted(unknown)[0]!r}")
     for key in ("scenarios", "seeds"):
         if key not in camp:
