@@ -210,18 +210,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
         check_output(args.output)
     inst = load_instance(args.instance)
     params = key_values(args.param or [], "--param: expected KEY=VALUE")
-    given = {k: getattr(args, k) for k in ("iterations", "model", "mip_gap", "threads", "backend")}
-    params.update({k: v for k, v in given.items() if v is not None})
+    # bound: solve()'s own keyword, certify the schedule
+    keys = ("iterations", "model", "mip_gap", "threads", "backend", "bound", "bound_workers")
+    params.update({k: getattr(args, k) for k in keys if getattr(args, k) is not None})
     if args.warm_start in ("none", "auto"):
         params["warm_start"] = args.warm_start
     elif args.warm_start is not None:
         params["warm_start"] = load_schedule(args.warm_start, inst)
-    if args.bound is not None:
-        params["bound"] = args.bound  # solve()'s own keyword: certify the schedule
-    if args.bound_workers is not None:
-        if args.bound is None:
-            raise InputError("--bound-workers: give it with --bound")
-        params["bound_workers"] = args.bound_workers
+    if args.bound_workers is not None and args.bound is None:
+        raise InputError("--bound-workers: give it with --bound")
     if args.max_memory is not None:  # the memory of each method's Budget
         importlib.import_module("sosp.candidates").MAX_MEMORY = args.max_memory
     result, interrupted = _solve_interruptibly(inst, args, params, t0)
