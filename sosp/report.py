@@ -519,9 +519,7 @@ def _figure(
             (line,) = ax.plot(x, ys, marker="o", label=m, color=colour[m])
             handles.setdefault(m, line)
         ax.set_xticks(x, scen, rotation=45 if len(scen) > 10 else 0)
-        ax.set_xlabel("scenario")
-        ax.set_ylabel(ylabel)
-        ax.set_title(PANELS[g])
+        ax.set(xlabel="scenario", ylabel=ylabel, title=PANELS[g])
         ax.grid(alpha=0.3)
     fig.legend(
         list(handles.values()),
