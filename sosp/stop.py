@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any, Protocol
 
 
@@ -174,14 +175,8 @@ class FirstOf:
 
 
 # --------------------------------------------------------------------------- stop flag
-class _Flag:
-    """The process-wide stop request (a plain attribute: one lookup per check)."""
-
-    requested: bool = False
-    reason: str | None = None
-
-
-_FLAG = _Flag()
+#: The process-wide stop request and what asked for it (plain attributes: one lookup per check).
+_FLAG = SimpleNamespace(requested=False, reason=None)
 
 
 def request_stop(reason: str = "requested") -> None:
