@@ -204,9 +204,9 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
             sm.best[s] = max(sm.best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
-            if full and (s not in sm.exact or r["profit"] > sm.exact[s][0]):
-                sm.exact[s] = (float(r["profit"]), int(r["observed"]))
-            sm.method_exact[key] = (float(r["profit"]), int(r["observed"]))
+            sm.method_exact[key] = exact = (float(r["profit"]), int(r["observed"]))
+            if full and exact[0] > sm.exact.get(s, (-math.inf,))[0]:
+                sm.exact[s] = exact
         if r["status"] not in COUNTED:
             continue
         for x in ("energy", "memory"):
@@ -294,14 +294,9 @@ def build_paper_table(
     (noted).
     """
     scen, present = _group(summary, group)
-    notes: list[str] = []
-    cols: dict[str, str] = {}
-    for title, cands in PAPER_METHODS.items():
-        m = resolve(present, *cands)
-        if m is None:
-            notes.append(f"{title} columns omitted: no runs of {cands[0]}")
-        else:
-            cols[title] = m
+    cols = {t: m for t, cands in PAPER_METHODS.items() if (m := resolve(present, *cands))}
+    missing = [(t, cands[0]) for t, cands in PAPER_METHODS.items() if t not in cols]
+    notes = [f"{t} columns omitted: no runs of {m}" for t, m in missing]
     target, baseline, cnotes = comparison(summary, target, baseline, present)
     notes += cnotes
     header = ["SN", "EN", "TN"]
