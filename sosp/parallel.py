@@ -29,7 +29,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import AbstractContextManager, ExitStack, contextmanager, nullcontext
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from sosp.errors import InputError
@@ -93,16 +93,13 @@ def dask_client(address: Any, workers: int | None = None) -> Iterator[Any]:
         yield client
 
 
-@contextmanager
-def workers_for(processes: int, dask: Any = None, local: int | None = None) -> Iterator[Any]:
+def workers_for(
+    processes: int, dask: Any = None, local: int | None = None
+) -> AbstractContextManager[Any]:
     """Where a run's per-orbit work goes: ``processes`` on this machine, or with ``dask`` (an
     address or client as :func:`dask_client` takes it; ``local`` processes for ``"local"``)
     a client of that cluster for the duration of the block."""
-    if dask is None:
-        yield processes
-        return
-    with dask_client(dask, local) as client:
-        yield client
+    return nullcontext(processes) if dask is None else dask_client(dask, local)
 
 
 @contextmanager

@@ -201,13 +201,11 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                 profit += float(inst.target_weight[k])
 
     usage: list[OrbitUsage] = []
-    total_energy = total_memory = 0.0
     for j in sorted(by_orbit):
         oid = inst.orbit_ids[j]
         seq = sorted(by_orbit[j], key=lambda u: (observations[u].start, observations[u].end))
         a, v = float(inst.setup_time[j]), float(inst.slew_rate[j])
-        observe = 0.0
-        slew = 0.0
+        observe = slew = 0.0
         for n, u in enumerate(seq):
             ob = observations[u]
             observe += ob.end - ob.start
@@ -232,8 +230,6 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         )
         memory = float(inst.memory_rate[j]) * observe
         usage.append(OrbitUsage(oid, len(seq), observe, slew, energy, memory))
-        total_energy += energy
-        total_memory += memory
         for rule, what, used, cap in (
             ("4", "energy", energy, inst.energy_capacity[j]),
             ("5", "memory", memory, inst.memory_capacity[j]),
@@ -260,7 +256,7 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         violations=out,
         profit=profit,
         observed=len(seen_target),
-        energy=total_energy,
-        memory=total_memory,
+        energy=sum((u.energy for u in usage), 0.0),  # in orbit order, as checked
+        memory=sum((u.memory for u in usage), 0.0),
         orbits=usage,
     )
