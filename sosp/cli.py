@@ -221,7 +221,36 @@ def cmd_solve(args: argparse.Namespace) -> int:
         raise InputError("--bound-workers: give it with --bound")
     if args.max_memory is not None:  # the memory of each method's Budget
         importlib.import_module("sosp.candidates").MAX_MEMORY = args.max_memory
-    result, interrupted = _solve_interruptibly(inst, args, params, t0)
+    # A status line on stderr (unless --quiet), and Ctrl-C / SIGTERM stop the search (not the
+    # program): the best schedule so far is then written as usual. --time-limit counts from
+    # t0, so the run keeps what reading the instance left of it (at least KERNEL_SHARE_LEFT).
+    from sosp.planner import KERNEL_SHARE_LEFT
+    from sosp.progress import Progress, StatusLine
+    from sosp.solve import solve
+    from sosp.stop import handle_signals, stop_reason
+
+    limit = args.time_limit
+    if limit is not None:
+        limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
+    line = None if args.quiet else StatusLine(sys.stderr)
+    progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
+    # a log record to the terminal clears the live line first (StatusLine.filter)
+    handlers = logging.getLogger().handlers if line is not None and line.tty else []
+    for h in handlers:
+        h.addFilter(line)
+    with handle_signals():
+        try:
+            result = solve(
+                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
+            )
+        finally:
+            if line is not None:
+                line.close()
+            for h in handlers:
+                h.removeFilter(line)
+        if args.output:
+            result.schedule.save(args.output, inst)
+        interrupted = stop_reason()  # the signal that stopped the search (None)
     data = result.summary()
     if args.output:
         data["output"] = args.output
@@ -264,43 +293,6 @@ def _bytes(text: str) -> int:
     if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"expected a positive size such as 2G, got {text!r}")
     return int(value)
-
-
-def _solve_interruptibly(
-    inst: Any, args: argparse.Namespace, params: dict[str, Any], t0: float
-) -> tuple[Any, str | None]:
-    """Solve with a status line on stderr (unless ``--quiet``) and with Ctrl-C / SIGTERM
-    stopping the search (not the program): the best schedule so far is then written as
-    usual. ``--time-limit`` counts from ``t0`` (the command's start), so the run keeps what
-    reading the instance left of it (at least :data:`sosp.planner.KERNEL_SHARE_LEFT`).
-    Returns the result and the name of the signal that stopped it (None)."""
-    from sosp.planner import KERNEL_SHARE_LEFT
-    from sosp.progress import Progress, StatusLine
-    from sosp.solve import solve
-    from sosp.stop import handle_signals, stop_reason
-
-    limit = args.time_limit
-    if limit is not None:
-        limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
-    line = None if args.quiet else StatusLine(sys.stderr)
-    progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
-    # a log record to the terminal clears the live line first (StatusLine.filter)
-    handlers = logging.getLogger().handlers if line is not None and line.tty else []
-    for h in handlers:
-        h.addFilter(line)
-    with handle_signals():
-        try:
-            result = solve(
-                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
-            )
-        finally:
-            if line is not None:
-                line.close()
-            for h in handlers:
-                h.removeFilter(line)
-        if args.output:
-            result.schedule.save(args.output, inst)
-        return result, stop_reason()
 
 
 # --------------------------------------------------------------------------- methods
