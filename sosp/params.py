@@ -98,7 +98,7 @@ def coerce(key: str, value: Any, hint: Any) -> Any:
         raise InputError(f"{key}: expected true or false, got {value!r}")
     allowed = choices(hint)
     if allowed is not None:
-        return text  # checked against the choices by check_choices
+        return text  # checked against the choices by check_types
     numeric = [m for m in members if m in (int, float)]
     if numeric:
         try:
@@ -109,9 +109,11 @@ def coerce(key: str, value: Any, hint: Any) -> Any:
     return text
 
 
-def check_choices(params: Any) -> None:
-    """Raise :class:`InputError` for a ``Literal`` field whose value is not one of its choices,
-    and for a ``bool`` field holding anything but True or False."""
+def check_types(params: Any) -> None:
+    """Raise :class:`InputError` for a ``Literal`` field whose value is not one of its
+    choices, a ``bool`` field holding anything but True or False, and an ``int``, ``float``
+    or ``str`` field not holding one (None where the hint allows it); other hints are the
+    subclass's to check."""
     for name, hint in field_types(type(params)).items():
         value = getattr(params, name)
         members, optional = _parts(hint)
@@ -124,16 +126,7 @@ def check_choices(params: Any) -> None:
             )
         if bool in members and not isinstance(value, bool):
             raise InputError(f"{name}: expected true or false, got {value!r}")
-
-
-def check_types(params: Any) -> None:
-    """:func:`check_choices`, and each ``int``, ``float`` or ``str`` field holding one (None
-    where the hint allows it); other hints are the subclass's to check."""
-    check_choices(params)
-    for name, hint in field_types(type(params)).items():
-        value = getattr(params, name)
-        members, optional = _parts(hint)
-        if (value is None and optional) or choices(hint) is not None or bool in members:
+        if allowed is not None or bool in members:
             continue
         number = not isinstance(value, bool) and isinstance(value, Integral)  # numpy's too
         if int in members and number:
