@@ -261,21 +261,18 @@ def resolve(methods: list[str], *candidates: str) -> str | None:
 
 
 def comparison(
-    summary: Summary,
-    target: str | None,
-    baseline: str | None,
-    methods: list[str] | None = None,
+    target: str | None, baseline: str | None, methods: list[str]
 ) -> tuple[str | None, str | None, list[str]]:
-    """The labels IMP and the t-test compare, and notes on how they were chosen.
+    """The labels IMP and the t-test compare among ``methods``, and notes on how they were
+    chosen.
 
     Defaults (None): ASA-DTC in the paper's configuration (``asa-dtc@paper``, else
     ``asa-dtc``) against ACO-LS-STC (``aco-ls-stc``, else ASA-STC with a note).
     """
     notes: list[str] = []
-    ms = summary.methods if methods is None else methods
-    t = target if target is not None else resolve(ms, *PAPER_METHODS["ASA-DTC"])
-    b = baseline if baseline is not None else resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
-    if b is None and (b := resolve(ms, *BASELINE_FALLBACK)) is not None:
+    t = target if target is not None else resolve(methods, *PAPER_METHODS["ASA-DTC"])
+    b = baseline if baseline is not None else resolve(methods, *PAPER_METHODS["ACO-LS-STC"])
+    if b is None and (b := resolve(methods, *BASELINE_FALLBACK)) is not None:
         notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
     return t, b, notes
 
@@ -297,7 +294,7 @@ def build_paper_table(
     cols = {t: m for t, cands in PAPER_METHODS.items() if (m := resolve(present, *cands))}
     missing = [(t, cands[0]) for t, cands in PAPER_METHODS.items() if t not in cols]
     notes = [f"{t} columns omitted: no runs of {m}" for t, m in missing]
-    target, baseline, cnotes = comparison(summary, target, baseline, present)
+    target, baseline, cnotes = comparison(target, baseline, present)
     notes += cnotes
     header = ["SN", "EN", "TN"]
     pba = cols.get("PBA-STC")
@@ -380,7 +377,7 @@ def build_methods_table(
     """Every method's R, F, SD, T side by side (the numbers of Fig. 2), IMP and t-test."""
     scen, methods = _group(summary, group)
     notes: list[str] = []
-    target, baseline, _ = comparison(summary, target, baseline, methods)
+    target, baseline, _ = comparison(target, baseline, methods)
     header = ["SN", "EN", "TN", "bound", "exact R", "exact F", "best R"]
     for m in methods:
         header += [f"{m} R", f"{m} F", f"{m} SD", f"{m} T (s)"]
@@ -556,7 +553,7 @@ def write_report(
     if out.exists() and not out.is_dir():
         raise InputError("-o: not a folder", source=str(out))
     summary = summarise(db)
-    ctarget, cbaseline, _ = comparison(summary, target, baseline)
+    ctarget, cbaseline, _ = comparison(target, baseline, summary.methods)
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
     notes = list(summary.notes)
