@@ -352,8 +352,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"energy {report.energy:.1f}, memory {report.memory:.1f}, profit/energy "
         f"{report.profit_per_energy:.4f}, profit/memory {report.profit_per_memory:.4f}",
     ]
-    for v in report.violations:
-        lines.append(f"  ({v.constraint}) {v.message}")
+    lines += [f"  ({v.constraint}) {v.message}" for v in report.violations]
     _emit(args, report.to_dict(), "\n".join(lines))
     return 0 if report.feasible else 1
 

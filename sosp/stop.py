@@ -130,9 +130,7 @@ class Foresight:
 
     def __call__(self, key: Any, work: float) -> float:
         """Seconds job ``key`` of size ``work`` is foreseen to take."""
-        if key in self.took:
-            return self.took[key]
-        return self.rate_or_prior() * work
+        return self.took[key] if key in self.took else self.rate_or_prior() * work
 
     def late(self, key: Any, work: float, deadline: float | None) -> bool:
         """Whether job ``key`` of size ``work``, started now, is foreseen to end past

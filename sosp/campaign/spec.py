@@ -160,9 +160,8 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
                 raise InputError(f"{where}: empty range {part!r}")
             items.extend(range(lo, hi + 1))
     elif isinstance(value, list):
-        for v in value:
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise InputError(f"{where}: expected integers, got {v!r}")
+        if bad := [v for v in value if isinstance(v, bool) or not isinstance(v, int)]:
+            raise InputError(f"{where}: expected integers, got {bad[0]!r}")
         items = value
     else:
         raise InputError(f"{where}: expected integers or ranges like 1-10, got {value!r}")
