@@ -130,8 +130,8 @@ class Summary:
     scenarios: list[str] = field(default_factory=list)
     methods: list[str] = field(default_factory=list)
     cells: dict[tuple[str, str], Cell] = field(default_factory=dict)
-    en: dict[str, int] = field(default_factory=dict)
-    tn: dict[str, int] = field(default_factory=dict)
+    #: Per scenario: its EN and TN (observable targets, opportunities).
+    sizes: dict[str, tuple[int, int]] = field(default_factory=dict)
     bound: dict[str, float] = field(default_factory=dict)
     exact: dict[str, tuple[float, int]] = field(default_factory=dict)
     best: dict[str, float] = field(default_factory=dict)
@@ -213,8 +213,7 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             r[f"per_{x}"] = r["profit"] / r[x] if r[x] else 0.0
         for m in MEASURES:
             cell.runs[m].append(float(r[m]))
-    sm.en = {i["scenario"]: int(i["en"]) for i in insts}
-    sm.tn = {i["scenario"]: int(i["tn"]) for i in insts}
+    sm.sizes = {i["scenario"]: (int(i["en"]), int(i["tn"])) for i in insts}
     sm.scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
     sm.methods = sorted({m for _, m in cells})
     sm.cells = dict(cells)
@@ -225,7 +224,7 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             sm.notes.append(
                 f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out"
             )
-    if len({i["fingerprint"] for i in insts}) > len(sm.en):
+    if len({i["fingerprint"] for i in insts}) > len(sm.sizes):
         sm.notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
     return sm
 
@@ -316,7 +315,7 @@ def build_paper_table(
     header += ["sosp bound", "proven", "sosp best"]
     rows: list[list[Any]] = []
     for s in scen:
-        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s)]
+        row: list[Any] = [s, *summary.sizes.get(s, (None, None))]
         if pba is not None:  # R*, and F* or the mean targets of its schedules
             r_star, f_star = summary.method_bound.get((s, pba), (None, None))
             c = summary.cells.get((s, pba))
@@ -388,7 +387,7 @@ def build_methods_table(
     for s in scen:
         exact = summary.exact.get(s) or (None, None)
         bounds = [summary.bound.get(s), *exact, summary.best.get(s)]
-        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s), *bounds]
+        row: list[Any] = [s, *summary.sizes.get(s, (None, None)), *bounds]
         for m in methods:
             row += _rfst(summary.cells.get((s, m)))
         if compare:

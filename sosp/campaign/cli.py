@@ -105,8 +105,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         def on_result(row: dict[str, Any], done: int, total: int) -> None:
             nonlocal progress
-            if progress is None:
-                progress = Progress(total)
+            progress = Progress(total) if progress is None else progress
             progress.update(row)
 
         out = run_campaign(
