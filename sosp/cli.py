@@ -532,7 +532,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("info", "summarise an instance: targets, EN, TN, orbits, opportunities per orbit")
     p.add_argument("instance")
 
-    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS
+    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS, load
 
     p = add("solve", "solve an instance and write the schedule")
     p.epilog = (
@@ -622,14 +622,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     for name, target in EXTRA_COMMANDS.items():
-        module, func = target.split(":")
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name and module.startswith(exc.name):
-                continue  # that part of sosp is not installed
-            raise
-        getattr(mod, func)(sub)
+        if (add_parser := load(target, optional=True)) is None:
+            continue  # that part of sosp is not installed
+        add_parser(sub)
         p = sub.choices.get(name)
         if p is not None and not any(a.dest == "json" for a in p._actions):
             p.add_argument("--json", action="store_true", help="print one JSON object")

@@ -146,10 +146,16 @@ BOUNDS: dict[str, Bound] = {
 CERTIFYING_BOUNDS = tuple(name for name, b in BOUNDS.items() if b.model == PROBLEM_MODEL)
 
 
-def load(target: str) -> Any:
-    """The object named by ``"module:name"``, its module imported now."""
+def load(target: str, optional: bool = False) -> Any:
+    """The object named by ``"module:name"``, its module imported now; with ``optional``,
+    None when that module (or its package) is not installed."""
     module, name = target.split(":")
-    return getattr(importlib.import_module(module), name)
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ModuleNotFoundError as exc:
+        if optional and exc.name and module.startswith(exc.name):
+            return None
+        raise
 
 
 def available_methods() -> list[str]:
@@ -174,13 +180,9 @@ def _method(method: str) -> Method:
 
 def method_function(method: str) -> Callable[..., Any]:
     """The solve function of ``method``; :class:`InputError` if unknown or not installed."""
-    target = _method(method).function
-    try:
-        return load(target)
-    except ModuleNotFoundError as exc:
-        if exc.name and target.startswith(exc.name):
-            raise InputError(f"method: {method!r} is not available in this build") from None
-        raise
+    if (function := load(_method(method).function, optional=True)) is None:
+        raise InputError(f"method: {method!r} is not available in this build")
+    return function
 
 
 def param_class(method: str) -> type:
