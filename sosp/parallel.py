@@ -140,9 +140,8 @@ def local_processes(workers: Any) -> int:
 
 def check_workers(workers: Any, name: str = "workers") -> None:
     """Raise :class:`InputError` unless ``workers`` is a positive integer or a client."""
-    if is_client(workers):
-        return
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+    bad = isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
+    if bad and not is_client(workers):
         raise InputError(f"{name}: expected a positive integer, got {workers!r}")
 
 
