@@ -53,10 +53,8 @@ RESOURCE_UNITS: dict[str, tuple[str, str]] = {
 
 
 def _emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(data, allow_nan=False) + "\n")
-    else:
-        sys.stdout.write(text.rstrip("\n") + "\n")
+    out = json.dumps(data, allow_nan=False) if getattr(args, "json", False) else text.rstrip("\n")
+    sys.stdout.write(out + "\n")
 
 
 # --------------------------------------------------------------------------- scenario
