@@ -410,8 +410,7 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
     r_cols = [header.index(f"{m} R") for m in methods if f"{m} R" in header]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
-        vals = [r[i] for i in r_cols if r[i] is not None]
-        best = max(vals) if vals else None
+        best = max((r[i] for i in r_cols if r[i] is not None), default=None)
         out = []
         for i, (h, v) in enumerate(zip(header, r, strict=True)):
             digits = 2 if h.endswith((" SD", "T (s)")) or h == "p" else 1

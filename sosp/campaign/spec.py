@@ -296,9 +296,8 @@ def campaign_from_dict(
         raise InputError("missing table [campaign]")
     if unknown := set(camp) - _CAMPAIGN_KEYS:
         raise InputError(f"campaign: unknown key {sorted(unknown)[0]!r}")
-    for key in ("scenarios", "seeds"):
-        if key not in camp:
-            raise InputError(f"campaign: missing key {key!r}")
+    if missing := [key for key in ("scenarios", "seeds") if key not in camp]:
+        raise InputError(f"campaign: missing key {missing[0]!r}")
     scen = camp["scenarios"]
     if isinstance(scen, str):
         scen = expand_scenario_names(scen)
