@@ -72,11 +72,7 @@ def _parts(hint: Any) -> tuple[list[Any], bool]:
 
 def choices(hint: Any) -> tuple[Any, ...] | None:
     """The allowed values of a ``Literal[...]`` hint (or ``Literal[...] | None``), else None."""
-    members, _ = _parts(hint)
-    for m in members:
-        if get_origin(m) is Literal:
-            return get_args(m)
-    return None
+    return next((get_args(m) for m in _parts(hint)[0] if get_origin(m) is Literal), None)
 
 
 def coerce(key: str, value: Any, hint: Any) -> Any:
@@ -99,8 +95,7 @@ def coerce(key: str, value: Any, hint: Any) -> Any:
     allowed = choices(hint)
     if allowed is not None:
         return text  # checked against the choices by check_types
-    numeric = [m for m in members if m in (int, float)]
-    if numeric:
+    if numeric := [m for m in members if m in (int, float)]:
         try:
             return int(text) if numeric[0] is int else float(text)
         except ValueError:
