@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from sosp.errors import InputError
-from sosp.params import positive
+from sosp.params import key_values, positive
 
 log = logging.getLogger("sosp")
 
@@ -53,10 +53,8 @@ RESOURCE_UNITS: dict[str, tuple[str, str]] = {
 
 
 def _emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(data, allow_nan=False) + "\n")
-    else:
-        sys.stdout.write(text.rstrip("\n") + "\n")
+    out = json.dumps(data, allow_nan=False) if getattr(args, "json", False) else text.rstrip("\n")
+    sys.stdout.write(out + "\n")
 
 
 # --------------------------------------------------------------------------- scenario
@@ -148,26 +146,25 @@ def cmd_scenario(args: argparse.Namespace) -> int:
             **common,
         )
     inst.save(args.output)
-    data = _info_dict(inst)
-    data["output"] = args.output
-    _emit(args, data, f"wrote {args.output}\n" + _info_text(inst))
+    data, text = _info(inst)
+    _emit(args, {**data, "output": args.output}, f"wrote {args.output}\n{text}")
     return 0
 
 
 # --------------------------------------------------------------------------- info
-def _info_dict(inst: Any) -> dict[str, Any]:
+def _info(inst: Any) -> tuple[dict[str, Any], str]:
+    """An instance's summary: for ``--json``, and as text."""
     import numpy as np
 
     per_orbit = np.diff(inst.orbit_offsets)
-    sats = sorted(set(inst.orbit_satellite))
-    return {
+    d = {
         "name": inst.name,
         "epoch": inst.epoch,
         "fingerprint": inst.fingerprint,
         "targets": inst.n_targets,
         "EN": inst.observable_targets,
         "TN": inst.n_opps,
-        "satellites": len(sats),
+        "satellites": len(set(inst.orbit_satellite)),
         "orbits": inst.n_orbits,
         "horizon_s": float(inst.orbit_end.max() - inst.orbit_start.min()) if inst.n_orbits else 0,
         "total_weight": int(inst.target_weight.sum()),
@@ -175,14 +172,7 @@ def _info_dict(inst: Any) -> dict[str, Any]:
             oid: int(c) for oid, c in zip(inst.orbit_ids, per_orbit, strict=True)
         },
     }
-
-
-def _info_text(inst: Any) -> str:
-    import numpy as np
-
-    d = _info_dict(inst)
-    per = np.diff(inst.orbit_offsets)
-    used = per[per > 0]
+    used = per_orbit[per_orbit > 0]
     lines = [
         f"instance      {d['name'] or '(unnamed)'}  ({d['fingerprint'][:19]}...)",
         f"epoch         {d['epoch']}",
@@ -196,32 +186,18 @@ def _info_text(inst: Any) -> str:
             f"per orbit     {used.size} orbits with opportunities: min {used.min()}, "
             f"mean {used.mean():.1f}, max {used.max()}"
         )
-    return "\n".join(lines)
+    return d, "\n".join(lines)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
 
     inst = load_instance(args.instance)
-    _emit(args, _info_dict(inst), _info_text(inst))
+    _emit(args, *_info(inst))
     return 0
 
 
 # --------------------------------------------------------------------------- solve
-def _parse_params(items: Sequence[str]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, raw = item.partition("=")
-        if not sep or not key:
-            raise InputError(f"--param: expected KEY=VALUE, got {item!r}")
-        try:
-            value: Any = json.loads(raw)
-        except json.JSONDecodeError:
-            value = raw
-        out[key.strip().replace("-", "_")] = value
-    return out
-
-
 def cmd_solve(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
     from sosp.io import check_output
@@ -231,22 +207,48 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.output:
         check_output(args.output)
     inst = load_instance(args.instance)
-    params = _parse_params(args.param or [])
-    given = {k: getattr(args, k) for k in ("iterations", "model", "mip_gap", "threads", "backend")}
-    params.update({k: v for k, v in given.items() if v is not None})
+    params = key_values(args.param or [], "--param: expected KEY=VALUE")
+    # bound: solve()'s own keyword, certify the schedule
+    keys = ("iterations", "model", "mip_gap", "threads", "backend", "bound", "bound_workers")
+    params.update({k: getattr(args, k) for k in keys if getattr(args, k) is not None})
     if args.warm_start in ("none", "auto"):
         params["warm_start"] = args.warm_start
     elif args.warm_start is not None:
         params["warm_start"] = load_schedule(args.warm_start, inst)
-    if args.bound is not None:
-        params["bound"] = args.bound  # solve()'s own keyword: certify the schedule
-    if args.bound_workers is not None:
-        if args.bound is None:
-            raise InputError("--bound-workers: give it with --bound")
-        params["bound_workers"] = args.bound_workers
+    if args.bound_workers is not None and args.bound is None:
+        raise InputError("--bound-workers: give it with --bound")
     if args.max_memory is not None:  # the memory of each method's Budget
         importlib.import_module("sosp.candidates").MAX_MEMORY = args.max_memory
-    result, interrupted = _solve_interruptibly(inst, args, params, t0)
+    # A status line on stderr (unless --quiet), and Ctrl-C / SIGTERM stop the search (not the
+    # program): the best schedule so far is then written as usual. --time-limit counts from
+    # t0, so the run keeps what reading the instance left of it (at least KERNEL_SHARE_LEFT).
+    from sosp.planner import KERNEL_SHARE_LEFT
+    from sosp.progress import Progress, StatusLine
+    from sosp.solve import solve
+    from sosp.stop import handle_signals, stop_reason
+
+    limit = args.time_limit
+    if limit is not None:
+        limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
+    line = None if args.quiet else StatusLine(sys.stderr)
+    progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
+    # a log record to the terminal clears the live line first (StatusLine.filter)
+    handlers = logging.getLogger().handlers if line is not None and line.tty else []
+    for h in handlers:
+        h.addFilter(line)
+    with handle_signals():
+        try:
+            result = solve(
+                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
+            )
+        finally:
+            if line is not None:
+                line.close()
+            for h in handlers:
+                h.removeFilter(line)
+        if args.output:
+            result.schedule.save(args.output, inst)
+        interrupted = stop_reason()  # the signal that stopped the search (None)
     data = result.summary()
     if args.output:
         data["output"] = args.output
@@ -289,43 +291,6 @@ def _bytes(text: str) -> int:
     if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"expected a positive size such as 2G, got {text!r}")
     return int(value)
-
-
-def _solve_interruptibly(
-    inst: Any, args: argparse.Namespace, params: dict[str, Any], t0: float
-) -> tuple[Any, str | None]:
-    """Solve with a status line on stderr (unless ``--quiet``) and with Ctrl-C / SIGTERM
-    stopping the search (not the program): the best schedule so far is then written as
-    usual. ``--time-limit`` counts from ``t0`` (the command's start), so the run keeps what
-    reading the instance left of it (at least :data:`sosp.planner.KERNEL_SHARE_LEFT`).
-    Returns the result and the name of the signal that stopped it (None)."""
-    from sosp.planner import KERNEL_SHARE_LEFT
-    from sosp.progress import Progress, StatusLine
-    from sosp.solve import solve
-    from sosp.stop import handle_signals, stop_reason
-
-    limit = args.time_limit
-    if limit is not None:
-        limit = max(limit - (time.perf_counter() - t0), KERNEL_SHARE_LEFT * limit)
-    line = None if args.quiet else StatusLine(sys.stderr)
-    progress = Progress(line, interval=0.5 if line is None or line.tty else 1.0)
-    # a log record to the terminal clears the live line first (StatusLine.filter)
-    handlers = logging.getLogger().handlers if line is not None and line.tty else []
-    for h in handlers:
-        h.addFilter(line)
-    with handle_signals():
-        try:
-            result = solve(
-                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
-            )
-        finally:
-            if line is not None:
-                line.close()
-            for h in handlers:
-                h.removeFilter(line)
-        if args.output:
-            result.schedule.save(args.output, inst)
-        return result, stop_reason()
 
 
 # --------------------------------------------------------------------------- methods
@@ -385,8 +350,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"energy {report.energy:.1f}, memory {report.memory:.1f}, profit/energy "
         f"{report.profit_per_energy:.4f}, profit/memory {report.profit_per_memory:.4f}",
     ]
-    for v in report.violations:
-        lines.append(f"  ({v.constraint}) {v.message}")
+    lines += [f"  ({v.constraint}) {v.message}" for v in report.violations]
     _emit(args, report.to_dict(), "\n".join(lines))
     return 0 if report.feasible else 1
 
@@ -402,14 +366,14 @@ def cmd_demo(args: argparse.Namespace) -> int:
     name = args.scenario
     inst = scenarios.generate_scenario(name, args.seed)
     t_gen = time.perf_counter() - t0
+    info, info_text = _info(inst)
     wanted = ("greedy", "hpfs-stc", "asa-dtc", "orbit-dp")
     methods = [m for m in wanted if m in available_methods()]
     rows = []
     for m in methods:
         limit = args.time_limit if m in ("asa-dtc", "orbit-dp") else None
         res = solve(inst, m, seed=args.seed, time_limit=limit)
-        rep = validate(inst, res.schedule)
-        rows.append((m, res, rep))
+        rows.append((m, res, validate(inst, res.schedule)))
     upper = None
     if "orbit-dp" in methods:
         best = max(res.profit for _, res, _ in rows)
@@ -417,7 +381,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     data = {
         "scenario": name,
         "generate_s": t_gen,
-        "instance": _info_dict(inst),
+        "instance": info,
         "upper_bound": upper,
         "results": [
             {**res.summary(), "feasible": rep.feasible, "energy": rep.energy, "memory": rep.memory}
@@ -427,7 +391,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     lines = [
         f"sosp demo: scenario {name} (seed {args.seed}) generated from real orbits "
         f"in {t_gen:.2f} s",
-        _info_text(inst),
+        info_text,
         "",
         f"{'method':<10} {'status':<9} {'profit':>7} {'targets':>7} {'obs':>5} "
         f"{'energy':>8} {'memory':>8} {'time':>7}  valid",
@@ -566,7 +530,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("info", "summarise an instance: targets, EN, TN, orbits, opportunities per orbit")
     p.add_argument("instance")
 
-    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS
+    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS, load
 
     p = add("solve", "solve an instance and write the schedule")
     p.epilog = (
@@ -656,18 +620,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     for name, target in EXTRA_COMMANDS.items():
-        module, func = target.split(":")
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name and module.startswith(exc.name):
-                continue  # that part of sosp is not installed
-            raise
-        getattr(mod, func)(sub)
-        if name in sub.choices and not any(a.dest == "json" for a in sub.choices[name]._actions):
-            sub.choices[name].add_argument(
-                "--json", action="store_true", help="print one JSON object"
-            )
+        if (add_parser := load(target, optional=True)) is None:
+            continue  # that part of sosp is not installed
+        add_parser(sub)
+        p = sub.choices.get(name)
+        if p is not None and not any(a.dest == "json" for a in p._actions):
+            p.add_argument("--json", action="store_true", help="print one JSON object")
     return parser
 
 

@@ -29,7 +29,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import AbstractContextManager, ExitStack, contextmanager, nullcontext
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from sosp.errors import InputError
@@ -76,46 +76,37 @@ def dask_client(address: Any, workers: int | None = None) -> Iterator[Any]:
         raise InputError("--dask: Dask is not installed (pip install -e '.[dist]')") from None
     if not isinstance(address, str) or not address:
         raise InputError(f"--dask: expected 'local' or a scheduler address, got {address!r}")
-    quiet = _quiet(logging.WARNING)
-    try:
-        with ExitStack() as stack:  # closed on exit: the client, then the local cluster
-            if address == "local":
-                # ":0": any free port. None still binds Dask's HTTP server to 8787 and warns
-                # ("Port 8787 is already in use") beside another cluster on the same machine
-                cluster = LocalCluster(
-                    n_workers=workers, threads_per_worker=1, dashboard_address=":0"
-                )
-                stack.callback(cluster.close)
-                client = Client(cluster)
-            else:
-                try:
-                    client = Client(address, timeout=10)
-                except OSError as exc:
-                    raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
-            stack.callback(client.close)
-            log.info("dask cluster %s: %d worker thread(s)", address, cluster_size(client))
-            yield client
-    finally:
-        for name, level in quiet.items():
-            logging.getLogger(name).setLevel(level)
-
-
-@contextmanager
-def workers_for(processes: int, dask: Any = None, local: int | None = None) -> Iterator[Any]:
-    """Where a run's per-orbit work goes: ``processes`` on this machine, or with ``dask`` (an
-    address or client as :func:`dask_client` takes it; ``local`` processes for ``"local"``)
-    a client of that cluster for the duration of the block."""
-    if dask is None:
-        yield processes
-        return
-    with dask_client(dask, local) as client:
+    with _quiet(logging.WARNING), ExitStack() as stack:  # closed: the client, the cluster
+        if address == "local":
+            # ":0": any free port. None still binds Dask's HTTP server to 8787 and warns
+            # ("Port 8787 is already in use") beside another cluster on the same machine
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
+            stack.callback(cluster.close)
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(address, timeout=10)
+            except OSError as exc:
+                raise InputError(f"--dask: cannot connect to {address}: {exc}") from None
+        stack.callback(client.close)
+        log.info("dask cluster %s: %d worker thread(s)", address, cluster_size(client))
         yield client
 
 
-def _quiet(level: int) -> dict[str, int]:
-    """Raise Dask's own loggers to ``level`` (Dask configures them at INFO: a local cluster
-    logs some forty lines and a harmless traceback on closing); returns the levels to
-    restore. sosp's own messages keep theirs."""
+def workers_for(
+    processes: int, dask: Any = None, local: int | None = None
+) -> AbstractContextManager[Any]:
+    """Where a run's per-orbit work goes: ``processes`` on this machine, or with ``dask`` (an
+    address or client as :func:`dask_client` takes it; ``local`` processes for ``"local"``)
+    a client of that cluster for the duration of the block."""
+    return nullcontext(processes) if dask is None else dask_client(dask, local)
+
+
+@contextmanager
+def _quiet(level: int) -> Iterator[None]:
+    """Within the block, Dask's own loggers at ``level`` at least (Dask configures them at
+    INFO: a local cluster logs some forty lines and a harmless traceback on closing); their
+    levels are restored on exit. sosp's own messages keep theirs."""
     old = {}
     for name in list(logging.root.manager.loggerDict):
         if name == "distributed" or name.startswith("distributed."):
@@ -123,7 +114,11 @@ def _quiet(level: int) -> dict[str, int]:
             if logger.level < level:
                 old[name] = logger.level
                 logger.setLevel(level)
-    return old
+    try:
+        yield
+    finally:
+        for name, old_level in old.items():
+            logging.getLogger(name).setLevel(old_level)
 
 
 def cluster_size(client: Any) -> int:
@@ -145,9 +140,8 @@ def local_processes(workers: Any) -> int:
 
 def check_workers(workers: Any, name: str = "workers") -> None:
     """Raise :class:`InputError` unless ``workers`` is a positive integer or a client."""
-    if is_client(workers):
-        return
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+    bad = isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
+    if bad and not is_client(workers):
         raise InputError(f"{name}: expected a positive integer, got {workers!r}")
 
 
@@ -356,48 +350,32 @@ def completed(
     ``lost(item, exc)`` and skipped, but a broken process pool raises. Nothing starts before
     the first result is asked for.
     """
-    if dask is not None:
-        yield from _on_cluster(fn, items, dask, processes, lost)
-    elif processes <= 1 or len(items) <= 1:
+    if dask is None and (processes <= 1 or len(items) <= 1):
         for item in items:
             yield fn(item)
-    else:
-        yield from _in_processes(fn, items, min(processes, len(items)), lost)
+        return
+    with ExitStack() as stack:
+        if dask is None:
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+            from concurrent.futures.process import BrokenProcessPool
 
+            pool = stack.enter_context(ProcessPoolExecutor(min(processes, len(items))))
+            futures = {pool.submit(fn, item): item for item in items}
+            stack.callback(lambda: [fut.cancel() for fut in futures])  # ended early
+            fatal: tuple[type[BaseException], ...] = (BrokenProcessPool,)
+        else:
+            from distributed import as_completed
 
-def _in_processes(
-    fn: Callable[[Any], Any], items: Sequence[Any], processes: int, lost: Any
-) -> Iterator[Any]:
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    from concurrent.futures.process import BrokenProcessPool
-
-    with ProcessPoolExecutor(max_workers=processes) as pool:
-        futures = {pool.submit(fn, item): item for item in items}
-        try:
-            for fut in as_completed(futures):
-                try:
-                    yield fut.result()
-                except BrokenProcessPool:
-                    raise
-                except Exception as exc:  # noqa: BLE001 - the caller's to report
-                    if lost is not None:
-                        lost(futures[fut], exc)
-        finally:
-            for fut in futures:
-                fut.cancel()
-
-
-def _on_cluster(
-    fn: Callable[[Any], Any], items: Sequence[Any], dask: Any, processes: int, lost: Any
-) -> Iterator[Any]:
-    with dask_client(dask, processes) as client:
-        from distributed import as_completed
-
-        futures = {client.submit(fn, item, pure=False): item for item in items}
+            client = stack.enter_context(dask_client(dask, processes))
+            futures = {client.submit(fn, item, pure=False): item for item in items}
+            fatal = ()
         for fut in as_completed(list(futures)):
             try:
                 yield fut.result()
+            except fatal:  # a broken process pool
+                raise
             except Exception as exc:  # noqa: BLE001 - the caller's to report
                 if lost is not None:
                     lost(futures[fut], exc)
-            fut.release()
+            if dask is not None:
+                fut.release()

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import types
 import typing
+from collections.abc import Iterable
 from numbers import Integral
 from typing import Any, ClassVar, Literal, TypeVar, get_args, get_origin
 
@@ -70,11 +72,7 @@ def _parts(hint: Any) -> tuple[list[Any], bool]:
 
 def choices(hint: Any) -> tuple[Any, ...] | None:
     """The allowed values of a ``Literal[...]`` hint (or ``Literal[...] | None``), else None."""
-    members, _ = _parts(hint)
-    for m in members:
-        if get_origin(m) is Literal:
-            return get_args(m)
-    return None
+    return next((get_args(m) for m in _parts(hint)[0] if get_origin(m) is Literal), None)
 
 
 def coerce(key: str, value: Any, hint: Any) -> Any:
@@ -96,9 +94,8 @@ def coerce(key: str, value: Any, hint: Any) -> Any:
         raise InputError(f"{key}: expected true or false, got {value!r}")
     allowed = choices(hint)
     if allowed is not None:
-        return text  # checked against the choices by check_choices
-    numeric = [m for m in members if m in (int, float)]
-    if numeric:
+        return text  # checked against the choices by check_types
+    if numeric := [m for m in members if m in (int, float)]:
         try:
             return int(text) if numeric[0] is int else float(text)
         except ValueError:
@@ -107,9 +104,11 @@ def coerce(key: str, value: Any, hint: Any) -> Any:
     return text
 
 
-def check_choices(params: Any) -> None:
-    """Raise :class:`InputError` for a ``Literal`` field whose value is not one of its choices,
-    and for a ``bool`` field holding anything but True or False."""
+def check_types(params: Any) -> None:
+    """Raise :class:`InputError` for a ``Literal`` field whose value is not one of its
+    choices, a ``bool`` field holding anything but True or False, and an ``int``, ``float``
+    or ``str`` field not holding one (None where the hint allows it); other hints are the
+    subclass's to check."""
     for name, hint in field_types(type(params)).items():
         value = getattr(params, name)
         members, optional = _parts(hint)
@@ -122,16 +121,7 @@ def check_choices(params: Any) -> None:
             )
         if bool in members and not isinstance(value, bool):
             raise InputError(f"{name}: expected true or false, got {value!r}")
-
-
-def check_types(params: Any) -> None:
-    """:func:`check_choices`, and each ``int``, ``float`` or ``str`` field holding one (None
-    where the hint allows it); other hints are the subclass's to check."""
-    check_choices(params)
-    for name, hint in field_types(type(params)).items():
-        value = getattr(params, name)
-        members, optional = _parts(hint)
-        if (value is None and optional) or choices(hint) is not None or bool in members:
+        if allowed is not None or bool in members:
             continue
         number = not isinstance(value, bool) and isinstance(value, Integral)  # numpy's too
         if int in members and number:
@@ -183,3 +173,20 @@ def positive(kind: type) -> Any:
 
     parse.__name__ = f"positive {kind.__name__}"
     return parse
+
+
+def key_values(items: Iterable[str], malformed: str) -> dict[str, Any]:
+    """``KEY=VALUE`` items as keyword parameters: VALUE is JSON, else text (stripped), and a
+    ``-`` in KEY reads ``_``. An item without ``=`` or key raises :class:`InputError`
+    ``"<malformed>, got <item>"``."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, eq, value = item.partition("=")
+        key = key.strip().replace("-", "_")
+        if not eq or not key:
+            raise InputError(f"{malformed}, got {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value.strip()
+    return out

@@ -106,32 +106,33 @@ METHODS: dict[str, Method] = {
 #: The method of :func:`sosp.solve.solve` and of ``sosp solve`` when none is named.
 DEFAULT_METHOD = "asa-dtc"
 
+
+def _solve_bound(method: str, help: str) -> Bound:  # noqa: A002 - the bound's help
+    """A bound of :func:`models.solve.bound` with ``method=method``."""
+    return Bound("models.solve:bound", help, options={"method": method})
+
+
 #: Bound name -> :class:`Bound`, in the order ``sosp bound --method`` lists them.
 BOUNDS: dict[str, Bound] = {
-    "auto": Bound(
-        "models.solve:bound",
+    "auto": _solve_bound(
+        "auto",
         "the column-generation bound, then the LP with the time left unless it converged "
         "(the least of the two)",
-        options={"method": "auto"},
     ),
-    "lp": Bound("models.solve:bound", "the clique-strengthened LP", options={"method": "lp"}),
-    "milp": Bound(
-        "models.solve:bound", "the bound of a time-limited MILP", options={"method": "milp"}
-    ),
+    "lp": _solve_bound("lp", "the clique-strengthened LP"),
+    "milp": _solve_bound("milp", "the bound of a time-limited MILP"),
     "lagrangian": Bound(
         "models.lagrangian:lagrangian_bound",
         "the Lagrangian relaxation across orbits by dynamic programming (no LP solver)",
     ),
-    "colgen": Bound(
-        "models.solve:bound",
+    "colgen": _solve_bound(
+        "colgen",
         "Dantzig-Wolfe over orbit plans, then branch and price with the time left (docs/exact.md)",
-        options={"method": "colgen"},
     ),
-    "windows": Bound(
-        "models.solve:bound",
+    "windows": _solve_bound(
+        "windows",
         "the Lagrangian bound over the window relaxation, no candidate list: what auto uses "
         "where the candidates would not fit in memory",
-        options={"method": "windows"},
     ),
     "pba": Bound(
         "heuristics.pba:pba_bound",
@@ -145,10 +146,16 @@ BOUNDS: dict[str, Bound] = {
 CERTIFYING_BOUNDS = tuple(name for name, b in BOUNDS.items() if b.model == PROBLEM_MODEL)
 
 
-def load(target: str) -> Any:
-    """The object named by ``"module:name"``, its module imported now."""
+def load(target: str, optional: bool = False) -> Any:
+    """The object named by ``"module:name"``, its module imported now; with ``optional``,
+    None when that module (or its package) is not installed."""
     module, name = target.split(":")
-    return getattr(importlib.import_module(module), name)
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ModuleNotFoundError as exc:
+        if optional and exc.name and module.startswith(exc.name):
+            return None
+        raise
 
 
 def available_methods() -> list[str]:
@@ -173,13 +180,9 @@ def _method(method: str) -> Method:
 
 def method_function(method: str) -> Callable[..., Any]:
     """The solve function of ``method``; :class:`InputError` if unknown or not installed."""
-    target = _method(method).function
-    try:
-        return load(target)
-    except ModuleNotFoundError as exc:
-        if exc.name and target.startswith(exc.name):
-            raise InputError(f"method: {method!r} is not available in this build") from None
-        raise
+    if (function := load(_method(method).function, optional=True)) is None:
+        raise InputError(f"method: {method!r} is not available in this build")
+    return function
 
 
 def param_class(method: str) -> type:

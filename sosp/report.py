@@ -94,36 +94,33 @@ def _scenario_order(name: str) -> tuple[int, str, int, str]:
     return (0 if g else 1, g, int(name[1:]) if g else 0, name)
 
 
-def _mean(xs: list[float]) -> float:
-    return sum(xs) / len(xs) if xs else math.nan
+#: What a :class:`Cell` keeps of each counted run: its profit, observed targets, run time and
+#: profit per unit of energy and of memory.
+MEASURES = ("profit", "observed", "runtime", "per_energy", "per_memory")
 
 
 @dataclass
 class Cell:
-    """The runs of one method on one scenario (errors and infeasible schedules left out)."""
+    """The runs of one method on one scenario (errors and infeasible schedules left out):
+    each of :data:`MEASURES` per run."""
 
-    profits: list[float] = field(default_factory=list)
-    observed: list[float] = field(default_factory=list)
-    runtimes: list[float] = field(default_factory=list)
-    per_energy: list[float] = field(default_factory=list)
-    per_memory: list[float] = field(default_factory=list)
+    runs: dict[str, list[float]] = field(default_factory=lambda: {m: [] for m in MEASURES})
     failed: int = 0
     infeasible: int = 0
 
     @property
     def n(self) -> int:
-        return len(self.profits)
+        return len(self.runs["profit"])
 
-    mean_profit = property(lambda self: _mean(self.profits))
-    mean_observed = property(lambda self: _mean(self.observed))
-    mean_runtime = property(lambda self: _mean(self.runtimes))
-    mean_per_energy = property(lambda self: _mean(self.per_energy))
-    mean_per_memory = property(lambda self: _mean(self.per_memory))
+    def mean(self, measure: str) -> float:
+        """The mean of ``measure`` (one of :data:`MEASURES`) over the runs (NaN without)."""
+        return sum(self.runs[measure]) / self.n if self.n else math.nan
 
     @property
     def sd(self) -> float:
         """Sample standard deviation of the profits (0 for a single run)."""
-        return statistics.stdev(self.profits) if self.n > 1 else (0.0 if self.n else math.nan)
+        profits = self.runs["profit"]
+        return statistics.stdev(profits) if self.n > 1 else (0.0 if self.n else math.nan)
 
 
 @dataclass
@@ -133,16 +130,15 @@ class Summary:
     scenarios: list[str] = field(default_factory=list)
     methods: list[str] = field(default_factory=list)
     cells: dict[tuple[str, str], Cell] = field(default_factory=dict)
-    en: dict[str, int] = field(default_factory=dict)
-    tn: dict[str, int] = field(default_factory=dict)
+    #: Per scenario: its EN and TN (observable targets, opportunities).
+    sizes: dict[str, tuple[int, int]] = field(default_factory=dict)
     bound: dict[str, float] = field(default_factory=dict)
     exact: dict[str, tuple[float, int]] = field(default_factory=dict)
     best: dict[str, float] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*).
-    method_bound: dict[tuple[str, str], float] = field(default_factory=dict)
-    #: Per (scenario, label): the count stored with that least bound (PBA-STC's F*), if any.
-    method_bound_count: dict[tuple[str, str], int] = field(default_factory=dict)
+    #: Per (scenario, label): the least bound of the method's runs (PBA-STC's R*) and the
+    #: count stored with it (PBA-STC's F*; None in databases of schema 1).
+    method_bound: dict[tuple[str, str], tuple[float, int | None]] = field(default_factory=dict)
     #: Per (scenario, label): the profit and count of a run that proved optimality (RDS-STC).
     method_exact: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
 
@@ -203,27 +199,21 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
         if r["bound"] is not None:
             if full:
                 sm.bound[s] = min(sm.bound.get(s, math.inf), float(r["bound"]))
-            if float(r["bound"]) < sm.method_bound.get(key, math.inf):
-                sm.method_bound[key] = float(r["bound"])
-                if r.get("bound_count") is not None:  # databases of schema 1 have none
-                    sm.method_bound_count[key] = int(r["bound_count"])
-                else:
-                    sm.method_bound_count.pop(key, None)
+            if float(r["bound"]) < sm.method_bound.get(key, (math.inf,))[0]:
+                sm.method_bound[key] = (float(r["bound"]), r.get("bound_count"))
         if r["schedule"] is not None:  # any valid schedule, of any method: the best known
             sm.best[s] = max(sm.best.get(s, -math.inf), float(r["profit"]))
         if r["status"] == "optimal":
-            if full and (s not in sm.exact or r["profit"] > sm.exact[s][0]):
-                sm.exact[s] = (float(r["profit"]), int(r["observed"]))
-            sm.method_exact[key] = (float(r["profit"]), int(r["observed"]))
+            sm.method_exact[key] = exact = (float(r["profit"]), int(r["observed"]))
+            if full and exact[0] > sm.exact.get(s, (-math.inf,))[0]:
+                sm.exact[s] = exact
         if r["status"] not in COUNTED:
             continue
-        cell.profits.append(float(r["profit"]))
-        cell.observed.append(float(r["observed"]))
-        cell.runtimes.append(float(r["runtime"]))
-        cell.per_energy.append(r["profit"] / r["energy"] if r["energy"] else 0.0)
-        cell.per_memory.append(r["profit"] / r["memory"] if r["memory"] else 0.0)
-    sm.en = {i["scenario"]: int(i["en"]) for i in insts}
-    sm.tn = {i["scenario"]: int(i["tn"]) for i in insts}
+        for x in ("energy", "memory"):
+            r[f"per_{x}"] = r["profit"] / r[x] if r[x] else 0.0
+        for m in MEASURES:
+            cell.runs[m].append(float(r[m]))
+    sm.sizes = {i["scenario"]: (int(i["en"]), int(i["tn"])) for i in insts}
     sm.scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
     sm.methods = sorted({m for _, m in cells})
     sm.cells = dict(cells)
@@ -234,7 +224,7 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             sm.notes.append(
                 f"{s} {m}: {c.infeasible} schedule(s) rejected by the validator left out"
             )
-    if len({i["fingerprint"] for i in insts}) > len(sm.en):
+    if len({i["fingerprint"] for i in insts}) > len(sm.sizes):
         sm.notes.append("some scenarios were run on more than one instance; EN/TN show one of them")
     return sm
 
@@ -270,21 +260,18 @@ def resolve(methods: list[str], *candidates: str) -> str | None:
 
 
 def comparison(
-    summary: Summary,
-    target: str | None,
-    baseline: str | None,
-    methods: list[str] | None = None,
+    target: str | None, baseline: str | None, methods: list[str]
 ) -> tuple[str | None, str | None, list[str]]:
-    """The labels IMP and the t-test compare, and notes on how they were chosen.
+    """The labels IMP and the t-test compare among ``methods``, and notes on how they were
+    chosen.
 
     Defaults (None): ASA-DTC in the paper's configuration (``asa-dtc@paper``, else
     ``asa-dtc``) against ACO-LS-STC (``aco-ls-stc``, else ASA-STC with a note).
     """
     notes: list[str] = []
-    ms = summary.methods if methods is None else methods
-    t = target if target is not None else resolve(ms, *PAPER_METHODS["ASA-DTC"])
-    b = baseline if baseline is not None else resolve(ms, *PAPER_METHODS["ACO-LS-STC"])
-    if b is None and (b := resolve(ms, *BASELINE_FALLBACK)) is not None:
+    t = target if target is not None else resolve(methods, *PAPER_METHODS["ASA-DTC"])
+    b = baseline if baseline is not None else resolve(methods, *PAPER_METHODS["ACO-LS-STC"])
+    if b is None and (b := resolve(methods, *BASELINE_FALLBACK)) is not None:
         notes.append(f"IMP and t-test against {b}: no runs of aco-ls-stc")
     return t, b, notes
 
@@ -303,23 +290,16 @@ def build_paper_table(
     (noted).
     """
     scen, present = _group(summary, group)
-    notes: list[str] = []
-    cols: dict[str, str] = {}
-    for title, cands in PAPER_METHODS.items():
-        m = resolve(present, *cands)
-        if m is None:
-            notes.append(f"{title} columns omitted: no runs of {cands[0]}")
-        else:
-            cols[title] = m
-    target, baseline, cnotes = comparison(summary, target, baseline, present)
+    cols = {t: m for t, cands in PAPER_METHODS.items() if (m := resolve(present, *cands))}
+    missing = [(t, cands[0]) for t, cands in PAPER_METHODS.items() if t not in cols]
+    notes = [f"{t} columns omitted: no runs of {m}" for t, m in missing]
+    target, baseline, cnotes = comparison(target, baseline, present)
     notes += cnotes
     header = ["SN", "EN", "TN"]
-    star = "PBA-STC" in cols and all(
-        (s, cols["PBA-STC"]) in summary.method_bound_count
-        for s in scen
-        if (s, cols["PBA-STC"]) in summary.method_bound
-    )
-    if "PBA-STC" in cols:
+    pba = cols.get("PBA-STC")
+    bounds = [summary.method_bound.get((s, pba)) for s in scen]
+    star = pba is not None and all(b[1] is not None for b in bounds if b)
+    if pba is not None:
         header += ["PBA-STC R*", "PBA-STC F*" if star else "PBA-STC F"]
         if not star:
             notes.append("PBA-STC F: targets of its schedule (runs stored without F*)")
@@ -335,15 +315,11 @@ def build_paper_table(
     header += ["sosp bound", "proven", "sosp best"]
     rows: list[list[Any]] = []
     for s in scen:
-        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s)]
-        if "PBA-STC" in cols:
-            key = (s, cols["PBA-STC"])
-            c = summary.cells.get(key)
-            if star:
-                f: Any = summary.method_bound_count.get(key)
-            else:
-                f = c.mean_observed if c and c.n else None
-            row += [summary.method_bound.get(key), f]
+        row: list[Any] = [s, *summary.sizes.get(s, (None, None))]
+        if pba is not None:  # R*, and F* or the mean targets of its schedules
+            r_star, f_star = summary.method_bound.get((s, pba), (None, None))
+            c = summary.cells.get((s, pba))
+            row += [r_star, f_star if star else c and c.mean("observed")]
         if "RDS-STC" in cols:
             row += summary.method_exact.get((s, cols["RDS-STC"])) or [None, None]
         for title in ("ACO-LS-STC", "ASA-DTC"):
@@ -379,15 +355,17 @@ def _compared(
 
 def _rfst(c: Cell | None) -> list[Any]:
     """A method's R, F, SD, T on one scenario (None without a valid run)."""
-    return [c.mean_profit, c.mean_observed, c.sd, c.mean_runtime] if c and c.n else [None] * 4
+    return (
+        [c.mean("profit"), c.mean("observed"), c.sd, c.mean("runtime")] if c and c.n else [None] * 4
+    )
 
 
 def _imp(summary: Summary, s: str, target: str, baseline: str) -> list[Any]:
     """IMP, t-test sign and p-value of one scenario (paper Tables 3-4, last columns)."""
     t, b = summary.cells.get((s, target)), summary.cells.get((s, baseline))
-    if t and b and t.n and b.n and b.mean_profit:
-        imp = (t.mean_profit - b.mean_profit) / b.mean_profit
-        p = welch_greater(t.profits, b.profits)
+    if t and b and t.n and b.n and b.mean("profit"):
+        imp = (t.mean("profit") - b.mean("profit")) / b.mean("profit")
+        p = welch_greater(t.runs["profit"], b.runs["profit"])
         return [imp, "+" if p < ALPHA else "", p]
     return [None, "", None]
 
@@ -398,7 +376,7 @@ def build_methods_table(
     """Every method's R, F, SD, T side by side (the numbers of Fig. 2), IMP and t-test."""
     scen, methods = _group(summary, group)
     notes: list[str] = []
-    target, baseline, _ = comparison(summary, target, baseline, methods)
+    target, baseline, _ = comparison(target, baseline, methods)
     header = ["SN", "EN", "TN", "bound", "exact R", "exact F", "best R"]
     for m in methods:
         header += [f"{m} R", f"{m} F", f"{m} SD", f"{m} T (s)"]
@@ -409,7 +387,7 @@ def build_methods_table(
     for s in scen:
         exact = summary.exact.get(s) or (None, None)
         bounds = [summary.bound.get(s), *exact, summary.best.get(s)]
-        row: list[Any] = [s, summary.en.get(s), summary.tn.get(s), *bounds]
+        row: list[Any] = [s, *summary.sizes.get(s, (None, None)), *bounds]
         for m in methods:
             row += _rfst(summary.cells.get((s, m)))
         if compare:
@@ -432,8 +410,7 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
     r_cols = [header.index(f"{m} R") for m in methods if f"{m} R" in header]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
-        vals = [r[i] for i in r_cols if r[i] is not None]
-        best = max(vals) if vals else None
+        best = max((r[i] for i in r_cols if r[i] is not None), default=None)
         out = []
         for i, (h, v) in enumerate(zip(header, r, strict=True)):
             digits = 2 if h.endswith((" SD", "T (s)")) or h == "p" else 1
@@ -452,18 +429,18 @@ MIN_POINTS = 2
 
 #: The y axis of each measure drawn.
 YLABELS = {
-    "mean_profit": "mean profit",
-    "mean_per_memory": "profit / memory",
-    "mean_per_energy": "profit / energy",
+    "profit": "mean profit",
+    "per_memory": "profit / memory",
+    "per_energy": "profit / energy",
 }
 
 #: The figures: file stem -> (measure drawn, title). Fig. 2 draws the methods of :data:`FIG2`,
 #: the others those of :data:`CLUSTERING`.
 FIGURES = {
-    "fig2_methods": ("mean_profit", "Fig. 2: methods"),
-    "fig3_clustering": ("mean_profit", "Fig. 3: dynamic vs static vs no task clustering"),
-    "fig4_profit_memory": ("mean_per_memory", "Fig. 4: profit-memory ratio"),
-    "fig5_profit_energy": ("mean_per_energy", "Fig. 5: profit-energy ratio"),
+    "fig2_methods": ("profit", "Fig. 2: methods"),
+    "fig3_clustering": ("profit", "Fig. 3: dynamic vs static vs no task clustering"),
+    "fig4_profit_memory": ("per_memory", "Fig. 4: profit-memory ratio"),
+    "fig5_profit_energy": ("per_energy", "Fig. 5: profit-energy ratio"),
 }
 
 #: Panel titles by scenario group.
@@ -489,7 +466,7 @@ def figure_series(
         lines: dict[str, list[float]] = {}
         for m in methods:
             cells = [summary.cells.get((s, m)) for s in scen]
-            ys = [getattr(c, measure) if c and c.n else math.nan for c in cells]
+            ys = [c.mean(measure) if c and c.n else math.nan for c in cells]
             points = sum(not math.isnan(y) for y in ys)
             if points >= MIN_POINTS:
                 lines[m] = ys
@@ -520,13 +497,8 @@ def _figure(
     from sosp.io import atomic_output
 
     groups = list(panels)
-    fig, axes = plt.subplots(
-        1,
-        len(groups),
-        figsize=(6.0 * len(groups), 4.6),
-        squeeze=False,
-        layout="constrained",
-    )
+    n = len(groups)
+    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, 4.6), squeeze=False, layout="constrained")
     handles: dict[str, Any] = {}
     methods = [m for g in groups for m in panels[g]]
     colour = {m: f"C{i}" for i, m in enumerate(dict.fromkeys(methods))}
@@ -537,9 +509,7 @@ def _figure(
             (line,) = ax.plot(x, ys, marker="o", label=m, color=colour[m])
             handles.setdefault(m, line)
         ax.set_xticks(x, scen, rotation=45 if len(scen) > 10 else 0)
-        ax.set_xlabel("scenario")
-        ax.set_ylabel(ylabel)
-        ax.set_title(PANELS[g])
+        ax.set(xlabel="scenario", ylabel=ylabel, title=PANELS[g])
         ax.grid(alpha=0.3)
     fig.legend(
         list(handles.values()),
@@ -581,7 +551,7 @@ def write_report(
     if out.exists() and not out.is_dir():
         raise InputError("-o: not a folder", source=str(out))
     summary = summarise(db)
-    ctarget, cbaseline, _ = comparison(summary, target, baseline)
+    ctarget, cbaseline, _ = comparison(target, baseline, summary.methods)
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
     notes = list(summary.notes)
@@ -590,18 +560,18 @@ def write_report(
         if not any(scenario_group(s) == g for s in summary.scenarios):
             continue
         header, rows, tnotes = build_paper_table(summary, g, target, baseline)
-        table_md = _markdown(header, rows, ["RDS-STC", "ACO-LS-STC", "ASA-DTC"])
-        atomic_write_text(out / f"{stem}.md", f"## {title}\n\n{table_md}")
-        atomic_write_text(out / f"{stem}.csv", _csv_text(header, rows))
         mheader, mrows, _ = build_methods_table(summary, g, target, baseline)
-        methods = [m for m in summary.methods if f"{m} R" in mheader]
-        methods_md = _markdown(mheader, mrows, methods)
-        mtitle = f"{title.split(':')[0]}, every method"
-        atomic_write_text(out / f"{stem}_methods.md", f"## {mtitle}\n\n{methods_md}")
-        atomic_write_text(out / f"{stem}_methods.csv", _csv_text(mheader, mrows))
-        files += [f"{stem}.md", f"{stem}.csv", f"{stem}_methods.md", f"{stem}_methods.csv"]
-        md += [f"## {title}", "", table_md, f"## {mtitle}", "", methods_md]
-        notes += [f"{title.split(':')[0]}: {n}" for n in tnotes]
+        short = title.split(":")[0]
+        for name, head, theader, trows, bold in (  # each table in Markdown and CSV
+            (stem, title, header, rows, ["RDS-STC", "ACO-LS-STC", "ASA-DTC"]),
+            (f"{stem}_methods", f"{short}, every method", mheader, mrows, summary.methods),
+        ):
+            text = _markdown(theader, trows, bold)
+            atomic_write_text(out / f"{name}.md", f"## {head}\n\n{text}")
+            atomic_write_text(out / f"{name}.csv", _csv_text(theader, trows))
+            files += [f"{name}.md", f"{name}.csv"]
+            md += [f"## {head}", "", text]
+        notes += [f"{short}: {n}" for n in tnotes]
     for name in ("table3", "table4"):
         if f"{name}.md" not in files:
             notes.append(f"{name}: no scenarios of that group in the database")

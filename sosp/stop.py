@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any, Protocol
 
 
@@ -129,9 +130,7 @@ class Foresight:
 
     def __call__(self, key: Any, work: float) -> float:
         """Seconds job ``key`` of size ``work`` is foreseen to take."""
-        if key in self.took:
-            return self.took[key]
-        return self.rate_or_prior() * work
+        return self.took[key] if key in self.took else self.rate_or_prior() * work
 
     def late(self, key: Any, work: float, deadline: float | None) -> bool:
         """Whether job ``key`` of size ``work``, started now, is foreseen to end past
@@ -174,14 +173,8 @@ class FirstOf:
 
 
 # --------------------------------------------------------------------------- stop flag
-class _Flag:
-    """The process-wide stop request (a plain attribute: one lookup per check)."""
-
-    requested: bool = False
-    reason: str | None = None
-
-
-_FLAG = _Flag()
+#: The process-wide stop request and what asked for it (plain attributes: one lookup per check).
+_FLAG = SimpleNamespace(requested=False, reason=None)
 
 
 def request_stop(reason: str = "requested") -> None:

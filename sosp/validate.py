@@ -134,18 +134,14 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
             flag("structure", f"observation {u}: unknown orbit {ob.orbit}", observation=u)
             continue
         oid = inst.orbit_ids[ob.orbit]
+        at = {"orbit": oid, "observation": u}
         by_orbit[ob.orbit].append(u)
         if not ob.end > ob.start:
-            flag("structure", f"observation {u}: start must be < end", orbit=oid, observation=u)
+            flag("structure", f"observation {u}: start must be < end", **at)
         if ob.start < inst.orbit_start[ob.orbit] - TOL or ob.end > inst.orbit_end[ob.orbit] + TOL:
-            flag(
-                "structure",
-                f"observation {u}: window outside orbit {oid}",
-                orbit=oid,
-                observation=u,
-            )
+            flag("structure", f"observation {u}: window outside orbit {oid}", **at)
         if not ob.opps:
-            flag("structure", f"observation {u}: covers no opportunity", orbit=oid, observation=u)
+            flag("structure", f"observation {u}: covers no opportunity", **at)
         # (11) longest continuous observation
         excess = (ob.end - ob.start) - float(inst.max_duration[ob.orbit])
         if excess > TOL:
@@ -154,28 +150,21 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                 f"observation {u} on {oid} lasts {ob.end - ob.start:.6g} s"
                 f" > Delta T {inst.max_duration[ob.orbit]:g} s",
                 amount=excess,
-                orbit=oid,
-                observation=u,
+                **at,
             )
         for i in ob.opps:
             if not (0 <= i < inst.n_opps):
-                flag(
-                    "structure",
-                    f"observation {u}: unknown opportunity {i}",
-                    orbit=oid,
-                    observation=u,
-                )
+                flag("structure", f"observation {u}: unknown opportunity {i}", **at)
                 continue
             pid = inst.opp_ids[i]
             k = int(inst.opp_target[i])
             tid = inst.target_ids[k]
+            at_target = {**at, "target": tid}
             if int(inst.opp_orbit[i]) != ob.orbit:
                 flag(
                     "structure",
                     f"observation {u}: opportunity {pid} is not on orbit {oid}",
-                    orbit=oid,
-                    observation=u,
-                    target=tid,
+                    **at_target,
                 )
             ts, te = float(inst.opp_start[i]), float(inst.opp_end[i])
             if ts < ob.start - TOL or te > ob.end + TOL:
@@ -185,9 +174,7 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                     f"{ob.end:.6g}] does not contain opportunity {pid} "
                     f"[{ts:.6g}, {te:.6g}]",
                     amount=max(ob.start - ts, te - ob.end),
-                    orbit=oid,
-                    observation=u,
-                    target=tid,
+                    **at_target,
                 )
             # (7) the stated roll inside every component's roll range
             lo, hi = float(inst.opp_roll_min[i]), float(inst.opp_roll_max[i])
@@ -198,9 +185,7 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                     f"observation {u}: roll {ob.roll:.6g} outside the range "
                     f"[{lo:.6g}, {hi:.6g}] of opportunity {pid}",
                     amount=miss,
-                    orbit=oid,
-                    observation=u,
-                    target=tid,
+                    **at_target,
                 )
             # (2) each target at most once
             if k in seen_target:
@@ -209,22 +194,18 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                     f"target {tid} observed again in observation {u} "
                     f"(first in observation {seen_target[k]})",
                     amount=1.0,
-                    orbit=oid,
-                    observation=u,
-                    target=tid,
+                    **at_target,
                 )
             else:
                 seen_target[k] = u
                 profit += float(inst.target_weight[k])
 
     usage: list[OrbitUsage] = []
-    total_energy = total_memory = 0.0
     for j in sorted(by_orbit):
         oid = inst.orbit_ids[j]
         seq = sorted(by_orbit[j], key=lambda u: (observations[u].start, observations[u].end))
         a, v = float(inst.setup_time[j]), float(inst.slew_rate[j])
-        observe = 0.0
-        slew = 0.0
+        observe = slew = 0.0
         for n, u in enumerate(seq):
             ob = observations[u]
             observe += ob.end - ob.start
@@ -249,22 +230,13 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         )
         memory = float(inst.memory_rate[j]) * observe
         usage.append(OrbitUsage(oid, len(seq), observe, slew, energy, memory))
-        total_energy += energy
-        total_memory += memory
-        if energy - float(inst.energy_capacity[j]) > TOL:  # (4)
-            flag(
-                "4",
-                f"orbit {oid}: energy {energy:.6g} > capacity {inst.energy_capacity[j]:g}",
-                amount=energy - float(inst.energy_capacity[j]),
-                orbit=oid,
-            )
-        if memory - float(inst.memory_capacity[j]) > TOL:  # (5)
-            flag(
-                "5",
-                f"orbit {oid}: memory {memory:.6g} > capacity {inst.memory_capacity[j]:g}",
-                amount=memory - float(inst.memory_capacity[j]),
-                orbit=oid,
-            )
+        for rule, what, used, cap in (
+            ("4", "energy", energy, inst.energy_capacity[j]),
+            ("5", "memory", memory, inst.memory_capacity[j]),
+        ):
+            if used - float(cap) > TOL:  # (4), (5)
+                msg = f"orbit {oid}: {what} {used:.6g} > capacity {cap:g}"
+                flag(rule, msg, amount=used - float(cap), orbit=oid)
         if len(seq) > int(inst.max_openings[j]):  # (6)
             flag(
                 "6",
@@ -284,7 +256,7 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         violations=out,
         profit=profit,
         observed=len(seen_target),
-        energy=total_energy,
-        memory=total_memory,
+        energy=sum((u.energy for u in usage), 0.0),  # in orbit order, as checked
+        memory=sum((u.memory for u in usage), 0.0),
         orbits=usage,
     )

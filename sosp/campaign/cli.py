@@ -105,8 +105,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         def on_result(row: dict[str, Any], done: int, total: int) -> None:
             nonlocal progress
-            if progress is None:
-                progress = Progress(total)
+            progress = Progress(total) if progress is None else progress
             progress.update(row)
 
         out = run_campaign(
@@ -119,8 +118,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         )
         if progress is not None:
             progress.close()
-    data = out.to_dict()
-    data["db"] = str(db)
+    data = {**out.to_dict(), "db": str(db)}
     text = (
         f"{db}: {out.total} runs in the campaign, {out.already} already stored, {out.ran} run now"
         f" ({out.failed} failed, {out.infeasible} infeasible) in {out.elapsed_s:.1f} s"

@@ -84,14 +84,8 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
                 f"instance of {spec.scenario} changed (fingerprint {inst.fingerprint[:19]}..."
                 f" != {spec.fingerprint[:19]}...)"
             )
-        result = solve(
-            inst,
-            spec.method,
-            seed=spec.seed,
-            time_limit=spec.time_limit or None,
-            check=False,
-            **json.loads(spec.params),
-        )
+        params, limit = json.loads(spec.params), spec.time_limit or None  # 0: no limit
+        result = solve(inst, spec.method, seed=spec.seed, time_limit=limit, check=False, **params)
         report = validate(inst, result.schedule)
         verdict = report.to_dict()
         verdict.pop("orbits", None)

@@ -20,8 +20,8 @@ A campaign comes from command-line options or from a TOML file (parsed with :mod
     name = "asa-dtc"
 
 ``methods`` may also be a list of strings such as ``"milp:model=cluster,mip_gap=0.01"``.
-This module imports only the standard library and :mod:`sosp.errors`, so ``sosp --help``
-stays fast.
+This module imports only the standard library, :mod:`sosp.errors` and :mod:`sosp.params`, so
+``sosp --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from sosp.errors import InputError
+from sosp.params import key_values
 
 #: Named scenarios of the paper (section 6.1).
 SCENARIO_RE = re.compile(r"^[BC](10|[1-9])$")
@@ -159,9 +160,8 @@ def parse_seeds(value: Any, where: str = "seeds") -> tuple[int, ...]:
                 raise InputError(f"{where}: empty range {part!r}")
             items.extend(range(lo, hi + 1))
     elif isinstance(value, list):
-        for v in value:
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise InputError(f"{where}: expected integers, got {v!r}")
+        if bad := [v for v in value if isinstance(v, bool) or not isinstance(v, int)]:
+            raise InputError(f"{where}: expected integers, got {bad[0]!r}")
         items = value
     else:
         raise InputError(f"{where}: expected integers or ranges like 1-10, got {value!r}")
@@ -195,17 +195,8 @@ def parse_method(text: str, where: str = "methods") -> MethodSpec:
     if not isinstance(text, str) or not text.strip():
         raise InputError(f"{where}: expected a method name, got {text!r}")
     name, _, rest = text.strip().partition(":")
-    params: dict[str, Any] = {}
-    if rest:
-        for item in rest.split(","):
-            key, eq, val = item.partition("=")
-            key = key.strip().replace("-", "_")
-            if not eq or not key:
-                raise InputError(f"{where}: expected key=value in {text!r}, got {item!r}")
-            try:
-                params[key] = json.loads(val.strip())
-            except json.JSONDecodeError:
-                params[key] = val.strip()
+    malformed = f"{where}: expected key=value in {text!r}"
+    params = key_values(rest.split(",") if rest else [], malformed)
     canonical_params(params)
     return MethodSpec(name.strip(), params)
 
@@ -215,8 +206,7 @@ def _method_from_table(rec: Any, where: str) -> MethodSpec:
         return parse_method(rec, where)
     if not isinstance(rec, dict):
         raise InputError(f"{where}: expected a string or a table")
-    unknown = set(rec) - _METHOD_KEYS
-    if unknown:
+    if unknown := set(rec) - _METHOD_KEYS:
         raise InputError(f"{where}: unknown key {sorted(unknown)[0]!r}")
     name = rec.get("name")
     if not isinstance(name, str) or not name:
@@ -225,11 +215,8 @@ def _method_from_table(rec: Any, where: str) -> MethodSpec:
     if not isinstance(params, dict):
         raise InputError(f"{where}.params: expected a table")
     canonical_params(params)
-    tl = None
-    if "time_limits" in rec or "time_limit" in rec:
-        tl = parse_time_limits(
-            rec.get("time_limits", rec.get("time_limit")), f"{where}.time_limits"
-        )
+    tl = rec.get("time_limits", rec.get("time_limit"))  # TOML has no null: None is absent
+    tl = None if tl is None else parse_time_limits(tl, f"{where}.time_limits")
     seeds = parse_seeds(rec["seeds"], f"{where}.seeds") if "seeds" in rec else None
     return MethodSpec(name, dict(params), tl, seeds)
 
@@ -246,9 +233,7 @@ def parse_scenarios(
         if SCENARIO_RE.match(s):
             out.append(ScenarioSpec(s))
             continue
-        p = Path(s)
-        if not p.is_absolute() and base is not None:
-            p = base / p
+        p = Path(s) if base is None else base / s  # an absolute path stays as it is
         if s.endswith((".json", ".json.gz", ".npz")) or os.sep in s or "/" in s:
             if not p.is_file():
                 raise InputError(f"{where}: instance file not found: {s}")
@@ -272,10 +257,8 @@ def expand_scenario_names(text: str) -> list[str]:
         if part.lower() == "all":
             out.extend(f"{g}{k}" for g in "BC" for k in range(1, 11))
             continue
-        m = re.fullmatch(r"([BC])(\d+)-\1?(\d+)", part)
-        if m:
-            lo, hi = int(m.group(2)), int(m.group(3))
-            out.extend(f"{m.group(1)}{k}" for k in range(lo, hi + 1))
+        if m := re.fullmatch(r"([BC])(\d+)-\1?(\d+)", part):
+            out.extend(f"{m[1]}{k}" for k in range(int(m[2]), int(m[3]) + 1))
         elif part:
             out.append(part)
     return out
@@ -306,18 +289,15 @@ def campaign_from_dict(
     data: Mapping[str, Any], base: Path | None = None, source: str | None = None
 ) -> Campaign:
     """Build a :class:`Campaign` from parsed TOML (tables ``campaign`` and ``methods``)."""
-    unknown = set(data) - {"campaign", "methods"}
-    if unknown:
+    if unknown := set(data) - {"campaign", "methods"}:
         raise InputError(f"unknown table {sorted(unknown)[0]!r} (expected campaign, methods)")
     camp = data.get("campaign")
     if not isinstance(camp, dict):
         raise InputError("missing table [campaign]")
-    unknown = set(camp) - _CAMPAIGN_KEYS
-    if unknown:
+    if unknown := set(camp) - _CAMPAIGN_KEYS:
         raise InputError(f"campaign: unknown key {sorted(unknown)[0]!r}")
-    for key in ("scenarios", "seeds"):
-        if key not in camp:
-            raise InputError(f"campaign: missing key {key!r}")
+    if missing := [key for key in ("scenarios", "seeds") if key not in camp]:
+        raise InputError(f"campaign: missing key {missing[0]!r}")
     scen = camp["scenarios"]
     if isinstance(scen, str):
         scen = expand_scenario_names(scen)

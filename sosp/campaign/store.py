@@ -90,12 +90,9 @@ SIDE_SUFFIXES = ("-wal", "-shm", "-journal")
 
 def _in_wal_mode(path: Path) -> bool:
     """Whether the database file's header says WAL (bytes 18-19 are 2), read without SQLite."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(20)
-    except OSError:
-        return False
-    return len(head) == 20 and head[18] == 2 and head[19] == 2
+    with suppress(OSError), open(path, "rb") as fh:
+        return fh.read(20)[18:20] == b"\x02\x02"
+    return False  # unreadable
 
 
 @contextmanager

@@ -21,7 +21,7 @@ class Knobs:
     limit: int | None = None
 
     def __post_init__(self) -> None:
-        P.check_choices(self)
+        P.check_types(self)
 
 
 def test_strings_take_the_field_types() -> None:

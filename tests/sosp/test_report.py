@@ -195,7 +195,7 @@ def test_figure_series_keeps_lines_of_two_points_or_more(fig_db: Path) -> None:
     from sosp.report import figure_series, summarise
 
     summary = summarise(fig_db)
-    panels, notes = figure_series(summary, ["asa-dtc", "asa-nontc", "milp"], "mean_profit")
+    panels, notes = figure_series(summary, ["asa-dtc", "asa-nontc", "milp"], "profit")
     assert list(panels) == ["B", "C"]
     assert list(panels["C"]) == ["asa-dtc"] and list(panels["B"]) == ["asa-dtc"]
     assert panels["C"]["asa-dtc"] == pytest.approx([601.5, 601.5])
