@@ -63,7 +63,7 @@ from typing import Any
 
 import numpy as np
 
-from heuristics.asa.neighbourhoods import remove_member, repair
+from heuristics.asa.neighbourhoods import place, remove_member, repair
 from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
@@ -376,14 +376,10 @@ def _take_shared(state: State, shared: dict[int, tuple[int, int, tuple[int, ...]
     sched = state.sched
     for u in [u for u in shared if sched[u] < 0]:
         j, x, opps = shared.pop(u)
-        line = state.touch(j)
-        near = set(opps)
-        pos = next((p for p, c in enumerate(line.obs) if near.intersection(c[MEMBERS])), -1)
-        if pos >= 0:
-            line.replace(pos, state.cluster_with(line.obs[pos], x))
-        else:
-            line.insert(state.make_cluster((x,)))
-        state.assign(u, x)
+        obs, near = state.lines[j].obs, set(opps)
+        pos = next((p for p, c in enumerate(obs) if near.intersection(c[MEMBERS])), -1)
+        new = state.cluster_with(obs[pos], x) if pos >= 0 else state.make_cluster((x,))
+        place(state, x, new, pos)
         repair(state, j)
 
 

@@ -32,6 +32,9 @@ START, END, ROLL, LO, HI, MEMBERS = range(6)
 
 Cluster = tuple  # (start, end, roll, lo, hi, members)
 
+#: The options' float columns :attr:`State.arrays` holds (``Problem.opt_<name>``).
+NUMERIC = ("start", "end", "lo", "hi")
+
 
 class State:
     """Current solution: orbit lines, unit assignment, coverage, profit and the undo journal.
@@ -91,10 +94,7 @@ class State:
 
     def find(self, j: int, x: int) -> int:
         """Position on orbit j of the cluster-task holding option ``x`` (-1 if none)."""
-        for pos, c in enumerate(self.lines[j].obs):
-            if x in c[MEMBERS]:
-                return pos
-        return -1
+        return next((pos for pos, c in enumerate(self.lines[j].obs) if x in c[MEMBERS]), -1)
 
     def touch(self, j: int) -> OrbitTimeline:
         """The line of orbit j, saved in the journal on first touch."""
@@ -177,15 +177,11 @@ class State:
         the units' ``unit_weight``, as numpy columns (made on first use), for moves that
         build many cluster-tasks at once."""
         pb = self.pb
-        return SimpleNamespace(
-            start=np.asarray(pb.opt_start, dtype=float),
-            end=np.asarray(pb.opt_end, dtype=float),
-            lo=np.asarray(pb.opt_lo, dtype=float),
-            hi=np.asarray(pb.opt_hi, dtype=float),
-            single_roll=np.asarray(self.single_roll, dtype=float),
-            unit=np.asarray(pb.opt_unit, dtype=np.int64),
-            unit_weight=np.asarray(pb.unit_weight, dtype=float),
-        )
+        cols = {k: np.asarray(getattr(pb, f"opt_{k}"), dtype=float) for k in NUMERIC}
+        unit = np.asarray(pb.opt_unit, dtype=np.int64)
+        weight = np.asarray(pb.unit_weight, dtype=float)
+        single = np.asarray(self.single_roll, dtype=float)
+        return SimpleNamespace(**cols, single_roll=single, unit=unit, unit_weight=weight)
 
     def group_rolls(self, ptr: np.ndarray, flat: np.ndarray) -> np.ndarray:
         """The roll :meth:`make_cluster` gives each group of options ``flat[ptr[g]:ptr[g + 1]]``
