@@ -403,9 +403,4 @@ def initial_solution(state: State, params: ASAParams, budget: Budget = UNLIMITED
         if budget.expired():
             log.info("asa: initial solution stopped at the time limit")
             break
-        before = state.profit
-        state.begin()
-        if insert_options(state, pb.unit_options[u], params) >= 0 and state.profit > before + 1e-12:
-            state.commit()
-        else:
-            state.rollback()
+        state.attempt(lambda u=u: insert_options(state, pb.unit_options[u], params) >= 0, 1e-12)

@@ -383,6 +383,14 @@ def _take_shared(state: State, shared: dict[int, tuple[int, int, tuple[int, ...]
         repair(state, j)
 
 
+def _apply_repaired(
+    state: State, planner: OrbitPlanner, j: int, plan: list[tuple[int, ...]], price: np.ndarray
+) -> bool:
+    """Step 4 (:meth:`OrbitPlanner.apply`), then orbit j repaired; whether it is feasible."""
+    planner.apply(state, j, plan, price)
+    return repair(state, j)
+
+
 def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int:
     """Re-plan every orbit exactly, in random order, until a whole pass gains nothing.
 
@@ -399,14 +407,8 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
             found = planner.plan(state, j, price)
             if found is None:
                 continue
-            before = state.profit
-            state.begin()
-            planner.apply(state, j, found[0], price)
-            if repair(state, j) and state.profit > before + 1e-9:
-                state.commit()
+            if state.attempt(partial(_apply_repaired, state, planner, j, found[0], price), 1e-9):
                 kept += 1
-            else:
-                state.rollback()
     return kept
 
 
@@ -464,8 +466,7 @@ def orbit_search_start(
     for j, plan in planner.plans(ils.best_paths):
         price = np.where(np.asarray(sched) < 0, w, 0.0)
         state.begin()
-        planner.apply(state, j, plan, price)
-        repair(state, j)
+        _apply_repaired(state, planner, j, plan, price)
         state.commit()
     return {"init_profit": ils.best_profit, "init_steps": ils.steps, **started}
 

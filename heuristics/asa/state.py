@@ -18,6 +18,7 @@ schedule.
 from __future__ import annotations
 
 from bisect import bisect_left, insort
+from collections.abc import Callable
 from functools import cached_property
 from types import SimpleNamespace
 
@@ -110,6 +111,18 @@ class State:
         self._snaps.clear()
         self._log.clear()
         return removed
+
+    def attempt(self, move: Callable[[], object], gain: float) -> bool:
+        """Make ``move`` one journaled move and keep it when it returns true and the profit
+        then exceeds the profit before by ``gain`` (negative: falls by less); else undo it.
+        Returns whether it was kept."""
+        before = self.profit
+        self.begin()
+        if move() and self.profit > before + gain:
+            self.commit()
+            return True
+        self.rollback()
+        return False
 
     def touched_orbits(self) -> list[int]:
         return list(self._snaps)
