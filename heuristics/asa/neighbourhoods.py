@@ -185,6 +185,8 @@ def _last(c: Cluster, pb) -> int:
 
 def _ends(c: Cluster, pb) -> tuple[int, ...]:
     """End components of a cluster-task: earliest start and latest end (5.1, step 7)."""
+    if len(c[MEMBERS]) == 1:
+        return c[MEMBERS]
     first, last = c[MEMBERS][0], _last(c, pb)
     return (first,) if last == first else (first, last)
 
