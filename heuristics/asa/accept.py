@@ -20,10 +20,7 @@ class Outcome(IntEnum):
     success ``Suc_i`` of (17)). ``ACCEPTED``: not better but accepted. ``REJECTED``: undone.
     """
 
-    BEST = 0
-    BETTER = 1
-    ACCEPTED = 2
-    REJECTED = 3
+    BEST, BETTER, ACCEPTED, REJECTED = range(4)
 
 
 class AdaptiveTemperature:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import heapq
 import logging
+from itertools import islice
 
 import numpy as np
 
@@ -160,24 +161,33 @@ def insert_options(
     if best is None:
         return -1
     _, x, pos, new = best
-    line = state.touch(pb.opt_orbit[x])
-    if new is not None:
-        line.replace(pos, new)
-    else:
-        line.insert(state.make_cluster((x,)))
-    state.assign(pb.opt_unit[x], x)
+    place(state, x, new if new is not None else state.make_cluster((x,)), pos)
     if not repair(state, pb.opt_orbit[x], x if protect else -1):
         return -1
     return x
 
 
+def place(state: State, x: int, new: Cluster, pos: int = -1, check=None) -> None:
+    """Schedule option x as cluster-task ``new``: in place of the one at ``pos`` of its orbit,
+    or inserted (``pos`` -1; ``check``: its :meth:`~OrbitTimeline.check_insert`)."""
+    line = state.touch(state.pb.opt_orbit[x])
+    if pos >= 0:
+        line.replace(pos, new)
+    else:
+        line.insert(new, check)
+    state.assign(state.pb.opt_unit[x], x)
+
+
+def _last(c: Cluster, pb) -> int:
+    """The component of a cluster-task that ends last (ties: the latest start, then index)."""
+    return max(c[MEMBERS], key=lambda y: (pb.opt_end[y], pb.opt_start[y], y))
+
+
 def _ends(c: Cluster, pb) -> tuple[int, ...]:
     """End components of a cluster-task: earliest start and latest end (5.1, step 7)."""
-    m = c[MEMBERS]
-    if len(m) == 1:
-        return m
-    first = m[0]
-    last = max(m, key=lambda y: (pb.opt_end[y], pb.opt_start[y], y))
+    if len(c[MEMBERS]) == 1:
+        return c[MEMBERS]
+    first, last = c[MEMBERS][0], _last(c, pb)
     return (first,) if last == first else (first, last)
 
 
@@ -234,8 +244,7 @@ def repair(state: State, j: int, protect: int = -1) -> bool:
         p = line.first_conflict()
         if p >= 0:
             left, right = line.obs[p], line.obs[p + 1]
-            lx = max(left[MEMBERS], key=lambda y: (pb.opt_end[y], pb.opt_start[y], y))
-            rx = right[MEMBERS][0]
+            lx, rx = _last(left, pb), right[MEMBERS][0]
             if protect in left[MEMBERS]:
                 choice = (p + 1, rx)
             elif protect in right[MEMBERS]:
@@ -282,25 +291,14 @@ def choose_unscheduled(
     targets are all covered already adds nothing and is skipped. Returns -1 if none.
     """
     pb = state.pb
-    cand: list[int] = []
-    wts: list[float] = []
-    stc = pb.mode == "stc"
-    for r in state.unscheduled:
-        u = state.rank_unit[r]
-        if tabu is not None and u in tabu:
-            continue
-        w = state.gain(u) if stc else pb.unit_weight[u]
-        if w <= 0:
-            continue
-        cand.append(u)
-        wts.append(w)
-        if len(cand) >= pool:
-            break
-    if not cand:
-        return -1
-    if len(cand) == 1:
-        return cand[0]
-    return cand[roulette(wts, rng.random() * sum(wts))]
+    weight = state.gain if pb.mode == "stc" else pb.unit_weight.__getitem__
+    units = (state.rank_unit[r] for r in state.unscheduled)
+    free = ((u, weight(u)) for u in units if tabu is None or u not in tabu)
+    top = list(islice(((u, w) for u, w in free if w > 0), pool))
+    if len(top) <= 1:
+        return top[0][0] if top else -1
+    wts = [w for _, w in top]
+    return top[roulette(wts, rng.random() * sum(wts))][0]
 
 
 def insertion_move(
@@ -337,21 +335,15 @@ def choose_migrating(state: State, rng: np.random.Generator, pool: int) -> int:
 
 def try_insert_feasible(state: State, x: int, params: ASAParams) -> bool:
     """Insert option x only if (3)-(6) stay met (clustering first, by (7), (11), (16))."""
-    pb = state.pb
-    j = pb.opt_orbit[x]
-    line = state.lines[j]
+    line = state.lines[state.pb.opt_orbit[x]]
     found = _best_join(state, line, x, params, True)
     if found is not None and found[0]:
-        state.touch(j).replace(found[2], found[3])
-        state.assign(pb.opt_unit[x], x)
+        place(state, x, found[3], found[2])
         return True
     single = state.make_cluster((x,))
-    chk = line.check_insert(single)
-    if chk:
-        state.touch(j).insert(single, chk)
-        state.assign(pb.opt_unit[x], x)
-        return True
-    return False
+    if chk := line.check_insert(single):
+        place(state, x, single, check=chk)
+    return bool(chk)
 
 
 def migration_move(
@@ -413,9 +405,4 @@ def initial_solution(state: State, params: ASAParams, budget: Budget = UNLIMITED
         if budget.expired():
             log.info("asa: initial solution stopped at the time limit")
             break
-        before = state.profit
-        state.begin()
-        if insert_options(state, pb.unit_options[u], params) >= 0 and state.profit > before + 1e-12:
-            state.commit()
-        else:
-            state.rollback()
+        state.attempt(lambda u=u: insert_options(state, pb.unit_options[u], params) >= 0, 1e-12)

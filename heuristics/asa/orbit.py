@@ -63,7 +63,7 @@ from typing import Any
 
 import numpy as np
 
-from heuristics.asa.neighbourhoods import remove_member, repair
+from heuristics.asa.neighbourhoods import place, remove_member, repair
 from heuristics.asa.params import ASAParams
 from heuristics.asa.replan import replan_move
 from heuristics.asa.state import MEMBERS, State
@@ -376,15 +376,19 @@ def _take_shared(state: State, shared: dict[int, tuple[int, int, tuple[int, ...]
     sched = state.sched
     for u in [u for u in shared if sched[u] < 0]:
         j, x, opps = shared.pop(u)
-        line = state.touch(j)
-        near = set(opps)
-        pos = next((p for p, c in enumerate(line.obs) if near.intersection(c[MEMBERS])), -1)
-        if pos >= 0:
-            line.replace(pos, state.cluster_with(line.obs[pos], x))
-        else:
-            line.insert(state.make_cluster((x,)))
-        state.assign(u, x)
+        obs, near = state.lines[j].obs, set(opps)
+        pos = next((p for p, c in enumerate(obs) if near.intersection(c[MEMBERS])), -1)
+        new = state.cluster_with(obs[pos], x) if pos >= 0 else state.make_cluster((x,))
+        place(state, x, new, pos)
         repair(state, j)
+
+
+def _apply_repaired(
+    state: State, planner: OrbitPlanner, j: int, plan: list[tuple[int, ...]], price: np.ndarray
+) -> bool:
+    """Step 4 (:meth:`OrbitPlanner.apply`), then orbit j repaired; whether it is feasible."""
+    planner.apply(state, j, plan, price)
+    return repair(state, j)
 
 
 def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int:
@@ -403,14 +407,8 @@ def ascend(state: State, rng: np.random.Generator, planner: OrbitPlanner) -> int
             found = planner.plan(state, j, price)
             if found is None:
                 continue
-            before = state.profit
-            state.begin()
-            planner.apply(state, j, found[0], price)
-            if repair(state, j) and state.profit > before + 1e-9:
-                state.commit()
+            if state.attempt(partial(_apply_repaired, state, planner, j, found[0], price), 1e-9):
                 kept += 1
-            else:
-                state.rollback()
     return kept
 
 
@@ -468,8 +466,7 @@ def orbit_search_start(
     for j, plan in planner.plans(ils.best_paths):
         price = np.where(np.asarray(sched) < 0, w, 0.0)
         state.begin()
-        planner.apply(state, j, plan, price)
-        repair(state, j)
+        _apply_repaired(state, planner, j, plan, price)
         state.commit()
     return {"init_profit": ils.best_profit, "init_steps": ils.steps, **started}
 

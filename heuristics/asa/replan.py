@@ -491,13 +491,11 @@ def polish(state: State, rng: np.random.Generator, params: ASAParams, tabu: Tabu
         opts = pb.orbit_options[j]
         on_i = [a for a, x in enumerate(opts) if any(orbit[y] == i for y in pb.alternatives[x])]
         window = _around(opts, on_i[int(rng.integers(len(on_i)))], m)
-        before = state.profit
-        state.begin()
-        made = replan_pair(state, rng, j, window, m, tabu, partner=i)
-        made = made and all(repair(state, h) for h in state.touched_orbits())
-        if made and state.profit >= before - 1e-9:
-            state.commit()
+
+        def pair(j: int = j, i: int = i, window: list[int] = window) -> bool:
+            made = replan_pair(state, rng, j, window, m, tabu, partner=i)
+            return bool(made) and all(repair(state, h) for h in state.touched_orbits())
+
+        if state.attempt(pair, -1e-9):
             kept += 1
-        else:
-            state.rollback()
     return kept

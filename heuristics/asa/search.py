@@ -301,14 +301,11 @@ def run_asa(
         res = solve_orbit_dp(instance, rng=rng, time_limit=run.left())
         stats = {"mode": "dtc", "fallback": "orbit-dp", "fallback_reason": str(exc), **res.stats}
         return replace(res, runtime_s=time.perf_counter() - t0, stats=stats)  # method: orbit-dp
-    if stop is None:  # the first of iterations, the time left and no_improve (None: none)
-        crit: list[Callable[[SearchStatus], bool]] = []
-        if params.iterations is not None:
-            crit.append(MaxIterations(params.iterations))
+    if stop is None:  # the first of iterations, no_improve and the time left (None: none)
+        limits = (MaxIterations, params.iterations), (NoImprovement, params.no_improve)
+        crit: list[Callable[[SearchStatus], bool]] = [f(n) for f, n in limits if n is not None]
         if run.deadline is not None:  # an orbit move can take seconds: foreseen
             crit.append(MaxRuntime(run.left() or 0.0, foresee=True))
-        if params.no_improve is not None:
-            crit.append(NoImprovement(params.no_improve))
         stop = FirstOf(*crit or [MaxIterations(DEFAULT_ITERATIONS)])
     search.run(stop)
     return search.result()

@@ -6,7 +6,9 @@ per iteration. The default, :class:`AdaptiveRoulette`, is the paper's (17)-(18).
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Sequence
+from itertools import accumulate
 
 import numpy as np
 
@@ -16,12 +18,7 @@ from heuristics.asa.accept import Outcome
 def roulette(weights: Sequence[float], z: float) -> int:
     """The index whose share of the running sum of ``weights`` holds ``z`` (drawn in
     ``[0, sum)``): the first whose running sum exceeds ``z``, else the last."""
-    acc = 0.0
-    for i, w in enumerate(weights):
-        acc += w
-        if z < acc:
-            return i
-    return len(weights) - 1
+    return min(bisect_right(list(accumulate(weights)), z), len(weights) - 1)
 
 
 class AdaptiveRoulette:
@@ -45,9 +42,8 @@ class AdaptiveRoulette:
         self.eta = eta
         self.itr = itr
         self.floor = floor
-        self.sel = [0] * len(probs)
-        self.suc = [0] * len(probs)
         self._count = 0
+        self.reset()
 
     def choose(self, rng: np.random.Generator) -> int:
         """Roulette wheel by the current probabilities (Algorithm 1, line 8)."""
@@ -76,13 +72,15 @@ class AdaptiveRoulette:
                 total = sum(new)
                 new = [p / total for p in new]
             self.probabilities = new
-        self.sel = [0] * len(new)
-        self.suc = [0] * len(new)
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a period: no selection, no success counted."""
+        self.sel = [0] * len(self.probabilities)
+        self.suc = [0] * len(self.probabilities)
 
 
 class FixedRoulette(AdaptiveRoulette):
     """Constant probabilities (no adaptation; an ablation of (17)-(18))."""
 
-    def update(self) -> None:
-        self.sel = [0] * len(self.sel)
-        self.suc = [0] * len(self.suc)
+    update = AdaptiveRoulette.reset

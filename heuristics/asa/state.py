@@ -18,6 +18,7 @@ schedule.
 from __future__ import annotations
 
 from bisect import bisect_left, insort
+from collections.abc import Callable
 from functools import cached_property
 from types import SimpleNamespace
 
@@ -31,6 +32,9 @@ from sosp.rules import RollRule, choose_roll, group_roll_ranges
 START, END, ROLL, LO, HI, MEMBERS = range(6)
 
 Cluster = tuple  # (start, end, roll, lo, hi, members)
+
+#: The options' float columns :attr:`State.arrays` holds (``Problem.opt_<name>``).
+NUMERIC = ("start", "end", "lo", "hi")
 
 
 class State:
@@ -91,10 +95,7 @@ class State:
 
     def find(self, j: int, x: int) -> int:
         """Position on orbit j of the cluster-task holding option ``x`` (-1 if none)."""
-        for pos, c in enumerate(self.lines[j].obs):
-            if x in c[MEMBERS]:
-                return pos
-        return -1
+        return next((pos for pos, c in enumerate(self.lines[j].obs) if x in c[MEMBERS]), -1)
 
     def touch(self, j: int) -> OrbitTimeline:
         """The line of orbit j, saved in the journal on first touch."""
@@ -110,6 +111,18 @@ class State:
         self._snaps.clear()
         self._log.clear()
         return removed
+
+    def attempt(self, move: Callable[[], object], gain: float) -> bool:
+        """Make ``move`` one journaled move and keep it when it returns true and the profit
+        then exceeds the profit before by ``gain`` (negative: falls by less); else undo it.
+        Returns whether it was kept."""
+        before = self.profit
+        self.begin()
+        if move() and self.profit > before + gain:
+            self.commit()
+            return True
+        self.rollback()
+        return False
 
     def touched_orbits(self) -> list[int]:
         return list(self._snaps)
@@ -177,15 +190,11 @@ class State:
         the units' ``unit_weight``, as numpy columns (made on first use), for moves that
         build many cluster-tasks at once."""
         pb = self.pb
-        return SimpleNamespace(
-            start=np.asarray(pb.opt_start, dtype=float),
-            end=np.asarray(pb.opt_end, dtype=float),
-            lo=np.asarray(pb.opt_lo, dtype=float),
-            hi=np.asarray(pb.opt_hi, dtype=float),
-            single_roll=np.asarray(self.single_roll, dtype=float),
-            unit=np.asarray(pb.opt_unit, dtype=np.int64),
-            unit_weight=np.asarray(pb.unit_weight, dtype=float),
-        )
+        cols = {k: np.asarray(getattr(pb, f"opt_{k}"), dtype=float) for k in NUMERIC}
+        unit = np.asarray(pb.opt_unit, dtype=np.int64)
+        weight = np.asarray(pb.unit_weight, dtype=float)
+        single = np.asarray(self.single_roll, dtype=float)
+        return SimpleNamespace(**cols, single_roll=single, unit=unit, unit_weight=weight)
 
     def group_rolls(self, ptr: np.ndarray, flat: np.ndarray) -> np.ndarray:
         """The roll :meth:`make_cluster` gives each group of options ``flat[ptr[g]:ptr[g + 1]]``
