@@ -157,12 +157,11 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     for j in data.energy_orbits:
         seq = [int(u) for u in data.orbit_items[j]]
         xs = np.array([x[u] for u in seq])
-        s.update(zip(seq, np.maximum.accumulate(xs).tolist(), strict=True))
-        r.update(zip(seq, np.maximum.accumulate(xs[::-1])[::-1].tolist(), strict=True))
-        taken = [u for u in seq if x[u]]
-        for u in seq:
-            f[u] = 1.0 if taken and u == taken[0] else 0.0
-            l_[u] = 1.0 if taken and u == taken[-1] else 0.0
+        pre, suf = np.maximum.accumulate(xs), np.maximum.accumulate(xs[::-1])[::-1]
+        # the first taken item is where the prefix turns 1, the last where the suffix ends
+        firsts, lasts = pre - np.r_[0.0, pre[:-1]], suf - np.r_[suf[1:], 0.0]
+        for out, col in ((s, pre), (r, suf), (f, firsts), (l_, lasts)):
+            out.update(zip(seq, col.tolist(), strict=True))
     vals.update({"f": f, "l": l_, "s": s, "r": r})
     return vals
 
@@ -401,24 +400,26 @@ def solve_milp(
     except TimeUp:
         # no model in time, so no MILP and no warm start over its items: the free bound, and
         # a schedule all the same (never worse than a heuristic)
-        from models.data import observable_weight
+        from sosp.validate import validate
 
         stats["timed_out"] = "candidates"
-        upper = observable_weight(instance)
+        upper = instance.observable_weight
         schedule, profit, observed, status = empty, 0.0, 0, Status.NO_SOLUTION
         if not relax:
-            schedule = _schedule_without_model(instance, warm_start, stats)
+            # the warm start when the validator accepts it, else the empty schedule
+            if isinstance(warm_start, Schedule) and validate(instance, warm_start).feasible:
+                schedule, stats["returned"] = warm_start, "warm_start"
+            elif isinstance(warm_start, Schedule):
+                log.warning("warm start ignored: the schedule is infeasible")
             profit, observed = schedule.coverage_profit(instance)
             status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
         runtime = time.perf_counter() - t0
         return Result(method, status, schedule, profit, observed, runtime, upper, None, stats)
     cap = data.covered_weight()
-    if slew is None:  # lazy: proves more (docs/exact.md, "The lazy slew term")
-        slew = "exact" if relax else "lazy"
-    if slew == "auto" and not relax:
-        slew = "lazy"
-    if slew == "auto":  # the small relaxed LP where the direct backend is chosen anyway
-        slew = "relaxed" if choose_backend(data, backend) == "highs" else "exact"
+    if slew in (None, "auto") and not relax:
+        slew = "lazy"  # proves more (docs/exact.md, "The lazy slew term")
+    elif slew in (None, "auto"):  # auto: the small relaxed LP where the direct backend is chosen
+        slew = "relaxed" if slew and choose_backend(data, backend) == "highs" else "exact"
     backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
     if slew == "lazy" and backend == "pyomo":
         slew = "exact"  # the reference builder has the exact term only
@@ -645,24 +646,8 @@ def _search_on(
 
 
 #: Share of ``milp``'s time limit within which the cluster model's candidates must be
-#: generated; past it, the warm start is the answer (:func:`_schedule_without_model`).
+#: generated; past it, the warm start is the answer (when the validator accepts it).
 MODEL_SHARE = 0.5
-
-
-def _schedule_without_model(
-    instance: Instance, warm_start: Schedule | str, stats: dict[str, Any]
-) -> Schedule:
-    """The schedule :func:`solve_milp` returns when its model's items are not ready by the
-    deadline: the warm start when the validator accepts it, else the empty one."""
-    from sosp.validate import validate
-
-    if not isinstance(warm_start, Schedule):
-        return Schedule(())
-    if validate(instance, warm_start).feasible:
-        stats["returned"] = "warm_start"
-        return warm_start
-    log.warning("warm start ignored: the schedule is infeasible")
-    return Schedule(())
 
 
 def _extra_bound(
@@ -692,7 +677,16 @@ def _extra_bound(
         from models.lagrangian import lagrangian_bound
 
         return float(lagrangian_bound(data.instance, **common)["bound"]), None
-    return _lp_bound(data, budget.deadline, threads), None
+    # the LP relaxation with the relaxed slew row (direct backend), rounded down
+    from models.highs_direct import build_arrays, run_highs
+
+    if not fits("build", data.n_items, budget.deadline):
+        return None, None
+    am = build_arrays(data, relax=True, slew="relaxed")
+    if budget.expired():
+        return None, None
+    lp = run_highs(am, deadline=budget.deadline, threads=threads, lp_solver="ipm")
+    return (_int_bound(lp.bound) if lp.status == "optimal" else None), None
 
 
 def _adopt(
@@ -725,20 +719,6 @@ def _side_possible(
     if how != "colgen" or arranged is None or budget.deadline is None:
         return False
     return budget.fits(reserve_s + SIDE_MIN_S) and side_cores() >= 2
-
-
-def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
-    """The LP relaxation with the relaxed slew row (direct backend), rounded down; None if
-    not solved by ``deadline``."""
-    from models.highs_direct import build_arrays, run_highs
-
-    if not fits("build", data.n_items, deadline):
-        return None
-    am = build_arrays(data, relax=True, slew="relaxed")
-    if deadline is not None and time.perf_counter() >= deadline:
-        return None
-    out = run_highs(am, deadline=deadline, threads=threads, lp_solver="ipm")
-    return _int_bound(out.bound) if out.status == "optimal" else None
 
 
 @dataclass(frozen=True)
@@ -1082,9 +1062,7 @@ def bound(
     except TimeUp:
         if method in ("auto", "lagrangian") and model == "cluster":
             return _cap_or_windows(ask, method)
-        from models.data import observable_weight
-
-        return _bound_out(observable_weight(instance), method, model, t0, TIMED_OUT, source="cap")
+        return _bound_out(instance.observable_weight, method, model, t0, TIMED_OUT, source="cap")
     except InputError:
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
@@ -1247,9 +1225,7 @@ def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
     """The bound of ``method`` when the candidates were not ready by the deadline: the window
     relaxation's (:func:`_window_bound`, never above the cap) with the time left when it is
     at least :data:`WINDOWS_MIN_SHARE` of the limit, else the cap (observable weight)."""
-    from models.data import observable_weight
-
-    upper = observable_weight(ask.instance)
+    upper = ask.instance.observable_weight
     now, deadline = time.perf_counter(), ask.deadline
     if deadline is not None and deadline - now >= WINDOWS_MIN_SHARE * (deadline - ask.t0):
         log.info("bound: the candidates are not ready in time; the window relaxation's bound")
@@ -1267,14 +1243,13 @@ def _colgen_bound(ask: _Ask) -> dict[str, Any]:
     cluster model's, without the cap on their number that :func:`model_data` keeps for the
     MILPs (D30's 3.4 million are priced in seconds a round)."""
     from models.colgen import colgen_bound
-    from models.data import observable_weight
     from sosp.planner import orbit_data
 
     try:
         data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
         # the candidates' own "time limit reached": nothing but the observable weight holds
-        return _bound_out(observable_weight(ask.instance), "colgen", "cluster", ask.t0, {},
+        return _bound_out(ask.instance.observable_weight, "colgen", "cluster", ask.t0, {},
                           source="cap", timed_out="candidates")  # fmt: skip
     cg = colgen_bound(
         ask.instance,
