@@ -515,12 +515,6 @@ class HighsOutcome:
     info: dict[str, Any]
 
 
-def _stop_if_requested(event: Any) -> None:
-    """HiGHS interrupt callback: stop once :func:`sosp.stop.request_stop` was called."""
-    if stop_requested():
-        event.interrupt()
-
-
 #: Seconds between two calls of a :func:`watching_bound` listener.
 BOUND_WATCH_S = 0.5
 
@@ -580,14 +574,14 @@ def _offer_bound(dual_bound: float, primal: float) -> bool:
 def _mip_check(event: Any) -> None:
     """HiGHS's MIP interrupt callback: report the node count to the solve's progress (its
     time and rate; a sub-MILP's bounds are not the problem's, so none are reported) and the
-    dual bound to a :func:`watching_bound` listener, then :func:`_stop_if_requested`."""
+    dual bound to a :func:`watching_bound` listener; a stop request
+    (:func:`sosp.stop.request_stop`) interrupts too."""
     d = event.data_out
     current_progress().update(int(d.mip_node_count), None)
     dual = float(d.mip_dual_bound)
     # before its first dual bound HiGHS calls back within moments (models this small)
-    if np.isfinite(dual) and _offer_bound(dual, float(d.mip_primal_bound)):
+    if (np.isfinite(dual) and _offer_bound(dual, float(d.mip_primal_bound))) or stop_requested():
         event.interrupt()
-    _stop_if_requested(event)
 
 
 def run_highs(
@@ -663,20 +657,20 @@ def _run_here(
 
     t0 = time.perf_counter()
     h = new_highs()
-    debug = log.isEnabledFor(logging.DEBUG)
-    h.setOptionValue("output_flag", debug)
+    debug, mip = log.isEnabledFor(logging.DEBUG), bool(am.integer.any())
+    options = {
+        "output_flag": debug,
+        "log_to_console": False if debug else None,
+        "mip_rel_gap": None if mip_gap is None else float(mip_gap),
+        "threads": None if threads is None else int(threads),
+        "solver": None if lp_solver is None or mip else str(lp_solver),
+        "presolve_rule_off": PROBING_OFF if mip and not probing else None,
+    }
+    for name, value in options.items():
+        if value is not None:
+            h.setOptionValue(name, value)
     if debug:
-        h.setOptionValue("log_to_console", False)
         h.cbLogging.subscribe(lambda e: log.debug("HiGHS: %s", str(e.message).rstrip()))
-    if mip_gap is not None:
-        h.setOptionValue("mip_rel_gap", float(mip_gap))
-    if threads is not None:
-        h.setOptionValue("threads", int(threads))
-    mip = bool(am.integer.any())
-    if lp_solver is not None and not mip:
-        h.setOptionValue("solver", str(lp_solver))
-    if not probing and mip:
-        h.setOptionValue("presolve_rule_off", PROBING_OFF)
     a = am.matrix
     bounds = (am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper)
     csr = (a.indptr.astype(np.int32), a.indices.astype(np.int32), a.data.astype(float))
@@ -702,12 +696,33 @@ def _run_here(
     use_threads(threads)
     # A stop request (sosp.stop: Ctrl-C / SIGTERM under the CLI) ends the solve at HiGHS's
     # next interrupt point with its incumbent, as a time limit would.
+    stop = stop_requested if halt is None else halt.is_set
+
+    def lp_interrupt(event: Any) -> None:
+        if stop():
+            event.interrupt()
+
+    h.cbSimplexInterrupt += lp_interrupt
+    h.cbIpmInterrupt += lp_interrupt
     if report is None:
         h.cbMipInterrupt += _mip_check
-        h.cbSimplexInterrupt += _stop_if_requested
-        h.cbIpmInterrupt += _stop_if_requested
-    else:
-        _report_to(h, report, halt, am.n_items)
+    else:  # a guarded solve's child: incumbents and (five times a second) progress to report
+        last = [0.0]
+
+        def interrupt(event: Any) -> None:
+            now, d = time.perf_counter(), event.data_out
+            if now - last[0] >= 0.2:
+                last[0] = now
+                report("progress", int(d.mip_node_count), float(d.mip_dual_bound))
+            lp_interrupt(event)
+
+        def improving(event: Any) -> None:
+            d = event.data_out
+            x = np.asarray(d.mip_solution[: am.n_items], dtype=float)
+            report("incumbent", float(d.objective_function_value), x)
+
+        h.cbMipInterrupt += interrupt
+        h.cbMipImprovingSolution += improving
     t1 = time.perf_counter()
     h.run()
     solve_s = time.perf_counter() - t1
@@ -732,35 +747,6 @@ def _run_here(
     return HighsOutcome(
         status, str(h.modelStatusToString(ms)), objective, bound, x, load_s, solve_s, out_info
     )
-
-
-def _report_to(h: Any, report: Any, halt: Any, n_items: int) -> None:
-    """Subscribe a guarded solve's callbacks: incumbents and (at most five times a second)
-    the node count and dual bound go to ``report``; ``halt`` interrupts."""
-    last = [0.0]
-
-    def interrupt(event: Any) -> None:
-        now = time.perf_counter()
-        if now - last[0] >= 0.2:
-            last[0] = now
-            d = event.data_out
-            report("progress", int(d.mip_node_count), float(d.mip_dual_bound))
-        if halt.is_set():
-            event.interrupt()
-
-    def improving(event: Any) -> None:
-        d = event.data_out
-        x = np.asarray(d.mip_solution[:n_items], dtype=float)
-        report("incumbent", float(d.objective_function_value), x)
-
-    def lp_interrupt(event: Any) -> None:
-        if halt.is_set():
-            event.interrupt()
-
-    h.cbMipInterrupt += interrupt
-    h.cbMipImprovingSolution += improving
-    h.cbSimplexInterrupt += lp_interrupt
-    h.cbIpmInterrupt += lp_interrupt
 
 
 def _guarded_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict[str, Any]) -> None:
