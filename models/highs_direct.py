@@ -211,11 +211,8 @@ class _Rows:
     """Accumulates rows as COO triplets (row, column, value) with their bounds."""
 
     def __init__(self) -> None:
-        self.rows: list[np.ndarray] = []
-        self.cols: list[np.ndarray] = []
-        self.vals: list[np.ndarray] = []
-        self.lower: list[np.ndarray] = []
-        self.upper: list[np.ndarray] = []
+        # the parts of each array, and the rows so far
+        self.rows, self.cols, self.vals, self.lower, self.upper = [], [], [], [], []
         self.n = 0
 
     def add(
@@ -311,13 +308,10 @@ def build_arrays(
     off: dict[str, int] = dict(zip(("x", "z", "f", "l", "s", "r", "t", "end"), starts, strict=True))
     n_cols = off["end"]
 
-    cost = np.zeros(n_cols)
-    lower = np.zeros(n_cols)
+    cost, lower = np.zeros((2, n_cols))
     upper = np.ones(n_cols)
     upper[off["t"] :] = np.inf
-    integer = np.zeros(n_cols, dtype=bool)
-    if not relax:
-        integer[:n] = True
+    integer = np.arange(n_cols) < (0 if relax else n)  # x in the MILP
 
     rows = _Rows()
     _target_rows(rows, data, z_targets, off)
@@ -383,10 +377,7 @@ def _conflict_rows(rows: _Rows, d: ModelData, conflicts: str, off: dict[str, int
     tail = u[last[u] < block_end[first[u]]]
     e = np.arange(m)
     inner = e[e + 1 < block_end]  # t_e appears again (with -1) in the next row of its orbit
-    rhs = np.zeros(m)
-    is_block_start = np.ones(m, dtype=bool)
-    is_block_start[1:] = block_end[1:] != block_end[:-1]
-    rhs[is_block_start] = 1.0
+    rhs = np.r_[True, block_end[1:] != block_end[:-1]].astype(float)  # 1 at an orbit's first
     rows.add(
         np.concatenate([first[u], last[tail], e, inner + 1]),
         np.concatenate([u, tail, off["t"] + e, off["t"] + inner]),
@@ -404,14 +395,10 @@ def _slew_order_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str,
         return
     pos = np.arange(ns)
     orbit = d.orbit[slew]
-    has_prev = np.zeros(ns, dtype=bool)
-    has_prev[1:] = orbit[1:] == orbit[:-1]
-    has_next = np.zeros(ns, dtype=bool)
-    has_next[:-1] = orbit[:-1] == orbit[1:]
+    same = orbit[1:] == orbit[:-1]
     x = slew
     f, l_, s, r = (off[b] + pos for b in ("f", "l", "s", "r"))
-    p = pos[has_prev]
-    q = pos[has_next]
+    p, q = pos[1:][same], pos[:-1][same]  # with a previous / a next item on their orbit
 
     def pair(a: np.ndarray, b: np.ndarray, vb: float, upper: float) -> None:
         """Rows ``a_i + vb * b_i <= upper``, one per i."""
@@ -467,18 +454,14 @@ def _resource_rows(
 # --------------------------------------------------------------------------- warm start
 def start_vector(am: ArrayModel, values: dict[str, dict[int, float]]) -> np.ndarray:
     """A full column vector from :func:`models.solve.warm_start_values` (slacks t completed)."""
-    off = am.offsets
+    off, d = am.offsets, am.data
     y = np.zeros(am.n_cols)
-    n = am.data.n_items
-    x = np.zeros(n)
-    for u, v in values.get("x", {}).items():
-        x[int(u)] = v
-    y[:n] = x
-    for name, keys in [("z", am.z_targets)] + [(b, am.slew_items) for b in "flsr"]:
+    blocks = [("x", range(d.n_items)), ("z", am.z_targets), *((b, am.slew_items) for b in "flsr")]
+    for name, keys in blocks:
         got = values.get(name, {})
         y[off[name] : off[name] + len(keys)] = [got.get(int(k), 0.0) for k in keys]
-    if am.conflicts == "network" and am.data.n_events:
-        d = am.data
+    x = y[: d.n_items]
+    if am.conflicts == "network" and d.n_events:
         taken = np.flatnonzero((x > 0.5) & (d.event_last > d.event_first))
         diff = np.zeros(d.n_events + 1)
         np.add.at(diff, d.event_first[taken], 1.0)
@@ -734,11 +717,8 @@ def _run_here(
     if ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
         status = "time_limit"
     objective = float(info.objective_function_value) if feasible else None
-    if mip:
-        raw = float(info.mip_dual_bound)
-        bound = raw if np.isfinite(raw) else None
-    else:
-        bound = objective if status == "optimal" else None
+    raw = float(info.mip_dual_bound) if mip else objective if status == "optimal" else None
+    bound = raw if raw is not None and np.isfinite(raw) else None
     x = np.asarray(h.getSolution().col_value[: am.n_items]) if feasible else None
     out_info = {
         "mip_node_count": int(info.mip_node_count) if mip else 0,
@@ -789,12 +769,9 @@ def _run_guarded(
         # no guard against HiGHS's clockless parts then, but an answer
         log.warning("%s; HiGHS runs in this process", exc)
         return _run_here(lp, deadline=deadline, **kwargs)
-    recv = guard.conn
-    progress = current_progress()
+    recv, progress = guard.conn, current_progress()
     best: tuple[float, np.ndarray | None] = (-np.inf, None)  # the best incumbent and its x
-    dual: float | None = None
-    nodes = 0
-    out: HighsOutcome | None = None
+    dual, nodes, out = None, 0, None  # its last dual bound and node count; the outcome
     try:
         while out is None:
             # a watcher is asked also while HiGHS reports nothing (parts of its presolve):
@@ -809,22 +786,19 @@ def _run_guarded(
             if not recv.poll(_GUARD_POLL_S):
                 continue
             try:
-                msg = recv.recv()
+                kind, *got = recv.recv()
             except EOFError:
                 code = guard.proc.exitcode
                 raise RuntimeError(f"HiGHS's process ended (exit code {code})") from None
-            kind = msg[0]
             if kind == "incumbent":
-                if msg[1] > best[0]:
-                    best = (msg[1], msg[2])
+                best = (got[0], got[1]) if got[0] > best[0] else best
             elif kind == "progress":
-                nodes = msg[1]
-                dual = msg[2] if np.isfinite(msg[2]) else dual
+                nodes, dual = got[0], got[1] if np.isfinite(got[1]) else dual
                 progress.update(nodes, None)
             elif kind == "done":
-                out = msg[1]
+                out = got[0]
             else:
-                raise RuntimeError(f"HiGHS's process failed: {msg[1]}")
+                raise RuntimeError(f"HiGHS's process failed: {got[0]}")
     finally:
         guard.stop()
     if out is not None:

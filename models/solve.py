@@ -103,18 +103,17 @@ def start_items(data: ModelData, schedule: Schedule) -> list[int] | None:
             log.warning("warm start ignored: observation %d covers no valid opportunity", n)
             return None
         need = set(ob.opps)
-        best, best_cost = None, math.inf
-        for u in by_opp.get(ob.opps[0], []):
-            if (
-                data.orbit[u] == ob.orbit
-                and need.issubset(data.opps[u])
-                and data.start[u] >= ob.start - INT_TOL
-                and data.end[u] <= ob.end + INT_TOL
-                and abs(data.roll[u]) <= abs(ob.roll) + INT_TOL
-            ):
-                cost = (data.end[u] - data.start[u]) + abs(data.roll[u])
-                if cost < best_cost:
-                    best, best_cost = u, cost
+        fit = [
+            u
+            for u in by_opp.get(ob.opps[0], [])
+            if data.orbit[u] == ob.orbit
+            and need.issubset(data.opps[u])
+            and data.start[u] >= ob.start - INT_TOL
+            and data.end[u] <= ob.end + INT_TOL
+            and abs(data.roll[u]) <= abs(ob.roll) + INT_TOL
+        ]
+        # the first of the least cost: the shortest window, the roll nearest nadir
+        best = min(fit, key=lambda u: data.end[u] - data.start[u] + abs(data.roll[u]), default=None)
         if best is None:
             log.warning(
                 "warm start ignored: observation %d (orbit %s, %d opportunities) is no item "
@@ -423,9 +422,7 @@ def solve_milp(
     backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
     if slew == "lazy" and backend == "pyomo":
         slew = "exact"  # the reference builder has the exact term only
-    stats.update(
-        {"backend": backend, "candidates": data.n_items, "cliques": data.n_events, "cap": cap}
-    )
+    stats.update(backend=backend, candidates=data.n_items, cliques=data.n_events, cap=cap)
     if backend == "highs":
         stats["conflicts"] = conflicts
     if not relax:
@@ -436,9 +433,10 @@ def solve_milp(
         status = Status.NO_SOLUTION if relax else Status.OPTIMAL
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
 
+    # (the LP ignores the MIP's options: its gap and probing)
+    run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend, stats)
     if relax:
-        lp = _Run(data, t0, None, threads, conflicts, lp_solver, slew, False, backend, stats)
-        kind, incumbent, _, _ = _solve(lp, deadline, None, True)
+        kind, incumbent, _, _ = _solve(run, deadline, None, True)
         bound = None
         if kind == "optimal" and incumbent is not None:
             stats["lp_bound"] = float(incumbent)
@@ -502,8 +500,6 @@ def solve_milp(
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
             watch = give = _GiveWay(side, start_profit, by)
-        run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend,
-                   stats)  # fmt: skip
         try:
             with watching_bound(watch):
                 kind, incumbent, raw_bound, chosen = _solve(run, solve_by, start, False)
@@ -639,8 +635,7 @@ def _search_on(
     stats["search_on_s"] = round(time.perf_counter() - t1, 6)
     stats["search_on_profit"] = float(profit)
     if profit > start_profit:
-        stats["start_profit"] = float(profit)
-        stats["start_from"] = "search_on"
+        stats.update(start_profit=float(profit), start_from="search_on")
         return more, profit
     return start, start_profit
 
@@ -701,8 +696,7 @@ def _adopt(
     if found is not None and found[1] > start_profit:
         better = start_items(data, found[0])
         if better is not None:
-            stats["start_profit"] = float(found[1])
-            stats["start_from"] = "branch_and_price"
+            stats.update(start_profit=float(found[1]), start_from="branch_and_price")
             return better, found[1]
     return start, start_profit
 
@@ -757,8 +751,6 @@ def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
     inst = data.instance
     taken = np.asarray(sorted(chosen), dtype=np.int64)
     bad: set[int] = set()
-    if not len(taken):
-        return bad
     for j in data.energy_orbits:
         u = taken[data.orbit[taken] == j]
         if not len(u):
@@ -841,10 +833,9 @@ def _run_direct(
     am = build_arrays(
         data, relax=bool(relax), conflicts=run.conflicts, slew=slew, exact_orbits=exact_orbits
     )
-    stats["slew"] = slew
-    stats["build_s"] = round(time.perf_counter() - run.t0, 6)  # everything before the arrays
-    stats["arrays_s"] = round(time.perf_counter() - t1, 6)
-    stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
+    now = time.perf_counter()  # build_s: everything before the arrays too
+    stats.update(slew=slew, build_s=round(now - run.t0, 6), arrays_s=round(now - t1, 6))
+    stats.update(variables=am.n_cols, constraints=am.n_rows, nonzeros=int(am.matrix.nnz))
     if deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "building"
         return "time_limit", None, None, None
@@ -860,10 +851,8 @@ def _run_direct(
         lp_solver=None if lp_solver == "choose" else lp_solver,
         probing=run.probing,
     )
-    stats["load_s"] = round(out.load_s, 6)
-    stats["solve_s"] = round(out.solve_s, 6)
-    stats["termination"] = out.model_status
-    stats.update(out.info)
+    stats.update(load_s=round(out.load_s, 6), solve_s=round(out.solve_s, 6))
+    stats.update(termination=out.model_status, **out.info)
     chosen = None if out.x is None else [int(u) for u in np.flatnonzero(out.x > 0.5)]
     return out.status, out.objective, out.bound, chosen
 
@@ -887,16 +876,15 @@ def _run_pyomo(
     opt = Highs()  # its time limit is set after the load
     opt.config.load_solution = opt.config.stream_solver = False
     opt.config.log_level, opt.config.solver_output_logger = logging.DEBUG, log
-    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
     if run.mip_gap is not None:
         opt.config.mip_gap = float(run.mip_gap)
-    if threads is not None:
-        options["threads"] = int(threads)
-    if relax and lp_solver != "choose":
-        options["solver"] = lp_solver
-    if not relax and not run.probing:
-        options["presolve_rule_off"] = PROBING_OFF
-    opt.highs_options = options
+    options = {
+        "output_flag": log.isEnabledFor(logging.DEBUG),
+        "threads": None if threads is None else int(threads),
+        "solver": lp_solver if relax and lp_solver != "choose" else None,
+        "presolve_rule_off": None if relax or run.probing else PROBING_OFF,
+    }
+    opt.highs_options = {k: v for k, v in options.items() if v is not None}
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
@@ -911,9 +899,8 @@ def _run_pyomo(
         opt.config.time_limit = max(deadline - time.perf_counter(), 0.01)
     if start_items_ is not None and not relax:
         for name, values in item_values(data, start_items_).items():
-            var = getattr(m, name)
             for key, val in values.items():
-                var[key].set_value(val)
+                getattr(m, name)[key].set_value(val)
         opt.config.warmstart = True
     use_threads(threads)
     res = opt.solve(m)
@@ -1018,7 +1005,7 @@ def bound(
         ``status`` and ``gap``.
     """
     from models.colgen import colgen_bound
-    from models.lagrangian import lagrangian_bound
+    from models.lagrangian import check_count, lagrangian_bound
     from models.subset_row import cut_levels
     from sosp.planner import kernels_within, with_rolls
 
@@ -1026,29 +1013,23 @@ def bound(
     if method not in BOUND_METHODS:
         raise InputError(f"method: expected one of {', '.join(BOUND_METHODS)}, got {method!r}")
     time_limit = check_time_limit(time_limit)
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
+    check_count("iterations", iterations)
     check_workers(workers)
     deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
     cut_levels()  # the branch and price's cut pricing (colgen, auto)
     if deadline is not None:
         time_limit = deadline - t0  # the limit, or more when the load took most of it
+    highs = {"threads": threads, "backend": backend, "conflicts": conflicts}
     if method == "milp":
-        res = solve_milp(
-            instance,
-            time_limit=None if deadline is None else deadline - time.perf_counter(),
-            model=model,
-            threads=threads,
-            backend=backend,
-            conflicts=conflicts,
-        )
+        left = None if deadline is None else deadline - time.perf_counter()
+        res = solve_milp(instance, time_limit=left, model=model, **highs)
         return _bound_out(res.bound, method, model, t0, res.stats, profit=res.profit,
                           status=res.status.value, gap=res.gap, source="milp")  # fmt: skip
-    MILPParams(threads=threads, relax=True, backend=backend, conflicts=conflicts,
-               lp_solver=lp_solver, slew=slew)  # fmt: skip
+    lp = {"relax": True, "lp_solver": lp_solver, "slew": slew, **highs}
+    MILPParams(**lp)  # the LP's options checked before anything is computed
     ask = _Ask(instance, t0, deadline, lower_bound or None, iterations, workers)
     if method == "colgen" and model == "cluster":
-        return _colgen_bound(ask)
+        return _over_candidates(ask, "colgen")
     if method == "windows":
         return _window_bound(ask, model)
     generate_by = None
@@ -1067,14 +1048,14 @@ def bound(
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
             # planner's candidates, which have no such cap
-            return _lagrangian_alone(ask)
+            return _over_candidates(ask, "lagrangian")
         if method != "auto" or model != "cluster":
             raise
         # more candidates than the MILPs take (D30): no LP, but the column generation's own
         # candidates have no such cap, so auto is its bound alone, with all the time left
         log.info("bound: the cluster model is too large for the LP; column generation alone")
         try:
-            out = _colgen_bound(ask)
+            out = _over_candidates(ask, "colgen")
         except InputError:  # the planner's candidates would not fit in memory either
             return _windows_instead(ask, "auto", parts=True)
         if out.get("timed_out") == "candidates":  # the planner's were not ready either
@@ -1132,28 +1113,16 @@ def bound(
         # column generation converged: its master LP is at least as tight as this LP)
         left = None if deadline is None else deadline - time.perf_counter()
         if left is None or left > 0.05:
-            res = solve_milp(
-                instance,
-                time_limit=left,
-                model=model,
-                threads=threads,
-                relax=True,
-                backend=backend,
-                conflicts=conflicts,
-                lp_solver=lp_solver,
-                slew=slew,
-            )
+            res = solve_milp(instance, time_limit=left, model=model, **lp)
             parts["lp"] = res.bound
             keys = ("variables", "constraints", "nonzeros", "termination", "backend")
             stats.update({k: res.stats[k] for k in (*keys, "build_s", "load_s", "solve_s")
                           if k in res.stats})  # fmt: skip
-            stats["lp_value"] = res.stats.get("lp_bound")
-            stats["lp_solver"] = lp_solver
+            stats.update(lp_value=res.stats.get("lp_bound"), lp_solver=lp_solver)
             stats["slew"] = res.stats.get("slew", "exact")
         else:
             parts["lp"] = None
-    found = [v for v in parts.values() if v is not None]
-    upper = min([cap, *found])
+    upper = min([cap, *(v for v in parts.values() if v is not None)])
     # which computation gave the bound: a method, or the cap when none finished below it
     best = min((k for k, v in parts.items() if v is not None), key=lambda k: parts[k], default=None)
     source = best if best is not None and parts[best] <= cap else "cap"
@@ -1238,60 +1207,44 @@ def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
     return _bound_out(upper, method, "cluster", ask.t0, TIMED_OUT, source="cap")
 
 
-def _colgen_bound(ask: _Ask) -> dict[str, Any]:
-    """``bound(method="colgen")`` of the cluster model over the planner's candidates: the
-    cluster model's, without the cap on their number that :func:`model_data` keeps for the
-    MILPs (D30's 3.4 million are priced in seconds a round)."""
+def _over_candidates(ask: _Ask, method: str) -> dict[str, Any]:
+    """``bound(method=method)`` (``"colgen"`` or ``"lagrangian"``) of the cluster model over
+    the planner's candidates: the cluster model's, without the cap on their number that
+    :func:`model_data` keeps for the MILPs (D30's 3.4 million are priced in seconds a round).
+    Lagrangian: where the candidates are not ready in time or would not fit in memory either,
+    the window relaxation's bound, which is a Lagrangian bound too
+    (:mod:`models.window_bound`)."""
     from models.colgen import colgen_bound
+    from models.lagrangian import lagrangian_bound
     from sosp.planner import orbit_data
 
+    lagrangian = method == "lagrangian"
     try:
         data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
+        if lagrangian:
+            return _cap_or_windows(ask, method)
         # the candidates' own "time limit reached": nothing but the observable weight holds
-        return _bound_out(ask.instance.observable_weight, "colgen", "cluster", ask.t0, {},
+        return _bound_out(ask.instance.observable_weight, method, "cluster", ask.t0, {},
                           source="cap", timed_out="candidates")  # fmt: skip
-    cg = colgen_bound(
-        ask.instance,
-        time_limit=ask.left(),
-        lower_bound=ask.lower_bound,
-        data=data,
-        branch=ask.deadline is not None,  # the time left after convergence: branch and price
-        workers=ask.workers,
-    )
+    except InputError:
+        if lagrangian:
+            return _windows_instead(ask, method)
+        raise
+    given = {"time_limit": ask.left(), "lower_bound": ask.lower_bound, "workers": ask.workers}
+    if lagrangian:
+        lag = lagrangian_bound(ask.instance, iterations=ask.iterations, data=data, **given)
+        stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
+        stats["lower_bound"] = lag["lower_bound"]
+        return _bound_out(lag["bound"], method, "cluster", ask.t0, stats, source=method)
+    # the time left after convergence: branch and price
+    cg = colgen_bound(ask.instance, data=data, branch=ask.deadline is not None, **given)
     keys = ("candidates", "cap", "rounds", "converged", "nodes")
-    out = _bound_out(cg["bound"], "colgen", "cluster", ask.t0, {k: cg[k] for k in keys if k in cg},
+    out = _bound_out(cg["bound"], method, "cluster", ask.t0, {k: cg[k] for k in keys if k in cg},
                      source="colgen" if cg["bound"] < cg["cap"] else "cap")  # fmt: skip
     if "profit" in cg:
         out["profit"] = cg["profit"]  # a validated schedule the branch and price ended on
     return out
-
-
-def _lagrangian_alone(ask: _Ask) -> dict[str, Any]:
-    """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
-    without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
-    either, the window relaxation's bound, which is a
-    Lagrangian bound too (:mod:`models.window_bound`)."""
-    from models.lagrangian import lagrangian_bound
-    from sosp.planner import orbit_data
-
-    try:
-        data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
-    except TimeLimitReached:
-        return _cap_or_windows(ask, "lagrangian")
-    except InputError:
-        return _windows_instead(ask, "lagrangian")
-    lag = lagrangian_bound(
-        ask.instance,
-        iterations=ask.iterations,
-        time_limit=ask.left(),
-        lower_bound=ask.lower_bound,
-        data=data,
-        workers=ask.workers,
-    )
-    stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
-    stats["lower_bound"] = lag["lower_bound"]
-    return _bound_out(lag["bound"], "lagrangian", "cluster", ask.t0, stats, source="lagrangian")
 
 
 #: The statistics of a bound that is the cap, the candidates not ready in time.
