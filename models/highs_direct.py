@@ -80,9 +80,6 @@ GUARD_NNZ = 100_000
 #: Seconds a guarded solve may run past its deadline before its process is stopped.
 GUARD_GRACE_S = 0.5
 
-#: Seconds between two looks of the parent at a guarded solve.
-_GUARD_POLL_S = 0.1
-
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
@@ -167,10 +164,6 @@ class _Lp:
     @property
     def n_cols(self) -> int:
         return int(self.matrix.shape[1])
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.matrix.shape[0])
 
 
 @dataclass
@@ -539,14 +532,13 @@ def watching_bound(listener: BoundListener | None) -> Iterator[None]:
     as :mod:`sosp.progress`: only the MILP of :func:`models.solve.solve_milp` is watched, by
     its side branch and price (:meth:`models.colgen.SideBound.watch`), not every solve the
     call chain makes. None: nothing is watched."""
-    if listener is None:
-        yield
-        return
-    _bound_watches.append(_BoundWatch(listener))
+    if listener is not None:
+        _bound_watches.append(_BoundWatch(listener))
     try:
         yield
     finally:
-        _bound_watches.pop()
+        if listener is not None:
+            _bound_watches.pop()
 
 
 def _offer_bound(dual_bound: float, primal: float) -> bool:
@@ -783,7 +775,7 @@ def _run_guarded(
             if time.perf_counter() > deadline + GUARD_GRACE_S:
                 log.info("HiGHS still running %.1f s after its deadline: stopped", GUARD_GRACE_S)
                 break
-            if not recv.poll(_GUARD_POLL_S):
+            if not recv.poll(0.1):  # the parent looks ten times a second
                 continue
             try:
                 kind, *got = recv.recv()

@@ -554,8 +554,7 @@ def solve_milp(
     observed = schedule.coverage_profit(instance)[1]
     ib = _int_bound(raw_bound)
     stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
-    bound = upper if ib is None else min(ib, upper)
-    bound = max(bound, profit)
+    bound = max(upper if ib is None else min(ib, upper), profit)
     if bound <= profit + INT_TOL:
         status, bound = Status.OPTIMAL, profit
     elif kind == "optimal":
@@ -835,7 +834,7 @@ def _run_direct(
     )
     now = time.perf_counter()  # build_s: everything before the arrays too
     stats.update(slew=slew, build_s=round(now - run.t0, 6), arrays_s=round(now - t1, 6))
-    stats.update(variables=am.n_cols, constraints=am.n_rows, nonzeros=int(am.matrix.nnz))
+    stats.update(variables=am.n_cols, constraints=am.matrix.shape[0], nonzeros=int(am.matrix.nnz))
     if deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "building"
         return "time_limit", None, None, None
