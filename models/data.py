@@ -239,8 +239,6 @@ def _coverage(
     by_target = np.lexsort((seg, tg))  # items of each target, in item order
     k_sorted, u_sorted = tg[by_target], seg[by_target]
     ks, first = np.unique(k_sorted, return_index=True)
-    cuts = [*first.tolist(), len(u_sorted)]
-    target_items = {
-        int(k): tuple(u_sorted[cuts[i] : cuts[i + 1]].tolist()) for i, k in enumerate(ks.tolist())
-    }
+    items = np.split(u_sorted, first[1:]) if len(ks) else []
+    target_items = {int(k): tuple(us.tolist()) for k, us in zip(ks.tolist(), items, strict=True)}
     return groups, OppGroups(tptr, tg), target_items

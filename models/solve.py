@@ -904,9 +904,7 @@ def _run_pyomo(
     use_threads(threads)
     res = opt.solve(m)
     h = opt._solver_model
-    stats.update(
-        {"variables": h.getNumCol(), "constraints": h.getNumRow(), "nonzeros": h.getNumNz()}
-    )
+    stats.update(variables=h.getNumCol(), constraints=h.getNumRow(), nonzeros=h.getNumNz())
     tc = res.termination_condition
     stats["termination"] = tc.name
     stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
