@@ -140,12 +140,9 @@ def _slew_order_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
 
 def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
     """(4) observation energy plus the exact slew energy over consecutive observations."""
-    inst = d.instance
-    dur = d.duration
-    half = d.slew_time()  # |theta_u| / v
-    orbits = list(d.energy_orbits)
+    inst, dur, half = d.instance, d.duration, d.slew_time()  # half: |theta_u| / v
 
-    @m.Constraint(orbits)
+    @m.Constraint(list(d.energy_orbits))
     def energy(m, j):
         seq = [int(u) for u in d.orbit_items[j]]
         eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])

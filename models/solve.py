@@ -146,9 +146,8 @@ def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int
 
 def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float]]:
     """Values of x, z and the slew-order variables f, l, s, r when ``chosen`` are scheduled."""
-    x = dict.fromkeys(range(data.n_items), 0.0)
-    for u in chosen:
-        x[u] = 1.0
+    taken = set(chosen)
+    x = {u: 1.0 if u in taken else 0.0 for u in range(data.n_items)}
     vals: dict[str, dict[int, float]] = {"x": x}
     if data.coverage:
         vals["z"] = {k: float(any(x[u] for u in us)) for k, us in data.target_items.items()}
@@ -459,8 +458,7 @@ def solve_milp(
     start_profit = 0.0
     if start is not None:
         start_profit = items_to_schedule(instance, data, start).coverage_profit(instance)[0]
-        stats["start_profit"] = float(start_profit)
-        stats["start_s"] = round(time.perf_counter() - t0, 6)
+        stats.update(start_profit=float(start_profit), start_s=round(time.perf_counter() - t0, 6))
     upper = cap
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
@@ -631,8 +629,7 @@ def _search_on(
     if side is not None and side.proved_at is not None:
         stats["search_on_stopped"] = "proven"
     profit = items_to_schedule(data.instance, data, more).coverage_profit(data.instance)[0]
-    stats["search_on_s"] = round(time.perf_counter() - t1, 6)
-    stats["search_on_profit"] = float(profit)
+    stats.update(search_on_s=round(time.perf_counter() - t1, 6), search_on_profit=float(profit))
     if profit > start_profit:
         stats.update(start_profit=float(profit), start_from="search_on")
         return more, profit
@@ -1260,12 +1257,6 @@ def _bound_out(
 ) -> dict[str, Any]:
     """A bound's answer: ``value``, ``method``, ``model``, the runtime from ``t0``, the
     :data:`_BOUND_KEYS` of ``stats``, then ``more`` in its order."""
-    out: dict[str, Any] = {
-        "bound": value,
-        "method": method,
-        "model": model,
-        "runtime_s": round(time.perf_counter() - t0, 6),
-    }
-    out.update({k: stats[k] for k in _BOUND_KEYS if k in stats})
-    out.update(more)
-    return out
+    runtime = round(time.perf_counter() - t0, 6)
+    out = {"bound": value, "method": method, "model": model, "runtime_s": runtime}
+    return out | {k: stats[k] for k in _BOUND_KEYS if k in stats} | more
