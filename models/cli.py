@@ -111,18 +111,8 @@ def cmd_bound(args: argparse.Namespace) -> int:
             now = time.perf_counter()
             closing = now - t_workers if args.dask == "local" else 0.0
             limit = max(limit - (now - t0) - closing, 1e-3)
-        out = bound(
-            inst,
-            model=args.model,
-            method=args.method,
-            time_limit=limit,
-            threads=args.threads,
-            backend=args.backend,
-            lp_solver=args.lp_solver,
-            slew=args.slew,
-            iterations=args.iterations,
-            workers=workers,
-        )
+        keys = ("model", "method", "threads", "backend", "lp_solver", "slew", "iterations")
+        out = bound(inst, time_limit=limit, workers=workers, **{k: getattr(args, k) for k in keys})
     out["instance"] = inst.name or str(args.instance)
     # what was computed: no item count where none was generated (the windows bound needs
     # none; a run can stop before its candidates)
@@ -132,12 +122,12 @@ def cmd_bound(args: argparse.Namespace) -> int:
         size.append("stopped before its candidates")
     if "variables" in out:
         size.append(f"{out['variables']} variables, {out.get('constraints', 0)} constraints")
-    if "iterations" in out:
-        size.append(f"{out['iterations']} subgradient steps")
-    if "rounds" in out:
-        size.append(f"{out['rounds']} pricing rounds")
-    if "nodes" in out:
-        size.append(f"{out['nodes']} branch-and-price nodes")
+    for key, what in (
+        ("iterations", "subgradient steps"),
+        ("rounds", "pricing rounds"),
+        ("nodes", "branch-and-price nodes"),
+    ):
+        size += [f"{out[key]} {what}"] if key in out else []
     head = f"{out['model']} model, {out['method']} bound: {out['bound']:g}"
     said = ", ".join([f"{out['runtime_s']:.2f} s", *size])
     text = f"{head} (from {out['source']}; {said})"

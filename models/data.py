@@ -175,24 +175,20 @@ def prepare(
         See :class:`ModelData`.
     """
     orbit = np.asarray(orbit, dtype=np.int64)
-    start = np.asarray(start, dtype=float)
-    end = np.asarray(end, dtype=float)
-    roll = np.asarray(roll, dtype=float)
+    start, end, roll = (np.asarray(a, dtype=float) for a in (start, end, roll))
     opps, targets, target_items = _coverage(instance, opps)
     orbit_items: dict[int, np.ndarray] = {}
-    event_first = np.zeros(len(opps), dtype=np.int64)
-    event_last = np.zeros(len(opps), dtype=np.int64)
-    block_ends: list[np.ndarray] = []
+    event_first, event_last = np.zeros((2, len(opps)), dtype=np.int64)
+    block_ends: list[np.ndarray] = [np.zeros(0, dtype=np.int64)]
     n_events = 0
-    energy_orbits, memory_orbits, opening_orbits = [], [], []
-    inst = instance
+    binding: tuple[list[int], list[int], list[int]] = ([], [], [])  # (4), (5), (6)
     if len(opps):
         order = np.lexsort((end, start, orbit))
         cuts = np.flatnonzero(np.diff(orbit[order])) + 1
         for block in np.split(order, cuts):
             j = int(orbit[block[0]])
             orbit_items[j] = block
-            rj = orbit_rules(inst, j)
+            rj = orbit_rules(instance, j)
             left, right = orbit_intervals(
                 start[block], end[block], roll[block], rj.setup_time, rj.slew_rate
             )
@@ -205,31 +201,19 @@ def prepare(
             # Can (4)-(6) bind on this orbit at all? Taking every item, with the slew bounded
             # above (sosp.rules.slew_upper), decides it conservatively.
             slew = rules.slew_upper(float(np.abs(roll[block]).sum()), rj.slew_rate)
-            if rj.energy(dur, slew) > rj.energy_capacity:
-                energy_orbits.append(j)
-            if rj.memory(dur) > rj.memory_capacity:
-                memory_orbits.append(j)
-            if len(block) > rj.max_openings:
-                opening_orbits.append(j)
+            binds = (
+                rj.energy(dur, slew) > rj.energy_capacity,
+                rj.memory(dur) > rj.memory_capacity,
+                len(block) > rj.max_openings,
+            )
+            for orbits, bind in zip(binding, binds, strict=True):
+                orbits += [j] if bind else []
+    weight, block_end = np.asarray(instance.target_weight), np.concatenate(block_ends)
+    # the fields of ModelData in their order
     return ModelData(
-        name=name,
-        instance=instance,
-        orbit=orbit,
-        start=start,
-        end=end,
-        roll=roll,
-        opps=opps,
-        targets=targets,
-        coverage=coverage,
-        weight=np.asarray(instance.target_weight),
-        target_items=target_items,
-        orbit_items=orbit_items,
-        event_first=event_first,
-        event_last=event_last,
-        event_block_end=(np.concatenate(block_ends) if block_ends else np.zeros(0, dtype=np.int64)),
-        energy_orbits=tuple(energy_orbits),
-        memory_orbits=tuple(memory_orbits),
-        opening_orbits=tuple(opening_orbits),
+        *(name, instance, orbit, start, end, roll, opps, targets, coverage, weight),
+        *(target_items, orbit_items, event_first, event_last, block_end),
+        *(tuple(orbits) for orbits in binding),
     )
 
 
@@ -255,8 +239,6 @@ def _coverage(
     by_target = np.lexsort((seg, tg))  # items of each target, in item order
     k_sorted, u_sorted = tg[by_target], seg[by_target]
     ks, first = np.unique(k_sorted, return_index=True)
-    cuts = [*first.tolist(), len(u_sorted)]
-    target_items = {
-        int(k): tuple(u_sorted[cuts[i] : cuts[i + 1]].tolist()) for i, k in enumerate(ks.tolist())
-    }
+    items = np.split(u_sorted, first[1:]) if len(ks) else []
+    target_items = {int(k): tuple(us.tolist()) for k, us in zip(ks.tolist(), items, strict=True)}
     return groups, OppGroups(tptr, tg), target_items

@@ -72,10 +72,9 @@ def _sets(m: pyo.ConcreteModel, d: ModelData) -> None:
     prev: dict[int, int | None] = {}
     nxt: dict[int, int | None] = {}
     for j in d.energy_orbits:
-        seq = [int(u) for u in d.orbit_items[j]]
-        for a, u in enumerate(seq):
-            prev[u] = seq[a - 1] if a > 0 else None
-            nxt[u] = seq[a + 1] if a + 1 < len(seq) else None
+        seq = [None, *(int(u) for u in d.orbit_items[j]), None]
+        prev.update(zip(seq[1:-1], seq[:-2], strict=True))
+        nxt.update(zip(seq[1:-1], seq[2:], strict=True))
     m._prev, m._next = prev, nxt
 
 
@@ -141,12 +140,9 @@ def _slew_order_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
 
 def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
     """(4) observation energy plus the exact slew energy over consecutive observations."""
-    inst = d.instance
-    dur = d.duration
-    half = d.slew_time()  # |theta_u| / v
-    orbits = list(d.energy_orbits)
+    inst, dur, half = d.instance, d.duration, d.slew_time()  # half: |theta_u| / v
 
-    @m.Constraint(orbits)
+    @m.Constraint(list(d.energy_orbits))
     def energy(m, j):
         seq = [int(u) for u in d.orbit_items[j]]
         eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
@@ -176,8 +172,7 @@ def _objective(m: pyo.ConcreteModel, d: ModelData) -> None:
     """(1) total weight of the observed targets."""
     p = d.weight
     if d.coverage:
-        m.profit = pyo.Objective(expr=sum(int(p[k]) * m.z[k] for k in m.K), sense=pyo.maximize)
+        expr = sum(int(p[k]) * m.z[k] for k in m.K)
     else:
-        m.profit = pyo.Objective(
-            expr=sum(int(p[d.targets[u][0]]) * m.x[u] for u in m.U), sense=pyo.maximize
-        )
+        expr = sum(int(p[d.targets[u][0]]) * m.x[u] for u in m.U)
+    m.profit = pyo.Objective(expr=expr, sense=pyo.maximize)

@@ -80,9 +80,6 @@ GUARD_NNZ = 100_000
 #: Seconds a guarded solve may run past its deadline before its process is stopped.
 GUARD_GRACE_S = 0.5
 
-#: Seconds between two looks of the parent at a guarded solve.
-_GUARD_POLL_S = 0.1
-
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
@@ -168,10 +165,6 @@ class _Lp:
     def n_cols(self) -> int:
         return int(self.matrix.shape[1])
 
-    @property
-    def n_rows(self) -> int:
-        return int(self.matrix.shape[0])
-
 
 @dataclass
 class ArrayModel(_Lp):
@@ -211,11 +204,8 @@ class _Rows:
     """Accumulates rows as COO triplets (row, column, value) with their bounds."""
 
     def __init__(self) -> None:
-        self.rows: list[np.ndarray] = []
-        self.cols: list[np.ndarray] = []
-        self.vals: list[np.ndarray] = []
-        self.lower: list[np.ndarray] = []
-        self.upper: list[np.ndarray] = []
+        # the parts of each array, and the rows so far
+        self.rows, self.cols, self.vals, self.lower, self.upper = [], [], [], [], []
         self.n = 0
 
     def add(
@@ -311,13 +301,10 @@ def build_arrays(
     off: dict[str, int] = dict(zip(("x", "z", "f", "l", "s", "r", "t", "end"), starts, strict=True))
     n_cols = off["end"]
 
-    cost = np.zeros(n_cols)
-    lower = np.zeros(n_cols)
+    cost, lower = np.zeros((2, n_cols))
     upper = np.ones(n_cols)
     upper[off["t"] :] = np.inf
-    integer = np.zeros(n_cols, dtype=bool)
-    if not relax:
-        integer[:n] = True
+    integer = np.arange(n_cols) < (0 if relax else n)  # x in the MILP
 
     rows = _Rows()
     _target_rows(rows, data, z_targets, off)
@@ -383,10 +370,7 @@ def _conflict_rows(rows: _Rows, d: ModelData, conflicts: str, off: dict[str, int
     tail = u[last[u] < block_end[first[u]]]
     e = np.arange(m)
     inner = e[e + 1 < block_end]  # t_e appears again (with -1) in the next row of its orbit
-    rhs = np.zeros(m)
-    is_block_start = np.ones(m, dtype=bool)
-    is_block_start[1:] = block_end[1:] != block_end[:-1]
-    rhs[is_block_start] = 1.0
+    rhs = np.r_[True, block_end[1:] != block_end[:-1]].astype(float)  # 1 at an orbit's first
     rows.add(
         np.concatenate([first[u], last[tail], e, inner + 1]),
         np.concatenate([u, tail, off["t"] + e, off["t"] + inner]),
@@ -404,14 +388,10 @@ def _slew_order_rows(rows: _Rows, d: ModelData, slew: np.ndarray, off: dict[str,
         return
     pos = np.arange(ns)
     orbit = d.orbit[slew]
-    has_prev = np.zeros(ns, dtype=bool)
-    has_prev[1:] = orbit[1:] == orbit[:-1]
-    has_next = np.zeros(ns, dtype=bool)
-    has_next[:-1] = orbit[:-1] == orbit[1:]
+    same = orbit[1:] == orbit[:-1]
     x = slew
     f, l_, s, r = (off[b] + pos for b in ("f", "l", "s", "r"))
-    p = pos[has_prev]
-    q = pos[has_next]
+    p, q = pos[1:][same], pos[:-1][same]  # with a previous / a next item on their orbit
 
     def pair(a: np.ndarray, b: np.ndarray, vb: float, upper: float) -> None:
         """Rows ``a_i + vb * b_i <= upper``, one per i."""
@@ -467,18 +447,14 @@ def _resource_rows(
 # --------------------------------------------------------------------------- warm start
 def start_vector(am: ArrayModel, values: dict[str, dict[int, float]]) -> np.ndarray:
     """A full column vector from :func:`models.solve.warm_start_values` (slacks t completed)."""
-    off = am.offsets
+    off, d = am.offsets, am.data
     y = np.zeros(am.n_cols)
-    n = am.data.n_items
-    x = np.zeros(n)
-    for u, v in values.get("x", {}).items():
-        x[int(u)] = v
-    y[:n] = x
-    for name, keys in [("z", am.z_targets)] + [(b, am.slew_items) for b in "flsr"]:
+    blocks = [("x", range(d.n_items)), ("z", am.z_targets), *((b, am.slew_items) for b in "flsr")]
+    for name, keys in blocks:
         got = values.get(name, {})
         y[off[name] : off[name] + len(keys)] = [got.get(int(k), 0.0) for k in keys]
-    if am.conflicts == "network" and am.data.n_events:
-        d = am.data
+    x = y[: d.n_items]
+    if am.conflicts == "network" and d.n_events:
         taken = np.flatnonzero((x > 0.5) & (d.event_last > d.event_first))
         diff = np.zeros(d.n_events + 1)
         np.add.at(diff, d.event_first[taken], 1.0)
@@ -513,12 +489,6 @@ class HighsOutcome:
     load_s: float
     solve_s: float
     info: dict[str, Any]
-
-
-def _stop_if_requested(event: Any) -> None:
-    """HiGHS interrupt callback: stop once :func:`sosp.stop.request_stop` was called."""
-    if stop_requested():
-        event.interrupt()
 
 
 #: Seconds between two calls of a :func:`watching_bound` listener.
@@ -562,14 +532,13 @@ def watching_bound(listener: BoundListener | None) -> Iterator[None]:
     as :mod:`sosp.progress`: only the MILP of :func:`models.solve.solve_milp` is watched, by
     its side branch and price (:meth:`models.colgen.SideBound.watch`), not every solve the
     call chain makes. None: nothing is watched."""
-    if listener is None:
-        yield
-        return
-    _bound_watches.append(_BoundWatch(listener))
+    if listener is not None:
+        _bound_watches.append(_BoundWatch(listener))
     try:
         yield
     finally:
-        _bound_watches.pop()
+        if listener is not None:
+            _bound_watches.pop()
 
 
 def _offer_bound(dual_bound: float, primal: float) -> bool:
@@ -580,14 +549,14 @@ def _offer_bound(dual_bound: float, primal: float) -> bool:
 def _mip_check(event: Any) -> None:
     """HiGHS's MIP interrupt callback: report the node count to the solve's progress (its
     time and rate; a sub-MILP's bounds are not the problem's, so none are reported) and the
-    dual bound to a :func:`watching_bound` listener, then :func:`_stop_if_requested`."""
+    dual bound to a :func:`watching_bound` listener; a stop request
+    (:func:`sosp.stop.request_stop`) interrupts too."""
     d = event.data_out
     current_progress().update(int(d.mip_node_count), None)
     dual = float(d.mip_dual_bound)
     # before its first dual bound HiGHS calls back within moments (models this small)
-    if np.isfinite(dual) and _offer_bound(dual, float(d.mip_primal_bound)):
+    if (np.isfinite(dual) and _offer_bound(dual, float(d.mip_primal_bound))) or stop_requested():
         event.interrupt()
-    _stop_if_requested(event)
 
 
 def run_highs(
@@ -663,20 +632,20 @@ def _run_here(
 
     t0 = time.perf_counter()
     h = new_highs()
-    debug = log.isEnabledFor(logging.DEBUG)
-    h.setOptionValue("output_flag", debug)
+    debug, mip = log.isEnabledFor(logging.DEBUG), bool(am.integer.any())
+    options = {
+        "output_flag": debug,
+        "log_to_console": False if debug else None,
+        "mip_rel_gap": None if mip_gap is None else float(mip_gap),
+        "threads": None if threads is None else int(threads),
+        "solver": None if lp_solver is None or mip else str(lp_solver),
+        "presolve_rule_off": PROBING_OFF if mip and not probing else None,
+    }
+    for name, value in options.items():
+        if value is not None:
+            h.setOptionValue(name, value)
     if debug:
-        h.setOptionValue("log_to_console", False)
         h.cbLogging.subscribe(lambda e: log.debug("HiGHS: %s", str(e.message).rstrip()))
-    if mip_gap is not None:
-        h.setOptionValue("mip_rel_gap", float(mip_gap))
-    if threads is not None:
-        h.setOptionValue("threads", int(threads))
-    mip = bool(am.integer.any())
-    if lp_solver is not None and not mip:
-        h.setOptionValue("solver", str(lp_solver))
-    if not probing and mip:
-        h.setOptionValue("presolve_rule_off", PROBING_OFF)
     a = am.matrix
     bounds = (am.cost, am.col_lower, am.col_upper, am.row_lower, am.row_upper)
     csr = (a.indptr.astype(np.int32), a.indices.astype(np.int32), a.data.astype(float))
@@ -702,12 +671,33 @@ def _run_here(
     use_threads(threads)
     # A stop request (sosp.stop: Ctrl-C / SIGTERM under the CLI) ends the solve at HiGHS's
     # next interrupt point with its incumbent, as a time limit would.
+    stop = stop_requested if halt is None else halt.is_set
+
+    def lp_interrupt(event: Any) -> None:
+        if stop():
+            event.interrupt()
+
+    h.cbSimplexInterrupt += lp_interrupt
+    h.cbIpmInterrupt += lp_interrupt
     if report is None:
         h.cbMipInterrupt += _mip_check
-        h.cbSimplexInterrupt += _stop_if_requested
-        h.cbIpmInterrupt += _stop_if_requested
-    else:
-        _report_to(h, report, halt, am.n_items)
+    else:  # a guarded solve's child: incumbents and (five times a second) progress to report
+        last = [0.0]
+
+        def interrupt(event: Any) -> None:
+            now, d = time.perf_counter(), event.data_out
+            if now - last[0] >= 0.2:
+                last[0] = now
+                report("progress", int(d.mip_node_count), float(d.mip_dual_bound))
+            lp_interrupt(event)
+
+        def improving(event: Any) -> None:
+            d = event.data_out
+            x = np.asarray(d.mip_solution[: am.n_items], dtype=float)
+            report("incumbent", float(d.objective_function_value), x)
+
+        h.cbMipInterrupt += interrupt
+        h.cbMipImprovingSolution += improving
     t1 = time.perf_counter()
     h.run()
     solve_s = time.perf_counter() - t1
@@ -719,11 +709,8 @@ def _run_here(
     if ms in (K.kTimeLimit, K.kIterationLimit, K.kInterrupt, K.kHighsInterrupt):
         status = "time_limit"
     objective = float(info.objective_function_value) if feasible else None
-    if mip:
-        raw = float(info.mip_dual_bound)
-        bound = raw if np.isfinite(raw) else None
-    else:
-        bound = objective if status == "optimal" else None
+    raw = float(info.mip_dual_bound) if mip else objective if status == "optimal" else None
+    bound = raw if raw is not None and np.isfinite(raw) else None
     x = np.asarray(h.getSolution().col_value[: am.n_items]) if feasible else None
     out_info = {
         "mip_node_count": int(info.mip_node_count) if mip else 0,
@@ -732,35 +719,6 @@ def _run_here(
     return HighsOutcome(
         status, str(h.modelStatusToString(ms)), objective, bound, x, load_s, solve_s, out_info
     )
-
-
-def _report_to(h: Any, report: Any, halt: Any, n_items: int) -> None:
-    """Subscribe a guarded solve's callbacks: incumbents and (at most five times a second)
-    the node count and dual bound go to ``report``; ``halt`` interrupts."""
-    last = [0.0]
-
-    def interrupt(event: Any) -> None:
-        now = time.perf_counter()
-        if now - last[0] >= 0.2:
-            last[0] = now
-            d = event.data_out
-            report("progress", int(d.mip_node_count), float(d.mip_dual_bound))
-        if halt.is_set():
-            event.interrupt()
-
-    def improving(event: Any) -> None:
-        d = event.data_out
-        x = np.asarray(d.mip_solution[:n_items], dtype=float)
-        report("incumbent", float(d.objective_function_value), x)
-
-    def lp_interrupt(event: Any) -> None:
-        if halt.is_set():
-            event.interrupt()
-
-    h.cbMipInterrupt += interrupt
-    h.cbMipImprovingSolution += improving
-    h.cbSimplexInterrupt += lp_interrupt
-    h.cbIpmInterrupt += lp_interrupt
 
 
 def _guarded_child(conn: Any, halt: Any, lp: _Lp, left: float, kwargs: dict[str, Any]) -> None:
@@ -803,12 +761,9 @@ def _run_guarded(
         # no guard against HiGHS's clockless parts then, but an answer
         log.warning("%s; HiGHS runs in this process", exc)
         return _run_here(lp, deadline=deadline, **kwargs)
-    recv = guard.conn
-    progress = current_progress()
+    recv, progress = guard.conn, current_progress()
     best: tuple[float, np.ndarray | None] = (-np.inf, None)  # the best incumbent and its x
-    dual: float | None = None
-    nodes = 0
-    out: HighsOutcome | None = None
+    dual, nodes, out = None, 0, None  # its last dual bound and node count; the outcome
     try:
         while out is None:
             # a watcher is asked also while HiGHS reports nothing (parts of its presolve):
@@ -820,25 +775,22 @@ def _run_guarded(
             if time.perf_counter() > deadline + GUARD_GRACE_S:
                 log.info("HiGHS still running %.1f s after its deadline: stopped", GUARD_GRACE_S)
                 break
-            if not recv.poll(_GUARD_POLL_S):
+            if not recv.poll(0.1):  # the parent looks ten times a second
                 continue
             try:
-                msg = recv.recv()
+                kind, *got = recv.recv()
             except EOFError:
                 code = guard.proc.exitcode
                 raise RuntimeError(f"HiGHS's process ended (exit code {code})") from None
-            kind = msg[0]
             if kind == "incumbent":
-                if msg[1] > best[0]:
-                    best = (msg[1], msg[2])
+                best = (got[0], got[1]) if got[0] > best[0] else best
             elif kind == "progress":
-                nodes = msg[1]
-                dual = msg[2] if np.isfinite(msg[2]) else dual
+                nodes, dual = got[0], got[1] if np.isfinite(got[1]) else dual
                 progress.update(nodes, None)
             elif kind == "done":
-                out = msg[1]
+                out = got[0]
             else:
-                raise RuntimeError(f"HiGHS's process failed: {msg[1]}")
+                raise RuntimeError(f"HiGHS's process failed: {got[0]}")
     finally:
         guard.stop()
     if out is not None:

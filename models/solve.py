@@ -103,18 +103,17 @@ def start_items(data: ModelData, schedule: Schedule) -> list[int] | None:
             log.warning("warm start ignored: observation %d covers no valid opportunity", n)
             return None
         need = set(ob.opps)
-        best, best_cost = None, math.inf
-        for u in by_opp.get(ob.opps[0], []):
-            if (
-                data.orbit[u] == ob.orbit
-                and need.issubset(data.opps[u])
-                and data.start[u] >= ob.start - INT_TOL
-                and data.end[u] <= ob.end + INT_TOL
-                and abs(data.roll[u]) <= abs(ob.roll) + INT_TOL
-            ):
-                cost = (data.end[u] - data.start[u]) + abs(data.roll[u])
-                if cost < best_cost:
-                    best, best_cost = u, cost
+        fit = [
+            u
+            for u in by_opp.get(ob.opps[0], [])
+            if data.orbit[u] == ob.orbit
+            and need.issubset(data.opps[u])
+            and data.start[u] >= ob.start - INT_TOL
+            and data.end[u] <= ob.end + INT_TOL
+            and abs(data.roll[u]) <= abs(ob.roll) + INT_TOL
+        ]
+        # the first of the least cost: the shortest window, the roll nearest nadir
+        best = min(fit, key=lambda u: data.end[u] - data.start[u] + abs(data.roll[u]), default=None)
         if best is None:
             log.warning(
                 "warm start ignored: observation %d (orbit %s, %d opportunities) is no item "
@@ -147,9 +146,8 @@ def warm_start_values(data: ModelData, schedule: Schedule) -> dict[str, dict[int
 
 def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float]]:
     """Values of x, z and the slew-order variables f, l, s, r when ``chosen`` are scheduled."""
-    x = dict.fromkeys(range(data.n_items), 0.0)
-    for u in chosen:
-        x[u] = 1.0
+    taken = set(chosen)
+    x = {u: 1.0 if u in taken else 0.0 for u in range(data.n_items)}
     vals: dict[str, dict[int, float]] = {"x": x}
     if data.coverage:
         vals["z"] = {k: float(any(x[u] for u in us)) for k, us in data.target_items.items()}
@@ -157,12 +155,11 @@ def item_values(data: ModelData, chosen: list[int]) -> dict[str, dict[int, float
     for j in data.energy_orbits:
         seq = [int(u) for u in data.orbit_items[j]]
         xs = np.array([x[u] for u in seq])
-        s.update(zip(seq, np.maximum.accumulate(xs).tolist(), strict=True))
-        r.update(zip(seq, np.maximum.accumulate(xs[::-1])[::-1].tolist(), strict=True))
-        taken = [u for u in seq if x[u]]
-        for u in seq:
-            f[u] = 1.0 if taken and u == taken[0] else 0.0
-            l_[u] = 1.0 if taken and u == taken[-1] else 0.0
+        pre, suf = np.maximum.accumulate(xs), np.maximum.accumulate(xs[::-1])[::-1]
+        # the first taken item is where the prefix turns 1, the last where the suffix ends
+        firsts, lasts = pre - np.r_[0.0, pre[:-1]], suf - np.r_[suf[1:], 0.0]
+        for out, col in ((s, pre), (r, suf), (f, firsts), (l_, lasts)):
+            out.update(zip(seq, col.tolist(), strict=True))
     vals.update({"f": f, "l": l_, "s": s, "r": r})
     return vals
 
@@ -401,30 +398,30 @@ def solve_milp(
     except TimeUp:
         # no model in time, so no MILP and no warm start over its items: the free bound, and
         # a schedule all the same (never worse than a heuristic)
-        from models.data import observable_weight
+        from sosp.validate import validate
 
         stats["timed_out"] = "candidates"
-        upper = observable_weight(instance)
+        upper = instance.observable_weight
         schedule, profit, observed, status = empty, 0.0, 0, Status.NO_SOLUTION
         if not relax:
-            schedule = _schedule_without_model(instance, warm_start, stats)
+            # the warm start when the validator accepts it, else the empty schedule
+            if isinstance(warm_start, Schedule) and validate(instance, warm_start).feasible:
+                schedule, stats["returned"] = warm_start, "warm_start"
+            elif isinstance(warm_start, Schedule):
+                log.warning("warm start ignored: the schedule is infeasible")
             profit, observed = schedule.coverage_profit(instance)
             status = Status.OPTIMAL if profit >= upper - INT_TOL else Status.TIME_LIMIT
         runtime = time.perf_counter() - t0
         return Result(method, status, schedule, profit, observed, runtime, upper, None, stats)
     cap = data.covered_weight()
-    if slew is None:  # lazy: proves more (docs/exact.md, "The lazy slew term")
-        slew = "exact" if relax else "lazy"
-    if slew == "auto" and not relax:
-        slew = "lazy"
-    if slew == "auto":  # the small relaxed LP where the direct backend is chosen anyway
-        slew = "relaxed" if choose_backend(data, backend) == "highs" else "exact"
+    if slew in (None, "auto") and not relax:
+        slew = "lazy"  # proves more (docs/exact.md, "The lazy slew term")
+    elif slew in (None, "auto"):  # auto: the small relaxed LP where the direct backend is chosen
+        slew = "relaxed" if slew and choose_backend(data, backend) == "highs" else "exact"
     backend = "highs" if slew == "relaxed" else choose_backend(data, backend)
     if slew == "lazy" and backend == "pyomo":
         slew = "exact"  # the reference builder has the exact term only
-    stats.update(
-        {"backend": backend, "candidates": data.n_items, "cliques": data.n_events, "cap": cap}
-    )
+    stats.update(backend=backend, candidates=data.n_items, cliques=data.n_events, cap=cap)
     if backend == "highs":
         stats["conflicts"] = conflicts
     if not relax:
@@ -435,9 +432,10 @@ def solve_milp(
         status = Status.NO_SOLUTION if relax else Status.OPTIMAL
         return Result(method, status, empty, 0.0, 0, time.perf_counter() - t0, 0.0, None, stats)
 
+    # (the LP ignores the MIP's options: its gap and probing)
+    run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend, stats)
     if relax:
-        lp = _Run(data, t0, None, threads, conflicts, lp_solver, slew, False, backend, stats)
-        kind, incumbent, _, _ = _solve(lp, deadline, None, True)
+        kind, incumbent, _, _ = _solve(run, deadline, None, True)
         bound = None
         if kind == "optimal" and incumbent is not None:
             stats["lp_bound"] = float(incumbent)
@@ -460,8 +458,7 @@ def solve_milp(
     start_profit = 0.0
     if start is not None:
         start_profit = items_to_schedule(instance, data, start).coverage_profit(instance)[0]
-        stats["start_profit"] = float(start_profit)
-        stats["start_s"] = round(time.perf_counter() - t0, 6)
+        stats.update(start_profit=float(start_profit), start_s=round(time.perf_counter() - t0, 6))
     upper = cap
     if extra_bound != "none" and start_profit < cap and (arranged or extra_bound == "lp"):
         # the branching is left to the side process when one will run: it starts its own
@@ -501,8 +498,6 @@ def solve_milp(
         give: _GiveWay | None = None
         if side is not None and warm_start != "none" and data.n_items >= LARGE_MODEL_ITEMS:
             watch = give = _GiveWay(side, start_profit, by)
-        run = _Run(data, t0, mip_gap, threads, conflicts, lp_solver, slew, use_probing, backend,
-                   stats)  # fmt: skip
         try:
             with watching_bound(watch):
                 kind, incumbent, raw_bound, chosen = _solve(run, solve_by, start, False)
@@ -557,8 +552,7 @@ def solve_milp(
     observed = schedule.coverage_profit(instance)[1]
     ib = _int_bound(raw_bound)
     stats["raw_bound"] = None if raw_bound is None else float(raw_bound)
-    bound = upper if ib is None else min(ib, upper)
-    bound = max(bound, profit)
+    bound = max(upper if ib is None else min(ib, upper), profit)
     if bound <= profit + INT_TOL:
         status, bound = Status.OPTIMAL, profit
     elif kind == "optimal":
@@ -635,34 +629,16 @@ def _search_on(
     if side is not None and side.proved_at is not None:
         stats["search_on_stopped"] = "proven"
     profit = items_to_schedule(data.instance, data, more).coverage_profit(data.instance)[0]
-    stats["search_on_s"] = round(time.perf_counter() - t1, 6)
-    stats["search_on_profit"] = float(profit)
+    stats.update(search_on_s=round(time.perf_counter() - t1, 6), search_on_profit=float(profit))
     if profit > start_profit:
-        stats["start_profit"] = float(profit)
-        stats["start_from"] = "search_on"
+        stats.update(start_profit=float(profit), start_from="search_on")
         return more, profit
     return start, start_profit
 
 
 #: Share of ``milp``'s time limit within which the cluster model's candidates must be
-#: generated; past it, the warm start is the answer (:func:`_schedule_without_model`).
+#: generated; past it, the warm start is the answer (when the validator accepts it).
 MODEL_SHARE = 0.5
-
-
-def _schedule_without_model(
-    instance: Instance, warm_start: Schedule | str, stats: dict[str, Any]
-) -> Schedule:
-    """The schedule :func:`solve_milp` returns when its model's items are not ready by the
-    deadline: the warm start when the validator accepts it, else the empty one."""
-    from sosp.validate import validate
-
-    if not isinstance(warm_start, Schedule):
-        return Schedule(())
-    if validate(instance, warm_start).feasible:
-        stats["returned"] = "warm_start"
-        return warm_start
-    log.warning("warm start ignored: the schedule is infeasible")
-    return Schedule(())
 
 
 def _extra_bound(
@@ -692,7 +668,16 @@ def _extra_bound(
         from models.lagrangian import lagrangian_bound
 
         return float(lagrangian_bound(data.instance, **common)["bound"]), None
-    return _lp_bound(data, budget.deadline, threads), None
+    # the LP relaxation with the relaxed slew row (direct backend), rounded down
+    from models.highs_direct import build_arrays, run_highs
+
+    if not fits("build", data.n_items, budget.deadline):
+        return None, None
+    am = build_arrays(data, relax=True, slew="relaxed")
+    if budget.expired():
+        return None, None
+    lp = run_highs(am, deadline=budget.deadline, threads=threads, lp_solver="ipm")
+    return (_int_bound(lp.bound) if lp.status == "optimal" else None), None
 
 
 def _adopt(
@@ -707,8 +692,7 @@ def _adopt(
     if found is not None and found[1] > start_profit:
         better = start_items(data, found[0])
         if better is not None:
-            stats["start_profit"] = float(found[1])
-            stats["start_from"] = "branch_and_price"
+            stats.update(start_profit=float(found[1]), start_from="branch_and_price")
             return better, found[1]
     return start, start_profit
 
@@ -725,20 +709,6 @@ def _side_possible(
     if how != "colgen" or arranged is None or budget.deadline is None:
         return False
     return budget.fits(reserve_s + SIDE_MIN_S) and side_cores() >= 2
-
-
-def _lp_bound(data: ModelData, deadline: float | None, threads: int | None) -> float | None:
-    """The LP relaxation with the relaxed slew row (direct backend), rounded down; None if
-    not solved by ``deadline``."""
-    from models.highs_direct import build_arrays, run_highs
-
-    if not fits("build", data.n_items, deadline):
-        return None
-    am = build_arrays(data, relax=True, slew="relaxed")
-    if deadline is not None and time.perf_counter() >= deadline:
-        return None
-    out = run_highs(am, deadline=deadline, threads=threads, lp_solver="ipm")
-    return _int_bound(out.bound) if out.status == "optimal" else None
 
 
 @dataclass(frozen=True)
@@ -777,8 +747,6 @@ def energy_violations(data: ModelData, chosen: list[int]) -> set[int]:
     inst = data.instance
     taken = np.asarray(sorted(chosen), dtype=np.int64)
     bad: set[int] = set()
-    if not len(taken):
-        return bad
     for j in data.energy_orbits:
         u = taken[data.orbit[taken] == j]
         if not len(u):
@@ -861,10 +829,9 @@ def _run_direct(
     am = build_arrays(
         data, relax=bool(relax), conflicts=run.conflicts, slew=slew, exact_orbits=exact_orbits
     )
-    stats["slew"] = slew
-    stats["build_s"] = round(time.perf_counter() - run.t0, 6)  # everything before the arrays
-    stats["arrays_s"] = round(time.perf_counter() - t1, 6)
-    stats.update({"variables": am.n_cols, "constraints": am.n_rows, "nonzeros": int(am.matrix.nnz)})
+    now = time.perf_counter()  # build_s: everything before the arrays too
+    stats.update(slew=slew, build_s=round(now - run.t0, 6), arrays_s=round(now - t1, 6))
+    stats.update(variables=am.n_cols, constraints=am.matrix.shape[0], nonzeros=int(am.matrix.nnz))
     if deadline is not None and time.perf_counter() >= deadline:
         stats["timed_out"] = "building"
         return "time_limit", None, None, None
@@ -880,10 +847,8 @@ def _run_direct(
         lp_solver=None if lp_solver == "choose" else lp_solver,
         probing=run.probing,
     )
-    stats["load_s"] = round(out.load_s, 6)
-    stats["solve_s"] = round(out.solve_s, 6)
-    stats["termination"] = out.model_status
-    stats.update(out.info)
+    stats.update(load_s=round(out.load_s, 6), solve_s=round(out.solve_s, 6))
+    stats.update(termination=out.model_status, **out.info)
     chosen = None if out.x is None else [int(u) for u in np.flatnonzero(out.x > 0.5)]
     return out.status, out.objective, out.bound, chosen
 
@@ -907,16 +872,15 @@ def _run_pyomo(
     opt = Highs()  # its time limit is set after the load
     opt.config.load_solution = opt.config.stream_solver = False
     opt.config.log_level, opt.config.solver_output_logger = logging.DEBUG, log
-    options: dict[str, Any] = {"output_flag": log.isEnabledFor(logging.DEBUG)}
     if run.mip_gap is not None:
         opt.config.mip_gap = float(run.mip_gap)
-    if threads is not None:
-        options["threads"] = int(threads)
-    if relax and lp_solver != "choose":
-        options["solver"] = lp_solver
-    if not relax and not run.probing:
-        options["presolve_rule_off"] = PROBING_OFF
-    opt.highs_options = options
+    options = {
+        "output_flag": log.isEnabledFor(logging.DEBUG),
+        "threads": None if threads is None else int(threads),
+        "solver": lp_solver if relax and lp_solver != "choose" else None,
+        "presolve_rule_off": None if relax or run.probing else PROBING_OFF,
+    }
+    opt.highs_options = {k: v for k, v in options.items() if v is not None}
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
@@ -931,16 +895,13 @@ def _run_pyomo(
         opt.config.time_limit = max(deadline - time.perf_counter(), 0.01)
     if start_items_ is not None and not relax:
         for name, values in item_values(data, start_items_).items():
-            var = getattr(m, name)
             for key, val in values.items():
-                var[key].set_value(val)
+                getattr(m, name)[key].set_value(val)
         opt.config.warmstart = True
     use_threads(threads)
     res = opt.solve(m)
     h = opt._solver_model
-    stats.update(
-        {"variables": h.getNumCol(), "constraints": h.getNumRow(), "nonzeros": h.getNumNz()}
-    )
+    stats.update(variables=h.getNumCol(), constraints=h.getNumRow(), nonzeros=h.getNumNz())
     tc = res.termination_condition
     stats["termination"] = tc.name
     stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
@@ -1038,7 +999,7 @@ def bound(
         ``status`` and ``gap``.
     """
     from models.colgen import colgen_bound
-    from models.lagrangian import lagrangian_bound
+    from models.lagrangian import check_count, lagrangian_bound
     from models.subset_row import cut_levels
     from sosp.planner import kernels_within, with_rolls
 
@@ -1046,29 +1007,23 @@ def bound(
     if method not in BOUND_METHODS:
         raise InputError(f"method: expected one of {', '.join(BOUND_METHODS)}, got {method!r}")
     time_limit = check_time_limit(time_limit)
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise InputError(f"iterations: expected a positive integer, got {iterations!r}")
+    check_count("iterations", iterations)
     check_workers(workers)
     deadline = kernels_within(t0, time_limit)  # the kernels' load counts in the limit
     cut_levels()  # the branch and price's cut pricing (colgen, auto)
     if deadline is not None:
         time_limit = deadline - t0  # the limit, or more when the load took most of it
+    highs = {"threads": threads, "backend": backend, "conflicts": conflicts}
     if method == "milp":
-        res = solve_milp(
-            instance,
-            time_limit=None if deadline is None else deadline - time.perf_counter(),
-            model=model,
-            threads=threads,
-            backend=backend,
-            conflicts=conflicts,
-        )
+        left = None if deadline is None else deadline - time.perf_counter()
+        res = solve_milp(instance, time_limit=left, model=model, **highs)
         return _bound_out(res.bound, method, model, t0, res.stats, profit=res.profit,
                           status=res.status.value, gap=res.gap, source="milp")  # fmt: skip
-    MILPParams(threads=threads, relax=True, backend=backend, conflicts=conflicts,
-               lp_solver=lp_solver, slew=slew)  # fmt: skip
+    lp = {"relax": True, "lp_solver": lp_solver, "slew": slew, **highs}
+    MILPParams(**lp)  # the LP's options checked before anything is computed
     ask = _Ask(instance, t0, deadline, lower_bound or None, iterations, workers)
     if method == "colgen" and model == "cluster":
-        return _colgen_bound(ask)
+        return _over_candidates(ask, "colgen")
     if method == "windows":
         return _window_bound(ask, model)
     generate_by = None
@@ -1082,21 +1037,19 @@ def bound(
     except TimeUp:
         if method in ("auto", "lagrangian") and model == "cluster":
             return _cap_or_windows(ask, method)
-        from models.data import observable_weight
-
-        return _bound_out(observable_weight(instance), method, model, t0, TIMED_OUT, source="cap")
+        return _bound_out(instance.observable_weight, method, model, t0, TIMED_OUT, source="cap")
     except InputError:
         if method == "lagrangian" and model == "cluster":
             # more candidates than the MILPs take (D30): the Lagrangian bound prices the
             # planner's candidates, which have no such cap
-            return _lagrangian_alone(ask)
+            return _over_candidates(ask, "lagrangian")
         if method != "auto" or model != "cluster":
             raise
         # more candidates than the MILPs take (D30): no LP, but the column generation's own
         # candidates have no such cap, so auto is its bound alone, with all the time left
         log.info("bound: the cluster model is too large for the LP; column generation alone")
         try:
-            out = _colgen_bound(ask)
+            out = _over_candidates(ask, "colgen")
         except InputError:  # the planner's candidates would not fit in memory either
             return _windows_instead(ask, "auto", parts=True)
         if out.get("timed_out") == "candidates":  # the planner's were not ready either
@@ -1154,28 +1107,16 @@ def bound(
         # column generation converged: its master LP is at least as tight as this LP)
         left = None if deadline is None else deadline - time.perf_counter()
         if left is None or left > 0.05:
-            res = solve_milp(
-                instance,
-                time_limit=left,
-                model=model,
-                threads=threads,
-                relax=True,
-                backend=backend,
-                conflicts=conflicts,
-                lp_solver=lp_solver,
-                slew=slew,
-            )
+            res = solve_milp(instance, time_limit=left, model=model, **lp)
             parts["lp"] = res.bound
             keys = ("variables", "constraints", "nonzeros", "termination", "backend")
             stats.update({k: res.stats[k] for k in (*keys, "build_s", "load_s", "solve_s")
                           if k in res.stats})  # fmt: skip
-            stats["lp_value"] = res.stats.get("lp_bound")
-            stats["lp_solver"] = lp_solver
+            stats.update(lp_value=res.stats.get("lp_bound"), lp_solver=lp_solver)
             stats["slew"] = res.stats.get("slew", "exact")
         else:
             parts["lp"] = None
-    found = [v for v in parts.values() if v is not None]
-    upper = min([cap, *found])
+    upper = min([cap, *(v for v in parts.values() if v is not None)])
     # which computation gave the bound: a method, or the cap when none finished below it
     best = min((k for k, v in parts.items() if v is not None), key=lambda k: parts[k], default=None)
     source = best if best is not None and parts[best] <= cap else "cap"
@@ -1247,9 +1188,7 @@ def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
     """The bound of ``method`` when the candidates were not ready by the deadline: the window
     relaxation's (:func:`_window_bound`, never above the cap) with the time left when it is
     at least :data:`WINDOWS_MIN_SHARE` of the limit, else the cap (observable weight)."""
-    from models.data import observable_weight
-
-    upper = observable_weight(ask.instance)
+    upper = ask.instance.observable_weight
     now, deadline = time.perf_counter(), ask.deadline
     if deadline is not None and deadline - now >= WINDOWS_MIN_SHARE * (deadline - ask.t0):
         log.info("bound: the candidates are not ready in time; the window relaxation's bound")
@@ -1262,61 +1201,44 @@ def _cap_or_windows(ask: _Ask, method: str) -> dict[str, Any]:
     return _bound_out(upper, method, "cluster", ask.t0, TIMED_OUT, source="cap")
 
 
-def _colgen_bound(ask: _Ask) -> dict[str, Any]:
-    """``bound(method="colgen")`` of the cluster model over the planner's candidates: the
-    cluster model's, without the cap on their number that :func:`model_data` keeps for the
-    MILPs (D30's 3.4 million are priced in seconds a round)."""
+def _over_candidates(ask: _Ask, method: str) -> dict[str, Any]:
+    """``bound(method=method)`` (``"colgen"`` or ``"lagrangian"``) of the cluster model over
+    the planner's candidates: the cluster model's, without the cap on their number that
+    :func:`model_data` keeps for the MILPs (D30's 3.4 million are priced in seconds a round).
+    Lagrangian: where the candidates are not ready in time or would not fit in memory either,
+    the window relaxation's bound, which is a Lagrangian bound too
+    (:mod:`models.window_bound`)."""
     from models.colgen import colgen_bound
-    from models.data import observable_weight
+    from models.lagrangian import lagrangian_bound
     from sosp.planner import orbit_data
 
+    lagrangian = method == "lagrangian"
     try:
         data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
     except TimeLimitReached:
+        if lagrangian:
+            return _cap_or_windows(ask, method)
         # the candidates' own "time limit reached": nothing but the observable weight holds
-        return _bound_out(observable_weight(ask.instance), "colgen", "cluster", ask.t0, {},
+        return _bound_out(ask.instance.observable_weight, method, "cluster", ask.t0, {},
                           source="cap", timed_out="candidates")  # fmt: skip
-    cg = colgen_bound(
-        ask.instance,
-        time_limit=ask.left(),
-        lower_bound=ask.lower_bound,
-        data=data,
-        branch=ask.deadline is not None,  # the time left after convergence: branch and price
-        workers=ask.workers,
-    )
+    except InputError:
+        if lagrangian:
+            return _windows_instead(ask, method)
+        raise
+    given = {"time_limit": ask.left(), "lower_bound": ask.lower_bound, "workers": ask.workers}
+    if lagrangian:
+        lag = lagrangian_bound(ask.instance, iterations=ask.iterations, data=data, **given)
+        stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
+        stats["lower_bound"] = lag["lower_bound"]
+        return _bound_out(lag["bound"], method, "cluster", ask.t0, stats, source=method)
+    # the time left after convergence: branch and price
+    cg = colgen_bound(ask.instance, data=data, branch=ask.deadline is not None, **given)
     keys = ("candidates", "cap", "rounds", "converged", "nodes")
-    out = _bound_out(cg["bound"], "colgen", "cluster", ask.t0, {k: cg[k] for k in keys if k in cg},
+    out = _bound_out(cg["bound"], method, "cluster", ask.t0, {k: cg[k] for k in keys if k in cg},
                      source="colgen" if cg["bound"] < cg["cap"] else "cap")  # fmt: skip
     if "profit" in cg:
         out["profit"] = cg["profit"]  # a validated schedule the branch and price ended on
     return out
-
-
-def _lagrangian_alone(ask: _Ask) -> dict[str, Any]:
-    """``bound(method="lagrangian")`` of the cluster model over the planner's candidates,
-    without :func:`model_data`'s cap for the MILPs; where those would not fit in memory
-    either, the window relaxation's bound, which is a
-    Lagrangian bound too (:mod:`models.window_bound`)."""
-    from models.lagrangian import lagrangian_bound
-    from sosp.planner import orbit_data
-
-    try:
-        data = orbit_data(ask.instance, ask.deadline, workers=ask.workers)
-    except TimeLimitReached:
-        return _cap_or_windows(ask, "lagrangian")
-    except InputError:
-        return _windows_instead(ask, "lagrangian")
-    lag = lagrangian_bound(
-        ask.instance,
-        iterations=ask.iterations,
-        time_limit=ask.left(),
-        lower_bound=ask.lower_bound,
-        data=data,
-        workers=ask.workers,
-    )
-    stats = {"candidates": data.n_items, "iterations": lag["iterations"]}
-    stats["lower_bound"] = lag["lower_bound"]
-    return _bound_out(lag["bound"], "lagrangian", "cluster", ask.t0, stats, source="lagrangian")
 
 
 #: The statistics of a bound that is the cap, the candidates not ready in time.
@@ -1335,12 +1257,6 @@ def _bound_out(
 ) -> dict[str, Any]:
     """A bound's answer: ``value``, ``method``, ``model``, the runtime from ``t0``, the
     :data:`_BOUND_KEYS` of ``stats``, then ``more`` in its order."""
-    out: dict[str, Any] = {
-        "bound": value,
-        "method": method,
-        "model": model,
-        "runtime_s": round(time.perf_counter() - t0, 6),
-    }
-    out.update({k: stats[k] for k in _BOUND_KEYS if k in stats})
-    out.update(more)
-    return out
+    runtime = round(time.perf_counter() - t0, 6)
+    out = {"bound": value, "method": method, "model": model, "runtime_s": runtime}
+    return out | {k: stats[k] for k in _BOUND_KEYS if k in stats} | more
