@@ -223,6 +223,14 @@ Pricer = Callable[
 ]
 
 
+def _smoothed(alpha: float, best: tuple[Any, ...], master: tuple[Any, ...] | None) -> tuple:
+    """The pricing point (Wentges): ``alpha`` times the best bound's multipliers ``best``
+    plus ``1 - alpha`` times the master's (``best`` itself before the first master)."""
+    if master is None:
+        return best
+    return tuple(alpha * c + (1.0 - alpha) * m for c, m in zip(best, master, strict=True))
+
+
 @dataclass
 class Root:
     """What :func:`column_generation` ends with: the least Lagrangian value ``best`` and its
@@ -292,18 +300,16 @@ def column_generation(
         # reading the clock (a drawn 1,200-target instance: 7.9 s for a 5 s limit)
         if not budget.fits(round_s):
             break
-        if mu_m is None:
-            mu_s, lam_s = mu_c, lam_c
-        else:
-            mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
-            lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
+        mu_s, lam_s = _smoothed(alpha, (mu_c, lam_c), None if mu_m is None else (mu_m, lam_m))
         t_round = time.perf_counter()
         plans = price(mu_s, lam_s, budget.deadline)
         round_s = max(round_s, time.perf_counter() - t_round)
         if plans is None:
             break  # the deadline fell inside the round: its bound is incomplete
         rounds += 1
-        value = _round_value(p, mu_s, lam_s, plans)
+        # the Lagrangian bound L(mu, lam) of the round's plans (module docstring)
+        value = float(np.maximum(p - mu_s, 0.0).sum()) + sum(v for v, _, _ in plans)
+        value += float(lam_s.sum())
         if value < best - 1e-9:
             best, mu_c, lam_c = value, mu_s, lam_s
         if rounds == 1 and given is not None and (expect_rounds or 0) * round_s > given:
@@ -342,12 +348,6 @@ def column_generation(
             converged = True  # the rounded bound cannot fall below the master's optimum
             break
     return Root(best, mu_c, lam_c, master, master_value, rounds, converged, round_s)
-
-
-def _round_value(p: np.ndarray, mu: np.ndarray, lam: np.ndarray, plans: list[Any]) -> float:
-    """The Lagrangian bound ``L(mu, lam)`` of a round's plans (module docstring)."""
-    value = float(np.maximum(p - mu, 0.0).sum())
-    return value + sum(v for v, _, _ in plans) + float(lam.sum())
 
 
 def colgen_bound(
@@ -718,9 +718,9 @@ def _solve_node(
     row_forced = np.full(len(p), -1, dtype=np.int64)
     row_forced[fk] = len(free) + np.arange(len(fk))
     base = len(free) + len(fk)
-    banned_on: dict[int, np.ndarray] = {}
+    banned_on: dict[int, list[int]] = {}
     for k, j in node.banned:
-        banned_on[j] = np.append(banned_on.get(j, np.zeros(0, dtype=np.int64)), k)
+        banned_on.setdefault(j, []).append(k)
     caps = tree.caps
     e_cap, w_cap = caps.T
     inf = highspy.kHighsInf
@@ -801,13 +801,11 @@ def _solve_node(
     while not budget.expired():
         if not resolve:
             at_master = mu_m is not None and alpha == 0.0
-            if mu_m is None:
-                mu_s, beta_s, lam_s, sigma_s = mu_c, beta_c, lam_c, sigma_c
-            else:
-                mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
-                beta_s = alpha * beta_c + (1.0 - alpha) * beta_m
-                lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
-                sigma_s = alpha * sigma_c + (1.0 - alpha) * sigma_m
+            mu_s, beta_s, lam_s, sigma_s = _smoothed(
+                alpha,
+                (mu_c, beta_c, lam_c, sigma_c),
+                None if mu_m is None else (mu_m, beta_m, lam_m, sigma_m),
+            )
             z_gain = p[free] - mu_s[free]
             value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
             if held:
