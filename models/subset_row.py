@@ -262,8 +262,7 @@ def arrange_py(
     slotted = np.flatnonzero(live & chained)
     by_lo = slotted[np.argsort(lo[slotted], kind="mergesort")]
     by_rank = np.empty(m, dtype=np.int64)
-    for u in range(m):
-        by_rank[rank[u]] = u
+    by_rank[rank] = np.arange(m)
     slot_of = np.full(n_cuts, -1, dtype=np.int64)
     slot_end = np.full(SLOTS, -1, dtype=np.int64)
     slot_kind = np.full(SLOTS, -1, dtype=np.int64)  # unused, 0 ceil, 1 floor (inv)
@@ -320,40 +319,22 @@ def arrange_py(
             q -= 1
         carry[u] = mask & ~recent
     direct = np.zeros(m)
+    for e in range(cut.shape[0]):
+        c = cut[e]
+        if live[c] and slot_of[c] < 0:
+            half = a[e] // 2 if inv[c] and not chained[c] else (a[e] + 1) // 2
+            direct[pos[e]] += sigma[c] * half
+    # the slotted cuts' entries, grouped by position in entry order
+    hit = np.flatnonzero(live[cut] & (slot_of[cut] >= 0))
+    hit = hit[np.argsort(pos[hit], kind="mergesort")]
+    hit_cut, hit_pos = cut[hit], pos[hit]
     ptr = np.zeros(m + 1, dtype=np.int64)
-    for e in range(cut.shape[0]):
-        c = cut[e]
-        if live[c]:
-            if slot_of[c] < 0:
-                if inv[c] and not chained[c]:
-                    direct[pos[e]] += sigma[c] * (a[e] // 2)
-                else:
-                    direct[pos[e]] += sigma[c] * ((a[e] + 1) // 2)
-            else:
-                ptr[pos[e] + 1] += 1
-    for u in range(m):
-        ptr[u + 1] += ptr[u]
-    fill = ptr[:m].copy()
-    n_hits = ptr[m]
-    hit_slot = np.empty(n_hits, dtype=np.int64)
-    hit_a = np.empty(n_hits, dtype=np.int64)
-    hit_sigma = np.empty(n_hits)
-    hit_read = np.empty(n_hits, dtype=np.int64)
-    hit_inv = np.empty(n_hits, dtype=np.int64)
-    for e in range(cut.shape[0]):
-        c = cut[e]
-        if live[c] and slot_of[c] >= 0:
-            u = pos[e]
-            q = fill[u]
-            fill[u] += 1
-            hit_slot[q] = slot_of[c]
-            hit_a[q] = a[e]
-            hit_sigma[q] = sigma[c]
-            hit_read[q] = 1 if lo[c] < n_before[u] else 0
-            hit_inv[q] = 1 if inv[c] else 0
+    for u in hit_pos:
+        ptr[u + 1] += 1
     return (
-        ptr, hit_slot, hit_a, hit_sigma, hit_read, carry, keep, close, slot_sigma, direct, exact,
-        hit_inv, inv_slots,
+        np.cumsum(ptr), slot_of[hit_cut], a[hit], sigma[hit_cut],
+        (lo[hit_cut] < n_before[hit_pos]).astype(np.int64), carry, keep, close, slot_sigma,
+        direct, exact, inv[hit_cut].astype(np.int64), inv_slots,
     )  # fmt: skip
 
 
@@ -516,16 +497,12 @@ def cut_levels_py(
                 lo[n, u] = n_lab
                 for i in range(n_c):
                     if c_live[i] == 1:
-                        if n_lab == size:
+                        if n_lab == size:  # doubled
                             size *= 2
-                            l_val = np.concatenate((l_val, np.empty(size - n_lab)))
-                            l_mask = np.concatenate(
-                                (l_mask, np.empty(size - n_lab, dtype=np.int64))
-                            )
-                            l_pred = np.concatenate(
-                                (l_pred, np.empty(size - n_lab, dtype=np.int64))
-                            )
-                            l_pos = np.concatenate((l_pos, np.empty(size - n_lab, dtype=np.int64)))
+                            l_val = np.concatenate((l_val, np.empty_like(l_val)))
+                            l_mask = np.concatenate((l_mask, np.empty_like(l_mask)))
+                            l_pred = np.concatenate((l_pred, np.empty_like(l_pred)))
+                            l_pos = np.concatenate((l_pos, np.empty_like(l_pos)))
                         l_val[n_lab] = c_val[i]
                         l_mask[n_lab] = c_mask[i]
                         l_pred[n_lab] = c_pred[i]
