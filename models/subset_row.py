@@ -49,6 +49,7 @@ b)``, so there a *clear* bit can cost a label one earning. Such cuts get slots o
 from __future__ import annotations
 
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -58,7 +59,6 @@ import numpy as np
 from sosp.kernels import compiled
 from sosp.planner import OrbitItems, best_path
 from sosp.recursion import recursion, restrict
-from sosp.rules import OrbitRules
 
 #: The cut pricing restricts an orbit to the positions that may help a plan
 #: (:meth:`CutPool.best_path`) when fewer than this share of them can.
@@ -457,16 +457,11 @@ def cut_levels_py(
                     out = bits & carry[u]
                     for h in range(hit_ptr[u], hit_ptr[u + 1]):
                         bit = np.int64(1) << hit_slot[h]
-                        b = 0
-                        if hit_read[h] == 1 and (bits & bit) != 0:
-                            b = 1
+                        b = 1 if hit_read[h] == 1 and (bits & bit) != 0 else 0
                         a = hit_a[h]
                         bb = 1 - b if hit_inv[h] == 1 else b
                         v += hit_sigma[h] * ((bb + a + 1) // 2 - bb)
-                        if (b + a) % 2 == 1:
-                            out |= bit
-                        else:
-                            out &= ~bit
+                        out = out | bit if (b + a) % 2 == 1 else out & ~bit
                     out &= keep[u]
                     c_mask[n_c] = out
                     c_val[n_c] = v
@@ -553,10 +548,7 @@ def cut_levels_py(
                 while n_s > max_labels:
                     # merge the two lowest into one optimistic label
                     relaxed = 1
-                    a1 = 0
-                    for i in range(1, n_s):
-                        if s_val[i] < s_val[a1]:
-                            a1 = i
+                    a1 = np.argmin(s_val[:n_s])
                     a2 = 0 if a1 != 0 else 1
                     for i in range(n_s):
                         if i != a1 and s_val[i] < s_val[a2]:
@@ -665,29 +657,19 @@ def best_path_with_cuts(
     cuts: OrbitCuts,
     pe: float = 0.0,
     pw: float = 0.0,
+    sub: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> CutPrice:
     """The best plan of orbit ``o`` at per-position ``gain`` (target prices summed per
     observation), energy and memory penalties per unit ``pe``, ``pw`` ((4)-(5) as in
     :func:`sosp.planner.best_path`), plus each plan's earning ``sum_S sigma_S ceil(h_SP /
-    2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it."""
-    return _price_with_cuts(
-        o.slew_s, o.duration, gain, o.by_release, o.n_before, o.rules, cuts, pe, pw
-    )
+    2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it. The
+    recursion (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`).
 
-
-def _price_with_cuts(
-    slew_s: np.ndarray,
-    duration: np.ndarray,
-    gain: np.ndarray,
-    by_release: np.ndarray,
-    n_before: np.ndarray,
-    rules: OrbitRules,
-    cuts: OrbitCuts,
-    pe: float,
-    pw: float,
-) -> CutPrice:
-    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays: the recursion
-    (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`)."""
+    With ``sub``, ``(keep, by_release, n_before)``: the plan is sought among the positions
+    ``keep`` only, in their (3) order (:func:`sosp.recursion.restrict`), ``cuts`` arranged
+    for them; the path is still of the orbit's positions.
+    """
+    keep, by_release, n_before = (slice(None), o.by_release, o.n_before) if sub is None else sub
     relaxed = []
 
     def labels(*args: Any) -> tuple[float, np.ndarray]:
@@ -695,9 +677,13 @@ def _price_with_cuts(
         relaxed.append(over)
         return value, path
 
-    gain = gain + cuts.direct
-    value, path = recursion(slew_s, duration, gain, by_release, n_before, rules, pe, pw, run=labels)
-    return CutPrice(float(value), path, cuts.exact and not any(relaxed))
+    value, path = recursion(
+        o.slew_s[keep], o.duration[keep], gain[keep] + cuts.direct, by_release, n_before,
+        o.rules, pe, pw, run=labels,
+    )  # fmt: skip
+    return CutPrice(
+        float(value), path if sub is None else keep[path], cuts.exact and not any(relaxed)
+    )
 
 
 #: Separation: at most this many new cuts per round, and per target per round.
@@ -928,18 +914,16 @@ class CutPool:
         n_worth = int(np.count_nonzero(worth))
         if n_worth == 0:
             return 0.0, np.zeros(0, dtype=np.int64), True
-        keep, by_release, n_before, rank = slice(None), o.by_release, o.n_before, self._rank[g]
+        sub, n_before, rank = None, o.n_before, self._rank[g]
         if n_worth < KEEP_SHARE * o.size:
             keep = np.flatnonzero(worth)
             by_release, n_before = restrict(o.by_release, o.n_before, keep)
             rank = np.argsort(by_release)
             ent = restrict_entries(ent, keep, o.size, rank, n_before)
-        found = _price_with_cuts(
-            o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
-            orbit_cuts(rank, n_before, ent, s_on, inv=made[2]), pe, pw,
-        )  # fmt: skip
-        path = found.path if isinstance(keep, slice) else keep[found.path]
-        return found.value, path, found.exact
+            sub = (keep, by_release, n_before)
+        arranged = orbit_cuts(rank, n_before, ent, s_on, inv=made[2])
+        found = best_path_with_cuts(o, gain, arranged, pe, pw, sub)
+        return found.value, found.path, found.exact
 
     def separate(
         self,
@@ -979,16 +963,15 @@ class CutPool:
             found.extend((v, (a, b), (j,)) for v, a, b, j in pairs)
         found.sort(key=lambda f: -f[0])  # stable: triples first among equals
         added: list[int] = []
-        per_target: dict[int, int] = {}
+        per_target: Counter[int] = Counter()
         for _, members, in_g in found:
             targets = [int(tg_all[i]) for i in members]
-            if any(per_target.get(t, 0) >= CUTS_PER_TARGET for t in targets):
+            if any(per_target[t] >= CUTS_PER_TARGET for t in targets):
                 continue
             c = self.add(targets, in_g)
             if c is None:
                 continue
-            for t in targets:
-                per_target[t] = per_target.get(t, 0) + 1
+            per_target.update(targets)
             added.append(c)
             if len(added) >= limit:
                 break
