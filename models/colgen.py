@@ -684,7 +684,8 @@ def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> 
 class _Tree:
     """What every node of a branch and price shares: the target weights ``p`` (0 for
     unseen), ``seen`` (the targets some candidate covers), the orbits, the pool of columns,
-    the smoothing weight and the cut pool (None: no cuts)."""
+    the smoothing weight, the cut pool (None: no cuts) and the orbits' capacities
+    (:func:`_caps`)."""
 
     p: np.ndarray
     seen: np.ndarray
@@ -692,10 +693,7 @@ class _Tree:
     cols: _Columns
     smoothing: float
     cuts: CutPool | None
-
-    @property
-    def caps(self) -> np.ndarray:
-        return _caps([o.rules for o in self.groups])
+    caps: np.ndarray
 
 
 def _solve_node(
@@ -745,7 +743,6 @@ def _solve_node(
     caps = tree.caps
     master = _Master(p, seen, caps, node.forced, node.banned)
     h, free, fk, row_free, base = master.h, master.free, master.fk, master.row_free, master.base
-    nf = len(free)
     in_lp: list[int] = []  # the pool's columns the master holds, in its order
     loaded: set[int] = set()
     held: dict[int, tuple[int, float, np.ndarray]] = {}  # per held cut: row, rhs, free rows
@@ -803,8 +800,7 @@ def _solve_node(
             z_gain = p[free] - mu_s[free]
             value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
             if held:
-                kept = np.zeros(len(sigma_s), dtype=bool)
-                kept[list(held)] = True
+                kept = np.isin(np.arange(len(sigma_s)), list(held))
                 sigma_s = np.where(kept, sigma_s, 0.0)  # a parent's cut this node dropped
                 for c, (_, rhs, zs) in held.items():
                     value += float(sigma_s[c]) * rhs
@@ -861,7 +857,7 @@ def _solve_node(
                 separate -= 1
                 t_sep = time.perf_counter()
                 z = np.zeros(len(p))
-                z[free] = y[:nf]
+                z[free] = y[: len(free)]
                 z[fk] = 1.0
                 plans = [(cols.items[i][1], yi) for i, yi in positive]
                 orbits = [cols.items[i][0] for i, _ in positive]
@@ -1225,7 +1221,7 @@ def branch_and_price(
     bound0, mu0, lam0 = start
     root = _Node(bound0, frozenset(), {}, mu0, np.zeros(len(p)), lam0, None)
     pool = CutPool(groups) if cut_rounds > 0 else None
-    tree = _Tree(p, seen, groups, cols, smoothing, pool)
+    tree = _Tree(p, seen, groups, cols, smoothing, pool, _caps([o.rules for o in groups]))
     root = _solve_node(root, tree, budget, cut_rounds, strong=strong)
     if pool is not None:
         log.info("branch and price: root %.4f with %d subset-row cuts", root.bound, len(pool))

@@ -271,34 +271,27 @@ def arrange_py(
     carry = np.zeros(m, dtype=np.int64)
     slot_sigma = np.zeros(SLOTS)
     close = np.zeros(m + 1, dtype=np.int64)
-    exact = True
     # a slot's cuts have disjoint rank spans, so a bit flipped at each end of a span and
     # xor-ed along the ranks is set exactly on ranks lo .. hi - 1 (``flip``)
     flip = np.zeros(m + 1, dtype=np.int64)
-    start = np.empty(len(by_lo), dtype=np.int64)  # the slotted cuts' lo, ascending
-    start_bit = np.empty(len(by_lo), dtype=np.int64)
-    n_start = 0
     for c in by_lo:
-        first = lo[c]
         kind = 1 if inv[c] else 0
         for b in range(SLOTS):
-            if slot_end[b] < first and (slot_kind[b] < 0 or slot_kind[b] == kind):
+            if slot_end[b] < lo[c] and (slot_kind[b] < 0 or slot_kind[b] == kind):
                 slot_of[c] = b
                 slot_end[b] = hi[c]
                 slot_kind[b] = kind
                 bit = np.int64(1) << b
                 if kind == 1:
                     inv_slots |= bit
-                flip[first] ^= bit
+                flip[lo[c]] ^= bit
                 flip[hi[c]] ^= bit
-                start[n_start] = first
-                start_bit[n_start] = bit
-                n_start += 1
                 slot_sigma[b] = max(slot_sigma[b], sigma[c])
                 close[hi[c]] |= bit
                 break
-        if slot_of[c] < 0:
-            exact = False
+    in_slot = by_lo[slot_of[by_lo] >= 0]
+    exact = len(in_slot) == len(by_lo)
+    start, start_bit = lo[in_slot], np.int64(1) << slot_of[in_slot]  # lo ascending
     # Position u at rank r keeps the bits open there and carries those whose cut's lo lies
     # in its prefix (lo < n_before[u]): all but the cuts that started at ranks n_before[u]
     # .. r (the one in a slot at r is the slot's latest start; few start that close to r).
@@ -306,7 +299,7 @@ def arrange_py(
     begun = 0  # the cuts with lo <= r
     for r in range(m):
         mask ^= flip[r]
-        while begun < n_start and start[begun] <= r:
+        while begun < len(start) and start[begun] <= r:
             begun += 1
         if mask == 0:
             continue
@@ -440,6 +433,7 @@ def cut_levels_py(
     levels = 1 if single == 1 else cap
     for n in range(levels):
         n_s = 0
+        level0 = n_lab
         qi = 0
         for k in range(m + 1):
             while qi < m and n_before[q_order[qi]] == k:
@@ -561,25 +555,19 @@ def cut_levels_py(
                     s_id[a1] = s_id[n_s - 1]
                     n_s -= 1
         top = n + 1
-        if n > 0:
-            same = True
-            for u in range(m):
-                if hi[n, u] - lo[n, u] != hi[n - 1, u] - lo[n - 1, u]:
-                    same = False
+        # the same labels as the level before (as many per position, each found there): done
+        same = n > 0 and np.array_equal(hi[n] - lo[n], hi[n - 1] - lo[n - 1])
+        for x in range(level0, n_lab if same else level0):  # this level's labels
+            found = False
+            for y in range(lo[n - 1, l_pos[x]], hi[n - 1, l_pos[x]]):
+                if l_mask[y] == l_mask[x] and l_val[y] == l_val[x]:
+                    found = True
                     break
-                for x in range(lo[n, u], hi[n, u]):
-                    found = False
-                    for y in range(lo[n - 1, u], hi[n - 1, u]):
-                        if l_mask[y] == l_mask[x] and l_val[y] == l_val[x]:
-                            found = True
-                            break
-                    if not found:
-                        same = False
-                        break
-                if not same:
-                    break
-            if same:
+            if not found:
+                same = False
                 break
+        if same:
+            break
     best_x = -1
     best_v = -np.inf
     for u in range(m):
