@@ -642,18 +642,14 @@ class _Columns:
         """Each column's value, ``sum_k price[g, k] * n_kP - lam_e E_P - lam_w M_P`` with
         ``price`` orbits x targets and ``lam_per_unit`` orbits x 2 (per unit of energy and
         memory), and its orbit g."""
+        n = len(self._flat[4])
+        if n < len(self.items):  # the new columns' entries and orbits appended
+            g, tg, cnt, energy, memory = zip(*self.items[n:], strict=True)
+            at = np.repeat(np.arange(n, len(self.items)), [len(t) for t in tg])
+            new = (at, np.array(g, dtype=np.int64), np.concatenate(tg), np.concatenate(cnt))
+            new += (energy, memory)
+            self._flat = tuple(np.concatenate([a, b]) for a, b in zip(self._flat, new, strict=True))
         col, orb, tgt, cnt, energy, memory = self._flat
-        n = len(energy)
-        if n < len(self.items):
-            new = self.items[n:]
-            sizes = [len(c[1]) for c in new]
-            col = np.concatenate([col, np.repeat(np.arange(n, len(self.items)), sizes)])
-            orb = np.concatenate([orb, np.array([c[0] for c in new], dtype=np.int64)])
-            tgt = np.concatenate([tgt, *[c[1] for c in new]])
-            cnt = np.concatenate([cnt, *[c[2] for c in new]])
-            energy = np.concatenate([energy, [c[3] for c in new]])
-            memory = np.concatenate([memory, [c[4] for c in new]])
-            self._flat = (col, orb, tgt, cnt, energy, memory)
         gained = np.bincount(col, weights=price[orb[col], tgt] * cnt, minlength=len(energy))
         return gained - lam_per_unit[orb, 0] * energy - lam_per_unit[orb, 1] * memory, orb
 
@@ -786,17 +782,15 @@ def _solve_node(
     pf = p[fk]
     best, mu_c, beta_c, lam_c = node.bound, node.mu, node.beta, node.lam
     sigma_c = _padded(node.sigma, cuts)
-    at_duals: tuple[np.ndarray, ...] | None = None  # the last master's (mu, beta, lam, sigma)
+    m_duals: tuple[np.ndarray, ...] | None = None  # the last master's (mu, beta, lam, sigma)
     alpha = 0.0
     resolve = False  # cuts were just added: solve the master before pricing again
     warm = node.basis  # the parent's basis, for this master's first solve
     sep_s = 0.5  # the longest separation so far (seconds)
     while not budget.expired():
         if not resolve:
-            at_master = at_duals is not None and alpha == 0.0
-            mu_s, beta_s, lam_s, sigma_s = _smoothed(
-                alpha, (mu_c, beta_c, lam_c, sigma_c), at_duals
-            )
+            at_master = m_duals is not None and alpha == 0.0
+            mu_s, beta_s, lam_s, sigma_s = _smoothed(alpha, (mu_c, beta_c, lam_c, sigma_c), m_duals)
             z_gain = p[free] - mu_s[free]
             value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
             if held:
@@ -835,7 +829,7 @@ def _solve_node(
         m_value, (mu_m, beta_m, lam_m, _, held_sigma) = master.duals(p, caps)
         sigma_m = _padded(None, cuts)
         sigma_m[list(held)] = held_sigma
-        at_duals = (mu_m, beta_m, lam_m, sigma_m)
+        m_duals = (mu_m, beta_m, lam_m, sigma_m)
         sigma_c = _padded(sigma_c, cuts)
         # the weights are integers, so only the node's bound rounded down matters (the answer
         # is the largest, rounded down): once it equals the master's value rounded down, the
