@@ -812,8 +812,7 @@ def _solve_node(
                 value += v
                 if len(path):
                     tg, cnt = np.unique(o.target_flat[flat_positions(o, path)], return_counts=True)
-                    energy, memory = o.usage(path)
-                    load(cols.add(g, tg, cnt, energy, memory))  # new to this master, or to all
+                    load(cols.add(g, tg, cnt, *o.usage(path)))  # new to this master, or to all
             if value < best:
                 best, mu_c, beta_c, lam_c, sigma_c = value, mu_s, beta_s, lam_s, sigma_s
                 node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c, sigma=sigma_c)
@@ -1313,9 +1312,7 @@ def node_schedule(
             counted.setdefault(g, []).append(k)
     chosen: list[int] = []
     for g, ks in counted.items():
-        o = data.orbits[g]
-        price = np.zeros(len(p))
-        price[ks] = p[ks]
+        o, price = data.orbits[g], np.where(np.isin(np.arange(len(p)), ks), p, 0.0)
         chosen.extend(o.items[best_feasible_path(o, price)].tolist())
     sched = items_to_schedule(instance, data, chosen)
     report = validate(instance, sched)

@@ -276,8 +276,7 @@ def _replanned(
     for g, targets, *_ in columns:
         if budget.expired():
             break
-        price = np.zeros_like(p)
-        price[targets] = p[targets]
+        price = np.where(np.isin(np.arange(len(p)), targets), p, 0.0)  # the column's alone
         plans = _relaxed_plans(orbits, [g], price, lam, band=band)
         assert plans is not None  # no deadline given
         _, covered, used = plans[0]
