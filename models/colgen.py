@@ -732,17 +732,13 @@ def _solve_node(
     """
     import highspy
 
-    p, seen, groups, cols, smoothing, cuts = (
-        tree.p, tree.seen, tree.groups, tree.cols, tree.smoothing, tree.cuts
-    )  # fmt: skip
-    n_orb = len(groups)
-    caps = tree.caps
-    master = _Master(p, seen, caps, node.forced, node.banned)
+    p, groups, cols, cuts = tree.p, tree.groups, tree.cols, tree.cuts
+    master = _Master(p, tree.seen, tree.caps, node.forced, node.banned)
     h, free, fk, row_free, base = master.h, master.free, master.fk, master.row_free, master.base
     in_lp: list[int] = []  # the pool's columns the master holds, in its order
     loaded: set[int] = set()
     held: dict[int, tuple[int, float, np.ndarray]] = {}  # per held cut: row, rhs, free rows
-    cut0 = base + 3 * n_orb
+    cut0 = base + 3 * master.n_orb  # the first cut row
 
     def load(i: int) -> None:
         if i in loaded:
@@ -825,7 +821,7 @@ def _solve_node(
         warm = None
         if not solved:
             return replace(node, cover=None)
-        m_value, (mu_m, beta_m, lam_m, _, held_sigma) = master.duals(p, caps)
+        m_value, (mu_m, beta_m, lam_m, _, held_sigma) = master.duals(p, tree.caps)
         sigma_m = _padded(None, cuts)
         sigma_m[list(held)] = held_sigma
         m_duals = (mu_m, beta_m, lam_m, sigma_m)
@@ -887,7 +883,7 @@ def _solve_node(
                     node, pick=_strong_pick(h, node, p, strong, m_value, pf, master, last, budget)
                 )  # fmt: skip
             return node
-        alpha = smoothing
+        alpha = tree.smoothing
     return replace(node, cover=None)
 
 
