@@ -188,8 +188,7 @@ class _Master:
         counts = self.row_free[tg] >= 0
         if g in self.banned_on:
             counts &= ~np.isin(tg, self.banned_on[g])
-        mine = np.array([self.forced.get(int(k)) == g for k in tg], dtype=bool)
-        mine &= self.row_forced[tg] >= 0
+        mine = np.array([self.forced.get(int(k)) == g for k in tg], dtype=bool)  # forced to g
         # its counted covers, its forced targets, its orbit's convexity and knapsack rows
         rows = [self.row_free[tg[counts]], self.row_forced[tg[mine]]]
         rows += [self.base + g + self.n_orb * np.arange(3), np.asarray(cut_rows, dtype=np.int64)]
@@ -839,7 +838,7 @@ def _solve_node(
             done = True  # no plan prices out at the master's duals: solved (to rounding)
         if done:
             y = master.x
-            positive = [(i, float(yi)) for i, yi in zip(in_lp, y[base:], strict=True) if yi > 1e-9]
+            positive = [(i, float(x)) for i, x in zip(in_lp, y[base:], strict=True) if x > 1e-9]
             if separate > 0 and cuts is not None and budget.fits(2 * sep_s):
                 # not started unless twice the last one's time is left (at least a second):
                 # its products before the search read no clock

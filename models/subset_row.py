@@ -146,13 +146,12 @@ def cut_entries(
     rank: np.ndarray, n_before: np.ndarray, hits: Sequence[tuple[np.ndarray, np.ndarray]]
 ) -> CutEntries:
     """:class:`CutEntries` from each cut's ``(positions, a)`` (positions distinct)."""
-    n_cuts = len(hits)
     sizes = np.array([len(p) for p, _ in hits], dtype=np.int64)
-    cut = np.repeat(np.arange(n_cuts, dtype=np.int64), sizes)
+    cut = np.repeat(np.arange(len(hits), dtype=np.int64), sizes)
     none = [np.zeros(0, dtype=np.int64)]
     pos = np.concatenate(none + [np.asarray(p, dtype=np.int64) for p, _ in hits])
     a = np.concatenate(none + [np.asarray(x, dtype=np.int64) for _, x in hits])
-    return _entries(n_cuts, cut, pos, a, rank, n_before)
+    return _entries(len(hits), cut, pos, a, rank, n_before)
 
 
 def _entries(
