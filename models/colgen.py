@@ -88,7 +88,7 @@ NODE_CUTS = 20
 #: :func:`_candidates`). 5 gave lower bounds after 300 s than 0 or 10.
 STRONG_CANDIDATES = 5
 
-#: HiGHS's primal simplex (``simplex_strategy``), the restricted masters' (:func:`_master_highs`).
+#: HiGHS's primal simplex (``simplex_strategy``), the restricted masters' (:class:`_Master`).
 _MASTER_SIMPLEX = 4
 
 #: Dual simplex for the strong branching's solves: a child's changed coefficients leave the
@@ -112,31 +112,6 @@ def allow_seconds(h: Any, seconds: float | None) -> None:
         h.setOptionValue("time_limit", float(h.getRunTime()) + max(float(seconds), 1e-3))
 
 
-def _master_highs(lower: np.ndarray | None = None, upper: Any = None, z_cost: Any = ()) -> Any:
-    """A HiGHS object for a restricted master, which is solved again after every round of
-    new columns; with rows ``lower`` to ``upper``, and per entry k of ``z_cost`` a column
-    ``z_k`` in [0, 1] of that cost, with coefficient 1 on row k.
-
-    Primal simplex, presolve off: new columns leave the last basis primal feasible, so the
-    re-solve starts from it (presolve would discard it). HiGHS's default dual simplex spends
-    about three times the iterations per re-solve here. No ``threads``
-    option: HiGHS keeps one scheduler per process, and a solve asking for another count than
-    it started with fails (:func:`models.highs_direct.use_threads`).
-    """
-    from models.highs_direct import new_highs
-
-    h = new_highs()
-    h.setOptionValue("output_flag", False)
-    h.setOptionValue("presolve", "off")
-    h.setOptionValue("solver", "simplex")
-    h.setOptionValue("simplex_strategy", _MASTER_SIMPLEX)
-    if lower is not None:
-        h.addRows(len(lower), lower, upper, 0, [], [], [])
-        n, at = len(z_cost), np.arange(len(z_cost), dtype=np.int32)
-        h.addCols(n, z_cost, np.zeros(n), np.ones(n), n, at, at, np.ones(n))
-    return h
-
-
 def _caps(rules: Sequence[OrbitRules]) -> np.ndarray:
     """Each orbit's energy and memory capacities (orbits x 2)."""
     caps = [(r.energy_capacity, r.memory_capacity) for r in rules]
@@ -144,72 +119,133 @@ def _caps(rules: Sequence[OrbitRules]) -> np.ndarray:
 
 
 class _Master:
-    """The restricted master LP (minimising ``-sum p_k z_k``, so HiGHS's duals of the ``<=``
-    rows are <= 0 and the multipliers are their negatives).
+    """A restricted master LP (minimising ``-sum p_k z_k``, so HiGHS's duals of the ``<=``
+    rows are <= 0 and the multipliers are their negatives), solved again after every round
+    of new columns: the root's (:func:`column_generation`) or a node's (:func:`_solve_node`,
+    which adds ``forced``, ``banned`` and cut rows).
 
-    Rows: one coverage row per covered target ``z_k - sum_P n_kP y_P <= 0`` (``n_kP``: how
-    many of plan P's observations cover k, as the planner counts), then per orbit the
-    convexity row ``sum_P y_P <= 1`` and the knapsacks ``sum_P E_P y_P <= E_j``,
-    ``sum_P M_P y_P <= W_j``. Columns: ``z_k`` in [0, 1], then ``y_P >= 0``.
+    Rows: per free target (seen and not forced) its coverage row ``z_k - sum_P n_kP y_P <=
+    0`` over the plans whose orbit's cover of k counts (``n_kP``: how many of plan P's
+    observations cover k, as the planner counts; not orbit g's where (k, g) is ``banned``),
+    per target k forced to orbit g ``sum_{P of g} n_kP y_P + s_k >= 1``, then per orbit the
+    convexity rows ``sum_P y_P <= 1`` and the knapsacks ``sum_P E_P y_P <= E_j``, ``sum_P M_P
+    y_P <= W_j``, then the cut rows the caller adds. Columns: ``z_k`` in [0, 1] per free
+    target, ``s_k >= 0`` per forced one (an artificial slack costing more than all weights,
+    so the master is always feasible), then ``y_P >= 0`` (:attr:`columns`, from :attr:`base`).
+
+    Primal simplex, presolve off: new columns leave the last basis primal feasible, so the
+    re-solve starts from it (presolve would discard it). HiGHS's default dual simplex spends
+    about three times the iterations per re-solve here. No ``threads`` option: HiGHS keeps
+    one scheduler per process, and a solve asking for another count than it started with
+    fails (:func:`models.highs_direct.use_threads`).
     """
 
-    def __init__(self, p: np.ndarray, targets: np.ndarray, caps: np.ndarray) -> None:
+    def __init__(
+        self,
+        p: np.ndarray,
+        seen: np.ndarray,
+        caps: np.ndarray,
+        forced: dict[int, int] | None = None,
+        banned: frozenset[tuple[int, int]] = frozenset(),
+    ) -> None:
         import highspy
 
-        self.n_targets = len(targets)
-        self.row_of = np.full(len(p), -1, dtype=np.int64)
-        self.row_of[targets] = np.arange(len(targets))
-        n_orb = len(caps)
-        self.conv0 = len(targets)
-        upper = np.concatenate([np.zeros(len(targets)), np.ones(n_orb), caps.T.ravel()])
-        self.h = _master_highs(np.full(len(upper), -highspy.kHighsInf), upper, -p[targets])
-        self.n_orb = n_orb
+        from models.highs_direct import new_highs
+
+        inf = highspy.kHighsInf
+        self.forced = {} if forced is None else forced
+        self.free = np.flatnonzero(seen & ~np.isin(np.arange(len(p)), list(self.forced)))
+        self.fk = np.array(sorted(self.forced), dtype=np.int64)
+        nf, n_fk, self.n_orb = len(self.free), len(self.fk), len(caps)
+        self.row_free = np.full(len(p), -1, dtype=np.int64)
+        self.row_free[self.free] = np.arange(nf)
+        self.row_forced = np.full(len(p), -1, dtype=np.int64)
+        self.row_forced[self.fk] = nf + np.arange(n_fk)
+        self.base = nf + n_fk  # the first orbit row, and the first plan's column
+        self.banned_on: dict[int, list[int]] = {}
+        for k, j in banned:
+            self.banned_on.setdefault(j, []).append(k)
+        self.h = h = new_highs()
+        h.setOptionValue("output_flag", False)
+        h.setOptionValue("presolve", "off")
+        h.setOptionValue("solver", "simplex")
+        h.setOptionValue("simplex_strategy", _MASTER_SIMPLEX)
+        lower = np.concatenate([np.full(nf, -inf), np.ones(n_fk), np.full(3 * self.n_orb, -inf)])
+        upper = [np.zeros(nf), np.full(n_fk, inf), np.ones(self.n_orb), caps.T.ravel()]
+        h.addRows(len(lower), lower, np.concatenate(upper), 0, [], [], [])
+        # z_k, then s_k, each on its own row
+        cost = np.concatenate([-p[self.free], np.full(n_fk, float(p.sum()) + 1.0)])
+        top, at = np.concatenate([np.ones(nf), upper[1]]), np.arange(self.base, dtype=np.int32)
+        h.addCols(self.base, cost, np.zeros(self.base), top, self.base, at, at, np.ones(self.base))
         self.keys: set[tuple[int, bytes, float, float]] = set()
         self.columns: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
-        self.y = np.zeros(0)  # the plans' values at the last optimum (the first len(y) columns)
+        self.x = np.zeros(0)  # the columns' values at the last optimum
 
-    def add(self, g: int, covered: np.ndarray, energy: float, memory: float) -> bool:
-        """Add the plan of orbit ``g`` covering ``covered`` (targets with repeats); False when
-        the master has it already."""
+    def add(self, column: tuple[Any, ...], cut_rows: Any = (), cut_vals: Any = ()) -> None:
+        """Add the plan ``column`` (orbit g, targets ``tg``, how many of its observations
+        cover each, energy, memory) with its entries ``cut_vals`` in the rows ``cut_rows``."""
+        g, tg, cnt, energy, memory = column
+        counts = self.row_free[tg] >= 0
+        if g in self.banned_on:
+            counts &= ~np.isin(tg, self.banned_on[g])
+        mine = np.array([self.forced.get(int(k)) == g for k in tg], dtype=bool)  # forced to g
+        # its counted covers, its forced targets, its orbit's convexity and knapsack rows
+        rows = [self.row_free[tg[counts]], self.row_forced[tg[mine]]]
+        rows += [self.base + g + self.n_orb * np.arange(3), np.asarray(cut_rows, dtype=np.int64)]
+        vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory]), cut_vals]
+        r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
+        self.h.addCol(0.0, 0.0, np.inf, len(r), r, v)
+        self.columns.append(column)
+
+    def add_new(self, g: int, covered: np.ndarray, energy: float, memory: float) -> None:
+        """:meth:`add` the plan of orbit ``g`` covering ``covered`` (targets with repeats)
+        unless the master has it already (the root's)."""
         tg, cnt = np.unique(covered, return_counts=True)
         key = (g, tg.tobytes() + cnt.tobytes(), round(energy, 6), round(memory, 6))
-        if key in self.keys:
-            return False
-        self.keys.add(key)
-        self.columns.append((g, tg, cnt.astype(float), energy, memory))
-        orbit_rows = self.conv0 + g + self.n_orb * np.arange(3)  # convexity, energy, memory
-        rows = np.concatenate([self.row_of[tg], orbit_rows]).astype(np.int32)
-        vals = np.concatenate([-cnt.astype(float), [1.0, energy, memory]])
-        self.h.addCol(0.0, 0.0, np.inf, len(rows), rows, vals)
-        return True
+        if key not in self.keys:
+            self.keys.add(key)
+            self.add((g, tg, cnt.astype(float), energy, memory))
 
-    def solve(
-        self, seconds: float | None
-    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
-        """Solve within ``seconds`` (None: no limit); ``(value, mu, sigma, pi)``: the master's
-        optimum (a maximum), the coverage duals per covered target, the convexity duals and
-        the knapsack duals per unit of energy and memory (orbits x 2), all >= 0. None when
-        HiGHS stops before the optimum (time limit)."""
+    def solve(self, budget: Budget, retry: bool = False) -> bool:
+        """Solve within ``budget``; False when HiGHS stops before the optimum (time limit).
+        With ``retry``, a failed solve (from a basis given to HiGHS) is tried again from
+        scratch."""
         import highspy
 
-        h = self.h
-        allow_seconds(h, seconds)
+        h, optimal = self.h, highspy.HighsModelStatus.kOptimal
+        allow_seconds(h, budget.left())
         h.run()
-        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
-            return None
-        value = -float(h.getInfo().objective_function_value)
-        self.y = np.asarray(h.getSolution().col_value, dtype=float)[self.n_targets :]
-        dual = np.maximum(-np.asarray(h.getSolution().row_dual, dtype=float), 0.0)
-        n, m = self.n_targets, self.n_orb
-        return value, dual[:n], dual[n : n + m], dual[n + m : n + 3 * m].reshape(2, m).T
+        if retry and h.getModelStatus() != optimal:
+            h.clearSolver()  # not expected; then from scratch, as without a parent's basis
+            allow_seconds(h, budget.left())
+            h.run()
+        if h.getModelStatus() != optimal:
+            return False
+        self.x = np.asarray(h.getSolution().col_value, dtype=float)
+        return True
+
+    def duals(self, p: np.ndarray, caps: np.ndarray) -> tuple[float, tuple[np.ndarray, ...]]:
+        """At the last optimum: its value (a maximum, the forced weights included) and the
+        multipliers ``(mu, beta, lam, conv, cut)``, all >= 0: per target of the instance the
+        coverage duals (at most its weight) and the forcing ones, per orbit the knapsacks'
+        per whole capacity (orbits x 2) and the convexity duals, per cut row its dual."""
+        dual = np.asarray(self.h.getSolution().row_dual, dtype=float)
+        value = -float(self.h.getInfo().objective_function_value) + float(p[self.fk].sum())
+        nf, b, m = len(self.free), self.base, self.n_orb
+        mu, beta = np.zeros(len(p)), np.zeros(len(p))
+        mu[self.free] = np.clip(-dual[:nf], 0.0, p[self.free])
+        beta[self.fk] = np.maximum(dual[nf:b], 0.0)
+        out = np.maximum(-dual[b:], 0.0)
+        lam = out[m : 3 * m].reshape(2, m).T * caps
+        return value, (mu, beta, lam, out[:m], out[3 * m :])
 
     def plans(self) -> list[tuple[int, np.ndarray, float, float, float]]:
         """The plans positive at the last optimum: ``(orbit, covered targets, value, energy,
         memory)`` (a plan alone may exceed its orbit's (4)-(5): the knapsack rows hold for
         the mix)."""
         return [
-            (g, tg, float(v), energy, memory)
-            for (g, tg, _, energy, memory), v in zip(self.columns, self.y, strict=False)
+            (g, tg, float(v), e, m)
+            for (g, tg, _, e, m), v in zip(self.columns, self.x[self.base :], strict=False)
             if v > 1e-9
         ]
 
@@ -221,6 +257,14 @@ Pricer = Callable[
     [np.ndarray, np.ndarray, float | None],
     list[tuple[float, np.ndarray, tuple[float, float] | None]] | None,
 ]
+
+
+def _smoothed(alpha: float, best: tuple[Any, ...], master: tuple[Any, ...] | None) -> tuple:
+    """The pricing point (Wentges): ``alpha`` times the best bound's multipliers ``best``
+    plus ``1 - alpha`` times the master's (``best`` itself before the first master)."""
+    if master is None:
+        return best
+    return tuple(alpha * c + (1.0 - alpha) * m for c, m in zip(best, master, strict=True))
 
 
 @dataclass
@@ -269,12 +313,11 @@ def column_generation(
     master starts with (plans of the pricing's own relaxation, so that the master's optimum
     stays that relaxation's: the bounds come from the pricing alone).
     """
-    targets = np.flatnonzero(seen)
     caps = _caps(rules)
     e_cap, w_cap = caps.T
-    master = _Master(p, targets, caps)
+    master = _Master(p, seen, caps)
     for g, covered, energy, memory in columns:
-        master.add(g, covered, energy, memory)
+        master.add_new(g, covered, energy, memory)
     mu_c, lam_c = start
     best = math.inf
     master_value: float | None = None
@@ -292,18 +335,16 @@ def column_generation(
         # reading the clock (a drawn 1,200-target instance: 7.9 s for a 5 s limit)
         if not budget.fits(round_s):
             break
-        if mu_m is None:
-            mu_s, lam_s = mu_c, lam_c
-        else:
-            mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
-            lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
+        mu_s, lam_s = _smoothed(alpha, (mu_c, lam_c), None if mu_m is None else (mu_m, lam_m))
         t_round = time.perf_counter()
         plans = price(mu_s, lam_s, budget.deadline)
         round_s = max(round_s, time.perf_counter() - t_round)
         if plans is None:
             break  # the deadline fell inside the round: its bound is incomplete
         rounds += 1
-        value = _round_value(p, mu_s, lam_s, plans)
+        # the Lagrangian bound L(mu, lam) of the round's plans (module docstring)
+        value = float(np.maximum(p - mu_s, 0.0).sum()) + sum(v for v, _, _ in plans)
+        value += float(lam_s.sum())
         if value < best - 1e-9:
             best, mu_c, lam_c = value, mu_s, lam_s
         if rounds == 1 and given is not None and (expect_rounds or 0) * round_s > given:
@@ -321,7 +362,7 @@ def column_generation(
                 rc = float(mu_m[covered].sum()) - lam_m[g, 0] * used[0] / max(e_cap[g], 1e-12)
                 rc -= lam_m[g, 1] * used[1] / max(w_cap[g], 1e-12) + sigma[g]
                 improving += rc > _RC_TOL
-            master.add(g, covered, used[0], used[1])
+            master.add_new(g, covered, used[0], used[1])
         if mu_m is not None and improving == 0:
             if alpha == 0.0:
                 converged = True  # no plan prices out at the master's duals: solved
@@ -330,24 +371,14 @@ def column_generation(
             continue
         if lower_bound is not None and math.floor(best + 1e-6) <= lower_bound + 1e-9:
             break
-        solved = master.solve(budget.left())
-        if solved is None:
+        if not master.solve(budget):
             break  # out of time inside the master: the best bound so far stands
-        master_value, mu_t, sigma, pi = solved
-        mu_m = np.zeros(len(p))
-        mu_m[targets] = np.minimum(mu_t, p[targets])
-        lam_m = pi * caps
+        master_value, (mu_m, _, lam_m, sigma, _) = master.duals(p, caps)
         alpha = smoothing
         if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
             converged = True  # the rounded bound cannot fall below the master's optimum
             break
     return Root(best, mu_c, lam_c, master, master_value, rounds, converged, round_s)
-
-
-def _round_value(p: np.ndarray, mu: np.ndarray, lam: np.ndarray, plans: list[Any]) -> float:
-    """The Lagrangian bound ``L(mu, lam)`` of a round's plans (module docstring)."""
-    value = float(np.maximum(p - mu, 0.0).sum())
-    return value + sum(v for v, _, _ in plans) + float(lam.sum())
 
 
 def colgen_bound(
@@ -610,18 +641,14 @@ class _Columns:
         """Each column's value, ``sum_k price[g, k] * n_kP - lam_e E_P - lam_w M_P`` with
         ``price`` orbits x targets and ``lam_per_unit`` orbits x 2 (per unit of energy and
         memory), and its orbit g."""
+        n = len(self._flat[4])
+        if n < len(self.items):  # the new columns' entries and orbits appended
+            g, tg, cnt, energy, memory = zip(*self.items[n:], strict=True)
+            at = np.repeat(np.arange(n, len(self.items)), [len(t) for t in tg])
+            new = (at, np.array(g, dtype=np.int64), np.concatenate(tg), np.concatenate(cnt))
+            new += (energy, memory)
+            self._flat = tuple(np.concatenate([a, b]) for a, b in zip(self._flat, new, strict=True))
         col, orb, tgt, cnt, energy, memory = self._flat
-        n = len(energy)
-        if n < len(self.items):
-            new = self.items[n:]
-            sizes = [len(c[1]) for c in new]
-            col = np.concatenate([col, np.repeat(np.arange(n, len(self.items)), sizes)])
-            orb = np.concatenate([orb, np.array([c[0] for c in new], dtype=np.int64)])
-            tgt = np.concatenate([tgt, *[c[1] for c in new]])
-            cnt = np.concatenate([cnt, *[c[2] for c in new]])
-            energy = np.concatenate([energy, [c[3] for c in new]])
-            memory = np.concatenate([memory, [c[4] for c in new]])
-            self._flat = (col, orb, tgt, cnt, energy, memory)
         gained = np.bincount(col, weights=price[orb[col], tgt] * cnt, minlength=len(energy))
         return gained - lam_per_unit[orb, 0] * energy - lam_per_unit[orb, 1] * memory, orb
 
@@ -652,7 +679,8 @@ def _node_prices(node_mu: np.ndarray, beta: np.ndarray, g: int, node: _Node) -> 
 class _Tree:
     """What every node of a branch and price shares: the target weights ``p`` (0 for
     unseen), ``seen`` (the targets some candidate covers), the orbits, the pool of columns,
-    the smoothing weight and the cut pool (None: no cuts)."""
+    the smoothing weight, the cut pool (None: no cuts) and the orbits' capacities
+    (:func:`_caps`)."""
 
     p: np.ndarray
     seen: np.ndarray
@@ -660,10 +688,7 @@ class _Tree:
     cols: _Columns
     smoothing: float
     cuts: CutPool | None
-
-    @property
-    def caps(self) -> np.ndarray:
-        return _caps([o.rules for o in self.groups])
+    caps: np.ndarray
 
 
 def _solve_node(
@@ -706,62 +731,23 @@ def _solve_node(
     """
     import highspy
 
-    p, seen, groups, cols, smoothing, cuts = (
-        tree.p, tree.seen, tree.groups, tree.cols, tree.smoothing, tree.cuts
-    )  # fmt: skip
-    n_orb = len(groups)
-    forced = node.forced
-    free = np.flatnonzero(seen & ~np.isin(np.arange(len(p)), list(forced)))
-    fk = np.array(sorted(forced), dtype=np.int64)
-    row_free = np.full(len(p), -1, dtype=np.int64)
-    row_free[free] = np.arange(len(free))
-    row_forced = np.full(len(p), -1, dtype=np.int64)
-    row_forced[fk] = len(free) + np.arange(len(fk))
-    base = len(free) + len(fk)
-    banned_on: dict[int, np.ndarray] = {}
-    for k, j in node.banned:
-        banned_on[j] = np.append(banned_on.get(j, np.zeros(0, dtype=np.int64)), k)
-    caps = tree.caps
-    e_cap, w_cap = caps.T
-    inf = highspy.kHighsInf
-    lower = np.concatenate([np.full(len(free), -inf), np.ones(len(fk)), np.full(3 * n_orb, -inf)])
-    upper = np.concatenate(
-        [np.zeros(len(free)), np.full(len(fk), inf), np.ones(n_orb), e_cap, w_cap]
-    )
-    h = _master_highs(lower, upper, -p[free])
-    nf = len(free)
-    if len(fk):
-        big = float(p.sum()) + 1.0
-        h.addCols(
-            len(fk), np.full(len(fk), big), np.zeros(len(fk)), np.full(len(fk), inf), len(fk),
-            np.arange(len(fk), dtype=np.int32), row_forced[fk].astype(np.int32), np.ones(len(fk)),
-        )  # fmt: skip
-    first_y = nf + len(fk)
-    in_lp: list[int] = []
+    p, groups, cols, cuts = tree.p, tree.groups, tree.cols, tree.cuts
+    master = _Master(p, tree.seen, tree.caps, node.forced, node.banned)
+    h, free, fk, row_free, base = master.h, master.free, master.fk, master.row_free, master.base
+    in_lp: list[int] = []  # the pool's columns the master holds, in its order
     loaded: set[int] = set()
     held: dict[int, tuple[int, float, np.ndarray]] = {}  # per held cut: row, rhs, free rows
-    cut0 = base + 3 * n_orb
+    cut0 = base + 3 * master.n_orb  # the first cut row
 
     def load(i: int) -> None:
         if i in loaded:
             return
         loaded.add(i)
-        g, tg, cnt, energy, memory = cols.items[i]
-        counts = row_free[tg] >= 0
-        if g in banned_on:
-            counts &= ~np.isin(tg, banned_on[g])
-        mine = np.array([forced.get(int(k)) == g for k in tg], dtype=bool) & (row_forced[tg] >= 0)
-        # its counted covers, its forced targets, its orbit's convexity and knapsack rows
-        rows = [row_free[tg[counts]], row_forced[tg[mine]], base + g + n_orb * np.arange(3)]
-        vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory])]
+        at: list[tuple[int, float]] = []
         if held:
             coef = cols.coefficients(i, cuts)  # type: ignore[arg-type]
-            at = sorted((held[c][0], v) for c, v in coef.items() if c in held)
-            if at:
-                rows.append(np.array([x for x, _ in at]))
-                vals.append(np.array([-float(v) for _, v in at]))
-        r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
-        h.addCol(0.0, 0.0, inf, len(r), r, v)
+            at = sorted((held[c][0], -float(v)) for c, v in coef.items() if c in held)
+        master.add(cols.items[i], [r for r, _ in at], [v for _, v in at])
         in_lp.append(i)
 
     def hold(new: Sequence[int]) -> None:
@@ -772,16 +758,17 @@ def _solve_node(
         for x, i in enumerate(in_lp):
             for c, v in cols.coefficients(i, cuts).items():
                 if c in ys:
-                    ys[c][0].append(first_y + x)
+                    ys[c][0].append(base + x)
                     ys[c][1].append(-float(v))
         for c in new:
             members = cuts.cuts[c]
-            rhs = float(cuts.rhs[c] - np.count_nonzero(row_forced[members] >= 0))
+            rhs = float(cuts.rhs[c] - np.count_nonzero(master.row_forced[members] >= 0))
             zs = row_free[members][row_free[members] >= 0]
             if rhs >= 0:
                 held[c] = (cut0 + len(held), rhs, zs)
                 idx = np.concatenate([zs, ys[c][0]]).astype(np.int32)
-                h.addRow(-inf, rhs, len(idx), idx, np.concatenate([np.ones(len(zs)), ys[c][1]]))
+                vals = np.concatenate([np.ones(len(zs)), ys[c][1]])
+                h.addRow(-highspy.kHighsInf, rhs, len(idx), idx, vals)
 
     for i in _start_columns(node, tree):
         load(int(i))
@@ -790,29 +777,19 @@ def _solve_node(
     pf = p[fk]
     best, mu_c, beta_c, lam_c = node.bound, node.mu, node.beta, node.lam
     sigma_c = _padded(node.sigma, cuts)
-    mu_m: np.ndarray | None = None
-    beta_m = np.zeros(len(p))
-    lam_m = np.zeros((n_orb, 2))
-    sigma_m = _padded(None, cuts)
+    m_duals: tuple[np.ndarray, ...] | None = None  # the last master's (mu, beta, lam, sigma)
     alpha = 0.0
     resolve = False  # cuts were just added: solve the master before pricing again
     warm = node.basis  # the parent's basis, for this master's first solve
     sep_s = 0.5  # the longest separation so far (seconds)
     while not budget.expired():
         if not resolve:
-            at_master = mu_m is not None and alpha == 0.0
-            if mu_m is None:
-                mu_s, beta_s, lam_s, sigma_s = mu_c, beta_c, lam_c, sigma_c
-            else:
-                mu_s = alpha * mu_c + (1.0 - alpha) * mu_m
-                beta_s = alpha * beta_c + (1.0 - alpha) * beta_m
-                lam_s = alpha * lam_c + (1.0 - alpha) * lam_m
-                sigma_s = alpha * sigma_c + (1.0 - alpha) * sigma_m
+            at_master = m_duals is not None and alpha == 0.0
+            mu_s, beta_s, lam_s, sigma_s = _smoothed(alpha, (mu_c, beta_c, lam_c, sigma_c), m_duals)
             z_gain = p[free] - mu_s[free]
             value = float((pf - beta_s[fk]).sum()) + float(lam_s.sum())
             if held:
-                kept = np.zeros(len(sigma_s), dtype=bool)
-                kept[list(held)] = True
+                kept = np.isin(np.arange(len(sigma_s)), list(held))
                 sigma_s = np.where(kept, sigma_s, 0.0)  # a parent's cut this node dropped
                 for c, (_, rhs, zs) in held.items():
                     value += float(sigma_s[c]) * rhs
@@ -830,35 +807,23 @@ def _solve_node(
                 value += v
                 if len(path):
                     tg, cnt = np.unique(o.target_flat[flat_positions(o, path)], return_counts=True)
-                    energy, memory = o.usage(path)
-                    load(cols.add(g, tg, cnt, energy, memory))  # new to this master, or to all
+                    load(cols.add(g, tg, cnt, *o.usage(path)))  # new to this master, or to all
             if value < best:
                 best, mu_c, beta_c, lam_c, sigma_c = value, mu_s, beta_s, lam_s, sigma_s
                 node = replace(node, bound=best, mu=mu_c, beta=beta_c, lam=lam_c, sigma=sigma_c)
                 if prune is not None and math.floor(best + 1e-6) <= prune + 1e-9:
                     return replace(node, cover=None)  # pruned: the search stops before it
         resolve = False
-        allow_seconds(h, budget.left())
         if warm is not None:
             _start_basis(h, warm, free, fk, in_lp, list(held))
-        h.run()
-        if warm is not None and h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
-            h.clearSolver()  # not expected; then from scratch, as without a parent's basis
-            allow_seconds(h, budget.left())
-            h.run()
+        solved = master.solve(budget, retry=warm is not None)
         warm = None
-        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+        if not solved:
             return replace(node, cover=None)
-        m_value = -float(h.getInfo().objective_function_value) + float(pf.sum())
-        dual = np.asarray(h.getSolution().row_dual, dtype=float)
-        mu_m = np.zeros(len(p))
-        mu_m[free] = np.clip(-dual[:nf], 0.0, p[free])
-        beta_m = np.zeros(len(p))
-        beta_m[fk] = np.maximum(dual[nf:base], 0.0)
-        lam_m = np.maximum(-dual[base + n_orb : cut0], 0.0).reshape(2, n_orb).T * caps
+        m_value, (mu_m, beta_m, lam_m, _, held_sigma) = master.duals(p, tree.caps)
         sigma_m = _padded(None, cuts)
-        if held:
-            sigma_m[list(held)] = np.maximum(-dual[cut0 : cut0 + len(held)], 0.0)
+        sigma_m[list(held)] = held_sigma
+        m_duals = (mu_m, beta_m, lam_m, sigma_m)
         sigma_c = _padded(sigma_c, cuts)
         # the weights are integers, so only the node's bound rounded down matters (the answer
         # is the largest, rounded down): once it equals the master's value rounded down, the
@@ -872,17 +837,15 @@ def _solve_node(
                 continue
             done = True  # no plan prices out at the master's duals: solved (to rounding)
         if done:
-            y = np.asarray(h.getSolution().col_value, dtype=float)
-            positive = [
-                (i, float(yi)) for i, yi in zip(in_lp, y[first_y:], strict=True) if yi > 1e-9
-            ]
+            y = master.x
+            positive = [(i, float(x)) for i, x in zip(in_lp, y[base:], strict=True) if x > 1e-9]
             if separate > 0 and cuts is not None and budget.fits(2 * sep_s):
                 # not started unless twice the last one's time is left (at least a second):
                 # its products before the search read no clock
                 separate -= 1
                 t_sep = time.perf_counter()
                 z = np.zeros(len(p))
-                z[free] = y[:nf]
+                z[free] = y[: len(free)]
                 z[fk] = 1.0
                 plans = [(cols.items[i][1], yi) for i, yi in positive]
                 orbits = [cols.items[i][0] for i, _ in positive]
@@ -905,23 +868,21 @@ def _solve_node(
             col_status = np.array([int(x) for x in last.col_status], dtype=np.int8)
             row_status = np.array([int(x) for x in last.row_status], dtype=np.int8)
             target_col, target_row = np.full((2, len(p)), -1, dtype=np.int8)
-            target_col[np.concatenate([free, fk])] = col_status[:first_y]
+            target_col[np.concatenate([free, fk])] = col_status[:base]
             target_row[np.concatenate([free, fk])] = row_status[:base]
             basis = _Basis(
                 target_col, target_row, row_status[base:cut0].copy(),
-                np.array(in_lp, dtype=np.int64), col_status[first_y:].copy(),
+                np.array(in_lp, dtype=np.int64), col_status[base:].copy(),
                 np.array(list(held), dtype=np.int64), row_status[cut0:].copy(),
             )  # fmt: skip
             support = tuple(i for i, _ in positive)
             node = replace(node, cover=cover, support=support, basis=basis)
             if strong > 0:
                 node = replace(
-                    node, pick=_strong_pick(h, node, p, strong, m_value, pf, row_free,
-                                            [(first_y + x, cols.items[i]) for x, i in
-                                             enumerate(in_lp)], banned_on, last, budget)
+                    node, pick=_strong_pick(h, node, p, strong, m_value, pf, master, last, budget)
                 )  # fmt: skip
             return node
-        alpha = smoothing
+        alpha = tree.smoothing
     return replace(node, cover=None)
 
 
@@ -1011,9 +972,7 @@ def _strong_pick(
     n: int,
     m_value: float,
     pf: np.ndarray,
-    row_free: np.ndarray,
-    columns: list[tuple[int, tuple[int, np.ndarray, np.ndarray, float, float]]],
-    banned_on: dict[int, np.ndarray],
+    master: _Master,
     basis: Any,
     budget: Budget,
 ) -> tuple[int, int] | None:
@@ -1024,21 +983,14 @@ def _strong_pick(
     A child's restricted value is at most its master optimum (fewer columns), so the falls
     over-state the children's; they rank the candidates, they bound nothing. The ban child
     drops orbit g's entries in k's coverage row, the force child fixes ``z_k = 1`` and drops
-    the other orbits' entries; each is solved from the node's optimal basis and undone.
+    the other orbits' entries (as HiGHS holds them, ``master``'s); each is solved from the
+    node's optimal basis and undone.
     """
     import highspy
 
     picks = _candidates(node, p, n)
     if len(picks) <= 1:
         return picks[0] if picks else None
-    entries: dict[int, list[tuple[int, int, float]]] = {}
-    want = {k for k, _ in picks}
-    for col, (g, tg, cnt, _e, _m) in columns:
-        for k, c in zip(tg.tolist(), cnt.tolist(), strict=True):
-            if k in want and row_free[k] >= 0:
-                if g in banned_on and k in banned_on[g]:
-                    continue
-                entries.setdefault(k, []).append((col, g, -float(c)))
     best, pick = -1.0, picks[0]
     forced_value = float(pf.sum())
     # no iteration limit: at 100 the falls ranked no better than the fractionality does
@@ -1047,10 +999,13 @@ def _strong_pick(
     for k, g in picks:
         if budget.expired():
             break
-        row = int(row_free[k])
+        row = int(master.row_free[k])
+        _, at, vals = h.getRowEntries(row)
+        # the plans' entries in k's row (z_k's is in column ``row``)
+        ys = [(c, v) for c, v in zip(at.tolist(), vals.tolist(), strict=True) if c >= master.base]
         falls = []
         for force in (False, True):
-            drop = [(col, v) for col, j, v in entries.get(k, []) if (j != g) == force]
+            drop = [(c, v) for c, v in ys if (master.columns[c - master.base][0] != g) == force]
             for col, _ in drop:
                 h.changeCoeff(row, col, 0.0)
             if force:
@@ -1254,7 +1209,7 @@ def branch_and_price(
     bound0, mu0, lam0 = start
     root = _Node(bound0, frozenset(), {}, mu0, np.zeros(len(p)), lam0, None)
     pool = CutPool(groups) if cut_rounds > 0 else None
-    tree = _Tree(p, seen, groups, cols, smoothing, pool)
+    tree = _Tree(p, seen, groups, cols, smoothing, pool, _caps([o.rules for o in groups]))
     root = _solve_node(root, tree, budget, cut_rounds, strong=strong)
     if pool is not None:
         log.info("branch and price: root %.4f with %d subset-row cuts", root.bound, len(pool))
@@ -1352,9 +1307,7 @@ def node_schedule(
             counted.setdefault(g, []).append(k)
     chosen: list[int] = []
     for g, ks in counted.items():
-        o = data.orbits[g]
-        price = np.zeros(len(p))
-        price[ks] = p[ks]
+        o, price = data.orbits[g], np.where(np.isin(np.arange(len(p)), ks), p, 0.0)
         chosen.extend(o.items[best_feasible_path(o, price)].tolist())
     sched = items_to_schedule(instance, data, chosen)
     report = validate(instance, sched)

@@ -49,6 +49,7 @@ b)``, so there a *clear* bit can cost a label one earning. Such cuts get slots o
 from __future__ import annotations
 
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -58,7 +59,6 @@ import numpy as np
 from sosp.kernels import compiled
 from sosp.planner import OrbitItems, best_path
 from sosp.recursion import recursion, restrict
-from sosp.rules import OrbitRules
 
 #: The cut pricing restricts an orbit to the positions that may help a plan
 #: (:meth:`CutPool.best_path`) when fewer than this share of them can.
@@ -146,13 +146,12 @@ def cut_entries(
     rank: np.ndarray, n_before: np.ndarray, hits: Sequence[tuple[np.ndarray, np.ndarray]]
 ) -> CutEntries:
     """:class:`CutEntries` from each cut's ``(positions, a)`` (positions distinct)."""
-    n_cuts = len(hits)
     sizes = np.array([len(p) for p, _ in hits], dtype=np.int64)
-    cut = np.repeat(np.arange(n_cuts, dtype=np.int64), sizes)
+    cut = np.repeat(np.arange(len(hits), dtype=np.int64), sizes)
     none = [np.zeros(0, dtype=np.int64)]
     pos = np.concatenate(none + [np.asarray(p, dtype=np.int64) for p, _ in hits])
     a = np.concatenate(none + [np.asarray(x, dtype=np.int64) for _, x in hits])
-    return _entries(n_cuts, cut, pos, a, rank, n_before)
+    return _entries(len(hits), cut, pos, a, rank, n_before)
 
 
 def _entries(
@@ -262,8 +261,7 @@ def arrange_py(
     slotted = np.flatnonzero(live & chained)
     by_lo = slotted[np.argsort(lo[slotted], kind="mergesort")]
     by_rank = np.empty(m, dtype=np.int64)
-    for u in range(m):
-        by_rank[rank[u]] = u
+    by_rank[rank] = np.arange(m)
     slot_of = np.full(n_cuts, -1, dtype=np.int64)
     slot_end = np.full(SLOTS, -1, dtype=np.int64)
     slot_kind = np.full(SLOTS, -1, dtype=np.int64)  # unused, 0 ceil, 1 floor (inv)
@@ -272,34 +270,27 @@ def arrange_py(
     carry = np.zeros(m, dtype=np.int64)
     slot_sigma = np.zeros(SLOTS)
     close = np.zeros(m + 1, dtype=np.int64)
-    exact = True
     # a slot's cuts have disjoint rank spans, so a bit flipped at each end of a span and
     # xor-ed along the ranks is set exactly on ranks lo .. hi - 1 (``flip``)
     flip = np.zeros(m + 1, dtype=np.int64)
-    start = np.empty(len(by_lo), dtype=np.int64)  # the slotted cuts' lo, ascending
-    start_bit = np.empty(len(by_lo), dtype=np.int64)
-    n_start = 0
     for c in by_lo:
-        first = lo[c]
         kind = 1 if inv[c] else 0
         for b in range(SLOTS):
-            if slot_end[b] < first and (slot_kind[b] < 0 or slot_kind[b] == kind):
+            if slot_end[b] < lo[c] and (slot_kind[b] < 0 or slot_kind[b] == kind):
                 slot_of[c] = b
                 slot_end[b] = hi[c]
                 slot_kind[b] = kind
                 bit = np.int64(1) << b
                 if kind == 1:
                     inv_slots |= bit
-                flip[first] ^= bit
+                flip[lo[c]] ^= bit
                 flip[hi[c]] ^= bit
-                start[n_start] = first
-                start_bit[n_start] = bit
-                n_start += 1
                 slot_sigma[b] = max(slot_sigma[b], sigma[c])
                 close[hi[c]] |= bit
                 break
-        if slot_of[c] < 0:
-            exact = False
+    in_slot = by_lo[slot_of[by_lo] >= 0]
+    exact = len(in_slot) == len(by_lo)
+    start, start_bit = lo[in_slot], np.int64(1) << slot_of[in_slot]  # lo ascending
     # Position u at rank r keeps the bits open there and carries those whose cut's lo lies
     # in its prefix (lo < n_before[u]): all but the cuts that started at ranks n_before[u]
     # .. r (the one in a slot at r is the slot's latest start; few start that close to r).
@@ -307,7 +298,7 @@ def arrange_py(
     begun = 0  # the cuts with lo <= r
     for r in range(m):
         mask ^= flip[r]
-        while begun < n_start and start[begun] <= r:
+        while begun < len(start) and start[begun] <= r:
             begun += 1
         if mask == 0:
             continue
@@ -320,40 +311,22 @@ def arrange_py(
             q -= 1
         carry[u] = mask & ~recent
     direct = np.zeros(m)
+    for e in range(cut.shape[0]):
+        c = cut[e]
+        if live[c] and slot_of[c] < 0:
+            half = a[e] // 2 if inv[c] and not chained[c] else (a[e] + 1) // 2
+            direct[pos[e]] += sigma[c] * half
+    # the slotted cuts' entries, grouped by position in entry order
+    hit = np.flatnonzero(live[cut] & (slot_of[cut] >= 0))
+    hit = hit[np.argsort(pos[hit], kind="mergesort")]
+    hit_cut, hit_pos = cut[hit], pos[hit]
     ptr = np.zeros(m + 1, dtype=np.int64)
-    for e in range(cut.shape[0]):
-        c = cut[e]
-        if live[c]:
-            if slot_of[c] < 0:
-                if inv[c] and not chained[c]:
-                    direct[pos[e]] += sigma[c] * (a[e] // 2)
-                else:
-                    direct[pos[e]] += sigma[c] * ((a[e] + 1) // 2)
-            else:
-                ptr[pos[e] + 1] += 1
-    for u in range(m):
-        ptr[u + 1] += ptr[u]
-    fill = ptr[:m].copy()
-    n_hits = ptr[m]
-    hit_slot = np.empty(n_hits, dtype=np.int64)
-    hit_a = np.empty(n_hits, dtype=np.int64)
-    hit_sigma = np.empty(n_hits)
-    hit_read = np.empty(n_hits, dtype=np.int64)
-    hit_inv = np.empty(n_hits, dtype=np.int64)
-    for e in range(cut.shape[0]):
-        c = cut[e]
-        if live[c] and slot_of[c] >= 0:
-            u = pos[e]
-            q = fill[u]
-            fill[u] += 1
-            hit_slot[q] = slot_of[c]
-            hit_a[q] = a[e]
-            hit_sigma[q] = sigma[c]
-            hit_read[q] = 1 if lo[c] < n_before[u] else 0
-            hit_inv[q] = 1 if inv[c] else 0
+    for u in hit_pos:
+        ptr[u + 1] += 1
     return (
-        ptr, hit_slot, hit_a, hit_sigma, hit_read, carry, keep, close, slot_sigma, direct, exact,
-        hit_inv, inv_slots,
+        np.cumsum(ptr), slot_of[hit_cut], a[hit], sigma[hit_cut],
+        (lo[hit_cut] < n_before[hit_pos]).astype(np.int64), carry, keep, close, slot_sigma,
+        direct, exact, inv[hit_cut].astype(np.int64), inv_slots,
     )  # fmt: skip
 
 
@@ -459,6 +432,7 @@ def cut_levels_py(
     levels = 1 if single == 1 else cap
     for n in range(levels):
         n_s = 0
+        level0 = n_lab
         qi = 0
         for k in range(m + 1):
             while qi < m and n_before[q_order[qi]] == k:
@@ -476,16 +450,11 @@ def cut_levels_py(
                     out = bits & carry[u]
                     for h in range(hit_ptr[u], hit_ptr[u + 1]):
                         bit = np.int64(1) << hit_slot[h]
-                        b = 0
-                        if hit_read[h] == 1 and (bits & bit) != 0:
-                            b = 1
+                        b = 1 if hit_read[h] == 1 and (bits & bit) != 0 else 0
                         a = hit_a[h]
                         bb = 1 - b if hit_inv[h] == 1 else b
                         v += hit_sigma[h] * ((bb + a + 1) // 2 - bb)
-                        if (b + a) % 2 == 1:
-                            out |= bit
-                        else:
-                            out &= ~bit
+                        out = out | bit if (b + a) % 2 == 1 else out & ~bit
                     out &= keep[u]
                     c_mask[n_c] = out
                     c_val[n_c] = v
@@ -516,16 +485,12 @@ def cut_levels_py(
                 lo[n, u] = n_lab
                 for i in range(n_c):
                     if c_live[i] == 1:
-                        if n_lab == size:
+                        if n_lab == size:  # doubled
                             size *= 2
-                            l_val = np.concatenate((l_val, np.empty(size - n_lab)))
-                            l_mask = np.concatenate(
-                                (l_mask, np.empty(size - n_lab, dtype=np.int64))
-                            )
-                            l_pred = np.concatenate(
-                                (l_pred, np.empty(size - n_lab, dtype=np.int64))
-                            )
-                            l_pos = np.concatenate((l_pos, np.empty(size - n_lab, dtype=np.int64)))
+                            l_val = np.concatenate((l_val, np.empty_like(l_val)))
+                            l_mask = np.concatenate((l_mask, np.empty_like(l_mask)))
+                            l_pred = np.concatenate((l_pred, np.empty_like(l_pred)))
+                            l_pos = np.concatenate((l_pos, np.empty_like(l_pos)))
                         l_val[n_lab] = c_val[i]
                         l_mask[n_lab] = c_mask[i]
                         l_pred[n_lab] = c_pred[i]
@@ -576,10 +541,7 @@ def cut_levels_py(
                 while n_s > max_labels:
                     # merge the two lowest into one optimistic label
                     relaxed = 1
-                    a1 = 0
-                    for i in range(1, n_s):
-                        if s_val[i] < s_val[a1]:
-                            a1 = i
+                    a1 = np.argmin(s_val[:n_s])
                     a2 = 0 if a1 != 0 else 1
                     for i in range(n_s):
                         if i != a1 and s_val[i] < s_val[a2]:
@@ -592,25 +554,19 @@ def cut_levels_py(
                     s_id[a1] = s_id[n_s - 1]
                     n_s -= 1
         top = n + 1
-        if n > 0:
-            same = True
-            for u in range(m):
-                if hi[n, u] - lo[n, u] != hi[n - 1, u] - lo[n - 1, u]:
-                    same = False
+        # the same labels as the level before (as many per position, each found there): done
+        same = n > 0 and np.array_equal(hi[n] - lo[n], hi[n - 1] - lo[n - 1])
+        for x in range(level0, n_lab if same else level0):  # this level's labels
+            found = False
+            for y in range(lo[n - 1, l_pos[x]], hi[n - 1, l_pos[x]]):
+                if l_mask[y] == l_mask[x] and l_val[y] == l_val[x]:
+                    found = True
                     break
-                for x in range(lo[n, u], hi[n, u]):
-                    found = False
-                    for y in range(lo[n - 1, u], hi[n - 1, u]):
-                        if l_mask[y] == l_mask[x] and l_val[y] == l_val[x]:
-                            found = True
-                            break
-                    if not found:
-                        same = False
-                        break
-                if not same:
-                    break
-            if same:
+            if not found:
+                same = False
                 break
+        if same:
+            break
     best_x = -1
     best_v = -np.inf
     for u in range(m):
@@ -688,29 +644,19 @@ def best_path_with_cuts(
     cuts: OrbitCuts,
     pe: float = 0.0,
     pw: float = 0.0,
+    sub: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> CutPrice:
     """The best plan of orbit ``o`` at per-position ``gain`` (target prices summed per
     observation), energy and memory penalties per unit ``pe``, ``pw`` ((4)-(5) as in
     :func:`sosp.planner.best_path`), plus each plan's earning ``sum_S sigma_S ceil(h_SP /
-    2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it."""
-    return _price_with_cuts(
-        o.slew_s, o.duration, gain, o.by_release, o.n_before, o.rules, cuts, pe, pw
-    )
+    2)`` from the cuts in ``cuts``. The empty plan (value 0) when nothing beats it. The
+    recursion (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`).
 
-
-def _price_with_cuts(
-    slew_s: np.ndarray,
-    duration: np.ndarray,
-    gain: np.ndarray,
-    by_release: np.ndarray,
-    n_before: np.ndarray,
-    rules: OrbitRules,
-    cuts: OrbitCuts,
-    pe: float,
-    pw: float,
-) -> CutPrice:
-    """:func:`best_path_with_cuts` over an orbit's (or a sub-orbit's) arrays: the recursion
-    (:func:`sosp.recursion.recursion`) with the cuts' labels (:func:`label_best`)."""
+    With ``sub``, ``(keep, by_release, n_before)``: the plan is sought among the positions
+    ``keep`` only, in their (3) order (:func:`sosp.recursion.restrict`), ``cuts`` arranged
+    for them; the path is still of the orbit's positions.
+    """
+    keep, by_release, n_before = (slice(None), o.by_release, o.n_before) if sub is None else sub
     relaxed = []
 
     def labels(*args: Any) -> tuple[float, np.ndarray]:
@@ -718,9 +664,13 @@ def _price_with_cuts(
         relaxed.append(over)
         return value, path
 
-    gain = gain + cuts.direct
-    value, path = recursion(slew_s, duration, gain, by_release, n_before, rules, pe, pw, run=labels)
-    return CutPrice(float(value), path, cuts.exact and not any(relaxed))
+    value, path = recursion(
+        o.slew_s[keep], o.duration[keep], gain[keep] + cuts.direct, by_release, n_before,
+        o.rules, pe, pw, run=labels,
+    )  # fmt: skip
+    return CutPrice(
+        float(value), path if sub is None else keep[path], cuts.exact and not any(relaxed)
+    )
 
 
 #: Separation: at most this many new cuts per round, and per target per round.
@@ -951,18 +901,16 @@ class CutPool:
         n_worth = int(np.count_nonzero(worth))
         if n_worth == 0:
             return 0.0, np.zeros(0, dtype=np.int64), True
-        keep, by_release, n_before, rank = slice(None), o.by_release, o.n_before, self._rank[g]
+        sub, n_before, rank = None, o.n_before, self._rank[g]
         if n_worth < KEEP_SHARE * o.size:
             keep = np.flatnonzero(worth)
             by_release, n_before = restrict(o.by_release, o.n_before, keep)
             rank = np.argsort(by_release)
             ent = restrict_entries(ent, keep, o.size, rank, n_before)
-        found = _price_with_cuts(
-            o.slew_s[keep], o.duration[keep], gain[keep], by_release, n_before, r,
-            orbit_cuts(rank, n_before, ent, s_on, inv=made[2]), pe, pw,
-        )  # fmt: skip
-        path = found.path if isinstance(keep, slice) else keep[found.path]
-        return found.value, path, found.exact
+            sub = (keep, by_release, n_before)
+        arranged = orbit_cuts(rank, n_before, ent, s_on, inv=made[2])
+        found = best_path_with_cuts(o, gain, arranged, pe, pw, sub)
+        return found.value, found.path, found.exact
 
     def separate(
         self,
@@ -1002,16 +950,15 @@ class CutPool:
             found.extend((v, (a, b), (j,)) for v, a, b, j in pairs)
         found.sort(key=lambda f: -f[0])  # stable: triples first among equals
         added: list[int] = []
-        per_target: dict[int, int] = {}
+        per_target: Counter[int] = Counter()
         for _, members, in_g in found:
             targets = [int(tg_all[i]) for i in members]
-            if any(per_target.get(t, 0) >= CUTS_PER_TARGET for t in targets):
+            if any(per_target[t] >= CUTS_PER_TARGET for t in targets):
                 continue
             c = self.add(targets, in_g)
             if c is None:
                 continue
-            for t in targets:
-                per_target[t] = per_target.get(t, 0) + 1
+            per_target.update(targets)
             added.append(c)
             if len(added) >= limit:
                 break

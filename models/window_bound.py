@@ -276,8 +276,7 @@ def _replanned(
     for g, targets, *_ in columns:
         if budget.expired():
             break
-        price = np.zeros_like(p)
-        price[targets] = p[targets]
+        price = np.where(np.isin(np.arange(len(p)), targets), p, 0.0)  # the column's alone
         plans = _relaxed_plans(orbits, [g], price, lam, band=band)
         assert plans is not None  # no deadline given
         _, covered, used = plans[0]
@@ -332,11 +331,7 @@ def _relaxed_plans(
 def _observable(instance: Instance) -> tuple[np.ndarray, np.ndarray]:
     """The targets with an opportunity no longer than Delta T (no other can be observed) and
     the weights, 0 for the others."""
-    fit = within_duration(
-        np.asarray(instance.opp_start),
-        np.asarray(instance.opp_end),
-        np.asarray(instance.max_duration)[np.asarray(instance.opp_orbit)],
-    )
-    seen = np.zeros(instance.n_targets, dtype=bool)
-    seen[np.asarray(instance.opp_target)[fit]] = True
+    duration = instance.max_duration[instance.opp_orbit]
+    fit = within_duration(instance.opp_start, instance.opp_end, duration)
+    seen = np.bincount(instance.opp_target[fit], minlength=instance.n_targets) > 0
     return seen, np.where(seen, np.asarray(instance.target_weight, dtype=float), 0.0)

@@ -567,9 +567,9 @@ def test_a_master_solved_again_gets_its_own_seconds() -> None:
     ending G100k's column generation after three rounds)."""
     import highspy
 
-    from models.colgen import _master_highs, allow_seconds
+    from models.colgen import _Master, allow_seconds
 
-    h = _master_highs()
+    h = _Master(np.zeros(0), np.zeros(0, dtype=bool), np.zeros((0, 2))).h  # an empty master
     _random_lp(h, 300, 0)
     once = []
     for _ in range(20):  # the clock adds up: about 20 cold solves' worth
@@ -696,10 +696,10 @@ def test_a_round_foreseen_past_the_deadline_is_not_started() -> None:
 
     import numpy as np
 
-    from models.colgen import _master_highs, column_generation
+    from models.colgen import _Master, column_generation
     from sosp.stop import Budget
 
-    _master_highs()  # HiGHS loaded before the clock (its first import takes a while)
+    _Master(np.zeros(0), np.zeros(0, dtype=bool), np.zeros((0, 2)))  # HiGHS loaded first
     calls: list[float] = []
 
     def slow_price(mu, lam, deadline):
