@@ -93,7 +93,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
 def cmd_bound(args: argparse.Namespace) -> int:
     """Run ``sosp bound``; returns the exit code (bad input raises ``InputError``)."""
     from models.solve import bound
-    from sosp.cli import _emit
+    from sosp.cli import emit
     from sosp.instance import load_instance
     from sosp.registry import BOUNDS, PROBLEM_MODEL
 
@@ -140,13 +140,13 @@ def cmd_bound(args: argparse.Namespace) -> int:
             "\nthe LP was not solved within the time limit: only the total observable weight "
             "holds; --method auto or colgen bounds large instances faster"
         )
-    _emit(args, out, text)
+    emit(args, out, text)
     return 0
 
 
 def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
     """A bound of one model only (``pba``: the static model's partition-based bound)."""
-    from sosp.cli import _emit
+    from sosp.cli import emit
     from sosp.errors import InputError
     from sosp.registry import BOUNDS, compute_bound
 
@@ -160,5 +160,5 @@ def _of_its_model(inst: Any, args: argparse.Namespace) -> int:
     text = f"{model} model, {args.method} bound: {out['bound']:g} ({out['runtime_s']:.2f} s"
     if "parts" in out:
         text += f"; {out['parts']} parts, {out['targets']} targets covered by the parts' optima"
-    _emit(args, out, text + ")")
+    emit(args, out, text + ")")
     return 0

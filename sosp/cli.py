@@ -52,7 +52,7 @@ RESOURCE_UNITS: dict[str, tuple[str, str]] = {
 }
 
 
-def _emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
+def emit(args: argparse.Namespace, data: dict[str, Any], text: str) -> None:
     out = json.dumps(data, allow_nan=False) if getattr(args, "json", False) else text.rstrip("\n")
     sys.stdout.write(out + "\n")
 
@@ -147,7 +147,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
         )
     inst.save(args.output)
     data, text = _info(inst)
-    _emit(args, {**data, "output": args.output}, f"wrote {args.output}\n{text}")
+    emit(args, {**data, "output": args.output}, f"wrote {args.output}\n{text}")
     return 0
 
 
@@ -193,7 +193,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
 
     inst = load_instance(args.instance)
-    _emit(args, *_info(inst))
+    emit(args, *_info(inst))
     return 0
 
 
@@ -267,7 +267,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += f"\nwrote {args.output}"
     if interrupted:
         text += f"\nstopped by {interrupted}: the best schedule found so far"
-    _emit(args, data, text)
+    emit(args, data, text)
     return 130 if interrupted else 0
 
 
@@ -331,7 +331,7 @@ def cmd_methods(args: argparse.Namespace) -> int:
         f"one of {', '.join(CERTIFYING_BOUNDS)} in the time left ({BOUND_SHARE:.0%} of "
         "--time-limit is kept for it); --json lists the stages that ran."
     )
-    _emit(args, data, "\n".join(lines))
+    emit(args, data, "\n".join(lines))
     return 0
 
 
@@ -351,7 +351,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"{report.profit_per_energy:.4f}, profit/memory {report.profit_per_memory:.4f}",
     ]
     lines += [f"  ({v.constraint}) {v.message}" for v in report.violations]
-    _emit(args, report.to_dict(), "\n".join(lines))
+    emit(args, report.to_dict(), "\n".join(lines))
     return 0 if report.feasible else 1
 
 
@@ -416,7 +416,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     lines.append(
         "Every schedule was checked by the independent validator (constraints (2)-(7), (11))."
     )
-    _emit(args, data, "\n".join(lines))
+    emit(args, data, "\n".join(lines))
     return 0 if all(rep.feasible for _, _, rep in rows) else 1
 
 

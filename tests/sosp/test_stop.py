@@ -162,12 +162,22 @@ def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params:
     assert result.profit > 0
 
 
-def test_an_exact_answer_keeps_its_status() -> None:
-    """A request arriving once optimality is proven does not hide the proof."""
-    inst = tiny_chain()
-    request_stop("test")
-    result = solve(inst, "rds")
-    assert result.status is Status.OPTIMAL
+def test_an_exact_answer_keeps_its_status(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A request arriving once optimality is proven does not hide the proof; one arriving
+    before the search starts stops it, unproven."""
+    import heuristics.rds as rds
+
+    proved = rds.solve_rds
+
+    def then_stop(*args, **kwargs):
+        result = proved(*args, **kwargs)
+        request_stop("test")
+        return result
+
+    monkeypatch.setattr(rds, "solve_rds", then_stop)
+    assert solve(tiny_chain(), "rds").status is Status.OPTIMAL
+    monkeypatch.setattr(rds, "solve_rds", proved)
+    assert solve(tiny_chain(), "rds").status is Status.INTERRUPTED  # the request is still on
 
 
 def test_no_request_no_change() -> None:
@@ -227,12 +237,23 @@ def test_cli_signal_writes_the_best_so_far(
 
 @pytest.mark.limits
 @pytest.mark.slow
-def test_milp_on_the_highs_backend_stops_with_its_incumbent(c2) -> None:
+def test_milp_on_the_highs_backend_stops_with_its_incumbent(
+    c2, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """HiGHS asks its interrupt callback (models.highs_direct) and stops at once when a stop
-    was requested; the incumbent (the warm start at least) is returned, ``interrupted``."""
+    is requested while it runs; the incumbent (the warm start at least) is returned,
+    ``interrupted``. (A request before the MILP skips it: ``solve_milp``.)"""
+    import models.highs_direct as hd
+
     inst = c2  # a limit of 60 s is reached without a request
     start = solve(inst, "greedy").schedule  # a start stage would stop on the request at once
-    request_stop("test")
+    run_highs = hd.run_highs
+
+    def requested_as_highs_starts(*args, **kwargs):
+        request_stop("test")
+        return run_highs(*args, **kwargs)
+
+    monkeypatch.setattr(hd, "run_highs", requested_as_highs_starts)
     t0 = time.perf_counter()
     result = solve(inst, "milp", backend="highs", time_limit=60, warm_start=start)
     limit_kept("milp on HiGHS stopped", time.perf_counter() - t0, 40.0)
