@@ -26,7 +26,7 @@ import functools
 import logging
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from importlib import resources as importlib_resources
 from pathlib import Path
@@ -194,7 +194,7 @@ CONTACT_DTYPE = np.dtype(
 
 def contact_windows(
     satellites: list[Satellite],
-    stations: tuple[Station, ...] | list[Station],
+    stations: Sequence[Station],
     epoch: str,
     start_s: float,
     end_s: float,
