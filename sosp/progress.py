@@ -166,14 +166,15 @@ def format_snapshot(snap: Snapshot) -> str:
 class StatusLine:
     """The CLI's progress callback: a status line on ``stream`` (stderr).
 
-    Nothing is shown during the first ``delay`` seconds (quick solves stay quiet). On a
+    Nothing is shown during the first ``delay`` seconds (solves of under a second stay quiet;
+    a user waiting longer sees the line within about a second, not after three). On a
     terminal the line is rewritten in place (``\\r``) at every snapshot; otherwise (a log
     file, a pipe) a plain line is written every ``every`` seconds. :meth:`close` clears the
     terminal line so the final summary starts on a clean line.
     """
 
     def __init__(
-        self, stream: TextIO, tty: bool | None = None, delay: float = 3.0, every: float = 10.0
+        self, stream: TextIO, tty: bool | None = None, delay: float = 1.0, every: float = 10.0
     ) -> None:
         self.stream = stream
         self.tty = stream.isatty() if tty is None else tty

@@ -127,6 +127,16 @@ def test_status_line_on_a_terminal_rewrites_in_place() -> None:
     assert out.getvalue().endswith("\r") and "\n" not in out.getvalue()
 
 
+def test_status_line_shows_within_a_second_by_default() -> None:
+    """A user waiting on a terminal sees the line about a second in (issue 63, item 4)."""
+    out = io.StringIO()
+    line = StatusLine(out, tty=True)
+    line(snap(0.6))
+    assert out.getvalue() == ""  # solves of under a second stay quiet
+    line(snap(1.1))
+    assert "\r" in out.getvalue() and "1.1" in out.getvalue()
+
+
 def test_status_line_elsewhere_prints_a_line_every_10_s() -> None:
     out = io.StringIO()
     line = StatusLine(out, tty=False, delay=3.0, every=10.0)
