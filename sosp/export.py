@@ -437,8 +437,8 @@ def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
         "CZML for Cesium (targets observed and not, observation intervals, and the satellites' "
         "paths when the instance records its orbits). See docs/formats.md.",
     )
-    p.add_argument("instance", help="instance file (JSON)")
-    p.add_argument("schedule", help="schedule file (JSON)")
+    p.add_argument("instance", help="instance file (.json or .npz)")
+    p.add_argument("schedule", help="schedule file (.json)")
     p.add_argument(
         "--format", choices=FORMATS, default=None, help="csv, kml or czml (default: by extension)"
     )

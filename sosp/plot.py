@@ -335,8 +335,8 @@ def add_plot_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Draw a schedule as a Gantt chart per orbit (cluster-tasks and setup gaps "
         "marked) and a latitude/longitude map of targets and ground tracks (PNG, PDF or SVG).",
     )
-    p.add_argument("instance", help="instance file (JSON)")
-    p.add_argument("schedule", help="schedule file (JSON)")
+    p.add_argument("instance", help="instance file (.json or .npz)")
+    p.add_argument("schedule", help="schedule file (.json)")
     p.add_argument(
         "-o", "--output", required=True, help="figure to write: .png, .pdf or .svg (by extension)"
     )
