@@ -155,7 +155,7 @@ def tournament(fitness: np.ndarray, size: int, rng: np.random.Generator) -> int:
 def solve_ga_stc(
     instance: Instance, *, rng: np.random.Generator, time_limit: float | None = None, **params: Any
 ) -> Result:
-    """GA-STC: steady-state GA with repair over static cluster-tasks (module docstring).
+    """GA-STC: steady-state genetic algorithm over static cluster-tasks, each child repaired.
 
     Parameters
     ----------

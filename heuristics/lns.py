@@ -445,7 +445,7 @@ def solve_milp_lns(
     warm_start: Schedule | None = None,
     **params: Any,
 ) -> Result:
-    """Improve a schedule by re-planning a few orbits at a time exactly (see the module doc).
+    """MILP-LNS: re-plan a few related orbits at a time exactly with the cluster MILP (HiGHS).
 
     Parameters
     ----------

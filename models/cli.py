@@ -30,7 +30,7 @@ def add_bound_parser(subparsers: Any) -> argparse.ArgumentParser:
         "converged, the LP with the time left. Every bound is "
         "at most the total weight of the targets some schedule could observe.",
     )
-    p.add_argument("instance", help="instance file (JSON)")
+    p.add_argument("instance", help="instance file (.json or .npz)")
     p.add_argument(
         "--model",
         help=f"{PROBLEM_MODEL} (default: bounds every method), task (no clustering) or static "

@@ -468,7 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "name", nargs="?", help="B1..B10 or C1..C10 (paper 6.1), or a name for a custom instance"
     )
-    p.add_argument("-o", "--output", required=True, help="instance file to write (JSON)")
+    p.add_argument("-o", "--output", required=True, help="instance file to write (.json or .npz)")
     p.add_argument("--seed", type=_nonneg_int, default=0, help="random seed (default 0)")
     p.add_argument(
         "--region",
@@ -528,7 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
         )
 
     p = add("info", "summarise an instance: targets, EN, TN, orbits, opportunities per orbit")
-    p.add_argument("instance")
+    p.add_argument("instance", help="instance file (.json or .npz)")
 
     from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, METHODS, load
 
@@ -587,7 +587,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="method parameter (repeatable); VALUE is JSON or text; the keys of each method: "
         "sosp methods",
     )
-    p.add_argument("-o", "--output", help="schedule file to write (JSON)")
+    p.add_argument("-o", "--output", help="schedule file to write (.json)")
     p.add_argument(
         "-q",
         "--quiet",

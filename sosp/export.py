@@ -60,7 +60,7 @@ KML_NS = "http://www.opengis.net/kml/2.2"
 # --------------------------------------------------------------------------- shared
 def _lon180(lon: float) -> float:
     """Longitude in [-180, 180) (instances accept [-180, 360])."""
-    return (float(lon) + 180.0) % 360.0 - 180.0
+    return round((float(lon) + 180.0) % 360.0 - 180.0, 6)  # 1e-6 deg: the data's precision
 
 
 def covered(instance: Instance, schedule: Schedule) -> list[tuple[int, int]]:
@@ -332,7 +332,7 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
     ]
     for k in range(instance.n_targets):
         u = by_target.get(k)
-        lat, lon = float(instance.target_lat[k]), _lon180(instance.target_lon[k])
+        lat, lon = round(float(instance.target_lat[k]), 6), _lon180(instance.target_lon[k])
         pkt: dict[str, Any] = {
             "id": f"target/{instance.target_ids[k]}",
             "name": str(instance.target_ids[k]),
@@ -368,7 +368,7 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
             "properties": {
                 "satellite": sat,
                 "orbit": instance.orbit_ids[ob.orbit],
-                "roll": ob.roll,
+                "roll": round(ob.roll, 6),
                 "targets": [str(instance.target_ids[k]) for k in ks],
             },
         }
@@ -376,8 +376,12 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
         if at is not None and ks:
             coords: list[float] = []
             for k in ks:  # a fan of lines of sight from the satellite
-                coords += [at[1], at[0], at[2] * 1000.0]
-                coords += [_lon180(instance.target_lon[k]), float(instance.target_lat[k]), 0.0]
+                coords += [_lon180(at[1]), round(at[0], 6), round(at[2] * 1000.0, 1)]
+                coords += [
+                    _lon180(instance.target_lon[k]),
+                    round(float(instance.target_lat[k]), 6),
+                    0.0,
+                ]
             pkt["polyline"] = {
                 "positions": {"cartographicDegrees": coords},
                 "width": 2,
@@ -391,7 +395,8 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
             samples: list[float] = []
             for t, (lat, lon, alt) in zip(times, pts, strict=True):
                 if math.isfinite(lat + lon + alt):
-                    samples += [float(t), float(lon), float(lat), float(alt) * 1000.0]
+                    samples += [round(float(t), 3), _lon180(lon), round(float(lat), 6)]
+                    samples.append(round(float(alt) * 1000.0, 1))  # metres to 0.1, seconds to 1e-3
             packets.append(
                 {
                     "id": f"satellite/{name}",
@@ -432,8 +437,8 @@ def add_export_parser(subparsers: Any) -> argparse.ArgumentParser:
         "CZML for Cesium (targets observed and not, observation intervals, and the satellites' "
         "paths when the instance records its orbits). See docs/formats.md.",
     )
-    p.add_argument("instance", help="instance file (JSON)")
-    p.add_argument("schedule", help="schedule file (JSON)")
+    p.add_argument("instance", help="instance file (.json or .npz)")
+    p.add_argument("schedule", help="schedule file (.json)")
     p.add_argument(
         "--format", choices=FORMATS, default=None, help="csv, kml or czml (default: by extension)"
     )

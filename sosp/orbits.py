@@ -504,16 +504,22 @@ def propagate(satellites: list[Satellite], epoch: str, t: Any) -> tuple[np.ndarr
     err, r, v = arr.sgp4(jd, fr)
     bad = err != 0
     for i in np.flatnonzero(bad.any(axis=1)):
-        code = int(err[i][bad[i]][0])
+        k, sat = int(np.argmax(bad[i])), satellites[i].satrec
+        code, hi = int(err[i, k]), float(t[k])
+        # bisect to the second from a time sgp4 works at: the sample before, or (the first
+        # sample failing) the elements' own epoch, so the time said is the failure's own
+        lo = t[k - 1] if k else (sat.jdsatepoch - jd0 + sat.jdsatepochF - fr0) * DAY
+        while lo < hi - 1.0:
+            f = fr0 + (mid := 0.5 * (lo + hi)) / DAY
+            lo, hi = (lo, mid) if sat.sgp4(jd0 + math.floor(f), f % 1.0)[0] else (mid, hi)
         log.warning(
-            "sgp4 failed for %s at %d of %d times, the first at %s (error %d: %s); no "
-            "opportunity at those times",
+            "sgp4 failed for %s from %s (error %d: %s): no opportunity at %d of %d times",
             satellites[i].name,
-            int(bad[i].sum()),
-            t.size,
-            utc_at(epoch, float(t[bad[i]][0])),
+            utc_at(epoch, hi),
             code,
             SGP4_ERRORS.get(code, "unknown"),
+            int(bad[i].sum()),
+            t.size,
         )
     r[bad] = np.nan
     v[bad] = np.nan

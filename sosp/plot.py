@@ -38,6 +38,13 @@ PLOT_FORMATS = ("png", "pdf", "svg")
 
 #: Seconds between ground-track points.
 TRACK_STEP = 60.0
+#: The counts of ``sosp plot``'s line, as words.
+WORDS = {
+    "observations": "observation",
+    "clusters": "cluster-task",
+    "orbits": "orbit",
+    "observed": "target",
+}
 
 #: Ground-track colours: blues, purples and browns, away from the targets' green and red.
 TRACK_COLOURS = ("#3182ce", "#805ad5", "#b7791f", "#319795", "#d53f8c", "#4a5568", "#2c5282")
@@ -176,7 +183,7 @@ def schedule_figure(
     used = {o.orbit for o in schedule.observations}
     orbits = [j for j in range(inst.n_orbits) if counts[j] > 0 or j in used]
     orbits.sort(key=lambda j: (j not in used, -counts[j], j))
-    orbits = orbits[:max_orbits]
+    total, orbits = len(orbits), orbits[:max_orbits]
     # by satellite then time; on a UTC axis by time alone, so the passes read as a timeline
     orbits.sort(key=lambda j: (float(inst.orbit_start[j]), j) if utc else j)
     row = {j: r for r, j in enumerate(orbits)}
@@ -245,12 +252,13 @@ def schedule_figure(
         ax_g.set_xlabel("UTC")
     else:
         ax_g.set_xlabel("time from orbit start (s)")
-    ax_g.set_title("observations per orbit", pad=20)
+    shown = f" (showing {len(orbits)} of {total} orbits)" if len(orbits) < total else ""
+    ax_g.set_title("observations per orbit" + shown, pad=20)
     ax_g.legend(  # between the title and the chart, never over a bar
         handles=[
             Patch(color="#2b6cb0", label="task"),
             Patch(color="#e8890c", label="cluster-task (n covered)"),
-            Patch(color="#f4a6a6", label="setup + slew (3)"),
+            Patch(color="#f4a6a6", label="setup + slew before an observation"),
             Patch(color="0.75", label="opportunity"),
         ],
         fontsize=7,
@@ -301,6 +309,7 @@ def schedule_figure(
     )
     return fig, {
         "orbits": len(orbits),
+        "orbits_total": total,
         "observations": len(schedule),
         "clusters": n_clusters,
         "observed": int(observed.sum()),
@@ -335,8 +344,8 @@ def add_plot_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Draw a schedule as a Gantt chart per orbit (cluster-tasks and setup gaps "
         "marked) and a latitude/longitude map of targets and ground tracks (PNG, PDF or SVG).",
     )
-    p.add_argument("instance", help="instance file (JSON)")
-    p.add_argument("schedule", help="schedule file (JSON)")
+    p.add_argument("instance", help="instance file (.json or .npz)")
+    p.add_argument("schedule", help="schedule file (.json)")
     p.add_argument(
         "-o", "--output", required=True, help="figure to write: .png, .pdf or .svg (by extension)"
     )
@@ -363,9 +372,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     sched = load_schedule(args.schedule, inst)
     info = plot_schedule(inst, sched, args.output, title=args.title, utc=args.utc)
     info["output"] = args.output
+    n = {k: f"{info[k]} {w}{'' if info[k] == 1 else 's'}" for k, w in WORDS.items()}
+    shown = "" if info["orbits"] == info["orbits_total"] else f" (of {info['orbits_total']})"
     text = (
-        f"wrote {args.output}: {info['observations']} observations ({info['clusters']} "
-        f"cluster-tasks) on {info['orbits']} orbits, {info['observed']} targets observed"
+        f"wrote {args.output}: {n['observations']} ({n['clusters']}) on {n['orbits']}{shown}, "
+        f"{n['observed']} observed"
         + ("" if info["tracks"] else "; ground tracks unknown for this instance")
     )
     sys.stdout.write((json.dumps(info) if args.json else text) + "\n")

@@ -345,7 +345,10 @@ def _compared(
     """Whether IMP and the t-test can be computed; if not, the reason goes into ``notes``."""
     if target in present and baseline in present and target != baseline:
         return True
-    missing = [x or "?" for x in (target, baseline) if x not in present]
+    defaults = ("asa-dtc (the default --method)", "aco-ls-stc (the default --baseline)")
+    missing = [
+        x or d for x, d in zip((target, baseline), defaults, strict=True) if x not in present
+    ]
     notes.append(
         "IMP and t-test omitted: "
         + (f"no runs of {', '.join(missing)}" if missing else "target equals baseline")
@@ -552,6 +555,7 @@ def write_report(
         raise InputError("-o: not a folder", source=str(out))
     summary = summarise(db)
     ctarget, cbaseline, _ = comparison(target, baseline, summary.methods)
+    ctarget, cbaseline = ctarget or "asa-dtc", cbaseline or "aco-ls-stc"  # named, if absent
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
     notes = list(summary.notes)

@@ -218,7 +218,7 @@ def _reach_angle(grid: EphemerisGrid, max_off_nadir: float) -> float:
     """Largest Earth central angle (radians) between the sub-satellite point and a target
     seen at ``max_off_nadir`` degrees, for the grid's highest altitude and the polar radius
     (a conservative bound for the orbital-plane screen)."""
-    rmax = float(np.nanmax(np.linalg.norm(grid.r, axis=1)))
+    rmax = float(np.nanmax(np.linalg.norm(grid.r, axis=1), initial=0.0))  # 0: all NaN (decayed)
     eta = math.radians(min(max_off_nadir, 89.0))
     s = rmax / WGS84_B * math.sin(eta)
     if s >= 1.0:  # the whole visible cap

@@ -193,7 +193,11 @@ class ASAParams(Params):
         "preset": (
             " | ".join(map(repr, PRESETS)) + " | None",
             None,
-            "A named set of parameters (PRESETS) applied first; the other keywords override it.",
+            "A named set of parameters applied first; the other keywords override it: "
+            + "; ".join(
+                f"{k}: {', '.join(f'{a}={v}' for a, v in p.items()) or 'the defaults'}"
+                for k, p in PRESETS.items()
+            ),
         )
     }
 

@@ -508,3 +508,17 @@ def test_unwritable_output_folder_is_refused_in_process(
     assert code == 2 and err.count("\n") == 1
     assert f"-o: cannot write to folder {ro} (permission denied)" in err
     assert list(ro.iterdir()) == []
+
+
+def test_help_texts_say_what_they_mean(capsys) -> None:
+    """Issue 63, item 14: real summaries, the presets listed, ``.npz`` instances named."""
+    from sosp.methods import describe_methods, method_info
+
+    assert not [m.name for m in describe_methods() if "module doc" in m.help]
+    (preset,) = [p for p in method_info("asa-dtc").params if p.name == "preset"]
+    assert "paper" in preset.help and "lambda_min" in preset.help
+    for cmd in ("scenario", "info", "bound", "export", "plot", "solve", "validate"):
+        with pytest.raises(SystemExit):
+            main([cmd, "-h"])
+        text = capsys.readouterr().out
+        assert "(JSON)" not in text and (cmd != "info" or ".npz" in text), cmd

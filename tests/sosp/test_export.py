@@ -241,3 +241,12 @@ def test_cli_export_bad_input(tmp_path: Path, argv: list[str], needle: str) -> N
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
     assert proc.stderr.startswith("error: ") and needle in proc.stderr, proc.stderr
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+def test_czml_numbers_at_the_precision_of_the_data(c1) -> None:
+    """Issue 63, item 13: 1.7731 is written as 1.7731, not 1.7730999999999995."""
+    import re
+
+    text = export_czml(*c1)
+    assert not re.search(r"\d\.\d{7,}", text), re.search(r"\S*\d\.\d{7,}", text)[0]
+    json.loads(text)

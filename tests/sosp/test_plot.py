@@ -27,7 +27,14 @@ def test_plot_tiny_cluster_counts_and_png(tmp_path: Path) -> None:
     sched = Schedule((make_observation(inst, [0, 1]), make_observation(inst, [2])))
     out = tmp_path / "s.png"
     info = plot_schedule(inst, sched, out)
-    assert info == {"orbits": 1, "observations": 2, "clusters": 1, "observed": 3, "tracks": False}
+    assert info == {
+        "orbits": 1,
+        "orbits_total": 1,
+        "observations": 2,
+        "clusters": 1,
+        "observed": 3,
+        "tracks": False,
+    }
     img = mpimg.imread(out)
     assert img.shape[1] > 500 and img.std() > 0.01
     assert ground_tracks(inst) is None  # hand-made: no satellites known
@@ -169,3 +176,34 @@ def test_utc_axis_shows_clock_time(tmp_path: Path, capsys: pytest.CaptureFixture
     sched.save(sched_p, inst)
     assert main(["plot", str(inst_p), str(sched_p), "-o", str(png), "--utc"]) == 0
     assert png.stat().st_size > 10_000
+
+
+def test_labels_say_what_they_show(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 63, item 12: a cap on the rows is said, the gap is named, counts agree in number."""
+    import matplotlib.pyplot as plt
+
+    from sosp.solve import solve
+
+    inst = scenario("C1")
+    fig, info = schedule_figure(inst, solve(inst, "greedy").schedule, max_orbits=3)
+    ax_g = fig.axes[0]
+    legend = [t.get_text() for t in ax_g.get_legend().get_texts()]
+    plt.close(fig)
+    assert f"showing 3 of {info['orbits_total']} orbits" in ax_g.get_title()
+    assert info["orbits"] == 3 < info["orbits_total"] and not any("(3)" in t for t in legend)
+    inst = tiny_cluster()
+    inst.save(tmp_path / "i.json")
+    Schedule((make_observation(inst, [0, 1]),)).save(tmp_path / "s.json", inst)
+    assert (
+        main(
+            [
+                "plot",
+                str(tmp_path / "i.json"),
+                str(tmp_path / "s.json"),
+                "-o",
+                str(tmp_path / "p.png"),
+            ]
+        )
+        == 0
+    )
+    assert "1 observation (1 cluster-task) on 1 orbit," in capsys.readouterr().out

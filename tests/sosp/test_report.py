@@ -219,6 +219,9 @@ def test_report_degrades_without_the_asa_methods(tmp_path: Path, capsys) -> None
     paper = (out / "table4.csv").read_text().splitlines()[0].split(",")
     assert paper == ["SN", "EN", "TN", "sosp bound", "proven", "sosp best"]
     assert "no runs of aco-ls-stc" in text and "Fig. 2: no runs of asa-dtc" in text
+    # issue 63, item 9: what is missing is named, not "?" or "None"
+    assert "?" not in text and "None" not in (out / "report.md").read_text()
+    assert "no runs of asa-dtc (the default --method)" in text
     # no ASA runs: Figs. 3-5 are left out (not drawn with other methods), said in a note;
     # greedy ran on C2 alone, so Fig. 2 has no line either
     assert not any((out / name).exists() for name in FIGURES)

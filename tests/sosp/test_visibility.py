@@ -172,13 +172,9 @@ def test_roll_sign_is_positive_right_of_track():
     assert east > 10.0 and west < -10.0
 
 
-def test_decaying_satellite_is_seen_until_sgp4_fails(caplog):
-    """A satellite that decays within the horizon: opportunities before sgp4 gives up, none
-    after, one warning naming sgp4's reason, and no NaN reaching the arithmetic (a sign
-    change of the along-track coordinate into the NaN states was taken for a crossing)."""
-    import warnings
-
-    sat = from_elements(
+def _low():
+    """A satellite whose elements at ``EPOCH`` decay about 4 h later."""
+    return from_elements(
         "LOW",
         epoch=EPOCH,
         inclination=97.5,
@@ -189,6 +185,27 @@ def test_decaying_satellite_is_seen_until_sgp4_fails(caplog):
         mean_motion=16.3,
         bstar=0.05,
     )
+
+
+def test_satellite_decayed_before_the_horizon(caplog):
+    """Issue 63, item 7: no raw numpy warning, and one line with the decay time (about 4 h
+    after the elements' epoch), not the first time sampled before the horizon's start."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        _, opps = find_opportunities([_low()], [10.0], [20.0], epoch=EPOCH, horizon=(4e4, 5e4))
+    (msg,) = [r.getMessage() for r in caplog.records if "sgp4 failed" in r.getMessage()]
+    assert len(opps) == 0 and "failed for LOW from 2026-06-01T04:00:" in msg, msg
+
+
+def test_decaying_satellite_is_seen_until_sgp4_fails(caplog):
+    """A satellite that decays within the horizon: opportunities before sgp4 gives up, none
+    after, one warning naming sgp4's reason, and no NaN reaching the arithmetic (a sign
+    change of the along-track coordinate into the NaN states was taken for a crossing)."""
+    import warnings
+
+    sat = _low()
     rng = np.random.default_rng(0)
     lat, lon = rng.uniform(-80.0, 80.0, 3000), rng.uniform(-180.0, 180.0, 3000)
     with warnings.catch_warnings():
