@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
@@ -102,10 +103,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return 0
     with new_database_guard(db), Store(db) as store:
         progress: Progress | None = None
+        started = time.monotonic()
 
         def on_result(row: dict[str, Any], done: int, total: int) -> None:
             nonlocal progress
-            progress = Progress(total) if progress is None else progress
+            progress = Progress(total, t0=started) if progress is None else progress
             progress.update(row)
 
         out = run_campaign(

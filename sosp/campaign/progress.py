@@ -26,6 +26,10 @@ class Progress:
         plain line is written at most every ``interval`` seconds and at the end.
     interval
         Seconds between plain lines.
+    t0
+        When the campaign started (``time.monotonic``; default: now). The caller learns
+        ``total`` only with the first result, and the time before it counts too: without it
+        the first ETA read 0:00:00 and the elapsed time ran behind the summary's.
     """
 
     def __init__(
@@ -34,6 +38,7 @@ class Progress:
         stream: TextIO | None = None,
         interactive: bool | None = None,
         interval: float = 10.0,
+        t0: float | None = None,
     ) -> None:
         self.total = total
         self.stream = stream if stream is not None else sys.stderr
@@ -44,7 +49,7 @@ class Progress:
         self.interval = interval
         self.done = 0
         self.failed = 0
-        self.t0 = time.monotonic()
+        self.t0 = time.monotonic() if t0 is None else t0
         self._last = -float("inf")
 
     def line(self) -> str:

@@ -417,3 +417,17 @@ def test_report_of_a_database_left_in_wal_mode_creates_no_side_files(tmp_path: P
     with Store(db, readonly=True, allow_empty=True) as ro:
         assert ro.count() == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.db"]
+
+
+def test_bench_progress_counts_from_the_campaign_start() -> None:
+    """The ETA and elapsed time count from the campaign's start, not from its first result
+    (issue 63, item 15: "ETA 0:00:00" after the first of 12 runs)."""
+    import io
+    import time
+
+    from sosp.campaign.progress import Progress
+
+    out = io.StringIO()
+    p = Progress(12, out, interactive=False, t0=time.monotonic() - 10.0)
+    p.update({"status": "feasible"})
+    assert "elapsed 0:00:10" in out.getvalue() and "ETA 0:01:50" in out.getvalue()
