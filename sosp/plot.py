@@ -96,16 +96,15 @@ def map_lon(lon: np.ndarray, wrap: bool) -> np.ndarray:
 def ground_tracks(instance: Instance) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
     """Sub-satellite (lat, lon) per satellite over the horizon, or None when unknown.
 
-    Uses the built-in satellites named in ``meta["satellites"]`` (geocentric latitude).
+    Uses the orbits the instance records, as ``sosp export`` does: built-in satellites
+    named in ``meta["satellites"]`` or element lines in ``meta["tle"]`` (TLE and Walker
+    instances); geocentric latitude.
     """
     import numpy as np
 
     from sosp.export import instance_satellites, subsatellite_points
 
-    meta = dict(instance.meta)
-    builtin = meta.get("satellite_source") == "builtin" and meta.get("satellites")
-    sats = instance_satellites(instance) if builtin else None
-    if not sats:
+    if not (sats := instance_satellites(instance)):
         return None
     t0 = float(instance.orbit_start.min()) if instance.n_orbits else 0.0
     t1 = float(instance.orbit_end.max()) if instance.n_orbits else 0.0

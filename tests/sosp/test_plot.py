@@ -207,3 +207,16 @@ def test_labels_say_what_they_show(tmp_path: Path, capsys: pytest.CaptureFixture
         == 0
     )
     assert "1 observation (1 cluster-task) on 1 orbit," in capsys.readouterr().out
+
+
+def test_plot_draws_walker_instances_ground_tracks(tmp_path: Path) -> None:
+    """A Walker (TLE-recorded) instance's tracks are drawn, as ``sosp export`` draws them
+    (issue 63, item 6: "ground tracks unknown for this instance")."""
+    inst = tmp_path / "w.json"
+    args = ["--walker", "4/2/1", "--altitude", "550", "--region", "40", "50", "0", "10"]
+    assert main(["scenario", "w", *args, "--targets", "20", "-o", str(inst)]) == 0
+    assert main(["solve", str(inst), "--method", "greedy", "-o", str(tmp_path / "s.json")]) == 0
+    from sosp.instance import load_instance
+
+    tracks = ground_tracks(load_instance(inst))
+    assert tracks is not None and len(tracks) == 4
