@@ -100,6 +100,10 @@ class Schedule:
         The profit the method claims (checked by the validator when given).
     fingerprint
         Fingerprint of the instance it belongs to.
+    status, bound
+        How the solve that made it ended (``optimal``, ``feasible``, ``time_limit``,
+        ``interrupted``, ...) and the upper bound it proved, when known: a file read later
+        says whether its schedule is proven, cut short or stopped.
     """
 
     observations: tuple[Observation, ...] = ()
@@ -108,6 +112,8 @@ class Schedule:
     seed: int | None = None
     profit: float | None = None
     fingerprint: str | None = None
+    status: str | None = None
+    bound: float | None = None
 
     def __post_init__(self) -> None:
         obs = tuple(sorted(self.observations, key=lambda o: (o.orbit, o.start, o.end, o.opps)))
@@ -142,6 +148,7 @@ class Schedule:
             "params": jsonable(dict(self.params)),
             "seed": self.seed,
             "profit": self.profit,
+            **{k: v for k, v in (("status", self.status), ("bound", self.bound)) if v is not None},
             "observations": [
                 {
                     "orbit": instance.orbit_ids[o.orbit],
@@ -240,7 +247,12 @@ class Schedule:
         method = data.get("method", "")
         if not isinstance(method, str):
             raise InputError("method: expected a string", source=source)
-        return cls(tuple(obs), method, params, seed, profit, fingerprint=instance.fingerprint)
+        status, bound = data.get("status"), data.get("bound")
+        if status is not None and not isinstance(status, str):
+            raise InputError("status: expected a string or null", source=source)
+        if bound is not None and not is_finite_number(bound):
+            raise InputError("bound: expected a number or null", source=source)
+        return cls(tuple(obs), method, params, seed, profit, instance.fingerprint, status, bound)
 
     def save(self, path: str | os.PathLike[str], instance: Instance) -> None:
         """Write the schedule file atomically."""

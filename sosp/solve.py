@@ -180,4 +180,8 @@ def solve(
             result = replace(result, bound=None)
         result = certify(instance, result, bound, budget.left(), bound_workers)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
-    return result
+    # the file written from the schedule says how the solve ended, and what it proved
+    return replace(
+        result,
+        schedule=replace(result.schedule, status=result.status.value, bound=result.bound),
+    )

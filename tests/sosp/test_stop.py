@@ -233,6 +233,8 @@ def test_cli_signal_writes_the_best_so_far(
     )
     assert check.returncode == 0, check.stdout
     assert json.loads(check.stdout)["profit"] == data["profit"]
+    # the file itself says how the solve ended (issue 63, item 3)
+    assert json.loads(out.read_text())["status"] == data["status"]
 
 
 @pytest.mark.limits
@@ -335,3 +337,20 @@ def test_a_sigterm_before_a_forked_workers_initialiser_still_ends_it() -> None:
         proc.start()
     proc.join(10.0)
     assert proc.exitcode == -signal.SIGTERM
+
+
+def test_a_schedule_file_keeps_its_status_and_bound(tmp_path: Path) -> None:
+    """``-o`` records how the solve ended and its bound, and reads them back (issue 63, 3)."""
+    from sosp.errors import InputError
+    from sosp.schedule import load_schedule
+
+    inst = tiny_chain()
+    result = solve(inst, "rds")
+    assert (result.schedule.status, result.schedule.bound) == ("optimal", result.bound)
+    result.schedule.save(tmp_path / "s.json", inst)
+    back = load_schedule(tmp_path / "s.json", inst)
+    assert (back.status, back.bound) == ("optimal", result.bound)
+    data = json.loads((tmp_path / "s.json").read_text())
+    (tmp_path / "bad.json").write_text(json.dumps({**data, "bound": "high"}))
+    with pytest.raises(InputError, match="bound"):
+        load_schedule(tmp_path / "bad.json", inst)
