@@ -305,3 +305,26 @@ def test_bad_stations_in_a_file(c1, edit, message: str) -> None:
     edit(d)
     with pytest.raises(InputError, match=re.escape(message)):
         Instance.from_dict(d)
+
+
+@pytest.mark.parametrize(
+    ("drop", "change", "message"),
+    [
+        ("contacts.station", None, "missing array 'contacts.station'"),
+        ("stations.id", None, "unexpected array 'contacts.end_s'"),
+        (None, ("contacts.station", 7), "contacts[0].station: unknown index 7"),
+        (None, ("stations.lat_deg", 95.0), "stations[0].lat_deg: must be in [-90, 90]"),
+    ],
+)
+def test_bad_stations_in_a_npz(tmp_path: Path, c1, drop, change, message: str) -> None:
+    from sosp.stations import builtin_stations
+
+    arrays = c1.with_stations(builtin_stations()[:2]).to_npz_arrays()
+    if drop:
+        arrays.pop(drop)
+    if change:
+        arrays[change[0]] = arrays[change[0]].copy()
+        arrays[change[0]][0] = change[1]
+    np.savez(tmp_path / "x.npz", **arrays)
+    with pytest.raises(InputError, match=re.escape(message)):
+        load_instance(tmp_path / "x.npz")
