@@ -97,6 +97,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
     from sosp import scenarios
     from sosp.io import check_output
     from sosp.orbits import utc_iso
+    from sosp.stations import stations_from_arg
 
     check_output(args.output)
     common: dict[str, Any] = {
@@ -113,6 +114,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
     if args.region is not None and args.targets_csv is not None:
         raise InputError("--region and --targets-csv: give one source of targets, not both")
     walker = _walker_from_args(args)
+    stations = stations_from_arg(args.stations) if args.stations is not None else ()
     if args.region is None and args.targets_csv is None and args.tle is None and walker is None:
         if not args.name:
             raise InputError("scenario: give a name (B1..B10, C1..C10), --region or --targets-csv")
@@ -145,6 +147,8 @@ def cmd_scenario(args: argparse.Namespace) -> int:
             name=args.name or "custom",
             **common,
         )
+    if stations:
+        inst = inst.with_stations(stations)
     inst.save(args.output)
     data, text = _info(inst)
     emit(args, {**data, "output": args.output}, f"wrote {args.output}\n{text}")
@@ -172,6 +176,18 @@ def _info(inst: Any) -> tuple[dict[str, Any], str]:
             oid: int(c) for oid, c in zip(inst.orbit_ids, per_orbit, strict=True)
         },
     }
+    if inst.stations:
+        c = inst.contacts
+        d["stations"] = [
+            {
+                "id": s.id,
+                "lat_deg": s.lat_deg,
+                "lon_deg": s.lon_deg,
+                "contacts": int(np.count_nonzero(c["station"] == g)),
+                "contact_min": float((c["end_s"] - c["start_s"])[c["station"] == g].sum() / 60),
+            }
+            for g, s in enumerate(inst.stations)
+        ]
     used = per_orbit[per_orbit > 0]
     lines = [
         f"instance      {d['name'] or '(unnamed)'}  ({d['fingerprint'][:19]}...)",
@@ -186,6 +202,10 @@ def _info(inst: Any) -> tuple[dict[str, Any], str]:
             f"per orbit     {used.size} orbits with opportunities: min {used.min()}, "
             f"mean {used.mean():.1f}, max {used.max()}"
         )
+    lines += [
+        f"station       {s['id']:<8} {s['contacts']:4d} contacts, {s['contact_min']:7.1f} min"
+        for s in d.get("stations", [])
+    ]
     return d, "\n".join(lines)
 
 
@@ -502,6 +522,12 @@ def build_parser() -> argparse.ArgumentParser:
         "the latest element epoch, else 2026-06-01T00:00:00Z (the built-in satellites' epoch)",
     )
     p.add_argument("--hours", type=positive(float), help="horizon length in hours (24)")
+    p.add_argument(
+        "--stations",
+        metavar="FILE|builtin|ID,ID,...",
+        help="ground stations and their contact windows: a stations CSV file, every built-in "
+        "station, or built-in ids (none by default)",
+    )
     p.add_argument(
         "--max-roll",
         type=positive(float),

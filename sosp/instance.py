@@ -23,7 +23,7 @@ import os
 import zipfile
 import zlib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from datetime import datetime
 from functools import cached_property
 from pathlib import Path
@@ -40,6 +40,7 @@ from sosp.io import (
     read_json,
     reject_json_constant,
 )
+from sosp.stations import CONTACT_DTYPE, CSV_COLUMNS, Station
 
 FORMAT_NAME = "sosp-instance"
 FORMAT_VERSION = 1
@@ -136,6 +137,21 @@ NPZ_TABLES: dict[str, tuple[tuple[str, str], ...]] = {
     ),
 }
 
+#: The tables of an instance with ground stations (issue 60), as :data:`NPZ_TABLES`: the
+#: :class:`~sosp.stations.Station` fields, and the contact windows (:data:`CONTACT_DTYPE`;
+#: ``satellite`` a row of :attr:`Instance.satellite_names`, ``station`` of the stations; the
+#: JSON format names them). Both are absent from the files of an instance without stations.
+STATION_TABLES: dict[str, tuple[tuple[str, str], ...]] = {
+    "stations": (
+        ("id", "U"),
+        *((k, "i" if k == "antennas" else "f") for k, _, _ in CSV_COLUMNS),
+        ("description", "U"),
+    ),
+    "contacts": tuple(
+        (k, "i" if k in ("satellite", "station") else "f") for k in CONTACT_DTYPE.names
+    ),
+}
+
 _NPZ_KIND_NAMES = {"f": "float64", "i": "an integer dtype", "U": "a unicode string dtype"}
 _NPZ_KINDS = {"f": "f", "i": "iu", "U": "U"}
 
@@ -214,6 +230,8 @@ class Instance:
     opp_roll_max: np.ndarray
     name: str = ""
     meta: Mapping[str, Any] = field(default_factory=dict)
+    stations: tuple[Station, ...] = ()
+    contacts: np.ndarray = field(default_factory=lambda: np.empty(0, CONTACT_DTYPE))
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -264,6 +282,31 @@ class Instance:
     @cached_property
     def opp_index(self) -> dict[str, int]:
         return {o: i for i, o in enumerate(self.opp_ids)}
+
+    @cached_property
+    def satellite_names(self) -> tuple[str, ...]:
+        """The satellites of the orbits, in order of first appearance."""
+        return tuple(dict.fromkeys(self.orbit_satellite))
+
+    def with_stations(self, stations: Sequence[Station]) -> Instance:
+        """This instance with ground stations and their contact windows with its satellites
+        over its horizon (:func:`sosp.stations.contact_windows`, from the orbits the instance
+        records: :func:`sosp.export.instance_satellites`)."""
+        from sosp.export import instance_satellites
+        from sosp.stations import contact_windows
+
+        sats = instance_satellites(self) if stations else []
+        if sats is None or (stations and not self.n_orbits):
+            raise InputError("--stations: the instance does not record its satellites' orbits")
+        c = np.empty(0, CONTACT_DTYPE)
+        if stations:
+            c = contact_windows(
+                sats, stations, self.epoch, self.orbit_start.min(), self.orbit_end.max()
+            )
+            row = {n: i for i, n in enumerate(self.satellite_names)}
+            c["satellite"] = np.array([row[s.name] for s in sats], np.int64)[c["satellite"]]
+            c = c[np.lexsort((c["start_s"], c["station"], c["satellite"]))]
+        return replace(self, stations=tuple(stations), contacts=_readonly(c))
 
     @cached_property
     def observable_targets(self) -> int:
@@ -333,11 +376,14 @@ class Instance:
         name: str = "",
         meta: Mapping[str, Any] | None = None,
         source: str | None = None,
+        stations: Mapping[str, Any] | None = None,
+        contacts: Mapping[str, Any] | None = None,
     ) -> Instance:
         """Build and validate an instance from columns.
 
         ``resources`` is a :class:`Resources` applied to every orbit, or a mapping from each
-        key of :data:`RESOURCE_KEYS` to a scalar or a per-orbit array. ``opp_target`` and
+        key of :data:`RESOURCE_KEYS` to a scalar or a per-orbit array. ``stations`` and
+        ``contacts`` are the columns of :data:`STATION_TABLES`, rows by index. ``opp_target`` and
         ``opp_orbit`` are integer indices. Opportunities are sorted by (orbit, start, end);
         missing ``opp_ids`` become ``"o1"``, ``"o2"``, ... in that order.
 
@@ -444,7 +490,11 @@ class Instance:
             pid = tuple(f"o{i + 1}" for i in range(n_p))
         elif isinstance(order, np.ndarray):
             pid = tuple(pid[i] for i in order)
+        sat_names = tuple(dict.fromkeys(sat))
+        st, ct = _station_tables(stations, contacts, len(sat_names), source)
         return cls(
+            stations=st,
+            contacts=ct,
             epoch=epoch,
             target_ids=tid,
             target_lat=_readonly(lat),
@@ -538,10 +588,17 @@ class Instance:
     def _columns(self) -> dict[str, dict[str, Any]]:
         """The tables as columns in file order (:data:`NPZ_TABLES`): numpy arrays, and tuples
         for the ids; the opportunities' ``target`` and ``orbit`` as row indices."""
-        return {
+        out = {
             table: {k: getattr(self, _attribute(table, k)) for k, _ in spec}
             for table, spec in NPZ_TABLES.items()
         }
+        if self.stations:
+            out["stations"] = {
+                k: (tuple if kind == "U" else np.array)([getattr(s, k) for s in self.stations])
+                for k, kind in STATION_TABLES["stations"]
+            }
+            out["contacts"] = {k: self.contacts[k] for k, _ in STATION_TABLES["contacts"]}
+        return out
 
     def _header(self, fmt: str, version: int) -> dict[str, Any]:
         """The scalar fields of a file (JSON's top level, the .npz header entry)."""
@@ -555,20 +612,23 @@ class Instance:
 
     def to_dict(self, layout: str = "records") -> dict[str, Any]:
         """The instance as a JSON-ready dict (``layout`` "records" or "columns")."""
-        targets, orbits, opps = (
-            {k: list(v) if isinstance(v, tuple) else v.tolist() for k, v in cols.items()}
-            for cols in self._columns().values()
-        )
+        tables = {
+            t: {k: list(v) if isinstance(v, tuple) else v.tolist() for k, v in cols.items()}
+            for t, cols in self._columns().items()
+        }
+        opps = tables["opportunities"]
         opps["target"] = [self.target_ids[i] for i in self.opp_target]
         opps["orbit"] = [self.orbit_ids[j] for j in self.opp_orbit]
+        if self.stations:
+            con = tables["contacts"]
+            con["satellite"] = [self.satellite_names[i] for i in con["satellite"]]
+            con["station"] = [self.stations[i].id for i in con["station"]]
         conv = {"records": _to_records, "columns": dict}.get(layout)
         if conv is None:
             raise InputError(f"layout: expected 'records' or 'columns', got {layout!r}")
         return {
             **self._header(FORMAT_NAME, FORMAT_VERSION),
-            "targets": conv(targets),
-            "orbits": conv(orbits),
-            "opportunities": conv(opps),
+            **{t: conv(cols) for t, cols in tables.items()},
         }
 
     @classmethod
@@ -582,16 +642,21 @@ class Instance:
                 raise InputError(f"missing key {key!r}", source=source)
 
         # the JSON tables have the columns of the .npz ones; opportunities name their
-        # target and orbit by id
+        # target and orbit by id, contacts their satellite and station
+        specs = NPZ_TABLES | (STATION_TABLES if {"stations", "contacts"} & set(data) else {})
+        for key in specs:
+            if key not in data:
+                raise InputError(f"missing key {key!r}", source=source)
         tables = {
-            t: _table(data[t], t, tuple(k for k, _ in spec), source)
-            for t, spec in NPZ_TABLES.items()
+            t: _table(data[t], t, tuple(k for k, _ in spec), source) for t, spec in specs.items()
         }
-        for t, spec in NPZ_TABLES.items():
+        for t, spec in specs.items():
             for key, kind in spec:
-                if kind != "U" and key not in ("target", "orbit"):
+                if key == "description":
+                    _strings(tables[t][key], t, key, source)
+                elif kind != "U" and key not in ("target", "orbit", "satellite", "station"):
                     _numbers(tables[t][key], t, key, source)
-        targets, orbits, opps = tables.values()
+        targets, orbits, opps = (tables[t] for t in NPZ_TABLES)
         for r, v in enumerate(orbits["satellite"]):
             if not isinstance(v, str):
                 raise InputError(f"orbits[{r}].satellite: expected a string", source=source)
@@ -600,6 +665,11 @@ class Instance:
         for key, table in (("target", targets), ("orbit", orbits)):
             index = {t: i for i, t in enumerate(table["id"])}
             opps[key] = _refs(opps[key], index, "opportunities", key, source)
+        if "stations" in tables:
+            con, ids = tables["contacts"], _ids(tables["stations"]["id"], "stations", source)
+            for key, names in (("satellite", dict.fromkeys(orbits["satellite"])), ("station", ids)):
+                index = {n: i for i, n in enumerate(names)}
+                con[key] = _refs(con[key], index, "contacts", key, source)
         return _from_tables(data, tables, source)
 
     def to_npz_arrays(self) -> dict[str, np.ndarray]:
@@ -749,12 +819,13 @@ def _instance_from_npz(npz: Any, src: str) -> Instance:
         return arr
 
     header = _npz_header(get(NPZ_HEADER), src)
-    expected = {NPZ_HEADER} | {f"{t}.{k}" for t, spec in NPZ_TABLES.items() for k, _ in spec}
+    specs = NPZ_TABLES | (STATION_TABLES if "stations.id" in names else {})
+    expected = {NPZ_HEADER} | {f"{t}.{k}" for t, spec in specs.items() for k, _ in spec}
     extra = sorted(names - expected)
     if extra:
         raise InputError(f"unexpected array {extra[0]!r}", source=src)
-    tables: dict[str, dict[str, np.ndarray]] = {table: {} for table in NPZ_TABLES}
-    for table, spec in NPZ_TABLES.items():
+    tables: dict[str, dict[str, np.ndarray]] = {table: {} for table in specs}
+    for table, spec in specs.items():
         for key, kind in spec:
             full = f"{table}.{key}"
             arr = get(full)
@@ -788,9 +859,12 @@ def _from_tables(
     cols = {
         _attribute(table, k): _as_list(v) if k in ("id", "satellite") else v
         for table, values in tables.items()
+        if table in NPZ_TABLES
         for k, v in values.items()
     }
     return Instance.from_arrays(
+        stations=tables.get("stations"),
+        contacts=tables.get("contacts"),
         epoch=head["epoch"],
         resources={k: cols.pop(k) for k in RESOURCE_KEYS},
         name=head.get("name", ""),
@@ -895,6 +969,54 @@ def _ids(values: Sequence[Any], table: str, source: str | None) -> tuple[str, ..
             raise InputError(f"{table}[{r}].id: duplicate id {s!r}", source=source)
         seen[s] = None
     return tuple(seen)
+
+
+def _station_tables(
+    stations: Mapping[str, Any] | None,
+    contacts: Mapping[str, Any] | None,
+    n_sat: int,
+    source: str | None,
+) -> tuple[tuple[Station, ...], np.ndarray]:
+    """The stations and contact windows of :meth:`Instance.from_arrays`, checked."""
+    con = np.empty(0 if contacts is None else len(contacts["start_s"]), CONTACT_DTYPE)
+    if stations is None or not len(stations["id"]):
+        if len(con):
+            raise InputError("contacts: given without stations", source=source)
+        return (), _readonly(con)
+    ids = _ids(stations["id"], "stations", source)
+    cols = {k: np.asarray(stations[k], dtype=float) for k, _, _ in CSV_COLUMNS}
+    for key, ok, what in CSV_COLUMNS:
+        for r, v in enumerate(cols[key]):
+            if not ok(float(v)):
+                raise InputError(f"stations[{r}].{key}: must be {what}, got {v!r}", source=source)
+    desc = [str(d) for d in stations["description"]]
+    st = tuple(
+        Station(
+            sid,
+            *(float(cols[k][r]) for k, _, _ in CSV_COLUMNS[:4]),
+            antennas=int(cols["antennas"][r]),
+            description=desc[r],
+        )
+        for r, sid in enumerate(ids)
+    )
+    for k in CONTACT_DTYPE.names:
+        con[k] = np.asarray(contacts[k])  # type: ignore[index]
+    for key, n in (("satellite", n_sat), ("station", len(st))):
+        bad = np.flatnonzero((con[key] < 0) | (con[key] >= n))
+        if bad.size:
+            raise InputError(
+                f"contacts[{bad[0]}].{key}: unknown index {con[key][bad[0]]}", source=source
+            )
+    bad = np.flatnonzero(~(con["start_s"] < con["end_s"]) | ~np.isfinite(con["max_elevation_deg"]))
+    if bad.size:
+        raise InputError(f"contacts[{bad[0]}]: need finite start < end", source=source)
+    return st, _readonly(con)
+
+
+def _strings(values: list[Any], table: str, key: str, source: str | None) -> None:
+    for r, v in enumerate(values):
+        if not isinstance(v, str):
+            raise InputError(f"{table}[{r}].{key}: expected a string", source=source)
 
 
 def _refs(

@@ -219,6 +219,30 @@ def test_scenario_region_and_csv(capsys, tmp_path: Path) -> None:
         (["scenario", "C1", "--max-openings", "2.5"], "whole number"),
         (["scenario", "C1", "--slew-rate", "0"], "slew_rate"),
         (["scenario", "C1", "--hours", "-1"], "--hours"),
+        (["scenario", "C1", "--stations", "SG,XX"], "unknown built-in station 'XX'"),
+        (["scenario", "C1", "--stations", "SG,SG"], "repeated built-in station 'SG'"),
+        (["scenario", "C1", "--stations", "{tmp}/st.csv"], "st.csv: line 3: lat_deg must be"),
+        (["scenario", "C1", "--stations", "{tmp}/nost.csv"], "nost.csv"),
+        (
+            [
+                "scenario",
+                "w",
+                "--walker",
+                "2/1/0",
+                "--altitude",
+                "600",
+                "--region",
+                "0",
+                "9",
+                "0",
+                "9",
+                "--targets",
+                "3",
+                "--stations",
+                "{tmp}/st.csv",
+            ],
+            "line 3: lat_deg",
+        ),
     ],
 )
 def test_scenario_bad_input(capsys, tmp_path: Path, argv: list[str], needle: str) -> None:
@@ -228,6 +252,8 @@ def test_scenario_bad_input(capsys, tmp_path: Path, argv: list[str], needle: str
     write(tmp_path, "empty.csv", "")
     write(tmp_path, "nan.csv", "id,lat,lon,weight\nA,nan,100,5\n")
     write(tmp_path, "weight.csv", "id,lat,lon,weight\nA,40,100,-2\n")
+    head = "id,lat_deg,lon_deg,alt_m,min_elevation_deg,antennas\n"
+    write(tmp_path, "st.csv", head + "A,10,20,0,5,1\nB,95,20,0,5,1\n")
     args = [a.format(tmp=tmp_path) for a in argv] + ["-o", str(tmp_path / "out.json")]
     code, _, err = run(capsys, *args)
     assert code == 2, err
@@ -522,3 +548,33 @@ def test_help_texts_say_what_they_mean(capsys) -> None:
             main([cmd, "-h"])
         text = capsys.readouterr().out
         assert "(JSON)" not in text and (cmd != "info" or ".npz" in text), cmd
+
+
+@pytest.mark.parametrize(
+    "kind",
+    [
+        ["C1"],
+        ["x", "--region", "60", "70", "10", "30", "--targets", "5"],
+        ["x", "--targets-csv", "{tmp}/t.csv"],
+        ["C1", "--tle", "{tmp}/sat.tle", "--start", "2006-06-27T00:00:00Z"],
+        ["w", "--walker", "4/2/1", "--altitude", "600", "--targets-csv", "{tmp}/t.csv"],
+    ],
+)
+def test_scenario_stations_in_every_kind_and_info(capsys, tmp_path: Path, kind) -> None:
+    """--stations attaches the stations and their contacts (issue 60); info shows them."""
+    write(tmp_path, "t.csv", "id,lat,lon,weight\nA,65,20,5\n")
+    write(tmp_path, "sat.tle", TLE)
+    out = tmp_path / "s.npz"
+    argv = [a.format(tmp=tmp_path) for a in kind]
+    code, _, err = run(
+        capsys, "scenario", *argv, "--hours", "6", "--stations", "SG,KIR", "-o", str(out)
+    )
+    assert code == 0, err
+    code, text, _ = run(capsys, "info", str(out), "--json")
+    stations = json.loads(text)["stations"]
+    assert [s["id"] for s in stations] == ["SG", "KIR"]
+    assert sum(s["contacts"] for s in stations) > 0 and all(
+        0 <= s["contact_min"] < 6 * 60 for s in stations
+    )
+    code, text, _ = run(capsys, "info", str(out))
+    assert "station       SG " in text and "contacts," in text

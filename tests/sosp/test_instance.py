@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -246,3 +247,95 @@ def test_gzip_files_round_trip_and_large_ones_default_to_columns(
     bad.write_bytes(b"not gzip")
     with pytest.raises(InputError, match="bad.json.gz: cannot read"):
         load_instance(bad)
+
+
+# --------------------------------------------------------------------------- stations (issue 60)
+@pytest.fixture(scope="module")
+def c1() -> Instance:
+    from sosp.scenarios import generate_scenario
+
+    return generate_scenario("C1", 0, hours=3)
+
+
+def test_no_stations_keeps_the_bytes_and_fingerprint_of_before(tmp_path: Path, c1) -> None:
+    """Hashes computed on main before instances carried stations."""
+    import hashlib
+
+    assert c1.stations == () and c1.contacts.shape == (0,)
+    assert c1.fingerprint == (
+        "sha256:3f91ccafcf754170b49c0a9102b2bfb3b4ffc5a3b915e9e0fdb9ee4e7ff48e8a"
+    )
+    for name, digest in (
+        ("c1.json", "0aae2a5d9f65d10e1d130527c8402cb24a8f6be71f31e391a7a3279c49d43078"),
+        ("c1.npz", "7fdb97aada3b03cf0f7e89984316e8f4ac1cf0f1c465d2bbd79b97e6261f4746"),
+    ):
+        c1.save(tmp_path / name)
+        assert hashlib.sha256((tmp_path / name).read_bytes()).hexdigest() == digest
+
+
+@pytest.mark.parametrize("name", ["s.json", "s.npz", "s.json.gz"])
+def test_stations_round_trip(tmp_path: Path, c1, name: str) -> None:
+    from sosp.stations import builtin_stations
+
+    inst = c1.with_stations(builtin_stations()[:3])
+    assert len(inst.contacts) > 0 and set(inst.contacts["station"]) <= {0, 1, 2}
+    assert inst.fingerprint != c1.fingerprint
+    inst.save(tmp_path / name)
+    back = load_instance(tmp_path / name)
+    assert back == inst and back.stations == inst.stations
+    assert back.contacts.tobytes() == inst.contacts.tobytes()
+    assert back.with_stations(()).fingerprint == c1.fingerprint  # schedules cannot tell
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d.pop("contacts"), "missing key 'contacts'"),
+        (lambda d: d["stations"][0].update(lat_deg=95), "stations[0].lat_deg: must be in"),
+        (lambda d: d["stations"][1].update(id=d["stations"][0]["id"]), "stations[1].id: dup"),
+        (lambda d: d["stations"][0].update(description=3), "stations[0].description"),
+        (lambda d: d["contacts"][0].update(station="XX"), "contacts[0].station: unknown"),
+        (lambda d: d["contacts"][0].update(end_s=-1.0), "contacts[0]: need finite start < end"),
+    ],
+)
+def test_bad_stations_in_a_file(c1, edit, message: str) -> None:
+    from sosp.stations import builtin_stations
+
+    d = c1.with_stations(builtin_stations()[:2]).to_dict()
+    edit(d)
+    with pytest.raises(InputError, match=re.escape(message)):
+        Instance.from_dict(d)
+
+
+@pytest.mark.parametrize(
+    ("drop", "change", "message"),
+    [
+        ("contacts.station", None, "missing array 'contacts.station'"),
+        ("stations.id", None, "unexpected array 'contacts.end_s'"),
+        (None, ("contacts.station", 7), "contacts[0].station: unknown index 7"),
+        (None, ("stations.lat_deg", 95.0), "stations[0].lat_deg: must be in [-90, 90]"),
+    ],
+)
+def test_bad_stations_in_a_npz(tmp_path: Path, c1, drop, change, message: str) -> None:
+    from sosp.stations import builtin_stations
+
+    arrays = c1.with_stations(builtin_stations()[:2]).to_npz_arrays()
+    if drop:
+        arrays.pop(drop)
+    if change:
+        arrays[change[0]] = arrays[change[0]].copy()
+        arrays[change[0]][0] = change[1]
+    np.savez(tmp_path / "x.npz", **arrays)
+    with pytest.raises(InputError, match=re.escape(message)):
+        load_instance(tmp_path / "x.npz")
+
+
+def test_stations_change_no_schedule(c1) -> None:
+    """No model uses the stations yet: same seed, same schedule (issue 60)."""
+    from sosp.solve import solve
+    from sosp.stations import builtin_stations
+
+    inst = c1.with_stations(builtin_stations())
+    a, b = (solve(i, "greedy", seed=1).schedule.to_dict(i) for i in (c1, inst))
+    assert a.pop("instance") != b.pop("instance")  # the schedule names its instance
+    assert a == b and a["observations"]
