@@ -9,10 +9,10 @@
   satellites as time-tagged positions with their paths, so Cesium's clock replays the plan.
 
 Satellite paths need the orbits: instances of the built-in satellites name them in
-``meta["satellites"]``, and custom ones (TLE files, Walker constellations) carry their element
-lines in ``meta["tle"]`` (:func:`instance_satellites`). Other instances are exported without
-paths. Positions are geocentric latitude and longitude with a spherical altitude, enough to
-draw. The formats are described in ``docs/formats.md``.
+``meta["satellites"]``, and custom ones (TLE files, Walker constellations) carry their
+element lines in ``meta["tle"]`` (:func:`sosp.orbits.instance_satellites`). Other instances
+are exported without paths. Positions are geocentric latitude and longitude with a
+spherical altitude, enough to draw. The formats are described in ``docs/formats.md``.
 """
 
 from __future__ import annotations
@@ -95,36 +95,16 @@ def _observations(
         yield u, ob, ks, instance.orbit_satellite[ob.orbit], desc
 
 
-def instance_satellites(instance: Instance) -> list[Satellite] | None:
-    """The satellites whose orbits the instance records, or None.
-
-    Built-in satellites are named in ``meta["satellites"]`` (with ``satellite_source``
-    ``"builtin"``); others carry their element lines in ``meta["tle"]`` as
-    ``[name, line1, line2]`` records.
-    """
-    from sosp.errors import InputError
-    from sosp.orbits import builtin_satellites, parse_tle
-
-    meta = dict(instance.meta)
-    try:
-        if meta.get("tle"):
-            text = "".join(f"0 {n}\n{a}\n{b}\n" for n, a, b in meta["tle"])
-            return parse_tle(text, source="instance meta.tle")
-        if meta.get("satellite_source") == "builtin" and meta.get("satellites"):
-            return builtin_satellites(list(meta["satellites"]))
-    except (InputError, TypeError, ValueError, KeyError) as exc:
-        log.warning("the instance's recorded orbits cannot be read (%s): no paths", exc)
-    return None
-
-
 def satellite_paths(
     instance: Instance, step: float = PATH_STEP
 ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
     """Sub-satellite tracks over the horizon: times and ``(n, 3)`` lat, lon, altitude (km).
 
-    None when the instance does not record its orbits (:func:`instance_satellites`).
+    None when the instance does not record its orbits (:func:`sosp.orbits.instance_satellites`).
     """
     import numpy as np
+
+    from sosp.orbits import instance_satellites
 
     sats = instance_satellites(instance)
     if not sats or not instance.n_orbits:
@@ -453,6 +433,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from sosp.errors import InputError
     from sosp.instance import load_instance
     from sosp.io import atomic_write_text, check_output
+    from sosp.orbits import instance_satellites
     from sosp.schedule import load_schedule
 
     check_output(args.output)

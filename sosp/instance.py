@@ -291,8 +291,8 @@ class Instance:
     def with_stations(self, stations: Sequence[Station]) -> Instance:
         """This instance with ground stations and their contact windows with its satellites
         over its horizon (:func:`sosp.stations.contact_windows`, from the orbits the instance
-        records: :func:`sosp.export.instance_satellites`)."""
-        from sosp.export import instance_satellites
+        records: :func:`sosp.orbits.instance_satellites`)."""
+        from sosp.orbits import instance_satellites
         from sosp.stations import contact_windows
 
         sats = instance_satellites(self) if stations else []

@@ -774,3 +774,23 @@ def walker_delta(
         for p in range(planes)
         for s in range(per_plane)
     ]
+
+
+def instance_satellites(instance: Any) -> list[Satellite] | None:
+    """The satellites whose orbits the instance records, or None.
+
+    Built-in satellites are named in ``meta["satellites"]`` (with ``satellite_source``
+    ``"builtin"``); others carry their element lines in ``meta["tle"]`` as
+    ``[name, line1, line2]`` records.
+    """
+
+    meta = dict(instance.meta)
+    try:
+        if meta.get("tle"):
+            text = "".join(f"0 {n}\n{a}\n{b}\n" for n, a, b in meta["tle"])
+            return parse_tle(text, source="instance meta.tle")
+        if meta.get("satellite_source") == "builtin" and meta.get("satellites"):
+            return builtin_satellites(list(meta["satellites"]))
+    except (InputError, TypeError, ValueError, KeyError) as exc:
+        log.warning("the instance's recorded orbits cannot be read (%s): no paths", exc)
+    return None

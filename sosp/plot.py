@@ -102,7 +102,8 @@ def ground_tracks(instance: Instance) -> dict[str, tuple[np.ndarray, np.ndarray]
     """
     import numpy as np
 
-    from sosp.export import instance_satellites, subsatellite_points
+    from sosp.export import subsatellite_points
+    from sosp.orbits import instance_satellites
 
     if not (sats := instance_satellites(instance)):
         return None

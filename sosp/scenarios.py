@@ -253,7 +253,7 @@ def custom_scenario(
         raise InputError("satellites: names must be unique (they make the orbit ids)")
     if meta["satellite_source"] != "builtin":
         # The orbits themselves (the lines read, or the elements written as TLE lines), so
-        # that exports can draw the satellites' paths (:func:`sosp.export.instance_satellites`).
+        # that exports can draw the satellites' paths (:func:`sosp.orbits.instance_satellites`).
         from sgp4.exporter import export_tle
 
         meta["tle"] = [[s.name, *(s.tle or export_tle(s.satrec))] for s in sats]

@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 from sosp.errors import InputError
-from sosp.export import CSV_COLUMNS, export_csv, export_czml, export_kml, instance_satellites
+from sosp.export import CSV_COLUMNS, export_csv, export_czml, export_kml
 from sosp.instance import Instance
-from sosp.orbits import utc_at
+from sosp.orbits import instance_satellites, utc_at
 from sosp.scenarios import custom_scenario, generate_scenario
 from sosp.schedule import Schedule, load_schedule, make_observation
 from sosp.solve import solve
