@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import csv
 import gzip
 import json
 import math
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -143,3 +144,74 @@ def read_json(path: str | os.PathLike[str]) -> Any:
 def is_finite_number(value: Any) -> bool:
     """True for an int or float (not bool) that is finite."""
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+#: A numeric column of a CSV table: its name, a test of its values and what the error says
+#: they must be (the test must refuse NaN: comparisons do).
+Column = tuple[str, Callable[[float], bool], str]
+
+
+def read_id_table(
+    path: str | os.PathLike[str], columns: Sequence[Column], rows_are: str, comments: bool = False
+) -> list[tuple[int, str, dict[str, float], dict[str, str]]]:
+    """The rows of a CSV table with a header, an ``id`` column and numeric ``columns`` (any
+    order; other columns kept as text): per row its line (1-based, blank lines counted), its
+    id, its numbers and all its fields. Blank lines are skipped, and with ``comments`` lines
+    whose first field starts with ``#``. The targets and the stations files read through it.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the line and the field: an empty file, a column missing from the
+        header, a row of the wrong length, an empty or duplicate id, a value that is not a
+        number or fails its test, no row after the header (``rows_are`` names the rows).
+    """
+    src = str(Path(path))
+    names = ("id", *(k for k, _, _ in columns))
+    expect = f"the header {','.join(names)}"
+    lines = csv.reader(read_text(path, encoding="utf-8-sig").splitlines())
+    numbered = [
+        (i + 1, r)
+        for i, r in enumerate(lines)
+        if any(c.strip() for c in r) and not (comments and r[0].lstrip().startswith("#"))
+    ]
+    if not numbered:
+        raise InputError(f"empty file: expected {expect}", source=src)
+    hline, header = numbered[0]
+    cols = [c.strip().lower() for c in header]
+    if missing := [c for c in names if c not in cols]:
+        raise InputError(
+            f"line {hline}: header lacks {', '.join(missing)} (expected {','.join(names)})",
+            source=src,
+        )
+    seen: dict[str, int] = {}
+    out = []
+    for lineno, row in numbered[1:]:
+        if len(row) != len(cols):
+            raise InputError(
+                f"line {lineno}: expected {len(cols)} fields, got {len(row)}", source=src
+            )
+        field = dict(zip(cols, (c.strip() for c in row), strict=True))
+        if not (rid := field["id"]):
+            raise InputError(f"line {lineno}: empty id", source=src)
+        if rid in seen:
+            raise InputError(
+                f"line {lineno}: duplicate id {rid!r} (first on line {seen[rid]})", source=src
+            )
+        seen[rid] = lineno
+        values = {}
+        for key, ok, what in columns:
+            try:
+                values[key] = float(field[key])
+            except ValueError:
+                raise InputError(
+                    f"line {lineno}: {key} is not a number: {field[key]!r}", source=src
+                ) from None
+            if not ok(values[key]):
+                raise InputError(
+                    f"line {lineno}: {key} must be {what}, got {field[key]!r}", source=src
+                )
+        out.append((lineno, rid, values, field))
+    if not out:
+        raise InputError(f"no {rows_are} after the header", source=src)
+    return out

@@ -13,7 +13,6 @@ Everything is deterministic for a given name and seed: the one random generator 
 
 from __future__ import annotations
 
-import csv
 import logging
 import math
 import os
@@ -28,7 +27,7 @@ import numpy as np
 
 from sosp.errors import InputError
 from sosp.instance import MAX_WEIGHT, OPP_KEYS, Instance, Resources
-from sosp.io import read_text
+from sosp.io import Column, read_id_table
 from sosp.orbits import (
     Satellite,
     builtin_satellites,
@@ -53,10 +52,14 @@ REGIONS: dict[str, tuple[float, float, float, float]] = {
 
 #: The numbers of a target CSV row, their ranges and what the error says they must be
 #: (:func:`read_targets_csv`; a weight must also be an integer).
-CSV_RANGES = (
-    ("lat", -90.0, 90.0, "a finite number in [-90, 90]"),
-    ("lon", -180.0, 360.0, "a finite number in [-180, 360]"),
-    ("weight", 0, MAX_WEIGHT, f"an integer in [0, {MAX_WEIGHT:.0e}]"),
+CSV_RANGES: tuple[Column, ...] = (
+    ("lat", lambda x: -90.0 <= x <= 90.0, "a finite number in [-90, 90]"),
+    ("lon", lambda x: -180.0 <= x <= 360.0, "a finite number in [-180, 360]"),
+    (
+        "weight",
+        lambda x: 0 <= x <= MAX_WEIGHT and x.is_integer(),
+        f"an integer in [0, {MAX_WEIGHT:.0e}]",
+    ),
 )
 
 #: Target weights: integers uniform in [2, 10] (inclusive).
@@ -345,49 +348,6 @@ def read_targets_csv(
     InputError
         Naming the file and the line (1-based, the header is line 1) and field at fault.
     """
-    src = str(Path(path))
-    rows = list(csv.reader(read_text(path, encoding="utf-8-sig").splitlines()))
-    numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
-    if not numbered:
-        raise InputError("empty file: expected the header id,lat,lon,weight", source=src)
-    hline, header = numbered[0]
-    cols = [c.strip().lower() for c in header]
-    missing = [c for c in ("id", "lat", "lon", "weight") if c not in cols]
-    if missing:
-        raise InputError(
-            f"line {hline}: header lacks {', '.join(missing)} (expected id,lat,lon,weight)",
-            source=src,
-        )
-    ix = {c: cols.index(c) for c in ("id", "lat", "lon", "weight")}
-    seen: dict[str, int] = {}  # the ids, in file order, and their lines
-    rows: list[list[float]] = []
-    for lineno, row in numbered[1:]:
-        if len(row) != len(cols):
-            raise InputError(
-                f"line {lineno}: expected {len(cols)} fields, got {len(row)}", source=src
-            )
-        tid = row[ix["id"]].strip()
-        if not tid:
-            raise InputError(f"line {lineno}: empty id", source=src)
-        if tid in seen:
-            raise InputError(
-                f"line {lineno}: duplicate id {tid!r} (first on line {seen[tid]})", source=src
-            )
-        seen[tid] = lineno
-        values = []
-        for key, lo, hi, what in CSV_RANGES:
-            raw = row[ix[key]].strip()
-            try:
-                val = float(raw)
-            except ValueError:
-                raise InputError(
-                    f"line {lineno}: {key} is not a number: {raw!r}", source=src
-                ) from None
-            if not (lo <= val <= hi and (key != "weight" or val.is_integer())):  # NaN too
-                raise InputError(f"line {lineno}: {key} must be {what}, got {raw!r}", source=src)
-            values.append(val)
-        rows.append(values)
-    if not rows:
-        raise InputError("no targets after the header", source=src)
-    lat, lon, weight = (np.array(col) for col in zip(*rows, strict=True))
-    return list(seen), lat, lon, weight.astype(np.int64)
+    rows = read_id_table(path, CSV_RANGES, "targets")
+    lat, lon, weight = (np.array([r[2][k] for r in rows]) for k, _, _ in CSV_RANGES)
+    return [r[1] for r in rows], lat, lon, weight.astype(np.int64)

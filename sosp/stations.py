@@ -21,7 +21,6 @@ low orbits), found by golden-section search.
 
 from __future__ import annotations
 
-import csv
 import functools
 import logging
 import math
@@ -34,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from sosp.errors import InputError
-from sosp.io import read_text
+from sosp.io import Column, read_id_table
 from sosp.orbits import Satellite, ephemeris_grids
 from sosp.visibility import geodetic_to_ecef, geodetic_up
 
@@ -72,7 +71,7 @@ class Station:
 
 #: The numeric columns of a stations CSV file (named as the :class:`Station` fields), a test
 #: of their values and what the error says they must be.
-CSV_COLUMNS: tuple[tuple[str, Callable[[float], bool], str], ...] = (
+CSV_COLUMNS: tuple[Column, ...] = (
     ("lat_deg", lambda x: -90.0 <= x <= 90.0, "in [-90, 90]"),
     ("lon_deg", lambda x: -180.0 <= x <= 360.0, "in [-180, 360]"),
     ("alt_m", lambda x: -500.0 <= x <= 10000.0, "in [-500, 10000]"),
@@ -96,52 +95,15 @@ def read_stations(path: str | os.PathLike[str]) -> tuple[Station, ...]:
         missing column, a value that is not a number or out of its range
         (:data:`CSV_COLUMNS`), an empty or duplicate id, no station at all.
     """
-    src = str(Path(path))
-    rows = [
-        (i + 1, next(csv.reader([line])))
-        for i, line in enumerate(read_text(path, encoding="utf-8-sig").splitlines())
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not rows:
-        raise InputError("empty file: expected a header line", source=src)
-    hline, header = rows[0]
-    cols = [c.strip().lower() for c in header]
-    missing = [c for c in ("id", *(k for k, _, _ in CSV_COLUMNS)) if c not in cols]
-    if missing:
-        raise InputError(f"line {hline}: header lacks {', '.join(missing)}", source=src)
-    seen: dict[str, int] = {}
-    stations = []
-    for lineno, row in rows[1:]:
-        if len(row) != len(cols):
-            raise InputError(
-                f"line {lineno}: expected {len(cols)} fields, got {len(row)}", source=src
-            )
-        field = dict(zip(cols, (c.strip() for c in row), strict=True))
-        sid = field["id"]
-        if not sid:
-            raise InputError(f"line {lineno}: empty id", source=src)
-        if sid in seen:
-            raise InputError(
-                f"line {lineno}: id: duplicate {sid!r} (first on line {seen[sid]})", source=src
-            )
-        seen[sid] = lineno
-        values = {}
-        for key, ok, what in CSV_COLUMNS:
-            try:
-                values[key] = float(field[key])
-            except ValueError:
-                raise InputError(
-                    f"line {lineno}: {key} is not a number: {field[key]!r}", source=src
-                ) from None
-            if not ok(values[key]):  # NaN fails every test
-                raise InputError(
-                    f"line {lineno}: {key} must be {what}, got {field[key]!r}", source=src
-                )
-        values["antennas"] = int(values["antennas"])
-        stations.append(Station(sid, **values, description=field.get("description", "")))
-    if not stations:
-        raise InputError("no stations after the header", source=src)
-    return tuple(stations)
+    rows = read_id_table(path, CSV_COLUMNS, "stations", comments=True)
+    return tuple(
+        Station(
+            sid,
+            **{**values, "antennas": int(values["antennas"])},
+            description=f.get("description", ""),
+        )
+        for _, sid, values, f in rows
+    )
 
 
 @functools.cache

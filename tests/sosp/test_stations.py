@@ -52,7 +52,7 @@ def test_reads_a_good_file(tmp_path):
         ("B,north,0,0,5,1,x", "line 4: lat_deg is not a number: 'north'"),
         ("B,nan,0,0,5,1,x", "line 4: lat_deg must be"),
         ("B,0,,0,5,1,x", "line 4: lon_deg is not a number: ''"),
-        ("A,0,0,0,5,1,x", "line 4: id: duplicate 'A' (first on line 3)"),
+        ("A,0,0,0,5,1,x", "line 4: duplicate id 'A' (first on line 3)"),
         (",0,0,0,5,1,x", "line 4: empty id"),
         ("B,0,0,0,5,1", "line 4: expected 7 fields, got 6"),
     ],
