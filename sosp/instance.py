@@ -295,17 +295,16 @@ class Instance:
         from sosp.orbits import instance_satellites
         from sosp.stations import contact_windows
 
-        sats = instance_satellites(self) if stations else []
-        if sats is None or (stations and not self.n_orbits):
+        if not stations:
+            return replace(self, stations=(), contacts=_readonly(np.empty(0, CONTACT_DTYPE)))
+        if not self.n_orbits or (sats := instance_satellites(self)) is None:
             raise InputError("--stations: the instance does not record its satellites' orbits")
-        c = np.empty(0, CONTACT_DTYPE)
-        if stations:
-            c = contact_windows(
-                sats, stations, self.epoch, self.orbit_start.min(), self.orbit_end.max()
-            )
-            row = {n: i for i, n in enumerate(self.satellite_names)}
-            c["satellite"] = np.array([row[s.name] for s in sats], np.int64)[c["satellite"]]
-            c = c[np.lexsort((c["start_s"], c["station"], c["satellite"]))]
+        c = contact_windows(
+            sats, stations, self.epoch, self.orbit_start.min(), self.orbit_end.max()
+        )
+        row = {n: i for i, n in enumerate(self.satellite_names)}
+        c["satellite"] = np.array([row[s.name] for s in sats], np.int64)[c["satellite"]]
+        c = c[np.lexsort((c["start_s"], c["station"], c["satellite"]))]
         return replace(self, stations=tuple(stations), contacts=_readonly(c))
 
     @cached_property
