@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from sosp.downlink import DownlinkParams
 from sosp.errors import InputError
 from sosp.io import (
     atomic_output,
@@ -232,6 +233,7 @@ class Instance:
     meta: Mapping[str, Any] = field(default_factory=dict)
     stations: tuple[Station, ...] = ()
     contacts: np.ndarray = field(default_factory=lambda: np.empty(0, CONTACT_DTYPE))
+    downlink: DownlinkParams = field(default_factory=DownlinkParams)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -288,15 +290,18 @@ class Instance:
         """The satellites of the orbits, in order of first appearance."""
         return tuple(dict.fromkeys(self.orbit_satellite))
 
-    def with_stations(self, stations: Sequence[Station]) -> Instance:
-        """This instance with ground stations and their contact windows with its satellites
+    def with_stations(
+        self, stations: Sequence[Station], downlink: DownlinkParams | None = None
+    ) -> Instance:
+        """This instance with ground stations, their contact windows with its satellites
         over its horizon (:func:`sosp.stations.contact_windows`, from the orbits the instance
-        records: :func:`sosp.orbits.instance_satellites`)."""
+        records: :func:`sosp.orbits.instance_satellites`) and how data is sent to them
+        (``downlink``, :class:`~sosp.downlink.DownlinkParams` defaults when None)."""
         from sosp.orbits import instance_satellites
         from sosp.stations import contact_windows
 
         if not stations:
-            return replace(self, stations=(), contacts=_readonly(np.empty(0, CONTACT_DTYPE)))
+            return self.without_stations()
         if not self.n_orbits or (sats := instance_satellites(self)) is None:
             raise InputError("--stations: the instance does not record its satellites' orbits")
         c = contact_windows(
@@ -305,7 +310,16 @@ class Instance:
         row = {n: i for i, n in enumerate(self.satellite_names)}
         c["satellite"] = np.array([row[s.name] for s in sats], np.int64)[c["satellite"]]
         c = c[np.lexsort((c["start_s"], c["station"], c["satellite"]))]
-        return replace(self, stations=tuple(stations), contacts=_readonly(c))
+        return replace(
+            self, stations=tuple(stations), contacts=_readonly(c),
+            downlink=downlink or DownlinkParams(),
+        )  # fmt: skip
+
+    def without_stations(self) -> Instance:
+        """This instance without ground stations: the paper's problem, weights counted when
+        observed and memory reset per orbit (5)."""
+        empty = _readonly(np.empty(0, CONTACT_DTYPE))
+        return replace(self, stations=(), contacts=empty, downlink=DownlinkParams())
 
     @cached_property
     def observable_targets(self) -> int:
@@ -377,14 +391,16 @@ class Instance:
         source: str | None = None,
         stations: Mapping[str, Any] | None = None,
         contacts: Mapping[str, Any] | None = None,
+        downlink: DownlinkParams | Mapping[str, Any] | None = None,
     ) -> Instance:
         """Build and validate an instance from columns.
 
         ``resources`` is a :class:`Resources` applied to every orbit, or a mapping from each
         key of :data:`RESOURCE_KEYS` to a scalar or a per-orbit array. ``stations`` and
-        ``contacts`` are the columns of :data:`STATION_TABLES`, rows by index. ``opp_target`` and
-        ``opp_orbit`` are integer indices. Opportunities are sorted by (orbit, start, end);
-        missing ``opp_ids`` become ``"o1"``, ``"o2"``, ... in that order.
+        ``contacts`` are the columns of :data:`STATION_TABLES`, rows by index; ``downlink``
+        (with stations only) a :class:`~sosp.downlink.DownlinkParams` or its dict.
+        ``opp_target`` and ``opp_orbit`` are integer indices. Opportunities are sorted by
+        (orbit, start, end); missing ``opp_ids`` become ``"o1"``, ``"o2"``, ... in that order.
 
         Raises
         ------
@@ -491,9 +507,17 @@ class Instance:
             pid = tuple(pid[i] for i in order)
         sat_names = tuple(dict.fromkeys(sat))
         st, ct = _station_tables(stations, contacts, len(sat_names), source)
+        if downlink is not None and not isinstance(downlink, DownlinkParams):
+            if not st:
+                raise InputError("downlink: given without stations", source=source)
+            try:
+                downlink = DownlinkParams.from_dict(downlink)
+            except InputError as e:
+                raise InputError(str(e), source=source) from None
         return cls(
             stations=st,
             contacts=ct,
+            downlink=downlink or DownlinkParams(),
             epoch=epoch,
             target_ids=tid,
             target_lat=_readonly(lat),
@@ -607,6 +631,7 @@ class Instance:
             "name": self.name,
             "epoch": self.epoch,
             "meta": dict(self.meta),
+            **({"downlink": self.downlink.to_dict()} if self.stations else {}),
         }
 
     def to_dict(self, layout: str = "records") -> dict[str, Any]:
@@ -864,6 +889,7 @@ def _from_tables(
     return Instance.from_arrays(
         stations=tables.get("stations"),
         contacts=tables.get("contacts"),
+        downlink=head.get("downlink"),
         epoch=head["epoch"],
         resources={k: cols.pop(k) for k in RESOURCE_KEYS},
         name=head.get("name", ""),

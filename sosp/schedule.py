@@ -19,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from sosp import rules
+from sosp.downlink import Downlink
 from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.io import atomic_write_json, is_finite_number, read_json
@@ -104,6 +105,9 @@ class Schedule:
         How the solve that made it ended (``optimal``, ``feasible``, ``time_limit``,
         ``interrupted``, ...) and the upper bound it proved, when known: a file read later
         says whether its schedule is proven, cut short or stopped.
+    downlinks
+        Sorted by (satellite, start): the data sent to ground stations (instances with
+        stations only, :mod:`sosp.downlink`).
     """
 
     observations: tuple[Observation, ...] = ()
@@ -114,10 +118,13 @@ class Schedule:
     fingerprint: str | None = None
     status: str | None = None
     bound: float | None = None
+    downlinks: tuple[Downlink, ...] = ()
 
     def __post_init__(self) -> None:
         obs = tuple(sorted(self.observations, key=lambda o: (o.orbit, o.start, o.end, o.opps)))
         object.__setattr__(self, "observations", obs)
+        dls = tuple(sorted(self.downlinks, key=lambda d: (d.satellite, d.start, d.station)))
+        object.__setattr__(self, "downlinks", dls)
 
     def __len__(self) -> int:
         return len(self.observations)
@@ -161,7 +168,9 @@ class Schedule:
                 }
                 for o in self.observations
             ],
-        }
+            **({"downlinks": [_downlink_record(instance, d)
+                              for d in self.downlinks]} if self.downlinks else {}),
+        }  # fmt: skip
 
     @classmethod
     def from_dict(cls, data: Any, instance: Instance, source: str | None = None) -> Schedule:
@@ -252,11 +261,73 @@ class Schedule:
             raise InputError("status: expected a string or null", source=source)
         if bound is not None and not is_finite_number(bound):
             raise InputError("bound: expected a number or null", source=source)
-        return cls(tuple(obs), method, params, seed, profit, instance.fingerprint, status, bound)
+        dls = _read_downlinks(data.get("downlinks", []), instance, source)
+        return cls(
+            tuple(obs), method, params, seed, profit, instance.fingerprint, status, bound, dls
+        )
 
     def save(self, path: str | os.PathLike[str], instance: Instance) -> None:
         """Write the schedule file atomically."""
         atomic_write_json(path, self.to_dict(instance))
+
+
+def _downlink_record(instance: Instance, d: Downlink) -> dict[str, Any]:
+    from sosp.orbits import utc_at
+
+    return {
+        "satellite": instance.satellite_names[d.satellite],
+        "station": instance.stations[d.station].id,
+        "start": d.start,
+        "end": d.end,
+        "start_utc": utc_at(instance.epoch, d.start),
+        "end_utc": utc_at(instance.epoch, d.end),
+        "volume": d.volume,
+        "data": [{"opportunity": instance.opp_ids[i], "volume": v} for i, v in d.parts],
+    }
+
+
+def _read_downlinks(rows: Any, instance: Instance, source: str | None) -> tuple[Downlink, ...]:
+    """The ``downlinks`` of a schedule file (``start_utc``, ``end_utc`` and ``volume`` are
+    for people: the seconds and the parts are the reference)."""
+    if not isinstance(rows, list):
+        raise InputError("downlinks: expected a list", source=source)
+    sats = {n: i for i, n in enumerate(instance.satellite_names)}
+    stations = {s.id: i for i, s in enumerate(instance.stations)}
+    out = []
+    for r, rec in enumerate(rows):
+        where = f"downlinks[{r}]"
+
+        def bad(msg: str, where: str = where) -> InputError:
+            return InputError(f"{where}{msg}", source=source)
+
+        if not isinstance(rec, dict):
+            raise bad(": expected an object")
+        for key in ("satellite", "station", "start", "end", "data"):
+            if key not in rec:
+                raise bad(f": missing key {key!r}")
+        for key in ("start", "end"):
+            if not is_finite_number(rec[key]):
+                raise bad(f".{key}: expected a finite number, got {rec[key]!r}")
+        s, g = sats.get(rec["satellite"]), stations.get(rec["station"])
+        if s is None:
+            raise bad(f".satellite: unknown satellite {rec['satellite']!r}")
+        if g is None:
+            raise bad(f".station: unknown station {rec['station']!r}")
+        if not isinstance(rec["data"], list):
+            raise bad(".data: expected a list")
+        parts = []
+        for n, part in enumerate(rec["data"]):
+            at = f"{where}.data[{n}]"
+            if not isinstance(part, dict) or set(part) != {"opportunity", "volume"}:
+                raise bad(": expected {opportunity, volume}", at)
+            i = instance.opp_index.get(str(part["opportunity"]))
+            if i is None:
+                raise bad(f".opportunity: unknown opportunity {part['opportunity']!r}", at)
+            if not is_finite_number(part["volume"]):
+                raise bad(".volume: expected a finite number", at)
+            parts.append((i, float(part["volume"])))
+        out.append(Downlink(s, g, float(rec["start"]), float(rec["end"]), tuple(parts)))
+    return tuple(out)
 
 
 class Items(Protocol):

@@ -23,7 +23,7 @@ import numpy as np
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance
 from sosp.parallel import Workers, check_workers
-from sosp.pipeline import certify, improve
+from sosp.pipeline import BOUND_SHARE, certify, improve
 from sosp.progress import Progress, reporting
 from sosp.registry import (
     CERTIFYING_BOUNDS,
@@ -124,6 +124,11 @@ def solve(
     from sosp.methods import check_params
 
     check_params(method, params)
+    if instance.stations:
+        return _with_stations(
+            instance, method, seed=seed, time_limit=time_limit, check=check, progress=progress,
+            bound=bound, bound_workers=bound_workers, **params,
+        )  # fmt: skip
     rng = np.random.default_rng(int(seed))
     from sosp.planner import kernels_within
 
@@ -181,6 +186,58 @@ def solve(
         result = certify(instance, result, bound, budget.left(), bound_workers)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
     # the file written from the schedule says how the solve ended, and what it proved
+    return replace(
+        result,
+        schedule=replace(result.schedule, status=result.status.value, bound=result.bound),
+    )
+
+
+def _with_stations(
+    instance: Instance,
+    method: str,
+    *,
+    time_limit: float | None,
+    check: bool,
+    bound: str | None,
+    bound_workers: Workers,
+    **kwargs: Any,
+) -> Result:
+    """:func:`solve` on an instance with ground stations (``docs/model.md``, "How the
+    methods plan downlinks"): ``method`` plans the observations within the memory
+    allowances of :func:`sosp.downlink.search_instance`, :func:`sosp.downlink.deliver` plans
+    their downlinks and drops what cannot fly, and ``bound`` is computed on
+    :func:`sosp.downlink.relaxed_instance`, a relaxation of the problem with stations."""
+    from sosp.downlink import deliver, relaxed_instance, search_instance
+
+    t0 = time.perf_counter()
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
+    own = budget.share(1.0 - BOUND_SHARE) if bound is not None else budget
+    inner = solve(search_instance(instance), method, time_limit=own.left(), check=check, **kwargs)
+    obs, downlinks = deliver(instance, inner.schedule.observations)
+    schedule = replace(inner.schedule, observations=obs, downlinks=tuple(downlinks))
+    profit, observed = schedule.coverage_profit(instance)
+    status = inner.status
+    if status is Status.OPTIMAL:  # optimal for the allowances, a restriction
+        status = Status.FEASIBLE
+    if profit >= instance.observable_weight - 1e-6:
+        status = Status.OPTIMAL
+    result = replace(
+        inner, schedule=replace(schedule, profit=profit, fingerprint=instance.fingerprint),
+        profit=profit, observed=observed, status=status,
+        bound=instance.observable_weight if status is Status.OPTIMAL else None,
+        stats={**inner.stats, "search_profit": inner.profit},
+    )  # fmt: skip
+    if check:
+        report = validate(instance, result.schedule)
+        if not report.feasible:
+            first = report.violations[0]
+            raise SolverError(
+                f"{method} with stations: infeasible schedule ({len(report.violations)} "
+                f"violations; first: ({first.constraint}) {first.message})"
+            )
+    if bound is not None:
+        result = certify(relaxed_instance(instance), result, bound, budget.left(), bound_workers)
+    result = replace(result, runtime_s=time.perf_counter() - t0)
     return replace(
         result,
         schedule=replace(result.schedule, status=result.status.value, bound=result.bound),

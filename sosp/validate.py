@@ -16,6 +16,10 @@ solver. It checks, as ``docs/model.md`` states:
 * (11) ``te_u - ts_u <= Delta T``;
 * the claimed profit, when the schedule states one, equals the recomputed objective (1).
 
+With ground stations, it also checks the downlinks, D1-D8 of ``docs/model.md``: (5) per orbit
+gives way to the satellite's store (D5), downlink seconds cost energy in (4) (D7), and a
+target's weight counts once all the data of its observation is on the ground (D8).
+
 Comparisons allow :data:`TOL` of slack for floating-point rounding.
 """
 
@@ -24,6 +28,8 @@ from __future__ import annotations
 from collections import defaultdict
 from dataclasses import asdict, dataclass, field
 from typing import Any
+
+import numpy as np
 
 from sosp.instance import Instance
 from sosp.schedule import Schedule
@@ -80,6 +86,7 @@ class ValidationReport:
     energy: float
     memory: float
     orbits: list[OrbitUsage] = field(default_factory=list)
+    downlink: dict[str, Any] | None = None
 
     @property
     def profit_per_energy(self) -> float:
@@ -100,6 +107,7 @@ class ValidationReport:
             "profit_per_memory": self.profit_per_memory,
             "violations": [asdict(v) for v in self.violations],
             "orbits": [asdict(u) for u in self.orbits if u.openings],
+            **({"downlink": self.downlink} if self.downlink is not None else {}),
         }
 
 
@@ -198,8 +206,12 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                 )
             else:
                 seen_target[k] = u
-                profit += float(inst.target_weight[k])
 
+    down = _downlinks(inst, schedule, flag) if inst.stations else None
+    worth = seen_target
+    if down is not None and inst.downlink.count == "delivered":
+        worth = {k: u for k, u in seen_target.items() if u in down["delivered_obs"]}
+    profit = sum((float(inst.target_weight[k]) for k in sorted(worth)), 0.0)
     usage: list[OrbitUsage] = []
     for j in sorted(by_orbit):
         oid = inst.orbit_ids[j]
@@ -228,11 +240,13 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         energy = (
             float(inst.observe_energy_rate[j]) * observe + float(inst.slew_energy_rate[j]) * slew
         )
+        if down is not None:  # D7: downlink seconds in this orbit
+            energy += inst.downlink.energy_rate * down["orbit_seconds"].get(j, 0.0)
         memory = float(inst.memory_rate[j]) * observe
         usage.append(OrbitUsage(oid, len(seq), observe, slew, energy, memory))
         for rule, what, used, cap in (
             ("4", "energy", energy, inst.energy_capacity[j]),
-            ("5", "memory", memory, inst.memory_capacity[j]),
+            *(() if down is not None else (("5", "memory", memory, inst.memory_capacity[j]),)),
         ):
             if used - float(cap) > TOL:  # (4), (5)
                 msg = f"orbit {oid}: {what} {used:.6g} > capacity {cap:g}"
@@ -251,6 +265,25 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
             f"claimed profit {schedule.profit:g} differs from the recomputed profit {profit:g}",
             amount=abs(float(schedule.profit) - profit),
         )
+    if down is not None:
+        for j, sec in down.pop("orbit_seconds").items():  # D7 in orbits with no observation
+            if (
+                j not in by_orbit
+                and inst.downlink.energy_rate * sec > inst.energy_capacity[j] + TOL
+            ):
+                e = inst.downlink.energy_rate * sec
+                oid = inst.orbit_ids[j]
+                flag(
+                    "4",
+                    f"orbit {oid}: energy {e:.6g} > capacity {inst.energy_capacity[j]:g}",
+                    amount=e - float(inst.energy_capacity[j]),
+                    orbit=oid,
+                )
+        delivered = down.pop("delivered_obs")
+        down["observed_profit"] = sum(float(inst.target_weight[k]) for k in sorted(seen_target))
+        down["delivered_profit"] = sum(
+            float(inst.target_weight[k]) for k, u in sorted(seen_target.items()) if u in delivered
+        )
     return ValidationReport(
         feasible=not out,
         violations=out,
@@ -259,4 +292,174 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
         energy=sum((u.energy for u in usage), 0.0),  # in orbit order, as checked
         memory=sum((u.memory for u in usage), 0.0),
         orbits=usage,
+        downlink=down,
     )
+
+
+def _downlinks(inst: Instance, schedule: Schedule, flag: Any) -> dict[str, Any]:
+    """Check the downlinks (D1-D8 of ``docs/model.md``) and measure them: which observations
+    are delivered, downlink seconds per orbit (for (4)), latency, what is left on board, the
+    store's peak per satellite and each station's use."""
+    par, obs = inst.downlink, schedule.observations
+    sat_row = {n: i for i, n in enumerate(inst.satellite_names)}
+    orbit_sat = [sat_row[s] for s in inst.orbit_satellite]
+    of_opp = {i: u for u, ob in enumerate(obs) for i in ob.opps}
+    vol = [float(inst.memory_rate[ob.orbit]) * (ob.end - ob.start) for ob in obs]
+    sent = [0.0] * len(obs)
+    done_at = [0.0] * len(obs)
+    orbit_seconds: dict[int, float] = defaultdict(float)
+    passes: dict[tuple[int, int, int], list[float]] = {}
+    by_sat: dict[int, list[int]] = defaultdict(list)
+    con = inst.contacts
+    for n, d in enumerate(schedule.downlinks):
+        at = {"observation": None}
+        if not (0 <= d.satellite < len(inst.satellite_names)) or not (
+            0 <= d.station < len(inst.stations)
+        ):
+            flag("structure", f"downlink {n}: unknown satellite or station", **at)
+            continue
+        sname = inst.satellite_names[d.satellite]
+        if not d.end > d.start:
+            flag("structure", f"downlink {n}: start must be < end", **at)
+            continue
+        by_sat[d.satellite].append(n)
+        # D1: inside one contact window of its satellite and station
+        inside = np.flatnonzero(
+            (con["satellite"] == d.satellite)
+            & (con["station"] == d.station)
+            & (con["start_s"] <= d.start + TOL)
+            & (d.end <= con["end_s"] + TOL)
+        )
+        if not inside.size:
+            flag(
+                "D1",
+                f"downlink {n}: {sname} is not in contact with station "
+                f"{inst.stations[d.station].id} over [{d.start:.6g}, {d.end:.6g}]",
+            )
+        else:
+            span = passes.setdefault((d.station, d.satellite, int(inside[0])), [d.start, d.end])
+            span[0], span[1] = min(span[0], d.start), max(span[1], d.end)
+        # D3: at most the rate
+        if d.volume > par.rate * (d.end - d.start) + TOL:
+            flag(
+                "D3",
+                f"downlink {n}: volume {d.volume:.6g} > rate x duration "
+                f"{par.rate * (d.end - d.start):.6g}",
+                amount=d.volume - par.rate * (d.end - d.start),
+            )
+        # D2: data of an observation of this satellite, ended before the downlink starts
+        for i, v in d.parts:
+            u = of_opp.get(i)
+            if u is None or orbit_sat[obs[u].orbit] != d.satellite:
+                flag(
+                    "D2",
+                    f"downlink {n}: no observation of {sname} covers opportunity "
+                    f"{inst.opp_ids[i] if 0 <= i < inst.n_opps else i}",
+                )
+                continue
+            if not v > 0:
+                flag("D2", f"downlink {n}: volume {v:g} of observation {u} must be > 0")
+            if obs[u].end > d.start + TOL:
+                flag(
+                    "D2",
+                    f"downlink {n} starts at {d.start:.6g} before observation {u} ends "
+                    f"({obs[u].end:.6g})",
+                    amount=obs[u].end - d.start,
+                    observation=u,
+                )
+            sent[u] += v
+            done_at[u] = max(done_at[u], d.end)
+        # (4) D7: its seconds in each orbit of its satellite
+        for j in np.flatnonzero(np.array(orbit_sat) == d.satellite):
+            lap = min(d.end, inst.orbit_end[j]) - max(d.start, inst.orbit_start[j])
+            if lap > 0:
+                orbit_seconds[int(j)] += float(lap)
+    for u in range(len(obs)):
+        if sent[u] > vol[u] + TOL:  # D2: no more than it made
+            flag(
+                "D2",
+                f"observation {u}: {sent[u]:.6g} sent > {vol[u]:.6g} observed",
+                amount=sent[u] - vol[u],
+                observation=u,
+            )
+    # D4: one downlink at a time per satellite, and not while observing unless allowed
+    for s, ns in by_sat.items():
+        ds = sorted((schedule.downlinks[n] for n in ns), key=lambda d: d.start)
+        for a, b in zip(ds, ds[1:], strict=False):
+            if b.start < a.end - TOL:
+                flag(
+                    "D4",
+                    f"{inst.satellite_names[s]}: downlinks overlap at {b.start:.6g}",
+                    amount=a.end - b.start,
+                )
+        if not par.while_observing:
+            for d in ds:
+                for u, ob in enumerate(obs):
+                    if (
+                        orbit_sat[ob.orbit] == s
+                        and min(d.end, ob.end) - max(d.start, ob.start) > TOL
+                    ):
+                        flag(
+                            "D4",
+                            f"{inst.satellite_names[s]}: downlink at {d.start:.6g} "
+                            f"while observing (observation {u})",
+                            observation=u,
+                        )
+    # D6: each pass holds an antenna from its first downlink to its last plus the set-up
+    for g, st in enumerate(inst.stations):
+        spans = sorted(
+            (a, b + par.station_setup_s) for (h, _, _), (a, b) in passes.items() if h == g
+        )
+        ends: list[float] = []
+        for a, b in spans:
+            ends = [e for e in ends if e > a + TOL] + [b]
+            if len(ends) > st.antennas:
+                flag(
+                    "D6",
+                    f"station {st.id}: {len(ends)} passes at {a:.6g} s on "
+                    f"{st.antennas} antenna(s), set-up {par.station_setup_s:g} s included",
+                    amount=float(len(ends) - st.antennas),
+                )
+    # D5: the store at each observation's end (data in at ends, out evenly over a downlink)
+    peak: dict[str, float] = {}
+    for s in range(len(inst.satellite_names)):
+        mine = sorted(
+            (u for u, ob in enumerate(obs) if orbit_sat[ob.orbit] == s), key=lambda u: obs[u].end
+        )
+        dls = [schedule.downlinks[n] for n in by_sat.get(s, ())]
+        for u in mine:
+            t = obs[u].end
+            store = sum(vol[w] for w in mine if obs[w].end <= t + TOL) - sum(
+                d.volume * min(1.0, max(0.0, (t - d.start) / (d.end - d.start))) for d in dls
+            )
+            peak[inst.satellite_names[s]] = max(peak.get(inst.satellite_names[s], 0.0), store)
+            cap = float(inst.memory_capacity[obs[u].orbit])
+            if store > cap + TOL:
+                flag(
+                    "D5",
+                    f"{inst.satellite_names[s]}: store {store:.6g} > capacity {cap:g} "
+                    f"when observation {u} ends",
+                    amount=store - cap,
+                    observation=u,
+                )
+    # D8: delivered when all its data is on the ground
+    delivered = {u for u in range(len(obs)) if sent[u] >= vol[u] - TOL}
+    lat = sorted(done_at[u] - obs[u].end for u in delivered)
+    use: dict[str, float] = defaultdict(float)
+    for d in schedule.downlinks:
+        if 0 <= d.station < len(inst.stations):
+            use[inst.stations[d.station].id] += d.end - d.start
+    return {
+        "delivered_obs": delivered,
+        "orbit_seconds": dict(orbit_seconds),
+        "delivered": len(delivered),
+        "downlinks": len(schedule.downlinks),
+        "on_board_end": sum(vol) - sum(sent),
+        "latency_s": {
+            "mean": float(np.mean(lat)) if lat else None,
+            "p95": float(np.percentile(lat, 95)) if lat else None,
+            "max": lat[-1] if lat else None,
+        },
+        "store_peak": peak,
+        "station_seconds": dict(use),
+    }

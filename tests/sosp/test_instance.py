@@ -328,14 +328,3 @@ def test_bad_stations_in_a_npz(tmp_path: Path, c1, drop, change, message: str) -
     np.savez(tmp_path / "x.npz", **arrays)
     with pytest.raises(InputError, match=re.escape(message)):
         load_instance(tmp_path / "x.npz")
-
-
-def test_stations_change_no_schedule(c1) -> None:
-    """No model uses the stations yet: same seed, same schedule (issue 60)."""
-    from sosp.solve import solve
-    from sosp.stations import builtin_stations
-
-    inst = c1.with_stations(builtin_stations())
-    a, b = (solve(i, "greedy", seed=1).schedule.to_dict(i) for i in (c1, inst))
-    assert a.pop("instance") != b.pop("instance")  # the schedule names its instance
-    assert a == b and a["observations"]
