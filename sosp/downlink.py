@@ -336,49 +336,50 @@ def relaxed_instance(instance: Any) -> Any:
 
 def search_instance(instance: Any) -> Any:
     """The station-free restriction the searches plan observations on (``docs/model.md``,
-    "How the methods plan downlinks"): per orbit, a memory allowance such that the orbits
-    between two passes of their satellite together fit what its store holds and the next
-    pass carries away (nothing after the last pass when weights count on delivery), each
-    orbit's share in proportion to the data its opportunities could make; energy less what
-    the downlinks of that data will cost in the orbit.
+    "How the methods plan downlinks").
+
+    Each satellite's time is cut at the ends of its contacts: data made in a segment is sent
+    in the contact that ends it, which carries at most ``min(W, r * its length)``; the last
+    segment's data is never sent (worth nothing when weights count on delivery). An orbit's
+    demand in a segment is the data its opportunities there could make (its memory capacity
+    at most); a segment's demands are scaled down together to what it carries, and an orbit's
+    memory allowance is the sum of its scaled demands. Its energy is lowered by what sending
+    them costs in the orbit where the contact starts. What still does not fit is dropped by
+    :func:`deliver`.
     """
     inst, par = instance, instance.downlink
     sat_of = satellite_of_orbit(inst)
     w = np.asarray(inst.memory_rate, dtype=float)
-    opp_s = np.bincount(inst.opp_orbit, inst.opp_end - inst.opp_start, minlength=inst.n_orbits)
     cap_orbit = np.asarray(inst.memory_capacity, dtype=float)
-    demand = np.minimum(cap_orbit, w * opp_s)
-    allow = demand.copy()
+    made = w[inst.opp_orbit] * (inst.opp_end - inst.opp_start)
+    total = np.bincount(inst.opp_orbit, made, minlength=inst.n_orbits)
+    made *= np.divide(cap_orbit, total, out=np.ones_like(total), where=total > cap_orbit)[
+        inst.opp_orbit
+    ]  # an orbit never makes more than its memory capacity
+    allow = np.zeros(inst.n_orbits)
     reserve = np.zeros(inst.n_orbits)
     for s in range(len(inst.satellite_names)):
         rows = np.flatnonzero(sat_of == s)
         con = inst.contacts[inst.contacts["satellite"] == s]
-        con = con[np.argsort(con["start_s"])]
-        # segment i: data observed before contact i ends (and after contact i-1 starts) is
-        # sent in contact i; the last segment, after every contact, is never sent
-        seg_lo = np.concatenate(([-np.inf], con["start_s"]))
-        seg_hi = np.concatenate((con["end_s"], [np.inf]))
-        cap = np.append(
+        con = con[np.argsort(con["end_s"])]
+        carry = np.append(
             np.minimum(cap_orbit[rows].min(), par.rate * (con["end_s"] - con["start_s"])),
             cap_orbit[rows].min() if par.count == "observed" else 0.0,
         )
-        touch = (inst.orbit_start[rows][:, None] < seg_hi[None, :]) & (
-            inst.orbit_end[rows][:, None] > seg_lo[None, :]
-        )
-        load = (demand[rows][:, None] * touch).sum(axis=0)
-        scale = np.minimum(1.0, np.divide(cap, load, out=np.ones_like(cap), where=load > 0))
-        factor = np.where(touch, scale[None, :], 1.0).min(axis=1)
-        allow[rows] = demand[rows] * factor
-        # the downlink of segment i's data falls in contact i, charged to the orbit holding it
-        sent = (allow[rows][:, None] * touch).sum(axis=0)[:-1]
-        for c, vol in zip(con, sent, strict=True):
-            k = np.flatnonzero(
+        mine = np.isin(inst.opp_orbit, rows)
+        seg = np.searchsorted(con["end_s"], inst.opp_end[mine], "left")
+        load = np.bincount(seg, made[mine], minlength=len(carry))
+        scale = np.minimum(1.0, np.divide(carry, load, out=np.ones_like(carry), where=load > 0))
+        allow += np.bincount(inst.opp_orbit[mine], made[mine] * scale[seg], inst.n_orbits)
+        # the downlink of segment i's data, charged to the orbit where contact i starts
+        for c, vol in zip(con, (load * scale)[:-1], strict=True):
+            k = rows[
                 (inst.orbit_start[rows] <= c["start_s"]) & (c["start_s"] < inst.orbit_end[rows])
-            )
+            ]
             if k.size:
-                reserve[rows[k[0]]] += par.energy_rate * vol / par.rate
+                reserve[k[0]] += par.energy_rate * vol / par.rate
     return replace(
         inst.without_stations(),
-        memory_capacity=allow * (1.0 - 1e-9),
+        memory_capacity=np.minimum(allow, cap_orbit) * (1.0 - 1e-9),
         energy_capacity=np.maximum(0.0, np.asarray(inst.energy_capacity, float) - reserve),
     )

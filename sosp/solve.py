@@ -236,7 +236,9 @@ def _with_stations(
                 f"violations; first: ({first.constraint}) {first.message})"
             )
     if bound is not None:
-        result = certify(relaxed_instance(instance), result, bound, budget.left(), bound_workers)
+        left = budget.left()  # the search may overrun its share a little: the bound still runs
+        left = None if left is None else max(left, 0.05)
+        result = certify(relaxed_instance(instance), result, bound, left, bound_workers)
     result = replace(result, runtime_s=time.perf_counter() - t0)
     return replace(
         result,

@@ -1,0 +1,270 @@
+"""Downlinks (issue 60): the rules D1-D8 in the validator, the planner, files, and solving
+with ground stations (``docs/model.md``, "Downlink")."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sosp.downlink import (
+    Downlink,
+    DownlinkParams,
+    deliver,
+    plan_downlinks,
+    relaxed_instance,
+    search_instance,
+)
+from sosp.errors import InputError
+from sosp.instance import Instance, Resources, load_instance
+from sosp.schedule import Schedule, load_schedule, make_observation
+from sosp.validate import validate
+
+PARAMS = DownlinkParams(rate=1.0, energy_rate=1.0, station_setup_s=30.0)
+
+
+def tiny(
+    contacts=((0, 0, 900.0, 1000.0),),
+    params=PARAMS,
+    antennas=1,
+    satellites=("S1",),
+    resources=Resources(memory_capacity=50.0, energy_capacity=200.0),
+) -> Instance:
+    """Two consecutive 1000-s orbits per satellite; targets a (w 5), b (w 3), c (w 2), each
+    seen once by each satellite on its first orbit (10, 20, 30 s long); one station."""
+    n_s = len(satellites)
+    opp = [  # target, orbit, start, end, roll
+        (k, 2 * s, t0, t0 + d, 0.0)
+        for s in range(n_s)
+        for k, (t0, d) in enumerate(((100.0, 10.0), (300.0, 20.0), (500.0, 30.0)))
+    ]
+    t, o, st, en, ro = (np.array(c) for c in zip(*opp, strict=True))
+    inst = Instance.from_arrays(
+        epoch="2026-01-01T00:00:00Z",
+        target_ids=["a", "b", "c"],
+        target_lat=np.zeros(3),
+        target_lon=np.zeros(3),
+        target_weight=[5, 3, 2],
+        orbit_ids=[f"{s}-{j}" for s in satellites for j in (1, 2)],
+        orbit_satellite=[s for s in satellites for _ in (1, 2)],
+        orbit_start=np.tile([0.0, 1000.0], n_s),
+        orbit_end=np.tile([1000.0, 2000.0], n_s),
+        resources=resources,
+        opp_target=t,
+        opp_orbit=o,
+        opp_start=st,
+        opp_end=en,
+        opp_roll=ro,
+        opp_roll_min=ro - 3,
+        opp_roll_max=ro + 3,
+        stations={
+            "id": ["G"],
+            "lat_deg": [0.0],
+            "lon_deg": [0.0],
+            "alt_m": [0.0],
+            "min_elevation_deg": [5.0],
+            "antennas": [antennas],
+            "description": [""],
+        },
+        contacts={
+            "satellite": [c[0] for c in contacts],
+            "station": [c[1] for c in contacts],
+            "start_s": [c[2] for c in contacts],
+            "end_s": [c[3] for c in contacts],
+            "max_elevation_deg": [45.0] * len(contacts),
+        },
+        downlink=params,
+    )
+    return inst
+
+
+def obs(inst, *opps):
+    return tuple(make_observation(inst, [i]) for i in opps)
+
+
+def check(inst, observations, downlinks):
+    return validate(inst, Schedule(observations, downlinks=tuple(downlinks)))
+
+
+def rules_broken(report) -> set[str]:
+    return {v.constraint for v in report.violations}
+
+
+def test_delivered_data_earns_its_weight_and_undelivered_data_does_not() -> None:
+    inst = tiny()
+    o = obs(inst, 0, 1)  # a (10 s = 10 units), b (20 units)
+    full = Downlink(0, 0, 900.0, 930.0, ((0, 10.0), (1, 20.0)))
+    rep = check(inst, o, [full])
+    assert rep.feasible and rep.profit == 8.0
+    assert rep.downlink["delivered"] == 2 and rep.downlink["on_board_end"] == pytest.approx(0)
+    assert rep.downlink["latency_s"]["max"] == pytest.approx(930.0 - 110.0)
+    half = Downlink(0, 0, 900.0, 925.0, ((0, 10.0), (1, 15.0)))
+    rep = check(inst, o, [half])
+    assert rep.feasible and rep.profit == 5.0  # b is still partly on board: D8
+    assert rep.downlink["on_board_end"] == pytest.approx(5.0)
+    # counting what is observed, as without stations
+    rep = check(replace(inst, downlink=replace(inst.downlink, count="observed")), o, [])
+    assert rep.feasible and rep.profit == 8.0
+
+
+@pytest.mark.parametrize(
+    ("downlinks", "rule"),
+    [
+        ([Downlink(0, 0, 850.0, 880.0, ((0, 10.0),))], "D1"),  # before the contact
+        ([Downlink(0, 0, 990.0, 1010.0, ((0, 10.0),))], "D1"),  # past its end
+        ([Downlink(0, 0, 900.0, 905.0, ((0, 10.0),))], "D3"),  # 10 units in 5 s at rate 1
+        ([Downlink(0, 0, 900.0, 930.0, ((0, 30.0),))], "D2"),  # more than a made
+        ([Downlink(0, 0, 900.0, 930.0, ((4, 5.0),))], "D2"),  # c is not observed
+        (
+            [
+                Downlink(0, 0, 900.0, 920.0, ((0, 10.0),)),
+                Downlink(0, 0, 910.0, 930.0, ((1, 10.0),)),
+            ],
+            "D4",
+        ),  # fmt: skip
+    ],
+)
+def test_each_downlink_rule_is_checked(downlinks, rule) -> None:
+    inst = tiny()
+    assert rule in rules_broken(check(inst, obs(inst, 0, 1), downlinks))
+
+
+def test_data_cannot_leave_before_its_observation_ends() -> None:
+    inst = tiny(contacts=((0, 0, 100.0, 200.0),))
+    bad = Downlink(0, 0, 105.0, 115.0, ((0, 10.0),))  # a ends at 110
+    assert "D2" in rules_broken(check(inst, obs(inst, 0), [bad]))
+    assert check(inst, obs(inst, 0), [replace(bad, start=110.0, end=120.0)]).feasible
+
+
+def test_downlinking_while_observing_is_an_option() -> None:
+    inst = tiny(contacts=((0, 0, 100.0, 400.0),))
+    o = obs(inst, 0, 1)  # b observed over [300, 320]
+    d = Downlink(0, 0, 290.0, 310.0, ((0, 10.0),))
+    assert check(inst, o, [d]).feasible
+    no = replace(inst, downlink=replace(inst.downlink, while_observing=False))
+    assert "D4" in rules_broken(check(no, o, [d]))
+    assert check(no, o, [replace(d, start=200.0, end=220.0)]).feasible
+
+
+def test_the_store_spans_orbits_and_downlinks_empty_it() -> None:
+    """W = 50 is one store across the two orbits: a (10) + b (20) + c (30) = 60 > 50 unless
+    some is sent before c ends; per-orbit memory (5) no longer applies."""
+    inst = tiny(contacts=((0, 0, 400.0, 450.0), (0, 0, 900.0, 1000.0)))
+    o = obs(inst, 0, 1, 2)
+    late = [Downlink(0, 0, 900.0, 960.0, ((0, 10.0), (1, 20.0), (2, 30.0)))]
+    rep = check(inst, o, late)
+    assert "D5" in rules_broken(rep)
+    early = [
+        Downlink(0, 0, 400.0, 430.0, ((0, 10.0), (1, 20.0))),
+        Downlink(0, 0, 900.0, 930.0, ((2, 30.0),)),
+    ]
+    rep = check(inst, o, early)
+    assert rep.feasible and rep.profit == 10.0
+    assert rep.downlink["store_peak"]["S1"] == pytest.approx(30.0)
+
+
+def test_antennas_and_their_setup_between_passes() -> None:
+    two = tiny(contacts=((0, 0, 900.0, 1000.0), (1, 0, 900.0, 1000.0)), satellites=("S1", "S2"))
+    o = obs(two, 0, 3)  # a by S1, a by S2 (different opportunities, same target)
+    o = (o[0], make_observation(two, [4]))  # S2 observes b instead
+    d1 = Downlink(0, 0, 900.0, 910.0, ((0, 10.0),))
+    d2 = Downlink(1, 0, 920.0, 940.0, ((4, 20.0),))  # 10 s after S1's pass: set-up is 30 s
+    assert "D6" in rules_broken(check(two, o, [d1, d2]))
+    assert check(two, o, [d1, replace(d2, start=940.0, end=960.0)]).feasible
+    dual = replace(two, stations=(replace(two.stations[0], antennas=2),))
+    assert check(dual, o, [d1, d2]).feasible
+
+
+def test_downlink_seconds_cost_energy_in_their_orbit() -> None:
+    inst = tiny(resources=Resources(memory_capacity=50.0, energy_capacity=35.0))
+    o = obs(inst, 0, 1)  # 30 s observed: 30 energy of 35 on orbit 1
+    d = Downlink(0, 0, 900.0, 930.0, ((0, 10.0), (1, 20.0)))  # 30 s more in orbit 1
+    assert "4" in rules_broken(check(inst, o, [d]))
+    later = tiny(
+        contacts=((0, 0, 1500.0, 1600.0),),
+        resources=Resources(memory_capacity=50.0, energy_capacity=35.0),
+    )
+    assert check(later, o, [replace(d, start=1500.0, end=1530.0)]).feasible  # orbit 2's
+
+
+def test_the_planner_sends_first_in_first_out_as_early_as_it_can() -> None:
+    inst = tiny(contacts=((0, 0, 305.0, 315.0), (0, 0, 900.0, 1000.0)))
+    o = obs(inst, 0, 1, 2)
+    downlinks, sent = plan_downlinks(inst, o)
+    assert downlinks[0].start == 305.0 and downlinks[0].parts == ((0, 10.0),)
+    assert sum(v for _, v in sent.items()) == pytest.approx(60.0)
+    kept, dls = deliver(inst, o)
+    rep = check(inst, kept, dls)
+    assert rep.feasible and rep.profit == 10.0 and rep.downlink["delivered"] == 3
+
+
+def test_deliver_drops_what_cannot_reach_the_ground() -> None:
+    # 15 s of contact at 1 unit/s carries a (10) but not b (20) as well
+    inst = tiny(contacts=((0, 0, 900.0, 915.0),))
+    kept, dls = deliver(inst, obs(inst, 0, 1))
+    rep = check(inst, kept, dls)
+    assert rep.feasible and [o.opps for o in kept] == [(0,)] and rep.profit == 5.0
+
+
+def test_deliver_keeps_what_the_contacts_can_carry() -> None:
+    """By hand: at 320 a and b (30 units) are on board and 15 s send a and 5 of b; c ends at
+    530 with 45 on board (store 50); 40 s at 900 leave 5 of c: c is dropped and a, b fly."""
+    inst = tiny(contacts=((0, 0, 320.0, 335.0), (0, 0, 900.0, 940.0)))
+    kept, dls = deliver(inst, obs(inst, 0, 1, 2))
+    rep = check(inst, kept, dls)
+    assert rep.feasible and [o.opps for o in kept] == [(0,), (1,)] and rep.profit == 8.0
+    assert [d.start for d in dls] == [320.0, 900.0]
+
+
+def test_files_keep_downlinks_and_their_parameters(tmp_path) -> None:
+    inst = tiny(params=DownlinkParams(rate=1.0, energy_rate=0.0, count="observed"))
+    for suffix in (".json", ".npz"):
+        inst.save(tmp_path / f"i{suffix}")
+        back = load_instance(tmp_path / f"i{suffix}")
+        assert back.downlink == inst.downlink and back.fingerprint == inst.fingerprint
+    kept, dls = deliver(inst, obs(inst, 0, 1))
+    sched = Schedule(kept, downlinks=tuple(dls), profit=8.0)
+    sched.save(tmp_path / "s.json", inst)
+    again = load_schedule(tmp_path / "s.json", inst)
+    assert again.downlinks == sched.downlinks and validate(inst, again).feasible
+
+
+@pytest.mark.parametrize(
+    ("params", "field"),
+    [
+        ({"rate": -1}, "rate"),
+        ({"rate": 0}, "rate"),
+        ({"energy_rate": float("nan")}, "energy_rate"),
+        ({"count": "sent"}, "count"),
+        ({"speed": 3}, "speed"),
+    ],
+)
+def test_bad_downlink_parameters_name_the_field(params, field) -> None:
+    with pytest.raises(InputError, match=field):
+        DownlinkParams.from_dict(params)
+
+
+def test_search_and_relaxed_instances_bracket_the_problem() -> None:
+    """Data made after the last contact gets no memory allowance (it would never be
+    delivered); the relaxation adds what the orbit's contacts carry away."""
+    inst = tiny(contacts=((0, 0, 400.0, 450.0),))
+    assert not search_instance(inst).stations and not relaxed_instance(inst).stations
+    allow = search_instance(inst).memory_capacity
+    assert allow[1] == 0.0  # c ends at 530, after the contact
+    assert allow[0] == pytest.approx(25.0)  # 50 carried of a, b: 30 and c: 30 (cap 50)
+    assert relaxed_instance(inst).memory_capacity[0] == pytest.approx(50.0 + 50.0)
+
+
+@pytest.mark.parametrize("method", ["greedy", "orbit-dp", "asa-dtc", "hpfs-stc"])
+def test_every_method_plans_downlinks_that_the_validator_accepts(c1, method) -> None:
+    from sosp.solve import solve
+    from sosp.stations import builtin_stations
+
+    stations = [s for s in builtin_stations() if s.id in ("SG", "MIY", "KSH")]
+    inst = c1.with_stations(stations)
+    res = solve(inst, method, seed=1, time_limit=2, bound="lp")
+    rep = validate(inst, res.schedule)
+    assert rep.feasible and rep.profit == res.profit > 0
+    assert res.schedule.downlinks and rep.downlink["on_board_end"] == pytest.approx(0, abs=1e-6)
+    assert res.bound is None or res.bound >= res.profit - 1e-6
