@@ -22,6 +22,7 @@ from sosp.schedule import Schedule, load_schedule, make_observation
 from sosp.validate import validate
 
 PARAMS = DownlinkParams(rate=1.0, energy_rate=1.0, station_setup_s=30.0)
+RESOURCES = Resources(memory_capacity=50.0, energy_capacity=200.0)
 
 
 def tiny(
@@ -29,7 +30,7 @@ def tiny(
     params=PARAMS,
     antennas=1,
     satellites=("S1",),
-    resources=Resources(memory_capacity=50.0, energy_capacity=200.0),
+    resources=RESOURCES,
 ) -> Instance:
     """Two consecutive 1000-s orbits per satellite; targets a (w 5), b (w 3), c (w 2), each
     seen once by each satellite on its first orbit (10, 20, 30 s long); one station."""
