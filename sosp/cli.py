@@ -115,6 +115,15 @@ def cmd_scenario(args: argparse.Namespace) -> int:
         raise InputError("--region and --targets-csv: give one source of targets, not both")
     walker = _walker_from_args(args)
     stations = stations_from_arg(args.stations) if args.stations is not None else ()
+    downlink = None
+    if args.downlink is not None:
+        if not stations:
+            raise InputError("--downlink: give it with --stations")
+        from sosp.downlink import DownlinkParams
+
+        downlink = DownlinkParams.from_dict(
+            key_values(args.downlink, "--downlink: expected KEY=VALUE")
+        )
     if args.region is None and args.targets_csv is None and args.tle is None and walker is None:
         if not args.name:
             raise InputError("scenario: give a name (B1..B10, C1..C10), --region or --targets-csv")
@@ -148,7 +157,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
             **common,
         )
     if stations:
-        inst = inst.with_stations(stations)
+        inst = inst.with_stations(stations, downlink)
     inst.save(args.output)
     data, text = _info(inst)
     emit(args, {**data, "output": args.output}, f"wrote {args.output}\n{text}")
@@ -188,6 +197,7 @@ def _info(inst: Any) -> tuple[dict[str, Any], str]:
             }
             for g, s in enumerate(inst.stations)
         ]
+        d["downlink"] = inst.downlink.to_dict()
     used = per_orbit[per_orbit > 0]
     lines = [
         f"instance      {d['name'] or '(unnamed)'}  ({d['fingerprint'][:19]}...)",
@@ -206,6 +216,8 @@ def _info(inst: Any) -> tuple[dict[str, Any], str]:
         f"station       {s['id']:<8} {s['contacts']:4d} contacts, {s['contact_min']:7.1f} min"
         for s in d.get("stations", [])
     ]
+    if "downlink" in d:
+        lines.append("downlink      " + ", ".join(f"{k} {v}" for k, v in d["downlink"].items()))
     return d, "\n".join(lines)
 
 
@@ -281,6 +293,17 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += ", proven optimal (gap 0)"
     elif result.bound is not None:
         text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+    if (down := result.stats.get("downlink")) is not None:
+        lat = down["latency_s"]
+        text += (
+            f"\ndownlink: {down['delivered']} observations delivered in {down['downlinks']} "
+            f"downlinks, {down['on_board_end']:.3g} units left on board"
+        )
+        if lat["mean"] is not None:
+            text += (
+                f"; latency mean {lat['mean'] / 60:.1f} min, p95 {lat['p95'] / 60:.1f} min, "
+                f"max {lat['max'] / 60:.1f} min"
+            )
     if len(result.stages) > 1:
         text += "\nstages: " + ", ".join(_stage_text(st) for st in result.stages)
     if args.output:
@@ -527,6 +550,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE|builtin|ID,ID,...",
         help="ground stations and their contact windows: a stations CSV file, every built-in "
         "station, or built-in ids (none by default)",
+    )
+    p.add_argument(
+        "--downlink",
+        nargs="+",
+        metavar="KEY=VALUE",
+        help="with --stations: rate (units/s, 2), energy_rate (per s, 0.5), station_setup_s "
+        "(60), while_observing (true), count (delivered|observed); docs/model.md",
     )
     p.add_argument(
         "--max-roll",

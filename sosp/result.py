@@ -120,4 +120,6 @@ class Result:
             "iterations": self.iterations,
             "runtime_s": round(self.runtime_s, 6),
             "stages": [st.to_dict() for st in self.stages],
+            # with ground stations: delivered, latency, on board, store peaks, station use
+            **({"downlink": d} if (d := self.stats.get("downlink")) is not None else {}),
         }

@@ -227,8 +227,9 @@ def _with_stations(
         bound=instance.observable_weight if status is Status.OPTIMAL else None,
         stats={**inner.stats, "search_profit": inner.profit},
     )  # fmt: skip
+    report = validate(instance, result.schedule)  # also the downlinks' measures
+    result.stats["downlink"] = report.downlink
     if check:
-        report = validate(instance, result.schedule)
         if not report.feasible:
             first = report.violations[0]
             raise SolverError(

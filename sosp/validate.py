@@ -393,12 +393,10 @@ def _downlinks(inst: Instance, schedule: Schedule, flag: Any) -> dict[str, Any]:
                     amount=a.end - b.start,
                 )
         if not par.while_observing:
+            mine = [(u, ob) for u, ob in enumerate(obs) if orbit_sat[ob.orbit] == s]
             for d in ds:
-                for u, ob in enumerate(obs):
-                    if (
-                        orbit_sat[ob.orbit] == s
-                        and min(d.end, ob.end) - max(d.start, ob.start) > TOL
-                    ):
+                for u, ob in mine:
+                    if min(d.end, ob.end) - max(d.start, ob.start) > TOL:
                         flag(
                             "D4",
                             f"{inst.satellite_names[s]}: downlink at {d.start:.6g} "
@@ -426,22 +424,25 @@ def _downlinks(inst: Instance, schedule: Schedule, flag: Any) -> dict[str, Any]:
         mine = sorted(
             (u for u, ob in enumerate(obs) if orbit_sat[ob.orbit] == s), key=lambda u: obs[u].end
         )
-        dls = [schedule.downlinks[n] for n in by_sat.get(s, ())]
-        for u in mine:
-            t = obs[u].end
-            store = sum(vol[w] for w in mine if obs[w].end <= t + TOL) - sum(
-                d.volume * min(1.0, max(0.0, (t - d.start) / (d.end - d.start))) for d in dls
+        if not mine:
+            continue
+        ends = np.array([obs[u].end for u in mine])
+        made = np.cumsum([vol[u] for u in mine])[np.searchsorted(ends, ends + TOL, "right") - 1]
+        gone = np.zeros(len(mine))
+        for n in by_sat.get(s, ()):
+            d = schedule.downlinks[n]
+            gone += d.volume * np.clip((ends - d.start) / (d.end - d.start), 0.0, 1.0)
+        store = made - gone
+        peak[inst.satellite_names[s]] = float(store.max())
+        cap = np.asarray(inst.memory_capacity, dtype=float)[[obs[u].orbit for u in mine]]
+        for i in np.flatnonzero(store > cap + TOL):
+            flag(
+                "D5",
+                f"{inst.satellite_names[s]}: store {store[i]:.6g} > capacity {cap[i]:g} "
+                f"when observation {mine[i]} ends",
+                amount=float(store[i] - cap[i]),
+                observation=mine[i],
             )
-            peak[inst.satellite_names[s]] = max(peak.get(inst.satellite_names[s], 0.0), store)
-            cap = float(inst.memory_capacity[obs[u].orbit])
-            if store > cap + TOL:
-                flag(
-                    "D5",
-                    f"{inst.satellite_names[s]}: store {store:.6g} > capacity {cap:g} "
-                    f"when observation {u} ends",
-                    amount=store - cap,
-                    observation=u,
-                )
     # D8: delivered when all its data is on the ground
     delivered = {u for u in range(len(obs)) if sent[u] >= vol[u] - TOL}
     lat = sorted(done_at[u] - obs[u].end for u in delivered)
