@@ -131,6 +131,9 @@ def cmd_bound(args: argparse.Namespace) -> int:
     head = f"{out['model']} model, {out['method']} bound: {out['bound']:g}"
     said = ", ".join([f"{out['runtime_s']:.2f} s", *size])
     text = f"{head} (from {out['source']}; {said})"
+    if inst.stations:
+        out["of"] = "station-free relaxation"
+        text += "\nwith stations: a bound of their station-free relaxation (docs/model.md)"
     if args.method == "milp":
         text += f"\nincumbent {out['profit']:g}, status {out['status']}"
     unsolved = out["source"] == "cap" and out["bound"] and out.get("lp_value") is None

@@ -997,6 +997,11 @@ def bound(
         ``cap`` (the covered weight), the model size; ``"auto"``: ``parts`` (each method's
         bound, None when it did not finish); ``"milp"``: the incumbent ``profit``,
         ``status`` and ``gap``.
+
+    Notes
+    -----
+    An instance with ground stations is bounded through its station-free relaxation
+    (:func:`sosp.downlink.relaxed_instance`, ``docs/model.md``, "Bounds with stations").
     """
     from models.colgen import colgen_bound
     from models.lagrangian import check_count, lagrangian_bound
@@ -1004,6 +1009,10 @@ def bound(
     from sosp.planner import kernels_within, with_rolls
 
     t0 = time.perf_counter()
+    if instance.stations:
+        from sosp.downlink import relaxed_instance
+
+        instance = relaxed_instance(instance)
     if method not in BOUND_METHODS:
         raise InputError(f"method: expected one of {', '.join(BOUND_METHODS)}, got {method!r}")
     time_limit = check_time_limit(time_limit)

@@ -208,4 +208,8 @@ def compute_bound(name: str, instance: Any, **kwargs: Any) -> dict[str, Any]:
     if name not in BOUNDS:
         raise InputError(f"bound: unknown method {name!r} (choose from {', '.join(BOUNDS)})")
     b = BOUNDS[name]
+    if instance.stations:  # every bound is of the relaxation without them (docs/model.md)
+        from sosp.downlink import relaxed_instance
+
+        instance = relaxed_instance(instance)
     return load(b.function)(instance, **b.options, **kwargs)

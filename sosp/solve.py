@@ -207,7 +207,7 @@ def _with_stations(
     allowances of :func:`sosp.downlink.search_instance`, :func:`sosp.downlink.deliver` plans
     their downlinks and drops what cannot fly, and ``bound`` is computed on
     :func:`sosp.downlink.relaxed_instance`, a relaxation of the problem with stations."""
-    from sosp.downlink import deliver, relaxed_instance, search_instance
+    from sosp.downlink import deliver, search_instance
 
     t0 = time.perf_counter()
     budget = Budget.until(None if time_limit is None else t0 + time_limit)
@@ -239,7 +239,7 @@ def _with_stations(
     if bound is not None:
         left = budget.left()  # the search may overrun its share a little: the bound still runs
         left = None if left is None else max(left, 0.05)
-        result = certify(relaxed_instance(instance), result, bound, left, bound_workers)
+        result = certify(instance, result, bound, left, bound_workers)  # of the relaxation
     result = replace(result, runtime_s=time.perf_counter() - t0)
     return replace(
         result,
