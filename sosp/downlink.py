@@ -323,20 +323,33 @@ def _contact_seconds(instance: Any) -> np.ndarray:
     return out
 
 
+def deliverable(instance: Any) -> np.ndarray:
+    """Which opportunities can earn their weight: all of them when weights count when
+    observed; else those ending before the last contact of their satellite ends (D2: data
+    leaves in a contact after the observation ends; D8)."""
+    if instance.downlink.count == "observed":
+        return np.ones(instance.n_opps, dtype=bool)
+    last = np.full(len(instance.satellite_names), -np.inf)
+    np.maximum.at(last, instance.contacts["satellite"], instance.contacts["end_s"])
+    return instance.opp_end < last[satellite_of_orbit(instance)[instance.opp_orbit]] - rules.EPS
+
+
 def relaxed_instance(instance: Any) -> Any:
     """The station-free relaxation every bound of sosp computes for an instance with stations
-    (``docs/model.md``, "Bounds with stations"): per-orbit memory ``W_j + r * contact seconds
-    of orbit j``, energy as it is, weights counted when observed."""
+    (``docs/model.md``, "Bounds with stations"): the :func:`deliverable` opportunities,
+    per-orbit memory ``W_j + r * contact seconds of orbit j``, energy as it is, weights
+    counted when observed."""
     extra = instance.downlink.rate * _contact_seconds(instance)
     return replace(
-        instance.without_stations(),
+        instance.with_opportunities(deliverable(instance)).without_stations(),
         memory_capacity=np.asarray(instance.memory_capacity, dtype=float) + extra,
     )
 
 
-def search_instance(instance: Any) -> Any:
+def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
     """The station-free restriction the searches plan observations on (``docs/model.md``,
-    "How the methods plan downlinks").
+    "How the methods plan downlinks"), and the index in ``instance`` of each of its
+    opportunities (the :func:`deliverable` ones).
 
     Each satellite's time is cut at the ends of its contacts: data made in a segment is sent
     in the contact that ends it, which carries at most ``min(W, r * its length)``; the last
@@ -378,8 +391,10 @@ def search_instance(instance: Any) -> Any:
             ]
             if k.size:
                 reserve[k[0]] += par.energy_rate * vol / par.rate
-    return replace(
-        inst.without_stations(),
+    keep = deliverable(inst)
+    out = replace(
+        inst.with_opportunities(keep).without_stations(),
         memory_capacity=np.minimum(allow, cap_orbit) * (1.0 - 1e-9),
         energy_capacity=np.maximum(0.0, np.asarray(inst.energy_capacity, float) - reserve),
     )
+    return out, np.flatnonzero(keep)

@@ -315,6 +315,15 @@ class Instance:
             downlink=downlink or DownlinkParams(),
         )  # fmt: skip
 
+    def with_opportunities(self, keep: np.ndarray) -> Instance:
+        """This instance with only the opportunities where ``keep`` (a boolean mask) is True,
+        in the same order (so an index ``i`` here is ``np.flatnonzero(keep)[i]`` in this
+        instance); targets and orbits are unchanged."""
+        keep = np.asarray(keep, dtype=bool)
+        cols = {f"opp_{k}": _readonly(getattr(self, f"opp_{k}")[keep]) for k in OPP_KEYS}
+        ids = tuple(i for i, k in zip(self.opp_ids, keep, strict=True) if k)
+        return replace(self, opp_ids=ids, **cols)
+
     def without_stations(self) -> Instance:
         """This instance without ground stations: the paper's problem, weights counted when
         observed and memory reset per orbit (5)."""

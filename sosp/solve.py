@@ -212,8 +212,12 @@ def _with_stations(
     t0 = time.perf_counter()
     budget = Budget.until(None if time_limit is None else t0 + time_limit)
     own = budget.share(1.0 - BOUND_SHARE) if bound is not None else budget
-    inner = solve(search_instance(instance), method, time_limit=own.left(), check=check, **kwargs)
-    obs, downlinks = deliver(instance, inner.schedule.observations)
+    search, index = search_instance(instance)
+    inner = solve(search, method, time_limit=own.left(), check=check, **kwargs)
+    found = [
+        replace(o, opps=tuple(int(index[i]) for i in o.opps)) for o in inner.schedule.observations
+    ]
+    obs, downlinks = deliver(instance, found)
     schedule = replace(inner.schedule, observations=obs, downlinks=tuple(downlinks))
     profit, observed = schedule.coverage_profit(instance)
     status = inner.status

@@ -250,11 +250,17 @@ def test_search_and_relaxed_instances_bracket_the_problem() -> None:
     """Data made after the last contact gets no memory allowance (it would never be
     delivered); the relaxation adds what the orbit's contacts carry away."""
     inst = tiny(contacts=((0, 0, 400.0, 450.0),))
-    assert not search_instance(inst).stations and not relaxed_instance(inst).stations
-    allow = search_instance(inst).memory_capacity
-    assert allow[1] == 0.0  # c ends at 530, after the contact
-    assert allow[0] == pytest.approx(25.0)  # 50 carried of a, b: 30 and c: 30 (cap 50)
-    assert relaxed_instance(inst).memory_capacity[0] == pytest.approx(50.0 + 50.0)
+    search, index = search_instance(inst)
+    assert not search.stations and not relaxed_instance(inst).stations
+    assert list(index) == [0, 1] and search.opp_ids == inst.opp_ids[:2]  # c ends at 530
+    assert search.memory_capacity[1] == 0.0
+    assert search.memory_capacity[0] == pytest.approx(
+        25.0
+    )  # 50 carried of a, b: 30 and c: 30 (cap 50)
+    relaxed = relaxed_instance(inst)
+    assert relaxed.memory_capacity[0] == pytest.approx(50.0 + 50.0) and relaxed.n_opps == 2
+    observed = replace(inst, downlink=replace(inst.downlink, count="observed"))
+    assert relaxed_instance(observed).n_opps == search_instance(observed)[0].n_opps == 3
 
 
 @pytest.mark.parametrize("method", ["greedy", "orbit-dp", "asa-dtc", "hpfs-stc"])
