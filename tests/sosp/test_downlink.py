@@ -275,3 +275,34 @@ def test_every_method_plans_downlinks_that_the_validator_accepts(c1, method) -> 
     assert rep.feasible and rep.profit == res.profit > 0
     assert res.schedule.downlinks and rep.downlink["on_board_end"] == pytest.approx(0, abs=1e-6)
     assert res.bound is None or res.bound >= res.profit - 1e-6
+
+
+@pytest.mark.parametrize(
+    ("argv", "field"),
+    [
+        (["--downlink", "rate=-1"], "downlink.rate"),
+        (["--downlink", "count=sent"], "downlink.count"),
+        (["--downlink", "rate"], "--downlink"),
+        (["--downlink", "rate=1"], "--downlink: give it with --stations"),
+    ],
+)
+def test_bad_downlink_options_get_one_line_and_write_nothing(tmp_path, capsys, argv, field):
+    from sosp.cli import main
+
+    out = tmp_path / "s.json"
+    stations = [] if "with --stations" in field else ["--stations", "SG"]
+    args = ["scenario", "C1", *stations, *argv, "-o", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert field in err and "\n" not in err and not out.exists()
+
+
+def test_a_scenario_with_downlink_options_records_them(tmp_path, capsys):
+    from sosp.cli import main
+
+    out = tmp_path / "s.json"
+    argv = ["scenario", "C1", "--stations", "SG,KSH", "--downlink", "rate=4", "count=observed"]
+    assert main([*argv, "-o", str(out)]) == 0
+    inst = load_instance(out)
+    assert inst.downlink == DownlinkParams(rate=4.0, count="observed")
+    assert "rate 4" in capsys.readouterr().out
