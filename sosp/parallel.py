@@ -159,6 +159,22 @@ def worker_signals() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "pthread_sigmask"):  # held since the fork (held_for_fork)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
+    exit_with_parent()
+
+
+def exit_with_parent(every_s: float = 0.5) -> None:
+    """In a pool's worker: end it once its parent is gone (checked every ``every_s``).
+
+    A parent killed outright (a notebook kernel stopped or restarted, ``kill -9``) cannot
+    close its pool, and a worker waiting on the task queue would live on as an orphan."""
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(every_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 #: The signals :func:`held_for_fork` holds.
@@ -359,7 +375,9 @@ def completed(
             from concurrent.futures import ProcessPoolExecutor, as_completed
             from concurrent.futures.process import BrokenProcessPool
 
-            pool = stack.enter_context(ProcessPoolExecutor(min(processes, len(items))))
+            pool = stack.enter_context(
+                ProcessPoolExecutor(min(processes, len(items)), initializer=exit_with_parent)
+            )
             futures = {pool.submit(fn, item): item for item in items}
             stack.callback(lambda: [fut.cancel() for fut in futures])  # ended early
             fatal: tuple[type[BaseException], ...] = (BrokenProcessPool,)

@@ -42,3 +42,24 @@ def test_notebook_executes(path: Path, tmp_path: Path, monkeypatch: pytest.Monke
     errors = [o for c in nb.cells for o in c.get("outputs", []) if o.output_type == "error"]
     assert not errors
     assert any(tmp_path.rglob("*.png"))
+
+
+def test_notebooks_have_a_title_numbered_sections_and_keep_their_outputs() -> None:
+    """Issue 63 item 10: a title first, each section number once, and outputs in one named
+    folder (a temporary folder per run was left behind and never resumed)."""
+    import re
+
+    import nbformat
+
+    for path in NOTEBOOKS:
+        nb = nbformat.read(path, as_version=4)
+        assert nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# ")
+        heads = [
+            m.group(1)
+            for c in nb.cells
+            if c.cell_type == "markdown"
+            for m in re.finditer(r"^## (\w+)\.", c.source, re.M)
+        ]
+        assert len(heads) == len(set(heads)), (path.name, heads)
+        code = "\n".join(c.source for c in nb.cells if c.cell_type == "code")
+        assert "mkdtemp" not in code and "notebook-output/" in code, path.name

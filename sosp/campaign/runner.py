@@ -15,6 +15,7 @@ import os
 import time
 import traceback
 from collections.abc import Callable
+from contextlib import closing
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from functools import lru_cache
@@ -269,16 +270,19 @@ def run_campaign(
     if p.pending:
         store.put_instances(p.instances)
     out = Outcome(len(p.runs), p.done, 0, 0, 0, p.skipped_methods, 0.0)
-    for row in stream:
-        store.put(row)
-        out.ran += 1
-        if row["status"] == "error":
-            out.failed += 1
-            what = (row["scenario"], row["method"], row["seed"], row["message"])
-            log.warning("%s %s seed %d failed: %s", *what)
-        elif not row.get("feasible"):
-            out.infeasible += 1
-        if on_result is not None:
-            on_result(row, out.ran, len(p.pending))
+    # stopped (Ctrl-C in a notebook), the pool closes now, not when the traceback that
+    # holds the generator is collected
+    with closing(stream):
+        for row in stream:
+            store.put(row)
+            out.ran += 1
+            if row["status"] == "error":
+                out.failed += 1
+                what = (row["scenario"], row["method"], row["seed"], row["message"])
+                log.warning("%s %s seed %d failed: %s", *what)
+            elif not row.get("feasible"):
+                out.infeasible += 1
+            if on_result is not None:
+                on_result(row, out.ran, len(p.pending))
     out.elapsed_s = time.perf_counter() - t0
     return out

@@ -431,3 +431,40 @@ def test_bench_progress_counts_from_the_campaign_start() -> None:
     p = Progress(12, out, interactive=False, t0=time.monotonic() - 10.0)
     p.update({"status": "feasible"})
     assert "elapsed 0:00:10" in out.getvalue() and "ETA 0:01:50" in out.getvalue()
+
+
+def test_a_killed_campaign_leaves_no_worker_behind(tmp_path) -> None:
+    """Issue 63 item 10: a parent killed outright (a notebook kernel stopped) cannot close
+    its pool; the workers notice and end instead of living on as orphans."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    code = (
+        "import os, sys, time\n"
+        "from sosp.parallel import completed\n"
+        "def nap(i):\n"
+        "    time.sleep(0.2 if i < 2 else 60)\n"
+        "    return os.getpid()\n"
+        "for pid in completed(nap, list(range(6)), 2):\n"
+        "    print(pid, flush=True)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    workers = {int(proc.stdout.readline()), int(proc.stdout.readline())}
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 10
+    alive = set(workers)
+    while alive and time.monotonic() < deadline:
+        time.sleep(0.2)
+        for pid in list(alive):
+            try:
+                done, _ = os.waitpid(pid, os.WNOHANG)  # not our child: raises
+            except ChildProcessError:
+                try:
+                    os.kill(pid, 0)
+                except ProcessLookupError:
+                    alive.discard(pid)
+    assert not alive, f"orphan workers {alive}"
