@@ -291,8 +291,12 @@ def deliver(instance: Any, observations: Any) -> tuple[tuple[Any, ...], list[Dow
     count_delivered = instance.downlink.count == "delivered"
     while True:
         downlinks, sent = plan_downlinks(instance, obs)
-        over = store_overflow(instance, obs, downlinks)
-        drop = {id(o) for o in over[:1]}
+        # the first overflow of each satellite (their stores are apart)
+        sat_of = satellite_of_orbit(instance)
+        first = {
+            int(sat_of[o.orbit]): o for o in reversed(store_overflow(instance, obs, downlinks))
+        }
+        drop = {id(o) for o in first.values()}
         if count_delivered and not drop:
             drop = {id(o) for o in obs if sent.get(o.opps[0], 0.0) < volume(instance, o) - 1e-7}
         if not drop:
