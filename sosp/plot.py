@@ -402,6 +402,9 @@ def _store_panels(inst: Instance, schedule: Schedule, axes: list[Any], utc_x: An
         ax.set_ylim(bottom=0)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
+    for ax in axes[:-1]:  # one shared time axis, labelled under the last panel
+        ax.tick_params(labelbottom=False)
+        ax.xaxis.offsetText.set_visible(False)
     axes[0].set_title("data on board per satellite", fontsize=9, pad=20)
     axes[0].legend(
         handles=[
