@@ -377,8 +377,8 @@ def _downlink_text(down: dict[str, Any], detail: bool = False) -> str:
     lat = down["latency_s"]
     text = (
         f"downlink: {down['delivered']} observations delivered in {down['downlinks']} "
-        f"downlinks, {down['on_board_end']:.3g} units left on board"
-    )
+        f"downlinks, {round(down['on_board_end'], 6) + 0.0:.3g} units left on board"
+    )  # rounded: the sums of floats leave 1e-10 where nothing is left (+ 0.0: no "-0")
     if lat["mean"] is not None:
         text += (
             f"; latency mean {lat['mean'] / 60:.1f} min, p95 {lat['p95'] / 60:.1f} min, "
