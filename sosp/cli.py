@@ -294,16 +294,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     elif result.bound is not None:
         text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
     if (down := result.stats.get("downlink")) is not None:
-        lat = down["latency_s"]
-        text += (
-            f"\ndownlink: {down['delivered']} observations delivered in {down['downlinks']} "
-            f"downlinks, {down['on_board_end']:.3g} units left on board"
-        )
-        if lat["mean"] is not None:
-            text += (
-                f"; latency mean {lat['mean'] / 60:.1f} min, p95 {lat['p95'] / 60:.1f} min, "
-                f"max {lat['max'] / 60:.1f} min"
-            )
+        text += "\n" + _downlink_text(down)
     if len(result.stages) > 1:
         text += "\nstages: " + ", ".join(_stage_text(st) for st in result.stages)
     if args.output:
@@ -379,6 +370,30 @@ def cmd_methods(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- validate
+def _downlink_text(down: dict[str, Any], detail: bool = False) -> str:
+    """The downlink figures of a validation report (``report.downlink``) in one line; with
+    ``detail``, also the profit delivered of the profit observed, each satellite's store peak
+    and each station's use."""
+    lat = down["latency_s"]
+    text = (
+        f"downlink: {down['delivered']} observations delivered in {down['downlinks']} "
+        f"downlinks, {round(down['on_board_end'], 6) + 0.0:.3g} units left on board"
+    )  # rounded: the sums of floats leave 1e-10 where nothing is left (+ 0.0: no "-0")
+    if lat["mean"] is not None:
+        text += (
+            f"; latency mean {lat['mean'] / 60:.1f} min, p95 {lat['p95'] / 60:.1f} min, "
+            f"max {lat['max'] / 60:.1f} min"
+        )
+    if detail:
+        peaks = ", ".join(f"{s} {v:.4g}" for s, v in down["store_peak"].items()) or "none"
+        use = ", ".join(f"{g} {v / 60:.1f} min" for g, v in down["station_seconds"].items())
+        text += (
+            f"\ndelivered profit {down['delivered_profit']:g} of {down['observed_profit']:g} "
+            f"observed; store peak {peaks}; station use {use or 'none'}"
+        )
+    return text
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     from sosp.instance import load_instance
     from sosp.schedule import load_schedule
@@ -393,6 +408,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
         f"energy {report.energy:.1f}, memory {report.memory:.1f}, profit/energy "
         f"{report.profit_per_energy:.4f}, profit/memory {report.profit_per_memory:.4f}",
     ]
+    if report.downlink is not None:
+        lines.append(_downlink_text(report.downlink, detail=True))
     lines += [f"  ({v.constraint}) {v.message}" for v in report.violations]
     emit(args, report.to_dict(), "\n".join(lines))
     return 0 if report.feasible else 1

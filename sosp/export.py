@@ -8,6 +8,12 @@
   window (lines of sight from the satellite to its targets when the orbit is known), and the
   satellites as time-tagged positions with their paths, so Cesium's clock replays the plan.
 
+Instances with ground stations (issue 60) add the stations, their contact windows and the
+schedule's downlinks to each format: CSV rows of kind ``downlink`` (:data:`STATION_CSV_COLUMNS`),
+KML folders of stations, contacts and downlinks with time spans, CZML station entities and a
+link from satellite to station while each contact and each downlink is on. Without stations
+the files are what they were before.
+
 Satellite paths need the orbits: instances of the built-in satellites name them in
 ``meta["satellites"]``, and custom ones (TLE files, Walker constellations) carry their
 element lines in ``meta["tle"]`` (:func:`sosp.orbits.instance_satellites`). Other instances
@@ -34,6 +40,7 @@ if TYPE_CHECKING:
 
     import numpy as np
 
+    from sosp.downlink import Downlink
     from sosp.instance import Instance
     from sosp.orbits import Satellite
     from sosp.schedule import Schedule
@@ -47,6 +54,11 @@ FORMATS = ("csv", "kml", "czml")
 CSV_COLUMNS = tuple(
     "observation satellite orbit start_utc end_utc roll_deg target lat lon weight".split()
 )
+
+#: Columns the CSV export adds for an instance with ground stations: ``kind`` (``observation``
+#: or ``downlink``), and for a downlink its station, the volume it sends and whose data
+#: (``target=volume`` pairs joined by ``;``).
+STATION_CSV_COLUMNS = ("kind", "station", "volume", "data")
 
 #: Seconds between points of a satellite path.
 PATH_STEP = 60.0
@@ -150,12 +162,16 @@ def _position_at(
 
 # --------------------------------------------------------------------------- CSV
 def export_csv(instance: Instance, schedule: Schedule) -> str:
-    """One row per covered target (:data:`CSV_COLUMNS`), in time order."""
+    """One row per covered target (:data:`CSV_COLUMNS`), in time order; with ground stations,
+    the columns :data:`STATION_CSV_COLUMNS` too and then one row per downlink, in time order
+    (its satellite, the orbit it starts in, UTC window, the station's position, volume and
+    whose data)."""
     from sosp.orbits import utc_at
 
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(CSV_COLUMNS)
+    extra = STATION_CSV_COLUMNS if instance.stations else ()
+    w.writerow(CSV_COLUMNS + extra)
     for u, k in covered(instance, schedule):
         ob = schedule.observations[u]
         w.writerow(
@@ -171,8 +187,63 @@ def export_csv(instance: Instance, schedule: Schedule) -> str:
                 f"{float(instance.target_lon[k]):.6f}",
                 int(instance.target_weight[k]),
             ]
+            + (["observation", "", "", ""] if extra else [])
+        )
+    for d in sorted(schedule.downlinks, key=lambda d: (d.start, d.satellite)) if extra else ():
+        sat, st = instance.satellite_names[d.satellite], instance.stations[d.station]
+        j = _orbit_at(instance, sat, d.start)
+        w.writerow(
+            [
+                "",
+                sat,
+                "" if j is None else instance.orbit_ids[j],
+                utc_at(instance.epoch, d.start),
+                utc_at(instance.epoch, d.end),
+                "",
+                "",
+                f"{st.lat_deg:.6f}",
+                f"{_lon180(st.lon_deg):.6f}",
+                "",
+                "downlink",
+                st.id,
+                f"{d.volume:.6g}",
+                _whose(instance, d),
+            ]
         )
     return buf.getvalue()
+
+
+def _orbit_at(instance: Instance, satellite: str, t: float) -> int | None:
+    """The orbit of ``satellite`` that holds time ``t`` (None: outside its orbits)."""
+    for j in range(instance.n_orbits):
+        if (
+            instance.orbit_satellite[j] == satellite
+            and instance.orbit_start[j] <= t < instance.orbit_end[j]
+        ):
+            return j
+    return None
+
+
+def _whose(instance: Instance, d: Downlink) -> str:
+    """Whose data a downlink carries: ``target=volume`` pairs joined by ``;``."""
+    return ";".join(
+        f"{instance.target_ids[int(instance.opp_target[i])]}={v:.6g}" for i, v in d.parts
+    )
+
+
+def _links(instance: Instance, schedule: Schedule) -> Iterator[tuple[str, int, Any, str, str]]:
+    """The contact windows, then the downlinks, of an instance with stations: per link its kind
+    (``contact`` or ``downlink``), index, ``(satellite row, station row, start, end)``, name
+    and the description KML and CZML show."""
+    for n, c in enumerate(instance.contacts):
+        sat, st = instance.satellite_names[c["satellite"]], instance.stations[c["station"]].id
+        span = (int(c["satellite"]), int(c["station"]), float(c["start_s"]), float(c["end_s"]))
+        desc = f"contact, max elevation {float(c['max_elevation_deg']):.1f} deg"
+        yield "contact", n, span, f"{sat} -> {st}", desc
+    for n, d in enumerate(schedule.downlinks):
+        sat, st = instance.satellite_names[d.satellite], instance.stations[d.station].id
+        desc = f"downlink of {d.volume:.6g} memory units: {_whose(instance, d)}"
+        yield "downlink", n, (d.satellite, d.station, d.start, d.end), f"{sat} -> {st}", desc
 
 
 # --------------------------------------------------------------------------- KML
@@ -226,6 +297,10 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
     _style(doc, "unobserved", "ff0000ff", 0.6)
     _style(doc, "path", "9fffffff", 1.5, line=True)
     _style(doc, "sight", "ff00ffff", 2.0, line=True)
+    if instance.stations:
+        _style(doc, "station", "ffff8000", 1.2)
+        _style(doc, "contact", "80c0c0c0", 1.0, line=True)
+        _style(doc, "downlink", "ffff00ff", 3.0, line=True)
     cov = covered(instance, schedule)
     by_target = {k: u for u, k in cov}
     paths = satellite_paths(instance)
@@ -269,6 +344,9 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
             else:
                 _sub(geo, "Point", coordinates=_coords([tgt]))
 
+    if instance.stations:
+        _kml_stations(doc, instance, schedule, paths)
+
     if paths is not None:
         f_path = _sub(doc, "Folder", name="satellite paths")
         for name, pts in paths[1].items():
@@ -278,6 +356,43 @@ def export_kml(instance: Instance, schedule: Schedule) -> str:
                 _sub(geo, "LineString", tessellate="1", coordinates=_coords(part))
     ET.indent(root, space=" ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _kml_stations(
+    doc: ET.Element,
+    instance: Instance,
+    schedule: Schedule,
+    paths: tuple[np.ndarray, dict[str, np.ndarray]] | None,
+) -> None:
+    """Folders of ground stations (points), contact windows and downlinks (each a placemark
+    with its UTC time span, a line from the satellite at mid-window to the station when the
+    orbit is known, else the station's point)."""
+    from sosp.orbits import utc_at
+
+    f_st = _sub(doc, "Folder", name=f"ground stations ({len(instance.stations)})")
+    for st in instance.stations:
+        desc = f"{st.description}; " if st.description else ""
+        desc += f"{st.antennas} antenna(s), elevation mask {st.min_elevation_deg:g} deg"
+        pm = _sub(f_st, "Placemark", name=st.id, description=desc)
+        _sub(pm, "styleUrl", "#station")
+        _sub(pm, "Point", coordinates=f"{_lon180(st.lon_deg):.6f},{st.lat_deg:.6f},{st.alt_m:.0f}")
+    folders = {
+        "contact": _sub(doc, "Folder", name=f"contact windows ({len(instance.contacts)})"),
+        "downlink": _sub(doc, "Folder", name=f"downlinks ({len(schedule.downlinks)})"),
+    }
+    for kind, _n, (sat, g, t0, t1), name, desc in _links(instance, schedule):
+        begin, end = utc_at(instance.epoch, t0), utc_at(instance.epoch, t1)
+        pm = _sub(folders[kind], "Placemark", name=f"{name} {begin}", description=desc)
+        _sub(pm, "TimeSpan", begin=begin, end=end)
+        _sub(pm, "styleUrl", f"#{kind}")
+        st = instance.stations[g]
+        ground = (st.lat_deg, _lon180(st.lon_deg), st.alt_m)
+        at = _position_at(paths, instance.satellite_names[sat], 0.5 * (t0 + t1))
+        if at is not None:
+            line = _coords([(at[0], at[1], at[2] * 1000.0), ground])
+            _sub(pm, "LineString", altitudeMode="absolute", coordinates=line)
+        else:
+            _sub(pm, "Point", coordinates=_coords([ground]))
 
 
 # --------------------------------------------------------------------------- CZML
@@ -403,7 +518,73 @@ def export_czml(instance: Instance, schedule: Schedule) -> str:
                     },
                 }
             )
+    if instance.stations:
+        packets += _czml_stations(instance, schedule, set(paths[1]) if paths else set())
     return json.dumps(packets, indent=1, allow_nan=False) + "\n"
+
+
+def _czml_stations(instance: Instance, schedule: Schedule, drawn: set[str]) -> list[dict[str, Any]]:
+    """Packets of the ground stations (points), and per contact window and per downlink one
+    entity available over its window; when the satellite's path is drawn (in ``drawn``), a
+    polyline between the satellite and the station that follows both (references to their
+    positions), thin grey for a contact, thick magenta while data flows."""
+    from sosp.orbits import utc_at
+
+    utc = partial(utc_at, instance.epoch)
+    out: list[dict[str, Any]] = []
+    for st in instance.stations:
+        out.append(
+            {
+                "id": f"station/{st.id}",
+                "name": st.id,
+                "description": st.description,
+                "position": {
+                    "cartographicDegrees": [
+                        _lon180(st.lon_deg),
+                        round(st.lat_deg, 6),
+                        round(st.alt_m, 1),
+                    ]
+                },
+                "point": {"pixelSize": 9, "color": _rgba(0, 128, 255)},
+                "label": {
+                    "text": st.id,
+                    "font": "11pt sans-serif",
+                    "pixelOffset": {"cartesian2": [10, 0]},
+                },
+                "properties": {
+                    "antennas": st.antennas,
+                    "min_elevation_deg": st.min_elevation_deg,
+                },
+            }
+        )
+    look = {"contact": (1, _rgba(200, 200, 200, 120)), "downlink": (3, _rgba(255, 0, 255))}
+    for kind, n, (sat, g, t0, t1), name, desc in _links(instance, schedule):
+        sname, sid = instance.satellite_names[sat], instance.stations[g].id
+        pkt: dict[str, Any] = {
+            "id": f"{kind}/{n}",
+            "name": f"{name} {utc(t0)}",
+            "availability": f"{utc(t0)}/{utc(t1)}",
+            "description": desc,
+            "properties": {"satellite": sname, "station": sid},
+        }
+        if kind == "downlink":
+            d = schedule.downlinks[n]
+            pkt["properties"]["volume"] = round(d.volume, 6)
+            pkt["properties"]["data"] = [
+                {"target": str(instance.target_ids[k]), "volume": round(v, 6)}
+                for k, v in ((int(instance.opp_target[i]), v) for i, v in d.parts)
+            ]
+        if sname in drawn:
+            width, colour = look[kind]
+            ends = [f"satellite/{sname}#position", f"station/{sid}#position"]
+            pkt["polyline"] = {
+                "positions": {"references": ends},
+                "width": width,
+                "arcType": "NONE",
+                "material": {"solidColor": {"color": colour}},
+            }
+        out.append(pkt)
+    return out
 
 
 # --------------------------------------------------------------------------- CLI
@@ -460,6 +641,9 @@ def cmd_export(args: argparse.Namespace) -> int:
         f"wrote {args.output} ({fmt}): {len(sched)} observations, {n} of "
         f"{inst.n_targets} targets observed"
     )
+    if inst.stations:
+        info["stations"], info["downlinks"] = len(inst.stations), len(sched.downlinks)
+        text += f", {len(sched.downlinks)} downlinks to {len(inst.stations)} stations"
     if fmt != "csv" and not info["paths"]:
         text += "; no satellite paths (the instance does not record its orbits)"
     sys.stdout.write((json.dumps(info) if args.json else text) + "\n")

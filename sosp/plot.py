@@ -13,6 +13,11 @@ Gantt chart and beside the map. Ground tracks are propagated with
 :func:`sosp.orbits.propagate` when the instance was generated from the built-in satellites
 (``meta["satellite_source"] == "builtin"``); for other instances (user TLEs are not stored in
 the instance) the map shows only the targets, and the title says so.
+
+With ground stations (issue 60), a panel per satellite below them draws its store, the data
+on board, over the horizon (:func:`store_profile`): a step up when an observation ends, a
+linear ramp down over each downlink, the memory capacity as a dashed line, contact windows
+as grey bands and downlinks as magenta ones.
 """
 
 from __future__ import annotations
@@ -114,6 +119,41 @@ def ground_tracks(instance: Instance) -> dict[str, tuple[np.ndarray, np.ndarray]
     return {name: (p[:, 0], p[:, 1]) for name, p in points.items()}
 
 
+def store_profile(
+    instance: Instance, schedule: Schedule
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each satellite's store (data on board) over time, as the model counts it (D2, D5 of
+    ``docs/model.md``): an observation adds its volume when it ends, a downlink removes its
+    volume evenly from its start to its end.
+
+    Returns
+    -------
+    dict
+        Per satellite of :attr:`~sosp.instance.Instance.satellite_names`, the vertices
+        ``(t, store)`` of the piecewise linear curve from the horizon's start to its end, a
+        step drawn as two vertices at the same time (the store before, then after).
+    """
+    import numpy as np
+
+    from sosp.downlink import satellite_of_orbit, volume
+
+    sat_of = satellite_of_orbit(instance)
+    t0 = float(instance.orbit_start.min()) if instance.n_orbits else 0.0
+    t1 = float(instance.orbit_end.max()) if instance.n_orbits else 0.0
+    out = {}
+    for s, name in enumerate(instance.satellite_names):
+        mine = [ob for ob in schedule.observations if sat_of[ob.orbit] == s]
+        ends = np.array([ob.end for ob in mine], dtype=float)
+        vols = np.array([volume(instance, ob) for ob in mine], dtype=float)
+        dls = [d for d in schedule.downlinks if d.satellite == s]
+        t = np.unique(np.r_[t0, t1, ends, [d.start for d in dls], [d.end for d in dls]])
+        gone = sum((d.volume * np.clip((t - d.start) / (d.end - d.start), 0, 1) for d in dls), 0)
+        before = (ends[None, :] < t[:, None]) @ vols - gone  # just before each vertex
+        after = (ends[None, :] <= t[:, None]) @ vols - gone
+        out[name] = (np.repeat(t, 2), np.column_stack([before, after]).ravel())
+    return out
+
+
 def plot_schedule(
     instance: Instance,
     schedule: Schedule,
@@ -189,9 +229,18 @@ def schedule_figure(
     row = {j: r for r, j in enumerate(orbits)}
 
     size = (14, max(4.5, 0.22 * len(orbits) + 2.5))
-    fig, (ax_g, ax_m) = plt.subplots(
-        1, 2, figsize=size, width_ratios=[1.3, 1], layout="constrained"
-    )
+    n_store = len(inst.satellite_names) if inst.stations else 0
+    if n_store:  # one store panel per satellite below the Gantt chart and the map
+        fig = plt.figure(figsize=(size[0], size[1] + 1.6 * n_store), layout="constrained")
+        grid = fig.add_gridspec(
+            1 + n_store, 2, width_ratios=[1.3, 1], height_ratios=[size[1] - 0.5] + [1.6] * n_store
+        )
+        ax_g, ax_m = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1])
+        ax_s = [fig.add_subplot(grid[1 + i, :]) for i in range(n_store)]
+    else:
+        fig, (ax_g, ax_m) = plt.subplots(
+            1, 2, figsize=size, width_ratios=[1.3, 1], layout="constrained"
+        )
     # Gantt: x is seconds from the orbit's start, or UTC clock time as matplotlib dates.
     scale = 86400.0 if utc else 1.0  # seconds per x unit
     if utc:
@@ -302,6 +351,10 @@ def schedule_figure(
     ax_m.grid(alpha=0.3)
     ax_m.set_title("targets and ground tracks" if tracks else "targets (ground tracks unknown)")
     ax_m.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    if n_store:
+        for ax in ax_s[1:]:
+            ax.sharex(ax_s[0])
+        _store_panels(inst, schedule, ax_s, (lambda t: day0 + t / scale) if utc else None)
     fig.suptitle(
         title
         or f"{inst.name or 'instance'}: {schedule.method or 'schedule'}, profit {rep.profit:g}, "
@@ -314,7 +367,67 @@ def schedule_figure(
         "clusters": n_clusters,
         "observed": int(observed.sum()),
         "tracks": bool(tracks),
+        **({"stores": n_store, "downlinks": len(schedule.downlinks)} if n_store else {}),
     }
+
+
+def _store_panels(inst: Instance, schedule: Schedule, axes: list[Any], utc_x: Any | None) -> None:
+    """Per satellite, its store over time (:func:`store_profile`), its memory capacity
+    (dashed; per orbit, as (5) and D5 read it), contact windows (grey) and downlinks
+    (magenta) as bands. x is hours from the epoch, or UTC clock time (``utc_x`` maps seconds
+    to matplotlib dates)."""
+    import numpy as np
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    def x(t: Any) -> Any:
+        return utc_x(np.asarray(t, dtype=float)) if utc_x else np.asarray(t, dtype=float) / 3600
+
+    prof = store_profile(inst, schedule)
+    con = inst.contacts
+    for s, (ax, name) in enumerate(zip(axes, inst.satellite_names, strict=True)):
+        for c in con[con["satellite"] == s]:
+            ax.axvspan(x(c["start_s"]), x(c["end_s"]), color="0.85", lw=0, zorder=0)
+        for d in schedule.downlinks:
+            if d.satellite == s:
+                ax.axvspan(x(d.start), x(d.end), color="#d53f8c", alpha=0.5, lw=0, zorder=1)
+        js = [j for j in range(inst.n_orbits) if inst.orbit_satellite[j] == name]
+        if js:
+            edges = np.r_[inst.orbit_start[js], inst.orbit_end[js][-1]]
+            cap = np.asarray(inst.memory_capacity, dtype=float)[js]
+            ax.stairs(cap, x(edges), baseline=None, color="#c53030", ls="--", lw=1, zorder=2)
+        t, store = prof[name]
+        ax.plot(x(t), store, color="#2b6cb0", lw=1.2, zorder=3)
+        ax.set_ylabel(f"{name}\nstore", fontsize=7)
+        ax.set_ylim(bottom=0)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in axes[:-1]:  # one shared time axis, labelled under the last panel
+        ax.tick_params(labelbottom=False)
+        ax.xaxis.offsetText.set_visible(False)
+    axes[0].set_title("data on board per satellite", fontsize=9, pad=20)
+    axes[0].legend(
+        handles=[
+            Line2D([], [], color="#2b6cb0", lw=1.2, label="store (memory in use)"),
+            Line2D([], [], color="#c53030", ls="--", lw=1, label="capacity"),
+            Patch(color="0.85", label="contact window"),
+            Patch(color="#d53f8c", alpha=0.5, label="downlink"),
+        ],
+        fontsize=7,
+        loc="lower center",
+        bbox_to_anchor=(0.5, 1.0),
+        ncol=4,
+        frameon=False,
+    )
+    if utc_x:
+        import matplotlib.dates as mdates
+
+        loc = mdates.AutoDateLocator()
+        axes[-1].xaxis.set_major_locator(loc)
+        axes[-1].xaxis.set_major_formatter(mdates.ConciseDateFormatter(loc))
+        axes[-1].set_xlabel("UTC")
+    else:
+        axes[-1].set_xlabel("hours from the epoch")
 
 
 def plot_format(path: str | os.PathLike[str]) -> str:
@@ -379,5 +492,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         f"{n['observed']} observed"
         + ("" if info["tracks"] else "; ground tracks unknown for this instance")
     )
+    if "stores" in info:
+        text += f"; store over time of {info['stores']} satellite(s), {info['downlinks']} downlinks"
     sys.stdout.write((json.dumps(info) if args.json else text) + "\n")
     return 0

@@ -141,6 +141,9 @@ class Summary:
     method_bound: dict[tuple[str, str], tuple[float, int | None]] = field(default_factory=dict)
     #: Per (scenario, label): the profit and count of a run that proved optimality (RDS-STC).
     method_exact: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
+    #: Per (scenario, label): the downlink figures (the validator's ``report.downlink``, kept
+    #: in each run's verdict) of its counted runs on an instance with ground stations.
+    downlink: dict[tuple[str, str], list[dict[str, Any]]] = field(default_factory=dict)
 
 
 def short_label(method: str, params_json: str) -> str:
@@ -213,6 +216,8 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
             r[f"per_{x}"] = r["profit"] / r[x] if r[x] else 0.0
         for m in MEASURES:
             cell.runs[m].append(float(r[m]))
+        if r["verdict"] and '"downlink"' in r["verdict"]:  # an instance with stations
+            sm.downlink.setdefault(key, []).append(json.loads(r["verdict"])["downlink"])
     sm.sizes = {i["scenario"]: (int(i["en"]), int(i["tn"])) for i in insts}
     sm.scenarios = sorted({s for s, _ in cells}, key=_scenario_order)
     sm.methods = sorted({m for _, m in cells})
@@ -399,6 +404,39 @@ def build_methods_table(
     return header, rows, notes
 
 
+def build_downlink_table(summary: Summary) -> tuple[list[str], list[list[Any]]]:
+    """Per scenario with ground stations and method, the means over its counted runs of the
+    validator's downlink figures: profit delivered and observed, observations delivered,
+    latency (minutes from an observation's end to the end of its last downlink: each run's
+    mean, 95th percentile and max), the largest store of any satellite, what is left on board
+    and each station's use (minutes of downlink)."""
+    stations = sorted(
+        {g for runs in summary.downlink.values() for d in runs for g in d["station_seconds"]}
+    )
+    header = ["SN", "method", "runs", "delivered R", "observed R", "delivered F"]
+    header += ["latency mean (min)", "latency p95 (min)", "latency max (min)"]
+    header += ["store peak", "left on board"] + [f"{g} use (min)" for g in stations]
+
+    def mean(xs: list[float | None], scale: float = 1.0) -> float | None:
+        xs = [x for x in xs if x is not None]
+        return sum(xs) / len(xs) / scale if xs else None
+
+    rows: list[list[Any]] = []
+    for (s, m), runs in sorted(
+        summary.downlink.items(), key=lambda kv: (_scenario_order(kv[0][0]), kv[0][1])
+    ):
+        row: list[Any] = [s, m, len(runs)]
+        row += [
+            mean([d[k] for d in runs]) for k in ("delivered_profit", "observed_profit", "delivered")
+        ]
+        row += [mean([d["latency_s"][k] for d in runs], 60.0) for k in ("mean", "p95", "max")]
+        row.append(mean([max(d["store_peak"].values(), default=0.0) for d in runs]))
+        row.append(mean([d["on_board_end"] for d in runs]))
+        row += [mean([d["station_seconds"].get(g, 0.0) for d in runs], 60.0) for g in stations]
+        rows.append(row)
+    return header, rows
+
+
 def _csv_text(header: list[str], rows: list[list[Any]]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -576,6 +614,14 @@ def write_report(
             files += [f"{name}.md", f"{name}.csv"]
             md += [f"## {head}", "", text]
         notes += [f"{short}: {n}" for n in tnotes]
+    if summary.downlink:  # only instances with ground stations have these figures
+        header, rows = build_downlink_table(summary)
+        text = _markdown(header, rows, [])
+        head = "Downlink: delivered profit, data latency, memory and station use"
+        atomic_write_text(out / "downlink.md", f"## {head}\n\n{text}")
+        atomic_write_text(out / "downlink.csv", _csv_text(header, rows))
+        files += ["downlink.md", "downlink.csv"]
+        md += [f"## {head}", "", text]
     for name in ("table3", "table4"):
         if f"{name}.md" not in files:
             notes.append(f"{name}: no scenarios of that group in the database")
@@ -620,6 +666,16 @@ def write_report(
         "sosp best: the best profit of any valid run; exact R, F: a proven optimum.",
         "",
     ]
+    if summary.downlink:
+        md[-1:-1] = [
+            "",
+            "Downlink (instances with ground stations, docs/model.md D1-D8): means over the "
+            "counted runs; delivered R: profit of the observations whose data all reached the "
+            "ground, observed R: of all observed; delivered F: observations delivered; latency: "
+            "from an observation's end to the end of its last downlink (each run's mean, 95th "
+            "percentile and max, in minutes); store peak: the most data any satellite held; "
+            "left on board: memory units never sent; <station> use: minutes of downlink.",
+        ]
     atomic_write_text(out / "report.md", "\n".join(md))
     files.append("report.md")
     return {"files": files, "notes": notes, "methods": summary.methods}

@@ -67,10 +67,52 @@ def test_validate_infeasible_exits_1_and_lists_violations(
     bad.save(tmp_path / "bad.json", inst)
     code, out, _ = run(capsys, "validate", str(inst_file), str(tmp_path / "bad.json"))
     assert code == 1
-    assert "INFEASIBLE" in out and "(3)" in out
+    assert "INFEASIBLE" in out and "(3)" in out and "downlink" not in out  # no stations
     code, out, _ = run(capsys, "validate", str(inst_file), str(tmp_path / "bad.json"), "--json")
     rep = json.loads(out)
     assert code == 1 and rep["violations"][0]["constraint"] == "3"
+
+
+@pytest.mark.parametrize(
+    ("end", "sent_b", "lines"),
+    [
+        (
+            930.0,
+            20.0,
+            [
+                "downlink: 2 observations delivered in 1 downlinks, 0 units left on board; "
+                "latency mean 11.9 min, p95 13.5 min, max 13.7 min",
+                "delivered profit 8 of 8 observed; store peak S1 30; station use G 0.5 min",
+            ],
+        ),
+        (
+            925.0,
+            15.0,
+            [
+                "downlink: 1 observations delivered in 1 downlinks, 5 units left on board; "
+                "latency mean 13.6 min, p95 13.6 min, max 13.6 min",
+                "delivered profit 5 of 8 observed; store peak S1 30; station use G 0.4 min",
+            ],
+        ),
+    ],
+)
+def test_validate_prints_the_downlink_figures(capsys, tmp_path: Path, end, sent_b, lines) -> None:
+    from sosp.downlink import Downlink
+    from tests.sosp.test_downlink import obs, tiny
+
+    inst = tiny()  # a: 10 units, ends at 110 s; b: 20 units, ends at 320 s; contact 900-1000 s
+    sched = Schedule(
+        obs(inst, 0, 1), downlinks=(Downlink(0, 0, 900.0, end, ((0, 10.0), (1, sent_b))),)
+    )
+    inst.save(tmp_path / "i.json")
+    sched.save(tmp_path / "s.json", inst)
+    code, out, _ = run(capsys, "validate", str(tmp_path / "i.json"), str(tmp_path / "s.json"))
+    assert code == 0 and out.splitlines()[2:] == lines
+    code, out, _ = run(
+        capsys, "validate", str(tmp_path / "i.json"), str(tmp_path / "s.json"), "--json"
+    )
+    down = json.loads(out)["downlink"]
+    assert down["delivered_profit"] == 8 - 3 * (sent_b < 20) and down["store_peak"] == {"S1": 30}
 
 
 def write(tmp_path: Path, name: str, text: str) -> Path:

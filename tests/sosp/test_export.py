@@ -250,3 +250,102 @@ def test_czml_numbers_at_the_precision_of_the_data(c1) -> None:
     text = export_czml(*c1)
     assert not re.search(r"\d\.\d{7,}", text), re.search(r"\S*\d\.\d{7,}", text)[0]
     json.loads(text)
+
+
+# --------------------------------------------------------------------------- ground stations
+@pytest.fixture(scope="module")
+def c1s(c1) -> tuple[Instance, Schedule]:
+    """C1 with three stations and a schedule whose downlinks the validator accepts."""
+    from sosp.stations import builtin_stations
+
+    inst = c1[0].with_stations([s for s in builtin_stations() if s.id in ("SG", "MIY", "KSH")])
+    sched = solve(inst, "greedy").schedule
+    assert validate(inst, sched).feasible and sched.downlinks and len(inst.contacts)
+    return inst, sched
+
+
+def _whose(inst: Instance, d) -> dict[str, float]:
+    return {str(inst.target_ids[int(inst.opp_target[i])]): v for i, v in d.parts}
+
+
+def test_exports_without_stations_have_no_station_parts(c1) -> None:
+    inst, sched = c1
+    assert export_csv(inst, sched).splitlines()[0] == ",".join(CSV_COLUMNS)
+    assert not {"ground stations", "downlinks"} & set(
+        _folders(ET.fromstring(export_kml(inst, sched)))
+    )
+    ids = [p["id"] for p in json.loads(export_czml(inst, sched))]
+    assert not [i for i in ids if i.split("/")[0] in ("station", "contact", "downlink")]
+
+
+def test_csv_rows_of_each_downlink_after_the_unchanged_observation_rows(c1s) -> None:
+    inst, sched = c1s
+    rows = list(csv.DictReader(io.StringIO(export_csv(inst, sched))))
+    assert tuple(rows[0]) == CSV_COLUMNS + ("kind", "station", "volume", "data")
+    obs = [r for r in rows if r["kind"] == "observation"]
+    plain = list(csv.DictReader(io.StringIO(export_csv(inst.without_stations(), sched))))
+    assert [{k: r[k] for k in CSV_COLUMNS} for r in obs] == plain  # same rows, same order
+    down = [r for r in rows if r["kind"] == "downlink"]
+    assert rows[len(obs) :] == down and len(down) == len(sched.downlinks)
+    want = sorted(sched.downlinks, key=lambda d: (d.start, d.satellite))
+    for r, d in zip(down, want, strict=True):
+        st = inst.stations[d.station]
+        assert (r["satellite"], r["station"]) == (inst.satellite_names[d.satellite], st.id)
+        assert (r["start_utc"], r["end_utc"]) == (clock(inst, d.start), clock(inst, d.end))
+        assert float(r["lat"]) == pytest.approx(st.lat_deg, abs=1e-6)
+        assert float(r["volume"]) == pytest.approx(d.volume, rel=1e-5)
+        got = dict(p.split("=") for p in r["data"].split(";"))
+        assert {k: float(v) for k, v in got.items()} == pytest.approx(_whose(inst, d), rel=1e-5)
+        j = inst.orbit_ids.index(r["orbit"])
+        assert inst.orbit_start[j] <= d.start < inst.orbit_end[j]
+
+
+def test_kml_stations_contacts_and_downlinks_with_time_spans(c1s) -> None:
+    inst, sched = c1s
+    folders = _folders(ET.fromstring(export_kml(inst, sched)))
+    marks = folders["ground stations"].findall(f"{KML}Placemark")
+    assert [m.find(f"{KML}name").text for m in marks] == [s.id for s in inst.stations]
+    for m, st in zip(marks, inst.stations, strict=True):
+        lon, lat, _ = map(float, m.find(f"{KML}Point/{KML}coordinates").text.split(","))
+        assert (lat, lon) == pytest.approx((st.lat_deg, st.lon_deg), abs=1e-6)
+
+    def spans(folder: str) -> list[tuple[str, str]]:
+        return [
+            (p.find(f"{KML}TimeSpan/{KML}begin").text, p.find(f"{KML}TimeSpan/{KML}end").text)
+            for p in folders[folder].findall(f"{KML}Placemark")
+        ]
+
+    con = inst.contacts
+    assert spans("contact windows") == [
+        (clock(inst, a), clock(inst, b)) for a, b in zip(con["start_s"], con["end_s"], strict=True)
+    ]
+    assert spans("downlinks") == [
+        (clock(inst, d.start), clock(inst, d.end)) for d in sched.downlinks
+    ]
+    for p in folders["downlinks"].findall(f"{KML}Placemark"):  # satellite to station
+        line = p.find(f"{KML}LineString/{KML}coordinates").text.split()
+        assert len(line) == 2 and float(line[0].split(",")[2]) > 300e3
+
+
+def test_czml_stations_and_a_link_while_each_downlink_is_on(c1s) -> None:
+    inst, sched = c1s
+    packets = json.loads(export_czml(inst, sched))
+    by_id = {p["id"]: p for p in packets}
+    assert len(by_id) == len(packets)
+    for st in inst.stations:
+        lon, lat, alt = by_id[f"station/{st.id}"]["position"]["cartographicDegrees"]
+        assert (lat, lon, alt) == pytest.approx((st.lat_deg, st.lon_deg, st.alt_m), abs=1e-6)
+    contacts = [p for p in packets if p["id"].startswith("contact/")]
+    assert len(contacts) == len(inst.contacts)
+    down = [by_id[f"downlink/{n}"] for n in range(len(sched.downlinks))]
+    for p, d in zip(down, sched.downlinks, strict=True):
+        assert p["availability"] == f"{clock(inst, d.start)}/{clock(inst, d.end)}"
+        assert p["properties"]["volume"] == pytest.approx(d.volume, rel=1e-6)
+        got = {x["target"]: x["volume"] for x in p["properties"]["data"]}
+        assert got == pytest.approx(_whose(inst, d), rel=1e-6)
+    for p in contacts + down:  # the link follows both ends: they exist and have positions
+        refs = p["polyline"]["positions"]["references"]
+        sat, st = (r.removesuffix("#position") for r in refs)
+        assert sat == f"satellite/{p['properties']['satellite']}"
+        assert st == f"station/{p['properties']['station']}"
+        assert "position" in by_id[sat] and "position" in by_id[st]

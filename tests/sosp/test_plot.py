@@ -220,3 +220,67 @@ def test_plot_draws_walker_instances_ground_tracks(tmp_path: Path) -> None:
 
     tracks = ground_tracks(load_instance(inst))
     assert tracks is not None and len(tracks) == 4
+
+
+# ------------------------------------------------------------------- ground stations
+def test_store_steps_up_at_each_observation_end_and_ramps_down_over_a_downlink() -> None:
+    import numpy as np
+
+    from sosp.downlink import Downlink
+    from sosp.plot import store_profile
+    from tests.sosp.test_downlink import obs, tiny
+
+    inst = tiny()  # a: 100-110 s (10 units), b: 300-320 s (20 units); contact 900-1000 s
+    sched = Schedule(
+        obs(inst, 0, 1), downlinks=(Downlink(0, 0, 900.0, 925.0, ((0, 10.0), (1, 15.0))),)
+    )
+    t, store = store_profile(inst, sched)["S1"]
+    np.testing.assert_allclose(t, [0, 0, 110, 110, 320, 320, 900, 900, 925, 925, 2000, 2000])
+    np.testing.assert_allclose(store, [0, 0, 0, 10, 10, 30, 30, 30, 5, 5, 5, 5])
+    assert np.interp(912.5, t[6:10], store[6:10]) == pytest.approx(17.5)  # even ramp
+
+
+def test_store_panels_per_satellite_agree_with_the_validator(tmp_path: Path) -> None:
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.colors import to_hex
+
+    from sosp.plot import store_profile
+    from sosp.scenarios import generate_scenario
+    from sosp.solve import solve
+    from sosp.stations import builtin_stations
+    from sosp.validate import validate
+
+    inst = generate_scenario("C1", hours=4)  # 4 h: quick, still several passes per station
+    inst = inst.with_stations([s for s in builtin_stations() if s.id in ("SG", "MIY", "KSH")])
+    sched = solve(inst, "greedy").schedule
+    rep = validate(inst, sched)
+    assert rep.feasible and sched.downlinks
+    prof = store_profile(inst, sched)
+    # the curve's peaks are the validator's (D5) and what it ends with is left on board
+    peaks = {s: float(v.max()) for s, (_, v) in prof.items() if v.max() > 0}
+    assert peaks == pytest.approx(rep.downlink["store_peak"])
+    assert sum(v[-1] for _, v in prof.values()) == pytest.approx(
+        rep.downlink["on_board_end"], abs=1e-6
+    )
+    assert min(v.min() for _, v in prof.values()) >= -1e-6
+    fig, info = schedule_figure(inst, sched)
+    try:
+        n = len(inst.satellite_names)
+        assert info["stores"] == n and info["downlinks"] == len(sched.downlinks)
+        assert len(fig.axes) == 2 + n
+        for s, ax in enumerate(fig.axes[2:]):
+            name = inst.satellite_names[s]
+            (line,) = [ln for ln in ax.lines if ln.get_color() == "#2b6cb0"]
+            np.testing.assert_allclose(line.get_ydata(), prof[name][1])
+            np.testing.assert_allclose(line.get_xdata(), prof[name][0] / 3600)
+            colours = [to_hex(p.get_facecolor(), keep_alpha=True) for p in ax.patches]
+            assert colours.count("#d53f8c80") == sum(d.satellite == s for d in sched.downlinks)
+            assert colours.count("#d9d9d9ff") == (inst.contacts["satellite"] == s).sum()
+    finally:
+        plt.close(fig)
+    png = tmp_path / "s.png"
+    assert plot_schedule(inst, sched, png)["stores"] == n and png.stat().st_size > 10_000
+    fig, info = schedule_figure(inst.without_stations(), Schedule(sched.observations))
+    plt.close(fig)
+    assert "stores" not in info and len(fig.axes) == 2

@@ -133,6 +133,7 @@ def test_report_tables_match_the_database(db: Path, tmp_path: Path, capsys) -> N
     assert "**640**" in md  # the best mean profit of the row in bold (milp)
     report = (out / "report.md").read_text()
     assert "1 failed run(s) left out" in report
+    assert "downlink.md" not in res["files"] and "Downlink" not in report  # no stations
 
 
 FIGURES = (
@@ -346,3 +347,42 @@ def test_imp_falls_back_to_asa_stc_without_aco_ls(paper_db: Path, tmp_path: Path
     assert "Table 4: IMP and t-test against asa-stc@paper: no runs of aco-ls-stc" in report
     assert "Table 3: IMP and t-test omitted: no runs of" in report
     assert "PBA-STC columns omitted: no runs of pba-stc" in report
+
+
+def test_downlink_figures_in_the_database_and_the_report(tmp_path: Path, capsys) -> None:
+    """The bench keeps the validator's downlink figures in each run's verdict; the report's
+    downlink table holds their means, and nothing about downlinks without stations."""
+    from sosp.scenarios import generate_scenario
+    from sosp.stations import builtin_stations
+
+    inst = generate_scenario("C1", hours=4)
+    inst = inst.with_stations([s for s in builtin_stations() if s.id in ("SG", "MIY", "KSH")])
+    inst.save(tmp_path / "c1s.json")
+    path = tmp_path / "d.db"
+    with Store(path) as st:
+        camp = campaign_from_options(str(tmp_path / "c1s.json"), "greedy;orbit-dp", "1", "2")
+        run_campaign(camp, st, workers=1)
+        rows = st.rows()
+    assert len(rows) == 2 and all(r["feasible"] for r in rows)
+    down = {r["method"]: json.loads(r["verdict"])["downlink"] for r in rows}
+    for r in rows:  # the profit stored is what reached the ground (D8)
+        assert r["profit"] == down[r["method"]]["delivered_profit"] > 0
+    out = tmp_path / "rep"
+    assert main(["report", str(path), "-o", str(out), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert {"downlink.md", "downlink.csv"} <= set(res["files"])
+    with (out / "downlink.csv").open() as fh:
+        table = {r["method"]: r for r in csv.DictReader(fh)}
+    assert set(table) == {"greedy", "orbit-dp"}
+    for m, t in table.items():
+        d = down[m]
+        assert int(t["runs"]) == 1 and int(float(t["delivered F"])) == d["delivered"]
+        assert float(t["delivered R"]) == d["delivered_profit"]
+        assert float(t["observed R"]) == d["observed_profit"]
+        for k in ("mean", "p95", "max"):
+            assert float(t[f"latency {k} (min)"]) == pytest.approx(d["latency_s"][k] / 60)
+        assert float(t["store peak"]) == pytest.approx(max(d["store_peak"].values()))
+        for g in ("SG", "MIY", "KSH"):
+            want = d["station_seconds"].get(g, 0.0) / 60
+            assert float(t.get(f"{g} use (min)") or 0) == pytest.approx(want)
+    assert "## Downlink" in (out / "report.md").read_text()
