@@ -30,6 +30,7 @@ from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from sosp.params import positive
 from sosp.rules import orbit_rules
 
 if TYPE_CHECKING:
@@ -51,8 +52,22 @@ WORDS = {
     "observed": "target",
 }
 
-#: Ground-track colours: blues, purples and browns, away from the targets' green and red.
-TRACK_COLOURS = ("#3182ce", "#805ad5", "#b7791f", "#319795", "#d53f8c", "#4a5568", "#2c5282")
+#: Ground-track colours: matplotlib's tab10 without its green and red (the targets'), so that
+#: any two satellites' tracks differ in hue (two blues once looked alike).
+TRACK_COLOURS = (
+    "#1f77b4",
+    "#ff7f0e",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#7f7f7f",
+    "#bcbd22",
+    "#17becf",
+)
+
+#: On a UTC axis (the whole horizon), the least width of a drawn observation, as a share of
+#: the axis: a 10-s observation on a 24-h axis is a tenth of a pixel wide.
+MIN_BAR_SHARE = 0.003
 
 #: Margin around the targets on the map, as a share of their extent (at least 1 degree).
 MAP_MARGIN = 0.15
@@ -256,6 +271,18 @@ def schedule_figure(
     def dx(d: Any) -> Any:
         return np.asarray(d) / scale
 
+    # on a UTC axis, bars keep a visible width (MIN_BAR_SHARE of the shown span)
+    least = 0.0
+    if utc and orbits:
+        lo = min(
+            float(inst.opp_start[inst.orbit_opps(j)].min(initial=inst.orbit_start[j]))
+            for j in orbits
+        )
+        hi = max(
+            float(inst.opp_end[inst.orbit_opps(j)].max(initial=inst.orbit_end[j])) for j in orbits
+        )
+        least = MIN_BAR_SHARE * (hi - lo) / scale
+
     # opportunities, setup + slew gaps (3), observations
     for j in orbits:
         sl = inst.orbit_opps(j)
@@ -279,12 +306,20 @@ def schedule_figure(
         cluster = len(ob.opps) > 1
         n_clusters += cluster
         ax_g.broken_barh(
-            [(x_of(j, ob.start), dx(ob.end - ob.start))],
+            [(x_of(j, ob.start), max(dx(ob.end - ob.start), least))],
             (row[j] - 0.35, 0.7),
             facecolors="#e8890c" if cluster else "#2b6cb0",
         )
-        if cluster:
+        if cluster and not utc:
             ax_g.text(x_of(j, ob.end), row[j], f" {len(ob.opps)}", va="center", fontsize=6)
+    if utc:  # one count per pass after its last bar: bars a few pixels apart would pile up
+        for j in orbits:
+            mine = [ob for ob in schedule.observations if ob.orbit == j]
+            if mine:
+                end = max(x_of(j, ob.end) for ob in mine) + least
+                k = sum(len(ob.opps) for ob in mine)
+                text = f" {len(mine)} obs, {k} target{'' if k == 1 else 's'}"
+                ax_g.text(end, row[j], text, va="center", fontsize=6)
     labels = [inst.orbit_ids[j] for j in orbits]
     if utc:  # each pass's first opportunity, clock time: the axis spans the whole horizon
         first = [
@@ -468,6 +503,14 @@ def add_plot_parser(subparsers: Any) -> argparse.ArgumentParser:
         action="store_true",
         help="Gantt time axis in UTC clock time (default: seconds from each orbit's start)",
     )
+    p.add_argument(
+        "--max-orbits",
+        type=positive(int),
+        default=60,
+        metavar="N",
+        help="at most N orbit rows, those with observations first (60); the output says how "
+        "many of how many are drawn",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_plot)
     return p
@@ -483,7 +526,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
     plot_format(args.output)
     inst = load_instance(args.instance)
     sched = load_schedule(args.schedule, inst)
-    info = plot_schedule(inst, sched, args.output, title=args.title, utc=args.utc)
+    info = plot_schedule(
+        inst, sched, args.output, title=args.title, max_orbits=args.max_orbits, utc=args.utc
+    )
     info["output"] = args.output
     n = {k: f"{info[k]} {w}{'' if info[k] == 1 else 's'}" for k, w in WORDS.items()}
     shown = "" if info["orbits"] == info["orbits_total"] else f" (of {info['orbits_total']})"

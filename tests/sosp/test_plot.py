@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sosp.cli import main
@@ -284,3 +285,56 @@ def test_store_panels_per_satellite_agree_with_the_validator(tmp_path: Path) -> 
     fig, info = schedule_figure(inst.without_stations(), Schedule(sched.observations))
     plt.close(fig)
     assert "stores" not in info and len(fig.axes) == 2
+
+
+def test_utc_bars_stay_visible_and_counts_do_not_pile_up() -> None:
+    """Issue 63, item 12: on a UTC axis a 10-s bar was a sliver and every cluster's count
+    label sat on its neighbours'; now bars keep MIN_BAR_SHARE of the axis and each pass
+    has one count."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_hex
+
+    from sosp.plot import MIN_BAR_SHARE
+
+    inst, sched, fig, _ = _c1_figure(utc=True)
+    try:
+        ax_g = fig.axes[0]
+        span = float(np.subtract(*ax_g.get_xlim()[::-1]))
+        widths = [
+            w
+            for coll in ax_g.collections
+            if to_hex(coll.get_facecolor()[0]) in ("#2b6cb0", "#e8890c")  # tasks, clusters
+            for path in coll.get_paths()
+            for w in [float(np.ptp(path.vertices[:, 0]))]
+        ]
+        assert widths and min(widths) >= 0.9 * MIN_BAR_SHARE * span
+        passes = {o.orbit for o in sched.observations}
+        counts = [t for t in ax_g.texts if " obs, " in t.get_text()]
+        assert len(counts) == len(passes)
+    finally:
+        plt.close(fig)
+
+
+def test_track_colours_differ_in_hue() -> None:
+    """Issue 63, item 12: two satellites' tracks were near-identical blues."""
+    from matplotlib.colors import to_rgb
+
+    from sosp.plot import TRACK_COLOURS
+
+    rgb = np.array([to_rgb(c) for c in TRACK_COLOURS])
+    far = min(np.linalg.norm(a - b) for i, a in enumerate(rgb) for b in rgb[i + 1 :])
+    assert far > 0.25
+
+
+def test_max_orbits_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    inst, sched = scenario("C1"), None
+    from sosp.solve import solve
+
+    sched = solve(inst, "greedy").schedule
+    inst_p, sched_p, png = tmp_path / "c1.json", tmp_path / "s.json", tmp_path / "m.png"
+    inst.save(inst_p)
+    sched.save(sched_p, inst)
+    assert main(["plot", str(inst_p), str(sched_p), "-o", str(png), "--max-orbits", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "on 2 orbits (of " in out
+    assert main(["plot", str(inst_p), str(sched_p), "-o", str(png), "--max-orbits", "0"]) == 2
