@@ -398,7 +398,7 @@ def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
     keep = deliverable(inst)
     out = replace(
         inst.with_opportunities(keep).without_stations(),
-        memory_capacity=np.minimum(allow, cap_orbit) * (1.0 - 1e-9),
+        memory_capacity=np.minimum(allow, cap_orbit),
         energy_capacity=np.maximum(0.0, np.asarray(inst.energy_capacity, float) - reserve),
     )
     return out, np.flatnonzero(keep)

@@ -213,6 +213,14 @@ def _with_stations(
     budget = Budget.until(None if time_limit is None else t0 + time_limit)
     own = budget.share(1.0 - BOUND_SHARE) if bound is not None else budget
     search, index = search_instance(instance)
+    if isinstance(start := kwargs.get("warm_start"), Schedule):  # into the search's indices
+        at = {int(i): n for n, i in enumerate(index)}
+        obs = [
+            replace(o, opps=tuple(at[i] for i in o.opps))
+            for o in start.observations
+            if all(i in at for i in o.opps)
+        ]
+        kwargs["warm_start"] = Schedule(tuple(obs))
     inner = solve(search, method, time_limit=own.left(), check=check, **kwargs)
     found = [
         replace(o, opps=tuple(int(index[i]) for i in o.opps)) for o in inner.schedule.observations
@@ -220,6 +228,11 @@ def _with_stations(
     obs, downlinks = deliver(instance, found)
     schedule = replace(inner.schedule, observations=obs, downlinks=tuple(downlinks))
     profit, observed = schedule.coverage_profit(instance)
+    if isinstance(start, Schedule):  # a start the allowances cut is still never lost
+        obs, downlinks = deliver(instance, start.observations)
+        kept = replace(schedule, observations=obs, downlinks=tuple(downlinks))
+        if (got := kept.coverage_profit(instance))[0] > profit:
+            schedule, (profit, observed) = kept, got
     status = inner.status
     if status is Status.OPTIMAL:  # optimal for the allowances, a restriction
         status = Status.FEASIBLE

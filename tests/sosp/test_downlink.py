@@ -306,3 +306,17 @@ def test_a_scenario_with_downlink_options_records_them(tmp_path, capsys):
     inst = load_instance(out)
     assert inst.downlink == DownlinkParams(rate=4.0, count="observed")
     assert "rate 4" in capsys.readouterr().out
+
+
+def test_a_warm_start_with_stations_is_read_in_the_search_problem() -> None:
+    """A schedule of the instance (its opportunity indices) starts milp-lns, which plans on
+    the search problem (S1's b and c cannot be delivered, so S2's opportunities move down
+    two places), and is never lost."""
+    from sosp.solve import solve
+
+    inst = tiny(contacts=((0, 0, 150.0, 200.0), (1, 0, 900.0, 1000.0)), satellites=("S1", "S2"))
+    kept, dls = deliver(inst, obs(inst, 0, 4, 5))  # a by S1, b and c by S2
+    start = Schedule(kept, downlinks=tuple(dls))
+    assert validate(inst, start).profit == 10.0
+    again = solve(inst, "milp-lns", warm_start=start, time_limit=3)
+    assert validate(inst, again.schedule).feasible and again.profit == 10.0
