@@ -202,8 +202,8 @@ def gantt_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]])
     fig.update_layout(
         barmode="overlay",
         height=max(260, 60 + 40 * len(sats)),
-        margin={"l": 10, "r": 10, "t": 30, "b": 40},
-        legend={"orientation": "h", "y": 1.08},
+        margin={"l": 10, "r": 10, "t": 40, "b": 40},
+        legend={"orientation": "h", "yanchor": "bottom", "y": 1.0},
         xaxis={"type": "date", "title": "UTC"},
         yaxis={
             "tickvals": list(range(len(sats))),
@@ -222,57 +222,45 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
     from sosp.orbits import instance_satellites, utc_at
 
     x0, x1, y0, y1, wrap = map_extent(inst.target_lat, inst.target_lon)
+    # one kind of trace for all, so they are drawn in order (WebGL draws above SVG)
+    scatter = go.Scattergl if inst.n_targets >= WEBGL_TARGETS else go.Scatter
     fig = go.Figure()
+
+    def lines(name: str, xy: tuple[np.ndarray, np.ndarray], **style: Any) -> None:
+        fig.add_trace(scatter(x=xy[0], y=xy[1], mode="lines", name=name, **style))
+
     coast = coastlines()
-    cx, cy = _lines([np.asarray(c[0]) for c in coast], [np.asarray(c[1]) for c in coast], wrap)
-    fig.add_scattergl(
-        x=cx,
-        y=cy,
-        mode="lines",
-        line={"color": "#a0aec0", "width": 1},
-        name="coastline",
-        hoverinfo="skip",
-    )
+    xy = _lines([np.asarray(c[0]) for c in coast], [np.asarray(c[1]) for c in coast], wrap)
+    lines("coastline", xy, line={"color": "#a0aec0", "width": 1}, hoverinfo="skip")
     sats = instance_satellites(inst) or []
+    strips = None
     if sats and inst.n_orbits:
         t0, t1 = float(inst.orbit_start.min()), float(inst.orbit_end.max())
         step = max(TRACK_STEP, (t1 - t0) * len(sats) / MAX_TRACK_POINTS)
         t = np.append(np.arange(t0, t1, step), t1)
         lat, lon = ground_points(sats, inst.epoch, t)
         for n, s in enumerate(sats):
-            tx, ty = _lines([lon[n]], [lat[n]], wrap)
-            fig.add_scattergl(
-                x=tx,
-                y=ty,
-                mode="lines",
-                name=s.name,
-                hoverinfo="name",
-                line={"color": TRACK_COLOURS[n % len(TRACK_COLOURS)], "width": 1},
-                opacity=0.6,
-            )
+            colour = TRACK_COLOURS[n % len(TRACK_COLOURS)]
+            xy = _lines([lon[n]], [lat[n]], wrap)
+            lines(s.name, xy, line={"color": colour, "width": 1}, opacity=0.6, hoverinfo="name")
         # strips: the ground point looked at, start to end of each observation, at its roll
-        by_sat = {s.name: n for n, s in enumerate(sats)}
         sx, sy, stext = [], [], []
-        for u, ob in enumerate(schedule.observations):
-            n = by_sat.get(inst.orbit_satellite[ob.orbit])
-            if n is None:
+        obs = schedule.observations
+        for s in sats:
+            us = [u for u, ob in enumerate(obs) if inst.orbit_satellite[ob.orbit] == s.name]
+            if not us:
                 continue
-            ts = np.linspace(ob.start, ob.end, STRIP_POINTS)
-            la, lo = ground_points([sats[n]], inst.epoch, ts, np.full(STRIP_POINTS, ob.roll))
-            px, py = _lines([lo[0]], [la[0]], wrap)
-            sx.append(px)
-            sy.append(py)
-            stext += [_hover(rows[u])] * len(px)
+            ts = np.linspace([obs[u].start for u in us], [obs[u].end for u in us], STRIP_POINTS)
+            roll = np.broadcast_to([obs[u].roll for u in us], ts.shape)
+            la, lo = ground_points([s], inst.epoch, ts.T.ravel(), roll.T.ravel())
+            for m, u in enumerate(us):
+                part = slice(m * STRIP_POINTS, (m + 1) * STRIP_POINTS)
+                px, py = _lines([lo[0, part]], [la[0, part]], wrap)
+                sx.append(px)
+                sy.append(py)
+                stext += [_hover(rows[u])] * len(px)
         if sx:
-            fig.add_scattergl(
-                x=np.concatenate(sx),
-                y=np.concatenate(sy),
-                mode="lines",
-                line={"color": STRIP, "width": 5},
-                name="observation strip",
-                hovertext=stext,
-                hoverinfo="text",
-            )
+            strips = (np.concatenate(sx), np.concatenate(sy)), stext
     observed = np.zeros(inst.n_targets, dtype=bool)
     when: dict[int, str] = {}
     for ob in schedule.observations:
@@ -280,12 +268,9 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
             k = int(inst.opp_target[i])
             observed[k] = True
             when.setdefault(k, f"{inst.orbit_ids[ob.orbit]} {utc_at(inst.epoch, ob.start)}")
-    scatter = go.Scattergl if inst.n_targets >= WEBGL_TARGETS else go.Scatter
     lon = np.round(map_lon(inst.target_lon, wrap), 4)
-    for label, mask, marker in (
-        ("observed", observed, {"color": OBSERVED, "size": 6, "symbol": "circle"}),
-        ("unobserved", ~observed, {"color": UNOBSERVED, "size": 6, "symbol": "x"}),
-    ):
+
+    def targets(label: str, mask: np.ndarray, marker: dict[str, Any]) -> None:
         ks = np.flatnonzero(mask)
         text = [
             f"<b>{html.escape(inst.target_ids[k])}</b> weight {int(inst.target_weight[k])}"
@@ -303,10 +288,23 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
                 hoverinfo="text",
             )
         )
+
+    # drawn in this order: the few observed targets and their strips over the many others
+    targets("unobserved", ~observed, {"color": UNOBSERVED, "size": 5, "symbol": "x"})
+    if strips is not None:
+        (xy, text) = strips
+        lines(
+            "observation strip",
+            xy,
+            line={"color": STRIP, "width": 5},
+            hovertext=text,
+            hoverinfo="text",
+        )
+    targets("observed", observed, {"color": OBSERVED, "size": 7, "symbol": "circle"})
     fig.update_layout(
         height=620,
         margin={"l": 10, "r": 10, "t": 30, "b": 40},
-        legend={"orientation": "h", "y": 1.06},
+        legend={"orientation": "h", "yanchor": "bottom", "y": 1.0},
         xaxis={"range": [x0, x1], "title": "longitude (deg)" + (", 0-360" if wrap else "")},
         yaxis={"range": [y0, y1], "title": "latitude (deg)", "scaleanchor": "x"},
         plot_bgcolor="#f7fafc",
@@ -342,7 +340,7 @@ def resources_figure(inst: Instance, report: Any) -> Any:
         barmode="group",
         height=300,
         margin={"l": 10, "r": 10, "t": 30, "b": 80},
-        legend={"orientation": "h", "y": 1.12},
+        legend={"orientation": "h", "yanchor": "bottom", "y": 1.0},
         yaxis={"title": "% of capacity", "range": [0, 105]},
     )
     return fig
