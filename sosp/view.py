@@ -81,7 +81,8 @@ def _lines(xs: list[np.ndarray], ys: list[np.ndarray], wrap: bool) -> tuple[np.n
         out_y += [y, [np.nan]]
     if not out_x:
         return np.empty(0), np.empty(0)
-    return np.round(np.concatenate(out_x), 4), np.round(np.concatenate(out_y), 4)
+    # float32: 1e-5 degree (a metre) is ample for a map and halves the page's share
+    return np.concatenate(out_x).astype(np.float32), np.concatenate(out_y).astype(np.float32)
 
 
 def ground_points(
@@ -215,7 +216,7 @@ def gantt_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]])
     return fig
 
 
-def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -> Any:
+def map_figure(inst: Instance, schedule: Schedule) -> Any:
     """The map: coastlines, ground tracks, observation strips and targets (observed or not)."""
     import plotly.graph_objects as go
 
@@ -244,7 +245,7 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
             xy = _lines([lon[n]], [lat[n]], wrap)
             lines(s.name, xy, line={"color": colour, "width": 1}, opacity=0.6, hoverinfo="name")
         # strips: the ground point looked at, start to end of each observation, at its roll
-        sx, sy, stext = [], [], []
+        sx, sy, snum = [], [], []
         obs = schedule.observations
         for s in sats:
             us = [u for u, ob in enumerate(obs) if inst.orbit_satellite[ob.orbit] == s.name]
@@ -258,9 +259,9 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
                 px, py = _lines([lo[0, part]], [la[0, part]], wrap)
                 sx.append(px)
                 sy.append(py)
-                stext += [_hover(rows[u])] * len(px)
+                snum.append(np.full(len(px), u + 1, dtype=np.int32))
         if sx:
-            strips = (np.concatenate(sx), np.concatenate(sy)), stext
+            strips = (np.concatenate(sx), np.concatenate(sy)), np.concatenate(snum)
     observed = np.zeros(inst.n_targets, dtype=bool)
     when: dict[int, str] = {}
     for ob in schedule.observations:
@@ -268,7 +269,7 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
             k = int(inst.opp_target[i])
             observed[k] = True
             when.setdefault(k, f"{inst.orbit_ids[ob.orbit]} {utc_at(inst.epoch, ob.start)}")
-    lon = np.round(map_lon(inst.target_lon, wrap), 4)
+    lon = map_lon(inst.target_lon, wrap).astype(np.float32)
 
     def targets(label: str, mask: np.ndarray, marker: dict[str, Any]) -> None:
         ks = np.flatnonzero(mask)
@@ -280,7 +281,7 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
         fig.add_trace(
             scatter(
                 x=lon[ks],
-                y=np.round(inst.target_lat[ks], 4),
+                y=inst.target_lat[ks].astype(np.float32),
                 mode="markers",
                 marker=marker,
                 name=f"{label} ({len(ks)})",
@@ -292,13 +293,15 @@ def map_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]]) -
     # drawn in this order: the few observed targets and their strips over the many others
     targets("unobserved", ~observed, {"color": UNOBSERVED, "size": 5, "symbol": "x"})
     if strips is not None:
-        (xy, text) = strips
+        (xy, num) = strips
+        # the observation's number (its row in the table and its Gantt bar give the rest):
+        # a full text per point would repeat it STRIP_POINTS times
         lines(
             "observation strip",
             xy,
             line={"color": STRIP, "width": 5},
-            hovertext=text,
-            hoverinfo="text",
+            customdata=num,
+            hovertemplate="observation %{customdata}<extra></extra>",
         )
     targets("observed", observed, {"color": OBSERVED, "size": 7, "symbol": "circle"})
     fig.update_layout(
@@ -447,7 +450,7 @@ def view_html(instance: Instance, schedule: Schedule, title: str | None = None) 
     info = summary(instance, schedule, report)
     figures = [
         ("gantt", gantt_figure(instance, schedule, rows)),
-        ("map", map_figure(instance, schedule, rows)),
+        ("map", map_figure(instance, schedule)),
         ("resources", resources_figure(instance, report)),
     ]
     data = ",".join(f'["{name}", {to_json(fig, validate=False)}]' for name, fig in figures)
