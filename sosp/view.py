@@ -188,17 +188,32 @@ def gantt_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]])
     ):
         idx = [u for u, ob in enumerate(obs) if pick(ob)]
         start = _ms(inst.epoch, [obs[u].start for u in idx])
+        end = _ms(inst.epoch, [obs[u].end for u in idx])
+        y = [row_of[inst.orbit_satellite[obs[u].orbit]] for u in idx]
         fig.add_bar(
             orientation="h",
             base=start,
-            x=_ms(inst.epoch, [obs[u].end for u in idx]) - start,
-            y=[row_of[inst.orbit_satellite[obs[u].orbit]] for u in idx],
+            x=end - start,
+            y=y,
             width=0.7,
             # an outline keeps a 10-second bar visible on a 24-hour axis
             marker={"color": colour, "line": {"color": colour, "width": 1.5}},
             name=f"{label} ({len(idx)})",
+            legendgroup=label,
+            hoverinfo="skip",
+        )
+        # Plotly hovers a bar only where its data is (a tenth of a pixel for 10 s of 24 h):
+        # the details hang on an invisible marker at each bar's middle, found within 20 px
+        fig.add_scatter(
+            x=(start + end) / 2,
+            y=y,
+            mode="markers",
+            marker={"size": 12, "color": "rgba(0,0,0,0)"},
+            legendgroup=label,
+            showlegend=False,
             hovertext=[_hover(rows[u]) for u in idx],
             hoverinfo="text",
+            hoverlabel={"bgcolor": colour},
         )
     fig.update_layout(
         barmode="overlay",
@@ -426,6 +441,7 @@ th, td { border-bottom: 1px solid #e2e8f0; padding: .2em .6em; text-align: left;
 th { cursor: pointer; background: #edf2f7; position: sticky; top: 0; }
 th[data-dir=asc]::after { content: " \\25B2"; } th[data-dir=desc]::after { content: " \\25BC"; }
 td.num, th.num { text-align: right; }
+td { white-space: nowrap; }
 .scroll { max-height: 32em; overflow: auto; }
 """
 

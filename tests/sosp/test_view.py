@@ -10,6 +10,7 @@ import json
 import re
 import shutil
 import sys
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ import pytest
 
 from sosp.cli import main
 from sosp.instance import Instance
+from sosp.orbits import utc_at
 from sosp.schedule import Schedule, make_observation
 from sosp.solve import solve
 from sosp.validate import validate
@@ -91,6 +93,7 @@ def _browser():
 def test_page_in_headless_chromium(tmp_path: Path, c1: tuple[Instance, Schedule]) -> None:
     sync_api, exe = _browser()
     inst, sched = c1
+    sats, sat = list(inst.satellite_names), inst.orbit_satellite[sched.observations[0].orbit]
     assert inst.n_targets < WEBGL_TARGETS  # SVG markers: each is an element to count
     page_path = tmp_path / "plan.html"
     write_view(inst, sched, page_path)
@@ -121,8 +124,29 @@ def test_page_in_headless_chromium(tmp_path: Path, c1: tuple[Instance, Schedule]
                 "resources": 3 * used,  # energy, memory, openings per used orbit
             }
             page.screenshot(path=str(tmp_path / "plan.png"), full_page=True)
+            # zoom the Gantt chart on the first observation, hover its bar: its orbit,
+            # target, weight, roll and UTC window
+            ob = sched.observations[0]
+            t0 = 1000 * (datetime.fromisoformat(inst.epoch.replace("Z", "+00:00")).timestamp())
+            at = page.evaluate(
+                """([t0, t1, row]) => {
+                  const gd = document.getElementById('gantt');
+                  return Plotly.relayout(gd, {'xaxis.range': [t0, t1]}).then(() => {
+                    const xa = gd._fullLayout.xaxis, ya = gd._fullLayout.yaxis;
+                    const box = gd.querySelector('.nsewdrag').getBoundingClientRect();
+                    return [box.left + xa.l2p((t0 + t1) / 2), box.top + ya.l2p(row)];
+                  });
+                }""",
+                [t0 + 1000 * (ob.start - 60), t0 + 1000 * (ob.end + 60), sats.index(sat)],
+            )
+            page.mouse.move(*at)
+            page.wait_for_selector("#gantt .hoverlayer .hovertext", timeout=10_000)
+            label = page.text_content("#gantt .hoverlayer .hovertext")
+            target = inst.target_ids[int(inst.opp_target[ob.opps[0]])]
+            for part in ("(observation 1)", inst.orbit_ids[ob.orbit], target, f"{ob.roll:.2f}"):
+                assert part in label, (part, label)
+            assert utc_at(inst.epoch, ob.start) in label and utc_at(inst.epoch, ob.end) in label
             # search: a target's id leaves the rows that observe it
-            target = inst.target_ids[int(inst.opp_target[sched.observations[0].opps[0]])]
             page.fill("#search", target)
             shown = page.locator("#obs tbody tr:visible")
             assert shown.count() >= 1
