@@ -12,15 +12,16 @@ script are all inside the file (no CDN, no map tile server). It shows
 * **map**: coastlines (Natural Earth 1:110m, shipped in ``sosp/data``), the satellites' ground
   tracks, each observation's strip (the ground point its sensor looks at, from the start to
   the end of the observation, at its roll) and the targets, observed or not. Longitude and
-  latitude axes with equal scale, framed on the targets as ``sosp plot`` does;
+  latitude axes with equal scale, framed on the targets as ``sosp plot`` does. With more than
+  :data:`SHOWN_TRACKS` satellites the tracks start hidden (one click on the legend shows one);
 * **table** of the observations, sorted by clicking a column's header and filtered by the
   search box.
 
-Plotly writes the figures (:mod:`plotly.graph_objects`; plotly.js embedded once). It is an
-optional dependency (``pip install -e '.[view]'``). Beyond 2,000 targets the map's markers
-are drawn with WebGL (``scattergl``) so a 10,000-target page stays fluid; the ground tracks
-are sampled every :data:`TRACK_STEP` seconds or coarser, at most :data:`MAX_TRACK_POINTS`
-points in all.
+Plotly writes the figures (:mod:`plotly.graph_objects`; plotly.js embedded once, about 4.8 MB
+of the page). It is an optional dependency (``pip install -e '.[view]'``). From
+:data:`WEBGL_TARGETS` targets on, the map is drawn with WebGL (``scattergl``) so a
+10,000-target page stays fluid; the ground tracks are sampled every :data:`TRACK_STEP`
+seconds or coarser, at most :data:`MAX_TRACK_POINTS` points in all.
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ if TYPE_CHECKING:
 TRACK_STEP = 60.0
 #: At most this many ground-track points over all satellites (the step grows to keep it).
 MAX_TRACK_POINTS = 40_000
+#: With more satellites, their ground tracks start hidden (a click on the legend shows one).
+SHOWN_TRACKS = 8
 #: From this many targets on, the map's markers are drawn with WebGL.
 WEBGL_TARGETS = 2000
 #: Points along each observation strip.
@@ -258,7 +261,15 @@ def map_figure(inst: Instance, schedule: Schedule) -> Any:
         for n, s in enumerate(sats):
             colour = TRACK_COLOURS[n % len(TRACK_COLOURS)]
             xy = _lines([lon[n]], [lat[n]], wrap)
-            lines(s.name, xy, line={"color": colour, "width": 1}, opacity=0.6, hoverinfo="name")
+            lines(
+                s.name,
+                xy,
+                line={"color": colour, "width": 1},
+                opacity=0.6,
+                hoverinfo="name",
+                # many tracks would hide the map: listed in the legend, a click shows one
+                visible=True if len(sats) <= SHOWN_TRACKS else "legendonly",
+            )
         # strips: the ground point looked at, start to end of each observation, at its roll
         sx, sy, snum = [], [], []
         obs = schedule.observations
