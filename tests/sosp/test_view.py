@@ -219,3 +219,51 @@ def test_view_without_plotly(
         ["view", str(inst_p), str(sched_p), "-o", str(tmp_path / "p.html")], capsys, tmp_path
     )
     assert "Plotly" in err and "pip install" in err
+
+
+@pytest.mark.slow
+def test_10000_target_page_in_headless_chromium(tmp_path: Path) -> None:
+    """Issue 63's acceptance: a 10,000-target plan opens; its map is WebGL, so the markers are
+    checked as drawn data (one per target) and as pixels of the two target colours."""
+    import io
+
+    import matplotlib.image as mpimg
+
+    from sosp.scenarios import custom_scenario
+    from sosp.view import OBSERVED, UNOBSERVED
+
+    sync_api, exe = _browser()
+    inst = custom_scenario(region=(25.0, 55.0, -10.0, 40.0), count=10_000, name="r10k")
+    sched = solve(inst, "greedy").schedule
+    assert validate(inst, sched).feasible and len(sched) > 50
+    page_path = tmp_path / "plan.html"
+    write_view(inst, sched, page_path)
+    errors: list[str] = []
+    with sync_api.sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=exe, args=["--no-sandbox"])
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 1000})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(page_path.as_uri())
+            page.wait_for_selector("body[data-ready='1']", timeout=120_000)
+            drawn = page.evaluate(
+                """() => Object.fromEntries(document.getElementById('map')._fullData
+                    .filter(d => d.mode === 'markers')
+                    .map(d => [d.type + ' ' + d.name, d._length]))"""
+            )
+            n_obs = validate(inst, sched).observed
+            assert drawn == {
+                f"scattergl observed ({n_obs})": n_obs,
+                f"scattergl unobserved ({inst.n_targets - n_obs})": inst.n_targets - n_obs,
+            }
+            assert page.locator("#gantt .barlayer .point").count() == len(sched)
+            assert page.locator("#obs tbody tr").count() == len(sched)
+            shot = page.locator("#map").screenshot(path=str(tmp_path / "map.png"))
+        finally:
+            browser.close()
+    assert not errors, errors
+    rgb = mpimg.imread(io.BytesIO(shot), format="png")[..., :3]
+    for colour, least in ((UNOBSERVED, 10_000), (OBSERVED, 500)):
+        want = np.array([int(colour[i : i + 2], 16) / 255 for i in (1, 3, 5)])
+        assert np.sum(np.abs(rgb - want).max(axis=-1) < 0.05) > least, colour
