@@ -465,8 +465,11 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def view_html(instance: Instance, schedule: Schedule, title: str | None = None) -> str:
-    """The page of ``sosp view`` as one HTML string (plotly.js embedded)."""
+def view_page(
+    instance: Instance, schedule: Schedule, title: str | None = None
+) -> tuple[str, dict[str, Any]]:
+    """The page of ``sosp view`` as one HTML string (plotly.js embedded) and its
+    :func:`summary`."""
     from plotly.io import to_json
     from plotly.offline import get_plotlyjs
 
@@ -511,7 +514,7 @@ def view_html(instance: Instance, schedule: Schedule, title: str | None = None) 
     script_data = f"const FIGURES = [{data}];\nconst CONFIG = {json.dumps(CONFIG)};".replace(
         "</", "<\\/"
     )
-    return f"""<!DOCTYPE html>
+    page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title>
 <style>{STYLE}</style>
 <script>{get_plotlyjs()}</script></head>
@@ -535,18 +538,17 @@ def view_html(instance: Instance, schedule: Schedule, title: str | None = None) 
 {SCRIPT}</script>
 </body></html>
 """
+    return page, info
 
 
 def write_view(
     instance: Instance, schedule: Schedule, path: str | Path, title: str | None = None
 ) -> dict[str, Any]:
-    """Write :func:`view_html` to ``path`` atomically; returns the summary and the size."""
+    """Write :func:`view_page` to ``path`` atomically; returns the summary and the size."""
     from sosp.io import atomic_write_text
-    from sosp.validate import validate
 
-    text = view_html(instance, schedule, title)
+    text, info = view_page(instance, schedule, title)
     atomic_write_text(path, text)
-    info = summary(instance, schedule, validate(instance, schedule))
     return {**info, "output": str(path), "bytes": len(text.encode("utf-8"))}
 
 

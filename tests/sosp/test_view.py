@@ -26,7 +26,7 @@ from tests.conftest import scenario, tiny_cluster
 
 pytest.importorskip("plotly", reason="sosp view needs Plotly: pip install -e '.[view]'")
 
-from sosp.view import WEBGL_TARGETS, ground_points, view_html, write_view  # noqa: E402
+from sosp.view import WEBGL_TARGETS, ground_points, view_page, write_view  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,8 @@ def test_strips_meet_their_targets(c1: tuple[Instance, Schedule]) -> None:
 
 def test_page_is_self_contained(c1: tuple[Instance, Schedule]) -> None:
     inst, sched = c1
-    page = view_html(inst, sched)
+    page, info = view_page(inst, sched)
+    assert info["observations"] == len(sched) and info["feasible"]
     assert not re.search(r"<(script|link|img)[^>]+(src|href)=", page)  # nothing fetched
     body = page[page.index('<table id="obs">') :]
     assert body.count("<tr>") == len(sched) + 1  # header + one row per observation
