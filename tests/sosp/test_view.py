@@ -67,7 +67,16 @@ def test_page_is_self_contained(c1: tuple[Instance, Schedule]) -> None:
     assert not re.search(r"<(script|link|img)[^>]+(src|href)=", page)  # nothing fetched
     body = page[page.index('<table id="obs">') :]
     assert body.count("<tr>") == len(sched) + 1  # header + one row per observation
-    assert "Plotly.newPlot" in page and "</script" not in page.split("<script>")[-1][:-30]
+    assert "Plotly.newPlot" in page and page.count("<script>") == page.count("</script>") == 2
+
+
+def test_ids_cannot_break_the_page() -> None:
+    """Ids are data: escaped in the table and hover texts, and no ``</script>`` in the data."""
+    bad = '</script><img src=x onerror="alert(1)">&'
+    inst = Instance.build({bad: 3, "b": 2}, [(bad, 0, 0.0, 4.0, 1.0), ("b", 0, 50.0, 54.0, 0.0)])
+    page, _ = view_page(inst, Schedule((make_observation(inst, [0]),)), title=bad)
+    assert bad not in page and page.count("<script>") == page.count("</script>") == 2
+    assert "&lt;/script&gt;&lt;img src=x onerror=&quot;alert(1)&quot;&gt;&amp;" in page
 
 
 def test_view_without_orbits_and_clusters(tmp_path: Path) -> None:
