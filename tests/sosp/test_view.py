@@ -92,7 +92,9 @@ def test_view_without_orbits_and_clusters(tmp_path: Path) -> None:
 def _browser():
     """Playwright's Chromium driving the system's browser, or skip saying what is missing."""
     sync_api = pytest.importorskip(
-        "playwright.sync_api", reason="the browser test needs Playwright: pip install playwright"
+        "playwright.sync_api",
+        reason="the browser test needs Playwright: pip install playwright",
+        exc_type=ImportError,
     )
     exe = shutil.which("chromium") or shutil.which("chromium-browser")
     if exe is None:
