@@ -169,18 +169,23 @@ def gantt_figure(inst: Instance, schedule: Schedule, rows: list[dict[str, Any]])
     obs = schedule.observations
     fig = go.Figure()
     # orbit starts: short vertical ticks in each satellite's row, hover names the orbit
-    ox, oy, otext = [], [], []
+    ox, oy, otext, label = [], [], [], []
     for j in range(inst.n_orbits):
-        r = row_of[inst.orbit_satellite[j]]
+        sat, oid = inst.orbit_satellite[j], inst.orbit_ids[j]
         t = float(_ms(inst.epoch, [inst.orbit_start[j]])[0])
         ox += [t, t, None]
-        oy += [r - 0.45, r + 0.45, None]
-        otext += [f"orbit {inst.orbit_ids[j]} starts"] * 2 + [""]
+        oy += [row_of[sat] - 0.45, row_of[sat] + 0.45, None]
+        otext += [f"orbit {oid} starts"] * 2 + [""]
+        # the orbit's number in its row ("JB-3A#002" -> "#002"), at the top of its tick
+        label += [oid[len(sat) :] if oid.startswith(sat) else oid, "", ""]
     fig.add_scatter(
         x=ox,
         y=oy,
-        mode="lines",
+        mode="lines+text",
         line={"color": "#a0aec0", "width": 1},
+        text=label,
+        textposition="bottom right",
+        textfont={"size": 9, "color": "#718096"},
         name="orbit start",
         hovertext=otext,
         hoverinfo="text",
