@@ -32,6 +32,7 @@ EXTRA_COMMANDS: dict[str, str] = {
     "report": "sosp.report:add_report_parser",
     "plot": "sosp.plot:add_plot_parser",
     "export": "sosp.export:add_export_parser",
+    "view": "sosp.view:add_view_parser",
 }
 
 #: The built-in scenario of ``sosp demo``.
