@@ -284,21 +284,36 @@ def store_overflow(instance: Any, observations: Any, downlinks: Any) -> list[Any
 
 
 def deliver(instance: Any, observations: Any) -> tuple[tuple[Any, ...], list[Downlink]]:
-    """Observations and downlinks passing D1-D8: plan, drop what overflows the store (the
-    first overflowing observation of each satellite, then plan again) and, when weights
-    count on delivery, what is not all delivered; repeat until nothing is dropped."""
+    """Observations and downlinks passing D1-D8.
+
+    Plan; where a satellite's store first overflows (D5), drop the observation worth the
+    least per unit of data among those made since its last contact ended (still on board,
+    the ones whose removal lowers the store there), then plan again; when weights count on
+    delivery, drop what is not all delivered (D8); repeat until nothing is dropped. Removing
+    an observation never delays another's data, so this ends with every kept one delivered.
+    """
+    inst = instance
     obs = list(observations)
-    count_delivered = instance.downlink.count == "delivered"
+    count_delivered = inst.downlink.count == "delivered"
+    sat_of = satellite_of_orbit(inst)
+    worth = {id(o): float(inst.target_weight[inst.opp_target[list(o.opps)]].sum()) for o in obs}
+    ends = {
+        s: np.sort(inst.contacts["end_s"][inst.contacts["satellite"] == s])
+        for s in range(len(inst.satellite_names))
+    }
     while True:
-        downlinks, sent = plan_downlinks(instance, obs)
-        # the first overflow of each satellite (their stores are apart)
-        sat_of = satellite_of_orbit(instance)
-        first = {
-            int(sat_of[o.orbit]): o for o in reversed(store_overflow(instance, obs, downlinks))
-        }
-        drop = {id(o) for o in first.values()}
+        downlinks, sent = plan_downlinks(inst, obs)
+        first: dict[int, Any] = {}  # the first overflow of each satellite (stores are apart)
+        for o in store_overflow(inst, obs, downlinks):
+            first.setdefault(int(sat_of[o.orbit]), o)
+        drop = set()
+        for s, o in first.items():
+            e = ends[s]
+            since = e[np.searchsorted(e, o.end, "left") - 1] if e.size and e[0] < o.end else -np.inf
+            pool = [u for u in obs if sat_of[u.orbit] == s and since < u.end <= o.end]
+            drop.add(id(min(pool, key=lambda u: (worth[id(u)] / volume(inst, u), -u.end))))
         if count_delivered and not drop:
-            drop = {id(o) for o in obs if sent.get(o.opps[0], 0.0) < volume(instance, o) - 1e-7}
+            drop = {id(o) for o in obs if sent.get(o.opps[0], 0.0) < volume(inst, o) - 1e-7}
         if not drop:
             return tuple(obs), downlinks
         obs = [o for o in obs if id(o) not in drop]
@@ -355,7 +370,8 @@ def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
     "How the methods plan downlinks"), and the index in ``instance`` of each of its
     opportunities (the :func:`deliverable` ones).
 
-    Each satellite's time is cut at the ends of its contacts: data made in a segment is sent
+    Each satellite's time is cut at the ends of its contacts: data made in a segment (by an
+    opportunity ending early enough for its data to be sent before the contact ends) is sent
     in the contact that ends it, which carries at most ``min(W, r * its length)``; the last
     segment's data is never sent (worth nothing when weights count on delivery). An orbit's
     demand in a segment is the data its opportunities there could make (its memory capacity
@@ -384,7 +400,8 @@ def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
             cap_orbit[rows].min() if par.count == "observed" else 0.0,
         )
         mine = np.isin(inst.opp_orbit, rows)
-        seg = np.searchsorted(con["end_s"], inst.opp_end[mine], "left")
+        # data can leave in a contact that ends after the observation and its sending
+        seg = np.searchsorted(con["end_s"], inst.opp_end[mine] + made[mine] / par.rate, "left")
         load = np.bincount(seg, made[mine], minlength=len(carry))
         scale = np.minimum(1.0, np.divide(carry, load, out=np.ones_like(carry), where=load > 0))
         allow += np.bincount(inst.opp_orbit[mine], made[mine] * scale[seg], inst.n_orbits)
