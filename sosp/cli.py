@@ -277,10 +277,17 @@ def cmd_solve(args: argparse.Namespace) -> int:
         f"{result.observed} targets in {len(result.schedule)} observations, "
         f"{result.runtime_s:.2f} s"
     )
+    # a restriction's (static, task model) optimum and bound are labelled with its model:
+    # the problem may have better schedules
+    of = "" if result.restriction is None else f" for the {result.restriction} model"
+    label = "bound" if result.restriction is None else f"{result.restriction}-model bound"
     if result.status.value == "optimal":
-        text += ", proven optimal (gap 0)"
+        text += f", proven optimal{of} (gap 0)"
     elif result.bound is not None:
-        text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+        text += f", {label} {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+    if of:
+        text += f"\n{result.restriction} model: a restriction of the problem, whose optimum "
+        text += "may be higher (--bound certifies a schedule for the problem)"
     if len(result.stages) > 1:
         text += "\nstages: " + ", ".join(_stage_text(st) for st in result.stages)
     if args.output:

@@ -152,18 +152,22 @@ def solve(
     status, upper, stats = result.status, result.bound, result.stats
     if stop_requested() and status in (Status.FEASIBLE, Status.TIME_LIMIT):
         status = Status.INTERRUPTED  # stopped on request: its limits were not reached
+    # the method's own bound and optimality may be of a restriction (static, task model),
+    # whose optimum can lie below the problem's: the result says which model they are of
+    model = bounded_model(method, params)
+    restriction = None if model in (None, PROBLEM_MODEL) else model
     cap = instance.observable_weight
-    if status is not Status.OPTIMAL and result.profit >= cap - 1e-6:
+    if result.profit >= cap - 1e-6 and (status is not Status.OPTIMAL or restriction):
         # every target that has an opportunity is observed: no schedule does better,
         # whichever method found this one (and however it was stopped)
-        status, upper = Status.OPTIMAL, cap
+        status, upper, restriction = Status.OPTIMAL, cap, None
         stats = {**stats, "proven_by": "cap"}
     # a result names the method stage that ran (ASA-DTC's fallback: orbit-dp); the schedule
     # keeps what was asked, which reproduces it
     ran = next((st.name for st in reversed(result.stages) if st.kind == "method"), method)
     result = replace(
         result, method=ran, schedule=schedule, runtime_s=runtime, status=status,
-        bound=upper, stats=stats,
+        bound=upper, stats=stats, restriction=restriction,
     )  # fmt: skip
     if check:
         report = validate(instance, schedule)
@@ -174,14 +178,21 @@ def solve(
                 f"violations; first: ({first.constraint}) {first.message})"
             )
     if bound is not None:
-        if bounded_model(method, params) != PROBLEM_MODEL:
-            # the method's own bound is of a restriction (static, task model): it may lie
-            # below the problem's optimum, so it certifies nothing
-            result = replace(result, bound=None)
+        if result.restriction is not None:
+            # a restriction's bound and optimum may lie below the problem's optimum: they
+            # certify nothing, the bound stage alone speaks for the problem
+            result = replace(result, bound=None, restriction=None, status=_unproven(result))
         result = certify(instance, result, bound, budget.left(), bound_workers)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
-    # the file written from the schedule says how the solve ended, and what it proved
-    return replace(
-        result,
-        schedule=replace(result.schedule, status=result.status.value, bound=result.bound),
-    )
+    # the file written from the schedule says how the solve ended, and what it proved of the
+    # problem (a restriction's optimum or bound is no claim about it)
+    if result.restriction is None:
+        status_text, upper = result.status.value, result.bound
+    else:
+        status_text, upper = _unproven(result).value, None
+    return replace(result, schedule=replace(result.schedule, status=status_text, bound=upper))
+
+
+def _unproven(result: Result) -> Status:
+    """``result``'s status with a restriction's optimality not taken as the problem's."""
+    return Status.FEASIBLE if result.status is Status.OPTIMAL else result.status

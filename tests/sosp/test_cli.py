@@ -578,3 +578,12 @@ def test_scenario_stations_in_every_kind_and_info(capsys, tmp_path: Path, kind) 
     )
     code, text, _ = run(capsys, "info", str(out))
     assert "station       SG " in text and "contacts," in text
+
+
+def test_solve_labels_a_static_models_bound(capsys, inst_file: Path) -> None:
+    # issue 63 item 1: rds-stc's bound and optimality are of the static model, not sosp's
+    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "rds-stc", "-q")
+    assert code == 0
+    assert "static model" in out and "proven optimal (gap 0)" not in out, out
+    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "pba-stc", "-q")
+    assert ", bound " not in out and "static-model bound 7" in out, out

@@ -177,3 +177,22 @@ def test_a_bound_of_a_restriction_certifies_nothing() -> None:
     assert own.bound == own.profit < optimum
     res = solve(inst, "pba-stc", bound="lagrangian")
     assert res.bound >= optimum and res.status is not Status.OPTIMAL
+
+
+@pytest.mark.parametrize(("method", "params"), [("rds-stc", {}), ("milp", {"model": "task"})])
+def test_a_restrictions_optimum_and_bound_are_labelled_with_its_model(method, params) -> None:
+    # issue 63 item 1: RDS-STC proves the static model's optimum 7 on tiny_chain, below the
+    # problem's 8; its "bound" and "optimal" are the static model's and must say so (result,
+    # --json, text), and the schedule file claims nothing for the problem
+    from sosp.registry import bounded_model
+
+    pytest.importorskip("highspy") if method == "milp" else None
+    res = solve(tiny_chain(), method, time_limit=10, **params)
+    model = bounded_model(method, params)
+    assert res.restriction == model and res.summary()["restriction"] == model
+    assert res.schedule.status != "optimal" and res.schedule.bound is None
+    greedy = solve(tiny_chain(), "greedy")
+    assert greedy.restriction is None and greedy.summary()["restriction"] is None
+    # a certifying bound is of the problem: the restriction's optimality is dropped
+    cert = solve(tiny_chain(), "rds-stc", bound="lagrangian")
+    assert cert.restriction is None and cert.status is not Status.OPTIMAL and cert.bound >= 8
