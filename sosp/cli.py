@@ -292,10 +292,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text += "\nstages: " + ", ".join(_stage_text(st) for st in result.stages)
     if args.output:
         text += f"\nwrote {args.output}"
-    if interrupted:
+    # exit 130 when a stop cut the run short; a run that proved its schedule optimal all the
+    # same lost nothing to it (exit 0)
+    cut = interrupted is not None and result.status.value != "optimal"
+    if cut:
         text += f"\nstopped by {interrupted}: the best schedule found so far"
+    elif interrupted:
+        text += f"\n{interrupted} received after optimality was proven: nothing was lost"
     emit(args, data, text)
-    return 130 if interrupted else 0
+    return 130 if cut else 0
 
 
 def _stage_text(stage: Any) -> str:
@@ -627,7 +632,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no status line (by default a solve of more than 3 s shows one on stderr: live on "
         "a terminal, a line every 10 s otherwise); Ctrl-C or SIGTERM stops the search and "
-        "writes the best schedule so far (status interrupted, exit code 130)",
+        "writes the best schedule so far (status interrupted, exit code 130; exit 0 when "
+        "the schedule is proven optimal all the same)",
     )
 
     p = add("methods", "list every method with its parameters, types, defaults and help")

@@ -150,8 +150,6 @@ def solve(
         fingerprint=instance.fingerprint,
     )
     status, upper, stats = result.status, result.bound, result.stats
-    if stop_requested() and status in (Status.FEASIBLE, Status.TIME_LIMIT):
-        status = Status.INTERRUPTED  # stopped on request: its limits were not reached
     # the method's own bound and optimality may be of a restriction (static, task model),
     # whose optimum can lie below the problem's: the result says which model they are of
     model = bounded_model(method, params)
@@ -183,6 +181,9 @@ def solve(
             # certify nothing, the bound stage alone speaks for the problem
             result = replace(result, bound=None, restriction=None, status=_unproven(result))
         result = certify(instance, result, bound, budget.left(), bound_workers)
+    if stop_requested() and result.status in (Status.FEASIBLE, Status.TIME_LIMIT):
+        # stopped on request (the method or its bound): its limits were not reached
+        result = replace(result, status=Status.INTERRUPTED)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
     # the file written from the schedule says how the solve ended, and what it proved of the
     # problem (a restriction's optimum or bound is no claim about it)
