@@ -34,7 +34,7 @@ from sosp.registry import (
 )
 from sosp.result import Result, Status
 from sosp.schedule import Schedule
-from sosp.stop import Budget, stop_requested
+from sosp.stop import Budget, capped, stop_requested
 from sosp.validate import validate
 
 log = logging.getLogger(__name__)
@@ -137,7 +137,8 @@ def solve(
         budget = Budget()
     else:
         budget = Budget.until(kernels_within(t0, time_limit))  # the kernels' load counts
-        with reporting(progress) as prog:
+        # the searches stop once every observable target is observed: nothing is left
+        with reporting(progress) as prog, capped(instance.observable_weight):
             prog.start(method)
             result = improve(instance, method, func, params, rng, budget, bound is not None)
     runtime = time.perf_counter() - t0

@@ -174,7 +174,7 @@ class FirstOf:
 
 # --------------------------------------------------------------------------- stop flag
 #: The process-wide stop request and what asked for it (plain attributes: one lookup per check).
-_FLAG = SimpleNamespace(requested=False, reason=None)
+_FLAG = SimpleNamespace(requested=False, reason=None, cap=None)
 
 
 def request_stop(reason: str = "requested") -> None:
@@ -200,11 +200,32 @@ def clear_stop() -> None:
     _FLAG.reason = None
 
 
+def reached_cap(best: float) -> bool:
+    """True when profit ``best`` reaches the cap of the solve in hand (:func:`capped`): every
+    target that can be observed is, so no schedule does better and a search can stop."""
+    cap = _FLAG.cap
+    return cap is not None and best >= cap - 1e-6
+
+
+@contextmanager
+def capped(cap: float | None) -> Iterator[None]:
+    """Within the block, a profit of ``cap`` (the weight of the targets with an opportunity)
+    is known to be optimal: :class:`Interrupted` and :func:`reached_cap` stop a search that
+    reaches it (None: no cap)."""
+    before, _FLAG.cap = _FLAG.cap, cap
+    try:
+        yield
+    finally:
+        _FLAG.cap = before
+
+
 class Interrupted:
-    """Stop once :func:`request_stop` was called (e.g. by Ctrl-C under :func:`handle_signals`)."""
+    """Stop once :func:`request_stop` was called (e.g. by Ctrl-C under :func:`handle_signals`),
+    or once the best profit reaches the solve's cap (:func:`capped`): nothing is left to find
+    (a search that ran to its limit there spent it for nothing)."""
 
     def __call__(self, status: SearchStatus | None = None) -> bool:
-        return _FLAG.requested
+        return _FLAG.requested or (status is not None and reached_cap(status.best))
 
 
 @contextmanager

@@ -355,3 +355,23 @@ def test_a_schedule_file_keeps_its_status_and_bound(tmp_path: Path) -> None:
     (tmp_path / "bad.json").write_text(json.dumps({**data, "bound": "high"}))
     with pytest.raises(InputError, match="bound"):
         load_schedule(tmp_path / "bad.json", inst)
+
+
+@pytest.mark.parametrize(
+    "method", ["asa-dtc", "asa-stc", "orbit-dp", "aco-ls-stc", "sa-stc", "ga-stc", "ts-stc"]
+)
+def test_a_search_stops_at_the_cap(method: str) -> None:
+    # issue 63 item 5: the README's two-target instance, every target observable and both
+    # observed by any search: nothing is left to find, so the search stops there instead of
+    # running to its limit (ASA-DTC took 5.2 s on it, orbit-dp and ACO-LS their whole limit)
+    from sosp.instance import Instance, Resources
+
+    inst = Instance.build(
+        {"a": 5, "b": 4},
+        [("a", 0, 0, 4, 10.0), ("b", 0, 30, 34, -5.0)],
+        resources=Resources(max_openings=2),
+    )
+    res = solve(inst, method, time_limit=30)
+    assert res.profit == 9 and res.status is Status.OPTIMAL
+    assert res.runtime_s < 5, res.runtime_s
+    assert validate(inst, res.schedule).feasible
