@@ -125,5 +125,7 @@ class Result:
             "restriction": self.restriction,
             "iterations": self.iterations,
             "runtime_s": round(self.runtime_s, 6),
+            # of which the numba kernels' load (a first compilation on a machine: seconds)
+            "kernels_s": self.stats.get("kernels_s"),
             "stages": [st.to_dict() for st in self.stages],
         }

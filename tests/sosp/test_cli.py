@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -625,3 +626,21 @@ def test_a_stop_after_optimality_is_proven_lost_nothing(
         assert "proven optimal" in out and "stopped by" not in out and "nothing was lost" in out
     else:
         assert "stopped by SIGINT" in out and "proven optimal" not in out
+
+
+def test_the_kernels_load_is_reported_apart(capsys, monkeypatch, inst_file: Path) -> None:
+    # issue 63 item 11: a first run on a machine compiles the numba kernels (greedy "took"
+    # 13.98 s in the first sosp demo): the summary says how much of the time that was
+    import sosp.planner
+
+    real = sosp.planner.compile_kernels
+
+    def slow() -> None:
+        real()
+        time.sleep(1.1)
+
+    monkeypatch.setattr(sosp.planner, "compile_kernels", slow)
+    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "greedy", "--json", "-q")
+    assert code == 0 and json.loads(out)["kernels_s"] >= 1.1
+    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "greedy", "-q")
+    assert code == 0 and "s of it loading the numba kernels" in out, out
