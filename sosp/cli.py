@@ -256,7 +256,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     handlers = logging.getLogger().handlers if line is not None and line.tty else []
     for h in handlers:
         h.addFilter(line)
-    with handle_signals():
+    with handle_signals(on_stop=None if line is None else line.stopping):
         try:
             result = solve(
                 inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params

@@ -198,6 +198,16 @@ class StatusLine:
             self._printed_at = snap.elapsed
         self.stream.flush()
 
+    def stopping(self, reason: str) -> None:
+        """Acknowledge a stop request at once (called from the signal watcher's thread): the
+        user sees that the first Ctrl-C was heard and need not press it again."""
+        self.close()
+        self.stream.write(
+            f"{reason}: stopping, the best schedule so far will be written "
+            "(press Ctrl-C again to abort without writing)\n"
+        )
+        self.stream.flush()
+
     def filter(self, record: logging.LogRecord) -> bool:
         """As a filter of the log handlers writing to the same terminal: clear the live line
         before each record, so a log line never lands after the status text (the next

@@ -183,8 +183,8 @@ def _run_on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
 @pytest.mark.slow
 @pytest.mark.parametrize("quiet", [False, True])
 def test_cli_status_line_and_quiet(tmp_path: Path, quiet: bool) -> None:
-    inst = tmp_path / "c1.json"
-    scenario("C1").save(inst)
+    inst = tmp_path / "c2.json"
+    scenario("C2").save(inst)  # not C1: orbit-dp observes all of it and stops at once
     args = ["solve", str(inst), "--method", "orbit-dp", "--time-limit", "5", "-o", "s.json"]
     code, err = _run_on_a_terminal(args + (["--quiet"] if quiet else []), tmp_path)
     assert code == 0
