@@ -258,9 +258,13 @@ def cmd_solve(args: argparse.Namespace) -> int:
         h.addFilter(line)
     with handle_signals(on_stop=None if line is None else line.stopping):
         try:
-            result = solve(
-                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
-            )
+            # a line within a second of the start for every method, also one that reports
+            # nothing for a while (milp inside HiGHS, a method's preparation)
+            with progress.ticking():
+                result = solve(
+                    inst, args.method, seed=args.seed, time_limit=limit, progress=progress,
+                    **params,
+                )  # fmt: skip
         finally:
             if line is not None:
                 line.close()

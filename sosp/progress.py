@@ -17,6 +17,7 @@ snapshot.
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -127,6 +128,43 @@ class Progress:
         if self.callback is not None:
             self.callback(snap)
 
+    def tick(self) -> None:
+        """Show the last state known with the time now, when due (from :meth:`ticking`'s
+        thread: a method inside a long step, HiGHS or its preparation reports nothing, and
+        its line would stay blank or frozen). The iteration rate is not known then."""
+        now = self.clock()
+        if now < self._next:
+            return
+        self._next = now + self.interval
+        last = self.last
+        snap = Snapshot(
+            self.method,
+            now - self.t0,
+            0 if last is None else last.iterations,
+            None if last is None else last.best,
+            None if last is None else last.bound,
+        )
+        if self.callback is not None:
+            self.callback(snap)
+
+    @contextmanager
+    def ticking(self, period: float = 0.25) -> Iterator[None]:
+        """Within the block, a thread calls :meth:`tick` every ``period`` seconds, so the
+        status line appears within a second of the start and its clock keeps running."""
+        done = threading.Event()
+
+        def run() -> None:
+            while not done.wait(period):
+                self.tick()
+
+        thread = threading.Thread(target=run, name="sosp-progress", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            done.set()
+            thread.join(timeout=1.0)
+
 
 _current: list[Progress] = [Progress()]
 
@@ -182,8 +220,13 @@ class StatusLine:
         self.every = every
         self._width = 0
         self._printed_at: float | None = None
+        self._lock = threading.Lock()  # the solve's thread and the ticking one both draw
 
     def __call__(self, snap: Snapshot) -> None:
+        with self._lock:
+            self._draw(snap)
+
+    def _draw(self, snap: Snapshot) -> None:
         if snap.elapsed < self.delay:
             return
         line = format_snapshot(snap)

@@ -212,3 +212,23 @@ def test_log_records_clear_the_live_line_first() -> None:
     text = out.getvalue()
     drawn = text.split("\r")[1]
     assert text.endswith("\r" + " " * len(drawn) + "\rsomething\n")
+
+
+def test_a_silent_method_gets_a_line_within_a_second(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 63 item 4: milp inside HiGHS (or a method's preparation) reports nothing: C10's
+    # milp showed no status line in 25 s; the ticking thread draws one within a second, with
+    # the last state known and the clock running
+    import sosp.progress as progress_mod
+
+    seen: list[Snapshot] = []
+    prog = Progress(seen.append, interval=0.25)
+    prog.start("milp")
+    line = StatusLine(io.StringIO(), tty=True, delay=1.0)
+    with progress_mod.reporting(prog), prog.ticking(0.05):
+        prog.update(3, 17.0, 20.0, force=True)
+        time.sleep(1.3)  # the method, silent in compiled code
+    late = [s for s in seen if s.elapsed >= 1.0]
+    assert late and late[0].elapsed < 1.3
+    assert (late[0].best, late[0].bound, late[0].rate) == (17.0, 20.0, None)
+    line(late[0])
+    assert "best 17" in line.stream.getvalue() and "it/s" not in line.stream.getvalue()
