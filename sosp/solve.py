@@ -180,7 +180,11 @@ def solve(
                 f"{method} returned an infeasible schedule ({len(report.violations)} "
                 f"violations; first: ({first.constraint}) {first.message})"
             )
-    if bound is not None:
+    if bound is not None and stop_requested():
+        # stopped: the user wants the schedule now, not a bound computed after it (with
+        # --bound the bound stage then ran to its own limit, 60 s after a Ctrl-C)
+        log.info("stopped: no %s bound computed", bound)
+    elif bound is not None:
         if result.restriction is not None:
             # a restriction's bound and optimum may lie below the problem's optimum: they
             # certify nothing, the bound stage alone speaks for the problem
