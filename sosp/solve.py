@@ -31,6 +31,7 @@ from sosp.registry import (
     PROBLEM_MODEL,
     bounded_model,
     method_function,
+    uses_kernels,
 )
 from sosp.result import Result, Status
 from sosp.schedule import Schedule
@@ -139,7 +140,10 @@ def solve(
         # the searches stop once every observable target is observed: nothing is left
         with reporting(progress) as prog, capped(instance.observable_weight):
             prog.start(method)
-            budget = Budget.until(kernels_within(t0, time_limit))  # the kernels' load counts
+            if uses_kernels(method):  # the kernels' load counts in the limit
+                budget = Budget.until(kernels_within(t0, time_limit))
+            else:
+                budget = Budget.of(time_limit)
             kernels_s = time.perf_counter() - t0
             result = improve(instance, method, func, params, rng, budget, bound is not None)
         # the numba kernels' load (seconds the first time on a machine: their compilation,

@@ -640,7 +640,7 @@ def test_the_kernels_load_is_reported_apart(capsys, monkeypatch, inst_file: Path
         time.sleep(1.1)
 
     monkeypatch.setattr(sosp.planner, "compile_kernels", slow)
-    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "greedy", "--json", "-q")
+    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "hpfs-stc", "--json", "-q")
     assert code == 0 and json.loads(out)["kernels_s"] >= 1.1
-    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "greedy", "-q")
+    code, out, _ = run(capsys, "solve", str(inst_file), "--method", "hpfs-stc", "-q")
     assert code == 0 and "s of it loading the numba kernels" in out, out

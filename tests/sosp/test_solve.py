@@ -130,7 +130,7 @@ def test_the_kernels_load_counts_in_the_time_limit(
         return greedy(instance, time_limit=time_limit, **kw)
 
     monkeypatch.setattr(solve_module, "method_function", lambda name: method)
-    res = solve(tiny_chain(), "greedy", time_limit=limit)
+    res = solve(tiny_chain(), "hpfs-stc", time_limit=limit)  # greedy loads no kernels
     assert given[0] == pytest.approx(expected, abs=0.05)
     assert res.runtime_s >= load_s  # the run's time counts from the call
 
@@ -219,3 +219,16 @@ def test_a_stop_skips_the_certifying_bound(monkeypatch: pytest.MonkeyPatch) -> N
         clear_stop()
     assert [st.kind for st in res.stages] == ["method"]
     assert res.status is Status.INTERRUPTED and res.bound is None
+
+
+def test_greedy_loads_no_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 63 items 2 and 11: greedy runs no numba kernel, yet paid their load (seconds to
+    # compile on a first run, which no Ctrl-C could cut short) before its one pass
+    import sosp.planner
+
+    def no(*args, **kwargs):
+        raise AssertionError("kernels loaded")
+
+    monkeypatch.setattr(sosp.planner, "compile_kernels", no)
+    res = solve(tiny_chain(), "greedy", time_limit=5)
+    assert res.profit == 8 and res.stats["kernels_s"] < 0.5
