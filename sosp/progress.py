@@ -93,7 +93,7 @@ class Progress:
         self.method = method
         self.last: Snapshot | None = None
         self.t0 = self.clock()
-        self._next = self.t0 + self.interval
+        self._next = self._tick_next = self.t0 + self.interval
 
     def __call__(self, status: SearchStatus) -> bool:
         """Stopping-criterion form: report ``status`` when due; never stops."""
@@ -133,9 +133,9 @@ class Progress:
         thread: a method inside a long step, HiGHS or its preparation reports nothing, and
         its line would stay blank or frozen). The iteration rate is not known then."""
         now = self.clock()
-        if now < self._next:
+        if now < self._next or now < self._tick_next:  # a report is not overdue, or drawn
             return
-        self._next = now + self.interval
+        self._tick_next = now + self.interval  # the search's own reports keep their slots
         last = self.last
         snap = Snapshot(
             self.method,

@@ -232,3 +232,17 @@ def test_a_silent_method_gets_a_line_within_a_second(monkeypatch: pytest.MonkeyP
     assert (late[0].best, late[0].bound, late[0].rate) == (17.0, 20.0, None)
     line(late[0])
     assert "best 17" in line.stream.getvalue() and "it/s" not in line.stream.getvalue()
+
+
+def test_ticks_leave_the_searchs_reports_their_slots() -> None:
+    # the ticking thread draws only when the search's report is overdue: it must not take
+    # the search's slots (its line then never showed a rate: it/s)
+    now = [0.0]
+    seen: list[Snapshot] = []
+    prog = Progress(seen.append, interval=1.0, clock=lambda: now[0])
+    prog.start("x")
+    for step in range(1, 5):
+        now[0] = step + 0.0
+        prog.tick()  # due by the clock, yet the search reports at the same moment
+        prog(SearchStatus(iteration=100 * step, best=1.0))
+    assert any(s.rate for s in seen)
