@@ -85,7 +85,7 @@ from sosp.instance import Instance
 from sosp.params import Params, from_kwargs, param
 from sosp.result import Result
 from sosp.schedule import RollRule
-from sosp.stop import Budget
+from sosp.stop import Budget, stop_requested
 
 log = logging.getLogger(__name__)
 
@@ -322,7 +322,6 @@ def lp_prices(instance: Instance, pp: PartProblem, time_limit: float | None = No
     sum over single-target parts at most the LP bound. When the LP is not solved (time limit),
     the prices are zero (the paper's bound).
     """
-    from scipy.optimize import linprog
     from scipy.sparse import coo_matrix
 
     tk = pp.tasks
@@ -348,13 +347,13 @@ def lp_prices(instance: Instance, pp: PartProblem, time_limit: float | None = No
     a = coo_matrix((vals, (rows, cols)), shape=(len(rhs), nt + nk)).tocsr()
     cost = np.zeros(nt + nk)
     cost[nt:] = [-float(pp.weight[k]) for k in pp.targets]
-    options = {} if time_limit is None else {"time_limit": max(float(time_limit), 0.0)}
-    res = linprog(cost, A_ub=a, b_ub=rhs, bounds=(0.0, 1.0), method="highs", options=options)
-    if res.status != 0 or res.ineqlin is None:
-        log.warning("pba: LP not solved (%s); parts without prices", res.message)
+    solved = _solve_lp(cost, a, np.asarray(rhs, dtype=float), time_limit)
+    if solved is None:
+        log.warning("pba: LP not solved (time limit or stop); parts without prices")
         return zero_prices(pp)
+    fun, x, marginals = solved
     # HiGHS's marginals of a minimisation's <= rows are <= 0; any nonnegative value is valid.
-    dual = np.maximum(-np.asarray(res.ineqlin.marginals, dtype=float), 0.0)
+    dual = np.maximum(-marginals, 0.0)
     pi = {t: 0.0 if r is None else float(dual[r]) for t, r in task_row.items()}
     for q, members in enumerate(cliques):
         mu = float(dual[first_clique + q])
@@ -377,15 +376,56 @@ def lp_prices(instance: Instance, pp: PartProblem, time_limit: float | None = No
             extra = pi[t] - sy
             share[t] = {k: yk + extra * w[k] / wt for k, yk in zip(ks, y, strict=True)}
     upper = {k: max(0.0, w[k] - min(share[t][k] for t in pp.options[k])) for k in pp.targets}
-    log.info(
-        "pba: LP bound %.3f, %d capped orbits, %d cliques", -res.fun, len(capped), len(cliques)
-    )
-    lp_x = {t: float(res.x[col[t]]) for t in usable}
-    return Prices(share, constant, upper, float(-res.fun), lp_x)
+    log.info("pba: LP bound %.3f, %d capped orbits, %d cliques", -fun, len(capped), len(cliques))
+    lp_x = {t: float(x[col[t]]) for t in usable}
+    return Prices(share, constant, upper, float(-fun), lp_x)
 
 
 class _Budget(Exception):
     pass
+
+
+def _solve_lp(
+    cost: np.ndarray, a: Any, rhs: np.ndarray, time_limit: float | None
+) -> tuple[float, np.ndarray, np.ndarray] | None:
+    """``min cost x`` s.t. ``a x <= rhs``, ``0 <= x <= 1`` by HiGHS: (objective, x, the
+    rows' duals), or None unless solved to optimality.
+
+    highspy rather than :func:`scipy.optimize.linprog`, whose HiGHS holds the GIL and takes
+    no callback: on 10,000 targets its LP ran a minute after a Ctrl-C. Here a stop request
+    (:func:`sosp.stop.request_stop`, also from the CLI's signal thread) interrupts it.
+    """
+    import highspy
+
+    from models.highs_direct import new_highs  # no banner on the standard output
+
+    h = new_highs()
+    h.setOptionValue("output_flag", False)
+    if time_limit is not None:
+        h.setOptionValue("time_limit", max(float(time_limit), 0.01))
+    a = a.tocsr()
+    m, n = a.shape
+    h.passModel(
+        n, m, a.nnz, int(highspy.MatrixFormat.kRowwise), int(highspy.ObjSense.kMinimize), 0.0,
+        np.asarray(cost, dtype=float), np.zeros(n), np.ones(n), np.full(m, -highspy.kHighsInf),
+        rhs, a.indptr.astype(np.int32), a.indices.astype(np.int32), a.data.astype(float),
+        np.zeros(n, dtype=np.int32),
+    )  # fmt: skip
+
+    def interrupt(event: Any) -> None:
+        if stop_requested():
+            event.interrupt()
+
+    h.cbSimplexInterrupt += interrupt
+    h.cbIpmInterrupt += interrupt
+    if stop_requested():
+        return None
+    h.run()
+    if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+        return None
+    sol = h.getSolution()
+    x = np.asarray(sol.col_value, dtype=float)
+    return float(cost @ x), x, np.asarray(sol.row_dual, dtype=float)
 
 
 def part_optimum(

@@ -32,7 +32,7 @@ from sosp.errors import InputError
 from sosp.instance import Instance
 from sosp.progress import current as current_progress
 from sosp.schedule import RollRule
-from sosp.stop import Budget, SearchStatus
+from sosp.stop import Budget, SearchStatus, reached_cap
 
 log = logging.getLogger(__name__)
 
@@ -66,11 +66,11 @@ class Watch:
 
     def __call__(self, iteration: int, best: float, since_best: int = 0) -> bool:
         """Report the search's state; True when it must stop (its budget spent, or a stop
-        requested)."""
+        requested, or ``best`` reached the solve's cap: optimal)."""
         self.status.iteration, self.status.since_best = iteration, since_best
         self.status.best = best
         self.progress(self.status)
-        return self.budget.expired()
+        return self.budget.expired() or reached_cap(best)
 
     def limit(self, iterations: int | None, default: int) -> int:
         """``iterations``; when None, ``default`` without a time limit, else no limit."""

@@ -269,11 +269,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
     handlers = logging.getLogger().handlers if line is not None and line.tty else []
     for h in handlers:
         h.addFilter(line)
-    with handle_signals():
+    with handle_signals(on_stop=None if line is None else line.stopping):
         try:
-            result = solve(
-                inst, args.method, seed=args.seed, time_limit=limit, progress=progress, **params
-            )
+            # a line within a second of the start for every method, also one that reports
+            # nothing for a while (milp inside HiGHS, a method's preparation)
+            with progress.ticking():
+                result = solve(
+                    inst, args.method, seed=args.seed, time_limit=limit, progress=progress,
+                    **params,
+                )  # fmt: skip
         finally:
             if line is not None:
                 line.close()
@@ -290,20 +294,41 @@ def cmd_solve(args: argparse.Namespace) -> int:
         f"{result.observed} targets in {len(result.schedule)} observations, "
         f"{result.runtime_s:.2f} s"
     )
+    # a restriction's (static, task model) optimum and bound are labelled with its model:
+    # the problem may have better schedules
+    of = "" if result.restriction is None else f" for the {result.restriction} model"
+    label = "bound" if result.restriction is None else f"{result.restriction}-model bound"
+    kernels = result.stats.get("kernels_s") or 0.0
+    if kernels >= KERNELS_NOTED_S:
+        text += f" ({kernels:.2f} s of it loading the numba kernels{KERNELS_WHY})"
     if result.status.value == "optimal":
-        text += ", proven optimal (gap 0)"
+        text += f", proven optimal{of} (gap 0)"
     elif result.bound is not None:
-        text += f", bound {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+        text += f", {label} {result.bound:g} (gap {100 * (result.gap or 0):.2f}%)"
+    if of:
+        text += f"\n{result.restriction} model: a restriction of the problem, whose optimum "
+        text += "may be higher (--bound certifies a schedule for the problem)"
     if (down := result.stats.get("downlink")) is not None:
         text += "\n" + _downlink_text(down)
     if len(result.stages) > 1:
         text += "\nstages: " + ", ".join(_stage_text(st) for st in result.stages)
     if args.output:
         text += f"\nwrote {args.output}"
-    if interrupted:
+    # exit 130 when a stop cut the run short; a run that proved its schedule optimal all the
+    # same lost nothing to it (exit 0)
+    cut = interrupted is not None and result.status.value != "optimal"
+    if cut:
         text += f"\nstopped by {interrupted}: the best schedule found so far"
+    elif interrupted:
+        text += f"\n{interrupted} received after optimality was proven: nothing was lost"
     emit(args, data, text)
-    return 130 if interrupted else 0
+    return 130 if cut else 0
+
+
+#: Seconds of the numba kernels' load worth a mention in a solve's summary (their load from
+#: the disk cache takes about 0.5 s; a first compilation on a machine, seconds).
+KERNELS_NOTED_S = 1.0
+KERNELS_WHY = ": compiled on first use on this machine, then loaded from the disk cache"
 
 
 def _stage_text(stage: Any) -> str:
@@ -457,12 +482,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
         f"{'method':<10} {'status':<9} {'profit':>7} {'targets':>7} {'obs':>5} "
         f"{'energy':>8} {'memory':>8} {'time':>7}  valid",
     ]
+    kernels = max(res.stats.get("kernels_s") or 0.0 for _, res, _ in rows) if rows else 0.0
     for m, res, rep in rows:
         lines.append(
             f"{m:<10} {res.status.value:<9} {res.profit:>7g} {res.observed:>7} "
             f"{len(res.schedule):>5} {rep.energy:>8.1f} {rep.memory:>8.1f} "
             f"{res.runtime_s:>6.2f}s  {'yes' if rep.feasible else 'NO'}"
         )
+    if kernels >= KERNELS_NOTED_S:
+        lines.append(f"(the times include {kernels:.2f} s loading the numba kernels{KERNELS_WHY})")
     lines.append("")
     if upper is not None and upper <= best:
         lines.append(
@@ -668,7 +696,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no status line (by default a solve of more than 3 s shows one on stderr: live on "
         "a terminal, a line every 10 s otherwise); Ctrl-C or SIGTERM stops the search and "
-        "writes the best schedule so far (status interrupted, exit code 130)",
+        "writes the best schedule so far (status interrupted, exit code 130; exit 0 when "
+        "the schedule is proven optimal all the same)",
     )
 
     p = add("methods", "list every method with its parameters, types, defaults and help")

@@ -71,7 +71,7 @@ from sosp.instance import Instance
 from sosp.parallel import Workers, cluster_size, fork_pool, inherited, is_client, local_processes
 from sosp.recursion import least_penalty_plan, levels, recursion, release_order, restrict
 from sosp.rules import EPS, OrbitRules, may_precede, orbit_rules, sequence_slew_time
-from sosp.stop import Budget
+from sosp.stop import Budget, stop_requested
 
 log = logging.getLogger(__name__)
 
@@ -556,10 +556,12 @@ def compile_kernels() -> None:
     from sosp.conflicts import compile_conflict_kernel
     from sosp.windows import compile_window_kernels  # sosp.windows imports this module
 
-    levels()
-    compile_within()
-    compile_window_kernels()
-    compile_conflict_kernel()
+    # a stop requested meanwhile (Ctrl-C during a first compilation, seconds each) skips
+    # the rest: a kernel still needed then compiles on its first use
+    for compile_one in (levels, compile_within, compile_window_kernels, compile_conflict_kernel):
+        if stop_requested():
+            return
+        compile_one()
 
 
 #: The least share of a time limit a run keeps when loading the kernels took more than the

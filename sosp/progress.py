@@ -17,6 +17,7 @@ snapshot.
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -92,7 +93,7 @@ class Progress:
         self.method = method
         self.last: Snapshot | None = None
         self.t0 = self.clock()
-        self._next = self.t0 + self.interval
+        self._next = self._tick_next = self.t0 + self.interval
 
     def __call__(self, status: SearchStatus) -> bool:
         """Stopping-criterion form: report ``status`` when due; never stops."""
@@ -126,6 +127,43 @@ class Progress:
         self.last = snap
         if self.callback is not None:
             self.callback(snap)
+
+    def tick(self) -> None:
+        """Show the last state known with the time now, when due (from :meth:`ticking`'s
+        thread: a method inside a long step, HiGHS or its preparation reports nothing, and
+        its line would stay blank or frozen). The iteration rate is not known then."""
+        now = self.clock()
+        if now < self._next or now < self._tick_next:  # a report is not overdue, or drawn
+            return
+        self._tick_next = now + self.interval  # the search's own reports keep their slots
+        last = self.last
+        snap = Snapshot(
+            self.method,
+            now - self.t0,
+            0 if last is None else last.iterations,
+            None if last is None else last.best,
+            None if last is None else last.bound,
+        )
+        if self.callback is not None:
+            self.callback(snap)
+
+    @contextmanager
+    def ticking(self, period: float = 0.25) -> Iterator[None]:
+        """Within the block, a thread calls :meth:`tick` every ``period`` seconds, so the
+        status line appears within a second of the start and its clock keeps running."""
+        done = threading.Event()
+
+        def run() -> None:
+            while not done.wait(period):
+                self.tick()
+
+        thread = threading.Thread(target=run, name="sosp-progress", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            done.set()
+            thread.join(timeout=1.0)
 
 
 _current: list[Progress] = [Progress()]
@@ -182,8 +220,13 @@ class StatusLine:
         self.every = every
         self._width = 0
         self._printed_at: float | None = None
+        self._lock = threading.Lock()  # the solve's thread and the ticking one both draw
 
     def __call__(self, snap: Snapshot) -> None:
+        with self._lock:
+            self._draw(snap)
+
+    def _draw(self, snap: Snapshot) -> None:
         if snap.elapsed < self.delay:
             return
         line = format_snapshot(snap)
@@ -196,6 +239,16 @@ class StatusLine:
                 return
             self.stream.write(line + "\n")
             self._printed_at = snap.elapsed
+        self.stream.flush()
+
+    def stopping(self, reason: str) -> None:
+        """Acknowledge a stop request at once (called from the signal watcher's thread): the
+        user sees that the first Ctrl-C was heard and need not press it again."""
+        self.close()
+        self.stream.write(
+            f"{reason}: stopping, the best schedule so far will be written "
+            "(press Ctrl-C again to abort without writing)\n"
+        )
         self.stream.flush()
 
     def filter(self, record: logging.LogRecord) -> bool:

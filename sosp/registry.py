@@ -40,12 +40,16 @@ class Method:
         ``"module:name"`` of its start rule (:data:`sosp.pipeline.StartRule`): its parameters
         -> the :class:`sosp.pipeline.Start` stage run before it, whose schedule it is given
         as ``warm_start`` (None: it takes no start stage).
+    kernels
+        Whether it runs the numba kernels (:func:`sosp.planner.compile_kernels`, loaded
+        before its clock starts: about a second in a fresh process, seconds to compile).
     """
 
     function: str
     params: str = "sosp.params:NoParams"
     model: str | None = None
     start: str | None = None
+    kernels: bool = True
 
 
 @dataclass(frozen=True)
@@ -74,7 +78,7 @@ class Bound:
 
 #: Method name -> :class:`Method`, in the order ``sosp methods`` lists them.
 METHODS: dict[str, Method] = {
-    "greedy": Method("heuristics.greedy:solve_greedy"),
+    "greedy": Method("heuristics.greedy:solve_greedy", kernels=False),
     "hpfs-stc": Method("heuristics.hpfs:solve_hpfs_stc", "heuristics.hpfs:HPFSParams"),
     "asa-dtc": Method("heuristics.asa:solve_asa_dtc", "heuristics.asa.params:ASAParams"),
     "asa-stc": Method("heuristics.asa:solve_asa_stc", "heuristics.asa.params:ASAParams"),
@@ -194,6 +198,11 @@ def bounded_model(method: str, params: Mapping[str, Any]) -> str | None:
     """The model whose optimum ``method``'s own bound bounds with ``params`` (None: none)."""
     model = _method(method).model
     return None if model is None else params.get("model") or model
+
+
+def uses_kernels(method: str) -> bool:
+    """Whether ``method`` runs the numba kernels (:attr:`Method.kernels`)."""
+    return _method(method).kernels
 
 
 def method_start(method: str, instance: Any, params: Mapping[str, Any]) -> Any:

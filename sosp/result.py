@@ -85,6 +85,10 @@ class Result:
     stages
         The stages that ran, in order (:class:`Stage`; :mod:`sosp.pipeline`); a method
         that ran another in its place (ASA-DTC's large-instance fallback) names it here.
+    restriction
+        The restricted model (``static``, ``task``) that ``bound`` and an ``optimal``
+        status refer to: the method solves that model, whose optimum may lie below the
+        problem's (None: they refer to the problem itself).
     """
 
     method: str
@@ -97,6 +101,7 @@ class Result:
     iterations: int | None = None
     stats: dict[str, Any] = field(default_factory=dict)
     stages: tuple[Stage, ...] = ()
+    restriction: str | None = None
 
     @property
     def gap(self) -> float | None:
@@ -117,8 +122,11 @@ class Result:
             "observations": len(self.schedule),
             "bound": self.bound,
             "gap": self.gap,
+            "restriction": self.restriction,
             "iterations": self.iterations,
             "runtime_s": round(self.runtime_s, 6),
+            # of which the numba kernels' load (a first compilation on a machine: seconds)
+            "kernels_s": self.stats.get("kernels_s"),
             "stages": [st.to_dict() for st in self.stages],
             # with ground stations: delivered, latency, on board, store peaks, station use
             **({"downlink": d} if (d := self.stats.get("downlink")) is not None else {}),

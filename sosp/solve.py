@@ -31,10 +31,11 @@ from sosp.registry import (
     PROBLEM_MODEL,
     bounded_model,
     method_function,
+    uses_kernels,
 )
 from sosp.result import Result, Status
 from sosp.schedule import Schedule
-from sosp.stop import Budget, stop_requested
+from sosp.stop import Budget, capped, stop_requested
 from sosp.validate import validate
 
 log = logging.getLogger(__name__)
@@ -141,10 +142,18 @@ def solve(
         result.stats["proven_by"] = "cap"
         budget = Budget()
     else:
-        budget = Budget.until(kernels_within(t0, time_limit))  # the kernels' load counts
-        with reporting(progress) as prog:
+        # the searches stop once every observable target is observed: nothing is left
+        with reporting(progress) as prog, capped(instance.observable_weight):
             prog.start(method)
+            if uses_kernels(method):  # the kernels' load counts in the limit
+                budget = Budget.until(kernels_within(t0, time_limit))
+            else:
+                budget = Budget.of(time_limit)
+            kernels_s = time.perf_counter() - t0
             result = improve(instance, method, func, params, rng, budget, bound is not None)
+        # the numba kernels' load (seconds the first time on a machine: their compilation,
+        # cached on disk after) is billed to the run's time; the result says how much
+        result.stats = {**result.stats, "kernels_s": round(kernels_s, 4)}
     runtime = time.perf_counter() - t0
     schedule = replace(
         result.schedule,
@@ -155,20 +164,22 @@ def solve(
         fingerprint=instance.fingerprint,
     )
     status, upper, stats = result.status, result.bound, result.stats
-    if stop_requested() and status in (Status.FEASIBLE, Status.TIME_LIMIT):
-        status = Status.INTERRUPTED  # stopped on request: its limits were not reached
+    # the method's own bound and optimality may be of a restriction (static, task model),
+    # whose optimum can lie below the problem's: the result says which model they are of
+    model = bounded_model(method, params)
+    restriction = None if model in (None, PROBLEM_MODEL) else model
     cap = instance.observable_weight
-    if status is not Status.OPTIMAL and result.profit >= cap - 1e-6:
+    if result.profit >= cap - 1e-6 and (status is not Status.OPTIMAL or restriction):
         # every target that has an opportunity is observed: no schedule does better,
         # whichever method found this one (and however it was stopped)
-        status, upper = Status.OPTIMAL, cap
+        status, upper, restriction = Status.OPTIMAL, cap, None
         stats = {**stats, "proven_by": "cap"}
     # a result names the method stage that ran (ASA-DTC's fallback: orbit-dp); the schedule
     # keeps what was asked, which reproduces it
     ran = next((st.name for st in reversed(result.stages) if st.kind == "method"), method)
     result = replace(
         result, method=ran, schedule=schedule, runtime_s=runtime, status=status,
-        bound=upper, stats=stats,
+        bound=upper, stats=stats, restriction=restriction,
     )  # fmt: skip
     if check:
         report = validate(instance, schedule)
@@ -178,18 +189,32 @@ def solve(
                 f"{method} returned an infeasible schedule ({len(report.violations)} "
                 f"violations; first: ({first.constraint}) {first.message})"
             )
-    if bound is not None:
-        if bounded_model(method, params) != PROBLEM_MODEL:
-            # the method's own bound is of a restriction (static, task model): it may lie
-            # below the problem's optimum, so it certifies nothing
-            result = replace(result, bound=None)
+    if bound is not None and stop_requested():
+        # stopped: the user wants the schedule now, not a bound computed after it (with
+        # --bound the bound stage then ran to its own limit, 60 s after a Ctrl-C)
+        log.info("stopped: no %s bound computed", bound)
+    elif bound is not None:
+        if result.restriction is not None:
+            # a restriction's bound and optimum may lie below the problem's optimum: they
+            # certify nothing, the bound stage alone speaks for the problem
+            result = replace(result, bound=None, restriction=None, status=_unproven(result))
         result = certify(instance, result, bound, budget.left(), bound_workers)
+    if stop_requested() and result.status in (Status.FEASIBLE, Status.TIME_LIMIT):
+        # stopped on request (the method or its bound): its limits were not reached
+        result = replace(result, status=Status.INTERRUPTED)
     log.info("%s: profit %g, %d observed, %.3f s", method, result.profit, result.observed, runtime)
-    # the file written from the schedule says how the solve ended, and what it proved
-    return replace(
-        result,
-        schedule=replace(result.schedule, status=result.status.value, bound=result.bound),
-    )
+    # the file written from the schedule says how the solve ended, and what it proved of the
+    # problem (a restriction's optimum or bound is no claim about it)
+    if result.restriction is None:
+        status_text, upper = result.status.value, result.bound
+    else:
+        status_text, upper = _unproven(result).value, None
+    return replace(result, schedule=replace(result.schedule, status=status_text, bound=upper))
+
+
+def _unproven(result: Result) -> Status:
+    """``result``'s status with a restriction's optimality not taken as the problem's."""
+    return Status.FEASIBLE if result.status is Status.OPTIMAL else result.status
 
 
 def _with_stations(
@@ -233,14 +258,12 @@ def _with_stations(
         kept = replace(schedule, observations=obs, downlinks=tuple(downlinks))
         if (got := kept.coverage_profit(instance))[0] > profit:
             schedule, (profit, observed) = kept, got
-    status = inner.status
-    if status is Status.OPTIMAL:  # optimal for the allowances, a restriction
-        status = Status.FEASIBLE
+    status = _unproven(inner)  # optimal for the allowances, a restriction
     if profit >= instance.observable_weight - 1e-6:
         status = Status.OPTIMAL
     result = replace(
         inner, schedule=replace(schedule, profit=profit, fingerprint=instance.fingerprint),
-        profit=profit, observed=observed, status=status,
+        profit=profit, observed=observed, status=status, restriction=None,
         bound=instance.observable_weight if status is Status.OPTIMAL else None,
         stats={**inner.stats, "search_profit": inner.profit},
     )  # fmt: skip
@@ -253,10 +276,12 @@ def _with_stations(
                 f"{method} with stations: infeasible schedule ({len(report.violations)} "
                 f"violations; first: ({first.constraint}) {first.message})"
             )
-    if bound is not None:
+    if bound is not None and not stop_requested():
         left = budget.left()  # the search may overrun its share a little: the bound still runs
         left = None if left is None else max(left, 0.05)
         result = certify(instance, result, bound, left, bound_workers)  # of the relaxation
+    if stop_requested() and result.status in (Status.FEASIBLE, Status.TIME_LIMIT):
+        result = replace(result, status=Status.INTERRUPTED)
     result = replace(result, runtime_s=time.perf_counter() - t0)
     return replace(
         result,

@@ -16,6 +16,7 @@ instead of deadline floats, cut into sub-budgets that never outlast their parent
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 import time
@@ -174,7 +175,7 @@ class FirstOf:
 
 # --------------------------------------------------------------------------- stop flag
 #: The process-wide stop request and what asked for it (plain attributes: one lookup per check).
-_FLAG = SimpleNamespace(requested=False, reason=None)
+_FLAG = SimpleNamespace(requested=False, reason=None, cap=None)
 
 
 def request_stop(reason: str = "requested") -> None:
@@ -200,33 +201,91 @@ def clear_stop() -> None:
     _FLAG.reason = None
 
 
+def reached_cap(best: float) -> bool:
+    """True when profit ``best`` reaches the cap of the solve in hand (:func:`capped`): every
+    target that can be observed is, so no schedule does better and a search can stop."""
+    cap = _FLAG.cap
+    return cap is not None and best >= cap - 1e-6
+
+
+@contextmanager
+def capped(cap: float | None) -> Iterator[None]:
+    """Within the block, a profit of ``cap`` (the weight of the targets with an opportunity)
+    is known to be optimal: :class:`Interrupted` and :func:`reached_cap` stop a search that
+    reaches it (None: no cap)."""
+    before, _FLAG.cap = _FLAG.cap, cap
+    try:
+        yield
+    finally:
+        _FLAG.cap = before
+
+
 class Interrupted:
-    """Stop once :func:`request_stop` was called (e.g. by Ctrl-C under :func:`handle_signals`)."""
+    """Stop once :func:`request_stop` was called (e.g. by Ctrl-C under :func:`handle_signals`),
+    or once the best profit reaches the solve's cap (:func:`capped`): nothing is left to find
+    (a search that ran to its limit there spent it for nothing)."""
 
     def __call__(self, status: SearchStatus | None = None) -> bool:
-        return _FLAG.requested
+        return _FLAG.requested or (status is not None and reached_cap(status.best))
+
+
+def _no_wakeup_in_child() -> None:
+    """A forked child does not write its signals to its parent's wakeup pipe (a pool's
+    SIGTERM to its workers would stop the parent's solve)."""
+    try:
+        signal.set_wakeup_fd(-1)
+    except ValueError:  # forked from another thread: Python cannot change it there
+        pass
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_no_wakeup_in_child)
 
 
 @contextmanager
 def handle_signals(
     signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM),
+    on_stop: Callable[[str], None] | None = None,
 ) -> Iterator[None]:
     """Within the block, the first of ``signals`` requests a stop; a second one raises
     :class:`KeyboardInterrupt` (for a user who does not want to wait for the search's next
     check). The previous handlers are restored on exit and the flag is cleared on entry and
     exit. Outside the main thread (where Python cannot install handlers) it does nothing.
+
+    The stop is requested at once, also while the main thread is inside a long call into
+    compiled code (a numba kernel, HiGHS), where Python runs no signal handler until the call
+    returns: the signal is written to a wakeup pipe (:func:`signal.set_wakeup_fd`) that a
+    thread reads, which requests the stop (the solvers' callbacks see it) and calls
+    ``on_stop(reason)`` (the CLI acknowledges the signal on its status line).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    seen = [0]  # signals the Python handler has run for
 
     def handler(signum: int, frame: Any) -> None:
-        if _FLAG.requested:
+        seen[0] += 1
+        if seen[0] > 1:
             raise KeyboardInterrupt
         request_stop(signal.Signals(signum).name)
 
+    wanted = {int(s) for s in signals}
+    read, write = os.pipe()
+    os.set_blocking(write, False)
+
+    def watch() -> None:
+        while data := os.read(read, 64):  # b"": the pipe was closed (the block ended)
+            for signum in data:
+                if signum in wanted and not _FLAG.requested:
+                    request_stop(signal.Signals(signum).name)
+                    if on_stop is not None:
+                        on_stop(signal.Signals(signum).name)
+
     previous = {s: signal.getsignal(s) for s in signals}
     clear_stop()
+    old_fd = signal.set_wakeup_fd(write, warn_on_full_buffer=False)
+    watcher = threading.Thread(target=watch, name="sosp-signals", daemon=True)
+    watcher.start()
     try:
         for s in signals:
             signal.signal(s, handler)
@@ -234,6 +293,10 @@ def handle_signals(
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+        signal.set_wakeup_fd(old_fd)
+        os.close(write)
+        watcher.join(timeout=1.0)
+        os.close(read)
         clear_stop()
 
 

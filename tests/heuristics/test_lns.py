@@ -239,7 +239,7 @@ def test_candidates_out_of_time_after_the_start_go_on_over_windows(
         raise TimeLimitReached("time limit foreseen to be reached while generating ...")
 
     monkeypatch.setattr(sc, "cluster_candidates", out_of_time)
-    inst = random_tiny(4)
+    inst = random_tiny(7)  # the start (17) leaves the steps something to find (cap 29)
     res = solve(inst, "milp-lns", start="hpfs-stc", seed=0, iterations=6, time_limit=30)
     assert res.stats["candidate_mode"] == "windows" and res.iterations == 6
     assert validate(inst, res.schedule).feasible

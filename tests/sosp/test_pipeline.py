@@ -64,3 +64,25 @@ def test_the_time_limit_covers_the_certifying_bound(monkeypatch: pytest.MonkeyPa
     assert 0 < seen["bound"] <= 8.0  # what is left of the same limit, not a limit of its own
     assert [st.kind for st in res.stages] == ["method", "bound"]
     assert res.stages[1].bound == res.bound
+
+
+def test_a_stop_before_any_schedule_still_writes_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 63 item 2: Ctrl-C during orbit-dp's preparation on 2,000 targets wrote an empty
+    # schedule (profit 0); a run stopped before its method has a schedule returns greedy's
+    import heuristics.orbit_search as orbit_search
+    from sosp.stop import clear_stop, request_stop
+
+    def stopped_in_preparation(instance, **kwargs):
+        request_stop("SIGINT")
+        return Result("orbit-dp", Status.FEASIBLE, Schedule(()), 0.0, 0)
+
+    monkeypatch.setattr(orbit_search, "solve_orbit_dp", stopped_in_preparation)
+    inst = random_tiny(3)
+    try:
+        res = solve(inst, "orbit-dp")
+    finally:
+        clear_stop()
+    assert res.status is Status.INTERRUPTED or res.status is Status.OPTIMAL
+    assert res.profit == solve(inst, "greedy").profit > 0
+    assert validate(inst, res.schedule).feasible
+    assert [st.name for st in res.stages] == ["orbit-dp", "greedy"]

@@ -183,8 +183,8 @@ def _run_on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
 @pytest.mark.slow
 @pytest.mark.parametrize("quiet", [False, True])
 def test_cli_status_line_and_quiet(tmp_path: Path, quiet: bool) -> None:
-    inst = tmp_path / "c1.json"
-    scenario("C1").save(inst)
+    inst = tmp_path / "c2.json"
+    scenario("C2").save(inst)  # not C1: orbit-dp observes all of it and stops at once
     args = ["solve", str(inst), "--method", "orbit-dp", "--time-limit", "5", "-o", "s.json"]
     code, err = _run_on_a_terminal(args + (["--quiet"] if quiet else []), tmp_path)
     assert code == 0
@@ -212,3 +212,37 @@ def test_log_records_clear_the_live_line_first() -> None:
     text = out.getvalue()
     drawn = text.split("\r")[1]
     assert text.endswith("\r" + " " * len(drawn) + "\rsomething\n")
+
+
+def test_a_silent_method_gets_a_line_within_a_second(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 63 item 4: milp inside HiGHS (or a method's preparation) reports nothing: C10's
+    # milp showed no status line in 25 s; the ticking thread draws one within a second, with
+    # the last state known and the clock running
+    import sosp.progress as progress_mod
+
+    seen: list[Snapshot] = []
+    prog = Progress(seen.append, interval=0.25)
+    prog.start("milp")
+    line = StatusLine(io.StringIO(), tty=True, delay=1.0)
+    with progress_mod.reporting(prog), prog.ticking(0.05):
+        prog.update(3, 17.0, 20.0, force=True)
+        time.sleep(1.3)  # the method, silent in compiled code
+    late = [s for s in seen if s.elapsed >= 1.0]
+    assert late and late[0].elapsed < 1.3
+    assert (late[0].best, late[0].bound, late[0].rate) == (17.0, 20.0, None)
+    line(late[0])
+    assert "best 17" in line.stream.getvalue() and "it/s" not in line.stream.getvalue()
+
+
+def test_ticks_leave_the_searchs_reports_their_slots() -> None:
+    # the ticking thread draws only when the search's report is overdue: it must not take
+    # the search's slots (its line then never showed a rate: it/s)
+    now = [0.0]
+    seen: list[Snapshot] = []
+    prog = Progress(seen.append, interval=1.0, clock=lambda: now[0])
+    prog.start("x")
+    for step in range(1, 5):
+        now[0] = step + 0.0
+        prog.tick()  # due by the clock, yet the search reports at the same moment
+        prog(SearchStatus(iteration=100 * step, best=1.0))
+    assert any(s.rate for s in seen)

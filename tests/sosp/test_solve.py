@@ -130,7 +130,7 @@ def test_the_kernels_load_counts_in_the_time_limit(
         return greedy(instance, time_limit=time_limit, **kw)
 
     monkeypatch.setattr(solve_module, "method_function", lambda name: method)
-    res = solve(tiny_chain(), "greedy", time_limit=limit)
+    res = solve(tiny_chain(), "hpfs-stc", time_limit=limit)  # greedy loads no kernels
     assert given[0] == pytest.approx(expected, abs=0.05)
     assert res.runtime_s >= load_s  # the run's time counts from the call
 
@@ -177,3 +177,58 @@ def test_a_bound_of_a_restriction_certifies_nothing() -> None:
     assert own.bound == own.profit < optimum
     res = solve(inst, "pba-stc", bound="lagrangian")
     assert res.bound >= optimum and res.status is not Status.OPTIMAL
+
+
+@pytest.mark.parametrize(("method", "params"), [("rds-stc", {}), ("milp", {"model": "task"})])
+def test_a_restrictions_optimum_and_bound_are_labelled_with_its_model(method, params) -> None:
+    # issue 63 item 1: RDS-STC proves the static model's optimum 7 on tiny_chain, below the
+    # problem's 8; its "bound" and "optimal" are the static model's and must say so (result,
+    # --json, text), and the schedule file claims nothing for the problem
+    from sosp.registry import bounded_model
+
+    pytest.importorskip("highspy") if method == "milp" else None
+    res = solve(tiny_chain(), method, time_limit=10, **params)
+    model = bounded_model(method, params)
+    assert res.restriction == model and res.summary()["restriction"] == model
+    assert res.schedule.status != "optimal" and res.schedule.bound is None
+    greedy = solve(tiny_chain(), "greedy")
+    assert greedy.restriction is None and greedy.summary()["restriction"] is None
+    # a certifying bound is of the problem: the restriction's optimality is dropped
+    cert = solve(tiny_chain(), "rds-stc", bound="lagrangian")
+    assert cert.restriction is None and cert.status is not Status.OPTIMAL and cert.bound >= 8
+
+
+def test_a_stop_skips_the_certifying_bound(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 63 item 2: after a Ctrl-C, --bound's certifying bound ran its whole share (78.8 s
+    # in all on 2,000 targets): a stopped run computes no bound after the search
+    import sys
+
+    import sosp.pipeline
+    from sosp.stop import clear_stop, request_stop
+
+    real = sosp.pipeline.improve
+
+    def stopped(*args, **kwargs):
+        request_stop("SIGINT")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sys.modules["sosp.solve"], "improve", stopped)
+    try:
+        res = solve(tiny_chain(), "greedy", bound="lagrangian")
+    finally:
+        clear_stop()
+    assert [st.kind for st in res.stages] == ["method"]
+    assert res.status is Status.INTERRUPTED and res.bound is None
+
+
+def test_greedy_loads_no_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 63 items 2 and 11: greedy runs no numba kernel, yet paid their load (seconds to
+    # compile on a first run, which no Ctrl-C could cut short) before its one pass
+    import sosp.planner
+
+    def no(*args, **kwargs):
+        raise AssertionError("kernels loaded")
+
+    monkeypatch.setattr(sosp.planner, "compile_kernels", no)
+    res = solve(tiny_chain(), "greedy", time_limit=5)
+    assert res.profit == 8 and res.stats["kernels_s"] < 0.5

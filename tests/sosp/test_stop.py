@@ -209,9 +209,11 @@ def _start(args: list[str], tmp: Path) -> subprocess.Popen:
     ids=["sigint-asa", "sigterm-asa-workers", "sigterm-orbit-dp"],
 )
 def test_cli_signal_writes_the_best_so_far(
-    tmp_path: Path, c1, sig: signal.Signals, extra: list[str]
+    tmp_path: Path, c2, sig: signal.Signals, extra: list[str]
 ) -> None:
-    inst = tmp_path / "c1.json"
+    # C2, not C1: on C1 orbit-dp observes every target within a few seconds and stops there
+    c1 = c2
+    inst = tmp_path / "c2.json"
     c1.save(inst)
     out = tmp_path / "s.json"
     args = ["solve", str(inst), "--iterations", str(10**9), "-o", str(out), "--json", *extra]
@@ -344,8 +346,9 @@ def test_a_schedule_file_keeps_its_status_and_bound(tmp_path: Path) -> None:
     from sosp.errors import InputError
     from sosp.schedule import load_schedule
 
+    pytest.importorskip("highspy")
     inst = tiny_chain()
-    result = solve(inst, "rds")
+    result = solve(inst, "milp", time_limit=10)  # the problem's model: its own bound counts
     assert (result.schedule.status, result.schedule.bound) == ("optimal", result.bound)
     result.schedule.save(tmp_path / "s.json", inst)
     back = load_schedule(tmp_path / "s.json", inst)
@@ -354,3 +357,47 @@ def test_a_schedule_file_keeps_its_status_and_bound(tmp_path: Path) -> None:
     (tmp_path / "bad.json").write_text(json.dumps({**data, "bound": "high"}))
     with pytest.raises(InputError, match="bound"):
         load_schedule(tmp_path / "bad.json", inst)
+
+
+@pytest.mark.parametrize(
+    "method", ["asa-dtc", "asa-stc", "orbit-dp", "aco-ls-stc", "sa-stc", "ga-stc", "ts-stc"]
+)
+def test_a_search_stops_at_the_cap(method: str) -> None:
+    # issue 63 item 5: the README's two-target instance, every target observable and both
+    # observed by any search: nothing is left to find, so the search stops there instead of
+    # running to its limit (ASA-DTC took 5.2 s on it, orbit-dp and ACO-LS their whole limit)
+    from sosp.instance import Instance, Resources
+
+    inst = Instance.build(
+        {"a": 5, "b": 4},
+        [("a", 0, 0, 4, 10.0), ("b", 0, 30, 34, -5.0)],
+        resources=Resources(max_openings=2),
+    )
+    res = solve(inst, method, time_limit=30)
+    assert res.profit == 9 and res.status is Status.OPTIMAL
+    assert res.runtime_s < 5, res.runtime_s
+    assert validate(inst, res.schedule).feasible
+
+
+def test_a_signal_is_acknowledged_during_a_long_compiled_call() -> None:
+    # issue 63 item 2: Python runs a signal handler only between bytecodes, so during a long
+    # call into compiled code (here OpenSSL's PBKDF2, which releases the GIL as HiGHS does)
+    # the first Ctrl-C went unacknowledged and the solver's callbacks never saw the request
+    import hashlib
+    import threading
+
+    heard: list[tuple[str, bool, float]] = []
+
+    def on_stop(reason: str) -> None:
+        heard.append((reason, stop_requested(), time.perf_counter()))
+
+    with handle_signals(on_stop=on_stop):
+        threading.Timer(0.1, os.kill, (os.getpid(), signal.SIGINT)).start()
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < 0.5:  # calls of 0.5 s or more until the signal
+            hashlib.pbkdf2_hmac("sha256", b"sosp", b"salt", 400_000)
+        end = time.perf_counter()
+        (reason, requested, at) = heard[0]
+        assert reason == "SIGINT" and requested and len(heard) == 1
+        assert at < end - 0.05, (at - t0, end - t0)  # within the call, not after it
+    assert not stop_requested()
