@@ -157,7 +157,8 @@ def test_a_stop_request_ends_every_search_with_its_best(c1, method: str, params:
     result = solve(c1, method, seed=1, progress=Progress(cb, interval=0.05), **params)
     limit_kept(f"{method} stopped", time.perf_counter() - t0, 60.0)
     assert result.status is _stopped(c1, result.profit)
-    assert seen, "the search never reported progress"
+    # A search that reaches the cap at once (every target observed) ends before its first report.
+    assert seen or result.status is Status.OPTIMAL, "the search never reported progress"
     assert validate(c1, result.schedule).feasible
     assert result.profit > 0
 
