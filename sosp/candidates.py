@@ -43,7 +43,7 @@ from sosp.errors import InputError, TimeLimitReached
 from sosp.instance import Instance
 from sosp.parallel import fork_pool, inherited
 from sosp.rules import EPS, roll_in_range, starts_within
-from sosp.stop import Budget
+from sosp.stop import Budget, stop_requested
 
 log = logging.getLogger(__name__)
 
@@ -807,11 +807,13 @@ def _generate_orbit(
         count += len(roll)
         if max_candidates is not None and count > max_candidates:
             raise _too_many(instance, j, max_candidates)
-        if deadline is not None and time.perf_counter() > deadline:
+        # A stop request ends the generation as the deadline does: callers fall back alike.
+        if stop_requested() or (deadline is not None and time.perf_counter() > deadline):
+            why = "stopped" if stop_requested() else "time limit reached"
             raise TimeLimitReached(
-                f"orbit {instance.orbit_ids[j]!r}: time limit reached while generating "
-                f"candidate observations ({count} so far); give more time or use "
-                "asa-dtc"
+                f"orbit {instance.orbit_ids[j]!r}: {why} "
+                f"while generating candidate observations ({count} so far); give more time "
+                "or use asa-dtc"
             )
     return _pack(instance, j, out_roll, out_sizes, out_members)
 
