@@ -382,6 +382,45 @@ class Spot5Report:
     violations: list[str]
 
 
+@dataclass(frozen=True)
+class Spot5Result:
+    """What a SPOT5 solver returns.
+
+    Attributes
+    ----------
+    method
+        ``milp``, ``rds`` or ``tabu``.
+    assignment
+        (n,) value positions, -1 unselected.
+    value
+        Its profit.
+    bound
+        A proven upper bound on the optimum (None if the method has none).
+    status
+        ``optimal`` (value == bound), ``time_limit`` or ``heuristic``.
+    time_s, cpu_s
+        Wall and CPU (``time.process_time``) seconds.
+    stats
+        Method-specific figures.
+    """
+
+    method: str
+    assignment: np.ndarray
+    value: int
+    bound: int | None
+    status: str
+    time_s: float
+    cpu_s: float
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def gap(self) -> float | None:
+        """``(bound - value) / bound``, None without a bound."""
+        if self.bound is None:
+            return None
+        return 0.0 if self.bound <= 0 else (self.bound - self.value) / self.bound
+
+
 def validate_spot5(problem: Spot5, assignment: np.ndarray) -> Spot5Report:
     """Check every constraint and the capacity, and recompute the profit, independently of
     the solvers (a plain loop over the forbidden tuples of each constraint).
