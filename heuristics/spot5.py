@@ -237,3 +237,169 @@ def solve_spot5_rds(
         "rds", assign, value, bound, status, time.perf_counter() - t0,
         time.process_time() - c0, stats,
     )  # fmt: skip
+
+
+def conflict_lists(problem: Spot5) -> tuple[np.ndarray, ...]:
+    """Per node (see :func:`models.spot5.node_offsets`): its conflict-graph neighbours (CSR
+    ``nbr_ptr, nbr``) and the node pairs completing a forbidden triple with it (CSR
+    ``tri_ptr, tri``, rows of two nodes)."""
+    from models.spot5 import conflict_edges, node_offsets
+
+    off = node_offsets(problem)
+    nn = int(off[-1])
+    e = conflict_edges(problem)
+    both = np.concatenate([e, e[:, ::-1]])
+    both = both[np.lexsort((both[:, 1], both[:, 0]))]
+    nbr_ptr = np.searchsorted(both[:, 0], np.arange(nn + 1)).astype(np.int64)
+    c3 = np.repeat(np.arange(len(problem.triples)), np.diff(problem.triple_ptr))
+    t = off[problem.triples[c3]] + problem.triple_forbid
+    rows = np.concatenate([t[:, [0, 1, 2]], t[:, [1, 0, 2]], t[:, [2, 0, 1]]])
+    rows = rows[np.argsort(rows[:, 0], kind="stable")]
+    tri_ptr = np.searchsorted(rows[:, 0], np.arange(nn + 1)).astype(np.int64)
+    return nbr_ptr, both[:, 1].copy(), tri_ptr, rows[:, 1:].copy()
+
+
+@nb.njit(cache=True)
+def _move(j, node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, used, mark,
+          stamp, order, apply_to):  # fmt: skip
+    """Gain of selecting node ``j``: the nodes in conflict with it (and, if the recorder
+    overflows, the least valuable per unit in ``order``) are dropped; with ``apply_to`` >= 0
+    the dropped nodes are written to ``apply_to``-marked ``mark`` too (mark = -2)."""
+    gain = node_w[j]
+    freed = 0
+    v = node_var[j]
+    for q in range(nbr_ptr[j], nbr_ptr[j + 1]):
+        k = nbr[q]
+        if sel[node_var[k]] == k and mark[k] != stamp:
+            mark[k] = stamp
+            gain -= node_w[k]
+            freed += node_c[k]
+    for q in range(tri_ptr[j], tri_ptr[j + 1]):
+        a, b = tri[q, 0], tri[q, 1]
+        if sel[node_var[a]] == a and sel[node_var[b]] == b:
+            if mark[a] == stamp or mark[b] == stamp:
+                continue
+            k = a if node_w[a] <= node_w[b] else b
+            mark[k] = stamp
+            gain -= node_w[k]
+            freed += node_c[k]
+    if cap >= 0:
+        need = used + node_c[j] - freed - cap
+        for k in order:
+            if need <= 0:
+                break
+            if mark[k] == stamp or node_var[k] == v:
+                continue
+            mark[k] = stamp
+            gain -= node_w[k]
+            need -= node_c[k]
+    return gain
+
+
+@nb.njit(cache=True)
+def _tabu_chunk(node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, tabu, best_sel,
+                st, iters, tmin, tmax, gen):  # fmt: skip
+    """``iters`` tabu iterations from ``st`` = [it, value, used, best]; see the module
+    docstring; ``gen``: the run's generator (numba draws from it in place)."""
+    nn = len(node_var)
+    mark = np.full(nn, -1, dtype=np.int64)
+    it, value, used, best = st[0], st[1], st[2], st[3]
+    stamp = 0
+    for _ in range(iters):
+        it += 1
+        on = np.empty(0, dtype=np.int64)
+        if cap >= 0:
+            cand = np.array([sel[v] for v in range(len(sel)) if sel[v] >= 0 and node_c[sel[v]] > 0])
+            if len(cand):
+                ratio = np.array([node_w[k] / node_c[k] for k in cand])
+                on = cand[np.argsort(ratio)]
+        best_j, best_gain, ties = -1, -(1 << 60), 0
+        for j in range(nn):
+            v = node_var[j]
+            if sel[v] == j:
+                continue
+            stamp += 1
+            gain = _move(j, node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel,
+                         used, mark, stamp, on, -1)  # fmt: skip
+            if tabu[v] > it and value + gain <= best:
+                continue
+            if gain > best_gain:
+                best_j, best_gain, ties = j, gain, 1
+            elif gain == best_gain:
+                ties += 1
+                if gen.integers(0, ties) == 0:
+                    best_j = j
+        if best_j < 0:
+            continue
+        stamp += 1
+        _move(best_j, node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, used, mark,
+              stamp, on, 1)  # fmt: skip
+        for k in range(nn):
+            if mark[k] == stamp:
+                u = node_var[k]
+                sel[u] = -1
+                tabu[u] = it + tmin + gen.integers(0, tmax - tmin + 1)
+                value -= node_w[k]
+                used -= node_c[k]
+        sel[node_var[best_j]] = best_j
+        value += node_w[best_j]
+        used += node_c[best_j]
+        if value > best:
+            best = value
+            best_sel[:] = sel
+    st[0], st[1], st[2], st[3] = it, value, used, best
+
+
+def solve_spot5_tabu(
+    problem: Spot5,
+    time_limit: float = 10.0,
+    *,
+    rng: np.random.Generator | None = None,
+    start: np.ndarray | None = None,
+    tenure: tuple[int, int] = (5, 20),
+    chunk: int = 200,
+) -> Spot5Result:
+    """Tabu search (module docstring) for ``time_limit`` wall seconds.
+
+    Parameters
+    ----------
+    problem
+        The instance.
+    time_limit
+        Wall seconds, checked every ``chunk`` iterations.
+    rng
+        The run's seeded generator (default: seed 0).
+    start
+        A feasible assignment to start from (default: empty).
+    tenure
+        Tabu tenure drawn uniformly in this range (iterations).
+    """
+    from models.spot5 import node_offsets
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    rng = np.random.default_rng(0) if rng is None else rng
+    off = node_offsets(problem)
+    node_var = np.repeat(np.arange(problem.n), problem.size)
+    node_pos = np.arange(int(off[-1])) - off[node_var]
+    node_w = problem.weight[node_var].astype(np.int64)
+    node_c = problem.consumption[node_var, node_pos].astype(np.int64)
+    cap = -1 if problem.capacity is None else int(problem.capacity)
+    nbr_ptr, nbr, tri_ptr, tri = conflict_lists(problem)
+    sel = np.full(problem.n, -1, dtype=np.int64)
+    if start is not None:
+        on = np.flatnonzero(np.asarray(start) >= 0)
+        sel[on] = off[on] + np.asarray(start)[on]
+    value = int(node_w[sel[sel >= 0]].sum())
+    st = np.array([0, value, int(node_c[sel[sel >= 0]].sum()), value], dtype=np.int64)
+    tabu = np.zeros(problem.n, dtype=np.int64)
+    best_sel = sel.copy()
+    while True:
+        _tabu_chunk(node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, tabu,
+                    best_sel, st, chunk, tenure[0], tenure[1], rng)  # fmt: skip
+        if time.perf_counter() - t0 >= time_limit:
+            break
+    assign = np.where(best_sel >= 0, best_sel - off[np.arange(problem.n)], -1)
+    return Spot5Result(
+        "tabu", assign, problem.profit(assign), None, "heuristic", time.perf_counter() - t0,
+        time.process_time() - c0, {"iterations": int(st[0])},
+    )  # fmt: skip
