@@ -140,7 +140,9 @@ def cliques_from_events(first: np.ndarray, last: np.ndarray, m: int) -> list[np.
     return [np.asarray(c) for c in np.split(items[order], cuts)] if m else []
 
 
-def graph_cliques(n: int, edges: np.ndarray, max_cliques: int = 200_000) -> list[np.ndarray]:
+def graph_cliques(
+    n: int, edges: np.ndarray, max_cliques: int = 200_000, cover: bool = False
+) -> list[np.ndarray]:
     """Cliques of two or more nodes covering every edge of a general conflict graph.
 
     The maximal cliques (:func:`networkx.find_cliques`) when there are at most
@@ -157,6 +159,9 @@ def graph_cliques(n: int, edges: np.ndarray, max_cliques: int = 200_000) -> list
         (m, 2) node pairs.
     max_cliques
         Most maximal cliques enumerated before switching to the greedy cover.
+    cover
+        The greedy cover directly: far fewer rows and nonzeros than every maximal clique
+        (whose number grows fast on dense graphs, and HiGHS's presolve with them).
 
     Returns
     -------
@@ -170,8 +175,8 @@ def graph_cliques(n: int, edges: np.ndarray, max_cliques: int = 200_000) -> list
     g = nx.Graph()
     g.add_nodes_from(range(n))
     g.add_edges_from(np.asarray(edges, dtype=np.int64).tolist())
-    found = list(itertools.islice(nx.find_cliques(g), max_cliques + 1))
-    if len(found) <= max_cliques:
+    found = [] if cover else list(itertools.islice(nx.find_cliques(g), max_cliques + 1))
+    if not cover and len(found) <= max_cliques:
         return [np.sort(np.asarray(c, dtype=np.int64)) for c in found if len(c) >= 2]
     covered: set[tuple[int, int]] = set()
     out: list[np.ndarray] = []
