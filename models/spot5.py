@@ -35,6 +35,10 @@ from sosp.spot5 import Spot5, Spot5Result
 
 log = logging.getLogger(__name__)
 
+#: Most maximal cliques the clique LP enumerates before a greedy cover (1506 has 167,256 of
+#: them, 2.5 M nonzeros: minutes of Pyomo build; 414 has 27,259).
+MAX_CLIQUES = 30_000
+
 
 def node_offsets(problem: Spot5) -> np.ndarray:
     """(n+1,) first node of each variable: node ``offset[v] + a`` is (v, position a)."""
@@ -88,7 +92,7 @@ def build_spot5_model(
     weight = problem.weight[var]
     units = problem.consumption[var, pos]
     if cliques:
-        rows = graph_cliques(nodes, conflict_edges(problem), cover=cover)
+        rows = graph_cliques(nodes, conflict_edges(problem), MAX_CLIQUES, cover=cover)
     else:
         rows = [np.arange(off[v], off[v + 1]) for v in range(problem.n) if problem.size[v] > 1]
         rows += list(conflict_edges(problem)[np.diff(conflict_edges(problem), axis=1)[:, 0] > 0])
