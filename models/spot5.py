@@ -134,7 +134,6 @@ def solve_spot5_milp(
     time_limit: float | None = 60.0,
     *,
     start: np.ndarray | None = None,
-    fixed: np.ndarray | None = None,
     cliques: bool = True,
     threads: int | None = None,
     mip_gap: float = 0.0,
@@ -150,9 +149,6 @@ def solve_spot5_milp(
     start
         A feasible assignment (positions, -1 unselected) given to HiGHS as a MIP start; the
         result is never worse than it.
-    fixed
-        (n,) bool: variables kept at their ``start`` value (the neighbourhoods of
-        :func:`solve_spot5_lns`); the bound is then the restricted problem's.
     cliques
         Clique rows (default) or the plain pairwise formulation.
     threads, mip_gap
@@ -174,8 +170,6 @@ def solve_spot5_milp(
         for v in range(problem.n):
             for a in range(problem.size[v]):
                 m.x[int(off[v] + a)].set_value(1.0 if start[v] == a else 0.0)
-                if fixed is not None and fixed[v]:
-                    m.x[int(off[v] + a)].fix()
     kind, incumbent, raw, opt = run_appsi(
         m, deadline, mip_gap=mip_gap, threads=threads, warm=start is not None, stats=stats
     )
@@ -225,51 +219,3 @@ def spot5_bound(
         "rows": stats.get("constraints"),
         "cliques": m.cliques_count if cliques else 0,
     }
-
-
-def solve_spot5_lns(
-    problem: Spot5,
-    time_limit: float,
-    start: np.ndarray,
-    *,
-    rng: np.random.Generator,
-    window: int = 80,
-    sub_limit: float = 5.0,
-) -> Spot5Result:
-    """Large neighbourhood search by the MILP: free a window of ``window`` consecutive
-    variables (file order, which follows the satellite's time, so conflicts are local), keep
-    every other selected image at its value, drop the other unselected ones, and solve that
-    restricted program (:func:`solve_spot5_milp`, at most ``sub_limit`` s) from the current
-    assignment; keep it when it gains. A heuristic: no bound.
-
-    Parameters
-    ----------
-    problem
-        The instance.
-    time_limit
-        Wall seconds.
-    start
-        A feasible assignment (positions, -1 unselected).
-    rng
-        The run's seeded generator (window centres).
-    """
-    t0, c0 = time.perf_counter(), time.process_time()
-    cur = np.asarray(start, dtype=np.int64).copy()
-    rounds = gains = 0
-    while (left := time_limit - (time.perf_counter() - t0)) > 0.5:
-        lo = int(rng.integers(0, max(problem.n - window, 0) + 1))
-        free = np.zeros(problem.n, dtype=bool)
-        free[lo : lo + window] = True
-        keep = np.flatnonzero(free | (cur >= 0))
-        sub = problem.subproblem(keep)
-        r = solve_spot5_milp(
-            sub, min(sub_limit, left), start=cur[keep], fixed=~free[keep], threads=1
-        )
-        rounds += 1
-        if r.value > sub.profit(cur[keep]):
-            cur[keep] = r.assignment
-            gains += 1
-    return Spot5Result(
-        "lns", cur, problem.profit(cur), None, "heuristic", time.perf_counter() - t0,
-        time.process_time() - c0, {"rounds": rounds, "gains": gains},
-    )  # fmt: skip
