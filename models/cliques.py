@@ -138,3 +138,58 @@ def cliques_from_events(first: np.ndarray, last: np.ndarray, m: int) -> list[np.
     order = np.argsort(event, kind="stable")
     cuts = np.searchsorted(event[order], np.arange(1, m))
     return [np.asarray(c) for c in np.split(items[order], cuts)] if m else []
+
+
+def graph_cliques(
+    n: int, edges: np.ndarray, max_cliques: int = 200_000, cover: bool = False
+) -> list[np.ndarray]:
+    """Cliques of two or more nodes covering every edge of a general conflict graph.
+
+    The maximal cliques (:func:`networkx.find_cliques`) when there are at most
+    ``max_cliques`` of them; past that, a greedy cover: each edge not yet covered grows into a
+    maximal clique by adding common neighbours, highest degree first. Either way every edge
+    lies in a returned clique, so the rows ``sum_{u in K} x_u <= 1`` imply every pairwise
+    conflict row (and are at least as strong in the LP).
+
+    Parameters
+    ----------
+    n
+        Number of nodes (0..n-1).
+    edges
+        (m, 2) node pairs.
+    max_cliques
+        Most maximal cliques enumerated before switching to the greedy cover.
+    cover
+        The greedy cover directly: far fewer rows and nonzeros than every maximal clique
+        (whose number grows fast on dense graphs, and HiGHS's presolve with them).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Sorted node indices of each clique.
+    """
+    import itertools
+
+    import networkx as nx
+
+    g = nx.Graph()
+    g.add_nodes_from(range(n))
+    g.add_edges_from(np.asarray(edges, dtype=np.int64).tolist())
+    found = [] if cover else list(itertools.islice(nx.find_cliques(g), max_cliques + 1))
+    if not cover and len(found) <= max_cliques:
+        return [np.sort(np.asarray(c, dtype=np.int64)) for c in found if len(c) >= 2]
+    covered: set[tuple[int, int]] = set()
+    out: list[np.ndarray] = []
+    for u, w in sorted(tuple(sorted(e)) for e in g.edges):
+        if (u, w) in covered:
+            continue
+        clique = [u, w]
+        common = set(g[u]) & set(g[w])
+        while common:
+            z = max(common, key=lambda k: (g.degree[k], -k))
+            clique.append(z)
+            common &= set(g[z])
+        clique.sort()
+        covered.update(itertools.combinations(clique, 2))
+        out.append(np.asarray(clique, dtype=np.int64))
+    return out

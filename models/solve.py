@@ -856,65 +856,100 @@ def _run_direct(
 def _run_pyomo(
     run: _Run, deadline: float | None, start_items_: list[int] | None, relax: bool
 ) -> _Outcome:
-    """Build ``data`` with the reference Pyomo builder and solve it through APPSI's HiGHS (it
-    takes MIP starts): a fresh solver object with only this run's options, its log to this
-    module's logger, and no solution loaded unless there is one."""
-    from pyomo.contrib.appsi.base import TerminationCondition as TC
-    from pyomo.contrib.appsi.solvers import Highs
-
+    """Build ``data`` with the reference Pyomo builder and solve it with :func:`run_appsi`."""
     from models.formulation import build_model
-    from models.highs_direct import PROBING_OFF, use_threads
+    from models.highs_direct import PROBING_OFF
 
-    data, t0, stats, threads, lp_solver = run.data, run.t0, run.stats, run.threads, run.lp_solver
+    data, t0, stats, lp_solver = run.data, run.t0, run.stats, run.lp_solver
     m = build_model(data, relax=bool(relax))
-    build_s = time.perf_counter() - t0
-    stats["build_s"] = round(build_s, 6)
-    opt = Highs()  # its time limit is set after the load
-    opt.config.load_solution = opt.config.stream_solver = False
-    opt.config.log_level, opt.config.solver_output_logger = logging.DEBUG, log
-    if run.mip_gap is not None:
-        opt.config.mip_gap = float(run.mip_gap)
+    stats["build_s"] = round(time.perf_counter() - t0, 6)
+    warm = start_items_ is not None and not relax
+    if warm:
+        for name, values in item_values(data, start_items_).items():
+            for key, val in values.items():
+                getattr(m, name)[key].set_value(val)
     options = {
-        "output_flag": log.isEnabledFor(logging.DEBUG),
-        "threads": None if threads is None else int(threads),
         "solver": lp_solver if relax and lp_solver != "choose" else None,
         "presolve_rule_off": None if relax or run.probing else PROBING_OFF,
     }
-    opt.highs_options = {k: v for k, v in options.items() if v is not None}
+    kind, incumbent, raw_bound, opt = run_appsi(
+        m, deadline, mip_gap=run.mip_gap, threads=run.threads, options=options, warm=warm,
+        stats=stats,
+    )  # fmt: skip
+    chosen = None
+    if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
+        units = list(m.U)
+        values = appsi_values(opt, [m.x[u] for u in units])
+        chosen = [int(u) for u, v in zip(units, values, strict=True) if v > 0.5]
+    return kind, incumbent, raw_bound, chosen
+
+
+def run_appsi(
+    m: Any,
+    deadline: float | None,
+    *,
+    mip_gap: float | None = None,
+    threads: int | None = None,
+    options: Mapping[str, Any] | None = None,
+    warm: bool = False,
+    stats: dict[str, Any],
+) -> tuple[str, float | None, float | None, Any]:
+    """Solve the Pyomo model ``m`` with APPSI's HiGHS (it takes MIP starts) until ``deadline``.
+
+    A fresh solver object with only this run's options, its log to this module's logger, and
+    no solution loaded (read it with :func:`appsi_values`). ``warm``: start from the values
+    the model's variables hold. Writes ``load_s``, ``solve_s``, the model's size and the
+    termination to ``stats``.
+
+    Returns
+    -------
+    tuple
+        ``(kind, incumbent, bound, solver)``: kind optimal / infeasible / time_limit / other.
+    """
+    from pyomo.contrib.appsi.base import TerminationCondition as TC
+    from pyomo.contrib.appsi.solvers import Highs
+
+    from models.highs_direct import use_threads
+
+    t1 = time.perf_counter()
+    opt = Highs()  # its time limit is set after the load
+    opt.config.load_solution = opt.config.stream_solver = False
+    opt.config.log_level, opt.config.solver_output_logger = logging.DEBUG, log
+    if mip_gap is not None:
+        opt.config.mip_gap = float(mip_gap)
+    every = {"output_flag": log.isEnabledFor(logging.DEBUG), "threads": threads, **(options or {})}
+    opt.highs_options = {k: v for k, v in every.items() if v is not None}
     # Loading the model into HiGHS takes seconds on large models: do it first, then give
     # HiGHS only what is left of the limit, and skip APPSI's change detection at solve time.
     opt.set_instance(m)
     for flag in opt.update_config:
         if flag.startswith(("check_for_new", "update_")):
             setattr(opt.update_config, flag, False)
-    stats["load_s"] = round(time.perf_counter() - t0 - build_s, 6)
+    stats["load_s"] = round(time.perf_counter() - t1, 6)
     if deadline is not None:
         if time.perf_counter() >= deadline:
             stats["timed_out"] = "building"
-            return "time_limit", None, None, None
+            return "time_limit", None, None, opt
         opt.config.time_limit = max(deadline - time.perf_counter(), 0.01)
-    if start_items_ is not None and not relax:
-        for name, values in item_values(data, start_items_).items():
-            for key, val in values.items():
-                getattr(m, name)[key].set_value(val)
-        opt.config.warmstart = True
+    opt.config.warmstart = warm
     use_threads(threads)
+    t2 = time.perf_counter()
     res = opt.solve(m)
     h = opt._solver_model
     stats.update(variables=h.getNumCol(), constraints=h.getNumRow(), nonzeros=h.getNumNz())
     tc = res.termination_condition
     stats["termination"] = tc.name
-    stats["solve_s"] = round(time.perf_counter() - t0 - build_s - stats["load_s"], 6)
+    stats["solve_s"] = round(time.perf_counter() - t2, 6)
     kind = {TC.optimal: "optimal", TC.infeasible: "infeasible"}.get(tc, "other")
     if tc in (TC.maxTimeLimit, TC.maxIterations, TC.interrupted):
         kind = "time_limit"
-    incumbent = res.best_feasible_objective
-    chosen = None
-    if incumbent is not None and not relax and kind in ("optimal", "time_limit"):
-        # the scheduled items, read from HiGHS's solution vector
-        col, index = h.getSolution().col_value, opt._pyomo_var_to_solver_var_map
-        chosen = [int(u) for u in m.U if col[index[id(m.x[u])]] > 0.5]
-    return kind, incumbent, res.best_objective_bound, chosen
+    return kind, res.best_feasible_objective, res.best_objective_bound, opt
+
+
+def appsi_values(opt: Any, variables: list[Any]) -> list[float]:
+    """The values of ``variables`` in the solution HiGHS holds after :func:`run_appsi`."""
+    col, index = opt._solver_model.getSolution().col_value, opt._pyomo_var_to_solver_var_map
+    return [col[index[id(v)]] for v in variables]
 
 
 #: Methods of :func:`bound`: the registered bounds of the problem (every model's bound here).

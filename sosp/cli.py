@@ -735,6 +735,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 ok, 1 infeasible schedule, 2 bad input)."""
     try:
+        argv = sys.argv[1:] if argv is None else list(argv)
+        if (spot5 := importlib.import_module("sosp.spot5_cli")).wants(argv):
+            return spot5.main(argv)  # the SPOT5 benchmark's .spot files
         parser = build_parser()
         args = parser.parse_args(argv)
         logging.basicConfig(
