@@ -33,6 +33,7 @@ EXTRA_COMMANDS: dict[str, str] = {
     "plot": "sosp.plot:add_plot_parser",
     "export": "sosp.export:add_export_parser",
     "view": "sosp.view:add_view_parser",
+    "replan": "sosp.replanning:add_replan_parser",
 }
 
 #: The built-in scenario of ``sosp demo``.
