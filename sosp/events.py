@@ -88,7 +88,9 @@ class Events:
 
     def __len__(self) -> int:
         n = len(self.weights or {})
-        return n + len(self.new_targets) + len(self.cancelled) + len(self.outages) + len(self.clouds)
+        return (
+            n + len(self.new_targets) + len(self.cancelled) + len(self.outages) + len(self.clouds)
+        )
 
 
 def horizon(instance: Instance) -> tuple[float, float]:
@@ -172,7 +174,7 @@ def parse_events(data: Any, instance: Instance, source: str | None = None) -> Ev
         if extra:
             raise bad(f"unexpected key for a {kind} event", extra[0])
 
-        def target(key: str = "target", value: Any = None) -> str:
+        def target(key: str = "target", value: Any = None, ev: dict = ev) -> str:
             tid = ev[key] if value is None else value
             if isinstance(tid, bool) or not isinstance(tid, str | int):
                 raise bad(f"expected a target id, got {tid!r}", key)
@@ -180,13 +182,13 @@ def parse_events(data: Any, instance: Instance, source: str | None = None) -> Ev
                 raise bad(f"unknown target {tid!r}", key)
             return str(tid)
 
-        def weight() -> int:
+        def weight(ev: dict = ev) -> int:
             w = ev["weight"]
             if not is_finite_number(w) or w < 0 or w > MAX_WEIGHT or float(w) != round(w):
                 raise bad(f"expected an integer in [0, {MAX_WEIGHT:.0e}], got {w!r}", "weight")
             return int(w)
 
-        def span() -> tuple[float, float]:
+        def span(ev: dict = ev, at: str = at) -> tuple[float, float]:
             t0 = parse_time(ev["from"], instance, f"{at}.from", source)
             t1 = parse_time(ev["to"], instance, f"{at}.to", source)
             if not t0 < t1:
@@ -243,7 +245,9 @@ def load_events(path: str | os.PathLike[str], instance: Instance) -> Events:
     return parse_events(read_json(path), instance, source=str(path))
 
 
-def in_area(lat: np.ndarray, lon: np.ndarray, area: tuple[float, float, float, float]) -> np.ndarray:
+def in_area(
+    lat: np.ndarray, lon: np.ndarray, area: tuple[float, float, float, float]
+) -> np.ndarray:
     """Whether each point lies in the box ``(lat0, lat1, lon0, lon1)``; a box whose west edge
     lies east of its east edge crosses 180 degrees (as :func:`sosp.scenarios.random_targets`)."""
     lat0, lat1, lon0, lon1 = area

@@ -357,7 +357,8 @@ def replan(
         "now": float(now), "freeze": float(freeze), "stability": float(stability),
         "events": len(events)}, seed=int(seed), fingerprint=inst.fingerprint)  # fmt: skip
     if inst.stations:
-        new = _deliver(inst, new, st)
+        old = replace(old, downlinks=schedule.downlinks)
+        new = _deliver(inst, new, st, old)
     profit, _ = new.coverage_profit(inst)
     new = replace(new, profit=profit)
     report = validate(inst, new)
@@ -367,8 +368,15 @@ def replan(
                           f"{first.message}")  # fmt: skip
     exp = expected_profit(inst, new, ap.clear)
     out = Replanned(
-        inst, new, changes(old, new, inst), exp, st.bound(), len(st.frozen_obs),
-        time.perf_counter() - t0, method, {**stats, "profit": profit, "expected_profit": exp},
+        inst,
+        new,
+        changes(old, new, inst),
+        exp,
+        st.bound(),
+        len(st.frozen_obs),
+        time.perf_counter() - t0,
+        method,
+        {**stats, "profit": profit, "expected_profit": exp},
     )
     log.info("replan %s: expected profit %g, %s, %.3f s", method, exp, out.counts(),
              out.runtime_s)  # fmt: skip
@@ -380,7 +388,12 @@ class _State:
     holds each target, and what each opportunity is worth."""
 
     def __init__(
-        self, ap: Applied, old: Schedule, old_weight: np.ndarray, now: float, t_freeze: float,
+        self,
+        ap: Applied,
+        old: Schedule,
+        old_weight: np.ndarray,
+        now: float,
+        t_freeze: float,
         stability: float,
     ) -> None:
         inst = ap.instance
@@ -470,7 +483,7 @@ class _State:
             c_end = np.maximum.reduceat(inst.opp_end[flat], ptr[:-1])
             c_roll = choose_roll(lo, hi, "nadir")
             c_gain = np.add.reduceat(self.value[flat], ptr[:-1])
-            groups = [flat[ptr[u]: ptr[u + 1]] for u in range(len(sizes))]
+            groups = [flat[ptr[u] : ptr[u + 1]] for u in range(len(sizes))]
         else:
             c_start = c_end = c_roll = c_gain = np.zeros(0)
             groups = []
@@ -579,7 +592,7 @@ def _solve_restricted(
         replace(o, opps=tuple(at[i] for i in o.opps))
         for o in old_tail if all(i in at for i in o.opps)
     ))  # fmt: skip
-    params = {"warm_start": start} if warm and "warm_start" in method_info(method) else {}
+    params = {"warm_start": start} if warm and "warm_start" in method_info(method).keys() else {}
     res = solve(sub, method, seed=seed, time_limit=time_limit, **params)
     found = [replace(o, opps=tuple(int(index[i]) for i in o.opps))
              for o in res.schedule.observations]  # fmt: skip
@@ -644,8 +657,23 @@ def restricted(st: _State) -> tuple[Instance, np.ndarray]:
     return sub, index
 
 
-def _deliver(inst: Instance, new: Schedule, st: _State) -> Schedule:
-    raise NotImplementedError
+def _deliver(inst: Instance, new: Schedule, st: _State, old: Schedule) -> Schedule:
+    """With ground stations: the downlinks of the new plan (:func:`sosp.downlink.deliver`,
+    which drops what cannot be delivered), and whether the frozen part (observations, and
+    downlinks starting before the freeze time) came out unchanged (``stats["frozen_kept"]``,
+    a warning when not: the greedy downlink planner may send differently once new
+    observations share a contact)."""
+    from sosp.downlink import deliver
+
+    obs, dls = deliver(inst, new.observations)
+    t = st.t_freeze
+    kept = set(st.frozen_obs) <= set(obs) and [d for d in dls if d.start < t] == [
+        d for d in old.downlinks if d.start < t
+    ]
+    st.stats["frozen_kept"] = bool(kept)
+    if not kept:
+        log.warning("replan with stations: the frozen downlinks or observations changed")
+    return replace(new, observations=obs, downlinks=tuple(dls))
 
 
 # ---------------------------------------------------------------------------------- CLI
@@ -730,8 +758,10 @@ def cmd_replan(args: Any) -> int:
         f"{bound}) in {res.runtime_s:.2f} s",
         f"frozen {res.frozen} observations; changes: {c['removed']} removed, {c['added']} "
         f"added, {c['moved']} moved",
-        *(f"  {r['change']:<8} {r['orbit']:<16} {r['start_utc']}  {' '.join(r['targets'])}"
-          for r in rows[:40]),  # fmt: skip
+        *(
+            f"  {r['change']:<8} {r['orbit']:<16} {r['start_utc']}  {' '.join(r['targets'])}"
+            for r in rows[:40]
+        ),  # fmt: skip
         *([f"  ... {len(rows) - 40} more (--json lists them all)"] if len(rows) > 40 else []),
         f"wrote {args.output} and {inst_out}",
     ]
