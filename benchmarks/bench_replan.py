@@ -16,7 +16,8 @@ largest) and arrive at mid-horizon: ``now`` = 12 h, a freeze (uplink lead time) 
 The old plan is one ASA-DTC run of ``--old`` seconds on the family without them. Then, on
 the same new problem (frozen part kept, :func:`sosp.replanning.restricted` for the search):
 
-* ``repair``: :func:`sosp.replan` with ``method="repair"`` (its default time limit, 30 s);
+* ``repair``: :func:`sosp.replan` with ``method="repair"`` and a 30 s limit (profit first);
+* ``repair --stability 1``: the same, each unchanged observation worth one weight unit;
 * ``scratch``: ``method="asa-dtc"`` for ``--scratch`` seconds, not started from the old plan.
 
 Each row gives time, expected profit (here the profit: no cloud), changes from the old plan
@@ -72,6 +73,7 @@ def run(name: str, old_s: float, scratch_s: float) -> list[dict[str, object]]:
     rows = []
     for label, kw in (
         ("repair", {"method": "repair", "time_limit": 30.0}),
+        ("repair --stability 1", {"method": "repair", "time_limit": 30.0, "stability": 1.0}),
         (f"scratch asa-dtc {scratch_s:g} s", {"method": "asa-dtc", "time_limit": scratch_s,
                                              "warm_start": False}),
     ):  # fmt: skip
@@ -94,9 +96,9 @@ def table(rows: list[dict[str, object]]) -> str:
         "| urgent observed | old plan's profit | bound |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for i in range(0, len(rows), 2):
-        scratch = float(rows[i + 1]["profit"])  # type: ignore[arg-type]
-        for r in rows[i : i + 2]:
+    for i in range(0, len(rows), 3):
+        scratch = float(rows[i + 2]["profit"])  # type: ignore[arg-type]
+        for r in rows[i : i + 3]:
             pct = 100.0 * float(r["profit"]) / scratch  # type: ignore[arg-type]
             lines.append(
                 f"| {r['family']} | {r['method']} | {r['time_s']:.2f} | {r['profit']:.0f} | "
