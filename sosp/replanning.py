@@ -404,6 +404,7 @@ class _State:
         self.frozen_obs: list[Observation] = []
         self.plan: dict[int, list[Observation]] = {}
         self.lost: set[int] = set()  # orbits that lost observations
+        self._cands: dict[int, Any] = {}
         self.stats: dict[str, Any] = {"visits": 0, "improved": 0, "outage_removed": 0}
         n_old = len(old_weight)
         # targets to look at again: new ones, re-weighted ones, clouded ones, freed ones
@@ -454,10 +455,46 @@ class _State:
         )
         return idx[ok]
 
+    def candidates(self, j: int) -> Any:
+        """Orbit j's clustering-exact candidate observations over the opportunities that may
+        ever be used in this repair (after the freeze, not blocked, worth something, target
+        not frozen-observed), generated on the first visit (:func:`sosp.candidates.generate`)
+        and cut to those usable at each visit (:meth:`OrbitCandidates.within`)."""
+        from sosp.candidates import OppGroups, OrbitCandidates, generate, offsets
+        from sosp.rules import starts_within
+
+        if (hit := self._cands.get(j)) is not None:
+            return hit
+        inst = self.inst
+        sl = inst.orbit_opps(j)
+        tg = inst.opp_target[sl]
+        ok = (
+            (inst.opp_start[sl] >= self.t_freeze)
+            & ~self.ap.blocked[sl]
+            & (self.value[sl] > 0)
+            & ~self.locked[tg]
+        )
+        base = np.flatnonzero(ok) + sl.start
+        ts, te = inst.opp_start[base], inst.opp_end[base]
+        limit = float(inst.max_duration[j])
+        got = list(generate(ts, te, inst.opp_roll_min[base], inst.opp_roll_max[base], limit,
+                            starts_within(ts, limit)))  # fmt: skip
+        if got:
+            roll = np.concatenate([g[0] for g in got])
+            ptr = offsets(np.concatenate([g[1] for g in got]))
+            flat = base[np.concatenate([g[2] for g in got])].astype(np.int32)
+            start = np.minimum.reduceat(inst.opp_start[flat], ptr[:-1])
+            end = np.maximum.reduceat(inst.opp_end[flat], ptr[:-1])
+        else:
+            roll = start = end = np.zeros(0)
+            ptr, flat = np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32)
+        out = OrbitCandidates(j, start, end, roll, OppGroups(ptr, flat))
+        self._cands[j] = out
+        return out
+
     def replan_orbit(self, j: int) -> list[int]:
         """Re-plan orbit j's unfrozen part exactly (:func:`sosp.planner.plan_sequence`);
         returns the targets it let go."""
-        from sosp.candidates import generate, offsets
 
         inst, r = self.inst, orbit_rules(self.inst, j)
         self.stats["visits"] += 1
@@ -469,24 +506,21 @@ class _State:
         left = (fixed[-1].end, fixed[-1].roll) if fixed else None
         opts = self.usable(j)
         tg = inst.opp_target
+        ptr = np.zeros(1, dtype=np.int64)
         if len(opts):
-            got = [(s, p) for _, s, p in generate(
-                inst.opp_start[opts], inst.opp_end[opts], inst.opp_roll_min[opts],
-                inst.opp_roll_max[opts], r.max_duration)]  # fmt: skip
-        else:
-            got = []
-        if got:
-            sizes, pos = (np.concatenate(x) for x in zip(*got, strict=True))
-            ptr, flat = offsets(sizes), opts[pos]
+            # the orbit's candidates (generated once, cached with the instance) cut to the
+            # usable opportunities: each still dominates what it dominated among them
+            source = self.candidates(j)
+            t1 = float(inst.opp_end[opts].max())
+            ptr, flat = source.within(opts, inst.n_opps, float(inst.opp_start[opts[0]]), t1)
+        if len(ptr) > 1:
             lo, hi = group_roll_ranges(inst.opp_roll_min, inst.opp_roll_max, ptr, flat)
             c_start = np.minimum.reduceat(inst.opp_start[flat], ptr[:-1])
             c_end = np.maximum.reduceat(inst.opp_end[flat], ptr[:-1])
             c_roll = choose_roll(lo, hi, "nadir")
             c_gain = np.add.reduceat(self.value[flat], ptr[:-1])
-            groups = [flat[ptr[u] : ptr[u + 1]] for u in range(len(sizes))]
         else:
             c_start = c_end = c_roll = c_gain = np.zeros(0)
-            groups = []
         t_start = np.array([o.start for o in tail])
         t_end = np.array([o.end for o in tail])
         t_roll = np.array([o.roll for o in tail])
@@ -502,14 +536,14 @@ class _State:
         )  # fmt: skip
         if gain <= current + 1e-9:
             return []
-        n_c = len(groups)
+        n_c = len(ptr) - 1
         claimed: set[int] = set()
         new_tail = []
         for u in path.tolist():
             if u >= n_c:
                 o = tail[u - n_c]
             else:
-                mine = tuple(int(i) for i in groups[u] if int(tg[i]) not in claimed)
+                mine = tuple(int(i) for i in flat[ptr[u] : ptr[u + 1]] if int(tg[i]) not in claimed)
                 if not mine:
                     continue
                 o = Observation(j, float(c_start[u]), float(c_end[u]), float(c_roll[u]), mine)
