@@ -213,3 +213,15 @@ def test_events_parse_times_and_areas(case):
     (c,) = ev.clouds
     assert (c.start, c.end, c.probability) == (21600.0, 36000.0, 0.2)
     assert not np.isnan(c.area).any()
+
+
+def test_simulate_a_day(case):
+    from sosp.simulate import simulate
+
+    inst, old = case
+    a = simulate(inst, old, rate=0.05, seed=2)
+    assert a["replans"] == a["urgent"] + 2  # the forecast, each arrival, the outage
+    assert 0 < a["realised_profit"] and 0 < a["hindsight_profit"]
+    assert a == simulate(inst, old, rate=0.05, seed=2) | {
+        k: a[k] for k in ("replan_s_mean", "replan_s_max")
+    }
