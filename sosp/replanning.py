@@ -51,6 +51,9 @@ STABILITY = 1e-3
 #: freed targets stop there.
 MAX_VISITS = 3
 
+#: Whether the repair ends with a round of pulls (:meth:`_State.pull_round`).
+PULL = True
+
 
 @dataclass(frozen=True)
 class Change:
@@ -405,6 +408,7 @@ class _State:
         self.plan: dict[int, list[Observation]] = {}
         self.lost: set[int] = set()  # orbits that lost observations
         self._cands: dict[int, Any] = {}
+        self.touched: set[int] = set()
         self.stats: dict[str, Any] = {"visits": 0, "improved": 0, "outage_removed": 0}
         n_old = len(old_weight)
         # targets to look at again: new ones, re-weighted ones, clouded ones, freed ones
@@ -438,20 +442,24 @@ class _State:
             self.plan.setdefault(o.orbit, []).append(o)
             for i in o.opps:
                 self.owner[int(inst.opp_target[i])] = o.orbit
+        self.start_obs = {o for obs in self.plan.values() for o in obs}
 
     # --------------------------------------------------------------- one orbit
-    def usable(self, j: int) -> np.ndarray:
+    def usable(self, j: int, pull: bool = False) -> np.ndarray:
         """Opportunities of orbit j a new observation may cover: after the freeze, not
-        blocked, worth something, their target free or held by j itself (not frozen)."""
+        blocked, worth something, their target free or held by j itself (with ``pull``: or
+        by another orbit), never a frozen-observed one."""
         inst = self.inst
         sl = inst.orbit_opps(j)
         idx = np.arange(sl.start, sl.stop)
         own = self.owner[inst.opp_target[sl]]
+        mine = (own < 0) | (own == j) if not pull else np.ones(len(own), dtype=bool)
         ok = (
             (inst.opp_start[sl] >= self.t_freeze)
             & ~self.ap.blocked[sl]
             & (self.value[sl] > 0)
-            & ((own < 0) | ((own == j) & ~self.locked[inst.opp_target[sl]]))
+            & mine
+            & ~self.locked[inst.opp_target[sl]]
         )
         return idx[ok]
 
@@ -492,9 +500,10 @@ class _State:
         self._cands[j] = out
         return out
 
-    def replan_orbit(self, j: int) -> list[int]:
+    def replan_orbit(self, j: int, pull: bool = False) -> list[int]:
         """Re-plan orbit j's unfrozen part exactly (:func:`sosp.planner.plan_sequence`);
-        returns the targets it let go."""
+        returns the targets it let go. With ``pull`` it may take targets other orbits hold
+        (they leave those orbits' observations, which stay feasible: :func:`_drop`)."""
 
         inst, r = self.inst, orbit_rules(self.inst, j)
         self.stats["visits"] += 1
@@ -504,7 +513,7 @@ class _State:
         energy, memory = r.usage(np.array([o.duration for o in fixed]),
                                  np.array([o.roll for o in fixed]))  # fmt: skip
         left = (fixed[-1].end, fixed[-1].roll) if fixed else None
-        opts = self.usable(j)
+        opts = self.usable(j, pull)
         tg = inst.opp_target
         ptr = np.zeros(1, dtype=np.int64)
         if len(opts):
@@ -551,11 +560,56 @@ class _State:
             new_tail.append(o)
         before = {int(tg[i]) for o in tail for i in o.opps}
         freed = sorted(before - claimed)
+        if pull:
+            for i, ks in self._holders(claimed - before, j).items():
+                self.plan[i] = _drop(self.plan[i], ks, tg)
+                self.touched.add(i)
         self.owner[freed] = -1
         self.owner[sorted(claimed)] = j
         self.plan[j] = fixed + new_tail
         self.stats["improved"] += 1
         return freed
+
+    def _holders(self, targets: set[int], j: int) -> dict[int, set[int]]:
+        """The orbits other than j holding some of ``targets``, and which."""
+        out: dict[int, set[int]] = {}
+        for k in targets:
+            if (i := int(self.owner[k])) >= 0 and i != j:
+                out.setdefault(i, set()).add(k)
+        return out
+
+    def objective(self) -> float:
+        """Expected profit plus ``stability`` per observation of the old plan kept."""
+        kept, total = 0, 0.0
+        for obs in self.plan.values():
+            for o in obs:
+                kept += o in self.start_obs
+                total += float(self.value[list(o.opps)].sum())
+        return total + self.stability * kept
+
+    def pull_round(self, until: float | None) -> None:
+        """For each orbit seeing a target still free that the events concern: re-plan it
+        taking targets from other orbits as well, then those orbits and the orbits seeing
+        what they let go; kept only when :meth:`objective` grows (else undone)."""
+        inst = self.inst
+        hot = [k for k in self.hot if self.owner[k] < 0]
+        for j in sorted(self.orbits_seeing(hot), key=lambda i: inst.orbit_start[i]):
+            if until is not None and time.perf_counter() > until:
+                self.stats["stopped"] = "time_limit"
+                return
+            plan, owner, before = dict(self.plan), self.owner.copy(), self.objective()
+            self.touched = set()
+            freed = self.replan_orbit(j, pull=True)
+            if not self.touched and not freed:
+                continue
+            for i in sorted(self.touched):
+                freed += self.replan_orbit(i)
+            for i in sorted(self.orbits_seeing(freed) - {j}):
+                self.replan_orbit(i)
+            if self.objective() <= before + 1e-9:
+                self.plan, self.owner = plan, owner
+            else:
+                self.stats["pulled"] = self.stats.get("pulled", 0) + 1
 
     def orbits_seeing(self, targets: Any) -> set[int]:
         inst = self.inst
@@ -587,6 +641,8 @@ class _State:
                     queue.append(i)
                     queued.add(i)
         self.stats["orbits"] = len(visits)
+        if PULL:
+            self.pull_round(until)
 
     def observations(self) -> list[Observation]:
         return [o for j in sorted(self.plan) for o in self.plan[j]]
@@ -608,6 +664,18 @@ class _State:
         np.maximum.at(best, inst.opp_target[ok], self.value[ok])
         best[list(frozen)] = 0.0
         return total + float(best.sum())
+
+
+def _drop(obs: list[Observation], targets: set[int], tg: np.ndarray) -> list[Observation]:
+    """``obs`` without ``targets``: an observation keeps its window and roll (its roll stays
+    in the range of fewer opportunities; a window may be longer than needed) and goes when it
+    covers nothing else, which keeps (3)-(6) (``docs/model.md``)."""
+    out = []
+    for o in obs:
+        keep = tuple(i for i in o.opps if int(tg[i]) not in targets)
+        if keep:
+            out.append(o if len(keep) == len(o.opps) else replace(o, opps=keep))
+    return out
 
 
 def _solve_restricted(
