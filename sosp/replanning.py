@@ -360,7 +360,10 @@ def replan(
         "now": float(now), "freeze": float(freeze), "stability": float(stability),
         "events": len(events)}, seed=int(seed), fingerprint=inst.fingerprint)  # fmt: skip
     if inst.stations:
-        old = replace(old, downlinks=schedule.downlinks)
+        old = replace(old, downlinks=tuple(
+            replace(d, parts=tuple((int(ap.index[i]), v) for i, v in d.parts))
+            for d in schedule.downlinks
+        ))  # fmt: skip
         new = _deliver(inst, new, st, old)
     profit, _ = new.coverage_profit(inst)
     new = replace(new, profit=profit)
@@ -769,13 +772,14 @@ def _deliver(inst: Instance, new: Schedule, st: _State, old: Schedule) -> Schedu
 
     obs, dls = deliver(inst, new.observations)
     t = st.t_freeze
-    kept = set(st.frozen_obs) <= set(obs) and [d for d in dls if d.start < t] == [
+    new = replace(new, observations=obs, downlinks=tuple(dls))  # sorted as old's
+    kept = set(st.frozen_obs) <= set(obs) and [d for d in new.downlinks if d.start < t] == [
         d for d in old.downlinks if d.start < t
     ]
     st.stats["frozen_kept"] = bool(kept)
     if not kept:
         log.warning("replan with stations: the frozen downlinks or observations changed")
-    return replace(new, observations=obs, downlinks=tuple(dls))
+    return new
 
 
 # ---------------------------------------------------------------------------------- CLI

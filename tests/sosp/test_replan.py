@@ -225,3 +225,26 @@ def test_simulate_a_day(case):
     assert a == simulate(inst, old, rate=0.05, seed=2) | {
         k: a[k] for k in ("replan_s_mean", "replan_s_max")
     }
+
+
+def test_with_stations_frozen_downlinks_kept(case):
+    from sosp.stations import builtin_stations
+
+    inst, _ = case
+    inst = inst.with_stations([s for s in builtin_stations() if s.id in ("SG", "MIY", "KSH")])
+    old = solve(inst, "greedy").schedule
+    assert old.downlinks
+    r = replan(inst, old, Events(new_targets=(_urgent(inst, old, 50),)), now=NOW, freeze=FREEZE)
+    assert validate(r.instance, r.schedule).feasible
+    before = NOW + FREEZE
+    assert _records(r.instance, r.schedule, before) == _records(inst, old, before)
+
+    def frozen_downlinks(i, sched):
+        return [
+            (d.satellite, d.station, d.start, d.end, [(i.opp_ids[o], v) for o, v in d.parts])
+            for d in sched.downlinks
+            if d.start < before
+        ]
+
+    assert frozen_downlinks(r.instance, r.schedule) == frozen_downlinks(inst, old)
+    assert r.stats["frozen_kept"]
