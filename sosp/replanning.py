@@ -17,7 +17,9 @@ in short:
   exact candidate observations of their usable opportunities (:func:`sosp.candidates.generate`,
   so new targets join existing strips) and the orbit's current observations (which earn the
   stability bonus). A target an orbit lets go is free again and the orbits seeing it are
-  queued (insert, shift, swap, drop and re-insert are all such re-plans);
+  queued (insert, shift, swap, drop and re-insert are all such re-plans); a last round lets
+  the orbits seeing a still-free event target pull targets from other orbits, undone unless
+  the objective grows (:meth:`_State.pull_round`);
 * any other method of :data:`sosp.registry.METHODS` solves the restricted problem (the
   unfrozen part, each orbit's resources less its frozen observations') with the old plan's
   unfrozen part as its warm start where it takes one, and the better of the two is kept.
