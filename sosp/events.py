@@ -107,6 +107,11 @@ def parse_time(value: Any, instance: Instance, where: str, source: str | None = 
     from sosp.orbits import seconds_after
 
     h0, h1 = horizon(instance)
+    if isinstance(value, str):  # a command line's seconds come as text
+        try:
+            value = float(value)
+        except ValueError:
+            pass
     if isinstance(value, str):
         try:
             t = seconds_after(instance.epoch, value)

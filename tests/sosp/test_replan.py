@@ -9,7 +9,7 @@ import pytest
 
 from sosp import replan, solve, validate
 from sosp.cli import main
-from sosp.events import Cloud, Events, NewTarget, Outage, parse_events
+from sosp.events import Cloud, Events, NewTarget, Outage, parse_events, parse_time
 from sosp.replanning import expected_profit
 from sosp.scenarios import generate_scenario
 
@@ -212,6 +212,7 @@ def test_events_parse_times_and_areas(case):
     )  # fmt: skip
     (c,) = ev.clouds
     assert (c.start, c.end, c.probability) == (21600.0, 36000.0, 0.2)
+    assert parse_time("43200", inst, "--now") == parse_time("2026-06-01T12:00:00Z", inst, "x")
     assert not np.isnan(c.area).any()
 
 
