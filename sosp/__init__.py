@@ -11,6 +11,7 @@ Importing :mod:`sosp` is light: Pyomo, HiGHS and the solvers load only when a me
 from sosp.errors import InputError, SospError
 from sosp.instance import Instance, Resources, load_instance
 from sosp.registry import METHODS
+from sosp.replanning import replan
 from sosp.result import Result, Status
 from sosp.schedule import Observation, Schedule, load_schedule, make_observation
 from sosp.solve import solve
@@ -34,6 +35,7 @@ __all__ = [
     "load_instance",
     "load_schedule",
     "make_observation",
+    "replan",
     "solve",
     "validate",
 ]

@@ -33,6 +33,8 @@ EXTRA_COMMANDS: dict[str, str] = {
     "plot": "sosp.plot:add_plot_parser",
     "export": "sosp.export:add_export_parser",
     "view": "sosp.view:add_view_parser",
+    "replan": "sosp.replanning:add_replan_parser",
+    "simulate": "sosp.simulate:add_simulate_parser",
 }
 
 #: The built-in scenario of ``sosp demo``.
