@@ -43,6 +43,7 @@ from sosp.stop import Budget
 
 if TYPE_CHECKING:
     from models.colgen import SideBound
+    from models.formulation import Block
     from sosp.parallel import Workers
     from sosp.planner import OrbitData
 
@@ -226,10 +227,13 @@ def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until 200
     steps in a row bring nothing (where the MILP proves the optimum in seconds, the start
     should not take half the time); None for a given schedule, ``"none"``, the LP
-    relaxation, or a restricted model (whose bound can lie below a start's profit, so that
-    start could not be kept beside it)."""
+    relaxation, a restricted model (whose bound can lie below a start's profit, so that
+    start could not be kept beside it) or an instance with stations
+    (:func:`models.downlink.solve_downlink_milp` takes its own)."""
     from sosp.pipeline import Start
 
+    if instance.stations:  # its own start, planned with the stations (models.downlink)
+        return None
     auto = params.get("warm_start", MILPParams.warm_start) == "auto"
     cluster = params.get("model", MILPParams.model) == "cluster"
     if not auto or not cluster or params.get("relax"):
@@ -380,6 +384,15 @@ def solve_milp(
     use_probing = probing == "on" or (probing == "auto" and time_limit is None)
     warm_start = "none" if warm_start is None else warm_start
     rng = np.random.default_rng(0) if rng is None else rng
+    if instance.stations and relax:  # a bound: of the relaxation without them (docs/model.md)
+        from sosp.downlink import relaxed_instance
+
+        instance = relaxed_instance(instance)
+    elif instance.stations:  # the model with downlinks (docs/exact.md)
+        from models.downlink import solve_downlink_milp
+
+        params["warm_start"] = warm_start
+        return solve_downlink_milp(instance, rng=rng, time_limit=time_limit, params=params)
     if start_stage(instance, params) is not None:  # called directly: the pipeline's start
         from sosp.pipeline import improve
 
@@ -726,6 +739,7 @@ class _Run:
     probing: bool
     backend: str
     stats: dict[str, Any]
+    block: Block | None = None  # an extra constraint family (Pyomo backend)
 
 
 def _solve(run: _Run, deadline: float | None, start: list[int] | None, relax: bool) -> _Outcome:
@@ -866,7 +880,7 @@ def _run_pyomo(
     from models.highs_direct import PROBING_OFF, use_threads
 
     data, t0, stats, threads, lp_solver = run.data, run.t0, run.stats, run.threads, run.lp_solver
-    m = build_model(data, relax=bool(relax))
+    m = build_model(data, relax=bool(relax), block=run.block)
     build_s = time.perf_counter() - t0
     stats["build_s"] = round(build_s, 6)
     opt = Highs()  # its time limit is set after the load

@@ -31,6 +31,7 @@ from sosp.registry import (
     PROBLEM_MODEL,
     bounded_model,
     method_function,
+    plans_downlinks,
     uses_kernels,
 )
 from sosp.result import Result, Status
@@ -125,7 +126,7 @@ def solve(
     from sosp.methods import check_params
 
     check_params(method, params)
-    if instance.stations:
+    if instance.stations and not plans_downlinks(method):
         return _with_stations(
             instance, method, seed=seed, time_limit=time_limit, check=check, progress=progress,
             bound=bound, bound_workers=bound_workers, **params,
