@@ -215,7 +215,7 @@ def shared_tiny(seed: int) -> Instance:
 
 def random_tiny_stations(seed: int) -> Instance:
     """A random tiny instance with ground stations: one or two satellites of two 1000-s orbits
-    each, at most 8 opportunities, one or two stations (one or two antennas) and up to four
+    each, at most 8 opportunities, one or two stations (one or two antennas) and two to five
     contacts, a small store, a slow downlink and downlink energy that can bind, so that
     (D5), (D7), (D8) and the antennas decide in some of them."""
     from sosp.downlink import DownlinkParams
@@ -232,10 +232,10 @@ def random_tiny_stations(seed: int) -> Instance:
         rows.append((int(rng.integers(n_targets)), j, s, s + d, roll))
     t, o, st, en, ro = (np.array(c) for c in zip(*rows, strict=True))
     contacts = []
-    for _ in range(int(rng.integers(1, 5))):
-        a = float(np.round(rng.uniform(100, 1900), 1))
+    for _ in range(int(rng.integers(2, 6))):
+        a = float(np.round(rng.uniform(300, 1900), 1))
         contacts.append((int(rng.integers(n_sat)), int(rng.integers(n_st)), a,
-                         a + float(np.round(rng.uniform(5, 40), 1))))  # fmt: skip
+                         a + float(np.round(rng.uniform(10, 60), 1))))  # fmt: skip
     res = Resources(
         memory_capacity=float(rng.choice([1000.0, rng.uniform(15, 40)])),
         energy_capacity=float(rng.choice([1000.0, rng.uniform(30, 90)])),
