@@ -276,11 +276,15 @@ def solve_downlink_milp(
         upper = min(upper, data.covered_weight())
         run = _Run(data, t0, params["mip_gap"], params["threads"], "clique", "choose", "exact",
                    params["probing"] == "on", "pyomo", stats, downlink_block)  # fmt: skip
-        solve_by = None if budget.deadline is None else budget.deadline - min(0.5, 0.05 * time_limit)
+        solve_by = (
+            None if budget.deadline is None else budget.deadline - min(0.5, 0.05 * time_limit)
+        )
         kind, objective, raw, chosen = _solve(run, solve_by, None, False)
         stats["objective"] = objective
         if chosen is not None:
-            obs, downlinks = deliver(instance, items_to_schedule(instance, data, chosen).observations)
+            obs, downlinks = deliver(
+                instance, items_to_schedule(instance, data, chosen).observations
+            )
             got = Schedule(obs, downlinks=tuple(downlinks))
             profit = got.coverage_profit(instance)[0]
             if objective is not None and profit < float(objective) - INT_TOL:

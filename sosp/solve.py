@@ -182,9 +182,11 @@ def solve(
         result, method=ran, schedule=schedule, runtime_s=runtime, status=status,
         bound=upper, stats=stats, restriction=restriction,
     )  # fmt: skip
-    if check:
+    if check or instance.stations:
         report = validate(instance, schedule)
-        if not report.feasible:
+        if instance.stations:  # a method planning its own downlinks: their measures
+            result.stats["downlink"] = report.downlink
+        if check and not report.feasible:
             first = report.violations[0]
             raise SolverError(
                 f"{method} returned an infeasible schedule ({len(report.violations)} "
