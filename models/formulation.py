@@ -32,10 +32,10 @@ left side of that orbit's energy row (4).
 
 from __future__ import annotations
 
-import pyomo.environ as pyo
-
 from collections.abc import Callable, Mapping
 from typing import Any
+
+import pyomo.environ as pyo
 
 from models.data import ModelData
 
