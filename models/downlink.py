@@ -5,9 +5,9 @@
 :func:`models.formulation.build_model` one store per satellite across its orbits and a fluid
 downlink, each contact's use time a continuous variable per *segment* (the contact cut at
 every time where something changes), and returns the downlink term of each orbit's energy
-row (4). :func:`solve_downlink_milp` is :func:`models.solve.solve_milp` on an instance with
-stations: it solves that model, lays the downlinks of the chosen observations with
-:func:`sosp.downlink.deliver` and reports the model's value as the bound.
+row (4). :func:`models.solve.solve_milp` solves that model on an instance with stations, lays the
+downlinks of the chosen observations with :func:`sosp.downlink.deliver` and reports the
+model's value as the bound.
 
 The model is exact except for the antennas (D6), which it relaxes: at no time do a
 station's contacts send for more than its antennas' seconds, set-up times and the
@@ -19,7 +19,6 @@ for more antennas than they have), it is the optimum.
 from __future__ import annotations
 
 import logging
-import time
 from collections import defaultdict
 from dataclasses import dataclass, replace
 from typing import Any
@@ -27,17 +26,11 @@ from typing import Any
 import numpy as np
 import pyomo.environ as pyo
 
-from models.data import ModelData, TimeUp
-from sosp.downlink import deliver, satellite_of_orbit
+from models.data import ModelData
+from sosp.downlink import satellite_of_orbit
 from sosp.instance import Instance
-from sosp.result import Result, Status
-from sosp.schedule import Schedule, items_to_schedule
-from sosp.stop import Budget
 
 log = logging.getLogger(__name__)
-
-#: Share of the time limit the start stage (orbit-dp planned with the stations) may take.
-START_SHARE = 0.2
 
 
 @dataclass(frozen=True)
@@ -227,85 +220,3 @@ def downlink_data(data: ModelData) -> ModelData:
         memory_orbits=(),
         energy_orbits=tuple(sorted(set(data.energy_orbits) | set(data.orbit_items))),
     )
-
-
-def solve_downlink_milp(
-    instance: Instance,
-    *,
-    rng: np.random.Generator,
-    time_limit: float | None,
-    params: dict[str, Any],
-) -> Result:
-    """:func:`models.solve.solve_milp` on an instance with ground stations.
-
-    Steps: with ``warm_start="auto"``, orbit-dp planned with the stations
-    (:func:`sosp.solve.solve`, at most :data:`START_SHARE` of the limit) gives a start
-    schedule; the model of :func:`downlink_block` is built over the items of ``model`` and
-    solved by HiGHS (Pyomo backend); the chosen items' downlinks are laid by
-    :func:`sosp.downlink.deliver`. The bound is the least of HiGHS's bound and the weight
-    the items cover; the status is ``optimal`` only when the delivered schedule reaches it.
-    The schedule returned is never worse than the start.
-    """
-    from models.solve import INT_TOL, _int_bound, _Run, _solve, model_data
-    from sosp.solve import solve
-    from sosp.validate import validate
-
-    t0 = time.perf_counter()
-    budget = Budget.until(None if time_limit is None else t0 + time_limit)
-    model, start = params["model"], params["warm_start"]
-    stats: dict[str, Any] = {"model": model, "relax": False, "backend": "pyomo", "stations": True}
-    best = Schedule(())
-    if start == "auto":
-        share = budget.child(None if time_limit is None else START_SHARE * time_limit)
-        first = solve(
-            instance, "orbit-dp", seed=int(rng.integers(2**31)), time_limit=share.left(),
-            no_improve=200,
-        )  # fmt: skip
-        best, stats["start_profit"] = first.schedule, first.profit
-    elif isinstance(start, Schedule) and validate(instance, start).feasible:
-        best = start
-    best_profit = best.coverage_profit(instance)[0]
-    upper = instance.observable_weight
-    kind, raw = "not_run", None
-    try:
-        data = downlink_data(model_data(instance, model, budget.deadline))
-    except TimeUp:
-        stats["timed_out"] = "candidates"
-        data = None
-    if data is not None and data.n_items and not budget.expired():
-        upper = min(upper, data.covered_weight())
-        run = _Run(data, t0, params["mip_gap"], params["threads"], "clique", "choose", "exact",
-                   params["probing"] == "on", "pyomo", stats, downlink_block)  # fmt: skip
-        solve_by = (
-            None if budget.deadline is None else budget.deadline - min(0.5, 0.05 * time_limit)
-        )
-        kind, objective, raw, chosen = _solve(run, solve_by, None, False)
-        stats["objective"] = objective
-        if chosen is not None:
-            obs, downlinks = deliver(
-                instance, items_to_schedule(instance, data, chosen).observations
-            )
-            got = Schedule(obs, downlinks=tuple(downlinks))
-            profit = got.coverage_profit(instance)[0]
-            if objective is not None and profit < float(objective) - INT_TOL:
-                # the fluid antennas (D-g) promised more than one antenna per pass delivers
-                log.info("delivered %g of the model's %g: the model's value is a bound",
-                         profit, objective)  # fmt: skip
-                stats["delivered_below_model"] = True
-            if profit > best_profit:
-                best, best_profit = got, profit
-            else:
-                stats["returned"] = "warm_start"
-    elif data is not None and not data.n_items:
-        upper = 0.0
-    ib = _int_bound(raw)
-    bound = max(upper if ib is None else min(ib, upper), best_profit)
-    if bound <= best_profit + INT_TOL:
-        status, bound = Status.OPTIMAL, best_profit
-    elif kind == "optimal":
-        status = Status.FEASIBLE
-    else:
-        status = Status.TIME_LIMIT
-    observed = best.coverage_profit(instance)[1]
-    runtime = time.perf_counter() - t0
-    return Result("milp", status, best, best_profit, observed, runtime, bound, None, stats)

@@ -229,7 +229,7 @@ def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     should not take half the time); None for a given schedule, ``"none"``, the LP
     relaxation, a restricted model (whose bound can lie below a start's profit, so that
     start could not be kept beside it) or an instance with stations
-    (:func:`models.downlink.solve_downlink_milp` takes its own)."""
+    (:func:`_solve_with_stations` takes its own)."""
     from sosp.pipeline import Start
 
     if instance.stations:  # its own start, planned with the stations (models.downlink)
@@ -389,10 +389,8 @@ def solve_milp(
 
         instance = relaxed_instance(instance)
     elif instance.stations:  # the model with downlinks (docs/exact.md)
-        from models.downlink import solve_downlink_milp
-
         params["warm_start"] = warm_start
-        return solve_downlink_milp(instance, rng=rng, time_limit=time_limit, params=params)
+        return _solve_with_stations(instance, rng=rng, time_limit=time_limit, params=params)
     if start_stage(instance, params) is not None:  # called directly: the pipeline's start
         from sosp.pipeline import improve
 
@@ -708,6 +706,95 @@ def _adopt(
             stats.update(start_profit=float(found[1]), start_from="branch_and_price")
             return better, found[1]
     return start, start_profit
+
+
+#: Share of the time limit the start stage of :func:`_solve_with_stations` (orbit-dp planned
+#: with the stations) may take.
+STATIONS_START_SHARE = 0.2
+
+
+def _solve_with_stations(
+    instance: Instance,
+    *,
+    rng: np.random.Generator,
+    time_limit: float | None,
+    params: dict[str, Any],
+) -> Result:
+    """:func:`solve_milp` on an instance with ground stations.
+
+    Steps: with ``warm_start="auto"``, orbit-dp planned with the stations
+    (:func:`sosp.solve.solve`, at most :data:`STATIONS_START_SHARE` of the limit) gives a
+    start schedule; the model of :func:`models.downlink.downlink_block` over the items of
+    ``model`` is solved by HiGHS (Pyomo backend); the chosen items' downlinks are laid by
+    :func:`sosp.downlink.deliver`. The bound is the least of HiGHS's bound and the weight
+    the items cover; the status is ``optimal`` only when the delivered schedule reaches it.
+    The schedule returned is never worse than the start.
+    """
+    from models.downlink import downlink_block, downlink_data
+    from sosp.downlink import deliver
+    from sosp.solve import solve
+    from sosp.validate import validate
+
+    t0 = time.perf_counter()
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
+    model, start = params["model"], params["warm_start"]
+    stats: dict[str, Any] = {"model": model, "relax": False, "backend": "pyomo", "stations": True}
+    best = Schedule(())
+    if start == "auto":
+        share = budget.child(None if time_limit is None else STATIONS_START_SHARE * time_limit)
+        first = solve(
+            instance, "orbit-dp", seed=int(rng.integers(2**31)), time_limit=share.left(),
+            no_improve=200,
+        )  # fmt: skip
+        best, stats["start_profit"] = first.schedule, first.profit
+    elif isinstance(start, Schedule) and validate(instance, start).feasible:
+        best = start
+    best_profit = best.coverage_profit(instance)[0]
+    upper = instance.observable_weight
+    kind, raw = "not_run", None
+    try:
+        data = downlink_data(model_data(instance, model, budget.deadline))
+    except TimeUp:
+        stats["timed_out"] = "candidates"
+        data = None
+    probing = params["probing"] == "on" or (params["probing"] == "auto" and time_limit is None)
+    if data is not None and data.n_items and not budget.expired():
+        upper = min(upper, data.covered_weight())
+        run = _Run(data, t0, params["mip_gap"], params["threads"], "clique", "choose", "exact",
+                   probing, "pyomo", stats, downlink_block)  # fmt: skip
+        solve_by = (
+            None if budget.deadline is None else budget.deadline - min(0.5, 0.05 * time_limit)
+        )
+        kind, objective, raw, chosen = _solve(run, solve_by, None, False)
+        stats["objective"] = objective
+        if chosen is not None:
+            obs, downlinks = deliver(
+                instance, items_to_schedule(instance, data, chosen).observations
+            )
+            got = Schedule(obs, downlinks=tuple(downlinks))
+            profit = got.coverage_profit(instance)[0]
+            if objective is not None and profit < float(objective) - INT_TOL:
+                # the fluid antennas (D-g) promised more than one antenna per pass delivers
+                log.info("delivered %g of the model's %g: the model's value is a bound",
+                         profit, objective)  # fmt: skip
+                stats["delivered_below_model"] = True
+            if profit > best_profit:
+                best, best_profit = got, profit
+            else:
+                stats["returned"] = "warm_start"
+    elif data is not None and not data.n_items:
+        upper = 0.0
+    ib = _int_bound(raw)
+    bound = max(upper if ib is None else min(ib, upper), best_profit)
+    if bound <= best_profit + INT_TOL:
+        status, bound = Status.OPTIMAL, best_profit
+    elif kind == "optimal":
+        status = Status.FEASIBLE
+    else:
+        status = Status.TIME_LIMIT
+    observed = best.coverage_profit(instance)[1]
+    runtime = time.perf_counter() - t0
+    return Result("milp", status, best, best_profit, observed, runtime, bound, None, stats)
 
 
 def _side_possible(
