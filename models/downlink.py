@@ -18,7 +18,6 @@ for more antennas than they have), it is the optimum.
 
 from __future__ import annotations
 
-import logging
 from collections import defaultdict
 from dataclasses import dataclass, replace
 from typing import Any
@@ -29,8 +28,6 @@ import pyomo.environ as pyo
 from models.data import ModelData
 from sosp.downlink import satellite_of_orbit
 from sosp.instance import Instance
-
-log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
