@@ -232,7 +232,8 @@ def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     (:func:`_solve_with_stations` takes its own)."""
     from sosp.pipeline import Start
 
-    if instance.stations:  # its own start, planned with the stations (models.downlink)
+    if getattr(instance, "stations", ()):  # its own start, planned with the stations
+        # (None: the method's start in general, as `sosp methods` asks)
         return None
     auto = params.get("warm_start", MILPParams.warm_start) == "auto"
     cluster = params.get("model", MILPParams.model) == "cluster"
