@@ -727,8 +727,10 @@ def _solve_with_stations(
     (:func:`sosp.solve.solve`, at most :data:`STATIONS_START_SHARE` of the limit) gives a
     start schedule; the model of :func:`models.downlink.downlink_block` over the items of
     ``model`` is solved by HiGHS (Pyomo backend); the chosen items' downlinks are laid by
-    :func:`sosp.downlink.deliver`. The bound is the least of HiGHS's bound and the weight
-    the items cover; the status is ``optimal`` only when the delivered schedule reaches it.
+    :func:`sosp.downlink.deliver`. The bound is the least of HiGHS's bound, the weight the
+    items cover and ``extra_bound`` of the station-free relaxation (at most
+    :data:`EXTRA_BOUND_SHARE` of the limit, before the MILP; when it meets the start, no MILP
+    runs); the status is ``optimal`` only when the delivered schedule reaches the bound.
     The schedule returned is never worse than the start.
     """
     from models.downlink import downlink_block, downlink_data
@@ -753,14 +755,29 @@ def _solve_with_stations(
     best_profit = best.coverage_profit(instance)[0]
     upper = instance.observable_weight
     kind, raw = "not_run", None
+    if params["extra_bound"] != "none" and best_profit < upper:
+        # the bound of the station-free relaxation (docs/model.md, "Bounds with stations"):
+        # on C2 and C3 with three stations it is tighter than HiGHS's bound at 300 s
+        from sosp.registry import compute_bound
+
+        share = budget.child(None if time_limit is None else EXTRA_BOUND_SHARE * time_limit)
+        extra = compute_bound(
+            params["extra_bound"], instance, time_limit=share.left(), lower_bound=best_profit
+        )["bound"]
+        if extra is not None:
+            stats["extra_bound"] = float(extra)
+            upper = min(upper, float(extra))
     try:
         data = downlink_data(model_data(instance, model, budget.deadline))
     except TimeUp:
         stats["timed_out"] = "candidates"
         data = None
     probing = params["probing"] == "on" or (params["probing"] == "auto" and time_limit is None)
-    if data is not None and data.n_items and not budget.expired():
+    if data is not None:  # no items: nothing can be observed
         upper = min(upper, data.covered_weight())
+    if best_profit >= upper - INT_TOL:
+        stats["proven_by"] = "extra_bound" if "extra_bound" in stats else "cap"
+    elif data is not None and data.n_items and not budget.expired():
         run = _Run(data, t0, params["mip_gap"], params["threads"], "clique", "choose", "exact",
                    probing, "pyomo", stats, downlink_block)  # fmt: skip
         solve_by = (
@@ -783,8 +800,6 @@ def _solve_with_stations(
                 best, best_profit = got, profit
             else:
                 stats["returned"] = "warm_start"
-    elif data is not None and not data.n_items:
-        upper = 0.0
     ib = _int_bound(raw)
     bound = max(upper if ib is None else min(ib, upper), best_profit)
     if bound <= best_profit + INT_TOL:
