@@ -742,6 +742,8 @@ def _solve_with_stations(
     budget = Budget.until(None if time_limit is None else t0 + time_limit)
     model, start = params["model"], params["warm_start"]
     stats: dict[str, Any] = {"model": model, "relax": False, "backend": "pyomo", "stations": True}
+    if params["backend"] == "highs":
+        log.warning("backend highs: the model with downlinks is built with Pyomo")
     best = Schedule(())
     if start == "auto":
         share = budget.child(None if time_limit is None else STATIONS_START_SHARE * time_limit)
