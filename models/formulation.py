@@ -24,16 +24,29 @@ Constraints:
 * (5) ``w sum_u d_u x_u <= W``; (6) ``sum_u x_u <= c``.
 
 Objective (1): ``max sum_k p_k z_k`` (coverage) or ``max sum_u p_u x_u`` (task).
+
+A ``block`` extends the model with a family of constraints of its own (the downlinks of
+:mod:`models.downlink`): it adds its variables and rows and returns, per orbit, a term for the
+left side of that orbit's energy row (4).
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import pyomo.environ as pyo
 
 from models.data import ModelData
 
+#: A constraint family added to the model: ``block(m, data)`` adds its components and returns
+#: the extra energy term of each orbit in (4).
+Block = Callable[[pyo.ConcreteModel, ModelData], Mapping[int, Any]]
 
-def build_model(data: ModelData, relax: bool = False) -> pyo.ConcreteModel:
+
+def build_model(
+    data: ModelData, relax: bool = False, block: Block | None = None
+) -> pyo.ConcreteModel:
     """Build the model of ``data`` (a pure function: data in, ``ConcreteModel`` out).
 
     Parameters
@@ -42,6 +55,9 @@ def build_model(data: ModelData, relax: bool = False) -> pyo.ConcreteModel:
         Items and constraint data from :mod:`models.data`.
     relax
         Make x continuous in [0, 1]: the clique-strengthened LP relaxation (an upper bound).
+    block
+        An extra constraint family (see :data:`Block`); its orbits' energy rows (4) get its
+        terms, so every orbit it charges must be in ``data.energy_orbits`` or have no items.
 
     Returns
     -------
@@ -55,7 +71,8 @@ def build_model(data: ModelData, relax: bool = False) -> pyo.ConcreteModel:
     _target_constraints(m, data)
     _clique_constraints(m, data)
     _slew_order_constraints(m, data)
-    _energy_constraints(m, data)
+    extra = {} if block is None else block(m, data)
+    _energy_constraints(m, data, extra)
     _resource_constraints(m, data)
     _objective(m, data)
     return m
@@ -138,17 +155,18 @@ def _slew_order_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
         m.add_component(name, pyo.Constraint(m.S, rule=rule))
 
 
-def _energy_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:
-    """(4) observation energy plus the exact slew energy over consecutive observations."""
+def _energy_constraints(m: pyo.ConcreteModel, d: ModelData, extra: Mapping[int, Any]) -> None:
+    """(4) observation energy plus the exact slew energy over consecutive observations, plus
+    a block's term (``extra``, per orbit)."""
     inst, dur, half = d.instance, d.duration, d.slew_time()  # half: |theta_u| / v
 
-    @m.Constraint(list(d.energy_orbits))
+    @m.Constraint(sorted(set(d.energy_orbits) | set(extra)))
     def energy(m, j):
-        seq = [int(u) for u in d.orbit_items[j]]
+        seq = [int(u) for u in d.orbit_items.get(j, ())]
         eo, es = float(inst.observe_energy_rate[j]), float(inst.slew_energy_rate[j])
         observe = sum(eo * float(dur[u]) * m.x[u] for u in seq)
         slew = sum(es * float(half[u]) * (2 * m.x[u] - m.f[u] - m.l[u]) for u in seq if half[u] > 0)
-        return observe + slew <= float(inst.energy_capacity[j])
+        return observe + slew + extra.get(j, 0) <= float(inst.energy_capacity[j])
 
 
 def _resource_constraints(m: pyo.ConcreteModel, d: ModelData) -> None:

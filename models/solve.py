@@ -43,6 +43,7 @@ from sosp.stop import Budget
 
 if TYPE_CHECKING:
     from models.colgen import SideBound
+    from models.formulation import Block
     from sosp.parallel import Workers
     from sosp.planner import OrbitData
 
@@ -226,10 +227,14 @@ def start_stage(instance: Instance, params: Mapping[str, Any]) -> Any:
     ``orbit-dp`` for ``warm_start="auto"`` (the default) on the problem's model, until 200
     steps in a row bring nothing (where the MILP proves the optimum in seconds, the start
     should not take half the time); None for a given schedule, ``"none"``, the LP
-    relaxation, or a restricted model (whose bound can lie below a start's profit, so that
-    start could not be kept beside it)."""
+    relaxation, a restricted model (whose bound can lie below a start's profit, so that
+    start could not be kept beside it) or an instance with stations
+    (:func:`_solve_with_stations` takes its own)."""
     from sosp.pipeline import Start
 
+    if getattr(instance, "stations", ()):  # its own start, planned with the stations
+        # (None: the method's start in general, as `sosp methods` asks)
+        return None
     auto = params.get("warm_start", MILPParams.warm_start) == "auto"
     cluster = params.get("model", MILPParams.model) == "cluster"
     if not auto or not cluster or params.get("relax"):
@@ -380,6 +385,13 @@ def solve_milp(
     use_probing = probing == "on" or (probing == "auto" and time_limit is None)
     warm_start = "none" if warm_start is None else warm_start
     rng = np.random.default_rng(0) if rng is None else rng
+    if instance.stations and relax:  # a bound: of the relaxation without them (docs/model.md)
+        from sosp.downlink import relaxed_instance
+
+        instance = relaxed_instance(instance)
+    elif instance.stations:  # the model with downlinks (docs/exact.md)
+        params["warm_start"] = warm_start
+        return _solve_with_stations(instance, rng=rng, time_limit=time_limit, params=params)
     if start_stage(instance, params) is not None:  # called directly: the pipeline's start
         from sosp.pipeline import improve
 
@@ -697,6 +709,112 @@ def _adopt(
     return start, start_profit
 
 
+#: Share of the time limit the start stage of :func:`_solve_with_stations` (orbit-dp planned
+#: with the stations) may take.
+STATIONS_START_SHARE = 0.2
+
+
+def _solve_with_stations(
+    instance: Instance,
+    *,
+    rng: np.random.Generator,
+    time_limit: float | None,
+    params: dict[str, Any],
+) -> Result:
+    """:func:`solve_milp` on an instance with ground stations.
+
+    Steps: with ``warm_start="auto"``, orbit-dp planned with the stations
+    (:func:`sosp.solve.solve`, at most :data:`STATIONS_START_SHARE` of the limit) gives a
+    start schedule; the model of :func:`models.downlink.downlink_block` over the items of
+    ``model`` is solved by HiGHS (Pyomo backend); the chosen items' downlinks are laid by
+    :func:`sosp.downlink.deliver`. The bound is the least of HiGHS's bound, the weight the
+    items cover and ``extra_bound`` of the station-free relaxation (at most
+    :data:`EXTRA_BOUND_SHARE` of the limit, before the MILP; when it meets the start, no MILP
+    runs); the status is ``optimal`` only when the delivered schedule reaches the bound.
+    The schedule returned is never worse than the start.
+    """
+    from models.downlink import downlink_block, downlink_data
+    from sosp.downlink import deliver
+    from sosp.solve import solve
+    from sosp.validate import validate
+
+    t0 = time.perf_counter()
+    budget = Budget.until(None if time_limit is None else t0 + time_limit)
+    model, start = params["model"], params["warm_start"]
+    stats: dict[str, Any] = {"model": model, "relax": False, "backend": "pyomo", "stations": True}
+    if params["backend"] == "highs":
+        log.warning("backend highs: the model with downlinks is built with Pyomo")
+    best = Schedule(())
+    if start == "auto":
+        share = budget.child(None if time_limit is None else STATIONS_START_SHARE * time_limit)
+        first = solve(
+            instance, "orbit-dp", seed=int(rng.integers(2**31)), time_limit=share.left(),
+            no_improve=200,
+        )  # fmt: skip
+        best, stats["start_profit"] = first.schedule, first.profit
+    elif isinstance(start, Schedule) and validate(instance, start).feasible:
+        best = start
+    best_profit = best.coverage_profit(instance)[0]
+    upper = instance.observable_weight
+    kind, raw = "not_run", None
+    if params["extra_bound"] != "none" and best_profit < upper:
+        # the bound of the station-free relaxation (docs/model.md, "Bounds with stations"):
+        # on C2 and C3 with three stations it is tighter than HiGHS's bound at 300 s
+        from sosp.registry import compute_bound
+
+        share = budget.child(None if time_limit is None else EXTRA_BOUND_SHARE * time_limit)
+        extra = compute_bound(
+            params["extra_bound"], instance, time_limit=share.left(), lower_bound=best_profit
+        )["bound"]
+        if extra is not None:
+            stats["extra_bound"] = float(extra)
+            upper = min(upper, float(extra))
+    try:
+        data = downlink_data(model_data(instance, model, budget.deadline))
+    except TimeUp:
+        stats["timed_out"] = "candidates"
+        data = None
+    probing = params["probing"] == "on" or (params["probing"] == "auto" and time_limit is None)
+    if data is not None:  # no items: nothing can be observed
+        upper = min(upper, data.covered_weight())
+    if best_profit >= upper - INT_TOL:
+        stats["proven_by"] = "extra_bound" if "extra_bound" in stats else "cap"
+    elif data is not None and data.n_items and not budget.expired():
+        run = _Run(data, t0, params["mip_gap"], params["threads"], "clique", "choose", "exact",
+                   probing, "pyomo", stats, downlink_block)  # fmt: skip
+        solve_by = (
+            None if budget.deadline is None else budget.deadline - min(0.5, 0.05 * time_limit)
+        )
+        kind, objective, raw, chosen = _solve(run, solve_by, None, False)
+        stats["objective"] = objective
+        if chosen is not None:
+            obs, downlinks = deliver(
+                instance, items_to_schedule(instance, data, chosen).observations
+            )
+            got = Schedule(obs, downlinks=tuple(downlinks))
+            profit = got.coverage_profit(instance)[0]
+            if objective is not None and profit < float(objective) - INT_TOL:
+                # the fluid antennas (D-g) promised more than one antenna per pass delivers
+                log.info("delivered %g of the model's %g: the model's value is a bound",
+                         profit, objective)  # fmt: skip
+                stats["delivered_below_model"] = True
+            if profit > best_profit:
+                best, best_profit = got, profit
+            else:
+                stats["returned"] = "warm_start"
+    ib = _int_bound(raw)
+    bound = max(upper if ib is None else min(ib, upper), best_profit)
+    if bound <= best_profit + INT_TOL:
+        status, bound = Status.OPTIMAL, best_profit
+    elif kind == "optimal":
+        status = Status.FEASIBLE
+    else:
+        status = Status.TIME_LIMIT
+    observed = best.coverage_profit(instance)[1]
+    runtime = time.perf_counter() - t0
+    return Result("milp", status, best, best_profit, observed, runtime, bound, None, stats)
+
+
 def _side_possible(
     how: str, arranged: OrbitData | None, budget: Budget, reserve_s: float = 0.0
 ) -> bool:
@@ -726,6 +844,7 @@ class _Run:
     probing: bool
     backend: str
     stats: dict[str, Any]
+    block: Block | None = None  # an extra constraint family (Pyomo backend)
 
 
 def _solve(run: _Run, deadline: float | None, start: list[int] | None, relax: bool) -> _Outcome:
@@ -861,7 +980,7 @@ def _run_pyomo(
     from models.highs_direct import PROBING_OFF
 
     data, t0, stats, lp_solver = run.data, run.t0, run.stats, run.lp_solver
-    m = build_model(data, relax=bool(relax))
+    m = build_model(data, relax=bool(relax), block=run.block)
     stats["build_s"] = round(time.perf_counter() - t0, 6)
     warm = start_items_ is not None and not relax
     if warm:

@@ -359,13 +359,16 @@ def _bytes(text: str) -> int:
 def cmd_methods(args: argparse.Namespace) -> int:
     from sosp.methods import describe_methods, method_info
     from sosp.pipeline import BOUND_SHARE, START_SHARE
-    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, method_start
+    from sosp.registry import CERTIFYING_BOUNDS, DEFAULT_METHOD, method_start, plans_downlinks
 
     infos = [method_info(m) for m in args.method] if args.method else describe_methods()
     starts = {m.name: getattr(method_start(m.name, None, {}), "method", None) for m in infos}
     data = {
         "default": DEFAULT_METHOD,
-        "methods": [{**m.to_dict(), "start": starts[m.name]} for m in infos],
+        "methods": [
+            {**m.to_dict(), "start": starts[m.name], "plans_downlinks": plans_downlinks(m.name)}
+            for m in infos
+        ],
         "pipeline": {
             "start_share": START_SHARE,
             "bound_share": BOUND_SHARE,
@@ -378,6 +381,8 @@ def cmd_methods(args: argparse.Namespace) -> int:
         lines.append(f"{m.name}{tag}: {m.help}")
         if starts[m.name] is not None:
             lines.append(f"    start stage: {starts[m.name]} (by default)")
+        if plans_downlinks(m.name):
+            lines.append("    with stations: plans the downlinks itself (docs/exact.md)")
         if not m.params:
             lines.append("    (no parameters)")
         for prm in m.params:
@@ -391,7 +396,9 @@ def cmd_methods(args: argparse.Namespace) -> int:
         f"Stages of a run: a start stage (in at most {START_SHARE:.0%} of the method's time), "
         "the method warm-started from it (the better schedule is kept), then with --bound "
         f"one of {', '.join(CERTIFYING_BOUNDS)} in the time left ({BOUND_SHARE:.0%} of "
-        "--time-limit is kept for it); --json lists the stages that ran."
+        "--time-limit is kept for it); --json lists the stages that ran. With stations, a "
+        "method that does not plan the downlinks itself plans observations within memory "
+        "allowances and sosp lays the downlinks after it (docs/model.md)."
     )
     emit(args, data, "\n".join(lines))
     return 0

@@ -43,6 +43,10 @@ class Method:
     kernels
         Whether it runs the numba kernels (:func:`sosp.planner.compile_kernels`, loaded
         before its clock starts: about a second in a fresh process, seconds to compile).
+    stations
+        Whether it plans downlinks itself on an instance with ground stations (its result
+        passes D1-D8 and its bound bounds that problem); otherwise :func:`sosp.solve.solve`
+        runs it on the memory allowances and plans the downlinks after it.
     """
 
     function: str
@@ -50,6 +54,7 @@ class Method:
     model: str | None = None
     start: str | None = None
     kernels: bool = True
+    stations: bool = False
 
 
 @dataclass(frozen=True)
@@ -96,6 +101,7 @@ METHODS: dict[str, Method] = {
         "models.solve:MILPParams",
         PROBLEM_MODEL,
         "models.solve:start_stage",
+        stations=True,  # models.downlink
     ),  # fmt: skip
     "milp-lns": Method(
         "heuristics.lns:solve_milp_lns",
@@ -203,6 +209,11 @@ def bounded_model(method: str, params: Mapping[str, Any]) -> str | None:
 def uses_kernels(method: str) -> bool:
     """Whether ``method`` runs the numba kernels (:attr:`Method.kernels`)."""
     return _method(method).kernels
+
+
+def plans_downlinks(method: str) -> bool:
+    """Whether ``method`` plans downlinks itself (:attr:`Method.stations`)."""
+    return _method(method).stations
 
 
 def method_start(method: str, instance: Any, params: Mapping[str, Any]) -> Any:

@@ -31,6 +31,7 @@ from sosp.registry import (
     PROBLEM_MODEL,
     bounded_model,
     method_function,
+    plans_downlinks,
     uses_kernels,
 )
 from sosp.result import Result, Status
@@ -125,7 +126,7 @@ def solve(
     from sosp.methods import check_params
 
     check_params(method, params)
-    if instance.stations:
+    if instance.stations and not plans_downlinks(method):
         return _with_stations(
             instance, method, seed=seed, time_limit=time_limit, check=check, progress=progress,
             bound=bound, bound_workers=bound_workers, **params,
@@ -181,9 +182,11 @@ def solve(
         result, method=ran, schedule=schedule, runtime_s=runtime, status=status,
         bound=upper, stats=stats, restriction=restriction,
     )  # fmt: skip
-    if check:
+    if check or instance.stations:
         report = validate(instance, schedule)
-        if not report.feasible:
+        if instance.stations:  # a method planning its own downlinks: their measures
+            result.stats["downlink"] = report.downlink
+        if check and not report.feasible:
             first = report.violations[0]
             raise SolverError(
                 f"{method} returned an infeasible schedule ({len(report.violations)} "

@@ -16,6 +16,10 @@ Every candidate schedule is built directly from the instance and judged by the v
   ``docs/model.md``, "What makes the exact models exact"). Orbits are then combined, each
   target counted once.
 
+* :func:`brute_force_stations`: with ground stations, every subset of opportunities (as in
+  ``task``), its downlinks laid by :func:`sosp.downlink.deliver` (which drops what cannot
+  fly), the best delivered profit the validator accepts.
+
 Keep instances tiny: ``task`` and ``static`` are 2^n, ``cluster`` 3^n per orbit.
 """
 
@@ -55,6 +59,28 @@ def brute_force(instance: Instance, model: str, roll_rule: RollRule = "midpoint"
     if model == "cluster":
         return _cluster(instance)
     raise ValueError(model)
+
+
+def brute_force_stations(instance: Instance) -> OracleResult:
+    """The best delivered profit over every subset of opportunities, each observed alone over
+    its own window, the downlinks laid by the planner (:func:`sosp.downlink.deliver`).
+
+    For one satellite, or stations never asked for more antennas than they have, the planner
+    sends each satellite's data as early as possible, which no plan beats
+    (``docs/model.md``), so this is the optimum of the paper's task model with downlinks."""
+    from sosp.downlink import deliver
+
+    if instance.n_opps > MAX_OPPS:
+        raise ValueError(f"brute force needs at most {MAX_OPPS} opportunities")
+    n = instance.n_opps
+
+    def schedules():
+        for mask in range(1 << n):
+            chosen = [_single(instance, i) for i in range(n) if mask >> i & 1]
+            obs, downlinks = deliver(instance, chosen)
+            yield Schedule(obs, downlinks=tuple(downlinks))
+
+    return _best(instance, schedules())
 
 
 def _best(instance: Instance, schedules) -> OracleResult:

@@ -211,3 +211,82 @@ def shared_tiny(seed: int) -> Instance:
     weights = {n: int(rng.integers(4, 11)) for n in names}
     res = Resources(max_openings=int(rng.choice([1, 1, 2])))
     return Instance.build(weights, rows, resources=res, n_orbits=n_orbits, name=f"shared{seed}")
+
+
+def random_tiny_stations(seed: int) -> Instance:
+    """A random tiny instance with ground stations: one or two satellites of two 1000-s orbits
+    each, at most 8 opportunities, one or two stations (one or two antennas) and two to five
+    contacts, a small store, a slow downlink and downlink energy that can bind, so that
+    (D5), (D7), (D8) and the antennas decide in some of them."""
+    from sosp.downlink import DownlinkParams
+
+    rng = np.random.default_rng(seed)
+    n_sat, n_st = int(rng.integers(1, 3)), int(rng.integers(1, 3))
+    n_targets = int(rng.integers(3, 7))
+    rows = []
+    for _ in range(int(rng.integers(3, 9))):
+        j = int(rng.integers(2 * n_sat))
+        s = float(np.round(rng.uniform(0, 900), 1)) + 1000.0 * (j % 2)
+        d = float(np.round(rng.uniform(5, 30), 1))
+        roll = float(np.round(rng.uniform(-20, 20), 1))
+        rows.append((int(rng.integers(n_targets)), j, s, s + d, roll))
+    t, o, st, en, ro = (np.array(c) for c in zip(*rows, strict=True))
+    contacts = []
+    for _ in range(int(rng.integers(2, 6))):
+        a = float(np.round(rng.uniform(300, 1900), 1))
+        contacts.append((int(rng.integers(n_sat)), int(rng.integers(n_st)), a,
+                         a + float(np.round(rng.uniform(10, 60), 1))))  # fmt: skip
+    res = Resources(
+        memory_capacity=float(rng.choice([1000.0, rng.uniform(15, 40)])),
+        energy_capacity=float(rng.choice([1000.0, rng.uniform(30, 90)])),
+        observe_energy_rate=float(rng.choice([1.0, 0.5])),
+        slew_energy_rate=1.0,
+        slew_rate=2.0,
+        setup_time=float(rng.choice([10.0, 0.0])),
+        max_openings=int(rng.choice([10, 2])),
+        max_duration=120.0,
+    )
+    sats = [f"S{s}" for s in range(n_sat)]
+    return Instance.from_arrays(
+        epoch="2026-01-01T00:00:00Z",
+        target_ids=[f"t{k}" for k in range(n_targets)],
+        target_lat=np.zeros(n_targets),
+        target_lon=np.zeros(n_targets),
+        target_weight=[int(w) for w in rng.integers(2, 11, size=n_targets)],
+        orbit_ids=[f"{s}-{j}" for s in sats for j in (1, 2)],
+        orbit_satellite=[s for s in sats for _ in (1, 2)],
+        orbit_start=np.tile([0.0, 1000.0], n_sat),
+        orbit_end=np.tile([1000.0, 2000.0], n_sat),
+        resources=res,
+        opp_target=t,
+        opp_orbit=o,
+        opp_start=st,
+        opp_end=en,
+        opp_roll=ro,
+        opp_roll_min=ro - 3,
+        opp_roll_max=ro + 3,
+        stations={
+            "id": [f"G{h}" for h in range(n_st)],
+            "lat_deg": np.zeros(n_st),
+            "lon_deg": np.zeros(n_st),
+            "alt_m": np.zeros(n_st),
+            "min_elevation_deg": np.full(n_st, 5.0),
+            "antennas": [int(rng.integers(1, 3)) for _ in range(n_st)],
+            "description": [""] * n_st,
+        },
+        contacts={
+            "satellite": [c[0] for c in contacts],
+            "station": [c[1] for c in contacts],
+            "start_s": [c[2] for c in contacts],
+            "end_s": [c[3] for c in contacts],
+            "max_elevation_deg": [45.0] * len(contacts),
+        },
+        downlink=DownlinkParams(
+            rate=float(rng.choice([0.5, 1.0])),
+            energy_rate=float(rng.choice([0.0, 1.0])),
+            station_setup_s=30.0,
+            while_observing=bool(rng.integers(2)),
+            count="observed" if rng.random() < 0.15 else "delivered",
+        ),
+        name=f"rnd-st{seed}",
+    )

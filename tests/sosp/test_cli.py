@@ -440,6 +440,9 @@ def test_methods_lists_every_registered_method_from_the_code(capsys) -> None:
             for f in dataclasses.fields(cls):
                 assert params[f.name]["default"] == f.default, (name, f.name)
     assert data["default"] == "asa-dtc"
+    # with stations, the MILP plans its downlinks itself (docs/exact.md), the others do not
+    assert [n for n, m in by_name.items() if m["plans_downlinks"]] == ["milp"]
+    assert by_name["milp"]["start"] == "orbit-dp"
     from heuristics.asa.params import PRESETS
 
     (preset,) = [p for p in by_name["asa-dtc"]["params"] if p["name"] == "preset"]
