@@ -9,10 +9,14 @@ is simply absent and is run again on resume; the unique key
 A failed run (status ``error``) is replaced only when it is retried (``--retry-failed``) and a
 success is never overwritten.
 
-Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``. A database of version 1 (no
-``bound_count`` column) is read as it is and upgraded in place when a campaign writes to it
-(one ``ALTER TABLE``, nothing else changes); any other version is refused with an
-:class:`~sosp.errors.InputError` before anything is written.
+Table ``simulations`` holds the days of ``sosp simulate --db`` (:meth:`Store.put_simulation`),
+one row per :data:`SIMULATION_KEY`, kept once stored.
+
+Schema version :data:`SCHEMA_VERSION` is kept in table ``meta``. A database of an older
+version (1: no ``bound_count`` column; 2: no ``simulations`` table) is read as it is and
+upgraded in place when a campaign or a simulation writes to it (:data:`_UPGRADES`, nothing
+else changes); any other version is refused with an :class:`~sosp.errors.InputError` before
+anything is written.
 """
 
 from __future__ import annotations
@@ -29,12 +33,44 @@ from sosp.errors import InputError
 
 #: Bump when the tables change; older or newer databases are refused, except the versions of
 #: :data:`_UPGRADES`.
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
+
+#: What identifies a simulated day (``sosp simulate``): table ``simulations``' unique key.
+SIMULATION_KEY = ("scenario", "fingerprint", "plan", "method", "seed", "rate", "outage_hours",
+                  "cloud", "freeze", "time_limit")  # fmt: skip
+
+_SIMULATIONS = f"""CREATE TABLE IF NOT EXISTS simulations (
+    id INTEGER PRIMARY KEY,
+    scenario TEXT NOT NULL,
+    fingerprint TEXT NOT NULL,
+    plan TEXT NOT NULL,  -- a hash of the morning plan (sosp.simulate.plan_fingerprint)
+    method TEXT NOT NULL,
+    seed INTEGER NOT NULL,
+    rate REAL NOT NULL,
+    outage_hours REAL NOT NULL,
+    cloud REAL NOT NULL,
+    freeze REAL NOT NULL,
+    time_limit REAL NOT NULL,
+    urgent INTEGER,
+    replans INTEGER,
+    changes INTEGER,
+    replan_s_mean REAL,
+    replan_s_max REAL,
+    realised_profit REAL,
+    hindsight_profit REAL,
+    ratio REAL,
+    version TEXT NOT NULL,
+    finished_at TEXT NOT NULL,
+    UNIQUE ({", ".join(SIMULATION_KEY)})
+);
+"""
 
 #: Older schema version -> the statements that bring it to the next one.
 _UPGRADES: dict[str, tuple[str, ...]] = {
     # 2: the count that goes with a run's bound (PBA-STC's F*: targets its bound covers).
     "1": ("ALTER TABLE runs ADD COLUMN bound_count INTEGER",),
+    # 3: the days of ``sosp simulate --db``.
+    "2": (_SIMULATIONS,),
 }
 
 #: Seconds to wait for another writer when opening (then: "database is locked").
@@ -99,9 +135,9 @@ def _in_wal_mode(path: Path) -> bool:
 def new_database_guard(path: str | os.PathLike[str]) -> Iterator[None]:
     """Remove a database this block created if the block fails before storing any run.
 
-    A campaign refused after the database was opened (a scenario file that does not load, an
-    interrupted start) then leaves no empty database behind; an existing database and one
-    holding runs are always kept.
+    A campaign or simulation refused after the database was opened (a scenario file that does
+    not load, an interrupted start) then leaves no empty database behind; an existing database
+    and one holding runs or simulations are always kept.
     """
     p = Path(path)
     created = not p.exists()
@@ -112,7 +148,8 @@ def new_database_guard(path: str | os.PathLike[str]) -> Iterator[None]:
             runs = 0  # also when it is no database or has no runs table
             uri = p.resolve().as_uri() + "?mode=ro"
             with suppress(sqlite3.DatabaseError), closing(sqlite3.connect(uri, uri=True)) as conn:
-                runs = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+                sql = "SELECT (SELECT COUNT(*) FROM runs) + (SELECT COUNT(*) FROM simulations)"
+                runs = conn.execute(sql).fetchone()[0]
             if runs == 0:
                 for f in (p, *(p.with_name(p.name + s) for s in SIDE_SUFFIXES)):
                     f.unlink(missing_ok=True)
@@ -218,7 +255,7 @@ class Store:
         cur.execute("PRAGMA journal_mode=WAL")
         cur.execute("PRAGMA synchronous=NORMAL")
         if "meta" not in tables:
-            cur.executescript(_SCHEMA)
+            cur.executescript(_SCHEMA + _SIMULATIONS)
         with self._transaction() as cur:
             while version is not None and version != str(SCHEMA_VERSION):
                 for statement in _UPGRADES[version]:
@@ -253,6 +290,13 @@ class Store:
         """The instance table: scenario, fingerprint, name, targets, en, tn, orbits."""
         return [dict(r) for r in self.conn.execute("SELECT * FROM instances")]
 
+    def simulations(self, where: str = "", args: Iterable[Any] = ()) -> list[dict[str, Any]]:
+        """The stored days of ``sosp simulate`` (none in a database older than schema 3)."""
+        if "simulations" not in {r[0] for r in self.conn.execute("SELECT name FROM sqlite_master")}:
+            return []
+        sql = "SELECT * FROM simulations" + (f" WHERE {where}" if where else "") + " ORDER BY id"
+        return [dict(r) for r in self.conn.execute(sql, tuple(args))]
+
     def count(self) -> int:
         return int(self.conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0])
 
@@ -278,6 +322,18 @@ class Store:
                 f"INSERT INTO runs({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))}) "
                 f"ON CONFLICT({', '.join(KEY_COLUMNS)}) DO UPDATE SET {updates} "
                 "WHERE runs.status = 'error'",
+                [row.get(c) for c in cols],
+            )
+            return cur.rowcount > 0
+
+    def put_simulation(self, row: Mapping[str, Any]) -> bool:
+        """Store one simulated day in one transaction; returns False (and writes nothing) when
+        a day of the same :data:`SIMULATION_KEY` is stored already."""
+        cols = [r[1] for r in self.conn.execute("PRAGMA table_info(simulations)") if r[1] != "id"]
+        with self._transaction() as cur:
+            cur.execute(
+                f"INSERT OR IGNORE INTO simulations({', '.join(cols)}) "
+                f"VALUES ({', '.join('?' * len(cols))})",
                 [row.get(c) for c in cols],
             )
             return cur.rowcount > 0

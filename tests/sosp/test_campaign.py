@@ -217,6 +217,7 @@ def test_schema_1_databases_are_read_and_upgraded(tmp_path: Path) -> None:
         run_campaign(campaign_from_options("B1", "greedy", "1", "5"), st, workers=1)
     con = sqlite3.connect(path)
     con.execute("ALTER TABLE runs DROP COLUMN bound_count")
+    con.execute("DROP TABLE simulations")  # schema 3's
     con.execute("UPDATE meta SET value='1' WHERE key='schema_version'")
     con.commit()
     con.close()
@@ -229,7 +230,9 @@ def test_schema_1_databases_are_read_and_upgraded(tmp_path: Path) -> None:
     assert rows["greedy"]["bound_count"] is None
     assert rows["pba-stc"]["bound_count"] > 0  # F*, stored with R*
     con = sqlite3.connect(path)
-    assert con.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone() == ("2",)
+    version = con.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone()
+    assert version == (str(store_mod.SCHEMA_VERSION),)  # through every upgrade
+    assert con.execute("SELECT COUNT(*) FROM simulations").fetchone() == (0,)
     con.close()
 
 
