@@ -11,12 +11,19 @@ event's time, ``freeze`` seconds kept), with every event known so far (the cloud
 outage stay in force). The result compares the realised profit with that of a plan that knew
 every event from the start (the same method, ``now`` = the horizon start) under the same
 realised sky, and counts the changes. One seeded generator draws everything.
+
+With ``--db`` the day's figures go to ``sosp bench``'s results database (table
+``simulations``, read by ``sosp report``), once per day: a day stored already is not run
+again.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import logging
 import time
+from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Any
 
@@ -136,6 +143,13 @@ def simulate(
     }  # fmt: skip
 
 
+def plan_fingerprint(instance: Instance, schedule: Schedule) -> str:
+    """A hash of the morning plan's observations and downlinks (part of a stored day's key)."""
+    data = schedule.to_dict(instance)
+    blob = json.dumps([data["observations"], data.get("downlinks")], sort_keys=True)
+    return "sha256:" + hashlib.sha256(blob.encode()).hexdigest()
+
+
 def add_simulate_parser(subparsers: Any) -> Any:
     """Add ``simulate`` to the ``sosp`` subcommands."""
     from sosp.params import positive
@@ -154,6 +168,7 @@ def add_simulate_parser(subparsers: Any) -> Any:
     p.add_argument("--method", default="repair")
     p.add_argument("--time-limit", type=positive(float), default=None)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--db", help="store the day in this results database (sosp bench, report)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_simulate)
     return p
@@ -161,26 +176,59 @@ def add_simulate_parser(subparsers: Any) -> Any:
 
 def cmd_simulate(args: Any) -> int:
     """Handler of ``sosp simulate``."""
+    from datetime import UTC, datetime
+
+    from sosp import __version__
+    from sosp.campaign.runner import instance_info
+    from sosp.campaign.store import SIMULATION_KEY, Store, new_database_guard
     from sosp.cli import emit
     from sosp.errors import InputError
     from sosp.instance import load_instance
+    from sosp.io import check_output
     from sosp.schedule import load_schedule
 
     if not 0.0 <= args.cloud <= 1.0:
         raise InputError(f"--cloud: expected a probability in [0, 1], got {args.cloud}")
+    if args.db:
+        check_output(args.db, "--db")
     inst = load_instance(args.instance)
     sched = load_schedule(args.schedule, inst)
-    t0 = time.perf_counter()
-    out = simulate(inst, sched, rate=args.rate, outage_hours=args.outage_hours,
-                   cloud=args.cloud, freeze=args.freeze, method=args.method,
-                   time_limit=args.time_limit, seed=args.seed)  # fmt: skip
-    text = (
-        f"{out['urgent']} urgent targets, outage of {out['outage'][0]}, cloud "
-        f"{args.cloud:g}: {out['replans']} re-plans ({out['replan_s_mean']:.2f} s mean, "
-        f"{out['replan_s_max']:.2f} s max), {out['changes']} changes\n"
-        f"realised profit {out['realised_profit']:g} against {out['hindsight_profit']:g} for "
-        f"a plan that knew everything ({100 * out['ratio']:.1f} %); "
-        f"{time.perf_counter() - t0:.1f} s"
-    )
+    with ExitStack() as stack:
+        store = None
+        if args.db:  # the key as sosp bench identifies instances: label and fingerprint
+            stack.enter_context(new_database_guard(args.db))
+            store = stack.enter_context(Store(args.db))
+            day = {"scenario": args.instance, "fingerprint": inst.fingerprint,
+                   "plan": plan_fingerprint(inst, sched), "method": args.method,
+                   "seed": args.seed, "rate": args.rate, "outage_hours": args.outage_hours,
+                   "cloud": args.cloud, "freeze": args.freeze,
+                   "time_limit": args.time_limit or 0.0}  # fmt: skip
+            where = " AND ".join(f"{k}=?" for k in SIMULATION_KEY)
+            if done := store.simulations(where, [day[k] for k in SIMULATION_KEY]):
+                row = done[0]
+                text = (
+                    f"{args.db}: this day is stored already, not run again: {row['changes']} "
+                    f"changes, realised profit {row['realised_profit']:g} against "
+                    f"{row['hindsight_profit']:g} ({100 * row['ratio']:.1f} %)"
+                )
+                emit(args, row, text)
+                return 0
+        t0 = time.perf_counter()
+        out = simulate(inst, sched, rate=args.rate, outage_hours=args.outage_hours,
+                       cloud=args.cloud, freeze=args.freeze, method=args.method,
+                       time_limit=args.time_limit, seed=args.seed)  # fmt: skip
+        text = (
+            f"{out['urgent']} urgent targets, outage of {out['outage'][0]}, cloud "
+            f"{args.cloud:g}: {out['replans']} re-plans ({out['replan_s_mean']:.2f} s mean, "
+            f"{out['replan_s_max']:.2f} s max), {out['changes']} changes\n"
+            f"realised profit {out['realised_profit']:g} against {out['hindsight_profit']:g} "
+            f"for a plan that knew everything ({100 * out['ratio']:.1f} %); "
+            f"{time.perf_counter() - t0:.1f} s"
+        )
+        if store is not None:
+            finished = datetime.now(UTC).isoformat(timespec="seconds")
+            store.put_instances([instance_info(args.instance, inst)])
+            store.put_simulation(day | out | {"version": __version__, "finished_at": finished})
+            text += f"; stored in {args.db}"
     emit(args, out, text)
     return 0

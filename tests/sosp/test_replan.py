@@ -249,3 +249,68 @@ def test_with_stations_frozen_downlinks_kept(case):
 
     assert frozen_downlinks(r.instance, r.schedule) == frozen_downlinks(inst, old)
     assert r.stats["frozen_kept"]
+
+
+@pytest.fixture
+def day_files(case, tmp_path):
+    inst, old = case
+    inst.save(tmp_path / "inst.json")
+    old.save(tmp_path / "old.json", inst)
+    return [str(tmp_path / "inst.json"), str(tmp_path / "old.json")]
+
+
+def _simulations(db):
+    from sosp.campaign import Store
+
+    with Store(db, readonly=True) as st:
+        return st.simulations()
+
+
+def test_simulate_stores_each_day_once(day_files, tmp_path, capsys):
+    db = tmp_path / "r.db"
+    argv = ["simulate", *day_files, "--rate", "0.05", "--seed", "2", "--db", str(db)]
+    assert main(argv) == 0
+    assert f"stored in {db}" in capsys.readouterr().out
+    (row,) = _simulations(db)
+    key = (row["scenario"], row["method"], row["seed"], row["rate"], row["time_limit"])
+    assert key == (day_files[0], "repair", 2, 0.05, 0.0)
+    assert row["fingerprint"] == generate_scenario("C2").fingerprint
+    assert row["replans"] == row["urgent"] + 2 and row["hindsight_profit"] > 0
+    assert main(argv) == 0  # the same day again: not run, not stored twice
+    assert "stored already" in capsys.readouterr().out
+    assert _simulations(db) == [row]
+    assert main([*argv[:-3], "3", "--db", str(db)]) == 0  # another seed: another row
+    assert len(_simulations(db)) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["inst.json", "old.json", "r.db"]
+
+
+def test_simulate_upgrades_an_old_database_and_refuses_bad_input(day_files, tmp_path, capsys):
+    import sqlite3
+
+    from sosp.campaign import SCHEMA_VERSION, Store
+
+    db = tmp_path / "old.db"
+    Store(db).close()
+    con = sqlite3.connect(db)  # a database of schema 2: no simulations table
+    con.execute("DROP TABLE simulations")
+    con.execute("UPDATE meta SET value='2' WHERE key='schema_version'")
+    con.commit()
+    con.close()
+    assert _simulations(db) == []  # read as it is
+    argv = ["simulate", *day_files, "--rate", "0.05", "--seed", "2"]
+    assert main([*argv, "--db", str(db)]) == 0
+    assert len(_simulations(db)) == 1
+    con = sqlite3.connect(db)
+    assert con.execute("SELECT value FROM meta WHERE key='schema_version'").fetchone() == (
+        str(SCHEMA_VERSION),
+    )
+    con.close()
+    capsys.readouterr()
+    for bad, message in (
+        (["--db", str(tmp_path / "no" / "r.db")], "--db: folder does not exist"),
+        (["--db", str(tmp_path / "new.db"), "--method", "nosuch"], "unknown method"),
+    ):
+        assert main([*argv, *bad]) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and len(err.splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["inst.json", "old.db", "old.json"]
