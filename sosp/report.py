@@ -26,7 +26,8 @@ their columns are omitted, Figures 3-5 show the clustering variants that exist, 
 line needs runs on two scenarios of a group (one point is not a line), and a figure with
 nothing to draw is left out; ``report.md`` says so in a note.
 Failed runs (status ``error``) and schedules the validator rejects are left out of every
-mean and counted in the notes.
+mean and counted in the notes. The days of ``sosp simulate --db`` (table ``simulations``), when
+there are any, get their own table (``simulations.md/.csv``, :func:`build_simulations_table`).
 """
 
 from __future__ import annotations
@@ -144,6 +145,8 @@ class Summary:
     #: Per (scenario, label): the downlink figures (the validator's ``report.downlink``, kept
     #: in each run's verdict) of its counted runs on an instance with ground stations.
     downlink: dict[tuple[str, str], list[dict[str, Any]]] = field(default_factory=dict)
+    #: The days of ``sosp simulate --db`` (rows of table ``simulations``).
+    simulations: list[dict[str, Any]] = field(default_factory=list)
 
 
 def short_label(method: str, params_json: str) -> str:
@@ -178,13 +181,14 @@ def summarise(db: str | os.PathLike[str]) -> Summary:
     with Store(db, readonly=True) as st:
         rows = st.rows()
         insts = st.instances()
-    if not rows:
+        sims = st.simulations()
+    if not rows and not sims:
         raise InputError("no runs stored", source=str(db))
     labels = [short_label(r["method"], r["params"]) for r in rows]
     tls: dict[str, set[float]] = defaultdict(set)
     for label, r in zip(labels, rows, strict=True):
         tls[label].add(r["time_limit"])
-    sm = Summary()
+    sm = Summary(simulations=sims)
     cells: dict[tuple[str, str], Cell] = defaultdict(Cell)
     for label, r in zip(labels, rows, strict=True):
         s, tl = r["scenario"], r["time_limit"]
@@ -437,6 +441,30 @@ def build_downlink_table(summary: Summary) -> tuple[list[str], list[list[Any]]]:
     return header, rows
 
 
+def build_simulations_table(summary: Summary) -> tuple[list[str], list[list[Any]]]:
+    """Per scenario, method (with its time limit) and kind of day (urgent targets per hour,
+    outage hours, cloud forecast, freeze), over the days of ``sosp simulate --db``: how many,
+    the mean realised profit, that of the plan that knew everything, their ratio (the mean of
+    each day's), the mean changes and the re-plan time (mean of the means, max of the max)."""
+    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
+    for r in summary.simulations:
+        method = r["method"] + (f"@{r['time_limit']:g}s" if r["time_limit"] else "")
+        day = (
+            f"{r['rate']:g}/h, {r['outage_hours']:g} h out, cloud {r['cloud']:g}, "
+            f"freeze {r['freeze']:g} s"
+        )
+        groups[(r["scenario"], method, day)].append(r)
+    header = ["SN", "method", "day", "runs", "realised R", "hindsight R", "ratio (%)"]
+    header += ["changes", "re-plan mean (s)", "re-plan max (s)"]
+    rows: list[list[Any]] = []
+    keys = ("realised_profit", "hindsight_profit", "ratio", "changes", "replan_s_mean")
+    for (s, m, day), runs in sorted(groups.items()):
+        real, hind, ratio, changes, t = (statistics.fmean(r[k] for r in runs) for k in keys)
+        t_max = max(r["replan_s_max"] for r in runs)
+        rows.append([s, m, day, len(runs), real, hind, 100 * ratio, changes, t, t_max])
+    return header, rows
+
+
 def _csv_text(header: list[str], rows: list[list[Any]]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -454,7 +482,7 @@ def _markdown(header: list[str], rows: list[list[Any]], methods: list[str]) -> s
         best = max((r[i] for i in r_cols if r[i] is not None), default=None)
         out = []
         for i, (h, v) in enumerate(zip(header, r, strict=True)):
-            digits = 2 if h.endswith((" SD", "T (s)")) or h == "p" else 1
+            digits = 2 if h.endswith((" SD", " (s)")) or h == "p" else 1
             digits = 3 if h.startswith("IMP") else digits
             text = v if isinstance(v, str) else _fmt(v, digits)
             if i in r_cols and best is not None and v == best:
@@ -614,27 +642,33 @@ def write_report(
             files += [f"{name}.md", f"{name}.csv"]
             md += [f"## {head}", "", text]
         notes += [f"{short}: {n}" for n in tnotes]
-    if summary.downlink:  # only instances with ground stations have these figures
-        header, rows = build_downlink_table(summary)
-        text = _markdown(header, rows, [])
+    # only instances with ground stations have downlink figures
+    extra: list[tuple[str, str, list[str], list[list[Any]]]] = []
+    if summary.downlink:
         head = "Downlink: delivered profit, data latency, memory and station use"
-        atomic_write_text(out / "downlink.md", f"## {head}\n\n{text}")
-        atomic_write_text(out / "downlink.csv", _csv_text(header, rows))
-        files += ["downlink.md", "downlink.csv"]
+        extra.append(("downlink", head, *build_downlink_table(summary)))
+    if summary.simulations:
+        head = "Simulated days: realised profit against a plan that knew everything"
+        extra.append(("simulations", head, *build_simulations_table(summary)))
+    for name, head, header, rows in extra:
+        text = _markdown(header, rows, [])
+        atomic_write_text(out / f"{name}.md", f"## {head}\n\n{text}")
+        atomic_write_text(out / f"{name}.csv", _csv_text(header, rows))
+        files += [f"{name}.md", f"{name}.csv"]
         md += [f"## {head}", "", text]
-    for name in ("table3", "table4"):
+    for name in ("table3", "table4") if summary.scenarios else ():  # runs of bench
         if f"{name}.md" not in files:
             notes.append(f"{name}: no scenarios of that group in the database")
 
     bare = {m: m.split("[")[0].split("@")[0] for m in summary.methods}
     clustering = [m for m in summary.methods if bare[m] in CLUSTERING]
-    if absent := [m for m in CLUSTERING if m not in bare.values()]:
+    if summary.scenarios and (absent := [m for m in CLUSTERING if m not in bare.values()]):
         notes.append(f"Figures 3-5: no runs of {', '.join(absent)}")
     # a method of Fig. 2 in the paper's configuration when both exist
     fig2 = {x: resolve(summary.methods, f"{x}@paper", x) for x in FIG2}
-    if absent := [x for x, m in fig2.items() if m is None]:
+    if summary.scenarios and (absent := [x for x, m in fig2.items() if m is None]):
         notes.append(f"Fig. 2: no runs of {', '.join(absent)}")
-    for stem, (measure, title) in FIGURES.items():
+    for stem, (measure, title) in FIGURES.items() if summary.scenarios else ():
         ms = [m for m in fig2.values() if m] if stem == "fig2_methods" else clustering
         name = f"{stem}.png"
         panels, fnotes = figure_series(summary, ms, measure)
@@ -653,32 +687,45 @@ def write_report(
         md += [f"![{title}]({name})", ""]
     if notes:
         md += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
-    md += [
-        "R: mean profit, F: mean observed targets, SD: sample standard deviation of the "
-        "profit, T: mean run time (s); PBA-STC R*: its upper bound on the static problem, "
-        "PBA-STC F*: the targets its bound covers (PBA-STC F, when shown: targets of its "
-        "schedule); RDS-STC R, F: "
-        "its proven optimum ('_' when it did not finish, as in the paper); IMP: (R of "
-        f"{ctarget} - R of {cbaseline}) / R of {cbaseline}; t-test: one-tailed Welch test "
-        f"at {ALPHA} ('+': {ctarget} significantly better), p its p-value; sosp bound: the "
-        "best proven upper bound of any run that bounds sosp's problem, not a static or "
-        "no-clustering one ('opt' when an exact run proved it optimal), "
-        "sosp best: the best profit of any valid run; exact R, F: a proven optimum.",
-        "",
-    ]
-    if summary.downlink:
-        md[-1:-1] = [
+    if summary.scenarios:  # runs of sosp bench
+        md += [
+            "R: mean profit, F: mean observed targets, SD: sample standard deviation of the "
+            "profit, T: mean run time (s); PBA-STC R*: its upper bound on the static problem, "
+            "PBA-STC F*: the targets its bound covers (PBA-STC F, when shown: targets of its "
+            "schedule); RDS-STC R, F: "
+            "its proven optimum ('_' when it did not finish, as in the paper); IMP: (R of "
+            f"{ctarget} - R of {cbaseline}) / R of {cbaseline}; t-test: one-tailed Welch test "
+            f"at {ALPHA} ('+': {ctarget} significantly better), p its p-value; sosp bound: the "
+            "best proven upper bound of any run that bounds sosp's problem, not a static or "
+            "no-clustering one ('opt' when an exact run proved it optimal), "
+            "sosp best: the best profit of any valid run; exact R, F: a proven optimum.",
             "",
+        ]
+    if summary.downlink:
+        md += [
             "Downlink (instances with ground stations, docs/model.md D1-D8): means over the "
             "counted runs; delivered R: profit of the observations whose data all reached the "
             "ground, observed R: of all observed; delivered F: observations delivered; latency: "
             "from an observation's end to the end of its last downlink (each run's mean, 95th "
             "percentile and max, in minutes); store peak: the most data any satellite held; "
             "left on board: memory units never sent; <station> use: minutes of downlink.",
+            "",
         ]
+    res: dict[str, Any] = {"files": files, "notes": notes, "methods": summary.methods}
+    if summary.simulations:
+        md += [
+            "Simulated days (sosp simulate --db, docs/replan.md): day: urgent targets per "
+            "hour, hours of outage, forecast probability of cover, freeze; runs: the days "
+            "(seeds) stored; realised R: mean realised profit, hindsight R: that of a plan "
+            "that knew every event at the start, ratio: the mean of each day's realised / "
+            "hindsight; changes: mean per day; re-plan mean, max: seconds per re-plan.",
+            "",
+        ]
+        header, rows = extra[-1][2:]
+        res["simulations"] = [dict(zip(header, r, strict=True)) for r in rows]
     atomic_write_text(out / "report.md", "\n".join(md))
     files.append("report.md")
-    return {"files": files, "notes": notes, "methods": summary.methods}
+    return res
 
 
 def add_report_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -709,5 +756,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     res["output"] = args.output
     text = f"wrote {len(res['files'])} files to {args.output}: {', '.join(res['files'])}"
     text += "".join(f"\nnote: {n}" for n in res["notes"])
+    if sims := res.get("simulations"):
+        table = _markdown(list(sims[0]), [list(r.values()) for r in sims], [])
+        text += f"\nsimulated days:\n{table.rstrip()}"
     sys.stdout.write((json.dumps(res) if args.json else text) + "\n")
     return 0

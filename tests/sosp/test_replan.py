@@ -266,8 +266,8 @@ def _simulations(db):
         return st.simulations()
 
 
-def test_simulate_stores_each_day_once(day_files, tmp_path, capsys):
-    db = tmp_path / "r.db"
+def test_simulate_stores_each_day_once_and_the_report_shows_it(day_files, tmp_path, capsys):
+    db, rep = tmp_path / "r.db", tmp_path / "rep"
     argv = ["simulate", *day_files, "--rate", "0.05", "--seed", "2", "--db", str(db)]
     assert main(argv) == 0
     assert f"stored in {db}" in capsys.readouterr().out
@@ -281,7 +281,14 @@ def test_simulate_stores_each_day_once(day_files, tmp_path, capsys):
     assert _simulations(db) == [row]
     assert main([*argv[:-3], "3", "--db", str(db)]) == 0  # another seed: another row
     assert len(_simulations(db)) == 2
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["inst.json", "old.json", "r.db"]
+    capsys.readouterr()
+    assert main(["report", str(db), "-o", str(rep)]) == 0
+    text = capsys.readouterr().out
+    assert "simulated days" in text and f"| {day_files[0]} | repair |" in text
+    assert "| 2 |" in (rep / "simulations.md").read_text()  # two days in one row
+    assert "## Simulated days" in (rep / "report.md").read_text()
+    assert "table3" not in text  # no bench runs: no notes about their tables
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["inst.json", "old.json", "r.db", "rep"]
 
 
 def test_simulate_upgrades_an_old_database_and_refuses_bad_input(day_files, tmp_path, capsys):

@@ -227,6 +227,9 @@ def test_report_degrades_without_the_asa_methods(tmp_path: Path, capsys) -> None
     # greedy ran on C2 alone, so Fig. 2 has no line either
     assert not any((out / name).exists() for name in FIGURES)
     assert "Fig. 5 (fig5_profit_energy.png) left out: no runs of its methods" in text
+    # no sosp simulate days stored: nothing about them
+    assert "simulat" not in text.lower() and not (out / "simulations.md").exists()
+    assert "Simulated" not in (out / "report.md").read_text()
 
 
 def test_report_bad_input(tmp_path: Path, capsys) -> None:
