@@ -129,43 +129,30 @@ def build_spot5_model(
     return m
 
 
-def solve_spot5_milp(
-    problem: Spot5,
-    time_limit: float | None = 60.0,
-    *,
-    start: np.ndarray | None = None,
-    cliques: bool = True,
-    threads: int | None = None,
-    mip_gap: float = 0.0,
-) -> Spot5Result:
-    """Solve the integer program with HiGHS within ``time_limit`` (build included).
+def weight_split(problem: Spot5) -> int | None:
+    """The largest weight ``T`` whose lighter weights sum to less than the gcd ``g`` of the
+    weights from ``T`` up (None if no weight does).
 
-    Parameters
-    ----------
-    problem
-        The instance.
-    time_limit
-        Wall seconds for building and solving (None: no limit).
-    start
-        A feasible assignment (positions, -1 unselected) given to HiGHS as a MIP start; the
-        result is never worse than it.
-    cliques
-        Clique rows (default) or the plain pairwise formulation.
-    threads, mip_gap
-        HiGHS options.
-
-    Returns
-    -------
-    Spot5Result
-        ``status`` optimal when HiGHS proved it, ``bound`` HiGHS's dual bound rounded down
-        (weights are integers), never below the value.
+    Two selections' *heavy* weights (of images weighing ``T`` or more) then differ by 0 or by
+    at least ``g``, more than all light images together, so every optimum has the largest
+    heavy weight: ``max w(x) = max { w(x) : heavy(x) = H* }`` with ``H* = max heavy(x)``.
+    The multi-orbit instances weigh 1, 2, 5, 1000 and 2000 (``T = 1000``: the lights sum to
+    at most 868).
     """
-    t0, c0 = time.perf_counter(), time.process_time()
-    deadline = None if time_limit is None else t0 + time_limit
-    m = build_spot5_model(problem, cliques=cliques)
+    w = np.asarray(problem.weight, dtype=np.int64)
+    for t in np.unique(w[w > 0])[:0:-1]:
+        if w[w < t].sum() < np.gcd.reduce(w[w >= t]):
+            return int(t)
+    return None
+
+
+def _milp_stage(
+    problem: Spot5, m: Any, deadline: float | None, start: np.ndarray | None, stats: dict,
+    threads: int | None, mip_gap: float,
+) -> tuple[str, np.ndarray, float | None]:  # fmt: skip
+    """Solve the built model ``m`` from ``start``: (termination, best assignment found, never
+    worse than ``start``, HiGHS's raw dual bound)."""
     off = node_offsets(problem)
-    stats: dict[str, Any] = {"build_s": round(time.perf_counter() - t0, 3)}
-    stats["cliques"] = m.cliques_count
     if start is not None:
         for v in range(problem.n):
             for a in range(problem.size[v]):
@@ -182,10 +169,93 @@ def solve_spot5_milp(
         got[var] = on - off[var]
         if problem.profit(got) >= problem.profit(best):
             best = got
-    value = problem.profit(best)
-    bound = math.floor(raw + 1e-6) if raw is not None and math.isfinite(raw) else None
     if kind == "infeasible":  # cannot happen (all unselected is feasible): say so
         log.warning("HiGHS reports the SPOT5 model of %s infeasible", problem.name)
+    return kind, best, None if raw is None or not math.isfinite(raw) else raw
+
+
+#: Share of the time limit the heavy images' stage of the lexicographic solve may take.
+HEAVY_SHARE = 0.5
+
+
+def solve_spot5_milp(
+    problem: Spot5,
+    time_limit: float | None = 60.0,
+    *,
+    start: np.ndarray | None = None,
+    cliques: bool = True,
+    threads: int | None = None,
+    mip_gap: float = 0.0,
+    lexicographic: bool = True,
+) -> Spot5Result:
+    """Solve the integer program with HiGHS within ``time_limit`` (build included).
+
+    With a weight split ``T`` (:func:`weight_split`) and ``lexicographic``, in two stages:
+    first the heavy images alone (lights fixed to 0; until proven or :data:`HEAVY_SHARE` of
+    the limit), value ``H``, bound ``H̄`` (a multiple of ``g``); then every image with the
+    row ``heavy(x) >= H``. With ``L`` the lights' total and ``B`` the second stage's bound,
+    the optimum is at most ``min(H̄ + L, max(B, H - g + L))``: a selection either satisfies
+    the row or weighs at most ``H - g + L``. Once ``H̄ = H`` that is ``B``. On the
+    multi-orbit instances HiGHS finds the heavy part much sooner alone (1407: 176,000 in
+    120 s against 174,000 in 300 s for the whole model).
+
+    Parameters
+    ----------
+    problem
+        The instance.
+    time_limit
+        Wall seconds for building and solving (None: no limit).
+    start
+        A feasible assignment (positions, -1 unselected) given to HiGHS as a MIP start; the
+        result is never worse than it.
+    cliques
+        Clique rows (default) or the plain pairwise formulation.
+    threads, mip_gap
+        HiGHS options.
+    lexicographic
+        The two stages when the weights split (default).
+
+    Returns
+    -------
+    Spot5Result
+        ``status`` optimal when the bound is proven equal to the value, ``bound`` rounded
+        down (weights are integers), never below the value.
+    """
+    t0, c0 = time.perf_counter(), time.process_time()
+    deadline = None if time_limit is None else t0 + time_limit
+    split = weight_split(problem) if lexicographic else None
+    m = build_spot5_model(problem, cliques=cliques)
+    stats: dict[str, Any] = {"build_s": round(time.perf_counter() - t0, 3)}
+    stats["cliques"] = m.cliques_count
+    if split is None:
+        kind, best, raw = _milp_stage(problem, m, deadline, start, stats, threads, mip_gap)
+        bound = None if raw is None else math.floor(raw + 1e-6)
+    else:
+        var = np.repeat(np.arange(problem.n), problem.size)
+        heavy = problem.weight >= split
+        g = int(np.gcd.reduce(problem.weight[heavy]))
+        light = int(problem.weight[~heavy].sum())
+        for j in np.flatnonzero(~heavy[var]):
+            m.x[int(j)].fix(0)
+        first = None if start is None else np.where(heavy, start, -1)
+        stage1 = None if time_limit is None else t0 + HEAVY_SHARE * time_limit
+        kind, best1, raw = _milp_stage(problem, m, stage1, first, {}, threads, mip_gap)
+        h = problem.profit(best1)
+        h_bound = h if kind == "optimal" or raw is None else g * math.floor((raw + 1e-6) / g)
+        if raw is None and kind != "optimal":
+            h_bound = int(problem.weight[heavy].sum())
+        stats.update(heavy_value=h, heavy_bound=h_bound, heavy_s=round(time.perf_counter() - t0, 3))
+        m = build_spot5_model(problem, cliques=cliques)
+        w = problem.weight[var]
+        m.heavy = pyo.Constraint(
+            expr=pyo.quicksum(int(w[j]) * m.x[int(j)] for j in np.flatnonzero(heavy[var])) >= h
+        )
+        keep = start is not None and problem.profit(np.where(heavy, start, -1)) >= h
+        second = start if keep and problem.profit(start) > problem.profit(best1) else best1
+        kind, best, raw = _milp_stage(problem, m, deadline, second, stats, threads, mip_gap)
+        b2 = h_bound + light if raw is None else math.floor(raw + 1e-6)
+        bound = min(h_bound + light, max(b2, h - g + light))
+    value = problem.profit(best)
     bound = None if bound is None else max(bound, value)
     status = "optimal" if bound is not None and bound <= value else kind
     return Spot5Result(

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from heuristics.spot5 import solve_spot5_rds, solve_spot5_tabu
-from models.spot5 import solve_spot5_milp, spot5_bound
+from models.spot5 import solve_spot5_milp, spot5_bound, weight_split
 from sosp.cli import main
 from sosp.errors import InputError
 from sosp.spot5 import (
@@ -120,6 +120,37 @@ def test_milp_and_rds_equal_brute_force(name: str, keep: int, cap: int | None) -
     for r in (solve_spot5_milp(p, 30), solve_spot5_rds(p, 30)):
         assert validate_spot5(p, r.assignment).feasible
         assert (r.value, r.bound, r.status) == (best, best, "optimal")
+
+
+def test_weight_split() -> None:
+    """The heavy weights' gcd must exceed the lights' total: 1000 when 1, 2, 5 sum to 868."""
+    p = load_spot5(instance_path("1407"))
+    assert weight_split(p) == 1000 and p.weight[p.weight < 1000].sum() == 868
+    for w, t in (([1, 2, 3], None), ([1, 1, 4], 4), ([1, 1, 6, 6, 9], 6), ([5, 5], None)):
+        assert weight_split(dataclasses.replace(p, weight=np.array(w))) == t
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_lexicographic_milp_equals_brute_force(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Heavy images first, then all: the optimum of both stages is the brute force's, on
+    subproblems of 1502 with random weights 1, 2, 1000, 2000 and a recorder that binds."""
+    rng = np.random.default_rng(seed)
+    p = load_spot5(instance_path("1502")).subproblem(8)
+    p = dataclasses.replace(p, weight=rng.choice([1, 2, 1000, 2000], p.n), capacity=3 + seed % 2)
+    split = weight_split(p)
+    assert split in (1000, 2000)
+    best = brute_force(p)
+    heavy = brute_force(dataclasses.replace(p, weight=np.where(p.weight >= split, p.weight, 0)))
+    r = solve_spot5_milp(p, 30)
+    assert validate_spot5(p, r.assignment).feasible
+    assert (r.value, r.bound, r.status) == (best, best, "optimal")
+    assert r.stats["heavy_value"] == r.stats["heavy_bound"] == heavy
+    assert solve_spot5_milp(p, 30, lexicographic=False).value == best
+    # no time for the heavy stage: its bound is the heavy weights' total, still valid
+    monkeypatch.setattr("models.spot5.HEAVY_SHARE", 0.0)
+    r = solve_spot5_milp(p, 30)
+    assert r.stats["heavy_bound"] == p.weight[p.weight >= split].sum()
+    assert (r.value, r.bound) == (best, best)
 
 
 @pytest.mark.parametrize("name", ["404", "503", "29"])
