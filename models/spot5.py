@@ -191,7 +191,7 @@ def solve_spot5_milp(
     """Solve the integer program with HiGHS within ``time_limit`` (build included).
 
     With a weight split ``T`` (:func:`weight_split`) and ``lexicographic``, in two stages:
-    first the heavy images alone (lights fixed to 0; until proven or :data:`HEAVY_SHARE` of
+    first the heavy images alone (their subproblem, until proven or :data:`HEAVY_SHARE` of
     the limit), value ``H``, bound ``H̄`` (a multiple of ``g``); then every image with the
     row ``heavy(x) >= H``. With ``L`` the lights' total and ``B`` the second stage's bound,
     the optimum is at most ``min(H̄ + L, max(B, H - g + L))``: a selection either satisfies
@@ -231,27 +231,27 @@ def solve_spot5_milp(
         kind, best, raw = _milp_stage(problem, m, deadline, start, stats, threads, mip_gap)
         bound = None if raw is None else math.floor(raw + 1e-6)
     else:
-        var = np.repeat(np.arange(problem.n), problem.size)
         heavy = problem.weight >= split
         g = int(np.gcd.reduce(problem.weight[heavy]))
         light = int(problem.weight[~heavy].sum())
-        for j in np.flatnonzero(~heavy[var]):
-            m.x[int(j)].fix(0)
-        first = None if start is None else np.where(heavy, start, -1)
-        stage1 = None if time_limit is None else t0 + HEAVY_SHARE * time_limit
-        kind, best1, raw = _milp_stage(problem, m, stage1, first, {}, threads, mip_gap)
-        h = problem.profit(best1)
-        h_bound = h if kind == "optimal" or raw is None else g * math.floor((raw + 1e-6) / g)
-        if raw is None and kind != "optimal":
-            h_bound = int(problem.weight[heavy].sum())
-        stats.update(heavy_value=h, heavy_bound=h_bound, heavy_s=round(time.perf_counter() - t0, 3))
-        m = build_spot5_model(problem, cliques=cliques)
+        share = None if time_limit is None else HEAVY_SHARE * time_limit - stats["build_s"]
+        r1 = solve_spot5_milp(
+            problem.subproblem(np.flatnonzero(heavy)), share,
+            start=None if start is None else start[heavy], cliques=cliques, threads=threads,
+            mip_gap=mip_gap, lexicographic=False,
+        )  # fmt: skip
+        best1 = np.full(problem.n, -1, dtype=np.int64)
+        best1[heavy] = r1.assignment
+        h = r1.value
+        h_bound = int(problem.weight[heavy].sum()) if r1.bound is None else r1.bound // g * g
+        stats.update(heavy_value=h, heavy_bound=h_bound, heavy_s=round(r1.time_s, 3))
+        var = np.repeat(np.arange(problem.n), problem.size)
         w = problem.weight[var]
         m.heavy = pyo.Constraint(
             expr=pyo.quicksum(int(w[j]) * m.x[int(j)] for j in np.flatnonzero(heavy[var])) >= h
         )
         keep = start is not None and problem.profit(np.where(heavy, start, -1)) >= h
-        second = start if keep and problem.profit(start) > problem.profit(best1) else best1
+        second = start if keep and problem.profit(start) > h else best1
         kind, best, raw = _milp_stage(problem, m, deadline, second, stats, threads, mip_gap)
         b2 = h_bound + light if raw is None else math.floor(raw + 1e-6)
         bound = min(h_bound + light, max(b2, h - g + light))
