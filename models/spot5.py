@@ -193,11 +193,12 @@ def solve_spot5_milp(
     With a weight split ``T`` (:func:`weight_split`) and ``lexicographic``, in two stages:
     first the heavy images alone (their subproblem, until proven or :data:`HEAVY_SHARE` of
     the limit), value ``H``, bound ``H̄`` (a multiple of ``g``); then every image with the
-    row ``heavy(x) >= H``. With ``L`` the lights' total and ``B`` the second stage's bound,
-    the optimum is at most ``min(H̄ + L, max(B, H - g + L))``: a selection either satisfies
-    the row or weighs at most ``H - g + L``. Once ``H̄ = H`` that is ``B``. On the
-    multi-orbit instances HiGHS finds the heavy part much sooner alone (1407: 176,000 in
-    120 s against 174,000 in 300 s for the whole model).
+    row ``H <= heavy(x) <= H̄`` (valid on both sides; once the heavy stage is proven it fixes
+    the heavy weight, which tightens the LP). With ``L`` the lights' total and ``B`` the
+    second stage's bound, the optimum is at most ``min(H̄ + L, max(B, H - g + L))``: a
+    selection either satisfies the row or weighs at most ``H - g + L``. Once ``H̄ = H`` that
+    is ``B``. On the multi-orbit instances HiGHS finds the heavy part much sooner alone
+    (1407: 176,000 in 120 s against 174,000 in 300 s for the whole model).
 
     Parameters
     ----------
@@ -247,9 +248,8 @@ def solve_spot5_milp(
         stats.update(heavy_value=h, heavy_bound=h_bound, heavy_s=round(r1.time_s, 3))
         var = np.repeat(np.arange(problem.n), problem.size)
         w = problem.weight[var]
-        m.heavy = pyo.Constraint(
-            expr=pyo.quicksum(int(w[j]) * m.x[int(j)] for j in np.flatnonzero(heavy[var])) >= h
-        )
+        heavy_weight = pyo.quicksum(int(w[j]) * m.x[int(j)] for j in np.flatnonzero(heavy[var]))
+        m.heavy = pyo.Constraint(expr=pyo.inequality(h, heavy_weight, h_bound))
         keep = start is not None and problem.profit(np.where(heavy, start, -1)) >= h
         second = start if keep and problem.profit(start) > h else best1
         kind, best, raw = _milp_stage(problem, m, deadline, second, stats, threads, mip_gap)
