@@ -50,10 +50,10 @@ def main(argv: list[str] | None = None) -> int:
                 r = solve(problem, method, args.time_limit)
                 assert validate_spot5(problem, r.assignment).feasible, (name, method)
                 row = {"value": r.value, "bound": r.bound, "gap": r.gap, "time_s": r.time_s,
-                       "cpu_s": r.cpu_s, "status": r.status}  # fmt: skip
+                       "cpu_s": r.cpu_s, "status": r.status, "stats": r.stats}  # fmt: skip
             row |= {"instance": name, "published": pub, "method": method}
             if out:
-                out.write(json.dumps(row) + "\n")
+                out.write(json.dumps(row, default=str) + "\n")
                 out.flush()
             gap = "" if row["gap"] is None else f"{100 * row['gap']:.3f}"
             cpu = "" if row["cpu_s"] is None else f"{row['cpu_s']:.2f}"
