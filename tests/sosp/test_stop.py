@@ -316,6 +316,30 @@ def test_a_stop_while_the_milp_model_is_prepared_returns_the_warm_start(
     assert result.profit == start.coverage_profit(inst)[0]
 
 
+def test_the_program_exits_without_the_interpreters_teardown() -> None:
+    """``sosp`` and ``python -m sosp`` end with ``os._exit`` after the exit handlers and a
+    flush: freeing a large solve's objects one by one took up to 1.3 s after its schedule
+    was written (rds on 10,000 targets), most of a Ctrl-C's time to exit (issue 63)."""
+    code = (
+        "import atexit, sys\n"
+        "from sosp import cli\n"
+        "class Late:\n"
+        "    def __del__(self):\n"
+        "        print('teardown', flush=True)\n"
+        "late = Late()\n"
+        "atexit.register(print, 'exit handlers')\n"
+        "sys.argv = ['sosp', 'methods', 'greedy']\n"
+        "cli.run()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert "greedy" in done.stdout and "exit handlers" in done.stdout
+    assert "teardown" not in done.stdout
+
+
 def test_max_runtime_foresees_its_longest_iteration() -> None:
     """With ``foresee``, the stop comes when the longest time between two checks would pass
     the deadline (a 1.9 s orbit move ran a 5 s ASA-DTC to 5.8 s); without, at the deadline."""
