@@ -316,6 +316,29 @@ def test_a_stop_while_the_milp_model_is_prepared_returns_the_warm_start(
     assert result.profit == start.coverage_profit(inst)[0]
 
 
+def test_a_stop_does_not_wait_for_the_side_branch_and_price(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The MILP's side bound (a child process, :class:`models.colgen.SideBound`) is stopped
+    after up to 0.5 s for its last message; the child knows nothing of a stop request, so
+    a Ctrl-C during the MILP waited those 0.5 s (issue 63). Stopped, it is read at once."""
+    from models.colgen import SideBound
+
+    class Child:
+        def stop(self) -> None:
+            waits.append("stopped")
+
+    waits: list[float | str] = []
+    side = object.__new__(SideBound)  # its state without a child process
+    side._child, side._stopped, side._done, side.bound, side.found = Child(), False, False, 1, None
+    monkeypatch.setattr(SideBound, "_read", lambda self, wait: waits.append(wait))
+    side.finish()
+    side._stopped = False
+    request_stop("test")
+    side.finish()
+    assert waits == [0.5, "stopped", 0.0, "stopped"]
+
+
 def test_the_program_exits_without_the_interpreters_teardown() -> None:
     """``sosp`` and ``python -m sosp`` end with ``os._exit`` after the exit handlers and a
     flush: freeing a large solve's objects one by one took up to 1.3 s after its schedule
