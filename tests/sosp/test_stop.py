@@ -339,6 +339,25 @@ def test_a_stop_does_not_wait_for_the_side_branch_and_price(
     assert waits == [0.5, "stopped", 0.0, "stopped"]
 
 
+def test_a_stop_ends_a_round_of_the_window_bound(c1) -> None:
+    """``--bound`` after a search on 10,000 targets prices every orbit's relaxed plan in a
+    round of seconds that read only the deadline: a Ctrl-C then waited for the round, 1.5 s
+    (issue 63). A round with a deadline now ends at the next orbit once a stop was
+    requested (a partial round, no bound from it, as past the deadline)."""
+    import numpy as np
+
+    import models.window_bound as wb
+    from sosp.windows import orbit_opps
+
+    orbits = [orbit_opps(c1, j) for j in range(c1.n_orbits)]
+    _, p = wb._observable(c1)
+    lam, until = np.zeros((len(orbits), 2)), time.perf_counter() + 600
+    assert wb._relaxed_plans(orbits, range(len(orbits)), p, lam, until=until) is not None
+    request_stop("test")
+    assert wb._relaxed_plans(orbits, range(len(orbits)), p, lam, until=until) is None
+    assert wb._relaxed_plans(orbits, [0], p, lam) is not None  # no deadline: a whole round
+
+
 def test_the_program_exits_without_the_interpreters_teardown() -> None:
     """``sosp`` and ``python -m sosp`` end with ``os._exit`` after the exit handlers and a
     flush: freeing a large solve's objects one by one took up to 1.3 s after its schedule
