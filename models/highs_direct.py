@@ -757,6 +757,8 @@ def _run_guarded(
     """
     import multiprocessing as mp
 
+    if stop_requested():  # its child would take a second to start (a fresh interpreter)
+        return HighsOutcome("time_limit", "not started", None, None, None, 0.0, 0.0, {})
     t0 = time.perf_counter()
     halt = mp.get_context("spawn").Event()
     left = max(deadline - time.perf_counter(), 0.01)
