@@ -950,8 +950,8 @@ def _run_direct(
 ) -> _Outcome:
     """Build ``data`` as arrays and solve it with highspy (:mod:`models.highs_direct`).
 
-    The deadline is checked after building (HiGHS is not started when it has passed) and
-    HiGHS gets what is left of it after loading.
+    The deadline is checked after building (HiGHS is not started when it has passed, or
+    once a stop was requested) and HiGHS gets what is left of it after loading.
     """
     from models.highs_direct import build_arrays, run_highs, start_vector
 
@@ -966,7 +966,8 @@ def _run_direct(
     now = time.perf_counter()  # build_s: everything before the arrays too
     stats.update(slew=slew, build_s=round(now - run.t0, 6), arrays_s=round(now - t1, 6))
     stats.update(variables=am.n_cols, constraints=am.matrix.shape[0], nonzeros=int(am.matrix.nnz))
-    if deadline is not None and time.perf_counter() >= deadline:
+    if stop_requested() or (deadline is not None and time.perf_counter() >= deadline):
+        # (stopped: the start's values and HiGHS's start took 0.3 s on 2,000 targets)
         stats["timed_out"] = "building"
         return "time_limit", None, None, None
     start = None
