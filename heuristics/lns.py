@@ -469,7 +469,7 @@ def solve_milp_lns(
         that improved, sub-MILP sizes and a ``trace`` of ``[step, time_s, profit]`` rows at
         each improvement.
     """
-    from models.data import prepare
+    from models.data import TimeUp, prepare
     from models.highs_direct import build_arrays, run_highs, start_vector
     from models.solve import warm_start_values
     from sosp.candidates import candidate_mode, cluster_candidates, flatten
@@ -614,16 +614,19 @@ def solve_milp_lns(
             prep_s = time.perf_counter() - step_t0
             continue
         build_t0 = time.perf_counter()
-        data = prepare(
-            "cluster",
-            sub_instance,
-            c_orbit[sel],
-            c_start[sel],
-            c_end[sel],
-            c_roll[sel],
-            tuple(c_opps[int(u)] for u in sel),
-            coverage=True,
-        )
+        try:
+            data = prepare(
+                "cluster",
+                sub_instance,
+                c_orbit[sel],
+                c_start[sel],
+                c_end[sel],
+                c_roll[sel],
+                tuple(c_opps[int(u)] for u in sel),
+                coverage=True,
+            )
+        except TimeUp:  # a stop request: the search ends with the schedule it has
+            break
         data = replace(data, weight=w_sub)
         sizes.append(data.n_items)
         am = build_arrays(data, slew=slew)

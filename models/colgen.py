@@ -41,7 +41,7 @@ from sosp.instance import Instance
 from sosp.parallel import Child, ChildStartError, child_setup
 from sosp.planner import OrbitData, PlanPool, best_path, flat_positions, orbit_data
 from sosp.rules import OrbitRules
-from sosp.stop import Budget
+from sosp.stop import Budget, stop_requested
 
 if TYPE_CHECKING:
     from sosp.parallel import Workers
@@ -1472,11 +1472,12 @@ class SideBound:
         return True
 
     def finish(self, wait: float = 0.5) -> tuple[float | None, tuple[Any, float] | None]:
-        """Stop the child (after ``wait`` seconds for its last message) and return its
-        bound (not rounded; None if it sent none) and the schedule it ended on with its
-        profit (or None)."""
+        """Stop the child (after ``wait`` seconds for its last message, none once a stop was
+        requested: the child does not know of it, and a Ctrl-C waited the 0.5 s, issue 63)
+        and return its bound (not rounded; None if it sent none) and the schedule it ended
+        on with its profit (or None)."""
         if not self._stopped and self._child is not None:
-            self._read(wait)
+            self._read(0.0 if stop_requested() else wait)
             self._child.stop()
         self._stopped = True
         return self.bound, self.found

@@ -80,6 +80,11 @@ GUARD_NNZ = 100_000
 #: Seconds a guarded solve may run past its deadline before its process is stopped.
 GUARD_GRACE_S = 0.5
 
+#: Seconds a guarded solve may take to return after a stop request (its incumbents and dual
+#: bound are already with the parent; HiGHS's presolve sees no interrupt, and a Ctrl-C during
+#: it waited the whole :data:`GUARD_GRACE_S`, issue 63).
+STOP_GRACE_S = 0.1
+
 #: The forms of (3) :func:`build_arrays` accepts.
 CONFLICT_FORMS = ("network", "clique")
 
@@ -752,6 +757,8 @@ def _run_guarded(
     """
     import multiprocessing as mp
 
+    if stop_requested():  # its child would take a second to start (a fresh interpreter)
+        return HighsOutcome("time_limit", "not started", None, None, None, 0.0, 0.0, {})
     t0 = time.perf_counter()
     halt = mp.get_context("spawn").Event()
     left = max(deadline - time.perf_counter(), 0.01)
@@ -772,8 +779,9 @@ def _run_guarded(
             if (watched or stop_requested()) and not halt.is_set():
                 halt.set()  # the child stops as at its time limit, with what it has ...
                 deadline = min(deadline, time.perf_counter())  # ... or is stopped
-            if time.perf_counter() > deadline + GUARD_GRACE_S:
-                log.info("HiGHS still running %.1f s after its deadline: stopped", GUARD_GRACE_S)
+            grace = STOP_GRACE_S if stop_requested() else GUARD_GRACE_S
+            if time.perf_counter() > deadline + grace:
+                log.info("HiGHS still running %.1f s after its deadline: stopped", grace)
                 break
             if not recv.poll(0.1):  # the parent looks ten times a second
                 continue

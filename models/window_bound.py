@@ -43,7 +43,7 @@ from sosp.instance import Instance
 from sosp.parallel import parallelism
 from sosp.planner import PlanPool
 from sosp.rules import within_duration
-from sosp.stop import Budget, Foresight
+from sosp.stop import Budget, Foresight, stop_requested
 from sosp.windows import OrbitOpps, item_targets, orbit_opps, relaxed_best_path
 
 if TYPE_CHECKING:
@@ -306,7 +306,9 @@ def _relaxed_plans(
     """The relaxed plans of the orbits ``idx`` at ``mu`` and their rows of ``lam``, as
     :meth:`sosp.planner.PlanPool.best_paths` gives them: per orbit the value, the targets the
     items count (with repeats) and the plan's (energy, memory), None for the empty plan. None
-    when ``until`` passes first (a partial round is no bound)."""
+    when ``until`` passes first (a partial round is no bound), or, with ``until``, once a
+    stop was requested (a round on 10,000 targets takes seconds: a Ctrl-C during
+    ``--bound`` waited for it, 1.5 s, issue 63)."""
     plans: list[Any] = []
     # one orbit's plan reads no clock (seconds on a dense one: a 10 s bound ran to 12.7 s),
     # so an orbit foreseen past ``until`` at the most rate of those before it ends the round
@@ -314,7 +316,7 @@ def _relaxed_plans(
     for g in idx:
         oo = orbits[g]
         work = _pairs(oo) if until is not None else 0.0
-        if pace.late(g, work, until):
+        if pace.late(g, work, until) or (until is not None and stop_requested()):
             return None
         t = time.perf_counter()
         v, path, ri = relaxed_best_path(oo, mu, float(lam[g, 0]), float(lam[g, 1]), band=band)

@@ -1,7 +1,5 @@
 """Run the CLI as ``python -m sosp``."""
 
-import sys
+from sosp.cli import run
 
-from sosp.cli import main
-
-sys.exit(main())
+run()

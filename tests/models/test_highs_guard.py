@@ -116,6 +116,33 @@ def test_a_watcher_stops_a_silent_guarded_solve() -> None:
     assert got == [(np.inf, -np.inf)] and out.info["guard_stopped"] and out.objective is None
 
 
+@pytest.mark.limits
+def test_a_stop_request_does_not_wait_for_the_grace(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stop request (Ctrl-C) halts the child and gives it :data:`STOP_GRACE_S` to answer,
+    not the grace of a deadline: HiGHS's presolve sees no interrupt, and the 0.5 s were
+    most of a Ctrl-C's time to exit during the MILP (issue 63)."""
+    import models.highs_direct as hd
+    from sosp.stop import clear_stop, request_stop
+
+    monkeypatch.setattr(hd, "GUARD_GRACE_S", 60.0)  # what a stop must not wait for
+    lp = _Lp.of(_model())
+    t0 = time.perf_counter()
+    try:  # the request made once the child runs (the watcher is asked in the parent's loop)
+        with watching_bound(lambda dual, primal: request_stop("test") or False):
+            out = _run_guarded(lp, t0 + 30.0, {}, child=silent_child)
+    finally:
+        clear_stop()
+    limit_kept("silent child stopped on request, 30 s", time.perf_counter() - t0, 20.0)
+    assert out.info["guard_stopped"] and out.objective is None
+    assert out.solve_s < 30.0  # stopped, not waited for past its deadline and the 60 s
+    request_stop("test")  # before the solve: no child is started (a second under load)
+    try:
+        out = _run_guarded(lp, time.perf_counter() + 30.0, {}, child=hanging_child)
+    finally:
+        clear_stop()
+    assert out.model_status == "not started" and out.objective is None
+
+
 def test_a_child_that_ends_before_its_work_does_not_hang_the_parent(tmp_path: Path) -> None:
     # A script without the __main__ guard: spawn's child imports it again, fails to start a
     # grandchild and ends before reading its work. Sent with the start, work larger than a

@@ -267,6 +267,148 @@ def test_milp_on_the_highs_backend_stops_with_its_incumbent(
     assert result.profit > 0 and validate(inst, result.schedule).feasible
 
 
+def test_a_stop_while_the_milp_model_is_prepared_ends_the_preparation() -> None:
+    """Its data (:func:`models.data.prepare`: 0.5 s on C10, 0.9 s on 2,000 targets after
+    the candidates) reads no clock: a Ctrl-C waited for it, then for the arranging and the
+    warm start's mapping, 1.5-2 s to exit (issue 63). It now checks the flag between its
+    steps, and no stage is foreseen to fit once a stop was requested."""
+    from models.data import TimeUp, fits, prepare
+    from sosp.candidates import cluster_candidates
+
+    inst = scenario("C1")
+    columns = cluster_candidates(inst)
+    assert prepare("cluster", inst, *columns, coverage=True).n_items == len(columns[0])
+    request_stop("test")
+    with pytest.raises(TimeUp):
+        prepare("cluster", inst, *columns, coverage=True)
+    assert not fits("prepare", 1, None) and not fits("arrange", 1, 1e300)
+
+
+@pytest.mark.parametrize("during", ["prepare", "arrange"])
+def test_a_stop_while_the_milp_model_is_prepared_returns_the_warm_start(
+    monkeypatch: pytest.MonkeyPatch, during: str
+) -> None:
+    """A stop during the model's preparation (its data, the items arranged per orbit) goes
+    no further: neither the warm start's mapping onto the items (0.3 s on C10) nor the
+    MILP; the warm start is the answer, ``interrupted``."""
+    import models.data as md
+    import models.solve as ms
+    import sosp.planner as planner
+
+    inst = scenario("C1")
+    start = solve(inst, "greedy").schedule
+    stage = {"prepare": (md, "_coverage"), "arrange": (planner, "with_rolls")}[during]
+    original = getattr(*stage)
+
+    def then_stop(*args, **kwargs):
+        out = original(*args, **kwargs)
+        request_stop("test")
+        return out
+
+    def never(*args, **kwargs):
+        raise AssertionError("the warm start was mapped after the stop")
+
+    monkeypatch.setattr(*stage, then_stop)
+    monkeypatch.setattr(ms, "start_items", never)
+    result = solve(inst, "milp", time_limit=60, warm_start=start)
+    assert result.status is _stopped(inst, result.profit)
+    assert result.stats["timed_out"] == "stopped" and result.stats["returned"] == "warm_start"
+    assert result.profit == start.coverage_profit(inst)[0]
+
+
+def test_a_stop_while_the_milp_arrays_are_built_starts_no_highs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A stop during the MILP's arrays leaves HiGHS unstarted: neither the warm start's
+    values (0.3 s on 2,000 targets) nor HiGHS's child; the start is the answer."""
+    import models.highs_direct as hd
+
+    inst = scenario("C1")
+    start = solve(inst, "greedy").schedule
+    build = hd.build_arrays
+
+    def then_stop(*args, **kwargs):
+        out = build(*args, **kwargs)
+        request_stop("test")
+        return out
+
+    def never(*args, **kwargs):
+        raise AssertionError("HiGHS started after the stop")
+
+    monkeypatch.setattr(hd, "build_arrays", then_stop)
+    monkeypatch.setattr(hd, "run_highs", never)
+    result = solve(inst, "milp", time_limit=60, warm_start=start, backend="highs")
+    assert result.status is _stopped(inst, result.profit)
+    assert result.stats["timed_out"] == "building"
+    assert result.profit >= start.coverage_profit(inst)[0]
+
+
+def test_a_stop_does_not_wait_for_the_side_branch_and_price(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The MILP's side bound (a child process, :class:`models.colgen.SideBound`) is stopped
+    after up to 0.5 s for its last message; the child knows nothing of a stop request, so
+    a Ctrl-C during the MILP waited those 0.5 s (issue 63). Stopped, it is read at once."""
+    from models.colgen import SideBound
+
+    class Child:
+        def stop(self) -> None:
+            waits.append("stopped")
+
+    waits: list[float | str] = []
+    side = object.__new__(SideBound)  # its state without a child process
+    side._child, side._stopped, side._done, side.bound, side.found = Child(), False, False, 1, None
+    monkeypatch.setattr(SideBound, "_read", lambda self, wait: waits.append(wait))
+    side.finish()
+    side._stopped = False
+    request_stop("test")
+    side.finish()
+    assert waits == [0.5, "stopped", 0.0, "stopped"]
+
+
+def test_a_stop_ends_a_round_of_the_window_bound(c1) -> None:
+    """``--bound`` after a search on 10,000 targets prices every orbit's relaxed plan in a
+    round of seconds that read only the deadline: a Ctrl-C then waited for the round, 1.5 s
+    (issue 63). A round with a deadline now ends at the next orbit once a stop was
+    requested (a partial round, no bound from it, as past the deadline)."""
+    import numpy as np
+
+    import models.window_bound as wb
+    from sosp.windows import orbit_opps
+
+    orbits = [orbit_opps(c1, j) for j in range(c1.n_orbits)]
+    _, p = wb._observable(c1)
+    lam, until = np.zeros((len(orbits), 2)), time.perf_counter() + 600
+    assert wb._relaxed_plans(orbits, range(len(orbits)), p, lam, until=until) is not None
+    request_stop("test")
+    assert wb._relaxed_plans(orbits, range(len(orbits)), p, lam, until=until) is None
+    assert wb._relaxed_plans(orbits, [0], p, lam) is not None  # no deadline: a whole round
+
+
+def test_the_program_exits_without_the_interpreters_teardown() -> None:
+    """``sosp`` and ``python -m sosp`` end with ``os._exit`` after the exit handlers and a
+    flush: freeing a large solve's objects one by one took up to 1.3 s after its schedule
+    was written (rds on 10,000 targets), most of a Ctrl-C's time to exit (issue 63)."""
+    code = (
+        "import atexit, sys\n"
+        "from sosp import cli\n"
+        "class Late:\n"
+        "    def __del__(self):\n"
+        "        print('teardown', flush=True)\n"
+        "late = Late()\n"
+        "atexit.register(print, 'exit handlers')\n"
+        "sys.argv = ['sosp', 'methods', 'greedy']\n"
+        "cli.run()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert "greedy" in done.stdout and "exit handlers" in done.stdout
+    assert "teardown" not in done.stdout
+
+
 def test_max_runtime_foresees_its_longest_iteration() -> None:
     """With ``foresee``, the stop comes when the longest time between two checks would pass
     the deadline (a 1.9 s orbit move ran a 5 s ASA-DTC to 5.8 s); without, at the deadline."""
