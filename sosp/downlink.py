@@ -353,16 +353,92 @@ def deliverable(instance: Any) -> np.ndarray:
     return instance.opp_end < last[satellite_of_orbit(instance)[instance.opp_orbit]] - rules.EPS
 
 
+def _spans(instance: Any, s: int) -> np.ndarray:
+    """Satellite ``s``'s contact time as disjoint ``(start, end)`` rows (it talks to one
+    station at a time, so overlapping contacts count once)."""
+    con = instance.contacts[instance.contacts["satellite"] == s]
+    spans: list[list[float]] = []
+    for a, b in sorted(zip(con["start_s"].tolist(), con["end_s"].tolist(), strict=True)):
+        if spans and a <= spans[-1][1]:
+            spans[-1][1] = max(spans[-1][1], b)
+        else:
+            spans.append([a, b])
+    return np.array(spans, dtype=float).reshape(-1, 2)
+
+
+def _seconds(spans: np.ndarray, a: float, b: float) -> float:
+    """Contact seconds of ``spans`` within ``[a, b]``."""
+    return float(np.clip(np.minimum(spans[:, 1], b) - np.maximum(spans[:, 0], a), 0, None).sum())
+
+
+#: Key of :attr:`~sosp.instance.Instance.meta` under which :func:`relaxed_instance` records
+#: its store rows: ``[[orbit, ...], rhs]`` per row (``models.colgen`` adds them to its master).
+STORE_ROWS = "store_rows"
+
+
+def store_rows(instance: Any) -> tuple[np.ndarray, list[tuple[list[int], float]]]:
+    """The store's limits on what runs of one satellite's orbits can make (``docs/model.md``,
+    "Bounds with stations"), for the :func:`deliverable` opportunities.
+
+    For orbits k..l of one satellite (in time order, those with such opportunities), every
+    observation of theirs ends in ``[a, b]``, a the earliest end of an opportunity of k and b
+    the latest of l (windows shrunk to (10)). What they make is the store at b minus the
+    store just before a plus what is sent in between, so at most ``S + r C[a, b]``: C the
+    satellite's contact seconds in ``[a, b]`` (one station at a time), S what may be on
+    board at b: ``W`` (D5, b being an observation's end), and when weights count on
+    delivery, at most what can still be sent after b, ``r C[b, end)`` (D8).
+
+    Returns
+    -------
+    cap, rows
+        Per orbit the single-orbit limit (at most ``W_j + r c_j``), and the rows of two or
+        more orbits that could bind: ``(orbits, rhs)``, rhs below what the orbits can make.
+    """
+    inst, par = instance, instance.downlink
+    r, delivered = float(par.rate), par.count == "delivered"
+    sat_of = satellite_of_orbit(inst)
+    keep = deliverable(inst)
+    w_cap = np.asarray(inst.memory_capacity, dtype=float)
+    cap = w_cap + r * _contact_seconds(inst)
+    made = np.asarray(inst.memory_rate, dtype=float)[inst.opp_orbit] * (
+        inst.opp_end - inst.opp_start
+    )
+    most = np.bincount(inst.opp_orbit[keep], made[keep], inst.n_orbits)  # all its opportunities
+    rows: list[tuple[list[int], float]] = []
+    for s in range(len(inst.satellite_names)):
+        spans = _spans(inst, s)
+        mine = [int(j) for j in np.flatnonzero(sat_of == s) if most[j] > 0]
+        mine.sort(key=lambda j: inst.orbit_start[j])
+        first = [float(inst.opp_end[keep & (inst.opp_orbit == j)].min()) for j in mine]
+        last = [float(inst.opp_end[keep & (inst.opp_orbit == j)].max()) for j in mine]
+        for k in range(len(mine)):
+            for lo in range(k, len(mine)):
+                j, b = mine[lo], last[lo]
+                held = w_cap[j]
+                if delivered:
+                    held = min(held, r * _seconds(spans, b, np.inf))
+                rhs = held + r * _seconds(spans, first[k], b)
+                if lo == k:
+                    cap[j] = min(cap[j], rhs)
+                    continue
+                run = mine[k : lo + 1]
+                if rhs < float(np.minimum(cap[run], most[run]).sum()) - 1e-9:
+                    rows.append((run, rhs))
+    return cap, rows
+
+
 def relaxed_instance(instance: Any) -> Any:
     """The station-free relaxation every bound of sosp computes for an instance with stations
     (``docs/model.md``, "Bounds with stations"): the :func:`deliverable` opportunities,
-    per-orbit memory ``W_j + r * contact seconds of orbit j``, energy as it is, weights
-    counted when observed."""
-    extra = instance.downlink.rate * _contact_seconds(instance)
-    return replace(
-        instance.with_opportunities(deliverable(instance)).without_stations(),
-        memory_capacity=np.asarray(instance.memory_capacity, dtype=float) + extra,
-    )
+    per-orbit memory at most ``W_j + r * contact seconds of orbit j`` (:func:`store_rows`),
+    energy as it is, weights counted when observed, and in its ``meta`` under
+    :data:`STORE_ROWS` the rows limiting what runs of orbits make together (the column
+    generation's master holds them; other bounds leave them out, which is still valid)."""
+    cap, rows = store_rows(instance)
+    out = instance.with_opportunities(deliverable(instance)).without_stations()
+    meta = dict(out.meta)
+    meta[STORE_ROWS] = [[list(run), float(rhs)] for run, rhs in rows]
+    return replace(out, memory_capacity=cap, meta=meta)
 
 
 def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
