@@ -20,7 +20,8 @@ solvers share (the validator re-derives them on its own), and the planner every 
 * :func:`search_instance` and :func:`relaxed_instance` are the two station-free problems the
   searches and the bounds see: per-orbit memory allowances derived from the contacts (a
   restriction: what fits them almost always flies), and per-orbit memory raised by what the
-  orbit's contacts can carry away (a relaxation: every bound of it bounds the problem with
+  orbit's contacts can carry away, with rows limiting what runs of orbits make between
+  contacts (:func:`store_rows`; a relaxation: every bound of it bounds the problem with
   stations; the argument is in ``docs/model.md``).
 """
 
