@@ -442,17 +442,38 @@ def relaxed_instance(instance: Any) -> Any:
     return replace(out, memory_capacity=cap, meta=meta)
 
 
+def _carried(load: np.ndarray, sends: np.ndarray, store: float, keep_last: bool) -> np.ndarray:
+    """What each segment may make when data may wait on board for a later contact: in time
+    order, a segment takes what it asks up to the room left in the store, its contact sends
+    what it can (oldest first); what is still on board after the last contact (the newest
+    data) is taken back from the latest segments, unless weights count when observed."""
+    take = np.zeros(len(load))
+    on_board = 0.0
+    for i in range(len(load)):
+        take[i] = max(0.0, min(load[i], store - on_board))
+        on_board += take[i]
+        if i < len(load) - 1:
+            on_board -= min(sends[i], on_board)
+    if not keep_last:
+        for i in range(len(load) - 1, -1, -1):
+            cut = min(take[i], on_board)
+            take[i] -= cut
+            on_board -= cut
+    return take
+
+
 def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
     """The station-free restriction the searches plan observations on (``docs/model.md``,
     "How the methods plan downlinks"), and the index in ``instance`` of each of its
     opportunities (the :func:`deliverable` ones).
 
     Each satellite's time is cut at the ends of its contacts: data made in a segment (by an
-    opportunity ending early enough for its data to be sent before the contact ends) is sent
-    in the contact that ends it, which carries at most ``min(W, r * its length)``; the last
-    segment's data is never sent (worth nothing when weights count on delivery). An orbit's
-    demand in a segment is the data its opportunities there could make (its memory capacity
-    at most); a segment's demands are scaled down together to what it carries, and an orbit's
+    opportunity ending early enough for its data to be sent before the contact ends) goes
+    on board and leaves, oldest first, in that contact or a later one (:func:`_carried`: a
+    segment may make what the store has room for; when weights count on delivery, what no
+    contact would send is taken back from the latest segments). An orbit's demand in a
+    segment is the data its opportunities there could make (its memory capacity at most); a
+    segment's demands are scaled down together to what it may make, and an orbit's
     memory allowance is the sum of its scaled demands. Its energy is lowered by what sending
     them costs in the orbit where the contact starts. What still does not fit is dropped by
     :func:`deliver`.
@@ -472,14 +493,12 @@ def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
         rows = np.flatnonzero(sat_of == s)
         con = inst.contacts[inst.contacts["satellite"] == s]
         con = con[np.argsort(con["end_s"])]
-        carry = np.append(
-            np.minimum(cap_orbit[rows].min(), par.rate * (con["end_s"] - con["start_s"])),
-            cap_orbit[rows].min() if par.count == "observed" else 0.0,
-        )
         mine = np.isin(inst.opp_orbit, rows)
         # data can leave in a contact that ends after the observation and its sending
         seg = np.searchsorted(con["end_s"], inst.opp_end[mine] + made[mine] / par.rate, "left")
-        load = np.bincount(seg, made[mine], minlength=len(carry))
+        load = np.bincount(seg, made[mine], minlength=len(con) + 1)
+        sends = np.append(par.rate * (con["end_s"] - con["start_s"]), 0.0)
+        carry = _carried(load, sends, float(cap_orbit[rows].min()), par.count == "observed")
         scale = np.minimum(1.0, np.divide(carry, load, out=np.ones_like(carry), where=load > 0))
         allow += np.bincount(inst.opp_orbit[mine], made[mine] * scale[seg], inst.n_orbits)
         # the downlink of segment i's data, charged to the orbit where contact i starts

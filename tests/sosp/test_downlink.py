@@ -384,3 +384,15 @@ def test_the_bounds_with_store_rows_stay_above_brute_force(seed) -> None:
     best = brute_force_stations(inst).profit
     for name in ("colgen", "auto", "lp"):
         assert compute_bound(name, inst)["bound"] >= best - 1e-9, name
+
+
+def test_allowances_let_data_wait_on_board_for_a_later_contact() -> None:
+    """Segments asking 30, 40, 10 of a store of 50, contacts sending 10, 100, then nothing:
+    the first takes 30 (20 stays on board after its contact), the second the 30 of room left,
+    the third 10, which no contact sends, so it is taken back when weights count on delivery
+    (the old rule, each segment its own contact's min(W, r x length), gave 10, 40, 0)."""
+    from sosp.downlink import _carried
+
+    load, sends = np.array([30.0, 40.0, 10.0]), np.array([10.0, 100.0, 0.0])
+    assert list(_carried(load, sends, 50.0, keep_last=False)) == [30.0, 30.0, 0.0]
+    assert list(_carried(load, sends, 50.0, keep_last=True)) == [30.0, 30.0, 10.0]
