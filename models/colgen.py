@@ -147,6 +147,7 @@ class _Master:
         caps: np.ndarray,
         forced: dict[int, int] | None = None,
         banned: frozenset[tuple[int, int]] = frozenset(),
+        links: Links | None = None,
     ) -> None:
         import highspy
 
@@ -177,6 +178,11 @@ class _Master:
         cost = np.concatenate([-p[self.free], np.full(n_fk, float(p.sum()) + 1.0)])
         top, at = np.concatenate([np.ones(nf), upper[1]]), np.arange(self.base, dtype=np.int32)
         h.addCols(self.base, cost, np.zeros(self.base), top, self.base, at, at, np.ones(self.base))
+        # the store rows linking orbits (root only): sum over their orbits' plans of M_P y_P
+        self.links = links
+        self.n_links = 0 if links is None else len(links[1])
+        if self.n_links:
+            h.addRows(self.n_links, np.full(self.n_links, -inf), links[1], 0, [], [], [])
         self.keys: set[tuple[int, bytes, float, float]] = set()
         self.columns: list[tuple[int, np.ndarray, np.ndarray, float, float]] = []
         self.x = np.zeros(0)  # the columns' values at the last optimum
@@ -193,6 +199,10 @@ class _Master:
         rows = [self.row_free[tg[counts]], self.row_forced[tg[mine]]]
         rows += [self.base + g + self.n_orb * np.arange(3), np.asarray(cut_rows, dtype=np.int64)]
         vals = [-cnt[counts], cnt[mine], np.array([1.0, energy, memory]), cut_vals]
+        if self.n_links:
+            on = np.flatnonzero(self.links[0][:, g])
+            rows.append(self.base + 3 * self.n_orb + on)
+            vals.append(np.full(len(on), memory))
         r, v = np.concatenate(rows).astype(np.int32), np.concatenate(vals)
         self.h.addCol(0.0, 0.0, np.inf, len(r), r, v)
         self.columns.append(column)
@@ -237,7 +247,8 @@ class _Master:
         beta[self.fk] = np.maximum(dual[nf:b], 0.0)
         out = np.maximum(-dual[b:], 0.0)
         lam = out[m : 3 * m].reshape(2, m).T * caps
-        return value, (mu, beta, lam, out[:m], out[3 * m :])
+        self.link_duals = out[3 * m : 3 * m + self.n_links]
+        return value, (mu, beta, lam, out[:m], out[3 * m + self.n_links :])
 
     def plans(self) -> list[tuple[int, np.ndarray, float, float, float]]:
         """The plans positive at the last optimum: ``(orbit, covered targets, value, energy,
@@ -257,6 +268,27 @@ Pricer = Callable[
     [np.ndarray, np.ndarray, float | None],
     list[tuple[float, np.ndarray, tuple[float, float] | None]] | None,
 ]
+
+
+#: Rows linking orbits' memory (:data:`sosp.downlink.STORE_ROWS`): a 0/1 matrix (rows x
+#: orbit positions) and the right-hand sides, ``sum over the row's orbits of M_P y_P <= rhs``.
+Links = tuple[np.ndarray, np.ndarray]
+
+
+def links_of(instance: Instance, groups: Sequence[Any]) -> Links | None:
+    """The store rows :func:`sosp.downlink.relaxed_instance` recorded in ``instance.meta``,
+    over the positions of ``groups`` (None: none). An orbit without a position has no plan
+    but the empty one, so it adds nothing to a row."""
+    from sosp.downlink import STORE_ROWS
+
+    given = instance.meta.get(STORE_ROWS) if instance.meta else None
+    if not given:
+        return None
+    pos = {int(o.orbit): g for g, o in enumerate(groups)}
+    a = np.zeros((len(given), len(groups)))
+    for i, (orbits, _) in enumerate(given):
+        a[i, [pos[j] for j in orbits if j in pos]] = 1.0
+    return a, np.array([float(rhs) for _, rhs in given])
 
 
 def _smoothed(alpha: float, best: tuple[Any, ...], master: tuple[Any, ...] | None) -> tuple:
@@ -295,6 +327,7 @@ def column_generation(
     smoothing: float = SMOOTHING,
     expect_rounds: int | None = None,
     columns: Sequence[tuple[int, np.ndarray, float, float]] = (),
+    links: Links | None = None,
 ) -> Root:
     """Column generation on the master of the module docstring with any pricing that gives,
     per orbit, a plan of largest value at least the exact one (the exact planner, or the
@@ -311,14 +344,30 @@ def column_generation(
     (the knapsack rows), ``start`` the first multipliers ``(mu, lam)`` (``lam`` per whole
     capacity, orbits x 2), ``columns`` plans ``(orbit, covered targets, energy, memory)`` the
     master starts with (plans of the pricing's own relaxation, so that the master's optimum
-    stays that relaxation's: the bounds come from the pricing alone).
+    stays that relaxation's: the bounds come from the pricing alone), ``links`` store rows
+    over several orbits' memory (:func:`links_of`) the master holds too: their multipliers
+    ``sig`` add ``W_j sum of sig over the rows of j`` to orbit j's memory multiplier in the
+    pricing and ``sig . rhs`` to the bound, which stays valid at any ``sig >= 0`` (the rows
+    are relaxed like the knapsacks). ``Root.lam`` is then that effective multiplier.
     """
     caps = _caps(rules)
     e_cap, w_cap = caps.T
-    master = _Master(p, seen, caps)
+    master = _Master(p, seen, caps, links=links)
+    n_links = master.n_links
+    a_link = links[0] if n_links else np.zeros((0, len(rules)))
+    rhs_link = links[1] if n_links else np.zeros(0)
+
+    def effective(lam: np.ndarray, sig: np.ndarray) -> np.ndarray:
+        if not n_links:
+            return lam
+        out = lam.copy()
+        out[:, 1] += w_cap * (a_link.T @ sig)
+        return out
+
     for g, covered, energy, memory in columns:
         master.add_new(g, covered, energy, memory)
     mu_c, lam_c = start
+    sig_c, sig_m = np.zeros(n_links), np.zeros(n_links)
     best = math.inf
     master_value: float | None = None
     rounds = 0
@@ -335,18 +384,20 @@ def column_generation(
         # reading the clock (a drawn 1,200-target instance: 7.9 s for a 5 s limit)
         if not budget.fits(round_s):
             break
-        mu_s, lam_s = _smoothed(alpha, (mu_c, lam_c), None if mu_m is None else (mu_m, lam_m))
+        mu_s, lam_s, sig_s = _smoothed(
+            alpha, (mu_c, lam_c, sig_c), None if mu_m is None else (mu_m, lam_m, sig_m)
+        )
         t_round = time.perf_counter()
-        plans = price(mu_s, lam_s, budget.deadline)
+        plans = price(mu_s, effective(lam_s, sig_s), budget.deadline)
         round_s = max(round_s, time.perf_counter() - t_round)
         if plans is None:
             break  # the deadline fell inside the round: its bound is incomplete
         rounds += 1
         # the Lagrangian bound L(mu, lam) of the round's plans (module docstring)
         value = float(np.maximum(p - mu_s, 0.0).sum()) + sum(v for v, _, _ in plans)
-        value += float(lam_s.sum())
+        value += float(lam_s.sum()) + float(sig_s @ rhs_link)
         if value < best - 1e-9:
-            best, mu_c, lam_c = value, mu_s, lam_s
+            best, mu_c, lam_c, sig_c = value, mu_s, lam_s, sig_s
         if rounds == 1 and given is not None and (expect_rounds or 0) * round_s > given:
             # too slow a round for this budget: no master (see above)
             log.info(
@@ -355,12 +406,13 @@ def column_generation(
             )  # fmt: skip
             break
         improving = 0
+        lam_e = None if mu_m is None else effective(lam_m, sig_m)
         for g, (_, covered, used) in enumerate(plans):
             if used is None:
                 continue
             if mu_m is not None:
-                rc = float(mu_m[covered].sum()) - lam_m[g, 0] * used[0] / max(e_cap[g], 1e-12)
-                rc -= lam_m[g, 1] * used[1] / max(w_cap[g], 1e-12) + sigma[g]
+                rc = float(mu_m[covered].sum()) - lam_e[g, 0] * used[0] / max(e_cap[g], 1e-12)
+                rc -= lam_e[g, 1] * used[1] / max(w_cap[g], 1e-12) + sigma[g]
                 improving += rc > _RC_TOL
             master.add_new(g, covered, used[0], used[1])
         if mu_m is not None and improving == 0:
@@ -374,11 +426,14 @@ def column_generation(
         if not master.solve(budget):
             break  # out of time inside the master: the best bound so far stands
         master_value, (mu_m, _, lam_m, sigma, _) = master.duals(p, caps)
+        if n_links:
+            sig_m = master.link_duals
         alpha = smoothing
         if math.floor(best + 1e-6) <= math.floor(master_value + 1e-6):
             converged = True  # the rounded bound cannot fall below the master's optimum
             break
-    return Root(best, mu_c, lam_c, master, master_value, rounds, converged, round_s)
+    return Root(best, mu_c, effective(lam_c, sig_c), master, master_value, rounds, converged,
+                round_s)  # fmt: skip
 
 
 def colgen_bound(
@@ -516,6 +571,7 @@ def colgen_bound(
             max_rounds,
             smoothing,
             expect_rounds,
+            links=links_of(instance, groups),
         )
     bound = capped_bound(root.best, cap)
     if report is not None:

@@ -20,7 +20,8 @@ solvers share (the validator re-derives them on its own), and the planner every 
 * :func:`search_instance` and :func:`relaxed_instance` are the two station-free problems the
   searches and the bounds see: per-orbit memory allowances derived from the contacts (a
   restriction: what fits them almost always flies), and per-orbit memory raised by what the
-  orbit's contacts can carry away (a relaxation: every bound of it bounds the problem with
+  orbit's contacts can carry away, with rows limiting what runs of orbits make between
+  contacts (:func:`store_rows`; a relaxation: every bound of it bounds the problem with
   stations; the argument is in ``docs/model.md``).
 """
 
@@ -353,16 +354,112 @@ def deliverable(instance: Any) -> np.ndarray:
     return instance.opp_end < last[satellite_of_orbit(instance)[instance.opp_orbit]] - rules.EPS
 
 
+def _spans(instance: Any, s: int) -> np.ndarray:
+    """Satellite ``s``'s contact time as disjoint ``(start, end)`` rows (it talks to one
+    station at a time, so overlapping contacts count once)."""
+    con = instance.contacts[instance.contacts["satellite"] == s]
+    spans: list[list[float]] = []
+    for a, b in sorted(zip(con["start_s"].tolist(), con["end_s"].tolist(), strict=True)):
+        if spans and a <= spans[-1][1]:
+            spans[-1][1] = max(spans[-1][1], b)
+        else:
+            spans.append([a, b])
+    return np.array(spans, dtype=float).reshape(-1, 2)
+
+
+def _seconds(spans: np.ndarray, a: float, b: float) -> float:
+    """Contact seconds of ``spans`` within ``[a, b]``."""
+    return float(np.clip(np.minimum(spans[:, 1], b) - np.maximum(spans[:, 0], a), 0, None).sum())
+
+
+#: Key of :attr:`~sosp.instance.Instance.meta` under which :func:`relaxed_instance` records
+#: its store rows: ``[[orbit, ...], rhs]`` per row (``models.colgen`` adds them to its master).
+STORE_ROWS = "store_rows"
+
+
+def store_rows(instance: Any) -> tuple[np.ndarray, list[tuple[list[int], float]]]:
+    """The store's limits on what runs of one satellite's orbits can make (``docs/model.md``,
+    "Bounds with stations"), for the :func:`deliverable` opportunities.
+
+    For orbits k..l of one satellite (in time order, those with such opportunities), every
+    observation of theirs ends in ``[a, b]``, a the earliest end of an opportunity of k and b
+    the latest of l (windows shrunk to (10)). What they make is the store at b minus the
+    store just before a plus what is sent in between, so at most ``S + r C[a, b]``: C the
+    satellite's contact seconds in ``[a, b]`` (one station at a time), S what may be on
+    board at b: ``W`` (D5, b being an observation's end), and when weights count on
+    delivery, at most what can still be sent after b, ``r C[b, end)`` (D8).
+
+    Returns
+    -------
+    cap, rows
+        Per orbit the single-orbit limit (at most ``W_j + r c_j``), and the rows of two or
+        more orbits that could bind: ``(orbits, rhs)``, rhs below what the orbits can make.
+    """
+    inst, par = instance, instance.downlink
+    r, delivered = float(par.rate), par.count == "delivered"
+    sat_of = satellite_of_orbit(inst)
+    keep = deliverable(inst)
+    w_cap = np.asarray(inst.memory_capacity, dtype=float)
+    cap = w_cap + r * _contact_seconds(inst)
+    made = np.asarray(inst.memory_rate, dtype=float)[inst.opp_orbit] * (
+        inst.opp_end - inst.opp_start
+    )
+    most = np.bincount(inst.opp_orbit[keep], made[keep], inst.n_orbits)  # all its opportunities
+    rows: list[tuple[list[int], float]] = []
+    for s in range(len(inst.satellite_names)):
+        spans = _spans(inst, s)
+        mine = [int(j) for j in np.flatnonzero(sat_of == s) if most[j] > 0]
+        mine.sort(key=lambda j: inst.orbit_start[j])
+        first = [float(inst.opp_end[keep & (inst.opp_orbit == j)].min()) for j in mine]
+        last = [float(inst.opp_end[keep & (inst.opp_orbit == j)].max()) for j in mine]
+        for k in range(len(mine)):
+            for lo in range(k, len(mine)):
+                j, b = mine[lo], last[lo]
+                held = w_cap[j]
+                if delivered:
+                    held = min(held, r * _seconds(spans, b, np.inf))
+                rhs = held + r * _seconds(spans, first[k], b)
+                if lo == k:
+                    cap[j] = min(cap[j], rhs)
+                    continue
+                run = mine[k : lo + 1]
+                if rhs < float(np.minimum(cap[run], most[run]).sum()) - 1e-9:
+                    rows.append((run, rhs))
+    return cap, rows
+
+
 def relaxed_instance(instance: Any) -> Any:
     """The station-free relaxation every bound of sosp computes for an instance with stations
     (``docs/model.md``, "Bounds with stations"): the :func:`deliverable` opportunities,
-    per-orbit memory ``W_j + r * contact seconds of orbit j``, energy as it is, weights
-    counted when observed."""
-    extra = instance.downlink.rate * _contact_seconds(instance)
-    return replace(
-        instance.with_opportunities(deliverable(instance)).without_stations(),
-        memory_capacity=np.asarray(instance.memory_capacity, dtype=float) + extra,
-    )
+    per-orbit memory at most ``W_j + r * contact seconds of orbit j`` (:func:`store_rows`),
+    energy as it is, weights counted when observed, and in its ``meta`` under
+    :data:`STORE_ROWS` the rows limiting what runs of orbits make together (the column
+    generation's master holds them; other bounds leave them out, which is still valid)."""
+    cap, rows = store_rows(instance)
+    out = instance.with_opportunities(deliverable(instance)).without_stations()
+    meta = dict(out.meta)
+    meta[STORE_ROWS] = [[list(run), float(rhs)] for run, rhs in rows]
+    return replace(out, memory_capacity=cap, meta=meta)
+
+
+def _carried(load: np.ndarray, sends: np.ndarray, store: float, keep_last: bool) -> np.ndarray:
+    """What each segment may make when data may wait on board for a later contact: in time
+    order, a segment takes what it asks up to the room left in the store, its contact sends
+    what it can (oldest first); what is still on board after the last contact (the newest
+    data) is taken back from the latest segments, unless weights count when observed."""
+    take = np.zeros(len(load))
+    on_board = 0.0
+    for i in range(len(load)):
+        take[i] = max(0.0, min(load[i], store - on_board))
+        on_board += take[i]
+        if i < len(load) - 1:
+            on_board -= min(sends[i], on_board)
+    if not keep_last:
+        for i in range(len(load) - 1, -1, -1):
+            cut = min(take[i], on_board)
+            take[i] -= cut
+            on_board -= cut
+    return take
 
 
 def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
@@ -371,11 +468,12 @@ def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
     opportunities (the :func:`deliverable` ones).
 
     Each satellite's time is cut at the ends of its contacts: data made in a segment (by an
-    opportunity ending early enough for its data to be sent before the contact ends) is sent
-    in the contact that ends it, which carries at most ``min(W, r * its length)``; the last
-    segment's data is never sent (worth nothing when weights count on delivery). An orbit's
-    demand in a segment is the data its opportunities there could make (its memory capacity
-    at most); a segment's demands are scaled down together to what it carries, and an orbit's
+    opportunity ending early enough for its data to be sent before the contact ends) goes
+    on board and leaves, oldest first, in that contact or a later one (:func:`_carried`: a
+    segment may make what the store has room for; when weights count on delivery, what no
+    contact would send is taken back from the latest segments). An orbit's demand in a
+    segment is the data its opportunities there could make (its memory capacity at most); a
+    segment's demands are scaled down together to what it may make, and an orbit's
     memory allowance is the sum of its scaled demands. Its energy is lowered by what sending
     them costs in the orbit where the contact starts. What still does not fit is dropped by
     :func:`deliver`.
@@ -395,14 +493,12 @@ def search_instance(instance: Any) -> tuple[Any, np.ndarray]:
         rows = np.flatnonzero(sat_of == s)
         con = inst.contacts[inst.contacts["satellite"] == s]
         con = con[np.argsort(con["end_s"])]
-        carry = np.append(
-            np.minimum(cap_orbit[rows].min(), par.rate * (con["end_s"] - con["start_s"])),
-            cap_orbit[rows].min() if par.count == "observed" else 0.0,
-        )
         mine = np.isin(inst.opp_orbit, rows)
         # data can leave in a contact that ends after the observation and its sending
         seg = np.searchsorted(con["end_s"], inst.opp_end[mine] + made[mine] / par.rate, "left")
-        load = np.bincount(seg, made[mine], minlength=len(carry))
+        load = np.bincount(seg, made[mine], minlength=len(con) + 1)
+        sends = np.append(par.rate * (con["end_s"] - con["start_s"]), 0.0)
+        carry = _carried(load, sends, float(cap_orbit[rows].min()), par.count == "observed")
         scale = np.minimum(1.0, np.divide(carry, load, out=np.ones_like(carry), where=load > 0))
         allow += np.bincount(inst.opp_orbit[mine], made[mine] * scale[seg], inst.n_orbits)
         # the downlink of segment i's data, charged to the orbit where contact i starts

@@ -258,7 +258,9 @@ def test_search_and_relaxed_instances_bracket_the_problem() -> None:
         25.0
     )  # 50 carried of a, b: 30 and c: 30 (cap 50)
     relaxed = relaxed_instance(inst)
-    assert relaxed.memory_capacity[0] == pytest.approx(50.0 + 50.0) and relaxed.n_opps == 2
+    # a and b end by 320 s, before the contact: nothing leaves in between, so the orbit makes
+    # at most the store W = 50 (not W + the orbit's 50 contact seconds)
+    assert relaxed.memory_capacity[0] == pytest.approx(50.0) and relaxed.n_opps == 2
     observed = replace(inst, downlink=replace(inst.downlink, count="observed"))
     assert relaxed_instance(observed).n_opps == search_instance(observed)[0].n_opps == 3
 
@@ -320,3 +322,77 @@ def test_a_warm_start_with_stations_is_read_in_the_search_problem() -> None:
     assert validate(inst, start).profit == 10.0
     again = solve(inst, "milp-lns", warm_start=start, time_limit=3)
     assert validate(inst, again.schedule).feasible and again.profit == 10.0
+
+
+def two_orbits_one_late_contact() -> Instance:
+    """One satellite, store 50: a 40-s observation of a (w 5) on its first orbit, of b (w 3)
+    on its second, and one contact at the very end of the second (100 s, rate 1)."""
+    return Instance.from_arrays(
+        epoch="2026-01-01T00:00:00Z",
+        target_ids=["a", "b"],
+        target_lat=np.zeros(2),
+        target_lon=np.zeros(2),
+        target_weight=[5, 3],
+        orbit_ids=["S1-1", "S1-2"],
+        orbit_satellite=["S1", "S1"],
+        orbit_start=np.array([0.0, 1000.0]),
+        orbit_end=np.array([1000.0, 2000.0]),
+        resources=RESOURCES,
+        opp_target=np.array([0, 1]),
+        opp_orbit=np.array([0, 1]),
+        opp_start=np.array([100.0, 1100.0]),
+        opp_end=np.array([140.0, 1140.0]),
+        opp_roll=np.zeros(2),
+        opp_roll_min=np.full(2, -3.0),
+        opp_roll_max=np.full(2, 3.0),
+        stations={"id": ["G"], "lat_deg": [0.0], "lon_deg": [0.0], "alt_m": [0.0],
+                  "min_elevation_deg": [5.0], "antennas": [1], "description": [""]},
+        contacts={"satellite": [0], "station": [0], "start_s": [1900.0], "end_s": [2000.0],
+                  "max_elevation_deg": [45.0]},
+        downlink=PARAMS,
+    )  # fmt: skip
+
+
+def test_store_rows_bound_what_orbits_make_together() -> None:
+    """Both observations fit their orbit's limit (orbit 2 may send its 100 contact seconds),
+    but the store holds 50 and nothing leaves before the second ends: only one flies. The
+    per-orbit relaxation's bound is 8; the row over both orbits (made <= W + r x contact
+    seconds between a's end and b's end = 50) brings the column generation's to 5."""
+    from sosp.downlink import STORE_ROWS, store_rows
+    from sosp.registry import compute_bound
+    from tests.oracle import brute_force_stations
+
+    inst = two_orbits_one_late_contact()
+    assert brute_force_stations(inst).profit == 5.0
+    cap, rows = store_rows(inst)
+    assert list(cap) == pytest.approx([50.0, 50.0]) and rows == [([0, 1], 50.0)]
+    assert relaxed_instance(inst).meta[STORE_ROWS] == [[[0, 1], 50.0]]
+    # without the row (the relaxation as it was) the bound is both weights
+    plain = replace(relaxed_instance(inst), meta={})
+    assert compute_bound("colgen", plain)["bound"] == 8.0
+    assert compute_bound("colgen", inst)["bound"] == 5.0
+    assert compute_bound("auto", inst)["bound"] == 5.0
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_the_bounds_with_store_rows_stay_above_brute_force(seed) -> None:
+    from sosp.registry import compute_bound
+    from tests.models.instances import random_tiny_stations
+    from tests.oracle import brute_force_stations
+
+    inst = random_tiny_stations(seed)
+    best = brute_force_stations(inst).profit
+    for name in ("colgen", "auto", "lp"):
+        assert compute_bound(name, inst)["bound"] >= best - 1e-9, name
+
+
+def test_allowances_let_data_wait_on_board_for_a_later_contact() -> None:
+    """Segments asking 30, 40, 10 of a store of 50, contacts sending 10, 100, then nothing:
+    the first takes 30 (20 stays on board after its contact), the second the 30 of room left,
+    the third 10, which no contact sends, so it is taken back when weights count on delivery
+    (the old rule, each segment its own contact's min(W, r x length), gave 10, 40, 0)."""
+    from sosp.downlink import _carried
+
+    load, sends = np.array([30.0, 40.0, 10.0]), np.array([10.0, 100.0, 0.0])
+    assert list(_carried(load, sends, 50.0, keep_last=False)) == [30.0, 30.0, 0.0]
+    assert list(_carried(load, sends, 50.0, keep_last=True)) == [30.0, 30.0, 10.0]
