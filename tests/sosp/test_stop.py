@@ -54,6 +54,27 @@ class FakeClock:
         return self.t
 
 
+def stop_after(monkeypatch: pytest.MonkeyPatch, owner: object, name: str) -> None:
+    """Make ``owner.name`` request a stop once it returns."""
+    original = getattr(owner, name)
+
+    def then_stop(*args, **kwargs):
+        out = original(*args, **kwargs)
+        request_stop("test")
+        return out
+
+    monkeypatch.setattr(owner, name, then_stop)
+
+
+def forbid(monkeypatch: pytest.MonkeyPatch, owner: object, name: str, message: str) -> None:
+    """Make a call of ``owner.name`` fail the test with ``message``."""
+
+    def never(*args, **kwargs):
+        raise AssertionError(message)
+
+    monkeypatch.setattr(owner, name, never)
+
+
 def test_limits() -> None:
     s = SearchStatus(iteration=4, since_best=2, best=7.0)
     assert MaxIterations(4)(s) and not MaxIterations(5)(s)
@@ -169,13 +190,7 @@ def test_an_exact_answer_keeps_its_status(monkeypatch: pytest.MonkeyPatch) -> No
     import heuristics.rds as rds
 
     proved = rds.solve_rds
-
-    def then_stop(*args, **kwargs):
-        result = proved(*args, **kwargs)
-        request_stop("test")
-        return result
-
-    monkeypatch.setattr(rds, "solve_rds", then_stop)
+    stop_after(monkeypatch, rds, "solve_rds")
     assert solve(tiny_chain(), "rds").status is Status.OPTIMAL
     monkeypatch.setattr(rds, "solve_rds", proved)
     assert solve(tiny_chain(), "rds").status is Status.INTERRUPTED  # the request is still on
@@ -298,18 +313,8 @@ def test_a_stop_while_the_milp_model_is_prepared_returns_the_warm_start(
     inst = scenario("C1")
     start = solve(inst, "greedy").schedule
     stage = {"prepare": (md, "_coverage"), "arrange": (planner, "with_rolls")}[during]
-    original = getattr(*stage)
-
-    def then_stop(*args, **kwargs):
-        out = original(*args, **kwargs)
-        request_stop("test")
-        return out
-
-    def never(*args, **kwargs):
-        raise AssertionError("the warm start was mapped after the stop")
-
-    monkeypatch.setattr(*stage, then_stop)
-    monkeypatch.setattr(ms, "start_items", never)
+    stop_after(monkeypatch, *stage)
+    forbid(monkeypatch, ms, "start_items", "the warm start was mapped after the stop")
     result = solve(inst, "milp", time_limit=60, warm_start=start)
     assert result.status is _stopped(inst, result.profit)
     assert result.stats["timed_out"] == "stopped" and result.stats["returned"] == "warm_start"
@@ -325,18 +330,8 @@ def test_a_stop_while_the_milp_arrays_are_built_starts_no_highs(
 
     inst = scenario("C1")
     start = solve(inst, "greedy").schedule
-    build = hd.build_arrays
-
-    def then_stop(*args, **kwargs):
-        out = build(*args, **kwargs)
-        request_stop("test")
-        return out
-
-    def never(*args, **kwargs):
-        raise AssertionError("HiGHS started after the stop")
-
-    monkeypatch.setattr(hd, "build_arrays", then_stop)
-    monkeypatch.setattr(hd, "run_highs", never)
+    stop_after(monkeypatch, hd, "build_arrays")
+    forbid(monkeypatch, hd, "run_highs", "HiGHS started after the stop")
     result = solve(inst, "milp", time_limit=60, warm_start=start, backend="highs")
     assert result.status is _stopped(inst, result.profit)
     assert result.stats["timed_out"] == "building"
