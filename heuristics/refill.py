@@ -77,8 +77,9 @@ def refill(
 
     made = np.asarray(inst.memory_rate, float)[inst.opp_orbit] * (inst.opp_end - inst.opp_start)
     worth = np.asarray(inst.target_weight, float)[inst.opp_target]
-    cand = np.flatnonzero(deliverable(inst) & (made > 0))
-    cand = cand[np.lexsort((cand, -worth[cand], -worth[cand] / made[cand]))]
+    cand = np.flatnonzero(deliverable(inst))
+    dense = worth[cand] / np.maximum(made[cand], 1e-12)  # data-free opportunities first
+    cand = cand[np.lexsort((cand, -worth[cand], -dense))]
     taken = {int(t) for o in obs for t in inst.opp_target[list(o.opps)]}
     tried = 0
     for i in cand.tolist():
