@@ -155,6 +155,10 @@ BOUNDS: dict[str, Bound] = {
 #: ``sosp solve --bound`` accept.
 CERTIFYING_BOUNDS = tuple(name for name, b in BOUNDS.items() if b.model == PROBLEM_MODEL)
 
+#: What fills a delivered schedule back up, for the methods that do not plan downlinks
+#: (:func:`sosp.solve.solve` on an instance with stations).
+REFILL = "heuristics.refill:refill"
+
 
 def load(target: str, optional: bool = False) -> Any:
     """The object named by ``"module:name"``, its module imported now; with ``optional``,

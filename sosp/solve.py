@@ -29,7 +29,9 @@ from sosp.registry import (
     CERTIFYING_BOUNDS,
     DEFAULT_METHOD,
     PROBLEM_MODEL,
+    REFILL,
     bounded_model,
+    load,
     method_function,
     plans_downlinks,
     uses_kernels,
@@ -40,6 +42,10 @@ from sosp.stop import Budget, capped, stop_requested
 from sosp.validate import validate
 
 log = logging.getLogger(__name__)
+
+#: Share of a run with stations kept from the method for :data:`~sosp.registry.REFILL`
+#: (a fraction of a second on the paper's scenarios; it stops at the limit on larger ones).
+REFILL_SHARE = 0.05
 
 
 class SolverError(SospError):
@@ -233,7 +239,8 @@ def _with_stations(
     """:func:`solve` on an instance with ground stations (``docs/model.md``, "How the
     methods plan downlinks"): ``method`` plans the observations within the memory
     allowances of :func:`sosp.downlink.search_instance`, :func:`sosp.downlink.deliver` plans
-    their downlinks and drops what cannot fly, and ``bound`` is computed on
+    their downlinks and drops what cannot fly, :data:`~sosp.registry.REFILL` puts back what
+    the store, contacts and energy still take, and ``bound`` is computed on
     :func:`sosp.downlink.relaxed_instance`, a relaxation of the problem with stations."""
     from sosp.downlink import deliver, search_instance
 
@@ -249,11 +256,13 @@ def _with_stations(
             if all(i in at for i in o.opps)
         ]
         kwargs["warm_start"] = Schedule(tuple(obs))
-    inner = solve(search, method, time_limit=own.left(), check=check, **kwargs)
+    inner = solve(
+        search, method, time_limit=own.share(1.0 - REFILL_SHARE).left(), check=check, **kwargs
+    )
     found = [
         replace(o, opps=tuple(int(index[i]) for i in o.opps)) for o in inner.schedule.observations
     ]
-    obs, downlinks = deliver(instance, found)
+    obs, downlinks = load(REFILL)(instance, found, own, kwargs.get("roll_rule", "nadir"))
     schedule = replace(inner.schedule, observations=obs, downlinks=tuple(downlinks))
     profit, observed = schedule.coverage_profit(instance)
     if isinstance(start, Schedule):  # a start the allowances cut is still never lost

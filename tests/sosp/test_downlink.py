@@ -396,3 +396,55 @@ def test_allowances_let_data_wait_on_board_for_a_later_contact() -> None:
     load, sends = np.array([30.0, 40.0, 10.0]), np.array([10.0, 100.0, 0.0])
     assert list(_carried(load, sends, 50.0, keep_last=False)) == [30.0, 30.0, 0.0]
     assert list(_carried(load, sends, 50.0, keep_last=True)) == [30.0, 30.0, 10.0]
+
+
+def test_solving_with_stations_refills_what_the_allowances_left_out() -> None:
+    """On this instance the allowances give the search no memory at all: before the refill,
+    greedy delivered nothing; now it delivers the optimum (the brute force's)."""
+    from sosp.solve import solve
+    from tests.models.instances import random_tiny_stations
+    from tests.oracle import brute_force_stations
+
+    inst = random_tiny_stations(184)
+    search, _ = search_instance(inst)
+    assert solve(search, "greedy").profit == 0.0
+    res = solve(inst, "greedy")
+    assert res.profit == brute_force_stations(inst).profit == 24.0
+    assert validate(inst, res.schedule).feasible and res.stats["search_profit"] == 0.0
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_the_refill_never_delivers_less_and_always_passes(seed) -> None:
+    """From what greedy plans on the allowances (as :func:`sosp.solve.solve` does)."""
+    from heuristics.refill import refill
+    from sosp.solve import solve
+    from tests.models.instances import random_tiny_stations
+    from tests.oracle import brute_force_stations
+
+    inst = random_tiny_stations(seed)
+    search, index = search_instance(inst)
+    found = [
+        replace(o, opps=tuple(int(index[i]) for i in o.opps))
+        for o in solve(search, "greedy").schedule.observations
+    ]
+    before = Schedule(deliver(inst, found)[0]).coverage_profit(inst)[0]
+    kept, dls = refill(inst, found)
+    rep = check(inst, kept, dls)
+    assert rep.feasible and before <= rep.profit <= brute_force_stations(inst).profit
+
+
+def test_the_refill_adds_a_target_and_merges_into_a_cluster() -> None:
+    """a alone is delivered; b fits beside it (store 50, 100 s of contact); c, 30 s more,
+    would overflow the store before the contact, so it stays out. Two opportunities of one
+    window and a common roll join one observation; an expired budget adds nothing."""
+    from heuristics.refill import refill
+    from sosp.stop import Budget
+
+    inst = tiny()
+    kept, dls = refill(inst, obs(inst, 0))
+    assert [o.opps for o in kept] == [(0,), (1,)] and check(inst, kept, dls).profit == 8.0
+    assert refill(inst, obs(inst, 0), Budget.until(0.0))[0] == obs(inst, 0)
+    # b overlaps a (3): only as one observation of 25 s, and c still does not fit
+    wide = replace(inst, opp_start=np.array([100.0, 105, 500]), opp_end=np.array([110.0, 125, 530]))
+    kept, dls = refill(wide, obs(wide, 0))
+    assert [o.opps for o in kept] == [(0, 1)] and check(wide, kept, dls).profit == 8.0
