@@ -16,7 +16,9 @@ variable" and every forbidden pair as a linear cut, and their LP relaxation (the
 :func:`spot5_bound`) is stronger than the LP of the pairwise rows (``cliques=False``).
 
 The model is built with Pyomo and solved through :func:`models.solve.run_appsi`, the
-project's APPSI/HiGHS plumbing (time limit covering the build, MIP start, dual bound).
+project's APPSI/HiGHS plumbing (time limit covering the build, MIP start, dual bound). When
+HiGHS has not proven the optimum within its share of the limit, a large neighbourhood search
+(:func:`_lns`) improves its incumbent on the same loaded model for the rest of the time.
 """
 
 from __future__ import annotations
@@ -28,10 +30,13 @@ from typing import Any
 
 import numpy as np
 import pyomo.environ as pyo
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order
 
 from models.cliques import graph_cliques
 from models.solve import appsi_values, run_appsi
 from sosp.spot5 import Spot5, Spot5Result
+from sosp.stop import stop_requested
 
 log = logging.getLogger(__name__)
 
@@ -148,18 +153,23 @@ def weight_split(problem: Spot5) -> int | None:
 
 def _milp_stage(
     problem: Spot5, m: Any, deadline: float | None, start: np.ndarray | None, stats: dict,
-    threads: int | None, mip_gap: float,
+    threads: int | None, mip_gap: float, rng: np.random.Generator | None,
 ) -> tuple[str, np.ndarray, float | None]:  # fmt: skip
     """Solve the built model ``m`` from ``start``: (termination, best assignment found, never
-    worse than ``start``, HiGHS's raw dual bound)."""
+    worse than ``start``, HiGHS's raw dual bound). With ``rng``, HiGHS gets
+    :data:`HIGHS_SHARE` of the time left and, unless it proves the optimum, :func:`_lns`
+    the rest."""
     off = node_offsets(problem)
     if start is not None:
         for v in range(problem.n):
             for a in range(problem.size[v]):
                 m.x[int(off[v] + a)].set_value(1.0 if start[v] == a else 0.0)
+    now = time.perf_counter()
+    lns_from = None if rng is None or deadline is None else now + HIGHS_SHARE * (deadline - now)
     kind, incumbent, raw, opt = run_appsi(
-        m, deadline, mip_gap=mip_gap, threads=threads, warm=start is not None, stats=stats
-    )
+        m, lns_from or deadline, mip_gap=mip_gap, threads=threads, warm=start is not None,
+        stats=stats,
+    )  # fmt: skip
     best = np.full(problem.n, -1, dtype=np.int64) if start is None else np.asarray(start).copy()
     if incumbent is not None and kind in ("optimal", "time_limit"):
         x = np.asarray(appsi_values(opt, [m.x[j] for j in m.J])) > 0.5
@@ -171,7 +181,88 @@ def _milp_stage(
             best = got
     if kind == "infeasible":  # cannot happen (all unselected is feasible): say so
         log.warning("HiGHS reports the SPOT5 model of %s infeasible", problem.name)
+    if lns_from is not None and kind == "time_limit":
+        cols = [opt._pyomo_var_to_solver_var_map[id(m.x[j])] for j in m.J]
+        best = _lns(problem, opt._solver_model, np.asarray(cols), best, deadline, rng, stats)
     return kind, best, None if raw is None or not math.isfinite(raw) else raw
+
+
+#: Share of the time left that HiGHS gets before :func:`_lns` (its bound is the result's).
+HIGHS_SHARE = 0.25
+#: Seconds one sub-MIP of :func:`_lns` may take, and the number of images it frees first.
+LNS_SUB_S, LNS_FREE = 3.0, 100
+
+
+def _lns(
+    problem: Spot5, h: Any, cols: np.ndarray, best: np.ndarray, deadline: float,
+    rng: np.random.Generator, stats: dict,
+) -> np.ndarray:  # fmt: skip
+    """Large neighbourhood search on the model HiGHS holds (``h``, node j in column
+    ``cols[j]``, every row of the stage kept): from the assignment ``best``, free the images
+    that a breadth-first search of the constraint graph reaches first from a random image
+    (others at random when its component has fewer),
+    fix every other node to its value, and solve that sub-MIP with ``best`` as its start.
+
+    Its objective is ``w_j - e c_j`` with ``e = 1 / (2C)`` (``c_j`` the recorder units, C
+    the capacity): every selection's penalty is below 1/2, so the sub-MIP's optimum (to an
+    absolute gap of ``e / 2``) weighs the most and, among those, uses the fewest units. A
+    sub-MIP's result replaces ``best`` when it weighs more, or as much with no more units:
+    on the multi-orbit instances the recorder is full and the light images gain only from
+    the units a cheaper way of taking the same weight frees, a plateau move. The number of
+    images freed grows by 5 % after a sub-MIP proven in half its :data:`LNS_SUB_S` seconds
+    and shrinks by 10 % after one that is not. The sub-MIPs' time limits make the result
+    depend on the clock, as for ``milp-lns``.
+    """
+    import highspy
+
+    off = node_offsets(problem)
+    var = np.repeat(np.arange(problem.n), problem.size)
+    weight = problem.weight[var].astype(float)
+    units = problem.consumption[var, np.arange(len(var)) - off[var]].astype(float)
+    e = 0.5 / max(problem.capacity or 1, 1)
+    edges = np.concatenate([problem.pairs, problem.triples[:, :2], problem.triples[:, 1:]])
+    graph = sp.coo_matrix((np.ones(len(edges)), edges.T), shape=(problem.n,) * 2).tocsr()
+    x = np.zeros(len(var), dtype=bool)
+    x[off[:-1][best >= 0] + best[best >= 0]] = True
+    for name, value in {"output_flag": False, "mip_rel_gap": 0.0, "mip_abs_gap": e / 2}.items():
+        h.setOptionValue(name, value)
+    h.cbMipInterrupt += lambda event: stop_requested() and event.interrupt()
+    c32 = cols.astype(np.int32)
+    free, tries, gains = float(LNS_FREE), 0, 0
+    while (left := deadline - time.perf_counter()) > 0.05 and not stop_requested():
+        tries += 1
+        open_ = np.zeros(problem.n, dtype=bool)
+        near = breadth_first_order(graph, rng.integers(problem.n), False, False)[: int(free)]
+        open_[near] = True  # and others at random if its component is smaller
+        open_[rng.permutation(np.flatnonzero(~open_))[: int(free) - len(near)]] = True
+        fixed = np.where(open_[var], -1.0, x)
+        h.changeColsBounds(len(c32), c32, np.maximum(fixed, 0.0), np.where(fixed < 0, 1.0, fixed))
+        noise = rng.random(len(var)) * 1e-4 / len(var)  # ties broken at random: a walk
+        h.changeColsCost(len(c32), c32, weight - e * units + noise)
+        sol, value = highspy.HighsSolution(), np.zeros(h.getNumCol())
+        value[cols] = x
+        sol.col_value, sol.value_valid = value.tolist(), True
+        h.setSolution(sol)
+        h.setOptionValue("time_limit", float(min(LNS_SUB_S, left)))
+        t = time.perf_counter()
+        h.run()
+        proven = h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+        if not proven:
+            free = max(free * 0.9, 10.0)
+        elif time.perf_counter() - t < LNS_SUB_S / 2:
+            free = min(free * 1.05, problem.n)
+        if int(h.getInfo().primal_solution_status) != 2:  # kSolutionStatusFeasible
+            continue
+        y = np.asarray(h.getSolution().col_value)[cols] > 0.5
+        more = weight[y].sum() - weight[x].sum()
+        if more > 0 or (more == 0 and units[y].sum() <= units[x].sum()):
+            gains += int(more > 0)
+            x = y
+    stats.update(lns_tries=tries, lns_gains=gains)
+    out = np.full(problem.n, -1, dtype=np.int64)
+    on = np.flatnonzero(x)
+    out[var[on]] = on - off[var[on]]
+    return out
 
 
 #: Share of the time limit the heavy images' stage of the lexicographic solve may take.
@@ -187,6 +278,8 @@ def solve_spot5_milp(
     threads: int | None = None,
     mip_gap: float = 0.0,
     lexicographic: bool = True,
+    lns: bool = True,
+    rng: np.random.Generator | None = None,
 ) -> Spot5Result:
     """Solve the integer program with HiGHS within ``time_limit`` (build included).
 
@@ -215,6 +308,11 @@ def solve_spot5_milp(
         HiGHS options.
     lexicographic
         The two stages when the weights split (default).
+    lns
+        The last HiGHS run gets :data:`HIGHS_SHARE` of the time left and, unless it proves
+        the optimum, :func:`_lns` the rest (default); False: HiGHS all of it.
+    rng
+        The large neighbourhood search's generator (None: seeded 0).
 
     Returns
     -------
@@ -225,11 +323,14 @@ def solve_spot5_milp(
     t0, c0 = time.perf_counter(), time.process_time()
     deadline = None if time_limit is None else t0 + time_limit
     split = weight_split(problem) if lexicographic else None
+    if lns and rng is None:
+        rng = np.random.default_rng(0)
+    rng = rng if lns else None
     m = build_spot5_model(problem, cliques=cliques)
     stats: dict[str, Any] = {"build_s": round(time.perf_counter() - t0, 3)}
     stats["cliques"] = m.cliques_count
     if split is None:
-        kind, best, raw = _milp_stage(problem, m, deadline, start, stats, threads, mip_gap)
+        kind, best, raw = _milp_stage(problem, m, deadline, start, stats, threads, mip_gap, rng)
         bound = None if raw is None else math.floor(raw + 1e-6)
     else:
         heavy = problem.weight >= split
@@ -239,7 +340,7 @@ def solve_spot5_milp(
         r1 = solve_spot5_milp(
             problem.subproblem(np.flatnonzero(heavy)), share,
             start=None if start is None else start[heavy], cliques=cliques, threads=threads,
-            mip_gap=mip_gap, lexicographic=False,
+            mip_gap=mip_gap, lexicographic=False, lns=False,
         )  # fmt: skip
         best1 = np.full(problem.n, -1, dtype=np.int64)
         best1[heavy] = r1.assignment
@@ -252,7 +353,7 @@ def solve_spot5_milp(
         m.heavy = pyo.Constraint(expr=pyo.inequality(h, heavy_weight, h_bound))
         keep = start is not None and problem.profit(np.where(heavy, start, -1)) >= h
         second = start if keep and problem.profit(start) > h else best1
-        kind, best, raw = _milp_stage(problem, m, deadline, second, stats, threads, mip_gap)
+        kind, best, raw = _milp_stage(problem, m, deadline, second, stats, threads, mip_gap, rng)
         b2 = h_bound + light if raw is None else math.floor(raw + 1e-6)
         bound = min(h_bound + light, max(b2, h - g + light))
     value = problem.profit(best)

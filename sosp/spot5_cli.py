@@ -82,10 +82,10 @@ def solve(problem: Any, method: str, time_limit: float, seed: int = 0) -> Any:
     from models.spot5 import solve_spot5_milp
 
     if problem.capacity is None:  # single orbit: HiGHS finds the optimum at once
-        return solve_spot5_milp(problem, time_limit)
+        return solve_spot5_milp(problem, time_limit, rng=rng)
     warm = min(WARM_SHARE * time_limit, WARM_MAX_S)
     start = solve_spot5_tabu(problem, warm, rng=rng)
-    out = solve_spot5_milp(problem, time_limit - start.time_s, start=start.assignment)
+    out = solve_spot5_milp(problem, time_limit - start.time_s, start=start.assignment, rng=rng)
     out.stats["warm_start"] = start.value
     return dataclasses.replace(  # the times of the whole method, tabu included
         out, time_s=out.time_s + start.time_s, cpu_s=out.cpu_s + start.cpu_s
