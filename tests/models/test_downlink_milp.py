@@ -69,3 +69,47 @@ def test_fluid_antennas_make_the_model_a_bound_where_one_antenna_is_shared() -> 
     assert (res.profit, res.bound, res.status) == (8.0, 10.0, Status.FEASIBLE)
     assert res.stats["delivered_below_model"]
     assert solve_milp(inst, relax=True).bound >= res.bound  # the LP, of the relaxation
+
+
+@pytest.mark.xfail(strict=True, reason="the bounds' proofs shrink windows to (10): unsafe if r > w")
+def test_a_window_longer_than_needed_can_deliver_more_than_the_bounds() -> None:
+    """docs/model.md lets a stated window be longer than (10), and its data is made when it
+    ends. With r > w the store then drains faster than the longer window fills it: a (100 s,
+    weight 5) fills the store (W 100) at 200; b's opportunity (weight 3) ends at 225, when the
+    only contact opens (r 2), so b with window (10) overflows it (110), but b stated [215,
+    265] ends with 70 on board, and both are delivered (8). The proofs of the integer
+    program's bound and of the relaxation's ("Shrink each window to (10): it stays
+    feasible") miss this schedule."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from sosp.downlink import DownlinkParams, plan_downlinks
+    from sosp.instance import Instance, Resources
+    from sosp.registry import compute_bound
+    from sosp.schedule import Schedule, make_observation
+
+    inst = Instance.from_arrays(
+        epoch="2026-01-01T00:00:00Z", target_ids=["a", "b"], target_lat=np.zeros(2),
+        target_lon=np.zeros(2), target_weight=[5, 3], orbit_ids=["S1-1"],
+        orbit_satellite=["S1"], orbit_start=[0.0], orbit_end=[1000.0],
+        resources=Resources(memory_capacity=100.0, energy_capacity=1000.0),
+        opp_target=np.array([0, 1]), opp_orbit=np.array([0, 0]),
+        opp_start=np.array([100.0, 215.0]), opp_end=np.array([200.0, 225.0]),
+        opp_roll=np.zeros(2), opp_roll_min=np.full(2, -3.0), opp_roll_max=np.full(2, 3.0),
+        stations={"id": ["G"], "lat_deg": [0.0], "lon_deg": [0.0], "alt_m": [0.0],
+                  "min_elevation_deg": [5.0], "antennas": [1], "description": [""]},
+        contacts={"satellite": [0], "station": [0], "start_s": [225.0], "end_s": [400.0],
+                  "max_elevation_deg": [45.0]},
+        downlink=DownlinkParams(rate=2.0),
+    )  # fmt: skip
+    a, b = make_observation(inst, [0]), make_observation(inst, [1])
+
+    def delivered(obs):
+        return validate(inst, Schedule(obs, downlinks=tuple(plan_downlinks(inst, obs)[0])))
+
+    assert not delivered((a, b)).feasible  # store 110 > 100 when b ends at 225
+    rep = delivered((a, replace(b, end=265.0)))
+    assert rep.feasible and rep.profit == 8.0
+    assert solve_milp(inst, warm_start="none", extra_bound="none").bound >= 8.0
+    assert compute_bound("auto", inst, time_limit=5)["bound"] >= 8.0
