@@ -292,9 +292,15 @@ def deliver(instance: Any, observations: Any) -> tuple[tuple[Any, ...], list[Dow
     the ones whose removal lowers the store there), then plan again; when weights count on
     delivery, drop what is not all delivered (D8); repeat until nothing is dropped. Removing
     an observation never delays another's data, so this ends with every kept one delivered.
+    Each window is first cut to (10) of what it covers (an observation that lost targets to
+    another keeps a longer one): with stations it must end when its last opportunity ends.
     """
     inst = instance
-    obs = list(observations)
+    obs = [
+        replace(o, start=float(inst.opp_start[list(o.opps)].min()),
+                end=float(inst.opp_end[list(o.opps)].max()))
+        for o in observations
+    ]  # fmt: skip
     count_delivered = inst.downlink.count == "delivered"
     sat_of = satellite_of_orbit(inst)
     worth = {id(o): float(inst.target_weight[inst.opp_target[list(o.opps)]].sum()) for o in obs}

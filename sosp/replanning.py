@@ -40,7 +40,7 @@ import numpy as np
 from sosp.errors import InputError
 from sosp.events import Events, horizon, in_area
 from sosp.instance import OPP_KEYS, Instance
-from sosp.rules import EPS, choose_roll, group_roll_ranges, orbit_rules
+from sosp.rules import EPS, choose_roll, cluster_window, group_roll_ranges, orbit_rules
 from sosp.schedule import Observation, Schedule
 
 log = logging.getLogger(__name__)
@@ -560,7 +560,10 @@ class _State:
                 mine = tuple(int(i) for i in flat[ptr[u] : ptr[u + 1]] if int(tg[i]) not in claimed)
                 if not mine:
                     continue
-                o = Observation(j, float(c_start[u]), float(c_end[u]), float(c_roll[u]), mine)
+                # the window (10) of what it keeps: never longer (with stations it must not
+                # end later than its last opportunity, docs/model.md)
+                ts, te = cluster_window(inst.opp_start[list(mine)], inst.opp_end[list(mine)])
+                o = Observation(j, ts, te, float(c_roll[u]), mine)
             claimed.update(int(tg[i]) for i in o.opps)
             new_tail.append(o)
         before = {int(tg[i]) for o in tail for i in o.opps}

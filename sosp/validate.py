@@ -6,7 +6,7 @@ solver. It checks, as ``docs/model.md`` states:
 
 * structure: each observation is on a known orbit, covers at least one opportunity of that
   orbit, each covered opportunity's window lies inside the observation window, and the window
-  lies inside the orbit;
+  lies inside the orbit; with ground stations, it ends when its last opportunity ends;
 * (2) every target is observed at most once in the whole schedule;
 * (3) on each orbit, consecutive observations u, v (by start time) satisfy
   ``ts_v - te_u >= a + (|theta_u| + |theta_v|) / v``;
@@ -206,6 +206,17 @@ def validate(instance: Instance, schedule: Schedule) -> ValidationReport:
                 )
             else:
                 seen_target[k] = u
+        # with stations data counts as made when u ends: a later end than (10)'s would
+        # postpone it at will (docs/model.md), which the bounds' proofs rule out
+        known = [i for i in ob.opps if 0 <= i < inst.n_opps]
+        if inst.stations and known and ob.end > float(inst.opp_end[known].max()) + TOL:
+            flag(
+                "structure",
+                f"observation {u}: with stations its window must end when its last "
+                f"opportunity ends ({float(inst.opp_end[known].max()):.6g}), not at {ob.end:.6g}",
+                amount=ob.end - float(inst.opp_end[known].max()),
+                **at,
+            )
 
     down = _downlinks(inst, schedule, flag) if inst.stations else None
     worth = seen_target

@@ -71,15 +71,12 @@ def test_fluid_antennas_make_the_model_a_bound_where_one_antenna_is_shared() -> 
     assert solve_milp(inst, relax=True).bound >= res.bound  # the LP, of the relaxation
 
 
-@pytest.mark.xfail(strict=True, reason="the bounds' proofs shrink windows to (10): unsafe if r > w")
-def test_a_window_longer_than_needed_can_deliver_more_than_the_bounds() -> None:
-    """docs/model.md lets a stated window be longer than (10), and its data is made when it
-    ends. With r > w the store then drains faster than the longer window fills it: a (100 s,
-    weight 5) fills the store (W 100) at 200; b's opportunity (weight 3) ends at 225, when the
-    only contact opens (r 2), so b with window (10) overflows it (110), but b stated [215,
-    265] ends with 70 on board, and both are delivered (8). The proofs of the integer
-    program's bound and of the relaxation's ("Shrink each window to (10): it stays
-    feasible") miss this schedule."""
+def test_with_stations_a_window_ending_late_is_refused_so_the_bounds_hold() -> None:
+    """A window ending later than (10) would make its data later: with r > w the store drains
+    faster than the longer window fills it. a (100 s, weight 5) fills the store (W 100) at
+    200; b (weight 3) ends at 225, when the only contact opens (r 2), so b overflows it (110),
+    but b stated [215, 265] would end with 70 on board and deliver both (8), above the
+    integer program's optimum of windows (10), 5. With stations the validator refuses it."""
     from dataclasses import replace
 
     import numpy as np
@@ -110,6 +107,9 @@ def test_a_window_longer_than_needed_can_deliver_more_than_the_bounds() -> None:
 
     assert not delivered((a, b)).feasible  # store 110 > 100 when b ends at 225
     rep = delivered((a, replace(b, end=265.0)))
-    assert rep.feasible and rep.profit == 8.0
-    assert solve_milp(inst, warm_start="none", extra_bound="none").bound >= 8.0
-    assert compute_bound("auto", inst, time_limit=5)["bound"] >= 8.0
+    assert not rep.feasible
+    assert any("must end when its last opportunity ends" in v.message for v in rep.violations)
+    assert {v.constraint for v in delivered((a, replace(b, start=212.0))).violations} == {"D5"}
+    res = solve_milp(inst, warm_start="none", extra_bound="none")
+    assert res.profit == res.bound == 5.0
+    assert compute_bound("auto", inst, time_limit=5)["bound"] >= res.profit
