@@ -358,6 +358,7 @@ def solve_spot5_tabu(
     start: np.ndarray | None = None,
     tenure: tuple[int, int] = (5, 20),
     chunk: int = 200,
+    stall: int | None = None,
 ) -> Spot5Result:
     """Tabu search (module docstring) for ``time_limit`` wall seconds.
 
@@ -373,6 +374,8 @@ def solve_spot5_tabu(
         A feasible assignment to start from (default: empty).
     tenure
         Tabu tenure drawn uniformly in this range (iterations).
+    stall
+        Stop sooner, after this many iterations without a new best (None: never).
     """
     from models.spot5 import node_offsets
 
@@ -393,13 +396,16 @@ def solve_spot5_tabu(
     st = np.array([0, value, int(node_c[sel[sel >= 0]].sum()), value], dtype=np.int64)
     tabu = np.zeros(problem.n, dtype=np.int64)
     best_sel = sel.copy()
+    best, improved = value, 0
     while True:
         _tabu_chunk(node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, tabu,
                     best_sel, st, chunk, tenure[0], tenure[1], rng)  # fmt: skip
-        if time.perf_counter() - t0 >= time_limit:
+        if st[3] > best:
+            best, improved = int(st[3]), int(st[0])
+        if time.perf_counter() - t0 >= time_limit or (stall and st[0] - improved >= stall):
             break
     assign = np.where(best_sel >= 0, best_sel - off[np.arange(problem.n)], -1)
     return Spot5Result(
         "tabu", assign, problem.profit(assign), None, "heuristic", time.perf_counter() - t0,
-        time.process_time() - c0, {"iterations": int(st[0])},
+        time.process_time() - c0, {"iterations": int(st[0]), "last_improvement": improved},
     )  # fmt: skip

@@ -185,6 +185,14 @@ def test_rds_equals_milp_and_tabu_stays_below(name: str) -> None:
     assert 0 < tabu.value <= milp.value
 
 
+def test_tabu_stops_once_it_stalls_and_keeps_its_best() -> None:
+    p = load_spot5(instance_path("503"))
+    r = solve_spot5_tabu(p, 60, rng=np.random.default_rng(1), stall=2000, chunk=100)
+    idle = r.stats["iterations"] - r.stats["last_improvement"]
+    assert 2000 <= idle < 2100 and r.time_s < 60
+    assert validate_spot5(p, r.assignment).profit == r.value > 0
+
+
 def test_clique_lp_bound_is_valid_and_not_weaker() -> None:
     p = load_spot5(instance_path("503"))
     clique, plain = spot5_bound(p)["bound"], spot5_bound(p, cliques=False)["bound"]
