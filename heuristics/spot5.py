@@ -299,11 +299,11 @@ def _move(j, node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, use
 @nb.njit(cache=True)
 def _tabu_chunk(node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, tabu, best_sel,
                 st, iters, tmin, tmax, gen):  # fmt: skip
-    """``iters`` tabu iterations from ``st`` = [it, value, used, best]; see the module
-    docstring; ``gen``: the run's generator (numba draws from it in place)."""
+    """``iters`` tabu iterations from ``st`` = [it, value, used, best, it of best]; see the
+    module docstring; ``gen``: the run's generator (numba draws from it in place)."""
     nn = len(node_var)
     mark = np.full(nn, -1, dtype=np.int64)
-    it, value, used, best = st[0], st[1], st[2], st[3]
+    it, value, used, best, found = st[0], st[1], st[2], st[3], st[4]
     stamp = 0
     for _ in range(iters):
         it += 1
@@ -345,9 +345,9 @@ def _tabu_chunk(node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, 
         value += node_w[best_j]
         used += node_c[best_j]
         if value > best:
-            best = value
+            best, found = value, it
             best_sel[:] = sel
-    st[0], st[1], st[2], st[3] = it, value, used, best
+    st[0], st[1], st[2], st[3], st[4] = it, value, used, best, found
 
 
 def solve_spot5_tabu(
@@ -393,19 +393,16 @@ def solve_spot5_tabu(
         on = np.flatnonzero(np.asarray(start) >= 0)
         sel[on] = off[on] + np.asarray(start)[on]
     value = int(node_w[sel[sel >= 0]].sum())
-    st = np.array([0, value, int(node_c[sel[sel >= 0]].sum()), value], dtype=np.int64)
+    st = np.array([0, value, int(node_c[sel[sel >= 0]].sum()), value, 0], dtype=np.int64)
     tabu = np.zeros(problem.n, dtype=np.int64)
     best_sel = sel.copy()
-    best, improved = value, 0
     while True:
         _tabu_chunk(node_var, node_w, node_c, cap, nbr_ptr, nbr, tri_ptr, tri, sel, tabu,
                     best_sel, st, chunk, tenure[0], tenure[1], rng)  # fmt: skip
-        if st[3] > best:
-            best, improved = int(st[3]), int(st[0])
-        if time.perf_counter() - t0 >= time_limit or (stall and st[0] - improved >= stall):
+        if time.perf_counter() - t0 >= time_limit or (stall and st[0] - st[4] >= stall):
             break
     assign = np.where(best_sel >= 0, best_sel - off[np.arange(problem.n)], -1)
     return Spot5Result(
         "tabu", assign, problem.profit(assign), None, "heuristic", time.perf_counter() - t0,
-        time.process_time() - c0, {"iterations": int(st[0]), "last_improvement": improved},
+        time.process_time() - c0, {"iterations": int(st[0]), "last_improvement": int(st[4])},
     )  # fmt: skip
